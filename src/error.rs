@@ -1,0 +1,123 @@
+//! The library's error type.
+//!
+//! Every error names *where* the problem is (a file, a configuration key, a
+//! channel, a stage) and *what was expected*, so the command-line tool can
+//! print it as is. Numerical stages that can fail point by point (a harmonic
+//! balance solve, a dwell that never settles) report the failure as data in
+//! their results instead of an `Err`, so one bad point does not stop a sweep.
+
+use std::path::Path;
+
+/// `Result` with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// What went wrong, and where.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A structural model (linear part or element) has an invalid parameter.
+    #[error("invalid model: `{field}`: {message}")]
+    InvalidModel {
+        /// The parameter, e.g. `system.mass` or `joint.kd`.
+        field: String,
+        /// What was expected.
+        message: String,
+    },
+    /// A test definition (stepped-sine plan, fit or analysis option) is invalid.
+    #[error("invalid test definition: `{field}`: {message}")]
+    InvalidPlan {
+        /// The key, e.g. `test.levels_n[2]`.
+        field: String,
+        /// What was expected.
+        message: String,
+    },
+    /// Input data (a signal, a recording's content) is unusable.
+    #[error("invalid input: {what}: {message}")]
+    InvalidInput {
+        /// The signal or channel, e.g. `force[1234]`.
+        what: String,
+        /// What was expected.
+        message: String,
+    },
+    /// A file's content does not follow its format.
+    #[error("{path}: `{field}`: {message}")]
+    Format {
+        /// The file.
+        path: String,
+        /// The field, variable, column or header part.
+        field: String,
+        /// What was expected.
+        message: String,
+    },
+    /// A numerical solve did not converge.
+    #[error("{stage} did not converge: {reason}")]
+    NotConverged {
+        /// The stage, e.g. `implicit sample solve`.
+        stage: &'static str,
+        /// Why, with the figures (residual, iterations).
+        reason: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl Error {
+    /// An [`Error::InvalidModel`].
+    pub fn model(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::InvalidModel { field: field.into(), message: message.into() }
+    }
+    /// An [`Error::InvalidPlan`].
+    pub fn plan(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::InvalidPlan { field: field.into(), message: message.into() }
+    }
+    /// An [`Error::InvalidInput`].
+    pub fn input(what: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::InvalidInput { what: what.into(), message: message.into() }
+    }
+    /// An [`Error::Format`] for a file.
+    pub fn format(path: impl AsRef<Path>, field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Format {
+            path: path.as_ref().display().to_string(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+    /// An [`Error::Io`] for a file.
+    pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
+        Error::Io { path: path.as_ref().display().to_string(), source }
+    }
+}
+
+/// Checks that a parameter is finite and strictly positive.
+pub(crate) fn require_positive(field: &str, value: f64) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::model(field, format!("must be a finite number > 0, got {value}")))
+    }
+}
+
+/// Checks that a parameter is finite and not negative.
+pub(crate) fn require_non_negative(field: &str, value: f64) -> Result<()> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::model(field, format!("must be a finite number >= 0, got {value}")))
+    }
+}
+
+/// Checks that a parameter is finite.
+pub(crate) fn require_finite(field: &str, value: f64) -> Result<()> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::model(field, format!("must be a finite number, got {value}")))
+    }
+}

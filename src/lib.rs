@@ -1,0 +1,31 @@
+//! # hystid
+//!
+//! Testing and identification of friction joints in vibrating structures,
+//! after Magnevall, Josefsson & Ahlin, *Parameter estimation of hysteresis
+//! elements using harmonic input* (IMAC).
+//!
+//! The pipeline, one module per stage:
+//!
+//! ```text
+//! model ──► sim ──► testbench ──► extract ──► fit ◄── hb ◄── model
+//!                                     │          │
+//!                                     ▼          ▼
+//!                                  record     diagnose ──► (model + effect) ──► fit again
+//! ```
+//!
+//! * [`model`]: the underlying linear modes and the [`model::Element`]s (Jenkins,
+//!   eq. (10) Masing, effects), one trait used by both solvers.
+//! * [`sim`]: the digital-filter time simulation (ramp-invariant sections, the
+//!   element force fed back by an implicit per-sample solve).
+//!
+//! Conventions (Fourier, units, FRF definition) are fixed once in
+//! [`harmonics`].
+
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod harmonics;
+pub mod model;
+pub mod sim;
+
+pub use error::{Error, Result};

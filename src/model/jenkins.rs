@@ -1,0 +1,143 @@
+//! The Jenkins element: a spring `kd` in series with a Coulomb slider `Fd`.
+//!
+//! The paper's "stick-slip" reference element (section 3, Fig. 3.1; method
+//! notes b). In stick the force is `kd (x − x_s)` with `x_s` the slider's
+//! position; when it would exceed `Fd` the slider moves and the force stays at
+//! `±Fd`. Its loops are parallelograms with slopes `kd` and 0, the `N → ∞`
+//! limit of the eq. (10) Masing element.
+
+use super::element::{Element, ElementForce, ImplicitStep, sign};
+use crate::error::{Result, require_positive};
+
+/// Spring `kd` in series with a Coulomb slider of slip force `fd`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Jenkins {
+    kd: f64,
+    fd: f64,
+    /// Committed slider position, m.
+    slider: f64,
+}
+
+impl Jenkins {
+    /// A virgin element (slider at 0).
+    pub fn new(kd: f64, fd: f64) -> Result<Jenkins> {
+        require_positive("joint.kd", kd)?;
+        require_positive("joint.fd", fd)?;
+        Ok(Jenkins { kd, fd, slider: 0.0 })
+    }
+
+    /// Stick stiffness, N/m.
+    pub fn kd(&self) -> f64 {
+        self.kd
+    }
+
+    /// Slip force, N.
+    pub fn fd(&self) -> f64 {
+        self.fd
+    }
+
+    /// The committed slider position, m.
+    pub fn slider(&self) -> f64 {
+        self.slider
+    }
+
+    #[inline]
+    fn evaluate(&self, x: f64) -> (ElementForce, f64) {
+        let stick = self.kd * (x - self.slider);
+        if stick.abs() <= self.fd {
+            (ElementForce { force: stick, stiffness: self.kd, damping: 0.0 }, self.slider)
+        } else {
+            let s = sign(stick);
+            (ElementForce { force: s * self.fd, stiffness: 0.0, damping: 0.0 }, x - s * self.fd / self.kd)
+        }
+    }
+}
+
+impl Element for Jenkins {
+    #[inline]
+    fn trial(&self, x: f64, _v: f64) -> ElementForce {
+        self.evaluate(x).0
+    }
+
+    #[inline]
+    fn commit(&mut self, x: f64, _v: f64) -> ElementForce {
+        let (f, slider) = self.evaluate(x);
+        self.slider = slider;
+        f
+    }
+
+    fn reset(&mut self) {
+        self.slider = 0.0;
+    }
+
+    fn has_memory(&self) -> bool {
+        true
+    }
+
+    /// Closed form (method notes a.3): try stick, else slip in the direction
+    /// the stick trial pushed.
+    #[inline]
+    fn solve_implicit(&self, s: &ImplicitStep) -> Option<f64> {
+        // stick: x = x_p + bx (F − kd (x − x_s))
+        let x = (s.x_pred + s.bx * (s.force + self.kd * self.slider)) / (1.0 + s.bx * self.kd);
+        let g = self.kd * (x - self.slider);
+        if g.abs() <= self.fd {
+            Some(s.force - g)
+        } else {
+            Some(s.force - sign(g) * self.fd)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::element::check::check_element;
+
+    #[test]
+    fn passes_the_element_checker() {
+        check_element(Jenkins::new(2.4e7, 246.048).unwrap(), 2e-5, 246.0);
+    }
+
+    #[test]
+    fn loop_is_a_parallelogram_with_the_closed_form_energy() {
+        let (kd, fd) = (2.4e7, 246.048);
+        let a = 3.0 * fd / kd;
+        let mut e = Jenkins::new(kd, fd).unwrap();
+        let n = 20000;
+        let mut xs = Vec::new();
+        let mut fs = Vec::new();
+        for cycle in 0..2 {
+            for i in 0..n {
+                let x = a * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos();
+                let f = e.commit(x, 0.0).force;
+                if cycle == 1 {
+                    xs.push(x);
+                    fs.push(f);
+                }
+            }
+        }
+        // energy per cycle: ∮ g dx (trapezoid) against 4 Fd (a − Fd/kd)
+        let mut w = 0.0;
+        for i in 0..n {
+            let j = (i + 1) % n;
+            w += 0.5 * (fs[i] + fs[j]) * (xs[j] - xs[i]);
+        }
+        let exact = 4.0 * fd * (a - fd / kd);
+        assert!((w.abs() / exact - 1.0).abs() < 1e-3, "{w} vs {exact}");
+        assert!(fs.iter().all(|f| f.abs() <= fd * (1.0 + 1e-12)));
+    }
+
+    #[test]
+    fn implicit_closed_form_solves_the_equation() {
+        let mut e = Jenkins::new(2.4e7, 246.048).unwrap();
+        e.commit(2e-5, 0.0);
+        for &(xp, f) in &[(1e-5, 10.0), (3e-5, 500.0), (-4e-5, -100.0), (1.9e-5, 0.0)] {
+            let s = ImplicitStep { x_pred: xp, v_pred: 0.0, bx: 1e-7, bv: 0.0, force: f };
+            let u = e.solve_implicit(&s).unwrap();
+            let x = xp + s.bx * u;
+            let r = u - f + e.trial(x, 0.0).force;
+            assert!(r.abs() < 1e-9 * (1.0 + f.abs()), "residual {r}");
+        }
+    }
+}
