@@ -71,18 +71,31 @@ pub enum Error {
 impl Error {
     /// An [`Error::InvalidModel`].
     pub fn model(field: impl Into<String>, message: impl Into<String>) -> Self {
-        Error::InvalidModel { field: field.into(), message: message.into() }
+        Error::InvalidModel {
+            field: field.into(),
+            message: message.into(),
+        }
     }
     /// An [`Error::InvalidPlan`].
     pub fn plan(field: impl Into<String>, message: impl Into<String>) -> Self {
-        Error::InvalidPlan { field: field.into(), message: message.into() }
+        Error::InvalidPlan {
+            field: field.into(),
+            message: message.into(),
+        }
     }
     /// An [`Error::InvalidInput`].
     pub fn input(what: impl Into<String>, message: impl Into<String>) -> Self {
-        Error::InvalidInput { what: what.into(), message: message.into() }
+        Error::InvalidInput {
+            what: what.into(),
+            message: message.into(),
+        }
     }
     /// An [`Error::Format`] for a file.
-    pub fn format(path: impl AsRef<Path>, field: impl Into<String>, message: impl Into<String>) -> Self {
+    pub fn format(
+        path: impl AsRef<Path>,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
         Error::Format {
             path: path.as_ref().display().to_string(),
             field: field.into(),
@@ -91,7 +104,10 @@ impl Error {
     }
     /// An [`Error::Io`] for a file.
     pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
-        Error::Io { path: path.as_ref().display().to_string(), source }
+        Error::Io {
+            path: path.as_ref().display().to_string(),
+            source,
+        }
     }
 }
 
@@ -100,7 +116,10 @@ pub(crate) fn require_positive(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {
-        Err(Error::model(field, format!("must be a finite number > 0, got {value}")))
+        Err(Error::model(
+            field,
+            format!("must be a finite number > 0, got {value}"),
+        ))
     }
 }
 
@@ -109,7 +128,10 @@ pub(crate) fn require_non_negative(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {
-        Err(Error::model(field, format!("must be a finite number >= 0, got {value}")))
+        Err(Error::model(
+            field,
+            format!("must be a finite number >= 0, got {value}"),
+        ))
     }
 }
 
@@ -118,6 +140,9 @@ pub(crate) fn require_finite(field: &str, value: f64) -> Result<()> {
     if value.is_finite() {
         Ok(())
     } else {
-        Err(Error::model(field, format!("must be a finite number, got {value}")))
+        Err(Error::model(
+            field,
+            format!("must be a finite number, got {value}"),
+        ))
     }
 }

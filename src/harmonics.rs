@@ -71,7 +71,10 @@ impl Quantity {
 
     /// Whether this is a motion (response) quantity.
     pub fn is_motion(self) -> bool {
-        matches!(self, Quantity::Displacement | Quantity::Velocity | Quantity::Acceleration)
+        matches!(
+            self,
+            Quantity::Displacement | Quantity::Velocity | Quantity::Acceleration
+        )
     }
 
     /// The factor `(jω)^p` that turns a displacement harmonic at angular

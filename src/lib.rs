@@ -17,15 +17,20 @@
 //!   eq. (10) Masing, effects), one trait used by both solvers.
 //! * [`sim`]: the digital-filter time simulation (ramp-invariant sections, the
 //!   element force fed back by an implicit per-sample solve).
+//! * [`extract`]: harmonics and nonlinear FRFs from sampled signals.
+//! * [`record`]: the WAV + JSON recording format and MCAP run files.
 //!
 //! Conventions (Fourier, units, FRF definition) are fixed once in
 //! [`harmonics`].
 
 #![deny(missing_docs)]
 
+pub mod atomic;
 pub mod error;
+pub mod extract;
 pub mod harmonics;
 pub mod model;
+pub mod record;
 pub mod sim;
 
 pub use error::{Error, Result};

@@ -103,11 +103,15 @@ impl<E: Element> ElementSet<E> {
 impl<E: Element> Element for ElementSet<E> {
     #[inline]
     fn trial(&self, x: f64, v: f64) -> ElementForce {
-        self.elements.iter().fold(ElementForce::default(), |acc, e| acc + e.trial(x, v))
+        self.elements
+            .iter()
+            .fold(ElementForce::default(), |acc, e| acc + e.trial(x, v))
     }
     #[inline]
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {
-        self.elements.iter_mut().fold(ElementForce::default(), |acc, e| acc + e.commit(x, v))
+        self.elements
+            .iter_mut()
+            .fold(ElementForce::default(), |acc, e| acc + e.commit(x, v))
     }
     fn reset(&mut self) {
         self.elements.iter_mut().for_each(Element::reset);
@@ -234,7 +238,11 @@ pub(crate) mod check {
                 let b = e.trial(x - dx, v);
                 let back = (a.force - b.force) / dx;
                 if (fd2 - fd).abs() < tol && (back - fd).abs() < tol {
-                    assert!((fd - a.stiffness).abs() < tol, "tangent at {i}: fd {fd} vs {}", a.stiffness);
+                    assert!(
+                        (fd - a.stiffness).abs() < tol,
+                        "tangent at {i}: fd {fd} vs {}",
+                        a.stiffness
+                    );
                 }
             }
             let c = e.commit(x, v);
@@ -247,7 +255,10 @@ pub(crate) mod check {
         for (i, &x) in xs.iter().enumerate() {
             let v = (x - prev) * 1000.0;
             let c = e.commit(x, v);
-            assert_eq!(c.force, first[i], "reset did not restore the virgin state at {i}");
+            assert_eq!(
+                c.force, first[i],
+                "reset did not restore the virgin state at {i}"
+            );
             prev = x;
         }
     }

@@ -23,7 +23,11 @@ impl Jenkins {
     pub fn new(kd: f64, fd: f64) -> Result<Jenkins> {
         require_positive("joint.kd", kd)?;
         require_positive("joint.fd", fd)?;
-        Ok(Jenkins { kd, fd, slider: 0.0 })
+        Ok(Jenkins {
+            kd,
+            fd,
+            slider: 0.0,
+        })
     }
 
     /// Stick stiffness, N/m.
@@ -45,10 +49,24 @@ impl Jenkins {
     fn evaluate(&self, x: f64) -> (ElementForce, f64) {
         let stick = self.kd * (x - self.slider);
         if stick.abs() <= self.fd {
-            (ElementForce { force: stick, stiffness: self.kd, damping: 0.0 }, self.slider)
+            (
+                ElementForce {
+                    force: stick,
+                    stiffness: self.kd,
+                    damping: 0.0,
+                },
+                self.slider,
+            )
         } else {
             let s = sign(stick);
-            (ElementForce { force: s * self.fd, stiffness: 0.0, damping: 0.0 }, x - s * self.fd / self.kd)
+            (
+                ElementForce {
+                    force: s * self.fd,
+                    stiffness: 0.0,
+                    damping: 0.0,
+                },
+                x - s * self.fd / self.kd,
+            )
         }
     }
 }
@@ -133,7 +151,13 @@ mod tests {
         let mut e = Jenkins::new(2.4e7, 246.048).unwrap();
         e.commit(2e-5, 0.0);
         for &(xp, f) in &[(1e-5, 10.0), (3e-5, 500.0), (-4e-5, -100.0), (1.9e-5, 0.0)] {
-            let s = ImplicitStep { x_pred: xp, v_pred: 0.0, bx: 1e-7, bv: 0.0, force: f };
+            let s = ImplicitStep {
+                x_pred: xp,
+                v_pred: 0.0,
+                bx: 1e-7,
+                bv: 0.0,
+                force: f,
+            };
             let u = e.solve_implicit(&s).unwrap();
             let x = xp + s.bx * u;
             let r = u - f + e.trial(x, 0.0).force;

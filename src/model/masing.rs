@@ -85,7 +85,10 @@ impl Backbone for PowerBackbone {
         }
         if r <= 1.0 {
             let l = (n * ln_r).exp().ln_1p(); // ln(1 + r^N)
-            (self.kd * x * (-l / n).exp(), self.kd * (-(n + 1.0) / n * l).exp())
+            (
+                self.kd * x * (-l / n).exp(),
+                self.kd * (-(n + 1.0) / n * l).exp(),
+            )
         } else {
             let l = (-n * ln_r).exp().ln_1p(); // ln(1 + r^-N)
             (
@@ -178,7 +181,11 @@ impl<B: Backbone> Masing<B> {
 
     #[inline]
     fn point(&self, i: usize) -> (f64, f64) {
-        if i < self.stack.len() { self.stack[i] } else { (self.x_prev, self.f_prev) }
+        if i < self.stack.len() {
+            self.stack[i]
+        } else {
+            (self.x_prev, self.f_prev)
+        }
     }
 
     #[inline]
@@ -195,14 +202,26 @@ impl<B: Backbone> Masing<B> {
             // a branch from the only turning point meets the backbone at the
             // mirror point; otherwise it meets the branch it departed from at
             // that branch's own origin
-            let target = if open == 1 { -self.point(0).0 } else { self.point(open - 2).0 };
-            let closed = if direction > 0 { x >= target } else { x <= target };
+            let target = if open == 1 {
+                -self.point(0).0
+            } else {
+                self.point(open - 2).0
+            };
+            let closed = if direction > 0 {
+                x >= target
+            } else {
+                x <= target
+            };
             if !closed {
                 break;
             }
             open -= if open == 1 { 1 } else { 2 };
         }
-        Located { direction, push, open }
+        Located {
+            direction,
+            push,
+            open,
+        }
     }
 
     #[inline]
@@ -214,7 +233,11 @@ impl<B: Backbone> Masing<B> {
             let (f, k) = self.backbone.eval(0.5 * (x - xr));
             (fr + 2.0 * f, k)
         };
-        ElementForce { force: f, stiffness: k, damping: 0.0 }
+        ElementForce {
+            force: f,
+            stiffness: k,
+            damping: 0.0,
+        }
     }
 }
 
@@ -231,7 +254,11 @@ impl<B: Backbone> Element for Masing<B> {
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {
         let at = self.locate(x);
         let (tx, tv, tf) = self.last_trial.get();
-        let f = if tx == x && tv == v { tf } else { self.force_at(x, at.open) };
+        let f = if tx == x && tv == v {
+            tf
+        } else {
+            self.force_at(x, at.open)
+        };
         if at.push && at.open > self.stack.len() {
             self.stack.push((self.x_prev, self.f_prev));
         } else {
@@ -248,7 +275,8 @@ impl<B: Backbone> Element for Masing<B> {
         self.x_prev = 0.0;
         self.f_prev = 0.0;
         self.direction = 0;
-        self.last_trial.set((f64::NAN, f64::NAN, ElementForce::default()));
+        self.last_trial
+            .set((f64::NAN, f64::NAN, ElementForce::default()));
     }
 
     fn has_memory(&self) -> bool {
@@ -261,7 +289,10 @@ pub fn validate_curvature(field: &str, n: f64) -> Result<()> {
     if n.is_finite() && n > 0.0 {
         Ok(())
     } else {
-        Err(Error::model(field, format!("must be a finite number > 0, got {n}")))
+        Err(Error::model(
+            field,
+            format!("must be a finite number > 0, got {n}"),
+        ))
     }
 }
 
@@ -294,7 +325,10 @@ mod tests {
                 let r: f64 = KD * x / FD;
                 if (n * r.ln()).abs() < 600.0 {
                     let exact = KD * x / (1.0 + r.powf(n)).powf(1.0 / n);
-                    assert!((f - exact).abs() <= 1e-12 * exact.abs(), "n={n} x={x}: {f} vs {exact}");
+                    assert!(
+                        (f - exact).abs() <= 1e-12 * exact.abs(),
+                        "n={n} x={x}: {f} vs {exact}"
+                    );
                     let exact_df = KD * (1.0 + r.powf(n)).powf(-(n + 1.0) / n);
                     assert!((df - exact_df).abs() <= 1e-10 * KD, "n={n} x={x}");
                 }
@@ -320,7 +354,10 @@ mod tests {
 
     /// An Iwan bank of Jenkins elements, the independent reference.
     fn iwan_bank(slips: &[(f64, f64)]) -> Vec<Jenkins> {
-        slips.iter().map(|&(d, k)| Jenkins::new(k, k * d).unwrap()).collect()
+        slips
+            .iter()
+            .map(|&(d, k)| Jenkins::new(k, k * d).unwrap())
+            .collect()
     }
 
     fn history_from(turns: &[f64]) -> Vec<f64> {

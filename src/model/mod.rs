@@ -107,14 +107,31 @@ impl ElementSpec {
     /// If `values` has the wrong length (a programming error).
     pub fn with_parameters(&self, values: &[f64]) -> ElementSpec {
         let n = self.parameters().len();
-        assert_eq!(values.len(), n, "{} takes {n} parameters", self.kind().name());
+        assert_eq!(
+            values.len(),
+            n,
+            "{} takes {n} parameters",
+            self.kind().name()
+        );
         match self {
-            ElementSpec::Jenkins { .. } => ElementSpec::Jenkins { kd: values[0], fd: values[1] },
-            ElementSpec::Masing { .. } => ElementSpec::Masing { kd: values[0], fd: values[1], n: values[2] },
+            ElementSpec::Jenkins { .. } => ElementSpec::Jenkins {
+                kd: values[0],
+                fd: values[1],
+            },
+            ElementSpec::Masing { .. } => ElementSpec::Masing {
+                kd: values[0],
+                fd: values[1],
+                n: values[2],
+            },
             ElementSpec::CubicStiffness { .. } => ElementSpec::CubicStiffness { k3: values[0] },
             ElementSpec::QuadraticDamping { .. } => ElementSpec::QuadraticDamping { c2: values[0] },
-            ElementSpec::BilinearStiffness { .. } => ElementSpec::BilinearStiffness { kb: values[0] },
-            ElementSpec::Clearance { .. } => ElementSpec::Clearance { k: values[0], gap: values[1] },
+            ElementSpec::BilinearStiffness { .. } => {
+                ElementSpec::BilinearStiffness { kb: values[0] }
+            }
+            ElementSpec::Clearance { .. } => ElementSpec::Clearance {
+                k: values[0],
+                gap: values[1],
+            },
             ElementSpec::ViscousDamping { .. } => ElementSpec::ViscousDamping { cj: values[0] },
         }
     }
@@ -151,8 +168,12 @@ impl ElementSpec {
             ElementSpec::Jenkins { kd, fd } => AnyElement::Jenkins(Jenkins::new(kd, fd)?),
             ElementSpec::Masing { kd, fd, n } => AnyElement::Masing(Masing::new(kd, fd, n)?),
             ElementSpec::CubicStiffness { k3 } => AnyElement::CubicStiffness(CubicStiffness { k3 }),
-            ElementSpec::QuadraticDamping { c2 } => AnyElement::QuadraticDamping(QuadraticDamping { c2 }),
-            ElementSpec::BilinearStiffness { kb } => AnyElement::BilinearStiffness(BilinearStiffness { kb }),
+            ElementSpec::QuadraticDamping { c2 } => {
+                AnyElement::QuadraticDamping(QuadraticDamping { c2 })
+            }
+            ElementSpec::BilinearStiffness { kb } => {
+                AnyElement::BilinearStiffness(BilinearStiffness { kb })
+            }
             ElementSpec::Clearance { k, gap } => AnyElement::Clearance(Clearance { k, gap }),
             ElementSpec::ViscousDamping { cj } => AnyElement::ViscousDamping(ViscousDamping { cj }),
         })
@@ -253,7 +274,12 @@ impl Model {
 
     /// The elements, built and virgin.
     pub fn element_set(&self) -> Result<ElementSet<AnyElement>> {
-        Ok(ElementSet::new(self.elements.iter().map(ElementSpec::build).collect::<Result<_>>()?))
+        Ok(ElementSet::new(
+            self.elements
+                .iter()
+                .map(ElementSpec::build)
+                .collect::<Result<_>>()?,
+        ))
     }
 
     /// Total stick stiffness the hysteresis elements add at small amplitude.
@@ -279,13 +305,17 @@ impl Model {
 
     /// Whether any element has memory.
     pub fn has_memory(&self) -> bool {
-        self.elements.iter().any(|e| matches!(e.kind(), ElementKind::Jenkins | ElementKind::Masing))
+        self.elements
+            .iter()
+            .any(|e| matches!(e.kind(), ElementKind::Jenkins | ElementKind::Masing))
     }
 
     /// Whether any element breaks the half-wave symmetry (makes even
     /// harmonics and DC under symmetric forcing).
     pub fn is_asymmetric(&self) -> bool {
-        self.elements.iter().any(|e| matches!(e.kind(), ElementKind::BilinearStiffness))
+        self.elements
+            .iter()
+            .any(|e| matches!(e.kind(), ElementKind::BilinearStiffness))
     }
 
     /// Error unless `name` is a parameter of element `index`.
@@ -297,7 +327,12 @@ impl Model {
         e.parameters()
             .iter()
             .position(|(p, _)| *p == name)
-            .ok_or_else(|| Error::model(format!("elements[{index}].{name}"), format!("{} has no such parameter", e.kind().name())))
+            .ok_or_else(|| {
+                Error::model(
+                    format!("elements[{index}].{name}"),
+                    format!("{} has no such parameter", e.kind().name()),
+                )
+            })
     }
 }
 
@@ -311,30 +346,55 @@ mod tests {
         struct W {
             joint: ElementSpec,
         }
-        let w: W = toml::from_str("[joint]\nkind = \"jenkins\"\nkd = 2.4e7\nfd = 246.048\n").unwrap();
-        assert_eq!(w.joint, ElementSpec::Jenkins { kd: 2.4e7, fd: 246.048 });
+        let w: W =
+            toml::from_str("[joint]\nkind = \"jenkins\"\nkd = 2.4e7\nfd = 246.048\n").unwrap();
+        assert_eq!(
+            w.joint,
+            ElementSpec::Jenkins {
+                kd: 2.4e7,
+                fd: 246.048
+            }
+        );
         let e = toml::from_str::<W>("[joint]\nkind = \"jenkins\"\nkd = 2.4e7\nfd = 1.0\nkx = 3\n")
             .err()
             .unwrap()
             .to_string();
         assert!(e.contains("kx"), "{e}");
-        let e = toml::from_str::<W>("[joint]\nkind = \"bouncy\"\n").err().unwrap().to_string();
+        let e = toml::from_str::<W>("[joint]\nkind = \"bouncy\"\n")
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("bouncy"), "{e}");
     }
 
     #[test]
     fn parameters_round_trip() {
-        let s = ElementSpec::Masing { kd: 1.0, fd: 2.0, n: 3.0 };
+        let s = ElementSpec::Masing {
+            kd: 1.0,
+            fd: 2.0,
+            n: 3.0,
+        };
         let v: Vec<f64> = s.parameters().iter().map(|p| p.1).collect();
         assert_eq!(s.with_parameters(&v), s);
-        assert!(ElementSpec::Masing { kd: 1.0, fd: -2.0, n: 3.0 }.build().is_err());
+        assert!(
+            ElementSpec::Masing {
+                kd: 1.0,
+                fd: -2.0,
+                n: 3.0
+            }
+            .build()
+            .is_err()
+        );
     }
 
     #[test]
     fn stick_frequency_of_the_paper_system() {
         let m = Model::new(
             ModalModel::sdof(10.0, 200.0, 1e7).unwrap(),
-            vec![ElementSpec::Jenkins { kd: 2.4e7, fd: 246.048 }],
+            vec![ElementSpec::Jenkins {
+                kd: 2.4e7,
+                fd: 246.048,
+            }],
         )
         .unwrap();
         let f = m.highest_linearised_frequency_hz();

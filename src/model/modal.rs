@@ -43,7 +43,11 @@ impl Mode {
         }
         let wn = (stiffness / mass).sqrt();
         let zeta = damping / (2.0 * (stiffness * mass).sqrt());
-        let mode = Mode { frequency_hz: wn / (2.0 * PI), damping_ratio: zeta, residue: 1.0 / mass };
+        let mode = Mode {
+            frequency_hz: wn / (2.0 * PI),
+            damping_ratio: zeta,
+            residue: 1.0 / mass,
+        };
         mode.validate("system")?;
         Ok(mode)
     }
@@ -51,9 +55,16 @@ impl Mode {
     /// A mode from natural frequency, damping ratio and modal mass.
     pub fn from_modal_mass(frequency_hz: f64, damping_ratio: f64, modal_mass: f64) -> Result<Mode> {
         if !(modal_mass.is_finite() && modal_mass != 0.0) {
-            return Err(Error::model("modal_mass", format!("must be finite and non-zero, got {modal_mass}")));
+            return Err(Error::model(
+                "modal_mass",
+                format!("must be finite and non-zero, got {modal_mass}"),
+            ));
         }
-        let mode = Mode { frequency_hz, damping_ratio, residue: 1.0 / modal_mass };
+        let mode = Mode {
+            frequency_hz,
+            damping_ratio,
+            residue: 1.0 / modal_mass,
+        };
         mode.validate("mode")?;
         Ok(mode)
     }
@@ -64,7 +75,10 @@ impl Mode {
         if !(self.damping_ratio.is_finite() && (0.0..1.0).contains(&self.damping_ratio)) {
             return Err(Error::model(
                 format!("{at}.damping_ratio"),
-                format!("must be in [0, 1) (underdamped), got {}", self.damping_ratio),
+                format!(
+                    "must be in [0, 1) (underdamped), got {}",
+                    self.damping_ratio
+                ),
             ));
         }
         if !(self.residue.is_finite() && self.residue != 0.0) {
@@ -121,7 +135,9 @@ impl ModalModel {
 
     /// The SDOF model `m x'' + c x' + k x = F` (paper eq. 1 without the element).
     pub fn sdof(mass: f64, damping: f64, stiffness: f64) -> Result<ModalModel> {
-        Ok(ModalModel { modes: vec![Mode::from_mck(mass, damping, stiffness)?] })
+        Ok(ModalModel {
+            modes: vec![Mode::from_mck(mass, damping, stiffness)?],
+        })
     }
 
     /// Checks every mode.
@@ -148,17 +164,26 @@ impl ModalModel {
 
     /// Static compliance `H(0)`, m/N.
     pub fn static_compliance(&self) -> f64 {
-        self.modes.iter().map(|m| m.residue / m.omega().powi(2)).sum()
+        self.modes
+            .iter()
+            .map(|m| m.residue / m.omega().powi(2))
+            .sum()
     }
 
     /// Highest natural frequency, Hz.
     pub fn highest_frequency_hz(&self) -> f64 {
-        self.modes.iter().map(|m| m.frequency_hz).fold(0.0, f64::max)
+        self.modes
+            .iter()
+            .map(|m| m.frequency_hz)
+            .fold(0.0, f64::max)
     }
 
     /// Smallest decay rate `ζ_r ω_r` over the modes, 1/s (sets settling times).
     pub fn slowest_decay_rate(&self) -> f64 {
-        self.modes.iter().map(|m| m.damping_ratio * m.omega()).fold(f64::INFINITY, f64::min)
+        self.modes
+            .iter()
+            .map(|m| m.damping_ratio * m.omega())
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// For a single-mode model, its `(m, c, k)`; `None` with more modes.

@@ -16,7 +16,11 @@ pub struct CubicStiffness {
 impl Element for CubicStiffness {
     #[inline]
     fn trial(&self, x: f64, _v: f64) -> ElementForce {
-        ElementForce { force: self.k3 * x * x * x, stiffness: 3.0 * self.k3 * x * x, damping: 0.0 }
+        ElementForce {
+            force: self.k3 * x * x * x,
+            stiffness: 3.0 * self.k3 * x * x,
+            damping: 0.0,
+        }
     }
     #[inline]
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {
@@ -38,7 +42,11 @@ pub struct QuadraticDamping {
 impl Element for QuadraticDamping {
     #[inline]
     fn trial(&self, _x: f64, v: f64) -> ElementForce {
-        ElementForce { force: self.c2 * v.abs() * v, stiffness: 0.0, damping: 2.0 * self.c2 * v.abs() }
+        ElementForce {
+            force: self.c2 * v.abs() * v,
+            stiffness: 0.0,
+            damping: 2.0 * self.c2 * v.abs(),
+        }
     }
     #[inline]
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {
@@ -66,7 +74,11 @@ impl Element for BilinearStiffness {
     #[inline]
     fn trial(&self, x: f64, _v: f64) -> ElementForce {
         if x > 0.0 {
-            ElementForce { force: self.kb * x, stiffness: self.kb, damping: 0.0 }
+            ElementForce {
+                force: self.kb * x,
+                stiffness: self.kb,
+                damping: 0.0,
+            }
         } else {
             ElementForce::default()
         }
@@ -95,9 +107,17 @@ impl Element for Clearance {
     #[inline]
     fn trial(&self, x: f64, _v: f64) -> ElementForce {
         if x > self.gap {
-            ElementForce { force: self.k * (x - self.gap), stiffness: self.k, damping: 0.0 }
+            ElementForce {
+                force: self.k * (x - self.gap),
+                stiffness: self.k,
+                damping: 0.0,
+            }
         } else if x < -self.gap {
-            ElementForce { force: self.k * (x + self.gap), stiffness: self.k, damping: 0.0 }
+            ElementForce {
+                force: self.k * (x + self.gap),
+                stiffness: self.k,
+                damping: 0.0,
+            }
         } else {
             ElementForce::default()
         }
@@ -122,7 +142,11 @@ pub struct ViscousDamping {
 impl Element for ViscousDamping {
     #[inline]
     fn trial(&self, _x: f64, v: f64) -> ElementForce {
-        ElementForce { force: self.cj * v, stiffness: 0.0, damping: self.cj }
+        ElementForce {
+            force: self.cj * v,
+            stiffness: 0.0,
+            damping: self.cj,
+        }
     }
     #[inline]
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {

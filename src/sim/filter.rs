@@ -109,7 +109,11 @@ impl ModeFilter {
         acceleration.b[0] += r;
         acceleration.b[1] += r * acceleration.a[0];
         acceleration.b[2] += r * acceleration.a[1];
-        ModeFilter { displacement, velocity, acceleration }
+        ModeFilter {
+            displacement,
+            velocity,
+            acceleration,
+        }
     }
 }
 
@@ -142,7 +146,10 @@ mod tests {
             let f = ModeFilter::new(&mode, 1.0 / fs);
             let irv = irvine_displacement(m, c, k, 1.0 / fs);
             for i in 0..3 {
-                assert!((f.displacement.b[i] / irv[i] - 1.0).abs() < 1e-9, "fs={fs} b{i}");
+                assert!(
+                    (f.displacement.b[i] / irv[i] - 1.0).abs() < 1e-9,
+                    "fs={fs} b{i}"
+                );
             }
         }
     }
@@ -152,8 +159,13 @@ mod tests {
         let mode = Mode::from_mck(10.0, 200.0, 1e7).unwrap();
         for fs in [2e3, 3e4, 1e6] {
             let f = ModeFilter::new(&mode, 1.0 / fs);
-            assert!((f.displacement.static_gain() * 1e7 - 1.0).abs() < 1e-10, "fs={fs}");
-            assert!(f.velocity.static_gain().abs() < 1e-9 * f.velocity.b[0].abs().max(1e-30) + 1e-15);
+            assert!(
+                (f.displacement.static_gain() * 1e7 - 1.0).abs() < 1e-10,
+                "fs={fs}"
+            );
+            assert!(
+                f.velocity.static_gain().abs() < 1e-9 * f.velocity.b[0].abs().max(1e-30) + 1e-15
+            );
             assert!(f.acceleration.b.iter().sum::<f64>().abs() < 1e-12 * f.acceleration.b[0].abs());
         }
     }
@@ -171,7 +183,10 @@ mod tests {
             let exact = aliased(|w| mode.receptance(w), f, fs);
             assert!((hd / exact - 1.0).norm() < 1e-9, "f={f}: {hd} vs {exact}");
             // the aliases add (f/fs)^4-small terms: 1.4e-6 at f = fs/30
-            assert!((hd / (h * sinc(f / fs).powi(2)) - 1.0).norm() < 1e-5, "f={f}");
+            assert!(
+                (hd / (h * sinc(f / fs).powi(2)) - 1.0).norm() < 1e-5,
+                "f={f}"
+            );
         }
     }
 

@@ -137,7 +137,11 @@ impl<E: Element> Simulator<E> {
         let t = 1.0 / sample_rate_hz;
         let filters: Vec<ModeFilter> = linear.modes.iter().map(|m| ModeFilter::new(m, t)).collect();
         let b0 = filters.iter().fold([0.0; 3], |acc, f| {
-            [acc[0] + f.displacement.b[0], acc[1] + f.velocity.b[0], acc[2] + f.acceleration.b[0]]
+            [
+                acc[0] + f.displacement.b[0],
+                acc[1] + f.velocity.b[0],
+                acc[2] + f.acceleration.b[0],
+            ]
         });
         Ok(Simulator {
             state: vec![ModeState::default(); filters.len()],
@@ -167,7 +171,9 @@ impl<E: Element> Simulator<E> {
 
     /// Back to rest: filter states zero, elements virgin.
     pub fn reset(&mut self) {
-        self.state.iter_mut().for_each(|s| *s = ModeState::default());
+        self.state
+            .iter_mut()
+            .for_each(|s| *s = ModeState::default());
         self.u = [0.0; 2];
         self.elements.reset();
     }
@@ -195,7 +201,13 @@ impl<E: Element> Simulator<E> {
                 - f.acceleration.a[0] * s.a[0]
                 - f.acceleration.a[1] * s.a[1];
         }
-        let step = ImplicitStep { x_pred: pred[0], v_pred: pred[1], bx: self.b0[0], bv: self.b0[1], force };
+        let step = ImplicitStep {
+            x_pred: pred[0],
+            v_pred: pred[1],
+            bx: self.b0[0],
+            bv: self.b0[1],
+            force,
+        };
         let u = match self.elements.solve_implicit(&step) {
             Some(u) => u,
             None => self.solve_iteratively(&step)?,
@@ -221,7 +233,12 @@ impl<E: Element> Simulator<E> {
         }
         self.u = [u, u1];
         self.stats.samples += 1;
-        Ok(Sample { displacement: x, velocity: v, acceleration: a, element_force: g })
+        Ok(Sample {
+            displacement: x,
+            velocity: v,
+            acceleration: a,
+            element_force: g,
+        })
     }
 
     /// Newton on `R(u) = u − F + g(x_p + bx u, v_p + bv u)`, started from the
@@ -230,7 +247,11 @@ impl<E: Element> Simulator<E> {
     fn solve_iteratively(&mut self, s: &ImplicitStep) -> Result<f64> {
         let residual = |e: &E, u: f64| {
             let g = e.trial(s.x_pred + s.bx * u, s.v_pred + s.bv * u);
-            (u - s.force + g.force, 1.0 + s.bx * g.stiffness + s.bv * g.damping, g.force)
+            (
+                u - s.force + g.force,
+                1.0 + s.bx * g.stiffness + s.bv * g.damping,
+                g.force,
+            )
         };
         let mut u = 2.0 * self.u[0] - self.u[1];
         for _ in 0..MAX_NEWTON {
@@ -253,7 +274,11 @@ impl<E: Element> Simulator<E> {
         let e = &self.elements;
         let res = |u: f64| {
             let g = e.trial(s.x_pred + s.bx * u, s.v_pred + s.bv * u);
-            (u - s.force + g.force, 1.0 + s.bx * g.stiffness + s.bv * g.damping, g.force)
+            (
+                u - s.force + g.force,
+                1.0 + s.bx * g.stiffness + s.bv * g.damping,
+                g.force,
+            )
         };
         let (r0, _, _) = res(u0);
         if r0 == 0.0 {
@@ -303,11 +328,18 @@ impl<E: Element> Simulator<E> {
                 lo = u;
             }
             let newton = u - r / dr;
-            u = if dr > 0.0 && newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+            u = if dr > 0.0 && newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
         }
         Err(Error::NotConverged {
             stage: "implicit sample solve",
-            reason: format!("bracket [{lo:e}, {hi:e}] N did not shrink at sample {}", self.stats.samples),
+            reason: format!(
+                "bracket [{lo:e}, {hi:e}] N did not shrink at sample {}",
+                self.stats.samples
+            ),
         })
     }
 
@@ -333,7 +365,12 @@ impl<E: Element> Simulator<E> {
 
     /// Runs `n` samples of a force generator `force(i)` (i counts from 0 in
     /// this call), appending to `out`.
-    pub fn run_generator(&mut self, n: usize, mut force: impl FnMut(usize) -> f64, out: &mut Response) -> Result<()> {
+    pub fn run_generator(
+        &mut self,
+        n: usize,
+        mut force: impl FnMut(usize) -> f64,
+        out: &mut Response,
+    ) -> Result<()> {
         for i in 0..n {
             let s = self.step(force(i))?;
             out.push(s);
@@ -347,7 +384,11 @@ impl<E: Element> Simulator<E> {
     /// # Panics
     /// If `x.len() != force.len()`.
     pub fn run_displacement(&mut self, force: &[f64], x: &mut [f64]) -> Result<()> {
-        assert_eq!(force.len(), x.len(), "output length must equal input length");
+        assert_eq!(
+            force.len(),
+            x.len(),
+            "output length must equal input length"
+        );
         for (f, x) in force.iter().zip(x.iter_mut()) {
             *x = self.step(*f)?.displacement;
         }

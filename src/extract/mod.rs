@@ -1,0 +1,89 @@
+//! Harmonic extraction: from sampled force and response to nonlinear FRFs.
+//!
+//! The same code reduces a virtual test and a real recording (paper section 3;
+//! method notes e). Conventions are those of [`crate::harmonics`]:
+//! `H_h = Y_h / F_1` with the measured force fundamental.
+
+use crate::harmonics::Quantity;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// Sweep direction of a series of points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Direction {
+    /// Increasing frequency.
+    #[default]
+    Up,
+    /// Decreasing frequency.
+    Down,
+}
+
+/// The harmonics of one analysed dwell (or sweep window).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DwellHarmonics {
+    /// Force harmonics `F_0..F_K` (single-sided, [`crate::harmonics`]).
+    pub force: Vec<Complex64>,
+    /// Response harmonics `Y_0..Y_K`.
+    pub response: Vec<Complex64>,
+    /// `H_k = Y_k/F_1`, `k = 0..K` (H1 estimator over blocks).
+    pub h: Vec<Complex64>,
+    /// Standard error of each `H_k`: the RMS of the complex estimation error,
+    /// `sqrt(E|Ĥ_k − H_k|²)`, from the block-to-block scatter.
+    pub std_error: Vec<f64>,
+    /// Blocks averaged.
+    pub blocks: usize,
+}
+
+/// One point of a nonlinear FRF.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrfPoint {
+    /// Excitation frequency, Hz.
+    pub frequency_hz: f64,
+    /// Measured force fundamental amplitude `|F_1|`, in the reference unit.
+    pub force_amplitude: f64,
+    /// `H_k = Y_k/F_1`, `k = 0..K`.
+    pub h: Vec<Complex64>,
+    /// Standard error of each `H_k` (see [`DwellHarmonics::std_error`]).
+    pub std_error: Vec<f64>,
+    /// Force harmonics relative to the fundamental, `F_k/F_1` (distortion of
+    /// the drive; `[1] = 1`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub force_distortion: Vec<Complex64>,
+    /// Blocks averaged.
+    pub blocks: usize,
+    /// Periods spent settling before the measurement.
+    #[serde(default)]
+    pub settle_periods: usize,
+    /// False when the settling cap was reached before the harmonics agreed.
+    #[serde(default = "yes")]
+    pub settled: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// The FRF points measured at one excitation level, in measurement order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrfLevel {
+    /// Nominal level, in the reference channel's unit.
+    pub level: f64,
+    /// Sweep direction of the series.
+    pub direction: Direction,
+    /// Points in measurement order.
+    pub points: Vec<FrfPoint>,
+}
+
+/// Nonlinear FRFs: per level, per frequency, per harmonic.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NonlinearFrf {
+    /// Quantity of the response (`H` is receptance, mobility or accelerance).
+    pub response: Quantity,
+    /// Quantity of the reference (force, or voltage for an amplifier drive).
+    pub reference: Quantity,
+    /// Highest harmonic `K`.
+    pub max_harmonic: usize,
+    /// The levels.
+    pub levels: Vec<FrfLevel>,
+}
