@@ -29,7 +29,10 @@ pub mod atomic;
 pub mod error;
 pub mod extract;
 pub mod harmonics;
+pub mod hb;
+pub mod import;
 pub mod model;
+pub mod plot;
 pub mod record;
 pub mod sim;
 

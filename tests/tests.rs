@@ -1,1 +1,14 @@
-// integration tests
+//! Integration tests, one binary, one module per topic.
+//!
+//! Tests that read the real data sets in `../shared/datasets` skip with a
+//! message when the folder is absent (set `HYSTID_DATASETS` to point
+//! elsewhere).
+
+mod common;
+
+mod extract;
+mod hb;
+mod import;
+mod plot;
+mod record;
+mod sim;
