@@ -8,14 +8,20 @@
 
 use super::element::{Element, ElementForce, ImplicitStep, sign};
 use crate::error::{Result, require_positive};
+use std::cell::Cell;
 
 /// Spring `kd` in series with a Coulomb slider of slip force `fd`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Jenkins {
     kd: f64,
     fd: f64,
     /// Committed slider position, m.
     slider: f64,
+    /// `Fd/kd`, the slip displacement.
+    xc: f64,
+    /// `(bx, 1/(1 + bx kd))` of the last closed-form solve: `bx` is fixed for
+    /// a simulator, so the division is done once.
+    stick_gain: Cell<(f64, f64)>,
 }
 
 impl Jenkins {
@@ -27,6 +33,8 @@ impl Jenkins {
             kd,
             fd,
             slider: 0.0,
+            xc: fd / kd,
+            stick_gain: Cell::new((f64::NAN, f64::NAN)),
         })
     }
 
@@ -65,7 +73,7 @@ impl Jenkins {
                     stiffness: 0.0,
                     damping: 0.0,
                 },
-                x - s * self.fd / self.kd,
+                x - s * self.xc,
             )
         }
     }
@@ -97,7 +105,12 @@ impl Element for Jenkins {
     #[inline]
     fn solve_implicit(&self, s: &ImplicitStep) -> Option<f64> {
         // stick: x = x_p + bx (F − kd (x − x_s))
-        let x = (s.x_pred + s.bx * (s.force + self.kd * self.slider)) / (1.0 + s.bx * self.kd);
+        let (bx, mut gain) = self.stick_gain.get();
+        if bx != s.bx {
+            gain = 1.0 / (1.0 + s.bx * self.kd);
+            self.stick_gain.set((s.bx, gain));
+        }
+        let x = (s.x_pred + s.bx * (s.force + self.kd * self.slider)) * gain;
         let g = self.kd * (x - self.slider);
         if g.abs() <= self.fd {
             Some(s.force - g)

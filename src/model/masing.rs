@@ -25,6 +25,20 @@ use std::cell::Cell;
 pub trait Backbone: Clone {
     /// `(f(x), f'(x))`.
     fn eval(&self, x: f64) -> (f64, f64);
+
+    /// `(f(x), f'(x), f''(x))`; the default has no curvature information and
+    /// reports 0, which is only right together with `taylor_radius() = 0`.
+    fn eval_with_curvature(&self, x: f64) -> (f64, f64, f64) {
+        let (f, k) = self.eval(x);
+        (f, k, 0.0)
+    }
+
+    /// Within this distance of an exactly evaluated point, a second-order
+    /// Taylor expansion reproduces the branch to ~1e-13 of the slip force
+    /// (0: never expand).
+    fn taylor_radius(&self) -> f64 {
+        0.0
+    }
 }
 
 /// `r^N` below this is lost in `1 + r^N` (2^-60): the backbone is linear.
@@ -46,6 +60,8 @@ pub struct PowerBackbone {
     r_linear: f64,
     /// Above this `r`, `r^-N < 2^-60`.
     r_saturated: f64,
+    /// See [`Backbone::taylor_radius`].
+    taylor_radius: f64,
 }
 
 impl PowerBackbone {
@@ -61,6 +77,9 @@ impl PowerBackbone {
             kd_over_fd: kd / fd,
             r_linear: (-NEGLIGIBLE_LN / n).exp(),
             r_saturated: (NEGLIGIBLE_LN / n).exp(),
+            // the expansion's error is ~ f''' h³/6 with f''' ~ kd N²/x_c² near
+            // the knee: h = 8e-5 x_c N^(-2/3) keeps it below 1e-13 Fd
+            taylor_radius: 8e-5 * (fd / kd) / n.max(1.0).powf(2.0 / 3.0),
         })
     }
 
@@ -73,29 +92,42 @@ impl PowerBackbone {
 impl Backbone for PowerBackbone {
     #[inline]
     fn eval(&self, x: f64) -> (f64, f64) {
+        let (f, k, _) = self.eval_with_curvature(x);
+        (f, k)
+    }
+
+    /// The tangent and curvature follow from `f` without further
+    /// transcendentals: with `p = r^N`, `f' = (f/x)/(1 + p)` and
+    /// `f'' = −(N + 1) f' p / (x (1 + p))`.
+    #[inline]
+    fn eval_with_curvature(&self, x: f64) -> (f64, f64, f64) {
         let r = (self.kd_over_fd * x).abs();
         if r <= self.r_linear {
-            return (self.kd * x, self.kd);
+            return (self.kd * x, self.kd, 0.0);
         }
+        if r >= self.r_saturated {
+            // the tangent kd r^-(N+1) (1 + r^-N)^(-(N+1)/N) is below kd 2^-60
+            // here; it is returned as 0 (Newton and AFT cannot tell)
+            return (sign(x) * self.fd, 0.0, 0.0);
+        }
+        // ln(1 + p) rather than ln_1p(p): only its absolute accuracy matters
         let n = self.n;
         let ln_r = r.ln();
-        if r >= self.r_saturated {
-            // (1 + r^N)^(-(N+1)/N) = r^-(N+1) to f64 precision
-            return (sign(x) * self.fd, self.kd * (-(n + 1.0) * ln_r).exp());
-        }
         if r <= 1.0 {
-            let l = (n * ln_r).exp().ln_1p(); // ln(1 + r^N)
-            (
-                self.kd * x * (-l / n).exp(),
-                self.kd * (-(n + 1.0) / n * l).exp(),
-            )
+            let p = (n * ln_r).exp(); // r^N
+            let s = (-(1.0 + p).ln() / n).exp();
+            let k = self.kd * s / (1.0 + p);
+            (self.kd * x * s, k, -(n + 1.0) * k * p / ((1.0 + p) * x))
         } else {
-            let l = (-n * ln_r).exp().ln_1p(); // ln(1 + r^-N)
-            (
-                sign(x) * self.fd * (-l / n).exp(),
-                self.kd * (-(n + 1.0) * ln_r - (n + 1.0) / n * l).exp(),
-            )
+            let q = (-n * ln_r).exp(); // r^-N
+            let f = sign(x) * self.fd * (-(1.0 + q).ln() / n).exp();
+            let k = f / x * q / (1.0 + q);
+            (f, k, -(n + 1.0) * k / ((1.0 + q) * x))
         }
+    }
+
+    fn taylor_radius(&self) -> f64 {
+        self.taylor_radius
     }
 }
 
@@ -136,12 +168,26 @@ pub struct Masing<B: Backbone = PowerBackbone> {
     f_prev: f64,
     /// Direction of the last committed move: -1, 0 (virgin, at rest), +1.
     direction: i8,
-    /// The last trial, so that `commit` at the same `x` skips the backbone.
-    last_trial: Cell<(f64, f64, ElementForce)>,
+    /// The last exactly evaluated trial since the last commit: nearby trials
+    /// on the same branch (the implicit solve's Newton iterates, then the
+    /// commit) expand around it instead of re-evaluating the backbone.
+    anchor: Cell<Option<Anchor>>,
+}
+
+/// An exact evaluation on a branch: position, branch identity, force, tangent
+/// and curvature.
+#[derive(Clone, Copy, Debug)]
+struct Anchor {
+    x: f64,
+    at: Located,
+    force: f64,
+    stiffness: f64,
+    curvature: f64,
 }
 
 /// Where a displacement lands: its direction, whether the previous sample
 /// becomes a turning point, and how many stack entries stay open.
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Located {
     direction: i8,
     push: bool,
@@ -165,7 +211,7 @@ impl<B: Backbone> Masing<B> {
             x_prev: 0.0,
             f_prev: 0.0,
             direction: 0,
-            last_trial: Cell::new((f64::NAN, f64::NAN, ElementForce::default())),
+            anchor: Cell::new(None),
         }
     }
 
@@ -224,18 +270,38 @@ impl<B: Backbone> Masing<B> {
         }
     }
 
+    /// The branch's force at `x`, from the anchor when it is close and on
+    /// the same branch, else exactly (and then it becomes the anchor).
     #[inline]
-    fn force_at(&self, x: f64, open: usize) -> ElementForce {
-        let (f, k) = if open == 0 {
-            self.backbone.eval(x)
+    fn force_at(&self, x: f64, at: Located) -> ElementForce {
+        if let Some(a) = self.anchor.get() {
+            let h = x - a.x;
+            if a.at == at && h.abs() <= self.backbone.taylor_radius() {
+                return ElementForce {
+                    force: a.force + h * (a.stiffness + 0.5 * h * a.curvature),
+                    stiffness: a.stiffness + h * a.curvature,
+                    damping: 0.0,
+                };
+            }
+        }
+        let (force, stiffness, curvature) = if at.open == 0 {
+            self.backbone.eval_with_curvature(x)
         } else {
-            let (xr, fr) = self.point(open - 1);
-            let (f, k) = self.backbone.eval(0.5 * (x - xr));
-            (fr + 2.0 * f, k)
+            // F_r + 2 f((x − x_r)/2): tangent f'(·), curvature f''(·)/2
+            let (xr, fr) = self.point(at.open - 1);
+            let (f, k, c) = self.backbone.eval_with_curvature(0.5 * (x - xr));
+            (fr + 2.0 * f, k, 0.5 * c)
         };
+        self.anchor.set(Some(Anchor {
+            x,
+            at,
+            force,
+            stiffness,
+            curvature,
+        }));
         ElementForce {
-            force: f,
-            stiffness: k,
+            force,
+            stiffness,
             damping: 0.0,
         }
     }
@@ -243,22 +309,14 @@ impl<B: Backbone> Masing<B> {
 
 impl<B: Backbone> Element for Masing<B> {
     #[inline]
-    fn trial(&self, x: f64, v: f64) -> ElementForce {
-        let at = self.locate(x);
-        let f = self.force_at(x, at.open);
-        self.last_trial.set((x, v, f));
-        f
+    fn trial(&self, x: f64, _v: f64) -> ElementForce {
+        self.force_at(x, self.locate(x))
     }
 
     #[inline]
-    fn commit(&mut self, x: f64, v: f64) -> ElementForce {
+    fn commit(&mut self, x: f64, _v: f64) -> ElementForce {
         let at = self.locate(x);
-        let (tx, tv, tf) = self.last_trial.get();
-        let f = if tx == x && tv == v {
-            tf
-        } else {
-            self.force_at(x, at.open)
-        };
+        let f = self.force_at(x, at);
         if at.push && at.open > self.stack.len() {
             self.stack.push((self.x_prev, self.f_prev));
         } else {
@@ -267,6 +325,8 @@ impl<B: Backbone> Element for Masing<B> {
         self.direction = at.direction;
         self.x_prev = x;
         self.f_prev = f.force;
+        // branch identities are relative to the state just changed
+        self.anchor.set(None);
         f
     }
 
@@ -275,8 +335,7 @@ impl<B: Backbone> Element for Masing<B> {
         self.x_prev = 0.0;
         self.f_prev = 0.0;
         self.direction = 0;
-        self.last_trial
-            .set((f64::NAN, f64::NAN, ElementForce::default()));
+        self.anchor.set(None);
     }
 
     fn has_memory(&self) -> bool {
@@ -330,10 +389,55 @@ mod tests {
                         "n={n} x={x}: {f} vs {exact}"
                     );
                     let exact_df = KD * (1.0 + r.powf(n)).powf(-(n + 1.0) / n);
-                    assert!((df - exact_df).abs() <= 1e-10 * KD, "n={n} x={x}");
+                    assert!(
+                        (df - exact_df).abs() <= 1e-12 * KD,
+                        "n={n} x={x}: {df} vs {exact_df}"
+                    );
                 }
                 let (fm, _) = b.eval(-x);
                 assert_eq!(fm, -f);
+            }
+        }
+    }
+
+    #[test]
+    fn curvature_matches_a_finite_difference_of_the_tangent() {
+        for n in [1.5, 3.0, 22.55, 200.0] {
+            let b = PowerBackbone::new(KD, FD, n).unwrap();
+            for k in -100..=100 {
+                let x = FD / KD * 10f64.powf(k as f64 / 100.0);
+                let (_, _, c) = b.eval_with_curvature(x);
+                let h = 1e-6 * x;
+                let fd = (b.eval(x + h).1 - b.eval(x - h).1) / (2.0 * h);
+                assert!(
+                    (c - fd).abs() <= 1e-5 * fd.abs() + 1e-9 * KD * KD / FD,
+                    "n={n} x={x}: {c} vs {fd}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn taylor_expansion_stays_within_1e_13_of_the_slip_force() {
+        // trials near an exact one reuse it; they must agree with a fresh element
+        for n in [1.5, 3.0, 22.55, 1000.0] {
+            let hist: Vec<f64> = (1..=30).map(|i| i as f64 * 0.05 * FD / KD).collect();
+            let fresh = || {
+                let mut m = Masing::new(KD, FD, n).unwrap();
+                for &x in &hist {
+                    m.commit(x, 0.0);
+                }
+                m
+            };
+            let a = fresh();
+            let x0 = 1.6 * FD / KD;
+            a.trial(x0, 0.0);
+            let r = a.backbone().taylor_radius();
+            for frac in [0.1, 0.5, 1.0, -1.0] {
+                let x = x0 + frac * r;
+                let got = a.trial(x, 0.0).force;
+                let exact = fresh().trial(x, 0.0).force;
+                assert!((got - exact).abs() < 1e-13 * FD, "n={n}: {got} vs {exact}");
             }
         }
     }

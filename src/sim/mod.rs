@@ -83,6 +83,8 @@ struct ModeState {
     x: [f64; 2],
     v: [f64; 2],
     a: [f64; 2],
+    /// This sample's part fixed by the past (scratch).
+    pred: [f64; 3],
 }
 
 /// Statistics of the implicit solves so far.
@@ -181,25 +183,41 @@ impl<E: Element> Simulator<E> {
     /// Advances one sample under external force `force` (N).
     #[inline]
     pub fn step(&mut self, force: f64) -> Result<Sample> {
+        let mut out = Sample::default();
+        self.drive(1, |_| force, |_, s| out = s)?;
+        Ok(out)
+    }
+
+    #[cold]
+    fn bad_force(&self, force: f64) -> Error {
+        Error::input(
+            format!("force sample {}", self.stats.samples),
+            format!("must be finite, got {force}"),
+        )
+    }
+
+    /// Several modes: outputs are sums over the modes' own sections.
+    fn step_modal(&mut self, force: f64) -> Result<Sample> {
         if !force.is_finite() {
-            return Err(Error::input(
-                format!("force sample {}", self.stats.samples),
-                format!("must be finite, got {force}"),
-            ));
+            return Err(self.bad_force(force));
         }
-        // the part of this sample's output already fixed by the past
         let (u1, u2) = (self.u[0], self.u[1]);
         let mut pred = [0.0; 3];
-        for (f, s) in self.filters.iter().zip(&self.state) {
-            pred[0] += f.displacement.b[1] * u1 + f.displacement.b[2] * u2
-                - f.displacement.a[0] * s.x[0]
-                - f.displacement.a[1] * s.x[1];
-            pred[1] += f.velocity.b[1] * u1 + f.velocity.b[2] * u2
-                - f.velocity.a[0] * s.v[0]
-                - f.velocity.a[1] * s.v[1];
-            pred[2] += f.acceleration.b[1] * u1 + f.acceleration.b[2] * u2
-                - f.acceleration.a[0] * s.a[0]
-                - f.acceleration.a[1] * s.a[1];
+        for (f, s) in self.filters.iter().zip(self.state.iter_mut()) {
+            s.pred = [
+                f.displacement.b[1] * u1 + f.displacement.b[2] * u2
+                    - f.displacement.a[0] * s.x[0]
+                    - f.displacement.a[1] * s.x[1],
+                f.velocity.b[1] * u1 + f.velocity.b[2] * u2
+                    - f.velocity.a[0] * s.v[0]
+                    - f.velocity.a[1] * s.v[1],
+                f.acceleration.b[1] * u1 + f.acceleration.b[2] * u2
+                    - f.acceleration.a[0] * s.a[0]
+                    - f.acceleration.a[1] * s.a[1],
+            ];
+            pred[0] += s.pred[0];
+            pred[1] += s.pred[1];
+            pred[2] += s.pred[2];
         }
         let step = ImplicitStep {
             x_pred: pred[0],
@@ -210,26 +228,16 @@ impl<E: Element> Simulator<E> {
         };
         let u = match self.elements.solve_implicit(&step) {
             Some(u) => u,
-            None => self.solve_iteratively(&step)?,
+            None => solve_iteratively(&self.elements, &mut self.stats, &step, 2.0 * u1 - u2)?,
         };
         let x = step.x_pred + step.bx * u;
         let v = step.v_pred + step.bv * u;
         let g = self.elements.commit(x, v).force;
         let a = pred[2] + self.b0[2] * u;
-        // advance each mode's own history
         for (f, s) in self.filters.iter().zip(self.state.iter_mut()) {
-            let xm = f.displacement.b[0] * u + f.displacement.b[1] * u1 + f.displacement.b[2] * u2
-                - f.displacement.a[0] * s.x[0]
-                - f.displacement.a[1] * s.x[1];
-            let vm = f.velocity.b[0] * u + f.velocity.b[1] * u1 + f.velocity.b[2] * u2
-                - f.velocity.a[0] * s.v[0]
-                - f.velocity.a[1] * s.v[1];
-            let am = f.acceleration.b[0] * u + f.acceleration.b[1] * u1 + f.acceleration.b[2] * u2
-                - f.acceleration.a[0] * s.a[0]
-                - f.acceleration.a[1] * s.a[1];
-            s.x = [xm, s.x[0]];
-            s.v = [vm, s.v[0]];
-            s.a = [am, s.a[0]];
+            s.x = [s.pred[0] + f.displacement.b[0] * u, s.x[0]];
+            s.v = [s.pred[1] + f.velocity.b[0] * u, s.v[0]];
+            s.a = [s.pred[2] + f.acceleration.b[0] * u, s.a[0]];
         }
         self.u = [u, u1];
         self.stats.samples += 1;
@@ -241,106 +249,87 @@ impl<E: Element> Simulator<E> {
         })
     }
 
-    /// Newton on `R(u) = u − F + g(x_p + bx u, v_p + bv u)`, started from the
-    /// linear extrapolation of the last two inputs; falls back to a bracketed
-    /// Newton–bisection when Newton does not settle (kinks, softening).
-    fn solve_iteratively(&mut self, s: &ImplicitStep) -> Result<f64> {
-        let residual = |e: &E, u: f64| {
-            let g = e.trial(s.x_pred + s.bx * u, s.v_pred + s.bv * u);
-            (
-                u - s.force + g.force,
-                1.0 + s.bx * g.stiffness + s.bv * g.damping,
-                g.force,
-            )
-        };
-        let mut u = 2.0 * self.u[0] - self.u[1];
-        for _ in 0..MAX_NEWTON {
-            let (r, dr, g) = residual(&self.elements, u);
-            self.stats.trials += 1;
-            let tol = SOLVE_TOLERANCE * (s.force.abs() + g.abs() + u.abs()) + f64::MIN_POSITIVE;
-            if r.abs() <= tol {
-                return Ok(u);
+    /// Drives `n` samples from `input(i)` into `sink(i, sample)`. The SDOF
+    /// case keeps the filter state in locals for the whole block (a store and
+    /// reload through memory each sample would sit on the recursion's
+    /// critical path).
+    #[inline(always)]
+    fn drive(
+        &mut self,
+        n: usize,
+        mut input: impl FnMut(usize) -> f64,
+        mut sink: impl FnMut(usize, Sample),
+    ) -> Result<()> {
+        if self.filters.len() != 1 {
+            for i in 0..n {
+                let s = self.step_modal(input(i))?;
+                sink(i, s);
             }
-            if !(dr > 0.0 && dr.is_finite()) {
+            return Ok(());
+        }
+        let f = self.filters[0];
+        let mut st = self.state[0];
+        let [mut u1, mut u2] = self.u;
+        let b0 = self.b0;
+        let mut result = Ok(());
+        for i in 0..n {
+            let force = input(i);
+            if !force.is_finite() {
+                result = Err(self.bad_force(force));
                 break;
             }
-            u -= r / dr;
-        }
-        self.stats.bracketed += 1;
-        self.solve_bracketed(s, u)
-    }
-
-    fn solve_bracketed(&mut self, s: &ImplicitStep, u0: f64) -> Result<f64> {
-        let e = &self.elements;
-        let res = |u: f64| {
-            let g = e.trial(s.x_pred + s.bx * u, s.v_pred + s.bv * u);
-            (
-                u - s.force + g.force,
-                1.0 + s.bx * g.stiffness + s.bv * g.damping,
-                g.force,
-            )
-        };
-        let (r0, _, _) = res(u0);
-        if r0 == 0.0 {
-            return Ok(u0);
-        }
-        // expand until the sign changes
-        let mut width = r0.abs().max(1e-12 * (s.force.abs() + u0.abs()) + 1e-300);
-        let (mut lo, mut hi) = (u0, u0);
-        let mut found = false;
-        for _ in 0..200 {
-            let other = if r0 > 0.0 { u0 - width } else { u0 + width };
-            let (r, _, _) = res(other);
-            if r.is_nan() {
-                break;
-            }
-            if (r > 0.0) != (r0 > 0.0) || r == 0.0 {
-                if r0 > 0.0 {
-                    (lo, hi) = (other, u0);
-                } else {
-                    (lo, hi) = (u0, other);
-                }
-                found = true;
-                break;
-            }
-            width *= 2.0;
-        }
-        if !found {
-            return Err(Error::NotConverged {
-                stage: "implicit sample solve",
-                reason: format!(
-                    "no sign change of the element feedback residual near u = {u0:e} N at sample {} \
-                     (the element force may decrease faster than the structure can follow)",
-                    self.stats.samples
-                ),
-            });
-        }
-        let mut u = 0.5 * (lo + hi);
-        for _ in 0..MAX_BRACKETED {
-            let (r, dr, g) = res(u);
-            let tol = SOLVE_TOLERANCE * (s.force.abs() + g.abs() + u.abs()) + f64::MIN_POSITIVE;
-            if r.abs() <= tol || (hi - lo) <= tol {
-                return Ok(u);
-            }
-            if r > 0.0 {
-                hi = u;
-            } else {
-                lo = u;
-            }
-            let newton = u - r / dr;
-            u = if dr > 0.0 && newton > lo && newton < hi {
-                newton
-            } else {
-                0.5 * (lo + hi)
+            let pred = [
+                f.displacement.b[1] * u1 + f.displacement.b[2] * u2
+                    - f.displacement.a[0] * st.x[0]
+                    - f.displacement.a[1] * st.x[1],
+                f.velocity.b[1] * u1 + f.velocity.b[2] * u2
+                    - f.velocity.a[0] * st.v[0]
+                    - f.velocity.a[1] * st.v[1],
+                f.acceleration.b[1] * u1 + f.acceleration.b[2] * u2
+                    - f.acceleration.a[0] * st.a[0]
+                    - f.acceleration.a[1] * st.a[1],
+            ];
+            let step = ImplicitStep {
+                x_pred: pred[0],
+                v_pred: pred[1],
+                bx: b0[0],
+                bv: b0[1],
+                force,
             };
+            let u = match self.elements.solve_implicit(&step) {
+                Some(u) => u,
+                None => {
+                    match solve_iteratively(&self.elements, &mut self.stats, &step, 2.0 * u1 - u2) {
+                        Ok(u) => u,
+                        Err(e) => {
+                            result = Err(e);
+                            break;
+                        }
+                    }
+                }
+            };
+            let x = step.x_pred + step.bx * u;
+            let v = step.v_pred + step.bv * u;
+            let g = self.elements.commit(x, v).force;
+            let a = pred[2] + b0[2] * u;
+            st.x = [x, st.x[0]];
+            st.v = [v, st.v[0]];
+            st.a = [a, st.a[0]];
+            (u2, u1) = (u1, u);
+            self.stats.samples += 1;
+            sink(
+                i,
+                Sample {
+                    displacement: x,
+                    velocity: v,
+                    acceleration: a,
+                    element_force: g,
+                },
+            );
         }
-        Err(Error::NotConverged {
-            stage: "implicit sample solve",
-            reason: format!(
-                "bracket [{lo:e}, {hi:e}] N did not shrink at sample {}",
-                self.stats.samples
-            ),
-        })
+        self.state[0] = st;
+        self.u = [u1, u2];
+        result
     }
 
     /// Runs a block of force samples, appending to `out`.
@@ -349,11 +338,7 @@ impl<E: Element> Simulator<E> {
         out.velocity.reserve(force.len());
         out.acceleration.reserve(force.len());
         out.element_force.reserve(force.len());
-        for &f in force {
-            let s = self.step(f)?;
-            out.push(s);
-        }
-        Ok(())
+        self.drive(force.len(), |i| force[i], |_, s| out.push(s))
     }
 
     /// Runs a block of force samples.
@@ -368,14 +353,10 @@ impl<E: Element> Simulator<E> {
     pub fn run_generator(
         &mut self,
         n: usize,
-        mut force: impl FnMut(usize) -> f64,
+        force: impl FnMut(usize) -> f64,
         out: &mut Response,
     ) -> Result<()> {
-        for i in 0..n {
-            let s = self.step(force(i))?;
-            out.push(s);
-        }
-        Ok(())
+        self.drive(n, force, |_, s| out.push(s))
     }
 
     /// Runs a block writing displacement only into `x` (the fast path for
@@ -389,9 +370,136 @@ impl<E: Element> Simulator<E> {
             x.len(),
             "output length must equal input length"
         );
-        for (f, x) in force.iter().zip(x.iter_mut()) {
-            *x = self.step(*f)?.displacement;
-        }
-        Ok(())
+        self.drive(force.len(), |i| force[i], |i, s| x[i] = s.displacement)
     }
+
+    /// Runs a block into caller-provided slices (no allocation).
+    ///
+    /// # Panics
+    /// If any output's length differs from `force.len()`.
+    pub fn run_slices(&mut self, force: &[f64], out: SliceOutputs<'_>) -> Result<()> {
+        let n = force.len();
+        assert!(
+            out.displacement.len() == n
+                && out.velocity.len() == n
+                && out.acceleration.len() == n
+                && out.element_force.len() == n,
+            "output lengths must equal the input length"
+        );
+        self.drive(
+            n,
+            |i| force[i],
+            |i, s| {
+                out.displacement[i] = s.displacement;
+                out.velocity[i] = s.velocity;
+                out.acceleration[i] = s.acceleration;
+                out.element_force[i] = s.element_force;
+            },
+        )
+    }
+}
+
+/// Caller-owned output slices for [`Simulator::run_slices`].
+#[derive(Debug)]
+pub struct SliceOutputs<'a> {
+    /// Displacement, m.
+    pub displacement: &'a mut [f64],
+    /// Velocity, m/s.
+    pub velocity: &'a mut [f64],
+    /// Acceleration, m/s².
+    pub acceleration: &'a mut [f64],
+    /// Element force, N.
+    pub element_force: &'a mut [f64],
+}
+
+/// Newton on `R(u) = u − F + g(x_p + bx u, v_p + bv u)`, started from
+/// `guess` (the linear extrapolation of the last two inputs); falls back to a
+/// bracketed Newton–bisection when Newton does not settle (kinks, softening).
+fn solve_iteratively<E: Element>(
+    e: &E,
+    stats: &mut SolveStats,
+    s: &ImplicitStep,
+    guess: f64,
+) -> Result<f64> {
+    let mut u = guess;
+    for _ in 0..MAX_NEWTON {
+        let g = e.trial(s.x_pred + s.bx * u, s.v_pred + s.bv * u);
+        stats.trials += 1;
+        let r = u - s.force + g.force;
+        let tol = SOLVE_TOLERANCE * (s.force.abs() + g.force.abs() + u.abs()) + f64::MIN_POSITIVE;
+        if r.abs() <= tol {
+            return Ok(u);
+        }
+        let dr = 1.0 + s.bx * g.stiffness + s.bv * g.damping;
+        if !(dr > 0.0 && dr.is_finite()) {
+            break;
+        }
+        u -= r / dr;
+    }
+    stats.bracketed += 1;
+    solve_bracketed(e, stats.samples, s, u)
+}
+
+fn solve_bracketed<E: Element>(e: &E, sample: u64, s: &ImplicitStep, u0: f64) -> Result<f64> {
+    let res = |u: f64| {
+        let g = e.trial(s.x_pred + s.bx * u, s.v_pred + s.bv * u);
+        (
+            u - s.force + g.force,
+            1.0 + s.bx * g.stiffness + s.bv * g.damping,
+            g.force,
+        )
+    };
+    let (r0, _, _) = res(u0);
+    if r0 == 0.0 {
+        return Ok(u0);
+    }
+    // expand until the sign changes
+    let mut width = r0.abs().max(1e-12 * (s.force.abs() + u0.abs()) + 1e-300);
+    let (mut lo, mut hi) = (u0, u0);
+    let mut found = false;
+    for _ in 0..200 {
+        let other = if r0 > 0.0 { u0 - width } else { u0 + width };
+        let (r, _, _) = res(other);
+        if r.is_nan() {
+            break;
+        }
+        if (r > 0.0) != (r0 > 0.0) || r == 0.0 {
+            (lo, hi) = if r0 > 0.0 { (other, u0) } else { (u0, other) };
+            found = true;
+            break;
+        }
+        width *= 2.0;
+    }
+    if !found {
+        return Err(Error::NotConverged {
+            stage: "implicit sample solve",
+            reason: format!(
+                "no sign change of the element feedback residual near u = {u0:e} N at sample {sample} \
+                 (the element force may decrease faster than the structure can follow)"
+            ),
+        });
+    }
+    let mut u = 0.5 * (lo + hi);
+    for _ in 0..MAX_BRACKETED {
+        let (r, dr, g) = res(u);
+        let tol = SOLVE_TOLERANCE * (s.force.abs() + g.abs() + u.abs()) + f64::MIN_POSITIVE;
+        if r.abs() <= tol || (hi - lo) <= tol {
+            return Ok(u);
+        }
+        if r > 0.0 {
+            hi = u;
+        } else {
+            lo = u;
+        }
+        let newton = u - r / dr;
+        u = if dr > 0.0 && newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+    }
+    Err(Error::NotConverged {
+        stage: "implicit sample solve",
+        reason: format!("bracket [{lo:e}, {hi:e}] N did not shrink at sample {sample}"),
+    })
 }
