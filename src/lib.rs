@@ -18,6 +18,7 @@
 //! * [`sim`]: the digital-filter time simulation (ramp-invariant sections, the
 //!   element force fed back by an implicit per-sample solve).
 //! * [`extract`]: harmonics and nonlinear FRFs from sampled signals.
+//! * [`testbench`]: the virtual stepped-sine test (dwells, settling, noise).
 //! * [`record`]: the WAV + JSON recording format and MCAP run files.
 //!
 //! Conventions (Fourier, units, FRF definition) are fixed once in
@@ -28,6 +29,7 @@
 pub mod atomic;
 pub mod error;
 pub mod extract;
+pub mod fit;
 pub mod harmonics;
 pub mod hb;
 pub mod import;
@@ -35,5 +37,6 @@ pub mod model;
 pub mod plot;
 pub mod record;
 pub mod sim;
+// pub mod testbench; (waits for extract)
 
 pub use error::{Error, Result};

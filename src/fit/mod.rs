@@ -1,0 +1,7 @@
+//! Identification: fit the element parameters so that the harmonic-balance
+//! model's nonlinear FRFs match the measured ones (paper Figures 2.2 and 3.3,
+//! eq. 9; method notes f).
+
+pub mod linear;
+
+pub use linear::{FrfSample, SdofEstimate, fit_sdof};

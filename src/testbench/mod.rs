@@ -1,0 +1,352 @@
+//! The virtual stepped-sine test bench: a shaker test of a simulated
+//! structure, analysed as a lab would analyse a real one (paper section 3;
+//! method notes e).
+//!
+//! For each force level the bench steps through the frequencies; the
+//! structure's state carries from dwell to dwell as on a real shaker, and the
+//! drive changes frequency phase-continuously. Each dwell settles until the
+//! harmonics of consecutive blocks of whole periods agree (or a cap is hit,
+//! which is reported), then measures whole blocks. Sampling is coherent: the
+//! sample rate is fixed for the run and each dwell's frequency is shifted by
+//! at most `frequency_tolerance` so that a block of `q` whole periods spans a
+//! whole number of samples, which puts every harmonic on an exact FFT bin.
+//! Gaussian noise, seeded per level (so the bytes do not depend on the thread
+//! count), is added to every response channel at a given fraction of each
+//! dwell's clean RMS (the ABRAVIBE convention, method notes e), and optionally
+//! to the force.
+
+pub mod plan;
+
+pub use plan::{DEFAULT_TEST, TestDefinition};
+
+use crate::error::{Error, Result};
+use crate::extract::{Direction, DwellHarmonics, FrfLevel, FrfPoint, HarmonicAnalyser, NonlinearFrf, harmonics_agree};
+use crate::harmonics::Quantity;
+use crate::model::Model;
+use crate::sim::{Response, Simulator};
+use num_complex::Complex64;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// How a dwell's requested frequency was made coherent.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DwellDesign {
+    /// Requested frequency, Hz.
+    pub requested_hz: f64,
+    /// Frequency driven, Hz: `q fs / block_len`.
+    pub frequency_hz: f64,
+    /// Whole periods per block `q`.
+    pub periods_per_block: usize,
+    /// Samples per block.
+    pub block_len: usize,
+}
+
+/// The smallest number of periods per block `q ≤ 64` for which a block of
+/// `round(q fs/f)` samples holds `q` whole periods of a frequency within
+/// `tolerance` of `f` (else the closest one found).
+pub fn design_dwell(requested_hz: f64, sample_rate_hz: f64, tolerance: f64) -> DwellDesign {
+    let mut best: Option<(f64, DwellDesign)> = None;
+    for q in 1..=64usize {
+        let block_len = ((q as f64 * sample_rate_hz / requested_hz).round() as usize).max(1);
+        let frequency_hz = q as f64 * sample_rate_hz / block_len as f64;
+        let err = (frequency_hz / requested_hz - 1.0).abs();
+        let d = DwellDesign { requested_hz, frequency_hz, periods_per_block: q, block_len };
+        if err <= tolerance {
+            return d;
+        }
+        if best.is_none_or(|(e, _)| err < e) {
+            best = Some((err, d));
+        }
+    }
+    best.expect("q = 1 was tried").1
+}
+
+/// Everything the bench knows about one dwell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DwellRecord {
+    /// Dwell number within the run (all levels).
+    pub index: usize,
+    /// Level number.
+    pub level_index: usize,
+    /// Nominal force amplitude, N.
+    pub level: f64,
+    /// Sweep direction of the run this dwell belongs to.
+    pub direction: Direction,
+    /// The frequency design.
+    pub design: DwellDesign,
+    /// First frame of the dwell in the run's recording.
+    pub start: u64,
+    /// Frames spent settling.
+    pub settle: usize,
+    /// Frames in the dwell (settle included).
+    pub length: usize,
+    /// Periods spent settling.
+    pub settle_periods: usize,
+    /// False when the settling cap was hit first.
+    pub settled: bool,
+    /// Harmonics of the measured (noisy) force and response.
+    pub measured: DwellHarmonics,
+    /// `H_k` of the clean (noise-free) signals: the steady state itself.
+    pub clean_h: Vec<Complex64>,
+    /// Measured noise RMS over clean RMS of the response channel.
+    pub noise_ratio: f64,
+}
+
+/// One level's recorded signals (f32, as written to files) and its dwells.
+#[derive(Clone, Debug, Default)]
+pub struct LevelOutput {
+    /// Level number.
+    pub level_index: usize,
+    /// The dwells, `start` relative to the whole run.
+    pub dwells: Vec<DwellRecord>,
+    /// Measured force, N.
+    pub force: Vec<f32>,
+    /// Measured displacement, m.
+    pub displacement: Vec<f32>,
+    /// Measured velocity, m/s.
+    pub velocity: Vec<f32>,
+    /// Measured acceleration, m/s².
+    pub acceleration: Vec<f32>,
+}
+
+/// Receives each level's output, in level order.
+pub trait BenchSink {
+    /// One level's signals and dwells; `first_frame` is its position in the run.
+    fn level(&mut self, output: &LevelOutput, first_frame: u64) -> Result<()>;
+}
+
+/// A sink that keeps nothing.
+#[derive(Debug, Default)]
+pub struct NoSink;
+
+impl BenchSink for NoSink {
+    fn level(&mut self, _: &LevelOutput, _: u64) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// The result of a virtual test.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BenchRun {
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// The nonlinear FRFs of the chosen response.
+    pub frf: NonlinearFrf,
+    /// Every dwell, in recording order.
+    pub dwells: Vec<DwellRecord>,
+    /// Frames recorded.
+    pub frames: u64,
+}
+
+impl BenchRun {
+    /// Dwells that hit the settling cap.
+    pub fn unsettled(&self) -> impl Iterator<Item = &DwellRecord> {
+        self.dwells.iter().filter(|d| !d.settled)
+    }
+}
+
+/// Runs the virtual test of `def`, handing each level's signals to `sink` in
+/// level order and calling `progress` after each dwell (from any thread).
+pub fn run(def: &TestDefinition, sink: &mut dyn BenchSink, progress: &(dyn Fn() + Sync)) -> Result<BenchRun> {
+    def.validate()?;
+    let model = def.model()?;
+    let fs = def.sample_rate_hz()?;
+    let sweeps = def.sweeps()?;
+    let levels = &def.test.levels_n;
+    let chunk = rayon::current_num_threads().max(1);
+    let mut dwells = Vec::new();
+    let mut frames = 0u64;
+    let mut frf_levels = Vec::new();
+    // levels run in parallel a few at a time, so memory stays bounded by the
+    // thread count while the sink still receives them in order
+    for start in (0..levels.len()).step_by(chunk) {
+        let end = (start + chunk).min(levels.len());
+        let outputs: Vec<Result<LevelOutput>> = (start..end)
+            .into_par_iter()
+            .map(|i| run_level(def, &model, fs, &sweeps, i, levels[i], progress))
+            .collect();
+        for out in outputs {
+            let mut out = out?;
+            for d in &mut out.dwells {
+                d.start += frames;
+            }
+            sink.level(&out, frames)?;
+            frames += out.force.len() as u64;
+            for (dir, _) in &sweeps {
+                let points = out
+                    .dwells
+                    .iter()
+                    .filter(|d| d.direction == *dir)
+                    .map(|d| FrfPoint {
+                        frequency_hz: d.design.frequency_hz,
+                        force_amplitude: d.measured.force[1].norm(),
+                        h: d.measured.h.clone(),
+                        std_error: d.measured.std_error.clone(),
+                        force_distortion: d.measured.force.iter().map(|f| f / d.measured.force[1]).collect(),
+                        blocks: d.measured.blocks,
+                        settle_periods: d.settle_periods,
+                        settled: d.settled,
+                    })
+                    .collect();
+                frf_levels.push(FrfLevel { level: levels[out.level_index], direction: *dir, points });
+            }
+            dwells.extend(out.dwells);
+        }
+    }
+    for (i, d) in dwells.iter_mut().enumerate() {
+        d.index = i;
+    }
+    Ok(BenchRun {
+        sample_rate_hz: fs,
+        frf: NonlinearFrf {
+            response: def.test.response.quantity(),
+            reference: Quantity::Force,
+            max_harmonic: def.test.max_harmonic,
+            levels: frf_levels,
+        },
+        dwells,
+        frames,
+    })
+}
+
+fn channel<'a>(r: &'a Response, q: Quantity) -> &'a [f64] {
+    match q {
+        Quantity::Displacement => &r.displacement,
+        Quantity::Velocity => &r.velocity,
+        _ => &r.acceleration,
+    }
+}
+
+fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
+/// One level: a continuous simulation from rest through every dwell.
+fn run_level(
+    def: &TestDefinition,
+    model: &Model,
+    fs: f64,
+    sweeps: &[(Direction, Vec<f64>)],
+    level_index: usize,
+    level: f64,
+    progress: &(dyn Fn() + Sync),
+) -> Result<LevelOutput> {
+    let t = &def.test;
+    let mut sim = Simulator::new(&model.linear, model.element_set()?, fs)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(t.seed);
+    // an independent stream per level: the same bytes whatever the threads
+    rng.set_stream(level_index as u64);
+    let mut analyser = HarmonicAnalyser::new();
+    let response_q = t.response.quantity();
+    let mut out = LevelOutput { level_index, ..Default::default() };
+    let mut phase = 0.0f64;
+    let mut clean = Response::default();
+    let mut force = Vec::new();
+    for (direction, freqs) in sweeps {
+        for &f_req in freqs {
+            let d = design_dwell(f_req, fs, t.frequency_tolerance);
+            let (l, q) = (d.block_len, d.periods_per_block);
+            clean.clear();
+            force.clear();
+            let mut block = |sim: &mut Simulator<_>, force: &mut Vec<f64>, clean: &mut Response| -> Result<()> {
+                let start = force.len();
+                force.extend((0..l).map(|i| level * (phase + 2.0 * PI * (q * i) as f64 / l as f64).cos()));
+                sim.run_into(&force[start..], clean)
+            };
+            // settle: blocks of q periods until consecutive harmonics agree
+            let max_blocks = t.max_settle_periods.div_ceil(q).max(2);
+            let mut previous: Option<Vec<Complex64>> = None;
+            let mut settled = false;
+            let mut settle_blocks = 0;
+            while settle_blocks < max_blocks {
+                block(&mut sim, &mut force, &mut clean)?;
+                settle_blocks += 1;
+                let y = channel(&clean, response_q);
+                let h = analyser.harmonics(&y[y.len() - l..], l, q, t.max_harmonic)?;
+                if let Some(p) = &previous
+                    && harmonics_agree(p, &h, t.settle_tolerance)
+                {
+                    settled = true;
+                    break;
+                }
+                previous = Some(h);
+            }
+            // measure whole blocks
+            let blocks = t.measure_periods.div_ceil(q).max(2);
+            for _ in 0..blocks {
+                block(&mut sim, &mut force, &mut clean)?;
+            }
+            let settle = settle_blocks * l;
+            let n = force.len();
+            // noise at a fraction of each channel's clean RMS over the measured window
+            let mut noisy: [Vec<f64>; 4] = [force.clone(), clean.displacement.clone(), clean.velocity.clone(), clean.acceleration.clone()];
+            let fractions = [t.force_noise, t.noise, t.noise, t.noise];
+            for (sig, frac) in noisy.iter_mut().zip(fractions) {
+                let sigma = frac * rms(&sig[settle..]);
+                if sigma > 0.0 {
+                    for v in sig.iter_mut() {
+                        let z: f64 = StandardNormal.sample(&mut rng);
+                        *v += sigma * z;
+                    }
+                }
+            }
+            let ri = match response_q {
+                Quantity::Displacement => 1,
+                Quantity::Velocity => 2,
+                _ => 3,
+            };
+            let measured = analyser
+                .coherent(&noisy[0][settle..], &noisy[ri][settle..], l, q, t.max_harmonic)
+                .map_err(|e| Error::input(format!("dwell at {:.4} Hz, level {level} N", d.frequency_hz), e.to_string()))?;
+            let clean_y = channel(&clean, response_q);
+            let clean_h = analyser.coherent(&force[settle..], &clean_y[settle..], l, q, t.max_harmonic)?.h;
+            let noise: Vec<f64> = noisy[ri][settle..].iter().zip(&clean_y[settle..]).map(|(a, b)| a - b).collect();
+            let noise_ratio = rms(&noise) / rms(&clean_y[settle..]).max(f64::MIN_POSITIVE);
+            out.dwells.push(DwellRecord {
+                index: 0,
+                level_index,
+                level,
+                direction: *direction,
+                design: d,
+                start: out.force.len() as u64,
+                settle,
+                length: n,
+                settle_periods: settle_blocks * q,
+                settled,
+                measured,
+                clean_h,
+                noise_ratio,
+            });
+            for (dst, src) in
+                [&mut out.force, &mut out.displacement, &mut out.velocity, &mut out.acceleration].into_iter().zip(&noisy)
+            {
+                dst.extend(src.iter().map(|&v| v as f32));
+            }
+            // the next dwell starts where this one's phase left off (each
+            // block is whole periods, so the phase is back where it started)
+            phase = phase.rem_euclid(2.0 * PI);
+            progress();
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dwell_design_is_coherent_and_close() {
+        for f in [100.0, 123.456, 250.0, 349.99] {
+            let d = design_dwell(f, 30000.0, 2e-4);
+            assert!((d.frequency_hz / f - 1.0).abs() <= 2e-4);
+            let periods = d.frequency_hz * d.block_len as f64 / 30000.0;
+            assert!((periods - d.periods_per_block as f64).abs() < 1e-9);
+        }
+        assert_eq!(design_dwell(250.0, 30000.0, 2e-4).periods_per_block, 1);
+    }
+}

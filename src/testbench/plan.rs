@@ -1,0 +1,539 @@
+//! The test definition: a TOML file describing the structure and the
+//! stepped-sine test, and the resolved plan the bench executes.
+//!
+//! The key names of the TOML are a contract (see `signals/default.toml`);
+//! unknown keys and out-of-range values are errors that name the key.
+
+use crate::error::{Error, Result};
+use crate::extract::Direction;
+use crate::harmonics::Quantity;
+use crate::model::{ElementSpec, ModalModel, Mode, Model};
+use serde::{Deserialize, Serialize};
+
+/// The embedded default test definition (the paper's simulated case).
+pub const DEFAULT_TEST: &str = include_str!("../../signals/default.toml");
+
+/// A whole test definition file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TestDefinition {
+    /// The underlying linear SDOF (`mass`, `damping`, `stiffness`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub system: Option<SystemSpec>,
+    /// The multi-mode form of the underlying linear structure.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub modes: Vec<ModeSpec>,
+    /// The joint element.
+    #[serde(default)]
+    pub joint: JointSpec,
+    /// Further effects acting with the joint.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<EffectSpec>,
+    /// The stepped-sine test.
+    pub test: TestSpec,
+}
+
+/// An SDOF `m, c, k`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SystemSpec {
+    /// kg.
+    pub mass: f64,
+    /// N s/m.
+    pub damping: f64,
+    /// N/m.
+    pub stiffness: f64,
+}
+
+/// One mode of the multi-mode form.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModeSpec {
+    /// Natural frequency, Hz.
+    pub frequency_hz: f64,
+    /// Damping ratio.
+    pub damping_ratio: f64,
+    /// Modal mass at the joint point, kg (give this or `residue`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modal_mass: Option<f64>,
+    /// Modal constant `1/m_r`, 1/kg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residue: Option<f64>,
+}
+
+/// The joint: a hysteresis element, or none.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum JointSpec {
+    /// No joint: the linear structure (plus any effects).
+    #[default]
+    None,
+    /// Spring `kd` in series with a slider `fd`.
+    Jenkins {
+        /// N/m.
+        kd: f64,
+        /// N.
+        fd: f64,
+    },
+    /// Eq. (10) with Masing rules.
+    Masing {
+        /// N/m.
+        kd: f64,
+        /// N.
+        fd: f64,
+        /// Curvature.
+        n: f64,
+    },
+}
+
+/// An effect acting besides the joint.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum EffectSpec {
+    /// `k3 x³`.
+    CubicStiffness {
+        /// N/m³.
+        k3: f64,
+    },
+    /// `c2 |v| v`.
+    QuadraticDamping {
+        /// N s²/m².
+        c2: f64,
+    },
+    /// `kb x` for `x > 0` only.
+    BilinearStiffness {
+        /// N/m.
+        kb: f64,
+    },
+    /// A spring `k` beyond `±gap`.
+    Clearance {
+        /// N/m.
+        k: f64,
+        /// m.
+        gap: f64,
+    },
+    /// An extra viscous damper at the joint.
+    ViscousDamping {
+        /// N s/m.
+        cj: f64,
+    },
+    /// An extra linear mode.
+    SecondMode {
+        /// Hz.
+        frequency_hz: f64,
+        /// Damping ratio.
+        damping_ratio: f64,
+        /// Modal mass at the joint point, kg.
+        modal_mass: f64,
+    },
+}
+
+/// Frequencies: an explicit list or an evenly spaced range.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum FrequencyList {
+    /// `{ start, stop, count }`, optionally `spacing = "log"`.
+    Range(FrequencyRange),
+    /// Explicit values, Hz.
+    List(Vec<f64>),
+}
+
+/// An evenly spaced frequency range.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrequencyRange {
+    /// First frequency, Hz.
+    pub start: f64,
+    /// Last frequency, Hz.
+    pub stop: f64,
+    /// Number of frequencies (≥ 1).
+    pub count: usize,
+    /// `linear` (default) or `log`.
+    #[serde(default)]
+    pub spacing: Spacing,
+}
+
+/// Spacing of a frequency range.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Spacing {
+    /// Equal steps in Hz.
+    #[default]
+    Linear,
+    /// Equal ratios.
+    Log,
+}
+
+/// Sweep order of the dwells within a level.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SweepOrder {
+    /// Increasing frequency.
+    #[default]
+    Up,
+    /// Decreasing frequency.
+    Down,
+    /// Up, then down again without stopping.
+    Both,
+}
+
+/// The stepped-sine test.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TestSpec {
+    /// Dwell frequencies.
+    pub frequencies_hz: FrequencyList,
+    /// Force amplitudes, N (one sweep per level).
+    pub levels_n: Vec<f64>,
+    /// Sweep order.
+    #[serde(default)]
+    pub sweep: SweepOrder,
+    /// Response noise RMS as a fraction of the clean response RMS, per dwell
+    /// and channel.
+    #[serde(default = "default_noise")]
+    pub noise: f64,
+    /// Force noise RMS as a fraction of the clean force RMS.
+    #[serde(default)]
+    pub force_noise: f64,
+    /// Noise seed.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// The response quantity of the FRFs.
+    #[serde(default = "default_response")]
+    pub response: ResponseKind,
+    /// Sample rate, Hz; default: at least 100 samples per period of the
+    /// stiffest linearised mode (method notes a.4), rounded up to 1 kHz.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample_rate_hz: Option<f64>,
+    /// Highest harmonic extracted (K).
+    #[serde(default = "default_max_harmonic")]
+    pub max_harmonic: usize,
+    /// Settling: consecutive blocks must agree to this relative tolerance.
+    #[serde(default = "default_settle_tolerance")]
+    pub settle_tolerance: f64,
+    /// Settling cap, periods.
+    #[serde(default = "default_max_settle_periods")]
+    pub max_settle_periods: usize,
+    /// Periods measured after settling (rounded up to whole blocks).
+    #[serde(default = "default_measure_periods")]
+    pub measure_periods: usize,
+    /// Largest relative shift of a dwell frequency allowed to make the
+    /// sampling coherent (a block of whole periods in whole samples).
+    #[serde(default = "default_frequency_tolerance")]
+    pub frequency_tolerance: f64,
+}
+
+/// The response quantity of the FRFs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ResponseKind {
+    /// Receptance.
+    Displacement,
+    /// Mobility.
+    Velocity,
+    /// Accelerance.
+    Acceleration,
+}
+
+impl ResponseKind {
+    /// As a [`Quantity`].
+    pub fn quantity(self) -> Quantity {
+        match self {
+            ResponseKind::Displacement => Quantity::Displacement,
+            ResponseKind::Velocity => Quantity::Velocity,
+            ResponseKind::Acceleration => Quantity::Acceleration,
+        }
+    }
+}
+
+fn default_noise() -> f64 {
+    0.10
+}
+fn default_seed() -> u64 {
+    1
+}
+fn default_response() -> ResponseKind {
+    ResponseKind::Displacement
+}
+fn default_max_harmonic() -> usize {
+    7
+}
+fn default_settle_tolerance() -> f64 {
+    1e-6
+}
+fn default_max_settle_periods() -> usize {
+    3000
+}
+fn default_measure_periods() -> usize {
+    32
+}
+fn default_frequency_tolerance() -> f64 {
+    2e-4
+}
+
+impl TestDefinition {
+    /// Parses and checks a definition; `origin` names the file in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<TestDefinition> {
+        let def: TestDefinition = toml::from_str(text).map_err(|e| {
+            let msg = e.message().to_string();
+            let msg = if msg.contains("untagged enum FrequencyList") {
+                "expected a list of frequencies in Hz or { start, stop, count [, spacing] }".to_string()
+            } else {
+                msg
+            };
+            let at = e
+                .span()
+                .map(|s| {
+                    let line = text[..s.start.min(text.len())].lines().count().max(1);
+                    format!(" (line {line})")
+                })
+                .unwrap_or_default();
+            Error::format(origin, "toml", format!("{msg}{at}"))
+        })?;
+        def.validate()?;
+        Ok(def)
+    }
+
+    /// The embedded default.
+    pub fn embedded_default() -> TestDefinition {
+        TestDefinition::from_toml(DEFAULT_TEST, "signals/default.toml").expect("the embedded default is valid")
+    }
+
+    /// Checks every value, naming the key of the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        self.model()?;
+        let t = &self.test;
+        let freqs = self.frequencies()?;
+        for (i, f) in freqs.iter().enumerate() {
+            if !(f.is_finite() && *f > 0.0) {
+                return Err(Error::plan(format!("test.frequencies_hz[{i}]"), format!("must be finite and > 0, got {f}")));
+            }
+        }
+        if t.levels_n.is_empty() {
+            return Err(Error::plan("test.levels_n", "needs at least one level"));
+        }
+        for (i, l) in t.levels_n.iter().enumerate() {
+            if !(l.is_finite() && *l > 0.0) {
+                return Err(Error::plan(format!("test.levels_n[{i}]"), format!("must be a finite force amplitude > 0 N, got {l}")));
+            }
+        }
+        if !(t.noise.is_finite() && (0.0..=10.0).contains(&t.noise)) {
+            return Err(Error::plan("test.noise", format!("must be in [0, 10] (a fraction of the response RMS), got {}", t.noise)));
+        }
+        if !(t.force_noise.is_finite() && (0.0..=10.0).contains(&t.force_noise)) {
+            return Err(Error::plan("test.force_noise", format!("must be in [0, 10], got {}", t.force_noise)));
+        }
+        if t.max_harmonic == 0 || t.max_harmonic > 64 {
+            return Err(Error::plan("test.max_harmonic", format!("must be in 1..=64, got {}", t.max_harmonic)));
+        }
+        if !(t.settle_tolerance.is_finite() && t.settle_tolerance > 0.0 && t.settle_tolerance < 1.0) {
+            return Err(Error::plan("test.settle_tolerance", format!("must be in (0, 1), got {}", t.settle_tolerance)));
+        }
+        if t.max_settle_periods == 0 {
+            return Err(Error::plan("test.max_settle_periods", "must be at least 1"));
+        }
+        if t.measure_periods < 2 {
+            return Err(Error::plan("test.measure_periods", format!("must be at least 2 (standard errors need 2 blocks), got {}", t.measure_periods)));
+        }
+        if !(t.frequency_tolerance.is_finite() && t.frequency_tolerance > 0.0 && t.frequency_tolerance < 0.05) {
+            return Err(Error::plan("test.frequency_tolerance", format!("must be in (0, 0.05), got {}", t.frequency_tolerance)));
+        }
+        let fs = self.sample_rate_hz()?;
+        let model = self.model()?;
+        let top = model.linear.highest_frequency_hz();
+        if fs <= 2.0 * top {
+            return Err(Error::plan("test.sample_rate_hz", format!("{fs} Hz is not above twice the highest mode ({top:.3} Hz)")));
+        }
+        for (i, f) in freqs.iter().enumerate() {
+            let h = t.max_harmonic as f64 * f;
+            if h >= fs / 2.0 {
+                return Err(Error::plan(
+                    format!("test.frequencies_hz[{i}]"),
+                    format!(
+                        "{f} Hz: its harmonic {} ({h} Hz) is above the Nyquist frequency {} Hz; raise test.sample_rate_hz or lower test.max_harmonic",
+                        t.max_harmonic,
+                        fs / 2.0
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The structural model: linear part, joint, effects (a `second_mode`
+    /// effect adds a mode to the linear part).
+    pub fn model(&self) -> Result<Model> {
+        let mut modes = match (&self.system, self.modes.is_empty()) {
+            (Some(s), true) => vec![Mode::from_mck(s.mass, s.damping, s.stiffness)?],
+            (None, false) => self
+                .modes
+                .iter()
+                .enumerate()
+                .map(|(i, m)| {
+                    let at = format!("modes[{i}]");
+                    let residue = match (m.modal_mass, m.residue) {
+                        (Some(mm), None) => {
+                            if !(mm.is_finite() && mm != 0.0) {
+                                return Err(Error::model(format!("{at}.modal_mass"), format!("must be finite and non-zero, got {mm}")));
+                            }
+                            1.0 / mm
+                        }
+                        (None, Some(r)) => r,
+                        _ => return Err(Error::model(at, "give exactly one of modal_mass and residue")),
+                    };
+                    let mode = Mode { frequency_hz: m.frequency_hz, damping_ratio: m.damping_ratio, residue };
+                    mode.validate(&at)?;
+                    Ok(mode)
+                })
+                .collect::<Result<_>>()?,
+            (Some(_), false) => return Err(Error::model("system", "give either [system] or [[modes]], not both")),
+            (None, true) => return Err(Error::model("system", "missing: give [system] (mass, damping, stiffness) or [[modes]]")),
+        };
+        let mut elements = Vec::new();
+        match self.joint {
+            JointSpec::None => {}
+            JointSpec::Jenkins { kd, fd } => elements.push(ElementSpec::Jenkins { kd, fd }),
+            JointSpec::Masing { kd, fd, n } => elements.push(ElementSpec::Masing { kd, fd, n }),
+        }
+        if let Some(e) = elements.first() {
+            e.validate("joint")?;
+        }
+        for (i, e) in self.effects.iter().enumerate() {
+            let at = format!("effects[{i}]");
+            let spec = match *e {
+                EffectSpec::CubicStiffness { k3 } => ElementSpec::CubicStiffness { k3 },
+                EffectSpec::QuadraticDamping { c2 } => ElementSpec::QuadraticDamping { c2 },
+                EffectSpec::BilinearStiffness { kb } => ElementSpec::BilinearStiffness { kb },
+                EffectSpec::Clearance { k, gap } => ElementSpec::Clearance { k, gap },
+                EffectSpec::ViscousDamping { cj } => ElementSpec::ViscousDamping { cj },
+                EffectSpec::SecondMode { frequency_hz, damping_ratio, modal_mass } => {
+                    let mode = Mode::from_modal_mass(frequency_hz, damping_ratio, modal_mass)
+                        .map_err(|e| Error::model(at.clone(), e.to_string()))?;
+                    modes.push(mode);
+                    continue;
+                }
+            };
+            spec.validate(&at)?;
+            elements.push(spec);
+        }
+        Model::new(ModalModel::new(modes)?, elements)
+    }
+
+    /// The dwell frequencies as listed (before sweep ordering), Hz.
+    pub fn frequencies(&self) -> Result<Vec<f64>> {
+        match &self.test.frequencies_hz {
+            FrequencyList::List(v) => {
+                if v.is_empty() {
+                    return Err(Error::plan("test.frequencies_hz", "needs at least one frequency"));
+                }
+                Ok(v.clone())
+            }
+            FrequencyList::Range(r) => {
+                if r.count == 0 {
+                    return Err(Error::plan("test.frequencies_hz.count", "must be at least 1"));
+                }
+                for (k, v) in [("start", r.start), ("stop", r.stop)] {
+                    if !(v.is_finite() && v > 0.0) {
+                        return Err(Error::plan(format!("test.frequencies_hz.{k}"), format!("must be finite and > 0, got {v}")));
+                    }
+                }
+                if r.count == 1 {
+                    return Ok(vec![r.start]);
+                }
+                let n = (r.count - 1) as f64;
+                Ok((0..r.count)
+                    .map(|i| match r.spacing {
+                        Spacing::Linear => r.start + (r.stop - r.start) * i as f64 / n,
+                        Spacing::Log => r.start * (r.stop / r.start).powf(i as f64 / n),
+                    })
+                    .collect())
+            }
+        }
+    }
+
+    /// The sample rate, Hz.
+    pub fn sample_rate_hz(&self) -> Result<f64> {
+        match self.test.sample_rate_hz {
+            Some(fs) if fs.is_finite() && fs > 0.0 => Ok(fs),
+            Some(fs) => Err(Error::plan("test.sample_rate_hz", format!("must be finite and > 0, got {fs}"))),
+            None => {
+                let f = self.model()?.highest_linearised_frequency_hz();
+                Ok(((100.0 * f) / 1000.0).ceil() * 1000.0)
+            }
+        }
+    }
+
+    /// Each level's dwell frequencies in measurement order, with the sweep
+    /// direction of each run.
+    pub fn sweeps(&self) -> Result<Vec<(Direction, Vec<f64>)>> {
+        let mut up = self.frequencies()?;
+        up.sort_by(f64::total_cmp);
+        let down: Vec<f64> = up.iter().rev().copied().collect();
+        Ok(match self.test.sweep {
+            SweepOrder::Up => vec![(Direction::Up, up)],
+            SweepOrder::Down => vec![(Direction::Down, down)],
+            SweepOrder::Both => vec![(Direction::Up, up), (Direction::Down, down)],
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_embedded_default_is_the_paper_case() {
+        let d = TestDefinition::embedded_default();
+        let m = d.model().unwrap();
+        assert_eq!(m.elements, vec![ElementSpec::Jenkins { kd: 2.4e7, fd: 246.048 }]);
+        assert_eq!(d.frequencies().unwrap().len(), 51);
+        assert_eq!(d.test.levels_n.len(), 7);
+        // 100 samples per stick period (293.4 Hz), rounded up to 1 kHz
+        assert_eq!(d.sample_rate_hz().unwrap(), 30000.0);
+    }
+
+    fn with(edit: &str, replace: &str) -> String {
+        assert!(DEFAULT_TEST.contains(edit), "{edit}");
+        DEFAULT_TEST.replace(edit, replace)
+    }
+
+    #[test]
+    fn bad_fields_are_named() {
+        let cases = [
+            (with("mass = 10.0", "mass = -10.0"), "system.mass"),
+            (with("damping = 200.0", "damping = -1.0"), "system.damping"),
+            (with("kd = 2.4e7", "kd = 0.0"), "joint.kd"),
+            (with("levels_n = [5.0,", "levels_n = [-5.0,"), "test.levels_n[0]"),
+            (with("noise = 0.10", "noise = -0.1"), "test.noise"),
+            (with("seed = 1", "seed = 1\nsample_rate_hz = 2000.0"), "test.frequencies_hz[0]"),
+            (with("seed = 1", "seed = 1\nbogus = 3"), "bogus"),
+            (with("kind = \"jenkins\"", "kind = \"slidey\""), "slidey"),
+            (with("count = 51 }", "count = 0 }"), "test.frequencies_hz.count"),
+            (with("sweep = \"up\"", "sweep = \"sideways\""), "sideways"),
+            (with("frequencies_hz = { start = 100.0, stop = 350.0, count = 51 }", "frequencies_hz = \"many\""), "frequencies_hz"),
+            (with("response = \"displacement\"", "response = \"force\""), "force"),
+        ];
+        for (text, needle) in cases {
+            let e = TestDefinition::from_toml(&text, "t.toml").unwrap_err().to_string();
+            assert!(e.contains(needle), "expected `{needle}` in: {e}");
+        }
+        let nan = with("levels_n = [5.0,", "levels_n = [nan,");
+        let e = TestDefinition::from_toml(&nan, "t.toml").unwrap_err().to_string();
+        assert!(e.contains("test.levels_n[0]"), "{e}");
+    }
+
+    #[test]
+    fn effects_and_modes_build_the_model() {
+        let text = with("[test]", "[[effects]]\nkind = \"second_mode\"\nfrequency_hz = 500.0\ndamping_ratio = 0.01\nmodal_mass = 5.0\n\n[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1e15\n\n[test]");
+        let m = TestDefinition::from_toml(&text, "t.toml").unwrap().model().unwrap();
+        assert_eq!(m.linear.modes.len(), 2);
+        assert_eq!(m.elements.len(), 2);
+        let text = DEFAULT_TEST
+            .replace("[system]", "[[modes]]\nfrequency_hz = 159.15\ndamping_ratio = 0.01\nmodal_mass = 1e1\n#")
+            .replace("mass = 10.0", "")
+            .replace("damping = 200.0", "")
+            .replace("stiffness = 1.0e7", "");
+        let d = TestDefinition::from_toml(&text, "t.toml").unwrap();
+        assert_eq!(d.model().unwrap().linear.modes.len(), 1);
+    }
+}
