@@ -5,3 +5,13 @@
 pub mod linear;
 
 pub use linear::{FrfSample, SdofEstimate, fit_sdof};
+pub mod optimise;
+pub mod params;
+pub mod problem;
+
+pub use optimise::{Optimiser, OptimiserRun};
+pub use params::{N_MAX, Parameter, ParameterSet, Target, Transform};
+pub use problem::{
+    FitData, FitProblem, FrfPredictor, MeasuredPoint, MeasuredSeries, Prediction, TraceEntry,
+    Weighting,
+};

@@ -1,0 +1,267 @@
+//! Optimisers over a [`FitProblem`] and the uncertainty of their result.
+//!
+//! * Nelder–Mead (argmin), as the paper's MATLAB `fminsearch`, in the
+//!   problem's log coordinates with an explicit initial simplex.
+//! * Levenberg–Marquardt (the MINPACK port in `levenberg-marquardt`), a
+//!   second, derivative-based optimiser that must land at the same optimum.
+//! * Confidence intervals from the Jacobian at the optimum and the measured
+//!   noise: a sandwich covariance `A⁻¹ B A⁻¹` (`A = JᵀJ` of the residuals as
+//!   fitted, `B` the same with each row scaled by its measured variance),
+//!   inflated by the reduced `χ²` when the fit is worse than the noise.
+
+use super::problem::FitProblem;
+use crate::error::{Error, Result};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Which optimiser.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Optimiser {
+    /// Nelder–Mead simplex (argmin).
+    #[default]
+    NelderMead,
+    /// Levenberg–Marquardt with a finite-difference Jacobian.
+    LevenbergMarquardt,
+}
+
+/// What an optimiser run ended with.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OptimiserRun {
+    /// Which optimiser.
+    pub method: Optimiser,
+    /// Optimiser coordinates at the optimum.
+    pub theta: Vec<f64>,
+    /// Cost at the optimum.
+    pub cost: f64,
+    /// Iterations.
+    pub iterations: u64,
+    /// Cost (or residual) evaluations.
+    pub evaluations: usize,
+    /// Why it stopped.
+    pub termination: String,
+    /// Whether that is a convergence.
+    pub converged: bool,
+}
+
+struct Cost<'a, 'b>(&'a FitProblem<'b>);
+
+impl argmin::core::CostFunction for Cost<'_, '_> {
+    type Param = DVector<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
+        self.0
+            .cost(p.as_slice())
+            .map_err(|e| argmin::core::Error::msg(e.to_string()))
+    }
+}
+
+/// Nelder–Mead from `theta0` with an initial simplex of `step` along each
+/// coordinate, until the simplex's cost spread falls below `rel_tol` of the
+/// initial cost or `max_iters` iterations.
+pub fn nelder_mead(
+    problem: &FitProblem,
+    theta0: &[f64],
+    step: &[f64],
+    max_iters: u64,
+    rel_tol: f64,
+) -> Result<OptimiserRun> {
+    use argmin::core::{Executor, State};
+    use argmin::solver::neldermead::NelderMead;
+    let n = theta0.len();
+    let start = problem.evaluations();
+    let c0 = problem.cost(theta0)?;
+    let mut simplex = vec![DVector::from_column_slice(theta0)];
+    for i in 0..n {
+        let mut v = DVector::from_column_slice(theta0);
+        v[i] += step[i];
+        simplex.push(v);
+    }
+    let solver = NelderMead::new(simplex)
+        .with_sd_tolerance(rel_tol * c0.max(f64::MIN_POSITIVE))
+        .map_err(|e| Error::plan("nelder_mead", e.to_string()))?;
+    let res = Executor::new(Cost(problem), solver)
+        .configure(|s| s.max_iters(max_iters))
+        .run()
+        .map_err(|e| Error::NotConverged {
+            stage: "Nelder-Mead",
+            reason: e.to_string(),
+        })?;
+    let state = res.state();
+    let theta = state
+        .get_best_param()
+        .map(|p| p.as_slice().to_vec())
+        .ok_or(Error::NotConverged {
+            stage: "Nelder-Mead",
+            reason: "no best point".into(),
+        })?;
+    let reason = state
+        .get_termination_reason()
+        .map(|r| r.text().to_string())
+        .unwrap_or_default();
+    Ok(OptimiserRun {
+        method: Optimiser::NelderMead,
+        cost: state.get_best_cost(),
+        iterations: state.get_iter(),
+        evaluations: problem.evaluations() - start,
+        converged: !reason.to_lowercase().contains("maximum"),
+        termination: reason,
+        theta,
+    })
+}
+
+/// Forward-difference Jacobian of the residuals (penalty row excluded),
+/// columns computed in parallel.
+pub fn jacobian(
+    problem: &FitProblem,
+    theta: &[f64],
+    r0: &[f64],
+    step: f64,
+) -> Result<DMatrix<f64>> {
+    let m = r0.len() - 1;
+    let cols: Vec<Result<Vec<f64>>> = (0..theta.len())
+        .into_par_iter()
+        .map(|j| {
+            let mut t = theta.to_vec();
+            t[j] += step;
+            let r = problem.residuals(&t)?;
+            Ok(r[..m]
+                .iter()
+                .zip(&r0[..m])
+                .map(|(a, b)| (a - b) / step)
+                .collect())
+        })
+        .collect();
+    let mut jac = DMatrix::zeros(m, theta.len());
+    for (j, c) in cols.into_iter().enumerate() {
+        jac.set_column(j, &DVector::from_vec(c?));
+    }
+    Ok(jac)
+}
+
+struct Lm<'a, 'b> {
+    problem: &'a FitProblem<'b>,
+    theta: DVector<f64>,
+    residuals: std::cell::RefCell<Option<(DVector<f64>, Vec<f64>)>>,
+    error: std::cell::RefCell<Option<Error>>,
+}
+
+impl Lm<'_, '_> {
+    fn current(&self) -> Option<Vec<f64>> {
+        if let Some((t, r)) = self.residuals.borrow().as_ref()
+            && *t == self.theta
+        {
+            return Some(r.clone());
+        }
+        match self.problem.residuals(self.theta.as_slice()) {
+            Ok(r) => {
+                *self.residuals.borrow_mut() = Some((self.theta.clone(), r.clone()));
+                Some(r)
+            }
+            Err(e) => {
+                *self.error.borrow_mut() = Some(e);
+                None
+            }
+        }
+    }
+}
+
+impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for Lm<'_, '_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.theta.copy_from(x);
+    }
+    fn params(&self) -> DVector<f64> {
+        self.theta.clone()
+    }
+    fn residuals(&self) -> Option<DVector<f64>> {
+        self.current().map(DVector::from_vec)
+    }
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let r = self.current()?;
+        match jacobian(self.problem, self.theta.as_slice(), &r, 1e-6) {
+            Ok(j) => {
+                // the penalty row's derivative: zero inside the bounds
+                let m = j.nrows();
+                let mut full = DMatrix::zeros(m + 1, j.ncols());
+                full.rows_mut(0, m).copy_from(&j);
+                Some(full)
+            }
+            Err(e) => {
+                *self.error.borrow_mut() = Some(e);
+                None
+            }
+        }
+    }
+}
+
+/// Levenberg–Marquardt from `theta0`, at most `patience·(n+1)` residual
+/// evaluations.
+pub fn levenberg_marquardt(
+    problem: &FitProblem,
+    theta0: &[f64],
+    patience: usize,
+) -> Result<OptimiserRun> {
+    let start = problem.evaluations();
+    let lm = Lm {
+        problem,
+        theta: DVector::from_column_slice(theta0),
+        residuals: Default::default(),
+        error: Default::default(),
+    };
+    let (lm, report) = levenberg_marquardt::LevenbergMarquardt::new()
+        .with_patience(patience)
+        .minimize(lm);
+    if let Some(e) = lm.error.into_inner() {
+        return Err(e);
+    }
+    let theta = lm.theta.as_slice().to_vec();
+    let cost = problem.cost(&theta)?;
+    Ok(OptimiserRun {
+        method: Optimiser::LevenbergMarquardt,
+        theta,
+        cost,
+        iterations: report.number_of_evaluations as u64,
+        evaluations: problem.evaluations() - start + report.number_of_evaluations,
+        converged: report.termination.was_successful(),
+        termination: format!("{:?}", report.termination),
+    })
+}
+
+/// Covariance of the optimiser coordinates at `theta` (free parameters
+/// only: `fixed[j]` excludes parameter `j`, e.g. one sitting at a bound).
+///
+/// `variances[i]` is the measurement variance of residual row `i` as fitted
+/// (1 for rows already scaled by their standard error). Returns the
+/// covariance and the reduced `χ²` used to inflate it.
+pub fn covariance(
+    jac: &DMatrix<f64>,
+    variances: &[f64],
+    residual_chi2: f64,
+    fixed: &[bool],
+) -> Option<(DMatrix<f64>, f64)> {
+    let free: Vec<usize> = (0..jac.ncols()).filter(|&j| !fixed[j]).collect();
+    let m = jac.nrows();
+    let jf = DMatrix::from_fn(m, free.len(), |i, k| jac[(i, free[k])]);
+    let a = jf.transpose() * &jf;
+    let mut b = DMatrix::zeros(free.len(), free.len());
+    for i in 0..m {
+        let row = jf.row(i);
+        b += row.transpose() * row * variances[i];
+    }
+    let ainv = a.try_inverse()?;
+    let dof = (m as f64 - free.len() as f64).max(1.0);
+    let reduced = residual_chi2 / dof;
+    let cov_free = &ainv * b * &ainv * reduced.max(1.0);
+    let mut cov = DMatrix::from_element(jac.ncols(), jac.ncols(), f64::NAN);
+    for (a_, &i) in free.iter().enumerate() {
+        for (b_, &j) in free.iter().enumerate() {
+            cov[(i, j)] = cov_free[(a_, b_)];
+        }
+    }
+    Some((cov, reduced))
+}

@@ -1,0 +1,334 @@
+//! Fit parameters: which model numbers are free, and in what coordinates.
+//!
+//! Optimisers work in transformed coordinates `θ`: `ln p` for quantities that
+//! are positive by nature (stiffnesses, slip forces, `N`, masses, damping)
+//! so that relative steps are uniform and `kd ~ 1e7` and `N ~ 10` are on the
+//! same footing (method notes f.5); `p/scale` for signed ones (`k3`, a
+//! residue). Each parameter may have physical bounds; outside them the model
+//! is clamped and the cost is penalised, so simplex methods stay inside.
+
+use crate::error::{Error, Result};
+use crate::model::{ElementSpec, Mode, Model};
+use serde::{Deserialize, Serialize};
+
+/// What a parameter changes in the model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "of")]
+pub enum Target {
+    /// Parameter `name` of element `index`.
+    Element {
+        /// Element index in `Model::elements`.
+        index: usize,
+        /// Parameter name (`kd`, `fd`, `n`, `k3`, ...).
+        name: String,
+    },
+    /// Mass of mode `mode` seen as an SDOF (`1/R`).
+    Mass {
+        /// Mode index.
+        mode: usize,
+    },
+    /// Viscous damping of mode `mode` seen as an SDOF (`2ζω/R`).
+    Damping {
+        /// Mode index.
+        mode: usize,
+    },
+    /// Stiffness of mode `mode` seen as an SDOF (`ω²/R`).
+    Stiffness {
+        /// Mode index.
+        mode: usize,
+    },
+    /// Natural frequency of mode `mode`, Hz.
+    Frequency {
+        /// Mode index.
+        mode: usize,
+    },
+    /// Damping ratio of mode `mode`.
+    DampingRatio {
+        /// Mode index.
+        mode: usize,
+    },
+    /// Modal constant of mode `mode`, 1/kg.
+    Residue {
+        /// Mode index.
+        mode: usize,
+    },
+}
+
+/// The coordinate an optimiser sees.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Transform {
+    /// `θ = ln p` (p > 0).
+    Log,
+    /// `θ = p / scale`.
+    Scaled {
+        /// Typical magnitude.
+        scale: f64,
+    },
+}
+
+/// One free parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Parameter {
+    /// Report name (`kd`, `fd`, `n`, `mass`, `k3`, `second_mode.frequency_hz`, ...).
+    pub name: String,
+    /// What it changes.
+    pub target: Target,
+    /// Optimiser coordinate.
+    pub transform: Transform,
+    /// Physical bounds `[lo, hi]`.
+    pub bounds: [f64; 2],
+}
+
+impl Parameter {
+    /// Physical value from the optimiser coordinate (unclamped).
+    pub fn value(&self, theta: f64) -> f64 {
+        match self.transform {
+            Transform::Log => theta.exp(),
+            Transform::Scaled { scale } => theta * scale,
+        }
+    }
+
+    /// Optimiser coordinate of a physical value.
+    pub fn theta(&self, value: f64) -> f64 {
+        match self.transform {
+            Transform::Log => value.ln(),
+            Transform::Scaled { scale } => value / scale,
+        }
+    }
+
+    /// Value clamped to the bounds, and how far (in θ) outside it was.
+    pub fn clamped(&self, theta: f64) -> (f64, f64) {
+        let lo = self.theta(self.bounds[0]);
+        let hi = self.theta(self.bounds[1]);
+        let (lo, hi) = (lo.min(hi), lo.max(hi));
+        let t = theta.clamp(lo, hi);
+        (self.value(t), (theta - t).abs())
+    }
+
+    /// Reads the current value from a model.
+    pub fn read(&self, model: &Model) -> Result<f64> {
+        let mode = |i: usize| {
+            model
+                .linear
+                .modes
+                .get(i)
+                .ok_or_else(|| Error::model(format!("modes[{i}]"), "no such mode"))
+        };
+        Ok(match &self.target {
+            Target::Element { index, name } => {
+                let j = model.parameter_index(*index, name)?;
+                model.elements[*index].parameters()[j].1
+            }
+            Target::Mass { mode: i } => mode(*i)?.modal_mass(),
+            Target::Damping { mode: i } => mode(*i)?.modal_damping(),
+            Target::Stiffness { mode: i } => mode(*i)?.modal_stiffness(),
+            Target::Frequency { mode: i } => mode(*i)?.frequency_hz,
+            Target::DampingRatio { mode: i } => mode(*i)?.damping_ratio,
+            Target::Residue { mode: i } => mode(*i)?.residue,
+        })
+    }
+
+    /// Writes a value into a model.
+    pub fn write(&self, model: &mut Model, value: f64) -> Result<()> {
+        let mode_mut = |model: &mut Model, i: usize| -> Result<Mode> {
+            model
+                .linear
+                .modes
+                .get(i)
+                .copied()
+                .ok_or_else(|| Error::model(format!("modes[{i}]"), "no such mode"))
+        };
+        match &self.target {
+            Target::Element { index, name } => {
+                let j = model.parameter_index(*index, name)?;
+                let mut v: Vec<f64> = model.elements[*index]
+                    .parameters()
+                    .iter()
+                    .map(|p| p.1)
+                    .collect();
+                v[j] = value;
+                model.elements[*index] = model.elements[*index].with_parameters(&v);
+            }
+            Target::Mass { mode } | Target::Damping { mode } | Target::Stiffness { mode } => {
+                let m0 = mode_mut(model, *mode)?;
+                let (mut m, mut c, mut k) =
+                    (m0.modal_mass(), m0.modal_damping(), m0.modal_stiffness());
+                match self.target {
+                    Target::Mass { .. } => m = value,
+                    Target::Damping { .. } => c = value,
+                    _ => k = value,
+                }
+                // keep the residue's sign (a transfer FRF may have R < 0)
+                let s = m0.residue.signum();
+                let (m, c, k) = (m * s, c * s, k * s);
+                let wn = (k / m).sqrt();
+                model.linear.modes[*mode] = Mode {
+                    frequency_hz: wn / (2.0 * std::f64::consts::PI),
+                    damping_ratio: c / (2.0 * (k * m).sqrt()),
+                    residue: 1.0 / m,
+                };
+            }
+            Target::Frequency { mode } => model.linear.modes[*mode].frequency_hz = value,
+            Target::DampingRatio { mode } => model.linear.modes[*mode].damping_ratio = value,
+            Target::Residue { mode } => model.linear.modes[*mode].residue = value,
+        }
+        Ok(())
+    }
+}
+
+/// The free parameters of a fit.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ParameterSet {
+    /// In optimiser order.
+    pub parameters: Vec<Parameter>,
+}
+
+impl ParameterSet {
+    /// Number of parameters.
+    pub fn len(&self) -> usize {
+        self.parameters.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.parameters.is_empty()
+    }
+
+    /// The optimiser coordinates of a model's current values.
+    pub fn theta_of(&self, model: &Model) -> Result<Vec<f64>> {
+        self.parameters
+            .iter()
+            .map(|p| Ok(p.theta(p.read(model)?)))
+            .collect()
+    }
+
+    /// The model at `theta` (values clamped to their bounds) and the total
+    /// distance outside the bounds (for a penalty).
+    pub fn model_at(&self, base: &Model, theta: &[f64]) -> Result<(Model, f64)> {
+        let mut m = base.clone();
+        let mut outside = 0.0;
+        for (p, &t) in self.parameters.iter().zip(theta) {
+            let (v, o) = p.clamped(t);
+            outside += o;
+            p.write(&mut m, v)?;
+        }
+        Ok((m, outside))
+    }
+
+    /// Physical values at `theta` (clamped).
+    pub fn values(&self, theta: &[f64]) -> Vec<f64> {
+        self.parameters
+            .iter()
+            .zip(theta)
+            .map(|(p, &t)| p.clamped(t).0)
+            .collect()
+    }
+
+    /// The element's own parameters as free parameters, with default
+    /// transforms and bounds.
+    pub fn for_element(model: &Model, index: usize, prefix: &str) -> ParameterSet {
+        let e = &model.elements[index];
+        let parameters = e
+            .parameters()
+            .into_iter()
+            .map(|(name, value)| {
+                let (transform, bounds) = default_coordinates(e, name, value);
+                Parameter {
+                    name: if prefix.is_empty() {
+                        name.to_string()
+                    } else {
+                        format!("{prefix}.{name}")
+                    },
+                    target: Target::Element {
+                        index,
+                        name: name.to_string(),
+                    },
+                    transform,
+                    bounds,
+                }
+            })
+            .collect();
+        ParameterSet { parameters }
+    }
+
+    /// `m, c, k` of an SDOF mode as free parameters.
+    pub fn for_sdof(mode: usize) -> ParameterSet {
+        let p = |name: &str, target| Parameter {
+            name: name.into(),
+            target,
+            transform: Transform::Log,
+            bounds: [1e-30, 1e30],
+        };
+        ParameterSet {
+            parameters: vec![
+                p("mass", Target::Mass { mode }),
+                p("damping", Target::Damping { mode }),
+                p("stiffness", Target::Stiffness { mode }),
+            ],
+        }
+    }
+
+    /// Appends another set.
+    pub fn extend(&mut self, other: ParameterSet) {
+        self.parameters.extend(other.parameters);
+    }
+}
+
+/// Upper bound of the Masing curvature: above it eq. (10) cannot be told
+/// from a Jenkins element within measurement noise (method notes f.6).
+pub const N_MAX: f64 = 1000.0;
+
+fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [f64; 2]) {
+    let scale = if value != 0.0 { value.abs() } else { 1.0 };
+    match (e, name) {
+        (ElementSpec::Masing { .. }, "n") => (Transform::Log, [0.5, N_MAX]),
+        (ElementSpec::CubicStiffness { .. }, _) | (ElementSpec::BilinearStiffness { .. }, _) => {
+            (Transform::Scaled { scale }, [-1e30, 1e30])
+        }
+        (ElementSpec::QuadraticDamping { .. }, _) | (ElementSpec::ViscousDamping { .. }, _) => {
+            (Transform::Scaled { scale }, [0.0, 1e30])
+        }
+        (ElementSpec::Clearance { .. }, "gap") => (Transform::Scaled { scale }, [0.0, 1e30]),
+        _ => (Transform::Log, [1e-30, 1e30]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ModalModel;
+
+    #[test]
+    fn parameters_read_and_write_the_model() {
+        let base = Model::new(
+            ModalModel::sdof(10.0, 200.0, 1e7).unwrap(),
+            vec![ElementSpec::Masing {
+                kd: 2.4e7,
+                fd: 246.0,
+                n: 3.0,
+            }],
+        )
+        .unwrap();
+        let mut set = ParameterSet::for_element(&base, 0, "");
+        set.extend(ParameterSet::for_sdof(0));
+        let theta = set.theta_of(&base).unwrap();
+        let (m, out) = set.model_at(&base, &theta).unwrap();
+        assert_eq!(out, 0.0);
+        let (m2, c2, k2) = m.linear.as_mck().unwrap();
+        assert!((m2 - 10.0).abs() < 1e-12 && (c2 - 200.0).abs() < 1e-9 && (k2 - 1e7).abs() < 1e-5);
+        let mut t = theta.clone();
+        t[2] = (5000.0f64).ln(); // n beyond N_MAX: clamped
+        let (m, out) = set.model_at(&base, &t).unwrap();
+        assert!(out > 0.0);
+        assert_eq!(
+            m.elements[0],
+            ElementSpec::Masing {
+                kd: 2.4e7,
+                fd: 246.0,
+                n: N_MAX
+            }
+        );
+        assert_eq!(set.values(&theta)[0], 2.4e7f64.ln().exp());
+    }
+}

@@ -1,0 +1,305 @@
+//! The measured data, the model's prediction of it, and the cost of paper
+//! eq. (9): `ε = ||H_measured − H_model||₂` stacked over levels, frequencies
+//! and the harmonics used, optionally weighted by the measured standard
+//! errors.
+
+use super::params::ParameterSet;
+use crate::error::{Error, Result};
+use crate::extract::{Direction, NonlinearFrf};
+use crate::harmonics::Quantity;
+use crate::model::Model;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// One measured point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredPoint {
+    /// Hz.
+    pub frequency_hz: f64,
+    /// Measured `|F_1|`, N.
+    pub force_amplitude: f64,
+    /// `H_h` for each harmonic of [`FitData::harmonics`].
+    pub h: Vec<Complex64>,
+    /// Standard error of each.
+    pub std_error: Vec<f64>,
+}
+
+/// The points of one level (one sweep), in measurement order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredSeries {
+    /// Nominal level.
+    pub level: f64,
+    /// Sweep direction.
+    pub direction: Direction,
+    /// Points in measurement order.
+    pub points: Vec<MeasuredPoint>,
+}
+
+/// What a fit is fitted to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitData {
+    /// Response quantity of `H`.
+    pub response: Quantity,
+    /// Harmonics used in the cost (1 = fundamental).
+    pub harmonics: Vec<usize>,
+    /// The series.
+    pub series: Vec<MeasuredSeries>,
+}
+
+impl FitData {
+    /// Selects harmonics, a frequency band and levels from measured FRFs.
+    ///
+    /// `levels` are indices into `frf.levels` (all when `None`).
+    pub fn from_frf(
+        frf: &NonlinearFrf,
+        harmonics: &[usize],
+        band_hz: Option<(f64, f64)>,
+        levels: Option<&[usize]>,
+    ) -> Result<FitData> {
+        if harmonics.is_empty() {
+            return Err(Error::plan(
+                "harmonics",
+                "at least one harmonic must be fitted",
+            ));
+        }
+        if let Some(&h) = harmonics.iter().find(|&&h| h > frf.max_harmonic) {
+            return Err(Error::plan(
+                "harmonics",
+                format!("harmonic {h} was not extracted (max {})", frf.max_harmonic),
+            ));
+        }
+        let mut series = Vec::new();
+        for (i, l) in frf.levels.iter().enumerate() {
+            if levels.is_some_and(|ls| !ls.contains(&i)) {
+                continue;
+            }
+            let points: Vec<MeasuredPoint> = l
+                .points
+                .iter()
+                .filter(|p| {
+                    band_hz.is_none_or(|(lo, hi)| p.frequency_hz >= lo && p.frequency_hz <= hi)
+                })
+                .map(|p| MeasuredPoint {
+                    frequency_hz: p.frequency_hz,
+                    force_amplitude: p.force_amplitude,
+                    h: harmonics.iter().map(|&k| p.h[k]).collect(),
+                    std_error: harmonics.iter().map(|&k| p.std_error[k]).collect(),
+                })
+                .collect();
+            if !points.is_empty() {
+                series.push(MeasuredSeries {
+                    level: l.level,
+                    direction: l.direction,
+                    points,
+                });
+            }
+        }
+        if series.is_empty() {
+            return Err(Error::plan(
+                "band",
+                "no measured points in the selected band and levels",
+            ));
+        }
+        Ok(FitData {
+            response: frf.response,
+            harmonics: harmonics.to_vec(),
+            series,
+        })
+    }
+
+    /// Number of complex observations.
+    pub fn observations(&self) -> usize {
+        self.series.iter().map(|s| s.points.len()).sum::<usize>() * self.harmonics.len()
+    }
+
+    /// Index of harmonic `h` in [`FitData::harmonics`].
+    pub fn harmonic_index(&self, h: usize) -> Option<usize> {
+        self.harmonics.iter().position(|&k| k == h)
+    }
+}
+
+/// The model's FRFs at the measured points.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Prediction {
+    /// `[series][point][harmonic]`, as in [`FitData`]; `None` where the
+    /// model's solve failed.
+    pub h: Vec<Vec<Option<Vec<Complex64>>>>,
+    /// Harmonic-balance points solved.
+    pub solves: usize,
+}
+
+impl Prediction {
+    /// Points whose solve failed.
+    pub fn failures(&self) -> usize {
+        self.h.iter().flatten().filter(|p| p.is_none()).count()
+    }
+}
+
+/// Computes a model's FRFs at the measured points.
+pub trait FrfPredictor: Sync {
+    /// The prediction of `model` for `data`.
+    fn predict(&self, model: &Model, data: &FitData) -> Result<Prediction>;
+}
+
+/// How residuals are scaled.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Weighting {
+    /// The paper's eq. (9): plain differences.
+    #[default]
+    None,
+    /// Differences divided by the measured standard errors.
+    StandardError,
+}
+
+/// Stacked real residuals `[Re, Im]` per point and harmonic.
+pub fn residuals(data: &FitData, pred: &Prediction, weighting: Weighting) -> Vec<f64> {
+    let mut r = Vec::with_capacity(2 * data.observations());
+    for (s, ps) in data.series.iter().zip(&pred.h) {
+        for (p, model) in s.points.iter().zip(ps) {
+            for k in 0..data.harmonics.len() {
+                // a failed solve predicts nothing: the whole measurement is residual
+                let m = model.as_ref().map_or(Complex64::new(0.0, 0.0), |m| m[k]);
+                let w = match weighting {
+                    Weighting::None => 1.0,
+                    // σ is the RMS of the complex error: σ/√2 per component
+                    Weighting::StandardError => {
+                        std::f64::consts::SQRT_2 / p.std_error[k].max(f64::MIN_POSITIVE)
+                    }
+                };
+                let d = (p.h[k] - m) * w;
+                r.push(d.re);
+                r.push(d.im);
+            }
+        }
+    }
+    r
+}
+
+/// `||H_meas − H_model|| / ||H_meas||` over every point, for harmonic `h`
+/// (`None` if it is not fitted).
+pub fn relative_error(data: &FitData, pred: &Prediction, h: usize) -> Option<f64> {
+    let k = data.harmonic_index(h)?;
+    let (mut num, mut den) = (0.0, 0.0);
+    for (s, ps) in data.series.iter().zip(&pred.h) {
+        for (p, model) in s.points.iter().zip(ps) {
+            let m = model.as_ref().map_or(Complex64::new(0.0, 0.0), |m| m[k]);
+            num += (p.h[k] - m).norm_sqr();
+            den += p.h[k].norm_sqr();
+        }
+    }
+    Some((num / den.max(f64::MIN_POSITIVE)).sqrt())
+}
+
+/// `χ²`: the sum of squared residuals scaled by the measured standard errors.
+pub fn chi_square(data: &FitData, pred: &Prediction) -> f64 {
+    residuals(data, pred, Weighting::StandardError)
+        .iter()
+        .map(|r| r * r)
+        .sum()
+}
+
+/// One cost evaluation, for traces and progress.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TraceEntry {
+    /// Evaluation number.
+    pub evaluation: usize,
+    /// Cost (sum of squared residuals, plus any bound penalty).
+    pub cost: f64,
+    /// Physical parameter values.
+    pub parameters: Vec<f64>,
+}
+
+/// A model, its free parameters and the data: residuals and cost as
+/// functions of the optimiser coordinates.
+pub struct FitProblem<'a> {
+    /// The model whose free parameters are varied.
+    pub base: Model,
+    /// The free parameters.
+    pub parameters: ParameterSet,
+    /// The data.
+    pub data: &'a FitData,
+    /// The predictor (harmonic balance).
+    pub predictor: &'a dyn FrfPredictor,
+    /// Residual scaling.
+    pub weighting: Weighting,
+    evaluations: AtomicUsize,
+    solves: AtomicUsize,
+    trace: Mutex<Vec<TraceEntry>>,
+    observer: Option<&'a (dyn Fn(&TraceEntry) + Sync)>,
+}
+
+impl<'a> FitProblem<'a> {
+    /// A problem.
+    pub fn new(
+        base: Model,
+        parameters: ParameterSet,
+        data: &'a FitData,
+        predictor: &'a dyn FrfPredictor,
+        weighting: Weighting,
+        observer: Option<&'a (dyn Fn(&TraceEntry) + Sync)>,
+    ) -> FitProblem<'a> {
+        FitProblem {
+            base,
+            parameters,
+            data,
+            predictor,
+            weighting,
+            evaluations: AtomicUsize::new(0),
+            solves: AtomicUsize::new(0),
+            trace: Mutex::new(Vec::new()),
+            observer,
+        }
+    }
+
+    /// The model and prediction at `theta`, and the distance outside bounds.
+    pub fn evaluate(&self, theta: &[f64]) -> Result<(Model, Prediction, f64)> {
+        let (model, outside) = self.parameters.model_at(&self.base, theta)?;
+        let pred = self.predictor.predict(&model, self.data)?;
+        self.solves.fetch_add(pred.solves, Ordering::Relaxed);
+        Ok((model, pred, outside))
+    }
+
+    /// Residuals at `theta`, with a penalty row for any distance outside the
+    /// bounds (so a simplex is pushed back in).
+    pub fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
+        let (_, pred, outside) = self.evaluate(theta)?;
+        let mut r = residuals(self.data, &pred, self.weighting);
+        let scale = (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt();
+        r.push(outside * 10.0 * scale * (r.len() as f64).sqrt());
+        Ok(r)
+    }
+
+    /// Cost `Σ r²` at `theta` (recorded in the trace).
+    pub fn cost(&self, theta: &[f64]) -> Result<f64> {
+        let r = self.residuals(theta)?;
+        let cost = r.iter().map(|v| v * v).sum::<f64>();
+        let entry = TraceEntry {
+            evaluation: self.evaluations.fetch_add(1, Ordering::Relaxed) + 1,
+            cost,
+            parameters: self.parameters.values(theta),
+        };
+        if let Some(o) = self.observer {
+            o(&entry);
+        }
+        self.trace.lock().expect("trace lock").push(entry);
+        Ok(cost)
+    }
+
+    /// Cost evaluations so far.
+    pub fn evaluations(&self) -> usize {
+        self.evaluations.load(Ordering::Relaxed)
+    }
+
+    /// Harmonic-balance points solved so far.
+    pub fn solves(&self) -> usize {
+        self.solves.load(Ordering::Relaxed)
+    }
+
+    /// The cost trace so far.
+    pub fn trace(&self) -> Vec<TraceEntry> {
+        self.trace.lock().expect("trace lock").clone()
+    }
+}
