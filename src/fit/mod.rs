@@ -2,6 +2,7 @@
 //! model's nonlinear FRFs match the measured ones (paper Figures 2.2 and 3.3,
 //! eq. 9; method notes f).
 
+pub mod identify;
 pub mod linear;
 
 pub use linear::{FrfSample, SdofEstimate, fit_sdof};
@@ -9,6 +10,7 @@ pub mod optimise;
 pub mod params;
 pub mod problem;
 
+pub use identify::{Estimate, FitOptions, FitResult, identify};
 pub use optimise::{Optimiser, OptimiserRun};
 pub use params::{N_MAX, Parameter, ParameterSet, Target, Transform};
 pub use problem::{
