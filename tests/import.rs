@@ -464,6 +464,48 @@ fn mat_errors_name_file_and_variable() {
         .unwrap()
         .recording;
     assert_eq!(rec.meta.sample_rate_hz, 400.0);
+    // Variables that cannot be signals are noted in the metadata.
+    assert_eq!(
+        rec.meta.metadata["import"]["not_numeric"],
+        serde_json::json!(["label (1x3 char)", "z (1x400 complex double)"])
+    );
+}
+
+#[test]
+fn mat_rate_from_a_time_vector() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 2000;
+    let t: Vec<f64> = (0..n).map(|k| 0.5 + k as f64 / 2000.0).collect();
+    let x = noise(20, n, 1.0);
+    let path = dir.path().join("timed.mat");
+    write(
+        &path,
+        &mat_bytes(
+            &[
+                Var::double("t", n, 1, t),
+                Var::double("x", 1, n, x.clone()).compressed(),
+            ],
+            false,
+        ),
+    );
+    let spec = ImportSpec::new(
+        vec![ChannelSpec::new("x", Quantity::Displacement)],
+        SampleRateSource::Time("t".into()),
+    );
+    let imp = import(&path, &spec).unwrap();
+    assert!((imp.recording.meta.sample_rate_hz / 2000.0 - 1.0).abs() < 1e-12);
+    assert!(same_bits(&imp.recording.channels[0], &x));
+    assert_eq!(imp.quality.time_axis.as_ref().unwrap().column, "t");
+    assert!(imp.quality.findings.is_empty(), "{}", imp.quality);
+    // A comment rate makes no sense for a MAT-file.
+    let spec = ImportSpec::new(
+        vec![ChannelSpec::new("x", Quantity::Displacement)],
+        SampleRateSource::Comment,
+    );
+    assert_mentions(
+        &err_text(import(&path, &spec)),
+        &["sample_rate", "timed.mat"],
+    );
 }
 
 #[test]
@@ -520,6 +562,51 @@ fn mat_truncated_and_corrupted_files_say_where() {
         &err_text(import(&path, &spec)),
         &["junk.mat", "header", "IM"],
     );
+}
+
+#[test]
+fn mat_damaged_files_never_panic() {
+    // Random cuts and byte flips of a mixed (compressed and plain) file: every
+    // outcome is data or an error naming the file, never a panic.
+    use rand::RngExt;
+    let mut vars = f16_vars(&f16_like(300));
+    vars.push(Var::double("i16", 1, 300, vec![7.0; 300]).stored(Storage::Int16));
+    let good = mat_bytes(&vars, false);
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let (mut ok, mut failed) = (0, 0);
+    for trial in 0..400 {
+        let mut bytes = good.clone();
+        if trial % 2 == 0 {
+            bytes.truncate(rng.random_range(0..good.len()));
+        } else {
+            for _ in 0..rng.random_range(1..4) {
+                let i = rng.random_range(0..bytes.len());
+                bytes[i] ^= 1 << rng.random_range(0..8);
+            }
+        }
+        match MatFile::from_bytes(Path::new("damaged.mat"), bytes) {
+            Err(e) => {
+                assert!(e.to_string().contains("damaged.mat"), "{e}");
+                failed += 1;
+            }
+            Ok(f) => {
+                for v in f.variables().to_vec() {
+                    match f.read(&v.name) {
+                        Ok(a) => {
+                            let _ = a.signal(Some(1), Path::new("damaged.mat"));
+                            ok += 1;
+                        }
+                        Err(e) => {
+                            assert!(e.to_string().contains("damaged.mat"), "{e}");
+                            failed += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("damaged MAT files: {ok} variables read, {failed} errors");
+    assert!(failed >= 200, "every cut file must fail: {failed}");
 }
 
 // ---------------------------------------------------------------------------

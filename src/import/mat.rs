@@ -235,6 +235,18 @@ impl MatArray {
             ));
         }
         let (rows, cols) = (dims[0], dims[1]);
+        if rows.checked_mul(cols) != Some(self.data.len()) {
+            return Err(Error::format(
+                path,
+                field,
+                format!(
+                    "holds {} values, its shape {} needs {}",
+                    self.data.len(),
+                    self.shape(),
+                    rows.saturating_mul(cols)
+                ),
+            ));
+        }
         if rows == 0 || cols == 0 {
             return Err(Error::format(
                 path,
@@ -739,7 +751,16 @@ impl MatFile {
         let content = &self.bytes[tag.start..tag.start + tag.len];
         let decompressed;
         let matrix: &[u8] = if info.compressed {
-            decompressed = inflate(content, u64::MAX)
+            // Bounded by what the indexed shape can need (8 bytes a value,
+            // twice for complex, plus the header), so a corrupted stream
+            // cannot inflate without end.
+            let need = info
+                .dims
+                .iter()
+                .try_fold(16u64, |a, &d| a.checked_mul(d as u64))
+                .unwrap_or(u64::MAX)
+                .saturating_add(4096);
+            decompressed = inflate(content, need)
                 .map_err(|x| at(format!("compressed data is corrupted: {x}")))?;
             let inner = read_tag(&decompressed, 0, e)
                 .map_err(|m| at(format!("in the decompressed data: {m}")))?;
@@ -750,7 +771,11 @@ impl MatFile {
         let h = parse_matrix_header(matrix, e, true)
             .map_err(&at)?
             .expect("complete buffers never ask for more");
-        let count: usize = h.dims.iter().product();
+        let count = h
+            .dims
+            .iter()
+            .try_fold(1usize, |a, &d| a.checked_mul(d))
+            .ok_or_else(|| at(format!("dimensions {} overflow", shape_text(&h.dims))))?;
         let real = read_tag(matrix, h.data_pos, e).map_err(|m| at(format!("real part: {m}")))?;
         let mut data = Vec::new();
         convert(
