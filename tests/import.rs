@@ -497,6 +497,19 @@ fn mat_rate_from_a_time_vector() {
     assert!(same_bits(&imp.recording.channels[0], &x));
     assert_eq!(imp.quality.time_axis.as_ref().unwrap().column, "t");
     assert!(imp.quality.findings.is_empty(), "{}", imp.quality);
+    // A declared rate checked against the time vector: 2 % off.
+    let mut spec = ImportSpec::new(
+        vec![ChannelSpec::new("x", Quantity::Displacement)],
+        SampleRateSource::Value(2040.0),
+    );
+    spec.time_column = Some("t".into());
+    let q = import(&path, &spec).unwrap().quality;
+    let f: Vec<_> = q.of_kind(FindingKind::SampleRate).collect();
+    assert_eq!(f.len(), 1, "{q}");
+    assert_mentions(
+        &f[0].message,
+        &["2040 Hz", "`t`", "2000.000000 Hz", "-1.9608 %"],
+    );
     // A comment rate makes no sense for a MAT-file.
     let spec = ImportSpec::new(
         vec![ChannelSpec::new("x", Quantity::Displacement)],
@@ -1059,6 +1072,48 @@ fn spec_from_toml_and_report_to_json() {
     assert_eq!(json["findings"][0]["kind"], "non-finite");
     assert_eq!(json["findings"][0]["channel"], "force");
     assert_eq!(json["findings"][0]["spans"][0]["start"], 3);
+}
+
+#[test]
+fn compact_command_line_forms() {
+    let c: ChannelSpec = "acc2=Acceleration(2):acceleration".parse().unwrap();
+    assert_eq!(
+        c,
+        ChannelSpec::new("Acceleration", Quantity::Acceleration)
+            .row(2)
+            .name("acc2")
+    );
+    let c: ChannelSpec = "laser=#3:velocity*1e-3".parse().unwrap();
+    assert_eq!(
+        c,
+        ChannelSpec::new(3, Quantity::Velocity)
+            .name("laser")
+            .scale(1e-3)
+    );
+    let c: ChannelSpec = "Force:force".parse().unwrap();
+    assert_eq!(c, ChannelSpec::new("Force", Quantity::Force));
+    for (bad, want) in [
+        ("Force", "QUANTITY"),
+        ("Force:torque", "`torque`"),
+        ("a=Acc(x):acceleration", "row `x`"),
+        ("a=#k:force", "`k`"),
+        ("Force:force*big", "scale `big`"),
+    ] {
+        let e = bad.parse::<ChannelSpec>().unwrap_err().to_string();
+        assert_mentions(&e, &[bad, want]);
+    }
+    for (text, want) in [
+        ("auto", SampleRateSource::Auto),
+        ("comment", SampleRateSource::Comment),
+        ("400", SampleRateSource::Value(400.0)),
+        ("1024 Hz", SampleRateSource::Value(1024.0)),
+        ("variable:Fs", SampleRateSource::Variable("Fs".into())),
+        ("time:time_s", SampleRateSource::Time("time_s".into())),
+        ("time:#1", SampleRateSource::Time(Source::Index(1))),
+    ] {
+        assert_eq!(text.parse::<SampleRateSource>().unwrap(), want, "{text}");
+    }
+    assert!("fast".parse::<SampleRateSource>().is_err());
 }
 
 // ---------------------------------------------------------------------------

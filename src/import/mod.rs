@@ -208,6 +208,113 @@ pub enum SampleRateSource {
     Time(Source),
 }
 
+/// The compact command-line form of a channel:
+/// `[NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE]`, where `SOURCE` is a variable or
+/// column name, or `#K` for column number `K` (from 1).
+///
+/// Examples: `force=Force:force`, `acc2=Acceleration(2):acceleration`,
+/// `laser=#3:velocity*1e-3`. Names holding `=`, `:` or `(` need the TOML
+/// form.
+impl std::str::FromStr for ChannelSpec {
+    type Err = Error;
+    fn from_str(text: &str) -> Result<ChannelSpec> {
+        let bad = |m: String| {
+            Error::plan(
+                "channel",
+                format!("`{text}`: {m} (expected [NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE])"),
+            )
+        };
+        let (left, right) = text
+            .rsplit_once(':')
+            .ok_or_else(|| bad("no `:QUANTITY`".into()))?;
+        let (quantity, scale) = match right.split_once('*') {
+            Some((q, s)) => (
+                q,
+                s.trim()
+                    .parse::<f64>()
+                    .map_err(|_| bad(format!("scale `{s}` is not a number")))?,
+            ),
+            None => (right, 1.0),
+        };
+        let quantity = Quantity::from_name(quantity.trim()).ok_or_else(|| {
+            bad(format!(
+                "quantity `{quantity}` is not one of force, displacement, velocity, acceleration, voltage"
+            ))
+        })?;
+        let (name, source) = match left.split_once('=') {
+            Some((n, s)) => (Some(n.trim().to_string()), s.trim()),
+            None => (None, left.trim()),
+        };
+        let (source, row) = match source.strip_suffix(')').and_then(|s| s.split_once('(')) {
+            Some((s, r)) => (
+                s.trim(),
+                Some(
+                    r.trim()
+                        .parse::<usize>()
+                        .map_err(|_| bad(format!("row `{r}` is not a number")))?,
+                ),
+            ),
+            None => (source, None),
+        };
+        let source = match source.strip_prefix('#') {
+            Some(k) => Source::Index(
+                k.parse()
+                    .map_err(|_| bad(format!("column number `{k}` is not a number")))?,
+            ),
+            None if source.is_empty() => return Err(bad("no SOURCE".into())),
+            None => Source::Name(source.to_string()),
+        };
+        Ok(ChannelSpec {
+            source,
+            row,
+            name,
+            quantity,
+            unit: None,
+            scale,
+            full_scale: None,
+        })
+    }
+}
+
+/// The compact command-line form: `auto`, `comment`, a number of Hz
+/// (`400`), `variable:NAME` or `time:COLUMN` (`time:#1` for a column
+/// number).
+impl std::str::FromStr for SampleRateSource {
+    type Err = Error;
+    fn from_str(text: &str) -> Result<SampleRateSource> {
+        let t = text.trim();
+        let hz = t
+            .strip_suffix("Hz")
+            .or_else(|| t.strip_suffix("hz"))
+            .unwrap_or(t)
+            .trim();
+        Ok(match t {
+            "auto" => SampleRateSource::Auto,
+            "comment" => SampleRateSource::Comment,
+            _ => {
+                if let Ok(v) = hz.parse::<f64>() {
+                    SampleRateSource::Value(v)
+                } else if let Some(v) = t.strip_prefix("variable:") {
+                    SampleRateSource::Variable(v.trim().to_string())
+                } else if let Some(c) = t.strip_prefix("time:") {
+                    let c = c.trim();
+                    SampleRateSource::Time(match c.strip_prefix('#').map(str::parse) {
+                        Some(Ok(k)) => Source::Index(k),
+                        _ => Source::Name(c.to_string()),
+                    })
+                } else {
+                    return Err(Error::plan(
+                        "sample_rate",
+                        format!(
+                            "`{text}`: expected auto, comment, a rate in Hz, variable:NAME or time:COLUMN"
+                        ),
+                    ));
+                }
+            }
+        })
+    }
+}
+
 /// Column separator of a text file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(try_from = "String", into = "String")]
@@ -260,9 +367,10 @@ pub struct ImportSpec {
     /// Where the sample rate comes from.
     #[serde(default)]
     pub sample_rate: SampleRateSource,
-    /// Text only: a time column (seconds) to check the sample rate against
-    /// when the rate is given or read from a comment. Default: a column
-    /// whose header starts with `time` (any case) or is `t`, if any.
+    /// A time column (text) or time vector (MAT), in seconds, to check the
+    /// sample rate against when the rate is declared. Default for text: a
+    /// column whose header starts with `time` (any case) or is `t`, if any;
+    /// for MAT: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_column: Option<Source>,
     /// Text only: the separator; default: detected from the header and the
@@ -706,6 +814,21 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
             (rate, format!("time variable `{name}`"), false)
         }
     };
+    // A time vector to check a declared rate against.
+    if time.is_none() {
+        match &spec.time_column {
+            Some(Source::Name(name)) => {
+                time = Some((name.clone(), file.read(name)?.signal(None, path)?));
+            }
+            Some(Source::Index(i)) => {
+                return Err(Error::plan(
+                    "time_column",
+                    format!("column {i}: MAT-file variables are chosen by name"),
+                ));
+            }
+            None => {}
+        }
+    }
     let mut meta = serde_json::Map::new();
     meta.insert("format".into(), "MAT v5".into());
     meta.insert("header".into(), file.header_text().into());
