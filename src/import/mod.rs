@@ -1,1 +1,852 @@
-//! (stage under construction)
+//! Import: the formats real data comes in, converted into a [`Recording`].
+//!
+//! Measured data rarely arrives as hystid's own WAV + JSON recording
+//! (`shared/spec/recording-format.md`). This stage reads the two formats
+//! the benchmark data sets use and turns the chosen signals into a
+//! [`Recording`] in memory (samples in physical units, calibration, quantity
+//! and unit kept per channel), plus a [`QualityReport`] of the data:
+//!
+//! * MATLAB level-5 MAT-files with numeric arrays ([`mat`]): the F-16 GVT
+//!   benchmark (`Force` 1xN, `Acceleration` 3xN, `Fs`), the Bouc-Wen
+//!   benchmark (`uval_sinesweep`, ...), compressed or not.
+//! * Delimited text, CSV/TSV/whitespace ([`delimited`]): a header row after
+//!   optional `#` comment lines, as the UNESP BERT CSVs have.
+//!
+//! What to take from the file is an [`ImportSpec`] (serde data, so the CLI
+//! can build it from flags or a TOML table): which variables or columns
+//! become channels, with quantity, unit and scale, where the sample rate
+//! comes from, and what the excitation was. [`import`] dispatches on the file
+//! extension, builds the recording and runs the data-quality checks of
+//! [`quality`] on it.
+//!
+//! Indices in an [`ImportSpec`] count from 1, as MATLAB and spreadsheets do:
+//! `row = 2` of the F-16 `Acceleration` is the benchmark's "acceleration 2",
+//! and `column = 1` is the first column of a CSV file.
+//!
+//! ```toml
+//! # F-16 level 1: force and the wing-side interface acceleration
+//! sample_rate = { variable = "Fs" }
+//! [[channels]]
+//! variable = "Force"
+//! name = "force"
+//! quantity = "force"
+//! [[channels]]
+//! variable = "Acceleration"
+//! row = 2
+//! name = "acc2"
+//! quantity = "acceleration"
+//! ```
+
+pub mod delimited;
+pub mod mat;
+pub mod quality;
+
+pub use quality::{
+    Finding, FindingKind, QualityOptions, QualityReport, Severity, Span, check_quality,
+};
+
+use crate::harmonics::Quantity;
+use crate::record::{Channel, Excitation, ExcitationKind, FORMAT_V1, Recording, RecordingMeta};
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Where a channel's samples are in the file: a name (MAT variable, CSV
+/// header) or a 1-based column number (CSV only).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Source {
+    /// Column number, counted from 1.
+    Index(usize),
+    /// Variable or column name, matched exactly.
+    Name(String),
+}
+
+impl From<&str> for Source {
+    fn from(s: &str) -> Source {
+        Source::Name(s.to_string())
+    }
+}
+
+impl From<String> for Source {
+    fn from(s: String) -> Source {
+        Source::Name(s)
+    }
+}
+
+impl From<usize> for Source {
+    fn from(i: usize) -> Source {
+        Source::Index(i)
+    }
+}
+
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Source::Index(i) => write!(f, "column {i}"),
+            Source::Name(n) => f.write_str(n),
+        }
+    }
+}
+
+/// One channel to import.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSpec {
+    /// The MAT variable, or the CSV column (header name or number from 1).
+    /// In TOML also spelled `variable` or `column`.
+    #[serde(alias = "variable", alias = "column")]
+    pub source: Source,
+    /// MAT only: which signal of a 2-D variable, counted from 1 (the row of a
+    /// `kxN` matrix, the column of an `Nxk` one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row: Option<usize>,
+    /// Channel name in the recording; default: the source name (with
+    /// `_<row>` for a matrix row, `column_<k>` for a numbered column).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Physical quantity.
+    pub quantity: Quantity,
+    /// SI unit of the physical values; default and only accepted value: the
+    /// quantity's SI unit (`N`, `m`, `m/s`, `m/s^2`, `V`). Data in other units
+    /// is converted with `scale`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<String>,
+    /// Calibration: physical value = value in the file × scale.
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// Full scale of the acquisition channel in physical units, if known:
+    /// samples at or beyond it count as clipped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub full_scale: Option<f64>,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl ChannelSpec {
+    /// A channel from `source` with the quantity's SI unit and scale 1.
+    pub fn new(source: impl Into<Source>, quantity: Quantity) -> ChannelSpec {
+        ChannelSpec {
+            source: source.into(),
+            row: None,
+            name: None,
+            quantity,
+            unit: None,
+            scale: 1.0,
+            full_scale: None,
+        }
+    }
+
+    /// Sets the 1-based row of a matrix variable.
+    pub fn row(mut self, row: usize) -> ChannelSpec {
+        self.row = Some(row);
+        self
+    }
+
+    /// Sets the channel name.
+    pub fn name(mut self, name: impl Into<String>) -> ChannelSpec {
+        self.name = Some(name.into());
+        self
+    }
+
+    /// Sets the calibration scale.
+    pub fn scale(mut self, scale: f64) -> ChannelSpec {
+        self.scale = scale;
+        self
+    }
+
+    /// Sets the full scale (physical units).
+    pub fn full_scale(mut self, full_scale: f64) -> ChannelSpec {
+        self.full_scale = Some(full_scale);
+        self
+    }
+
+    /// The channel's name in the recording.
+    pub fn channel_name(&self) -> String {
+        if let Some(n) = &self.name {
+            return n.clone();
+        }
+        match (&self.source, self.row) {
+            (Source::Name(n), Some(r)) => format!("{n}_{r}"),
+            (Source::Name(n), None) => n.clone(),
+            (Source::Index(i), _) => format!("column_{i}"),
+        }
+    }
+
+    /// How the source reads in messages: `Acceleration(row 2)`, `laser`.
+    pub fn source_text(&self) -> String {
+        match self.row {
+            Some(r) => format!("{}(row {r})", self.source),
+            None => self.source.to_string(),
+        }
+    }
+}
+
+/// Where the sample rate comes from.
+///
+/// TOML: `sample_rate = { value = 400.0 }`, `{ variable = "Fs" }`,
+/// `{ time = "time_s" }`, `"comment"` or `"auto"`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SampleRateSource {
+    /// MAT: a scalar variable named `Fs` (or `fs`, `fsamp`, `sample_rate`,
+    /// `samplerate`, `sampling_rate`, any case). Text: a comment such as
+    /// `# fs = 1024 Hz`, else a time column (header starting with `time`, or
+    /// `t`).
+    #[default]
+    Auto,
+    /// Given, Hz.
+    Value(f64),
+    /// MAT: a positive scalar variable, Hz.
+    Variable(String),
+    /// Text: a `#` comment line before the header (`fs = 1024 Hz`,
+    /// `sample rate: 2 kHz`, ...).
+    Comment,
+    /// A time column (text) or time vector (MAT) in seconds, uniformly spaced.
+    Time(Source),
+}
+
+/// The compact command-line form of a channel:
+/// `[NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE]`, where `SOURCE` is a variable or
+/// column name, or `#K` for column number `K` (from 1).
+///
+/// Examples: `force=Force:force`, `acc2=Acceleration(2):acceleration`,
+/// `laser=#3:velocity*1e-3`. Names holding `=`, `:` or `(` need the TOML
+/// form.
+impl std::str::FromStr for ChannelSpec {
+    type Err = Error;
+    fn from_str(text: &str) -> Result<ChannelSpec> {
+        let bad = |m: String| {
+            Error::plan(
+                "channel",
+                format!("`{text}`: {m} (expected [NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE])"),
+            )
+        };
+        let (left, right) = text
+            .rsplit_once(':')
+            .ok_or_else(|| bad("no `:QUANTITY`".into()))?;
+        let (quantity, scale) = match right.split_once('*') {
+            Some((q, s)) => (
+                q,
+                s.trim()
+                    .parse::<f64>()
+                    .map_err(|_| bad(format!("scale `{s}` is not a number")))?,
+            ),
+            None => (right, 1.0),
+        };
+        let quantity = Quantity::from_name(quantity.trim()).ok_or_else(|| {
+            bad(format!(
+                "quantity `{quantity}` is not one of force, displacement, velocity, acceleration, voltage"
+            ))
+        })?;
+        let (name, source) = match left.split_once('=') {
+            Some((n, s)) => (Some(n.trim().to_string()), s.trim()),
+            None => (None, left.trim()),
+        };
+        let (source, row) = match source.strip_suffix(')').and_then(|s| s.split_once('(')) {
+            Some((s, r)) => (
+                s.trim(),
+                Some(
+                    r.trim()
+                        .parse::<usize>()
+                        .map_err(|_| bad(format!("row `{r}` is not a number")))?,
+                ),
+            ),
+            None => (source, None),
+        };
+        let source = match source.strip_prefix('#') {
+            Some(k) => Source::Index(
+                k.parse()
+                    .map_err(|_| bad(format!("column number `{k}` is not a number")))?,
+            ),
+            None if source.is_empty() => return Err(bad("no SOURCE".into())),
+            None => Source::Name(source.to_string()),
+        };
+        Ok(ChannelSpec {
+            source,
+            row,
+            name,
+            quantity,
+            unit: None,
+            scale,
+            full_scale: None,
+        })
+    }
+}
+
+/// The compact command-line form: `auto`, `comment`, a number of Hz
+/// (`400`), `variable:NAME` or `time:COLUMN` (`time:#1` for a column
+/// number).
+impl std::str::FromStr for SampleRateSource {
+    type Err = Error;
+    fn from_str(text: &str) -> Result<SampleRateSource> {
+        let t = text.trim();
+        let hz = t
+            .strip_suffix("Hz")
+            .or_else(|| t.strip_suffix("hz"))
+            .unwrap_or(t)
+            .trim();
+        Ok(match t {
+            "auto" => SampleRateSource::Auto,
+            "comment" => SampleRateSource::Comment,
+            _ => {
+                if let Ok(v) = hz.parse::<f64>() {
+                    SampleRateSource::Value(v)
+                } else if let Some(v) = t.strip_prefix("variable:") {
+                    SampleRateSource::Variable(v.trim().to_string())
+                } else if let Some(c) = t.strip_prefix("time:") {
+                    let c = c.trim();
+                    SampleRateSource::Time(match c.strip_prefix('#').map(str::parse) {
+                        Some(Ok(k)) => Source::Index(k),
+                        _ => Source::Name(c.to_string()),
+                    })
+                } else {
+                    return Err(Error::plan(
+                        "sample_rate",
+                        format!(
+                            "`{text}`: expected auto, comment, a rate in Hz, variable:NAME or time:COLUMN"
+                        ),
+                    ));
+                }
+            }
+        })
+    }
+}
+
+/// Column separator of a text file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub enum Delimiter {
+    /// One ASCII character (`,`, `;`, tab, `|`).
+    Char(u8),
+    /// Runs of spaces and tabs.
+    Whitespace,
+}
+
+impl TryFrom<String> for Delimiter {
+    type Error = String;
+    fn try_from(s: String) -> std::result::Result<Delimiter, String> {
+        Ok(match s.as_str() {
+            "tab" | "\t" | "\\t" => Delimiter::Char(b'\t'),
+            "comma" => Delimiter::Char(b','),
+            "semicolon" => Delimiter::Char(b';'),
+            "whitespace" | "space" | " " => Delimiter::Whitespace,
+            c if c.len() == 1 && c.is_ascii() && c != "\"" && c != "#" => {
+                Delimiter::Char(c.as_bytes()[0])
+            }
+            other => {
+                return Err(format!(
+                    "delimiter `{other}`: expected one ASCII character, `tab`, `comma`, \
+                     `semicolon` or `whitespace`"
+                ));
+            }
+        })
+    }
+}
+
+impl From<Delimiter> for String {
+    fn from(d: Delimiter) -> String {
+        match d {
+            Delimiter::Char(b'\t') => "tab".into(),
+            Delimiter::Char(c) => (c as char).to_string(),
+            Delimiter::Whitespace => "whitespace".into(),
+        }
+    }
+}
+
+/// What to import from a file.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImportSpec {
+    /// The channels, in recording order (put the force or drive first by
+    /// convention; the reference channel is the first `force`, else the
+    /// first `voltage` channel wherever it is).
+    pub channels: Vec<ChannelSpec>,
+    /// Where the sample rate comes from.
+    #[serde(default)]
+    pub sample_rate: SampleRateSource,
+    /// A time column (text) or time vector (MAT), in seconds, to check the
+    /// sample rate against when the rate is declared. Default for text: a
+    /// column whose header starts with `time` (any case) or is `t`, if any;
+    /// for MAT: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_column: Option<Source>,
+    /// Text only: the separator; default: detected from the header and the
+    /// first rows (tab, comma, semicolon, `|`, else whitespace).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delimiter: Option<Delimiter>,
+    /// What drove the structure, if known (kept in the recording).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub excitation: Option<Excitation>,
+    /// Free text for the recording.
+    #[serde(default)]
+    pub description: String,
+    /// Thresholds of the data-quality checks.
+    #[serde(default)]
+    pub quality: QualityOptions,
+}
+
+impl ImportSpec {
+    /// A spec with these channels and sample-rate source, defaults elsewhere.
+    pub fn new(channels: Vec<ChannelSpec>, sample_rate: SampleRateSource) -> ImportSpec {
+        ImportSpec {
+            channels,
+            sample_rate,
+            ..ImportSpec::default()
+        }
+    }
+}
+
+/// An imported recording and the quality of its data.
+#[derive(Clone, Debug)]
+pub struct Imported {
+    /// The recording, samples in physical units.
+    pub recording: Recording,
+    /// Data-quality findings; `quality.has_errors()` means NaN/Inf (or a
+    /// broken time axis) that an identification must not use.
+    pub quality: QualityReport,
+}
+
+/// What a format reader hands back: raw channel values (file units, before
+/// scale), the sample rate and where it came from, and a time axis to check.
+pub(crate) struct Loaded {
+    /// One vector per spec channel, in spec order, values as in the file.
+    pub values: Vec<Vec<f64>>,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Where the rate came from, for the metadata (`variable Fs`, ...).
+    pub rate_origin: String,
+    /// Whether the rate was declared (given, variable, comment) rather than
+    /// derived from the time axis.
+    pub rate_declared: bool,
+    /// A time axis (seconds) to check, with its name.
+    pub time: Option<(String, Vec<f64>)>,
+    /// Format-specific metadata (`import` section).
+    pub metadata: serde_json::Map<String, serde_json::Value>,
+}
+
+/// Imports `source` as `spec` says: dispatches on the extension (`.mat`;
+/// `.csv`, `.tsv`, `.txt`, `.dat`), applies calibration, checks units and
+/// names, keeps the excitation in the recording and runs
+/// [`check_quality`] (plus, for a time column, the rate and jitter checks of
+/// [`quality::check_time_axis`]).
+///
+/// Errors name the file and the variable, column or row at fault.
+pub fn import(source: &Path, spec: &ImportSpec) -> Result<Imported> {
+    let ext = source
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
+    validate_spec(source, spec)?;
+    let loaded = match ext.as_str() {
+        "mat" => mat_load(source, spec)?,
+        "csv" | "tsv" | "txt" | "dat" => delimited::load(source, spec)?,
+        "wav" | "json" => {
+            return Err(Error::format(
+                source,
+                "extension",
+                "a WAV + JSON recording is already in hystid's format: use record::read_recording",
+            ));
+        }
+        other => {
+            return Err(Error::format(
+                source,
+                "extension",
+                format!(
+                    "`.{other}` is not a supported import format (expected .mat, .csv, .tsv, .txt or .dat)"
+                ),
+            ));
+        }
+    };
+    build(source, spec, loaded)
+}
+
+/// Checks the parts of the spec that do not need the file.
+fn validate_spec(path: &Path, spec: &ImportSpec) -> Result<()> {
+    if spec.channels.is_empty() {
+        return Err(Error::plan(
+            "channels",
+            format!(
+                "no channels selected for {}: give at least one",
+                path.display()
+            ),
+        ));
+    }
+    let mut names: Vec<String> = Vec::new();
+    for (k, c) in spec.channels.iter().enumerate() {
+        let field = format!("channels[{k}]");
+        let name = c.channel_name();
+        if name.trim().is_empty() {
+            return Err(Error::plan(format!("{field}.name"), "must not be empty"));
+        }
+        if names.contains(&name) {
+            return Err(Error::plan(
+                format!("{field}.name"),
+                format!("`{name}` is used twice; channel names must be unique"),
+            ));
+        }
+        names.push(name);
+        if !(c.scale.is_finite() && c.scale != 0.0) {
+            return Err(Error::plan(
+                format!("{field}.scale"),
+                format!("must be a finite, non-zero number, got {}", c.scale),
+            ));
+        }
+        if let Some(fs) = c.full_scale
+            && !(fs.is_finite() && fs > 0.0)
+        {
+            return Err(Error::plan(
+                format!("{field}.full_scale"),
+                format!("must be a finite number > 0, got {fs}"),
+            ));
+        }
+        if let Some(u) = &c.unit {
+            let si = c.quantity.si_unit();
+            if normalise_unit(u) != si {
+                return Err(Error::plan(
+                    format!("{field}.unit"),
+                    format!(
+                        "`{u}` for a {} channel: recordings hold SI units ({si}); \
+                         convert with `scale` (e.g. scale = 9.80665 for g, 1e-3 for mm)",
+                        c.quantity
+                    ),
+                ));
+            }
+        }
+        if c.row == Some(0) {
+            return Err(Error::plan(
+                format!("{field}.row"),
+                "rows are counted from 1, as in MATLAB",
+            ));
+        }
+        if c.source == Source::Index(0) {
+            return Err(Error::plan(
+                format!("{field}.source"),
+                "columns are counted from 1",
+            ));
+        }
+    }
+    if let SampleRateSource::Value(v) = spec.sample_rate
+        && !(v.is_finite() && v > 0.0)
+    {
+        return Err(Error::plan(
+            "sample_rate.value",
+            format!("must be a finite number of Hz > 0, got {v}"),
+        ));
+    }
+    if let Some(ex) = &spec.excitation {
+        validate_excitation(ex)?;
+    }
+    Ok(())
+}
+
+fn normalise_unit(u: &str) -> &str {
+    match u.trim() {
+        "m/s²" | "m/s2" | "m/s/s" | "m s^-2" => "m/s^2",
+        "m s^-1" => "m/s",
+        other => other,
+    }
+}
+
+fn validate_excitation(ex: &Excitation) -> Result<()> {
+    if let Some(s) = &ex.sweep {
+        for (f, v) in [
+            ("excitation.sweep.f_start_hz", s.f_start_hz),
+            ("excitation.sweep.f_end_hz", s.f_end_hz),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::plan(
+                    f,
+                    format!("must be a finite frequency > 0, got {v}"),
+                ));
+            }
+        }
+        if let Some(r) = s.rate_hz_per_s
+            && !(r.is_finite() && r != 0.0)
+        {
+            return Err(Error::plan(
+                "excitation.sweep.rate_hz_per_s",
+                format!("must be finite and non-zero, got {r}"),
+            ));
+        }
+    }
+    for (k, st) in ex.steps.iter().enumerate() {
+        if !(st.frequency_hz.is_finite() && st.frequency_hz > 0.0) {
+            return Err(Error::plan(
+                format!("excitation.steps[{k}].frequency_hz"),
+                format!("must be a finite frequency > 0, got {}", st.frequency_hz),
+            ));
+        }
+        if st.length == 0 || st.settle >= st.length {
+            return Err(Error::plan(
+                format!("excitation.steps[{k}]"),
+                format!(
+                    "length {} must be > 0 and larger than settle {}",
+                    st.length, st.settle
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Builds the recording, applies scale, runs the checks.
+fn build(path: &Path, spec: &ImportSpec, loaded: Loaded) -> Result<Imported> {
+    let Loaded {
+        values,
+        sample_rate_hz,
+        rate_origin,
+        rate_declared,
+        time,
+        mut metadata,
+    } = loaded;
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(Error::format(
+            path,
+            "sample rate",
+            format!("{rate_origin} gives {sample_rate_hz} Hz; expected a finite rate > 0"),
+        ));
+    }
+    // Lengths must agree: a recording is a set of simultaneous channels.
+    let n0 = values[0].len();
+    for (k, v) in values.iter().enumerate() {
+        if v.is_empty() {
+            return Err(Error::format(
+                path,
+                spec.channels[k].source_text(),
+                "holds no samples",
+            ));
+        }
+        if v.len() != n0 {
+            return Err(Error::format(
+                path,
+                spec.channels[k].source_text(),
+                format!(
+                    "has {} samples but `{}` (channel `{}`) has {n0}: channels must have equal lengths",
+                    v.len(),
+                    spec.channels[0].source_text(),
+                    spec.channels[0].channel_name()
+                ),
+            ));
+        }
+    }
+    if let Some(ex) = &spec.excitation {
+        for (k, st) in ex.steps.iter().enumerate() {
+            if st.start + st.length > n0 {
+                return Err(Error::plan(
+                    format!("excitation.steps[{k}]"),
+                    format!(
+                        "ends at frame {} but {} holds {n0} frames",
+                        st.start + st.length,
+                        path.display()
+                    ),
+                ));
+            }
+        }
+    }
+    let channels: Vec<Channel> = spec
+        .channels
+        .iter()
+        .map(|c| Channel {
+            name: c.channel_name(),
+            quantity: c.quantity,
+            unit: c.quantity.si_unit().to_string(),
+            scale: c.scale,
+        })
+        .collect();
+    let samples: Vec<Vec<f64>> = values
+        .into_iter()
+        .zip(&spec.channels)
+        .map(|(mut v, c)| {
+            if c.scale != 1.0 {
+                for x in &mut v {
+                    *x *= c.scale;
+                }
+            }
+            v
+        })
+        .collect();
+    let file_name = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    metadata.insert("source".into(), file_name.into());
+    metadata.insert("sample_rate".into(), rate_origin.clone().into());
+    let sources: serde_json::Map<String, serde_json::Value> = spec
+        .channels
+        .iter()
+        .map(|c| (c.channel_name(), c.source_text().into()))
+        .collect();
+    metadata.insert("channels".into(), sources.into());
+    let mut meta_map = serde_json::Map::new();
+    meta_map.insert("import".into(), metadata.into());
+    let excitation = spec.excitation.clone().unwrap_or(Excitation {
+        kind: ExcitationKind::Unknown,
+        steps: Vec::new(),
+        sweep: None,
+    });
+    let recording = Recording {
+        meta: RecordingMeta {
+            format: FORMAT_V1.to_string(),
+            sample_rate_hz,
+            channels,
+            excitation,
+            description: spec.description.clone(),
+            metadata: meta_map,
+            extra: serde_json::Map::new(),
+        },
+        channels: samples,
+    };
+    let mut opts = spec.quality.clone();
+    for c in &spec.channels {
+        if let Some(fs) = c.full_scale {
+            opts.full_scale.entry(c.channel_name()).or_insert(fs);
+        }
+    }
+    let mut quality = check_quality(&recording, &opts);
+    if let Some((name, t)) = time {
+        let declared = rate_declared.then_some((sample_rate_hz, rate_origin.as_str()));
+        let axis = quality::check_time_axis(&name, &t, declared, &opts);
+        quality.findings.extend(axis.findings);
+        quality.time_axis = Some(axis.summary);
+    }
+    quality.sort();
+    Ok(Imported { recording, quality })
+}
+
+/// Names a MAT-file sample-rate variable may have (compared in lower case).
+const RATE_VARIABLES: [&str; 6] = [
+    "fs",
+    "fsamp",
+    "sample_rate",
+    "samplerate",
+    "sampling_rate",
+    "srate",
+];
+
+fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
+    let file = mat::MatFile::open(path)?;
+    let mut values = Vec::with_capacity(spec.channels.len());
+    for (k, c) in spec.channels.iter().enumerate() {
+        let name = match &c.source {
+            Source::Name(n) => n,
+            Source::Index(i) => {
+                return Err(Error::plan(
+                    format!("channels[{k}].source"),
+                    format!(
+                        "column {i}: MAT-file variables are chosen by name; {}",
+                        file.listing()
+                    ),
+                ));
+            }
+        };
+        let array = file.read(name)?;
+        values.push(array.signal(c.row, path)?);
+    }
+    let scalar = |name: &str| -> Result<f64> {
+        let a = file.read(name)?;
+        if a.data.len() != 1 {
+            return Err(Error::format(
+                path,
+                name,
+                format!(
+                    "sample rate must be a positive scalar, but the variable is {}",
+                    a.shape()
+                ),
+            ));
+        }
+        let v = a.data[0];
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::format(
+                path,
+                name,
+                format!("sample rate must be a positive scalar, got {v}"),
+            ));
+        }
+        Ok(v)
+    };
+    let mut time = None;
+    let (rate, origin, declared) = match &spec.sample_rate {
+        SampleRateSource::Value(v) => (*v, format!("given: {v} Hz"), true),
+        SampleRateSource::Variable(name) => (scalar(name)?, format!("variable `{name}`"), true),
+        SampleRateSource::Auto => {
+            let found = file
+                .variables()
+                .iter()
+                .find(|v| RATE_VARIABLES.contains(&v.name.to_ascii_lowercase().as_str()));
+            match found {
+                Some(v) => (scalar(&v.name)?, format!("variable `{}`", v.name), true),
+                None => {
+                    return Err(Error::format(
+                        path,
+                        "sample rate",
+                        format!(
+                            "no sample-rate variable (looked for Fs, fsamp, sample_rate, ...): \
+                             give sample_rate = {{ value = ... }} or {{ variable = ... }}; {}",
+                            file.listing()
+                        ),
+                    ));
+                }
+            }
+        }
+        SampleRateSource::Comment => {
+            return Err(Error::plan(
+                "sample_rate",
+                format!(
+                    "`comment` applies to text files; {} is a MAT-file",
+                    path.display()
+                ),
+            ));
+        }
+        SampleRateSource::Time(src) => {
+            let Source::Name(name) = src else {
+                return Err(Error::plan(
+                    "sample_rate.time",
+                    "MAT-file variables are chosen by name",
+                ));
+            };
+            let t = file.read(name)?.signal(None, path)?;
+            let rate = quality::rate_from_time(&t).map_err(|m| Error::format(path, name, m))?;
+            time = Some((name.clone(), t));
+            (rate, format!("time variable `{name}`"), false)
+        }
+    };
+    // A time vector to check a declared rate against.
+    if time.is_none() {
+        match &spec.time_column {
+            Some(Source::Name(name)) => {
+                time = Some((name.clone(), file.read(name)?.signal(None, path)?));
+            }
+            Some(Source::Index(i)) => {
+                return Err(Error::plan(
+                    "time_column",
+                    format!("column {i}: MAT-file variables are chosen by name"),
+                ));
+            }
+            None => {}
+        }
+    }
+    let mut meta = serde_json::Map::new();
+    meta.insert("format".into(), "MAT v5".into());
+    meta.insert("header".into(), file.header_text().into());
+    let skipped: Vec<serde_json::Value> = file
+        .variables()
+        .iter()
+        .filter(|v| !v.class.is_numeric() || v.complex)
+        .map(|v| v.describe().into())
+        .collect();
+    if !skipped.is_empty() {
+        meta.insert("not_numeric".into(), skipped.into());
+    }
+    Ok(Loaded {
+        values,
+        sample_rate_hz: rate,
+        rate_origin: origin,
+        rate_declared: declared,
+        time,
+        metadata: meta,
+    })
+}
