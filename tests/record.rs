@@ -534,3 +534,503 @@ fn wav_damaged_files_are_reported() {
     let e = error_of(read_recording(&dir.path().join("nan.wav")));
     assert!(e.contains("nan.json"), "{e}");
 }
+
+// ---------------------------------------------------------------- MCAP
+
+fn run_info(fs: f64) -> RunInfo {
+    RunInfo {
+        tool_version: "hystid 0.1.0-test".into(),
+        test_definition: "[test]\nlevels_n = [10.0, 20.0]\nseed = 42\n".into(),
+        seed: 42,
+        sample_rate_hz: fs,
+        channels: vec![
+            channel("drive", Quantity::Force, 1.0),
+            channel("x", Quantity::Displacement, 1.0),
+            channel("a", Quantity::Acceleration, 1.0),
+        ],
+        metadata: BTreeMap::from([("model".to_string(), "jenkins".to_string())]),
+    }
+}
+
+/// A virtual test as plain data: per step (frequency, level, frames) and the
+/// signals of the whole run.
+struct Run {
+    steps: Vec<(f64, f64, usize)>,
+    force: Vec<f64>,
+    disp: Vec<f64>,
+    vel: Vec<f64>,
+    acc: Vec<f64>,
+}
+
+fn virtual_run(fs: f64, steps: Vec<(f64, f64, usize)>, seed: u64) -> Run {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, 0.01).unwrap();
+    let (mut force, mut disp, mut vel, mut acc) = (vec![], vec![], vec![], vec![]);
+    for &(f, level, n) in &steps {
+        for i in 0..n {
+            let th = 2.0 * std::f64::consts::PI * f * i as f64 / fs;
+            force.push(level * th.sin() + noise.sample(&mut rng));
+            disp.push(1e-5 * level * (th - 0.3).sin());
+            vel.push(f64::NAN); // not recorded: must be ignored
+            acc.push(-1e-5 * level * (2.0 * std::f64::consts::PI * f).powi(2) * (th - 0.3).sin());
+        }
+    }
+    Run {
+        steps,
+        force,
+        disp,
+        vel,
+        acc,
+    }
+}
+
+/// Writes `run` the way the bench would: signals per step (split into two
+/// calls), a dwell message at the end of each step, then fit iterations.
+fn record_run(path: &Path, info: &RunInfo, run: &Run, fit_iterations: u64) {
+    let mut rec = McapRecorder::create(path, info).unwrap();
+    let mut start = 0usize;
+    for (k, &(f, level, n)) in run.steps.iter().enumerate() {
+        let split = n / 3;
+        for (a, b) in [(start, start + split), (start + split, start + n)] {
+            rec.write_signals(
+                k as u32,
+                a as u64,
+                &run.force[a..b],
+                &run.disp[a..b],
+                &run.vel[a..b],
+                &run.acc[a..b],
+            )
+            .unwrap();
+        }
+        rec.write_dwell(
+            (start + n) as u64,
+            &json!({"step": k, "frequency_hz": f, "level": level, "start": start, "settle": n / 4, "length": n, "h1_abs": 1e-5}),
+        )
+        .unwrap();
+        start += n;
+    }
+    for i in 0..fit_iterations {
+        rec.write_fit_iteration(
+            i,
+            &json!({"cost": 1.0 / (i + 1) as f64, "params": {"kt": 1e5}}),
+        )
+        .unwrap();
+    }
+    rec.finish().unwrap();
+}
+
+fn f32_of(x: &[f64]) -> Vec<f64> {
+    x.iter().map(|&v| v as f32 as f64).collect()
+}
+
+/// Messages of a file as (topic, log time, payload), read with the mcap
+/// crate's own stream reader (a second implementation of the reading).
+fn messages(bytes: &[u8]) -> Vec<(String, u64, Vec<u8>)> {
+    mcap::MessageStream::new_with_options(bytes, mcap::read::Options::ValidateChunkCrcs.into())
+        .unwrap()
+        .map(|m| {
+            let m = m.unwrap();
+            (m.channel.topic.clone(), m.log_time, m.data.into_owned())
+        })
+        .collect()
+}
+
+#[test]
+fn mcap_run_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 5000.0;
+    let info = run_info(fs);
+    let run = virtual_run(
+        fs,
+        vec![(40.0, 10.0, 5000), (41.0, 20.0, 9001), (42.5, 20.0, 4100)],
+        5,
+    );
+    let path = dir.path().join("run.mcap");
+    record_run(&path, &info, &run, 7);
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "temporary left behind"
+    );
+
+    let got = read_run(&path).unwrap();
+    assert!(!got.truncated);
+    assert_eq!(got.info, info);
+    // Expected counts, computed from the call pattern: blocks of <= 4096 per
+    // write_signals call; a preview every ceil(5000/1000) = 5th frame.
+    let mut blocks = 0;
+    for &(_, _, n) in &run.steps {
+        blocks += (n / 3).div_ceil(4096) + (n - n / 3).div_ceil(4096);
+    }
+    let total: usize = run.steps.iter().map(|s| s.2).sum();
+    let previews = (0..total).filter(|f| f % 5 == 0).count();
+    let counts: BTreeMap<String, u64> = [
+        ("/hystid/dwell", 3),
+        ("/hystid/fit", 7),
+        ("/hystid/preview", previews as u64),
+        ("/hystid/signals", blocks as u64),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect();
+    assert_eq!(got.message_counts, counts);
+    assert_eq!(got.signals.len(), 3);
+    let mut start = 0;
+    for (k, s) in got.signals.iter().enumerate() {
+        let n = run.steps[k].2;
+        assert_eq!(
+            (s.step, s.first_frame, s.frames()),
+            (k as u32, start as u64, n)
+        );
+        assert_eq!(s.force, f32_of(&run.force[start..start + n]));
+        assert_eq!(s.displacement, f32_of(&run.disp[start..start + n]));
+        assert_eq!(s.acceleration, f32_of(&run.acc[start..start + n]));
+        assert!(s.velocity.is_empty());
+        start += n;
+    }
+    assert_eq!(got.dwells[1]["length"], json!(9001));
+    assert_eq!(
+        got.fit_iterations[6],
+        json!({"cost": 1.0 / 7.0, "iteration": 6, "params": {"kt": 1e5}})
+    );
+
+    // Log times: integer ns from frame indices, in order across topics.
+    let bytes = std::fs::read(&path).unwrap();
+    let msgs = messages(&bytes);
+    assert!(
+        msgs.windows(2).all(|w| w[0].1 <= w[1].1),
+        "messages out of log-time order"
+    );
+    for (topic, t, data) in &msgs {
+        match topic.as_str() {
+            "/hystid/signals" => {
+                let first_frame = u64::from_le_bytes(data[12..20].try_into().unwrap());
+                assert_eq!(*t, first_frame * 200_000, "1e9/5000 = 200000 ns per frame");
+            }
+            "/hystid/preview" => {
+                assert_eq!(t % 1_000_000, 0, "previews every 5 frames = 1 ms");
+                let v: serde_json::Value = serde_json::from_slice(data).unwrap();
+                let f = (t / 200_000) as usize;
+                assert_eq!(
+                    v,
+                    json!({"force": run.force[f], "displacement": run.disp[f], "acceleration": run.acc[f]})
+                );
+            }
+            "/hystid/dwell" => {
+                let v: serde_json::Value = serde_json::from_slice(data).unwrap();
+                let end = v["start"].as_u64().unwrap() + v["length"].as_u64().unwrap();
+                assert_eq!(*t, end * 200_000);
+            }
+            _ => assert_eq!(*t, total as u64 * 200_000),
+        }
+    }
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    assert_eq!(
+        summary.stats.unwrap().message_count,
+        counts.values().sum::<u64>()
+    );
+
+    // As a recording: force + the recorded responses, steps from the dwells.
+    let rec = got.to_recording().unwrap();
+    assert_eq!(rec.frames(), total);
+    assert_eq!(
+        rec.meta
+            .channels
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>(),
+        ["drive", "x", "a"]
+    );
+    assert_eq!(rec.channels[0], f32_of(&run.force));
+    assert_eq!(rec.channels[2], f32_of(&run.acc));
+    assert_eq!(
+        rec.meta.excitation.steps[2],
+        Step {
+            frequency_hz: 42.5,
+            level: 20.0,
+            start: 14001,
+            settle: 1025,
+            length: 4100
+        }
+    );
+    assert_eq!(rec.meta.metadata["seed"], json!(42));
+    let wav = dir.path().join("from_run");
+    write_recording(&wav, &rec, SampleFormat::Float32).unwrap();
+    assert_eq!(read_recording(&wav).unwrap(), rec);
+}
+
+/// Same inputs give the same bytes; a sample rate that does not divide 1e9
+/// (or is not even whole) still gives log times within 1 ns of the exact
+/// `frame * 1e9 / fs`.
+#[test]
+fn mcap_is_reproducible_and_clock_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    for (fs, num, den) in [
+        (51200.0, 1_000_000_000u128, 51200u128),
+        (7897.6, 10_000_000_000, 78976),
+    ] {
+        let info = run_info(fs);
+        let run = virtual_run(fs, vec![(100.0, 5.0, 30_000), (101.0, 5.0, 20_000)], 9);
+        let a = dir.path().join("a.mcap");
+        let b = dir.path().join("b.mcap");
+        record_run(&a, &info, &run, 3);
+        record_run(&b, &info, &run, 3);
+        let bytes = std::fs::read(&a).unwrap();
+        assert!(
+            bytes == std::fs::read(&b).unwrap(),
+            "fs {fs}: not byte-identical"
+        );
+        for (topic, t, data) in messages(&bytes) {
+            if topic == "/hystid/signals" {
+                let frame = u64::from_le_bytes(data[12..20].try_into().unwrap()) as u128;
+                let exact = frame * num / den; // floor of the exact time
+                assert!(
+                    (t as i128 - exact as i128).abs() <= 1,
+                    "fs {fs} frame {frame}: {t} vs {exact}"
+                );
+            }
+        }
+        let got = read_run(&a).unwrap();
+        assert_eq!(got.info.sample_rate_hz, fs);
+    }
+}
+
+/// A file cut anywhere yields a prefix of what was written: whole chunks
+/// only, every CRC checked, `truncated` set.
+#[test]
+fn mcap_truncated_file_recovers_a_prefix() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 50_000.0;
+    let info = run_info(fs);
+    // Schemas and channels, then about 2.4 chunks of 4 MiB.
+    let run = virtual_run(
+        fs,
+        vec![
+            (100.0, 5.0, 260_000),
+            (110.0, 5.0, 260_000),
+            (120.0, 5.0, 260_000),
+        ],
+        3,
+    );
+    let path = dir.path().join("full.mcap");
+    record_run(&path, &info, &run, 2);
+    let bytes = std::fs::read(&path).unwrap();
+    let full = read_run(&path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    assert!(
+        summary.chunk_indexes.len() >= 4,
+        "{} chunks",
+        summary.chunk_indexes.len()
+    );
+    let chunk_ends: Vec<u64> = summary
+        .chunk_indexes
+        .iter()
+        .map(|c| c.chunk_start_offset + c.chunk_length)
+        .collect();
+
+    let mut previous = 0;
+    let cuts = [
+        chunk_ends[1] as usize,
+        chunk_ends[1] as usize + 1,
+        bytes.len() * 2 / 5,
+        chunk_ends[2] as usize - 3,
+        bytes.len() * 4 / 5,
+        bytes.len() - 30,
+        bytes.len() - 1,
+    ];
+    for cut in cuts {
+        let p = dir.path().join("cut.mcap");
+        std::fs::write(&p, &bytes[..cut]).unwrap();
+        let got = read_run(&p).unwrap();
+        assert!(got.truncated, "cut {cut}");
+        assert_eq!(got.info, info);
+        // Recovered samples are the first ones written, in order.
+        let force: Vec<f64> = got
+            .signals
+            .iter()
+            .flat_map(|s| s.force.iter().copied())
+            .collect();
+        assert_eq!(
+            force[..],
+            f32_of(&run.force[..force.len()])[..],
+            "cut {cut}"
+        );
+        assert_eq!(got.dwells[..], full.dwells[..got.dwells.len()]);
+        // Whole chunks only: the frames recovered are exactly those of the
+        // complete chunks before the cut, each a whole number of blocks.
+        let complete = chunk_ends.iter().filter(|&&e| e as usize <= cut).count();
+        let expect_blocks: u64 = if complete == chunk_ends.len() {
+            full.message_counts["/hystid/signals"]
+        } else {
+            let upto = chunk_ends[complete - 1] as usize;
+            std::fs::write(&p, &bytes[..upto]).unwrap();
+            read_run(&p)
+                .unwrap()
+                .message_counts
+                .get("/hystid/signals")
+                .copied()
+                .unwrap_or(0)
+        };
+        assert_eq!(
+            got.message_counts
+                .get("/hystid/signals")
+                .copied()
+                .unwrap_or(0),
+            expect_blocks,
+            "cut {cut}"
+        );
+        assert!(
+            force.len() >= previous,
+            "cut {cut}: fewer frames than a shorter cut"
+        );
+        previous = force.len();
+    }
+    // Cut in the summary: every message is there.
+    assert_eq!(previous, run.force.len());
+    // Cut before the run record: a clear error.
+    let p = dir.path().join("stub.mcap");
+    std::fs::write(&p, &bytes[..60]).unwrap();
+    let e = error_of(read_run(&p));
+    assert!(
+        e.contains("stub.mcap") && e.contains("`metadata record run`: missing"),
+        "{e}"
+    );
+    std::fs::write(&p, &bytes[..40]).unwrap();
+    let e = error_of(read_run(&p));
+    assert!(e.contains("stub.mcap") && e.contains("header"), "{e}");
+}
+
+/// A damaged chunk (its stored CRC, or its data) is an error naming the file.
+#[test]
+fn mcap_corrupted_chunk_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 20_000.0;
+    let info = run_info(fs);
+    let run = virtual_run(fs, vec![(100.0, 5.0, 60_000)], 4);
+    let path = dir.path().join("good.mcap");
+    record_run(&path, &info, &run, 0);
+    let bytes = std::fs::read(&path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    let chunk = summary.chunk_indexes.last().unwrap();
+    // Chunk record: opcode (1), length (8), start and end time (16),
+    // uncompressed size (8), then the uncompressed CRC.
+    let mut bad = bytes.clone();
+    bad[chunk.chunk_start_offset as usize + 33] ^= 0x40;
+    let p = dir.path().join("badcrc.mcap");
+    std::fs::write(&p, &bad).unwrap();
+    let e = error_of(read_run(&p));
+    assert!(e.contains("badcrc.mcap") && e.contains("CRC"), "{e}");
+
+    let mut bad = bytes.clone();
+    bad[(chunk.chunk_start_offset + chunk.chunk_length / 2) as usize] ^= 0x01;
+    let p = dir.path().join("baddata.mcap");
+    std::fs::write(&p, &bad).unwrap();
+    let e = error_of(read_run(&p));
+    assert!(e.contains("baddata.mcap"), "{e}");
+}
+
+#[test]
+fn mcap_recorder_rejects_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("r.mcap");
+    let mut info = run_info(1000.0);
+    info.channels.push(channel("v", Quantity::Voltage, 1.0));
+    assert!(error_of(McapRecorder::create(&path, &info)).contains("channels[3]"));
+    info.channels.truncate(1);
+    info.channels.push(channel("x2", Quantity::Force, 1.0));
+    assert!(error_of(McapRecorder::create(&path, &info)).contains("second force"));
+    info = run_info(1000.0);
+    info.metadata.insert("seed".into(), "1".into());
+    assert!(error_of(McapRecorder::create(&path, &info)).contains("`seed`"));
+
+    let info = run_info(1000.0);
+    let mut rec = McapRecorder::create(&path, &info).unwrap();
+    let ok = vec![0.5; 100];
+    let mut bad = ok.clone();
+    bad[42] = f64::NAN;
+    let e = error_of(rec.write_signals(0, 1000, &ok, &ok, &[], &bad));
+    assert!(e.contains("a[frame 1042]"), "{e}");
+    let e = error_of(rec.write_signals(0, 1000, &ok, &ok[..99], &[], &ok));
+    assert!(e.contains("`x`"), "{e}");
+    rec.write_signals(0, 1000, &ok, &ok, &[], &ok).unwrap();
+    assert!(error_of(rec.write_signals(0, 1050, &ok, &ok, &[], &ok)).contains("overlap"));
+    assert!(error_of(rec.write_dwell(900, &json!({"frequency_hz": 1.0}))).contains("time order"));
+    assert!(error_of(rec.write_dwell(1100, &json!([1, 2]))).contains("JSON object"));
+    // Dropped without finish: nothing is left.
+    drop(rec);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+/// The official Python reader (mcap 1.6.0 + mcap-ros2-support 0.6.0) opens
+/// the file with CRC validation, counts the messages and decodes the first
+/// CDR block to the numbers written.
+#[test]
+fn mcap_python_interop() {
+    let ok = std::process::Command::new("python3")
+        .args(["-c", "import mcap.reader, mcap_ros2.decoder"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        eprintln!("SKIPPED: python mcap reader not installed");
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set: the Python mcap reader must be installed"
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 10_000.0;
+    let info = run_info(fs);
+    let run = virtual_run(fs, vec![(80.0, 3.0, 9000), (90.0, 6.0, 7000)], 21);
+    let path = dir.path().join("interop.mcap");
+    record_run(&path, &info, &run, 4);
+    let got = read_run(&path).unwrap();
+    let n = 4096.min(3000); // first call of the first step writes 9000/3 frames
+    let expect = json!({
+        "counts": got.message_counts,
+        "first_block": {
+            "step": 0, "first_frame": 0, "t0": 0.0, "fs": fs,
+            "force": f32_of(&run.force[..n]),
+            "displacement": f32_of(&run.disp[..n]),
+            "velocity": [],
+            "acceleration": f32_of(&run.acc[..n]),
+        },
+        "metadata": {"run": {
+            "format": "hystid.run.v1", "tool_version": info.tool_version, "seed": "42",
+            "sample_rate_hz": "10000", "model": "jenkins",
+            "channels": "[{\"name\":\"drive\",\"quantity\":\"force\",\"unit\":\"N\"},{\"name\":\"x\",\"quantity\":\"displacement\",\"unit\":\"m\"},{\"name\":\"a\",\"quantity\":\"acceleration\",\"unit\":\"m/s^2\"}]",
+        }},
+        "attachment": info.test_definition,
+    });
+    let expect_path = dir.path().join("expect.json");
+    std::fs::write(&expect_path, serde_json::to_string(&expect).unwrap()).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop/check_mcap.py");
+    let out = std::process::Command::new("python3")
+        .arg(&script)
+        .arg(&path)
+        .arg(&expect_path)
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "check_mcap.py failed:\n{text}");
+    assert!(text.contains("OK"), "{text}");
+
+    // The checker must fail on a wrong expectation (so a pass means something).
+    let mut wrong = expect.clone();
+    wrong["first_block"]["force"][17] = json!(run.force[17] + 1e-3);
+    std::fs::write(&expect_path, serde_json::to_string(&wrong).unwrap()).unwrap();
+    let out = std::process::Command::new("python3")
+        .arg(&script)
+        .arg(&path)
+        .arg(&expect_path)
+        .output()
+        .unwrap();
+    assert!(
+        !out.status.success(),
+        "check_mcap.py accepted a wrong sample"
+    );
+}

@@ -787,10 +787,10 @@ impl Scan {
         };
         let run = self
             .run
-            .ok_or_else(|| Error::format(path, "metadata `run`", format!("missing{cut}")))?;
-        let test_definition = self.test_definition.ok_or_else(|| {
-            Error::format(path, "attachment `test.toml`", format!("missing{cut}"))
-        })?;
+            .ok_or_else(|| Error::format(path, "metadata record run", format!("missing{cut}")))?;
+        let test_definition = self
+            .test_definition
+            .ok_or_else(|| Error::format(path, "attachment test.toml", format!("missing{cut}")))?;
         if let Some(stats) = &self.statistics {
             if *stats != self.counts_by_channel {
                 return Err(Error::format(
