@@ -54,9 +54,10 @@ pub(crate) fn encode_signal_block(
     for a in arrays {
         align(buf, 4);
         buf.extend_from_slice(&(a.len() as u32).to_le_bytes());
-        buf.reserve(4 * a.len());
-        for &x in a {
-            buf.extend_from_slice(&(x as f32).to_le_bytes());
+        let start = buf.len();
+        buf.resize(start + 4 * a.len(), 0);
+        for (dst, &x) in buf[start..].chunks_exact_mut(4).zip(a) {
+            dst.copy_from_slice(&(x as f32).to_le_bytes());
         }
     }
 }

@@ -5,6 +5,17 @@
 //! channel quantities, units and calibration, and the excitation (stepped-sine
 //! dwells or a sweep). Virtual tests write one; `import` converts real data
 //! into one; `extract` reduces one into nonlinear FRFs.
+//!
+//! * [`read_recording`] / [`write_recording`]: the WAV + JSON pair (float 32
+//!   or integer PCM 16/24/32), validated field by field; [`RecordingReader`]
+//!   streams a file of any size block by block.
+//! * [`McapRecorder`] / [`read_run`]: a run's full record in one MCAP file
+//!   (signal blocks in ROS 2 CDR, a decimated preview, dwell and fit messages,
+//!   the test definition), viewable in Foxglove and readable by the official
+//!   MCAP libraries; [`McapRun::to_recording`] turns it back into a
+//!   [`Recording`].
+//!
+//! This module only serialises: it knows nothing of benches or analysis.
 
 use crate::harmonics::Quantity;
 use serde::{Deserialize, Serialize};

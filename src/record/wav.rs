@@ -93,7 +93,6 @@ const BLOCK_FRAMES: usize = 16384;
 ///
 /// Memory is one block of raw bytes plus what the caller asks for, so a
 /// recording of any size can be reduced in a single pass.
-#[derive(Debug)]
 pub struct RecordingReader {
     wav_path: PathBuf,
     meta: RecordingMeta,
@@ -106,6 +105,17 @@ pub struct RecordingReader {
     raw: Vec<u8>,
 }
 
+impl std::fmt::Debug for RecordingReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecordingReader")
+            .field("wav_path", &self.wav_path)
+            .field("encoding", &self.encoding)
+            .field("frames", &self.frames)
+            .field("position", &self.position)
+            .finish_non_exhaustive()
+    }
+}
+
 impl RecordingReader {
     /// Opens `NAME.wav` + `NAME.json` (`path` is either file or the stem),
     /// reads the header and the sidecar and checks them against each other
@@ -115,7 +125,8 @@ impl RecordingReader {
         let text = std::fs::read(&json_path).map_err(|e| Error::io(&json_path, e))?;
         let text = String::from_utf8(text)
             .map_err(|e| Error::format(&json_path, "JSON", format!("not UTF-8 text: {e}")))?;
-        let meta = sidecar::parse(&json_path, &text)?;
+        // Some Windows tools start UTF-8 text with a byte-order mark.
+        let meta = sidecar::parse(&json_path, text.trim_start_matches('\u{feff}'))?;
 
         let file = File::open(&wav_path).map_err(|e| Error::io(&wav_path, e))?;
         let file_len = file.metadata().map_err(|e| Error::io(&wav_path, e))?.len();
@@ -433,7 +444,6 @@ pub fn write_recording(path: &Path, rec: &Recording, format: SampleFormat) -> Re
     }
 
     let mut out_meta = meta.clone();
-    let mut gains = Vec::with_capacity(meta.channels.len());
     for (c, x) in rec.channels.iter().enumerate() {
         let scale = stored_scale(x, meta.channels[c].scale, format);
         if !scale.is_finite() {
@@ -443,20 +453,17 @@ pub fn write_recording(path: &Path, rec: &Recording, format: SampleFormat) -> Re
             ));
         }
         out_meta.channels[c].scale = scale;
-        gains.push(match format {
-            SampleFormat::Float32 => 1.0 / scale,
-            _ => 0.0, // unused: PCM divides by the scale, see below
-        });
-        if format == SampleFormat::Float32 {
-            if let Some(i) = x.iter().position(|v| !((v / scale) as f32).is_finite()) {
-                return Err(Error::input(
-                    format!("{}[frame {i}]", meta.channels[c].name),
-                    format!(
-                        "{} / scale {scale} exceeds the float32 range; give the channel a larger scale",
-                        x[i]
-                    ),
-                ));
-            }
+        let overflow = |v: &f64| !((v / scale) as f32).is_finite();
+        if format == SampleFormat::Float32
+            && let Some(i) = x.iter().position(overflow)
+        {
+            return Err(Error::input(
+                format!("{}[frame {i}]", meta.channels[c].name),
+                format!(
+                    "{} / scale {scale} exceeds the float32 range; give the channel a larger scale",
+                    x[i]
+                ),
+            ));
         }
     }
 
@@ -490,7 +497,9 @@ pub fn write_recording(path: &Path, rec: &Recording, format: SampleFormat) -> Re
             for (c, x) in rec.channels.iter().enumerate() {
                 let v = x[f];
                 let r = match format {
-                    SampleFormat::Float32 => wav.write_sample((v * gains[c]) as f32),
+                    SampleFormat::Float32 => {
+                        wav.write_sample((v / out_meta.channels[c].scale) as f32)
+                    }
                     _ => wav.write_sample(quantise(v, out_meta.channels[c].scale, full)),
                 };
                 r.map_err(hound_err)?;
