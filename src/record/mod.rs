@@ -165,3 +165,19 @@ impl Recording {
         (0..self.meta.channels.len()).find(|&i| Some(i) != r)
     }
 }
+
+/// Index of the first sample whose magnitude is not `<= limit` (NaN, ±Inf or
+/// beyond the limit). Checks blocks without branching so the common all-good
+/// case vectorises; only a bad block is searched sample by sample.
+pub(crate) fn first_out_of_range(x: &[f64], limit: f64) -> Option<usize> {
+    const BLOCK: usize = 256;
+    for (k, block) in x.chunks(BLOCK).enumerate() {
+        if !block.iter().fold(true, |ok, v| ok & (v.abs() <= limit)) {
+            return block
+                .iter()
+                .position(|v| !(v.abs() <= limit))
+                .map(|i| k * BLOCK + i);
+        }
+    }
+    None
+}

@@ -416,7 +416,7 @@ pub fn write_recording(path: &Path, rec: &Recording, format: SampleFormat) -> Re
                 format!("{} samples where the first channel has {frames}", x.len()),
             ));
         }
-        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+        if let Some(i) = super::first_out_of_range(x, f64::MAX) {
             return Err(Error::input(
                 format!("{name}[frame {i}]"),
                 format!("sample is {}; samples must be finite", x[i]),
