@@ -5,9 +5,31 @@
 //! channel quantities, units and calibration, and the excitation (stepped-sine
 //! dwells or a sweep). Virtual tests write one; `import` converts real data
 //! into one; `extract` reduces one into nonlinear FRFs.
+//!
+//! * [`read_recording`] / [`write_recording`]: the WAV + JSON pair (float 32
+//!   or integer PCM 16/24/32), validated field by field; [`RecordingReader`]
+//!   streams a file of any size block by block.
+//! * [`McapRecorder`] / [`read_run`]: a run's full record in one MCAP file
+//!   (signal blocks in ROS 2 CDR, a decimated preview, dwell and fit messages,
+//!   the test definition), viewable in Foxglove and readable by the official
+//!   MCAP libraries; [`McapRun::to_recording`] turns it back into a
+//!   [`Recording`].
+//!
+//! This module only serialises: it knows nothing of benches or analysis.
 
 use crate::harmonics::Quantity;
 use serde::{Deserialize, Serialize};
+
+mod cdr;
+mod run;
+mod sidecar;
+mod wav;
+
+pub use run::{
+    McapRecorder, McapRun, RUN_FORMAT, RUN_METADATA, RunInfo, SIGNAL_BLOCK_FRAMES, StepSignals,
+    TEST_ATTACHMENT, TOPIC_DWELL, TOPIC_FIT, TOPIC_PREVIEW, TOPIC_SIGNALS, read_run,
+};
+pub use wav::{RecordingReader, SampleFormat, read_recording, write_recording};
 
 /// The format tag of recording format v1.
 pub const FORMAT_V1: &str = "hystid.recording.v1";
@@ -142,4 +164,20 @@ impl Recording {
         let r = self.reference_channel();
         (0..self.meta.channels.len()).find(|&i| Some(i) != r)
     }
+}
+
+/// Index of the first sample whose magnitude is not `<= limit` (NaN, ±Inf or
+/// beyond the limit). Checks blocks without branching so the common all-good
+/// case vectorises; only a bad block is searched sample by sample.
+pub(crate) fn first_out_of_range(x: &[f64], limit: f64) -> Option<usize> {
+    const BLOCK: usize = 256;
+    for (k, block) in x.chunks(BLOCK).enumerate() {
+        if !block.iter().fold(true, |ok, v| ok & (v.abs() <= limit)) {
+            return block
+                .iter()
+                .position(|v| !(v.abs() <= limit))
+                .map(|i| k * BLOCK + i);
+        }
+    }
+    None
 }
