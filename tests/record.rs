@@ -1042,3 +1042,40 @@ fn mcap_python_interop() {
         "check_mcap.py accepted a wrong sample"
     );
 }
+
+#[test]
+fn streaming_writer_equals_the_whole_write_and_leaves_nothing_when_dropped() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = sample_recording(10_000, 7);
+    let f32s: Vec<Vec<f32>> = rec
+        .channels
+        .iter()
+        .map(|c| c.iter().map(|&v| v as f32).collect())
+        .collect();
+    let mut meta = rec.meta.clone();
+    for c in &mut meta.channels {
+        c.scale = 1.0;
+    }
+    let mut w =
+        hystid::record::RecordingWriter::create(&dir.path().join("s"), meta.clone()).unwrap();
+    for chunk in [0..1234usize, 1234..1234, 1234..9000, 9000..10_000] {
+        let slices: Vec<&[f32]> = f32s.iter().map(|c| &c[chunk.clone()]).collect();
+        w.write_frames(&slices).unwrap();
+    }
+    assert_eq!(w.frames(), 10_000);
+    w.finish().unwrap();
+    let back = read_recording(&dir.path().join("s.wav")).unwrap();
+    for (a, b) in back.channels.iter().zip(&f32s) {
+        assert!(a.iter().zip(b).all(|(x, y)| *x == *y as f64));
+    }
+    // dropped unfinished: no file, no temporary
+    let mut w = hystid::record::RecordingWriter::create(&dir.path().join("t"), meta).unwrap();
+    let slices: Vec<&[f32]> = f32s.iter().map(|c| &c[..10]).collect();
+    w.write_frames(&slices).unwrap();
+    drop(w);
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert!(names.iter().all(|n| n.starts_with("s.")), "{names:?}");
+}

@@ -29,7 +29,7 @@ pub use run::{
     McapRecorder, McapRun, RUN_FORMAT, RUN_METADATA, RunInfo, SIGNAL_BLOCK_FRAMES, StepSignals,
     TEST_ATTACHMENT, TOPIC_DWELL, TOPIC_FIT, TOPIC_PREVIEW, TOPIC_SIGNALS, read_run,
 };
-pub use wav::{RecordingReader, SampleFormat, read_recording, write_recording};
+pub use wav::{RecordingReader, RecordingWriter, SampleFormat, read_recording, write_recording};
 
 /// The format tag of recording format v1.
 pub const FORMAT_V1: &str = "hystid.recording.v1";

@@ -560,3 +560,156 @@ fn stored_scale(x: &[f64], given: f64, format: SampleFormat) -> f64 {
     }
     peak * full / (full - 1.0)
 }
+
+/// A recording written as it is produced (IEEE float 32), for runs too long
+/// to hold in memory: frames go straight to a temporary WAV, the sidecar is
+/// written at [`RecordingWriter::finish`], and only then are both renamed
+/// into place. Dropped without `finish`, it leaves nothing behind.
+pub struct RecordingWriter {
+    wav_path: PathBuf,
+    json_path: PathBuf,
+    wav_pending: PendingFile,
+    writer: Option<hound::WavWriter<BufWriter<File>>>,
+    meta: RecordingMeta,
+    frames: u64,
+}
+
+impl std::fmt::Debug for RecordingWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecordingWriter")
+            .field("wav", &self.wav_path)
+            .field("frames", &self.frames)
+            .finish()
+    }
+}
+
+impl RecordingWriter {
+    /// Starts `NAME.wav` (`path` is the WAV, the JSON or the stem); `meta`
+    /// describes the channels and sample rate (its excitation may be
+    /// completed before `finish`).
+    pub fn create(path: &Path, meta: RecordingMeta) -> Result<RecordingWriter> {
+        let (wav_path, json_path) = recording_paths(path);
+        sidecar::check(&json_path, &meta, None)?;
+        let fs = meta.sample_rate_hz;
+        if fs.fract() != 0.0 || fs > u32::MAX as f64 {
+            return Err(Error::format(
+                &json_path,
+                "sample_rate_hz",
+                format!("a WAV file needs a whole number of Hz, got {fs}"),
+            ));
+        }
+        let spec = hound::WavSpec {
+            channels: u16::try_from(meta.channels.len()).map_err(|_| {
+                Error::input(
+                    "recording channels",
+                    "a WAV file holds at most 65535 channels",
+                )
+            })?,
+            sample_rate: fs as u32,
+            bits_per_sample: 32,
+            sample_format: hound::SampleFormat::Float,
+        };
+        let (wav_pending, file) = PendingFile::create(&wav_path)?;
+        let tmp = wav_pending.temporary().to_path_buf();
+        let writer = hound::WavWriter::new(BufWriter::with_capacity(1 << 16, file), spec)
+            .map_err(|e| Error::format(&tmp, "WAV", e.to_string()))?;
+        Ok(RecordingWriter {
+            wav_path,
+            json_path,
+            wav_pending,
+            writer: Some(writer),
+            meta,
+            frames: 0,
+        })
+    }
+
+    /// Appends frames: one slice per channel, physical units (divided by the
+    /// channel's scale on the way out), all the same length.
+    pub fn write_frames(&mut self, channels: &[&[f32]]) -> Result<()> {
+        if channels.len() != self.meta.channels.len() {
+            return Err(Error::input(
+                "recording channels",
+                format!(
+                    "{} slices for {} channels",
+                    channels.len(),
+                    self.meta.channels.len()
+                ),
+            ));
+        }
+        let n = channels.first().map_or(0, |c| c.len());
+        for (c, x) in channels.iter().enumerate() {
+            if x.len() != n {
+                return Err(Error::input(
+                    format!("channel `{}`", self.meta.channels[c].name),
+                    "slices differ in length",
+                ));
+            }
+            if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+                return Err(Error::input(
+                    format!(
+                        "{}[frame {}]",
+                        self.meta.channels[c].name,
+                        self.frames + i as u64
+                    ),
+                    format!("sample is {}; samples must be finite", x[i]),
+                ));
+            }
+        }
+        let tmp = self.wav_pending.temporary().to_path_buf();
+        let w = self.writer.as_mut().expect("writer open until finish");
+        let scales: Vec<f32> = self.meta.channels.iter().map(|c| c.scale as f32).collect();
+        for f in 0..n {
+            for (c, x) in channels.iter().enumerate() {
+                let v = if scales[c] == 1.0 {
+                    x[f]
+                } else {
+                    x[f] / scales[c]
+                };
+                w.write_sample(v)
+                    .map_err(|e| Error::format(&tmp, "WAV", e.to_string()))?;
+            }
+        }
+        self.frames += n as u64;
+        Ok(())
+    }
+
+    /// Frames written so far.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// The sidecar, to complete (e.g. the dwells) before `finish`.
+    pub fn meta_mut(&mut self) -> &mut RecordingMeta {
+        &mut self.meta
+    }
+
+    /// Finalises the WAV, writes the sidecar, and renames both into place.
+    pub fn finish(mut self) -> Result<()> {
+        let tmp = self.wav_pending.temporary().to_path_buf();
+        self.writer
+            .take()
+            .expect("writer open until finish")
+            .finalize()
+            .map_err(|e| Error::format(&tmp, "WAV", e.to_string()))?;
+        File::open(&tmp)
+            .and_then(|f| f.sync_all())
+            .map_err(|e| Error::io(&tmp, e))?;
+        sidecar::check(&self.json_path, &self.meta, Some(self.frames))?;
+        let mut text = serde_json::to_vec_pretty(&self.meta)
+            .map_err(|e| Error::format(&self.json_path, "(root)", e.to_string()))?;
+        text.push(b'\n');
+        let (json_pending, mut json_file) = PendingFile::create(&self.json_path)?;
+        json_file
+            .write_all(&text)
+            .and_then(|_| json_file.sync_all())
+            .map_err(|e| Error::io(json_pending.temporary(), e))?;
+        let wav_path = self.wav_path.clone();
+        let RecordingWriter { wav_pending, .. } = self;
+        wav_pending.commit()?;
+        if let Err(e) = json_pending.commit() {
+            let _ = std::fs::remove_file(&wav_path);
+            return Err(e);
+        }
+        Ok(())
+    }
+}
