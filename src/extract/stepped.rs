@@ -151,8 +151,10 @@ fn check_rate(sample_rate_hz: f64) -> Result<()> {
 
 /// The settling test of one dwell at frequency `frequency_hz`.
 ///
-/// The dwell is cut into blocks of `settle_block_periods` whole periods; per
-/// block, harmonics `0..=settle_max_harmonic` are fitted by least squares and
+/// The dwell is cut into blocks of `settle_block_periods` whole periods (and
+/// again into blocks of 2, 4, … times that, as long as 4 blocks fit: short
+/// blocks resolve a fast transient, long ones see a slow one through the
+/// noise; the latest settle found counts); per block, harmonics `0..=settle_max_harmonic` are fitted by least squares and
 /// normalised for the time shift of the block (harmonic `k` rotated by
 /// `−k·arg F_1`, so a small frequency error does not look like a transient).
 /// With a `response`, the compared quantity is the response's harmonics over
@@ -179,37 +181,89 @@ pub fn settling(
             "must have as many samples as the reference",
         ));
     }
-    let q = options.settle_block_periods.max(1);
     let periods = whole_periods(reference.len(), sample_rate_hz, frequency_hz);
-    let nblocks = periods / q;
     let settled_if = |remaining_periods: usize| remaining_periods >= options.min_dwell_periods;
-    if nblocks < 2 {
-        return Ok(Settling {
-            settle: 0,
-            settled: settled_if(periods),
-        });
-    }
     let k = (1..=options.settle_max_harmonic.max(1))
         .take_while(|&h| 2.0 * h as f64 * frequency_hz < sample_rate_hz)
         .last()
         .unwrap_or(1);
-    let width = k + 1;
-    let bounds = block_bounds(nblocks * q, sample_rate_hz, frequency_hz, nblocks);
     let channels: Vec<&[f64]> = match response {
         Some(r) => vec![reference, r],
         None => vec![reference],
     };
     let mut lsq = HarmonicLsq::new(k, channels.len());
+    // blocks of q, 2q, 4q, … periods (at least 4 blocks): short blocks
+    // resolve a fast transient, long ones see a small slow one through the
+    // noise
+    let mut detected = 0;
+    let q0 = options.settle_block_periods.max(1);
+    let mut q = q0;
+    // the finest level's noise, scaled as 1/√length, is a floor for the
+    // coarser levels' own estimates, which rest on few blocks
+    let mut noise_floor: Option<Vec<f64>> = None;
+    loop {
+        let nblocks = periods / q;
+        if nblocks < 2 || (nblocks < 6 && q > q0) {
+            break;
+        }
+        let floor = noise_floor.as_ref().map(|n| {
+            n.iter()
+                .map(|v| v * (q0 as f64 / q as f64).sqrt())
+                .collect::<Vec<_>>()
+        });
+        let (d, noise) = settle_blocks(
+            &mut lsq,
+            &channels,
+            sample_rate_hz,
+            frequency_hz,
+            q,
+            nblocks,
+            floor.as_deref(),
+            options,
+        )?;
+        detected = detected.max(d);
+        noise_floor.get_or_insert(noise);
+        q *= 2;
+    }
+    // double it: a transient that decayed from its initial size T to the
+    // detection limit L over the detected settle is then another factor L/T
+    // smaller, where the limit alone would leave a bias of the order of the
+    // standard error under noise
+    let settle_periods = (2 * detected).min(periods.saturating_sub(1));
+    Ok(Settling {
+        settle: ((settle_periods as f64) * sample_rate_hz / frequency_hz + 1e-9).floor() as usize,
+        settled: settled_if(periods - settle_periods),
+    })
+}
+
+/// One resolution of the settling test: periods from the dwell's start to
+/// the first of `nblocks` blocks of `q` periods from which every block agrees
+/// with the second half's mean (see [`settling`]), and the block-to-block
+/// RMS noise per harmonic (at least `noise_floor`).
+#[allow(clippy::too_many_arguments)]
+fn settle_blocks(
+    lsq: &mut HarmonicLsq,
+    channels: &[&[f64]],
+    sample_rate_hz: f64,
+    frequency_hz: f64,
+    q: usize,
+    nblocks: usize,
+    noise_floor: Option<&[f64]>,
+    options: &DwellOptions,
+) -> Result<(usize, Vec<f64>)> {
+    let width = lsq.unknowns().div_ceil(2);
+    let with_response = channels.len() == 2;
+    let bounds = block_bounds(nblocks * q, sample_rate_hz, frequency_hz, nblocks);
     let cps = frequency_hz / sample_rate_hz;
     let mut v = vec![Complex64::default(); nblocks * width];
     let mut f = vec![Complex64::default(); width];
     let mut y = vec![Complex64::default(); width];
     for b in 0..nblocks {
         let range = bounds[b]..bounds[b + 1];
-        let ok = if response.is_some() {
-            fit_range(&mut lsq, &channels, range, cps, &mut [&mut f, &mut y])
+        let ok = if with_response {
+            fit_range(lsq, channels, range, cps, &mut [&mut f, &mut y])
         } else {
-            fit_range(&mut lsq, &channels, range, cps, &mut [&mut f])
+            fit_range(lsq, channels, range, cps, &mut [&mut f])
         };
         if !ok {
             return Err(Error::input(
@@ -223,7 +277,7 @@ pub fn settling(
         } else {
             Complex64::new(1.0, 0.0)
         };
-        let (src, scale) = if response.is_some() {
+        let (src, scale) = if with_response {
             (&y, 1.0 / f1.norm().max(f64::MIN_POSITIVE))
         } else {
             (&f, 1.0)
@@ -245,12 +299,14 @@ pub fn settling(
         }
     }
     let mut limit = vec![0.0; width];
+    let mut noise = vec![0.0; width];
     for kk in 0..width {
         let var = (tail..nblocks)
             .map(|b| (v[b * width + kk] - mean[kk]).norm_sqr())
             .sum::<f64>()
             / (count - 1.0);
-        limit[kk] = (options.settle_tolerance * mean[1].norm()).max(4.0 * var.sqrt());
+        noise[kk] = var.sqrt().max(noise_floor.map_or(0.0, |n| n[kk]));
+        limit[kk] = (options.settle_tolerance * mean[1].norm()).max(4.0 * noise[kk]);
     }
     let agrees = |b: usize| {
         (0..width).all(|kk| {
@@ -262,11 +318,7 @@ pub fn settling(
         .rev()
         .find(|&b| !agrees(b))
         .map_or(0, |b| b + 1);
-    let first_ok = first_ok.min(nblocks - 1);
-    Ok(Settling {
-        settle: bounds[first_ok],
-        settled: settled_if((nblocks - first_ok) * q),
-    })
+    Ok((first_ok.min(nblocks - 1) * q, noise))
 }
 
 /// One tracking window: fractional sample bounds, mean frequency and

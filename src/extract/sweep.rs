@@ -259,22 +259,28 @@ fn fit_exponential_at(
 }
 
 /// Golden-section search of λ for the exponential law, bracketed around the
-/// log-rate implied by the quadratic fit's end frequencies.
+/// log-rate implied by the mean frequencies of the first and last tenth of
+/// the range (measured phase advance over each).
 fn fit_exponential(
     phase: &[f64],
     range: std::ops::Range<usize>,
     keep: &[bool],
     stride: usize,
-    quadratic: &PhaseLaw,
 ) -> Option<(PhaseLaw, f64)> {
+    let tenth = (range.end - range.start) / 10;
+    if tenth < 2 {
+        return None;
+    }
+    let (a0, a1) = (range.start, range.start + tenth);
+    let (b0, b1) = (range.end - 1 - tenth, range.end - 1);
     let (f0, f1) = (
-        quadratic.rate(range.start as f64),
-        quadratic.rate((range.end - 1) as f64),
+        (phase[a1] - phase[a0]) / tenth as f64,
+        (phase[b1] - phase[b0]) / tenth as f64,
     );
     if !(f0 > 0.0 && f1 > 0.0) || (f1 / f0 - 1.0).abs() < 1e-6 {
         return None;
     }
-    let l0 = (f1 / f0).ln() / (range.end - range.start) as f64;
+    let l0 = (f1 / f0).ln() / (0.5 * (b0 + b1) as f64 - 0.5 * (a0 + a1) as f64);
     let (mut lo, mut hi) = if l0 > 0.0 {
         (0.2 * l0, 5.0 * l0)
     } else {
@@ -359,8 +365,8 @@ fn fit_sweep(
     let (law, fitted, phase_rms) = match options.law {
         Some(SweepLaw::Linear) => (SweepLaw::Linear, quad, qrms),
         Some(SweepLaw::Logarithmic) => {
-            let (l, r) = fit_exponential(&a.phase, fit_start..fit_end, &keep, stride, &quad)
-                .ok_or_else(|| {
+            let (l, r) =
+                fit_exponential(&a.phase, fit_start..fit_end, &keep, stride).ok_or_else(|| {
                     Error::input(
                         "reference",
                         "no logarithmic sweep: the frequency does not change",
@@ -368,7 +374,7 @@ fn fit_sweep(
                 })?;
             (SweepLaw::Logarithmic, l, r)
         }
-        None => match fit_exponential(&a.phase, fit_start..fit_end, &keep, stride, &quad) {
+        None => match fit_exponential(&a.phase, fit_start..fit_end, &keep, stride) {
             Some((l, r)) if r < qrms => (SweepLaw::Logarithmic, l, r),
             _ => (SweepLaw::Linear, quad, qrms),
         },
