@@ -3,6 +3,41 @@
 //! The same code reduces a virtual test and a real recording (paper section 3;
 //! method notes e). Conventions are those of [`crate::harmonics`]:
 //! `H_h = Y_h / F_1` with the measured force fundamental.
+//!
+//! * [`HarmonicAnalyser::coherent`]: the virtual bench's dwells, sampled with
+//!   whole periods per block, one FFT per block (no leakage).
+//! * [`noncoherent`]: a dwell of a real recording at a known frequency, by a
+//!   least-squares fit of the harmonics over blocks of whole periods;
+//!   [`estimate_frequency`] finds the frequency.
+//! * [`reduce_stepped`]: a stepped-sine [`Recording`](crate::record::Recording),
+//!   with its stated steps or with dwells found in the reference
+//!   ([`find_dwells`]); [`combine`] merges single-dwell recordings.
+//! * [`reduce_sweep`]: a swept sine, following the reference's phase.
+//! * [`naive`]: direct-sum references for tests and benchmarks.
+//!
+//! All dwell estimates use the H1 estimator over blocks,
+//! `H_k = Σ_b Y_bk F_b1* / Σ_b |F_b1|²`, which is unbiased under response
+//! noise (method notes e), with the standard error of
+//! [`DwellHarmonics::std_error`].
+
+mod analytic;
+mod coherent;
+mod estimator;
+mod lsq;
+pub mod naive;
+mod noncoherent;
+mod stepped;
+mod sweep;
+
+pub use coherent::{HarmonicAnalyser, harmonics_agree};
+pub use noncoherent::{estimate_frequency, noncoherent};
+pub use stepped::{
+    DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, combine, combine_with,
+    find_dwells, reduce_stepped, reduce_stepped_report, settling,
+};
+pub use sweep::{
+    SweepFit, SweepLaw, SweepOptions, SweepReduction, reduce_sweep, reduce_sweep_recording,
+};
 
 use crate::harmonics::Quantity;
 use num_complex::Complex64;

@@ -1,0 +1,854 @@
+//! Stepped-sine reduction of a recording: dwells → FRF points → levels.
+//!
+//! With `excitation.steps` in the recording, each dwell after its `settle`
+//! samples is reduced by the non-coherent least-squares fit at the stated
+//! frequency (refined from the reference channel when the stated value is
+//! off). Without steps, the dwells are found from the reference channel
+//! ([`find_dwells`]): its instantaneous frequency and amplitude are followed
+//! over windows of whole periods of its own phase (FFT Hilbert transform),
+//! segments where both stay constant are dwells, and the transient at the
+//! start of each dwell is skipped by a settling test on consecutive blocks of
+//! whole periods (method notes e, "settling"). The points are grouped into
+//! levels by nominal level and split where the frequency order reverses,
+//! which sets each level's [`Direction`].
+
+use super::analytic::analytic;
+use super::estimator::check_finite;
+use super::lsq::HarmonicLsq;
+use super::noncoherent::{
+    block_bounds, estimate_frequency_named, fit_range, noncoherent_named, phase_slope_frequency,
+    whole_periods,
+};
+use super::{Direction, FrfLevel, FrfPoint, NonlinearFrf};
+use crate::error::{Error, Result};
+use crate::harmonics::Quantity;
+use crate::record::{Recording, Step};
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// How dwells are found and when a dwell counts as settled.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DwellOptions {
+    /// Tracking window, in periods of the reference's own phase.
+    pub window_periods: usize,
+    /// Windows whose frequency differs from the running dwell mean by more
+    /// than this (relative) start a new dwell. Must be below the smallest
+    /// relative frequency step.
+    pub frequency_tolerance: f64,
+    /// Same for the reference amplitude (relative).
+    pub amplitude_tolerance: f64,
+    /// Shortest usable dwell after settling, in periods.
+    pub min_dwell_periods: usize,
+    /// Block length of the settling test, in periods.
+    pub settle_block_periods: usize,
+    /// The settling test's tolerance, relative to the fundamental: a dwell is
+    /// settled from the first block from which every block's harmonics agree
+    /// with the dwell's settled state within it (or within the noise; see
+    /// [`settling`]). The default 1e-3 suits real structures, whose FRFs
+    /// drift slowly (the UNESP beam's |H1| moves 0.5 % over 40 s); a
+    /// noise-free virtual test can ask for 1e-6.
+    pub settle_tolerance: f64,
+    /// Highest harmonic compared by the settling test.
+    pub settle_max_harmonic: usize,
+    /// Dwell amplitudes within this relative distance of each other form one
+    /// level (found dwells; [`combine`] uses it to merge levels too).
+    pub level_tolerance: f64,
+}
+
+impl Default for DwellOptions {
+    fn default() -> Self {
+        DwellOptions {
+            window_periods: 4,
+            frequency_tolerance: 2e-4,
+            amplitude_tolerance: 0.02,
+            min_dwell_periods: 16,
+            settle_block_periods: 2,
+            settle_tolerance: 1e-3,
+            settle_max_harmonic: 3,
+            level_tolerance: 0.05,
+        }
+    }
+}
+
+/// Options of [`reduce_stepped`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ReduceOptions {
+    /// Highest harmonic `K`.
+    pub max_harmonic: usize,
+    /// Blocks per dwell for the H1 estimator and its standard error (fewer
+    /// when a dwell holds fewer whole periods, at least 2).
+    pub blocks: usize,
+    /// The stated frequency of a step is replaced by the one estimated from
+    /// the reference when they differ by more than this (relative).
+    pub frequency_tolerance: f64,
+    /// The reference channel; default [`Recording::reference_channel`].
+    pub reference_channel: Option<usize>,
+    /// Dwell finding and settling.
+    pub dwell: DwellOptions,
+}
+
+impl Default for ReduceOptions {
+    fn default() -> Self {
+        ReduceOptions {
+            max_harmonic: 5,
+            blocks: 8,
+            frequency_tolerance: 1e-6,
+            reference_channel: None,
+            dwell: DwellOptions::default(),
+        }
+    }
+}
+
+/// What was done with one dwell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DwellReport {
+    /// The dwell as analysed: `settle` covers every sample skipped.
+    pub step: Step,
+    /// The frequency stated by the recording's step (or by the dwell finder).
+    pub stated_frequency_hz: f64,
+    /// The frequency used: the stated one, or the estimate from the reference
+    /// when they differed by more than the tolerance.
+    pub frequency_hz: f64,
+    /// Whether the frequency was replaced by the estimate.
+    pub frequency_refined: bool,
+    /// Index into `levels`, then into that level's `points`.
+    pub level: usize,
+    /// Index of the point within its level.
+    pub point: usize,
+}
+
+/// The result of [`reduce_stepped_report`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SteppedReduction {
+    /// The FRFs.
+    pub frf: NonlinearFrf,
+    /// One report per dwell, in measurement order.
+    pub dwells: Vec<DwellReport>,
+    /// True when the dwells were found from the reference channel (the
+    /// recording had no steps).
+    pub dwells_found: bool,
+}
+
+/// Where a dwell has settled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Settling {
+    /// Samples to skip from the start of the dwell.
+    pub settle: usize,
+    /// False when fewer than `min_dwell_periods` settled periods remain.
+    pub settled: bool,
+}
+
+fn check_rate(sample_rate_hz: f64) -> Result<()> {
+    if sample_rate_hz.is_finite() && sample_rate_hz > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::input(
+            "sample_rate_hz",
+            format!("must be finite and > 0, got {sample_rate_hz}"),
+        ))
+    }
+}
+
+/// The settling test of one dwell at frequency `frequency_hz`.
+///
+/// The dwell is cut into blocks of `settle_block_periods` whole periods (and
+/// again into blocks of 2, 4, … times that, as long as 4 blocks fit: short
+/// blocks resolve a fast transient, long ones see a slow one through the
+/// noise; the latest settle found counts); per block, harmonics `0..=settle_max_harmonic` are fitted by least squares and
+/// normalised for the time shift of the block (harmonic `k` rotated by
+/// `−k·arg F_1`, so a small frequency error does not look like a transient).
+/// With a `response`, the compared quantity is the response's harmonics over
+/// the force fundamental's magnitude (the block FRFs); without, the
+/// reference's own harmonics. The dwell is settled from the first block from
+/// which every block agrees with the final block within `settle_tolerance`
+/// relative to the fundamental ([`harmonics_agree`]). Comparing with the
+/// final, most settled block rather than only with the next block bounds the
+/// remaining transient itself: for a lightly damped mode a transient decays
+/// little from one block to the next.
+pub fn settling(
+    reference: &[f64],
+    response: Option<&[f64]>,
+    sample_rate_hz: f64,
+    frequency_hz: f64,
+    options: &DwellOptions,
+) -> Result<Settling> {
+    check_rate(sample_rate_hz)?;
+    if let Some(r) = response
+        && r.len() != reference.len()
+    {
+        return Err(Error::input(
+            "response",
+            "must have as many samples as the reference",
+        ));
+    }
+    let periods = whole_periods(reference.len(), sample_rate_hz, frequency_hz);
+    let settled_if = |remaining_periods: usize| remaining_periods >= options.min_dwell_periods;
+    let k = (1..=options.settle_max_harmonic.max(1))
+        .take_while(|&h| 2.0 * h as f64 * frequency_hz < sample_rate_hz)
+        .last()
+        .unwrap_or(1);
+    let channels: Vec<&[f64]> = match response {
+        Some(r) => vec![reference, r],
+        None => vec![reference],
+    };
+    let mut lsq = HarmonicLsq::new(k, channels.len());
+    // blocks of q, 2q, 4q, … periods (at least 4 blocks): short blocks
+    // resolve a fast transient, long ones see a small slow one through the
+    // noise
+    let mut detected = 0;
+    let q0 = options.settle_block_periods.max(1);
+    let mut q = q0;
+    // the finest level's noise, scaled as 1/√length, is a floor for the
+    // coarser levels' own estimates, which rest on few blocks
+    let mut noise_floor: Option<Vec<f64>> = None;
+    loop {
+        let nblocks = periods / q;
+        if nblocks < 2 || (nblocks < 6 && q > q0) {
+            break;
+        }
+        let floor = noise_floor.as_ref().map(|n| {
+            n.iter()
+                .map(|v| v * (q0 as f64 / q as f64).sqrt())
+                .collect::<Vec<_>>()
+        });
+        let (d, noise) = settle_blocks(
+            &mut lsq,
+            &channels,
+            sample_rate_hz,
+            frequency_hz,
+            q,
+            nblocks,
+            floor.as_deref(),
+            options,
+        )?;
+        detected = detected.max(d);
+        noise_floor.get_or_insert(noise);
+        q *= 2;
+    }
+    // double it: a transient that decayed from its initial size T to the
+    // detection limit L over the detected settle is then another factor L/T
+    // smaller, where the limit alone would leave a bias of the order of the
+    // standard error under noise
+    // (but the doubling never takes more than half of the dwell: a slow
+    // drift, unlike a decaying transient, does not end)
+    let settle_periods = detected
+        .max((2 * detected).min(periods / 2))
+        .min(periods.saturating_sub(1));
+    Ok(Settling {
+        settle: ((settle_periods as f64) * sample_rate_hz / frequency_hz + 1e-9).floor() as usize,
+        settled: settled_if(periods - settle_periods),
+    })
+}
+
+/// One resolution of the settling test: periods from the dwell's start to
+/// the first of `nblocks` blocks of `q` periods from which every block agrees
+/// with the second half's mean (see [`settling`]), and the block-to-block
+/// RMS noise per harmonic (at least `noise_floor`).
+#[allow(clippy::too_many_arguments)]
+fn settle_blocks(
+    lsq: &mut HarmonicLsq,
+    channels: &[&[f64]],
+    sample_rate_hz: f64,
+    frequency_hz: f64,
+    q: usize,
+    nblocks: usize,
+    noise_floor: Option<&[f64]>,
+    options: &DwellOptions,
+) -> Result<(usize, Vec<f64>)> {
+    let width = lsq.unknowns().div_ceil(2);
+    let with_response = channels.len() == 2;
+    let bounds = block_bounds(nblocks * q, sample_rate_hz, frequency_hz, nblocks);
+    let cps = frequency_hz / sample_rate_hz;
+    let mut v = vec![Complex64::default(); nblocks * width];
+    let mut f = vec![Complex64::default(); width];
+    let mut y = vec![Complex64::default(); width];
+    for b in 0..nblocks {
+        let range = bounds[b]..bounds[b + 1];
+        let ok = if with_response {
+            fit_range(lsq, channels, range, cps, &mut [&mut f, &mut y])
+        } else {
+            fit_range(lsq, channels, range, cps, &mut [&mut f])
+        };
+        if !ok {
+            return Err(Error::input(
+                format!("dwell at {frequency_hz} Hz"),
+                "the settling test's harmonic fit is singular (too few samples per period?)",
+            ));
+        }
+        let f1 = f[1];
+        let rot = if f1.norm() > 0.0 {
+            f1.conj() / f1.norm()
+        } else {
+            Complex64::new(1.0, 0.0)
+        };
+        let (src, scale) = if with_response {
+            (&y, 1.0 / f1.norm().max(f64::MIN_POSITIVE))
+        } else {
+            (&f, 1.0)
+        };
+        let mut r = Complex64::new(1.0, 0.0);
+        for kk in 0..width {
+            v[b * width + kk] = src[kk] * r * scale;
+            r *= rot;
+        }
+    }
+    // the reference state: the mean of the dwell's second half, with the
+    // block-to-block noise there
+    let tail = (nblocks / 2).min(nblocks - 2);
+    let count = (nblocks - tail) as f64;
+    let mut mean = vec![Complex64::default(); width];
+    for b in tail..nblocks {
+        for kk in 0..width {
+            mean[kk] += v[b * width + kk] / count;
+        }
+    }
+    let mut limit = vec![0.0; width];
+    let mut noise = vec![0.0; width];
+    for kk in 0..width {
+        let var = (tail..nblocks)
+            .map(|b| (v[b * width + kk] - mean[kk]).norm_sqr())
+            .sum::<f64>()
+            / (count - 1.0);
+        noise[kk] = var.sqrt().max(noise_floor.map_or(0.0, |n| n[kk]));
+        limit[kk] = (options.settle_tolerance * mean[1].norm()).max(4.0 * noise[kk]);
+    }
+    let agrees = |b: usize| {
+        (0..width).all(|kk| {
+            let d = (v[b * width + kk] - mean[kk]).norm();
+            d.is_finite() && d <= limit[kk]
+        })
+    };
+    let first_ok = (0..nblocks)
+        .rev()
+        .find(|&b| !agrees(b))
+        .map_or(0, |b| b + 1);
+    Ok((first_ok.min(nblocks - 1) * q, noise))
+}
+
+/// One tracking window: fractional sample bounds, mean frequency and
+/// amplitude.
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    start: f64,
+    end: f64,
+    frequency: f64,
+    amplitude: f64,
+}
+
+/// Windows of `m` whole periods of the reference's own phase.
+fn track(reference: &[f64], sample_rate_hz: f64, m: usize) -> Vec<Window> {
+    let a = analytic(reference);
+    let n = reference.len();
+    let cycles: Vec<f64> = a
+        .phase
+        .iter()
+        .map(|p| p / (2.0 * std::f64::consts::PI))
+        .collect();
+    let mut windows = Vec::new();
+    let mut idx = 1;
+    let mut prev: f64 = 0.0;
+    let mut j = 1;
+    loop {
+        let target = cycles[0] + (j * m) as f64;
+        while idx < n && cycles[idx] < target {
+            idx += 1;
+        }
+        if idx >= n {
+            break;
+        }
+        let (c0, c1) = (cycles[idx - 1], cycles[idx]);
+        let t = (idx - 1) as f64
+            + if c1 > c0 {
+                (target - c0) / (c1 - c0)
+            } else {
+                1.0
+            };
+        let lo = prev.ceil() as usize;
+        let hi = (t.floor() as usize).min(n - 1);
+        let amp = if hi >= lo {
+            a.amplitude[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64
+        } else {
+            a.amplitude[hi]
+        };
+        windows.push(Window {
+            start: prev,
+            end: t,
+            frequency: m as f64 * sample_rate_hz / (t - prev),
+            amplitude: amp,
+        });
+        prev = t;
+        j += 1;
+    }
+    windows
+}
+
+/// Finds the stepped-sine dwells of a recording from its reference channel.
+///
+/// The reference's instantaneous phase (FFT Hilbert transform) is cut into
+/// windows of `window_periods` whole periods; a window joins the current
+/// dwell while its frequency and amplitude stay within the tolerances of the
+/// dwell's running means. The last window of each dwell is dropped (it may
+/// hold the first samples of the next step). Each dwell's frequency is then
+/// estimated by least squares ([`super::estimate_frequency`]), its start
+/// transient found by [`settling`] on the reference, and dwells with fewer
+/// than `min_dwell_periods` settled periods are discarded. Dwell amplitudes
+/// are clustered into levels (`level_tolerance`), and each step's `level` is
+/// its cluster's mean amplitude.
+///
+/// Errors: bad rate, a non-finite sample, no dwell found.
+pub fn find_dwells(
+    reference: &[f64],
+    sample_rate_hz: f64,
+    options: &DwellOptions,
+) -> Result<Vec<Step>> {
+    check_rate(sample_rate_hz)?;
+    check_finite(reference, "reference")?;
+    if reference.len() < 64 {
+        return Err(Error::input(
+            "reference",
+            format!("{} samples: too short to find dwells", reference.len()),
+        ));
+    }
+    let windows = track(reference, sample_rate_hz, options.window_periods.max(1));
+    // segment
+    let mut segments: Vec<(usize, usize)> = Vec::new();
+    let (mut first, mut sum_f, mut sum_a, mut count) = (0, 0.0, 0.0, 0usize);
+    for (i, w) in windows.iter().enumerate() {
+        let joins = count > 0 && {
+            let (mf, ma) = (sum_f / count as f64, sum_a / count as f64);
+            (w.frequency - mf).abs() <= options.frequency_tolerance * mf
+                && (w.amplitude - ma).abs() <= options.amplitude_tolerance * ma
+        };
+        if !joins {
+            if count >= 3 {
+                segments.push((first, i - 1));
+            }
+            (first, sum_f, sum_a, count) = (i, 0.0, 0.0, 0);
+        }
+        sum_f += w.frequency;
+        sum_a += w.amplitude;
+        count += 1;
+    }
+    if count >= 3 {
+        segments.push((first, windows.len() - 1));
+    }
+    let mut steps = Vec::new();
+    for (si, &(a, b)) in segments.iter().enumerate() {
+        // drop the last window: it may hold the next step's first samples
+        let start = windows[a].start.ceil() as usize;
+        let end = (windows[b - 1].end.floor() as usize + 1).min(reference.len());
+        let what = format!("found dwell {si} (samples {start}..{end})");
+        let segment = &reference[start..end];
+        let Ok(f0) = estimate_frequency_named(segment, sample_rate_hz, &what) else {
+            continue;
+        };
+        let s = settling(segment, None, sample_rate_hz, f0, options)?;
+        if !s.settled {
+            continue;
+        }
+        let settled = &segment[s.settle..];
+        let f = if s.settle > 0 {
+            estimate_frequency_named(settled, sample_rate_hz, &what).unwrap_or(f0)
+        } else {
+            f0
+        };
+        // measured amplitude of the fundamental over the settled part
+        let mut lsq = HarmonicLsq::new(1, 1);
+        let mut h = [Complex64::default(); 2];
+        if !fit_range(
+            &mut lsq,
+            &[settled],
+            0..settled.len(),
+            f / sample_rate_hz,
+            &mut [&mut h[..]],
+        ) {
+            continue;
+        }
+        steps.push(Step {
+            frequency_hz: f,
+            level: h[1].norm(),
+            start,
+            settle: s.settle,
+            length: end - start,
+        });
+    }
+    if steps.is_empty() {
+        return Err(Error::input(
+            "reference",
+            format!(
+                "no dwell of constant frequency (within {:e}) and amplitude (within {:e}) lasting \
+                 {} settled periods was found in {} windows of {} periods",
+                options.frequency_tolerance,
+                options.amplitude_tolerance,
+                options.min_dwell_periods,
+                windows.len(),
+                options.window_periods
+            ),
+        ));
+    }
+    // cluster the amplitudes into levels
+    let mut order: Vec<usize> = (0..steps.len()).collect();
+    order.sort_by(|&i, &j| steps[i].level.total_cmp(&steps[j].level));
+    let mut clusters: Vec<Vec<usize>> = Vec::new();
+    for &i in &order {
+        match clusters.last_mut() {
+            Some(c)
+                if steps[i].level
+                    <= steps[*c.last().expect("non-empty")].level
+                        * (1.0 + options.level_tolerance) =>
+            {
+                c.push(i)
+            }
+            _ => clusters.push(vec![i]),
+        }
+    }
+    for c in clusters {
+        let mean = c.iter().map(|&i| steps[i].level).sum::<f64>() / c.len() as f64;
+        for i in c {
+            steps[i].level = mean;
+        }
+    }
+    Ok(steps)
+}
+
+fn same_level(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+}
+
+/// Groups points (with their nominal level) into levels in measurement
+/// order: a new level starts where the nominal level changes or where the
+/// frequency order reverses. Returns the levels and, per input point, its
+/// `(level, point)` index.
+fn group_levels(points: Vec<(f64, FrfPoint)>) -> (Vec<FrfLevel>, Vec<(usize, usize)>) {
+    let mut levels: Vec<FrfLevel> = Vec::new();
+    let mut dir: Option<Direction> = None;
+    let mut index = Vec::with_capacity(points.len());
+    for (level, p) in points {
+        let joins = match levels.last() {
+            Some(l) if same_level(l.level, level) => {
+                let last = l.points.last().expect("non-empty").frequency_hz;
+                let step = if p.frequency_hz > last {
+                    Some(Direction::Up)
+                } else if p.frequency_hz < last {
+                    Some(Direction::Down)
+                } else {
+                    None
+                };
+                match (dir, step) {
+                    (None, s) => {
+                        if s.is_some() {
+                            dir = s;
+                        }
+                        true
+                    }
+                    (Some(d), Some(s)) => d == s,
+                    (Some(_), None) => false,
+                }
+            }
+            _ => false,
+        };
+        if !joins {
+            if let (Some(l), Some(d)) = (levels.last_mut(), dir) {
+                l.direction = d;
+            }
+            levels.push(FrfLevel {
+                level,
+                direction: Direction::Up,
+                points: Vec::new(),
+            });
+            dir = None;
+        }
+        let li = levels.len() - 1;
+        let l = &mut levels[li];
+        index.push((li, l.points.len()));
+        l.points.push(p);
+    }
+    if let (Some(l), Some(d)) = (levels.last_mut(), dir) {
+        l.direction = d;
+    }
+    (levels, index)
+}
+
+/// Reduces a stepped-sine recording into nonlinear FRFs of one response
+/// channel (see [`reduce_stepped_report`]).
+pub fn reduce_stepped(
+    rec: &Recording,
+    response_channel: usize,
+    options: &ReduceOptions,
+) -> Result<NonlinearFrf> {
+    reduce_stepped_report(rec, response_channel, options).map(|r| r.frf)
+}
+
+/// Reduces a stepped-sine recording into nonlinear FRFs of one response
+/// channel, with a report per dwell.
+///
+/// Dwells come from `meta.excitation.steps` when present (each analysed
+/// after its `settle` samples; the stated frequency is checked against the
+/// reference by the phase advance between the dwell's halves and replaced by
+/// the least-squares estimate when they differ by more than
+/// `frequency_tolerance`), otherwise from [`find_dwells`], in which case the
+/// [`settling`] test is also run on the response (the force of a virtual test
+/// has no transient; the response has). Each dwell is reduced by
+/// [`super::noncoherent`] with `blocks` blocks over its largest window of
+/// whole periods. Points are grouped into levels in measurement order (a new
+/// level where the nominal level changes or the frequency order reverses).
+///
+/// Errors name the channel or the step: no reference channel, a response
+/// channel out of range or equal to the reference, a step outside the record,
+/// a dwell too short for 2 blocks, a harmonic above Nyquist.
+pub fn reduce_stepped_report(
+    rec: &Recording,
+    response_channel: usize,
+    options: &ReduceOptions,
+) -> Result<SteppedReduction> {
+    let reference_channel = options
+        .reference_channel
+        .or_else(|| rec.reference_channel())
+        .ok_or_else(|| {
+            Error::input(
+                "recording",
+                "has no force or voltage channel to use as the reference",
+            )
+        })?;
+    let nch = rec.channels.len().min(rec.meta.channels.len());
+    for (what, c) in [
+        ("reference", reference_channel),
+        ("response", response_channel),
+    ] {
+        if c >= nch {
+            return Err(Error::input(
+                format!("{what} channel {c}"),
+                format!("out of range: the recording has {nch} channels"),
+            ));
+        }
+    }
+    if response_channel == reference_channel {
+        return Err(Error::input(
+            format!("response channel {response_channel}"),
+            "is the reference channel",
+        ));
+    }
+    let fs = rec.meta.sample_rate_hz;
+    check_rate(fs)?;
+    let reference = &rec.channels[reference_channel];
+    let response = &rec.channels[response_channel];
+    let ref_name = &rec.meta.channels[reference_channel].name;
+    let resp_name = &rec.meta.channels[response_channel].name;
+    if reference.len() != response.len() {
+        return Err(Error::input(
+            format!("channel `{resp_name}`"),
+            format!(
+                "has {} frames but the reference `{ref_name}` has {}",
+                response.len(),
+                reference.len()
+            ),
+        ));
+    }
+    let ref_quantity = rec.meta.channels[reference_channel].quantity;
+    if !matches!(ref_quantity, Quantity::Force | Quantity::Voltage) {
+        return Err(Error::input(
+            format!("reference channel `{ref_name}`"),
+            format!("is a {ref_quantity} channel; a force or voltage is expected"),
+        ));
+    }
+    check_finite(reference, &format!("channel `{ref_name}`"))?;
+    check_finite(response, &format!("channel `{resp_name}`"))?;
+    let frames = reference.len();
+    let dwells_found = rec.meta.excitation.steps.is_empty();
+    let steps = if dwells_found {
+        find_dwells(reference, fs, &options.dwell)?
+    } else {
+        rec.meta.excitation.steps.clone()
+    };
+    let mut points = Vec::with_capacity(steps.len());
+    let mut reports = Vec::with_capacity(steps.len());
+    for (i, step) in steps.iter().enumerate() {
+        let what = format!("step {i} ({} Hz)", step.frequency_hz);
+        let end = step.start.saturating_add(step.length);
+        if end > frames || step.settle >= step.length {
+            return Err(Error::input(
+                format!("excitation.steps[{i}]"),
+                format!(
+                    "start {} + length {} (settle {}) must lie within the {frames} frames and \
+                     settle must be shorter than the length",
+                    step.start, step.length, step.settle
+                ),
+            ));
+        }
+        if !(step.frequency_hz.is_finite() && step.frequency_hz > 0.0) {
+            return Err(Error::input(
+                format!("excitation.steps[{i}].frequency_hz"),
+                format!("must be finite and > 0, got {}", step.frequency_hz),
+            ));
+        }
+        let mut start = step.start + step.settle;
+        let mut settled = true;
+        let stated = step.frequency_hz;
+        let mut f = stated;
+        if dwells_found {
+            let s = settling(
+                &reference[start..end],
+                Some(&response[start..end]),
+                fs,
+                f,
+                &options.dwell,
+            )?;
+            settled = s.settled;
+            if s.settled {
+                start += s.settle;
+            } else {
+                // never settled: use the later half, and say so
+                start += (end - start) / 2;
+            }
+        }
+        let mut refined = false;
+        let check = phase_slope_frequency(&reference[start..end], fs, f);
+        if check.is_none_or(|fc| (fc - f).abs() > options.frequency_tolerance * f) {
+            f = estimate_frequency_named(&reference[start..end], fs, &what)?;
+            refined = (f - stated).abs() > options.frequency_tolerance * stated;
+            if !refined {
+                f = stated;
+            }
+        }
+        let periods = whole_periods(end - start, fs, f);
+        let blocks = options.blocks.min(periods).max(2);
+        let d = noncoherent_named(
+            &reference[start..end],
+            &response[start..end],
+            fs,
+            f,
+            options.max_harmonic,
+            blocks,
+            &what,
+        )?;
+        let f1 = d.force[1];
+        let settle = start - step.start;
+        points.push((
+            step.level,
+            FrfPoint {
+                frequency_hz: f,
+                force_amplitude: f1.norm(),
+                h: d.h,
+                std_error: d.std_error,
+                force_distortion: d.force.iter().map(|fk| fk / f1).collect(),
+                blocks: d.blocks,
+                settle_periods: (settle as f64 * f / fs).round() as usize,
+                settled,
+            },
+        ));
+        reports.push(DwellReport {
+            step: Step {
+                frequency_hz: f,
+                level: step.level,
+                start: step.start,
+                settle,
+                length: step.length,
+            },
+            stated_frequency_hz: stated,
+            frequency_hz: f,
+            frequency_refined: refined,
+            level: 0,
+            point: 0,
+        });
+    }
+    let (levels, index) = group_levels(points);
+    for (r, (l, p)) in reports.iter_mut().zip(index) {
+        r.level = l;
+        r.point = p;
+    }
+    Ok(SteppedReduction {
+        frf: NonlinearFrf {
+            response: rec.meta.channels[response_channel].quantity,
+            reference: ref_quantity,
+            max_harmonic: options.max_harmonic,
+            levels,
+        },
+        dwells: reports,
+        dwells_found,
+    })
+}
+
+/// Combines FRF sets (e.g. several single-sine recordings, one dwell each)
+/// into one: levels within the default 5 % of each other are merged (see
+/// [`combine_with`]).
+pub fn combine(frfs: &[NonlinearFrf]) -> Result<NonlinearFrf> {
+    combine_with(frfs, DwellOptions::default().level_tolerance)
+}
+
+/// Combines FRF sets into one.
+///
+/// All sets must have the same response and reference quantities and the
+/// same `max_harmonic`. Levels of the same [`Direction`] whose nominal levels
+/// lie within `level_tolerance` (relative, chained in ascending order) are
+/// merged into one level at their mean nominal level; the merged points are
+/// sorted by frequency (ascending for [`Direction::Up`], descending for
+/// [`Direction::Down`], the order of a measurement in that direction).
+/// Levels are returned in ascending nominal level, `Up` before `Down`.
+pub fn combine_with(frfs: &[NonlinearFrf], level_tolerance: f64) -> Result<NonlinearFrf> {
+    let first = frfs
+        .first()
+        .ok_or_else(|| Error::input("frfs", "nothing to combine: the list is empty"))?;
+    for (i, f) in frfs.iter().enumerate() {
+        if f.response != first.response
+            || f.reference != first.reference
+            || f.max_harmonic != first.max_harmonic
+        {
+            return Err(Error::input(
+                format!("frfs[{i}]"),
+                format!(
+                    "is {}/{} up to harmonic {} but frfs[0] is {}/{} up to harmonic {}: only FRFs \
+                     of the same quantities and harmonics combine",
+                    f.response,
+                    f.reference,
+                    f.max_harmonic,
+                    first.response,
+                    first.reference,
+                    first.max_harmonic
+                ),
+            ));
+        }
+    }
+    let mut out = Vec::new();
+    for dir in [Direction::Up, Direction::Down] {
+        let mut levels: Vec<&FrfLevel> = frfs
+            .iter()
+            .flat_map(|f| &f.levels)
+            .filter(|l| l.direction == dir)
+            .collect();
+        levels.sort_by(|a, b| a.level.total_cmp(&b.level));
+        let mut groups: Vec<Vec<&FrfLevel>> = Vec::new();
+        for l in levels {
+            match groups.last_mut() {
+                Some(g)
+                    if (l.level - g.last().expect("non-empty").level).abs()
+                        <= level_tolerance * l.level.abs() =>
+                {
+                    g.push(l)
+                }
+                _ => groups.push(vec![l]),
+            }
+        }
+        for g in groups {
+            let level = g.iter().map(|l| l.level).sum::<f64>() / g.len() as f64;
+            let mut points: Vec<FrfPoint> = g.iter().flat_map(|l| l.points.clone()).collect();
+            points.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
+            if dir == Direction::Down {
+                points.reverse();
+            }
+            out.push(FrfLevel {
+                level,
+                direction: dir,
+                points,
+            });
+        }
+    }
+    out.sort_by(|a, b| a.level.total_cmp(&b.level));
+    Ok(NonlinearFrf {
+        response: first.response,
+        reference: first.reference,
+        max_harmonic: first.max_harmonic,
+        levels: out,
+    })
+}
