@@ -37,6 +37,6 @@ pub mod model;
 pub mod plot;
 pub mod record;
 pub mod sim;
-// pub mod testbench; (waits for extract)
+pub mod testbench;
 
 pub use error::{Error, Result};

@@ -1,1 +1,38 @@
-fn main() {}
+//! The `hystid` binary: a thin layer over the library (see `cli`).
+
+mod cli;
+
+use clap::Parser;
+use cli::args::{Cli, Command};
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args = Cli::parse();
+    if let Some(n) = args.threads {
+        // results do not depend on the thread count; only the speed does
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global();
+    }
+    let result = match &args.command {
+        Command::Simulate(a) => cli::simulate::simulate(a, args.quiet),
+        Command::Identify(_) | Command::Run(_) => Err(anyhow::anyhow!("not available yet")),
+    };
+    match result {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_definition_is_consistent() {
+        super::cli::args::Cli::command().debug_assert();
+    }
+}

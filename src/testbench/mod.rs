@@ -20,7 +20,9 @@ pub mod plan;
 pub use plan::{DEFAULT_TEST, TestDefinition};
 
 use crate::error::{Error, Result};
-use crate::extract::{Direction, DwellHarmonics, FrfLevel, FrfPoint, HarmonicAnalyser, NonlinearFrf, harmonics_agree};
+use crate::extract::{
+    Direction, DwellHarmonics, FrfLevel, FrfPoint, HarmonicAnalyser, NonlinearFrf, harmonics_agree,
+};
 use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::sim::{Response, Simulator};
@@ -54,7 +56,12 @@ pub fn design_dwell(requested_hz: f64, sample_rate_hz: f64, tolerance: f64) -> D
         let block_len = ((q as f64 * sample_rate_hz / requested_hz).round() as usize).max(1);
         let frequency_hz = q as f64 * sample_rate_hz / block_len as f64;
         let err = (frequency_hz / requested_hz - 1.0).abs();
-        let d = DwellDesign { requested_hz, frequency_hz, periods_per_block: q, block_len };
+        let d = DwellDesign {
+            requested_hz,
+            frequency_hz,
+            periods_per_block: q,
+            block_len,
+        };
         if err <= tolerance {
             return d;
         }
@@ -151,7 +158,11 @@ impl BenchRun {
 
 /// Runs the virtual test of `def`, handing each level's signals to `sink` in
 /// level order and calling `progress` after each dwell (from any thread).
-pub fn run(def: &TestDefinition, sink: &mut dyn BenchSink, progress: &(dyn Fn() + Sync)) -> Result<BenchRun> {
+pub fn run(
+    def: &TestDefinition,
+    sink: &mut dyn BenchSink,
+    progress: &(dyn Fn() + Sync),
+) -> Result<BenchRun> {
     def.validate()?;
     let model = def.model()?;
     let fs = def.sample_rate_hz()?;
@@ -186,13 +197,22 @@ pub fn run(def: &TestDefinition, sink: &mut dyn BenchSink, progress: &(dyn Fn() 
                         force_amplitude: d.measured.force[1].norm(),
                         h: d.measured.h.clone(),
                         std_error: d.measured.std_error.clone(),
-                        force_distortion: d.measured.force.iter().map(|f| f / d.measured.force[1]).collect(),
+                        force_distortion: d
+                            .measured
+                            .force
+                            .iter()
+                            .map(|f| f / d.measured.force[1])
+                            .collect(),
                         blocks: d.measured.blocks,
                         settle_periods: d.settle_periods,
                         settled: d.settled,
                     })
                     .collect();
-                frf_levels.push(FrfLevel { level: levels[out.level_index], direction: *dir, points });
+                frf_levels.push(FrfLevel {
+                    level: levels[out.level_index],
+                    direction: *dir,
+                    points,
+                });
             }
             dwells.extend(out.dwells);
         }
@@ -242,7 +262,10 @@ fn run_level(
     rng.set_stream(level_index as u64);
     let mut analyser = HarmonicAnalyser::new();
     let response_q = t.response.quantity();
-    let mut out = LevelOutput { level_index, ..Default::default() };
+    let mut out = LevelOutput {
+        level_index,
+        ..Default::default()
+    };
     let mut phase = 0.0f64;
     let mut clean = Response::default();
     let mut force = Vec::new();
@@ -252,9 +275,14 @@ fn run_level(
             let (l, q) = (d.block_len, d.periods_per_block);
             clean.clear();
             force.clear();
-            let mut block = |sim: &mut Simulator<_>, force: &mut Vec<f64>, clean: &mut Response| -> Result<()> {
+            let block = |sim: &mut Simulator<_>,
+                         force: &mut Vec<f64>,
+                         clean: &mut Response|
+             -> Result<()> {
                 let start = force.len();
-                force.extend((0..l).map(|i| level * (phase + 2.0 * PI * (q * i) as f64 / l as f64).cos()));
+                force.extend(
+                    (0..l).map(|i| level * (phase + 2.0 * PI * (q * i) as f64 / l as f64).cos()),
+                );
                 sim.run_into(&force[start..], clean)
             };
             // settle: blocks of q periods until consecutive harmonics agree
@@ -283,7 +311,12 @@ fn run_level(
             let settle = settle_blocks * l;
             let n = force.len();
             // noise at a fraction of each channel's clean RMS over the measured window
-            let mut noisy: [Vec<f64>; 4] = [force.clone(), clean.displacement.clone(), clean.velocity.clone(), clean.acceleration.clone()];
+            let mut noisy: [Vec<f64>; 4] = [
+                force.clone(),
+                clean.displacement.clone(),
+                clean.velocity.clone(),
+                clean.acceleration.clone(),
+            ];
             let fractions = [t.force_noise, t.noise, t.noise, t.noise];
             for (sig, frac) in noisy.iter_mut().zip(fractions) {
                 let sigma = frac * rms(&sig[settle..]);
@@ -300,11 +333,28 @@ fn run_level(
                 _ => 3,
             };
             let measured = analyser
-                .coherent(&noisy[0][settle..], &noisy[ri][settle..], l, q, t.max_harmonic)
-                .map_err(|e| Error::input(format!("dwell at {:.4} Hz, level {level} N", d.frequency_hz), e.to_string()))?;
+                .coherent(
+                    &noisy[0][settle..],
+                    &noisy[ri][settle..],
+                    l,
+                    q,
+                    t.max_harmonic,
+                )
+                .map_err(|e| {
+                    Error::input(
+                        format!("dwell at {:.4} Hz, level {level} N", d.frequency_hz),
+                        e.to_string(),
+                    )
+                })?;
             let clean_y = channel(&clean, response_q);
-            let clean_h = analyser.coherent(&force[settle..], &clean_y[settle..], l, q, t.max_harmonic)?.h;
-            let noise: Vec<f64> = noisy[ri][settle..].iter().zip(&clean_y[settle..]).map(|(a, b)| a - b).collect();
+            let clean_h = analyser
+                .coherent(&force[settle..], &clean_y[settle..], l, q, t.max_harmonic)?
+                .h;
+            let noise: Vec<f64> = noisy[ri][settle..]
+                .iter()
+                .zip(&clean_y[settle..])
+                .map(|(a, b)| a - b)
+                .collect();
             let noise_ratio = rms(&noise) / rms(&clean_y[settle..]).max(f64::MIN_POSITIVE);
             out.dwells.push(DwellRecord {
                 index: 0,
@@ -321,8 +371,14 @@ fn run_level(
                 clean_h,
                 noise_ratio,
             });
-            for (dst, src) in
-                [&mut out.force, &mut out.displacement, &mut out.velocity, &mut out.acceleration].into_iter().zip(&noisy)
+            for (dst, src) in [
+                &mut out.force,
+                &mut out.displacement,
+                &mut out.velocity,
+                &mut out.acceleration,
+            ]
+            .into_iter()
+            .zip(&noisy)
             {
                 dst.extend(src.iter().map(|&v| v as f32));
             }

@@ -277,7 +277,8 @@ impl TestDefinition {
         let def: TestDefinition = toml::from_str(text).map_err(|e| {
             let msg = e.message().to_string();
             let msg = if msg.contains("untagged enum FrequencyList") {
-                "expected a list of frequencies in Hz or { start, stop, count [, spacing] }".to_string()
+                "expected a list of frequencies in Hz or { start, stop, count [, spacing] }"
+                    .to_string()
             } else {
                 msg
             };
@@ -296,7 +297,8 @@ impl TestDefinition {
 
     /// The embedded default.
     pub fn embedded_default() -> TestDefinition {
-        TestDefinition::from_toml(DEFAULT_TEST, "signals/default.toml").expect("the embedded default is valid")
+        TestDefinition::from_toml(DEFAULT_TEST, "signals/default.toml")
+            .expect("the embedded default is valid")
     }
 
     /// Checks every value, naming the key of the first bad one.
@@ -306,7 +308,10 @@ impl TestDefinition {
         let freqs = self.frequencies()?;
         for (i, f) in freqs.iter().enumerate() {
             if !(f.is_finite() && *f > 0.0) {
-                return Err(Error::plan(format!("test.frequencies_hz[{i}]"), format!("must be finite and > 0, got {f}")));
+                return Err(Error::plan(
+                    format!("test.frequencies_hz[{i}]"),
+                    format!("must be finite and > 0, got {f}"),
+                ));
             }
         }
         if t.levels_n.is_empty() {
@@ -314,35 +319,69 @@ impl TestDefinition {
         }
         for (i, l) in t.levels_n.iter().enumerate() {
             if !(l.is_finite() && *l > 0.0) {
-                return Err(Error::plan(format!("test.levels_n[{i}]"), format!("must be a finite force amplitude > 0 N, got {l}")));
+                return Err(Error::plan(
+                    format!("test.levels_n[{i}]"),
+                    format!("must be a finite force amplitude > 0 N, got {l}"),
+                ));
             }
         }
         if !(t.noise.is_finite() && (0.0..=10.0).contains(&t.noise)) {
-            return Err(Error::plan("test.noise", format!("must be in [0, 10] (a fraction of the response RMS), got {}", t.noise)));
+            return Err(Error::plan(
+                "test.noise",
+                format!(
+                    "must be in [0, 10] (a fraction of the response RMS), got {}",
+                    t.noise
+                ),
+            ));
         }
         if !(t.force_noise.is_finite() && (0.0..=10.0).contains(&t.force_noise)) {
-            return Err(Error::plan("test.force_noise", format!("must be in [0, 10], got {}", t.force_noise)));
+            return Err(Error::plan(
+                "test.force_noise",
+                format!("must be in [0, 10], got {}", t.force_noise),
+            ));
         }
         if t.max_harmonic == 0 || t.max_harmonic > 64 {
-            return Err(Error::plan("test.max_harmonic", format!("must be in 1..=64, got {}", t.max_harmonic)));
+            return Err(Error::plan(
+                "test.max_harmonic",
+                format!("must be in 1..=64, got {}", t.max_harmonic),
+            ));
         }
-        if !(t.settle_tolerance.is_finite() && t.settle_tolerance > 0.0 && t.settle_tolerance < 1.0) {
-            return Err(Error::plan("test.settle_tolerance", format!("must be in (0, 1), got {}", t.settle_tolerance)));
+        if !(t.settle_tolerance.is_finite() && t.settle_tolerance > 0.0 && t.settle_tolerance < 1.0)
+        {
+            return Err(Error::plan(
+                "test.settle_tolerance",
+                format!("must be in (0, 1), got {}", t.settle_tolerance),
+            ));
         }
         if t.max_settle_periods == 0 {
             return Err(Error::plan("test.max_settle_periods", "must be at least 1"));
         }
         if t.measure_periods < 2 {
-            return Err(Error::plan("test.measure_periods", format!("must be at least 2 (standard errors need 2 blocks), got {}", t.measure_periods)));
+            return Err(Error::plan(
+                "test.measure_periods",
+                format!(
+                    "must be at least 2 (standard errors need 2 blocks), got {}",
+                    t.measure_periods
+                ),
+            ));
         }
-        if !(t.frequency_tolerance.is_finite() && t.frequency_tolerance > 0.0 && t.frequency_tolerance < 0.05) {
-            return Err(Error::plan("test.frequency_tolerance", format!("must be in (0, 0.05), got {}", t.frequency_tolerance)));
+        if !(t.frequency_tolerance.is_finite()
+            && t.frequency_tolerance > 0.0
+            && t.frequency_tolerance < 0.05)
+        {
+            return Err(Error::plan(
+                "test.frequency_tolerance",
+                format!("must be in (0, 0.05), got {}", t.frequency_tolerance),
+            ));
         }
         let fs = self.sample_rate_hz()?;
         let model = self.model()?;
         let top = model.linear.highest_frequency_hz();
         if fs <= 2.0 * top {
-            return Err(Error::plan("test.sample_rate_hz", format!("{fs} Hz is not above twice the highest mode ({top:.3} Hz)")));
+            return Err(Error::plan(
+                "test.sample_rate_hz",
+                format!("{fs} Hz is not above twice the highest mode ({top:.3} Hz)"),
+            ));
         }
         for (i, f) in freqs.iter().enumerate() {
             let h = t.max_harmonic as f64 * f;
@@ -374,20 +413,42 @@ impl TestDefinition {
                     let residue = match (m.modal_mass, m.residue) {
                         (Some(mm), None) => {
                             if !(mm.is_finite() && mm != 0.0) {
-                                return Err(Error::model(format!("{at}.modal_mass"), format!("must be finite and non-zero, got {mm}")));
+                                return Err(Error::model(
+                                    format!("{at}.modal_mass"),
+                                    format!("must be finite and non-zero, got {mm}"),
+                                ));
                             }
                             1.0 / mm
                         }
                         (None, Some(r)) => r,
-                        _ => return Err(Error::model(at, "give exactly one of modal_mass and residue")),
+                        _ => {
+                            return Err(Error::model(
+                                at,
+                                "give exactly one of modal_mass and residue",
+                            ));
+                        }
                     };
-                    let mode = Mode { frequency_hz: m.frequency_hz, damping_ratio: m.damping_ratio, residue };
+                    let mode = Mode {
+                        frequency_hz: m.frequency_hz,
+                        damping_ratio: m.damping_ratio,
+                        residue,
+                    };
                     mode.validate(&at)?;
                     Ok(mode)
                 })
                 .collect::<Result<_>>()?,
-            (Some(_), false) => return Err(Error::model("system", "give either [system] or [[modes]], not both")),
-            (None, true) => return Err(Error::model("system", "missing: give [system] (mass, damping, stiffness) or [[modes]]")),
+            (Some(_), false) => {
+                return Err(Error::model(
+                    "system",
+                    "give either [system] or [[modes]], not both",
+                ));
+            }
+            (None, true) => {
+                return Err(Error::model(
+                    "system",
+                    "missing: give [system] (mass, damping, stiffness) or [[modes]]",
+                ));
+            }
         };
         let mut elements = Vec::new();
         match self.joint {
@@ -406,7 +467,11 @@ impl TestDefinition {
                 EffectSpec::BilinearStiffness { kb } => ElementSpec::BilinearStiffness { kb },
                 EffectSpec::Clearance { k, gap } => ElementSpec::Clearance { k, gap },
                 EffectSpec::ViscousDamping { cj } => ElementSpec::ViscousDamping { cj },
-                EffectSpec::SecondMode { frequency_hz, damping_ratio, modal_mass } => {
+                EffectSpec::SecondMode {
+                    frequency_hz,
+                    damping_ratio,
+                    modal_mass,
+                } => {
                     let mode = Mode::from_modal_mass(frequency_hz, damping_ratio, modal_mass)
                         .map_err(|e| Error::model(at.clone(), e.to_string()))?;
                     modes.push(mode);
@@ -424,17 +489,26 @@ impl TestDefinition {
         match &self.test.frequencies_hz {
             FrequencyList::List(v) => {
                 if v.is_empty() {
-                    return Err(Error::plan("test.frequencies_hz", "needs at least one frequency"));
+                    return Err(Error::plan(
+                        "test.frequencies_hz",
+                        "needs at least one frequency",
+                    ));
                 }
                 Ok(v.clone())
             }
             FrequencyList::Range(r) => {
                 if r.count == 0 {
-                    return Err(Error::plan("test.frequencies_hz.count", "must be at least 1"));
+                    return Err(Error::plan(
+                        "test.frequencies_hz.count",
+                        "must be at least 1",
+                    ));
                 }
                 for (k, v) in [("start", r.start), ("stop", r.stop)] {
                     if !(v.is_finite() && v > 0.0) {
-                        return Err(Error::plan(format!("test.frequencies_hz.{k}"), format!("must be finite and > 0, got {v}")));
+                        return Err(Error::plan(
+                            format!("test.frequencies_hz.{k}"),
+                            format!("must be finite and > 0, got {v}"),
+                        ));
                     }
                 }
                 if r.count == 1 {
@@ -455,7 +529,10 @@ impl TestDefinition {
     pub fn sample_rate_hz(&self) -> Result<f64> {
         match self.test.sample_rate_hz {
             Some(fs) if fs.is_finite() && fs > 0.0 => Ok(fs),
-            Some(fs) => Err(Error::plan("test.sample_rate_hz", format!("must be finite and > 0, got {fs}"))),
+            Some(fs) => Err(Error::plan(
+                "test.sample_rate_hz",
+                format!("must be finite and > 0, got {fs}"),
+            )),
             None => {
                 let f = self.model()?.highest_linearised_frequency_hz();
                 Ok(((100.0 * f) / 1000.0).ceil() * 1000.0)
@@ -485,7 +562,13 @@ mod tests {
     fn the_embedded_default_is_the_paper_case() {
         let d = TestDefinition::embedded_default();
         let m = d.model().unwrap();
-        assert_eq!(m.elements, vec![ElementSpec::Jenkins { kd: 2.4e7, fd: 246.048 }]);
+        assert_eq!(
+            m.elements,
+            vec![ElementSpec::Jenkins {
+                kd: 2.4e7,
+                fd: 246.048
+            }]
+        );
         assert_eq!(d.frequencies().unwrap().len(), 51);
         assert_eq!(d.test.levels_n.len(), 7);
         // 100 samples per stick period (293.4 Hz), rounded up to 1 kHz
@@ -503,33 +586,64 @@ mod tests {
             (with("mass = 10.0", "mass = -10.0"), "system.mass"),
             (with("damping = 200.0", "damping = -1.0"), "system.damping"),
             (with("kd = 2.4e7", "kd = 0.0"), "joint.kd"),
-            (with("levels_n = [5.0,", "levels_n = [-5.0,"), "test.levels_n[0]"),
+            (
+                with("levels_n = [5.0,", "levels_n = [-5.0,"),
+                "test.levels_n[0]",
+            ),
             (with("noise = 0.10", "noise = -0.1"), "test.noise"),
-            (with("seed = 1", "seed = 1\nsample_rate_hz = 2000.0"), "test.frequencies_hz[0]"),
+            (
+                with("seed = 1", "seed = 1\nsample_rate_hz = 2000.0"),
+                "test.frequencies_hz[0]",
+            ),
             (with("seed = 1", "seed = 1\nbogus = 3"), "bogus"),
             (with("kind = \"jenkins\"", "kind = \"slidey\""), "slidey"),
-            (with("count = 51 }", "count = 0 }"), "test.frequencies_hz.count"),
+            (
+                with("count = 51 }", "count = 0 }"),
+                "test.frequencies_hz.count",
+            ),
             (with("sweep = \"up\"", "sweep = \"sideways\""), "sideways"),
-            (with("frequencies_hz = { start = 100.0, stop = 350.0, count = 51 }", "frequencies_hz = \"many\""), "frequencies_hz"),
-            (with("response = \"displacement\"", "response = \"force\""), "force"),
+            (
+                with(
+                    "frequencies_hz = { start = 100.0, stop = 350.0, count = 51 }",
+                    "frequencies_hz = \"many\"",
+                ),
+                "frequencies_hz",
+            ),
+            (
+                with("response = \"displacement\"", "response = \"force\""),
+                "force",
+            ),
         ];
         for (text, needle) in cases {
-            let e = TestDefinition::from_toml(&text, "t.toml").unwrap_err().to_string();
+            let e = TestDefinition::from_toml(&text, "t.toml")
+                .unwrap_err()
+                .to_string();
             assert!(e.contains(needle), "expected `{needle}` in: {e}");
         }
         let nan = with("levels_n = [5.0,", "levels_n = [nan,");
-        let e = TestDefinition::from_toml(&nan, "t.toml").unwrap_err().to_string();
+        let e = TestDefinition::from_toml(&nan, "t.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("test.levels_n[0]"), "{e}");
     }
 
     #[test]
     fn effects_and_modes_build_the_model() {
-        let text = with("[test]", "[[effects]]\nkind = \"second_mode\"\nfrequency_hz = 500.0\ndamping_ratio = 0.01\nmodal_mass = 5.0\n\n[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1e15\n\n[test]");
-        let m = TestDefinition::from_toml(&text, "t.toml").unwrap().model().unwrap();
+        let text = with(
+            "[test]",
+            "[[effects]]\nkind = \"second_mode\"\nfrequency_hz = 500.0\ndamping_ratio = 0.01\nmodal_mass = 5.0\n\n[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1e15\n\n[test]",
+        );
+        let m = TestDefinition::from_toml(&text, "t.toml")
+            .unwrap()
+            .model()
+            .unwrap();
         assert_eq!(m.linear.modes.len(), 2);
         assert_eq!(m.elements.len(), 2);
         let text = DEFAULT_TEST
-            .replace("[system]", "[[modes]]\nfrequency_hz = 159.15\ndamping_ratio = 0.01\nmodal_mass = 1e1\n#")
+            .replace(
+                "[system]",
+                "[[modes]]\nfrequency_hz = 159.15\ndamping_ratio = 0.01\nmodal_mass = 1e1\n#",
+            )
             .replace("mass = 10.0", "")
             .replace("damping = 200.0", "")
             .replace("stiffness = 1.0e7", "");

@@ -1,0 +1,80 @@
+//! Command-line arguments: clap derive structs, no logic.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// Testing and identification of friction joints in vibrating structures.
+#[derive(Debug, Parser)]
+#[command(name = "hystid", version, about, long_about = None)]
+pub struct Cli {
+    /// The command.
+    #[command(subcommand)]
+    pub command: Command,
+    /// No progress bars and no summary on the terminal (results are still written).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, global = true)]
+    pub threads: Option<usize>,
+}
+
+/// What to do.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a virtual stepped-sine test and record it (MCAP, WAV + JSON, FRFs, plots).
+    Simulate(SimulateArgs),
+    /// Fit a hysteresis element to a recording's nonlinear FRFs.
+    Identify(IdentifyArgs),
+    /// Simulate, identify and diagnose in one go (the paper end to end).
+    Run(RunArgs),
+}
+
+/// `hystid simulate`.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Test definition (TOML); the embedded default (the paper's case) when omitted.
+    pub test: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Also compute the harmonic-balance prediction at every dwell and report
+    /// its difference from the simulated steady state.
+    #[arg(long)]
+    pub check_hb: bool,
+    /// Sample format of recording.wav.
+    #[arg(long, value_enum, default_value_t = WavFormat::Float32)]
+    pub wav_format: WavFormat,
+}
+
+/// WAV sample formats.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum WavFormat {
+    /// IEEE float, 32 bit.
+    Float32,
+    /// Integer PCM, 16 bit.
+    Pcm16,
+    /// Integer PCM, 24 bit.
+    Pcm24,
+    /// Integer PCM, 32 bit.
+    Pcm32,
+}
+
+/// `hystid identify`.
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// The recording: a `run.mcap` from `simulate`, or NAME.wav / NAME.json.
+    pub recording: PathBuf,
+    /// Output directory.
+    #[arg(long, short)]
+    pub out: PathBuf,
+}
+
+/// `hystid run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Test definition (TOML); the embedded default when omitted.
+    pub test: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, short)]
+    pub out: PathBuf,
+}

@@ -1,0 +1,45 @@
+//! The command-line layer: arguments in, one library call per stage, results
+//! and a short summary out. Only the binary sees clap, anyhow and indicatif.
+
+pub mod args;
+pub mod progress;
+pub mod simulate;
+
+use anyhow::{Context, Result};
+use std::path::Path;
+
+/// Exit status: everything worked.
+pub const EXIT_OK: u8 = 0;
+/// Exit status: finished, but some points are not trustworthy (unsettled
+/// dwells, non-converged solves); the results say which.
+pub const EXIT_DEGRADED: u8 = 1;
+
+/// Creates the output directory.
+pub fn create_out_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create the output directory {}", dir.display()))
+}
+
+/// Reads a test definition file, or the embedded default; returns it with
+/// its text (recorded with the run).
+pub fn read_test(path: Option<&Path>) -> Result<(hystid::testbench::TestDefinition, String)> {
+    use hystid::testbench::{DEFAULT_TEST, TestDefinition};
+    Ok(match path {
+        None => (TestDefinition::embedded_default(), DEFAULT_TEST.to_string()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read the test definition {}", p.display()))?;
+            (
+                TestDefinition::from_toml(&text, &p.display().to_string())?,
+                text,
+            )
+        }
+    })
+}
+
+/// Writes a value as pretty JSON, atomically.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let bytes = serde_json::to_vec_pretty(value).context("serialising JSON")?;
+    hystid::atomic::write_bytes(path, &bytes)?;
+    Ok(())
+}
