@@ -375,7 +375,13 @@ fn stepped_sine_with_and_without_steps_and_against_the_receptance() {
     // the same recording without its steps
     let mut bare = rec.clone();
     bare.meta.excitation.steps.clear();
+    let t = std::time::Instant::now();
     let found = reduce_stepped_report(&bare, 1, &opts).unwrap();
+    eprintln!(
+        "stepped sine, {} samples: reduced with dwells found in {:?}",
+        bare.frames(),
+        t.elapsed()
+    );
     assert!(found.dwells_found);
     assert_eq!(found.frf.levels.len(), 3);
     let (a, b) = (h1_points(&with.frf), h1_points(&found.frf));

@@ -59,7 +59,11 @@ pub(crate) fn check_layout(
             "must be at least 1: the FRF is taken relative to the force fundamental",
         ));
     }
-    if 2 * max_harmonic * periods_per_block >= block_len {
+    if max_harmonic
+        .saturating_mul(periods_per_block)
+        .saturating_mul(2)
+        >= block_len
+    {
         return Err(Error::input(
             "max_harmonic",
             format!(
