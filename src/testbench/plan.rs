@@ -593,7 +593,7 @@ mod tests {
             (with("noise = 0.10", "noise = -0.1"), "test.noise"),
             (
                 with("seed = 1", "seed = 1\nsample_rate_hz = 2000.0"),
-                "test.frequencies_hz[0]",
+                "test.frequencies_hz[9]",
             ),
             (with("seed = 1", "seed = 1\nbogus = 3"), "bogus"),
             (with("kind = \"jenkins\"", "kind = \"slidey\""), "slidey"),
