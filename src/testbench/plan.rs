@@ -277,7 +277,7 @@ impl TestDefinition {
         let def: TestDefinition = toml::from_str(text).map_err(|e| {
             let msg = e.message().to_string();
             let msg = if msg.contains("untagged enum FrequencyList") {
-                "expected a list of frequencies in Hz or { start, stop, count [, spacing] }"
+                "`test.frequencies_hz`: expected a list of frequencies in Hz or { start, stop, count [, spacing] }"
                     .to_string()
             } else {
                 msg
