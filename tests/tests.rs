@@ -6,6 +6,8 @@
 
 mod common;
 
+mod bench;
+mod cli;
 mod extract;
 mod hb;
 mod import;

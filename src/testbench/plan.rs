@@ -271,9 +271,95 @@ fn default_frequency_tolerance() -> f64 {
     2e-4
 }
 
+/// Keys that hold numbers, per table.
+const NUMBER_KEYS: &[(&str, &[&str])] = &[
+    ("system", &["mass", "damping", "stiffness"]),
+    ("joint", &["kd", "fd", "n"]),
+    (
+        "effects",
+        &[
+            "k3",
+            "c2",
+            "kb",
+            "k",
+            "gap",
+            "cj",
+            "frequency_hz",
+            "damping_ratio",
+            "modal_mass",
+        ],
+    ),
+    (
+        "modes",
+        &["frequency_hz", "damping_ratio", "modal_mass", "residue"],
+    ),
+    (
+        "test",
+        &[
+            "noise",
+            "force_noise",
+            "sample_rate_hz",
+            "settle_tolerance",
+            "frequency_tolerance",
+            "seed",
+            "max_harmonic",
+            "max_settle_periods",
+            "measure_periods",
+        ],
+    ),
+];
+
+/// Names the key of a value that should be a number but is not.
+fn check_value_types(root: &toml::Table, origin: &str) -> Result<()> {
+    let bad = |field: String, v: &toml::Value| {
+        Error::format(
+            origin,
+            field,
+            format!("expected a number, got {} `{v}`", v.type_str()),
+        )
+    };
+    for (table, keys) in NUMBER_KEYS {
+        let tables: Vec<(String, &toml::Table)> = match root.get(*table) {
+            Some(toml::Value::Table(t)) => vec![(table.to_string(), t)],
+            Some(toml::Value::Array(a)) => a
+                .iter()
+                .enumerate()
+                .filter_map(|(i, v)| v.as_table().map(|t| (format!("{table}[{i}]"), t)))
+                .collect(),
+            _ => Vec::new(),
+        };
+        for (name, t) in tables {
+            for key in *keys {
+                if let Some(v) = t.get(*key)
+                    && !(v.is_float() || v.is_integer())
+                {
+                    return Err(bad(format!("{name}.{key}"), v));
+                }
+            }
+        }
+    }
+    if let Some(levels) = root
+        .get("test")
+        .and_then(|t| t.get("levels_n"))
+        .and_then(|l| l.as_array())
+    {
+        for (i, v) in levels.iter().enumerate() {
+            if !(v.is_float() || v.is_integer()) {
+                return Err(bad(format!("test.levels_n[{i}]"), v));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl TestDefinition {
     /// Parses and checks a definition; `origin` names the file in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<TestDefinition> {
+        // a first, untyped pass: serde cannot name the key of a mistyped value
+        // inside the tagged tables, so check the number-valued keys here
+        if let Ok(value) = text.parse::<toml::Table>() {
+            check_value_types(&value, origin)?;
+        }
         let def: TestDefinition = toml::from_str(text).map_err(|e| {
             let msg = e.message().to_string();
             let msg = if msg.contains("untagged enum FrequencyList") {
@@ -282,14 +368,31 @@ impl TestDefinition {
             } else {
                 msg
             };
-            let at = e
-                .span()
-                .map(|s| {
-                    let line = text[..s.start.min(text.len())].lines().count().max(1);
-                    format!(" (line {line})")
-                })
-                .unwrap_or_default();
-            Error::format(origin, "toml", format!("{msg}{at}"))
+            // serde's message may not name the key: show the line, and the
+            // table it is in, so the user sees which one
+            let (field, at) = match e.span() {
+                Some(s) => {
+                    let start = s.start.min(text.len());
+                    let n = text[..start].matches('\n').count();
+                    let line = text.lines().nth(n).unwrap_or("").trim();
+                    let table = text
+                        .lines()
+                        .take(n + 1)
+                        .filter_map(|l| l.trim().strip_prefix('[').and_then(|l| l.split(']').next()))
+                        .last()
+                        .map(|t| t.trim_start_matches('[').to_string());
+                    let key = line.split('=').next().unwrap_or("").trim();
+                    let field = match (&table, key.is_empty() || line.starts_with('[')) {
+                        (Some(t), false) => format!("{t}.{key}"),
+                        (None, false) => key.to_string(),
+                        (Some(t), true) => t.clone(),
+                        (None, true) => "toml".to_string(),
+                    };
+                    (field, format!(" (line {}: `{line}`)", n + 1))
+                }
+                None => ("toml".to_string(), String::new()),
+            };
+            Error::format(origin, field, format!("{msg}{at}"))
         })?;
         def.validate()?;
         Ok(def)

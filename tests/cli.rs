@@ -1,0 +1,237 @@
+//! Integration tests: the `hystid` binary.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub fn hystid(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hystid"))
+        .args(args)
+        .env_remove("CI")
+        .output()
+        .expect("run hystid")
+}
+
+pub fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// A small, fast test definition (2 levels, 11 frequencies).
+pub const SMALL_TEST: &str = r#"
+[system]
+mass = 10.0
+damping = 200.0
+stiffness = 1.0e7
+[joint]
+kind = "jenkins"
+kd = 2.4e7
+fd = 246.048
+[test]
+frequencies_hz = { start = 150.0, stop = 300.0, count = 11 }
+levels_n = [50.0, 3000.0]
+noise = 0.10
+seed = 4
+"#;
+
+pub fn write_test(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|r| {
+            r.map(|e| e.unwrap().file_name().into_string().unwrap())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+#[test]
+fn simulate_writes_every_output_and_is_byte_identical_across_thread_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let a = dir.path().join("a");
+    let b = dir.path().join("b");
+    let o = hystid(&[
+        "simulate",
+        test.to_str().unwrap(),
+        "--out",
+        a.to_str().unwrap(),
+        "--threads",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = hystid(&[
+        "simulate",
+        test.to_str().unwrap(),
+        "--out",
+        b.to_str().unwrap(),
+        "--threads",
+        "2",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(o.stdout.is_empty(), "--quiet printed: {}", text(&o));
+    let names = files_in(&a);
+    for f in [
+        "run.mcap",
+        "recording.wav",
+        "recording.json",
+        "frf.json",
+        "frf.csv",
+        "frf.png",
+        "frf.svg",
+        "summary.json",
+    ] {
+        assert!(names.contains(&f.to_string()), "{f} missing: {names:?}");
+    }
+    for f in [
+        "run.mcap",
+        "recording.wav",
+        "recording.json",
+        "frf.json",
+        "frf.csv",
+        "frf.svg",
+        "frf.png",
+    ] {
+        assert_eq!(
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+            "{f} differs between 1 and 2 threads"
+        );
+    }
+    // the recording reads back and its dwells are the MCAP's
+    let rec = hystid::record::read_recording(&a.join("recording.wav")).unwrap();
+    let run = hystid::record::read_run(&a.join("run.mcap")).unwrap();
+    assert!(!run.truncated);
+    assert_eq!(rec.meta.excitation.steps.len(), 22);
+    assert_eq!(run.dwells.len(), 22);
+    let from_mcap = run.to_recording().unwrap();
+    assert_eq!(from_mcap.meta.excitation.steps, rec.meta.excitation.steps);
+    for (c, name) in ["force", "displacement", "velocity", "acceleration"]
+        .iter()
+        .enumerate()
+    {
+        let i = from_mcap.channel_index(name).unwrap();
+        assert_eq!(from_mcap.channels[i], rec.channels[c], "{name}");
+    }
+}
+
+#[test]
+fn simulate_mcap_passes_the_official_python_reader() {
+    let ok = Command::new("python3")
+        .args(["-c", "import mcap.reader, mcap_ros2.decoder"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        eprintln!("SKIPPED: python mcap reader not installed");
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set: the Python mcap reader must be installed"
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let out = dir.path().join("o");
+    let o = hystid(&[
+        "simulate",
+        test.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rec = hystid::record::read_recording(&out.join("recording.wav")).unwrap();
+    // expected counts from the dwells, independently of the MCAP reader
+    let steps = &rec.meta.excitation.steps;
+    let blocks: usize = steps.iter().map(|s| s.length.div_ceil(4096)).sum();
+    let frames = rec.frames();
+    let decimation = (rec.meta.sample_rate_hz / 1000.0).ceil() as usize;
+    let n = steps[0].length.min(4096);
+    let f32s = |c: usize| rec.channels[c][..n].to_vec();
+    let expect = serde_json::json!({
+        "counts": {
+            "/hystid/signals": blocks,
+            "/hystid/dwell": steps.len(),
+            "/hystid/preview": frames.div_ceil(decimation),
+        },
+        "first_block": {
+            "step": 0, "first_frame": 0, "t0": 0.0, "fs": rec.meta.sample_rate_hz,
+            "force": f32s(0), "displacement": f32s(1), "velocity": f32s(2), "acceleration": f32s(3),
+        },
+        "metadata": {},
+        "attachment": SMALL_TEST,
+    });
+    let expect_path = dir.path().join("expect.json");
+    std::fs::write(&expect_path, serde_json::to_string(&expect).unwrap()).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop/check_mcap.py");
+    let o = Command::new("python3")
+        .arg(&script)
+        .arg(out.join("run.mcap"))
+        .arg(&expect_path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "check_mcap.py: {}", text(&o));
+}
+
+#[test]
+fn bad_test_definitions_fail_cleanly_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            SMALL_TEST.replace("mass = 10.0", "mass = -1.0"),
+            "system.mass",
+        ),
+        (
+            SMALL_TEST.replace("levels_n = [50.0,", "levels_n = [nan,"),
+            "test.levels_n[0]",
+        ),
+        (
+            SMALL_TEST.replace("seed = 4", "seed = 4\nsample_rate_hz = 3000.0"),
+            "Nyquist",
+        ),
+        (
+            SMALL_TEST.replace("seed = 4", "seed = 4\ncolour = \"red\""),
+            "colour",
+        ),
+        (SMALL_TEST.replace("fd = 246.048", "fd = \"much\""), "fd"),
+    ];
+    for (i, (t, needle)) in cases.iter().enumerate() {
+        let test = write_test(dir.path(), &format!("bad{i}.toml"), t);
+        let out = dir.path().join(format!("out{i}"));
+        let o = hystid(&[
+            "simulate",
+            test.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "case {i}: {}", text(&o));
+        let msg = text(&o);
+        assert!(msg.contains(needle), "case {i}: `{needle}` not in: {msg}");
+        assert!(
+            msg.contains(&format!("bad{i}.toml")) || msg.contains("invalid"),
+            "case {i} names no file: {msg}"
+        );
+        assert!(
+            files_in(&out).is_empty(),
+            "case {i} left files: {:?}",
+            files_in(&out)
+        );
+    }
+    let o = hystid(&[
+        "simulate",
+        "/nonexistent/t.toml",
+        "--out",
+        dir.path().join("x").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("/nonexistent/t.toml"));
+}
