@@ -16,6 +16,8 @@ pub struct Jenkins {
     fd: f64,
     /// Committed slider position, m.
     slider: f64,
+    /// `∂slider/∂p` carried by [`Element::commit_sensitivity`] (empty: zero).
+    slider_sensitivity: Vec<f64>,
 }
 
 impl Jenkins {
@@ -27,6 +29,7 @@ impl Jenkins {
             kd,
             fd,
             slider: 0.0,
+            slider_sensitivity: Vec::new(),
         })
     }
 
@@ -86,6 +89,35 @@ impl Element for Jenkins {
 
     fn reset(&mut self) {
         self.slider = 0.0;
+        self.slider_sensitivity.clear();
+    }
+
+    /// Stick: `g = kd (x − x_s)`, so `∂g = kd (∂x − ∂x_s)`; slip: `g = ±Fd`
+    /// and the slider follows, `∂x_s = ∂x` (NLvib's chain rule, method notes
+    /// d.1).
+    #[inline]
+    fn commit_sensitivity(
+        &mut self,
+        x: f64,
+        _v: f64,
+        dx: &[f64],
+        _dv: &[f64],
+        df: &mut [f64],
+    ) -> ElementForce {
+        if self.slider_sensitivity.len() != dx.len() {
+            self.slider_sensitivity.clear();
+            self.slider_sensitivity.resize(dx.len(), 0.0);
+        }
+        let (f, slider) = self.evaluate(x);
+        if f.stiffness != 0.0 {
+            for ((d, &a), &s) in df.iter_mut().zip(dx).zip(&self.slider_sensitivity) {
+                *d += self.kd * (a - s);
+            }
+        } else {
+            self.slider_sensitivity.copy_from_slice(dx);
+        }
+        self.slider = slider;
+        f
     }
 
     fn has_memory(&self) -> bool {

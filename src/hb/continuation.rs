@@ -1,0 +1,512 @@
+//! Sweeps: natural continuation in frequency, describing-function starts,
+//! and pseudo-arclength continuation to check jumps and locate folds.
+//!
+//! * Each point starts from a secant extrapolation of the last two converged
+//!   points of the branch (the last point alone after a start or a jump).
+//! * A solve that fails, or lands farther than [`JUMP_CHECK`] (relative)
+//!   from its prediction, is checked by tracing the branch from the last
+//!   point with pseudo-arclength steps in the scaled unknowns `(X/‖X‖,
+//!   (ω − ω_prev)/(ω − ω_prev)_step)` (Keller's predictor–corrector; Seydel,
+//!   *Practical Bifurcation and Stability Analysis*; NLvib's
+//!   `solve_and_continue.m`):
+//!   - the trace reaches the new frequency: the branch continues; that
+//!     solution is taken (natural continuation may have hopped onto another
+//!     branch);
+//!   - the tangent's frequency component changes sign first: the branch
+//!     folds, the sweep jumps (to the natural solve's solution, or else to a
+//!     describing-function restart), and the [`Fold`] is reported.
+//! * The first point starts from the single-harmonic describing function
+//!   (method notes d.3). If it has several amplitudes there, the one on the
+//!   branch the sweep comes from is chosen by following the describing
+//!   function from a frequency (up to 50 % back) where it has one.
+
+use super::describing;
+use super::newton::{Outcome, lu_factor, lu_solve, norm};
+use super::{Fold, HbPoint, HbSolver, LinearPart};
+use crate::error::Result;
+use crate::model::Element;
+use num_complex::Complex64;
+use std::f64::consts::PI;
+
+/// Relative distance between a solve and its prediction above which the
+/// branch is traced to check for a jump.
+pub(crate) const JUMP_CHECK: f64 = 0.2;
+
+/// What tracing a branch toward a frequency found.
+enum Trace {
+    /// The branch reaches the target; its solution there.
+    Reached(Vec<f64>, Outcome),
+    /// The branch turns back at `omega`, state `x`.
+    Fold { omega: f64, x: Vec<f64> },
+    /// The trace could not follow the branch.
+    Failed(String),
+}
+
+impl HbSolver {
+    pub(super) fn run_sweep<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        freqs: &[f64],
+        force: f64,
+    ) -> Result<(Vec<HbPoint>, Vec<Fold>)> {
+        let n = self.core.n;
+        let direction = match (freqs.first(), freqs.last()) {
+            (Some(a), Some(b)) if b > a => 1.0,
+            (Some(a), Some(b)) if b < a => -1.0,
+            _ => 0.0,
+        };
+        let mut points = Vec::with_capacity(freqs.len());
+        let mut folds = Vec::new();
+        // the last two converged points of the current branch
+        let mut last: Option<(f64, Vec<f64>)> = None;
+        let mut before: Option<(f64, Vec<f64>)> = None;
+        let mut guess = vec![0.0; n];
+        let mut x = vec![0.0; n];
+        for (i, &f) in freqs.iter().enumerate() {
+            let omega = 2.0 * PI * f;
+            let (xi, out, new_branch) = match &last {
+                None => {
+                    let (x0, out) = self.cold_start(linear, elements, omega, force, direction)?;
+                    (x0, out, true)
+                }
+                Some((w0, x0)) => {
+                    match &before {
+                        Some((wm, xm)) if (w0 - wm).abs() > 0.0 => {
+                            let s = (omega - w0) / (w0 - wm);
+                            for k in 0..n {
+                                guess[k] = x0[k] + s * (x0[k] - xm[k]);
+                            }
+                        }
+                        _ => guess.copy_from_slice(x0),
+                    }
+                    self.core.set_frequency(linear, omega)?;
+                    x.copy_from_slice(&guess);
+                    let out = self
+                        .core
+                        .newton(elements, force, &mut x, &mut self.counters);
+                    let moved = distance(&x, &guess) / norm(&x).max(norm(&guess));
+                    if out.converged && moved <= JUMP_CHECK {
+                        (x.clone(), out, false)
+                    } else {
+                        let (w0, x0) = (*w0, x0.clone());
+                        self.check_jump(
+                            linear, elements, force, i, &x0, w0, omega, &x, out, &mut folds,
+                        )?
+                    }
+                }
+            };
+            let point = self.point(f, force, &xi, &out);
+            if out.converged {
+                if new_branch {
+                    before = None;
+                } else {
+                    before = last.take();
+                }
+                last = Some((omega, xi));
+            } else {
+                before = None;
+            }
+            points.push(point);
+        }
+        Ok((points, folds))
+    }
+
+    /// After a failed or far-moved natural step from `(x0, w0)` to `omega`:
+    /// trace the branch, decide, report a fold. Returns the point's state,
+    /// outcome and whether it starts a new branch.
+    #[allow(clippy::too_many_arguments)]
+    fn check_jump<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        force: f64,
+        index: usize,
+        x0: &[f64],
+        w0: f64,
+        omega: f64,
+        natural: &[f64],
+        natural_out: Outcome,
+        folds: &mut Vec<Fold>,
+    ) -> Result<(Vec<f64>, Outcome, bool)> {
+        let layout = self.core.aft.layout.clone();
+        let before_amp = layout.fundamental(x0).norm();
+        match self.trace(linear, elements, force, x0, w0, omega) {
+            Trace::Reached(xa, out) => {
+                if natural_out.converged && distance(natural, &xa) <= 1e-6 * norm(&xa) {
+                    Ok((natural.to_vec(), natural_out, false))
+                } else {
+                    Ok((xa, out, false))
+                }
+            }
+            Trace::Fold { omega: wf, x: xf } => {
+                let fold_amp = layout.fundamental(&xf).norm();
+                let (xd, out) = if natural_out.converged {
+                    (natural.to_vec(), natural_out)
+                } else {
+                    self.restart(linear, elements, omega, force, Some(fold_amp))?
+                };
+                folds.push(Fold {
+                    index,
+                    frequency_hz: wf / (2.0 * PI),
+                    located: true,
+                    amplitude_at_fold: fold_amp,
+                    amplitude_before: before_amp,
+                    amplitude_after: if out.converged {
+                        layout.fundamental(&xd).norm()
+                    } else {
+                        f64::NAN
+                    },
+                });
+                Ok((xd, out, true))
+            }
+            Trace::Failed(why) => {
+                if natural_out.converged {
+                    // could not check: keep natural continuation's answer
+                    return Ok((natural.to_vec(), natural_out, false));
+                }
+                let (xd, mut out) =
+                    self.restart(linear, elements, omega, force, Some(before_amp))?;
+                if !out.converged {
+                    out.failure = Some(format!(
+                        "warm start: {}; arc-length: {why}; describing-function restart: {}",
+                        natural_out.failure.unwrap_or_default(),
+                        out.failure.unwrap_or_default()
+                    ));
+                }
+                Ok((xd, out, true))
+            }
+        }
+    }
+
+    /// Single-harmonic describing-function solutions at `omega`, as guesses.
+    fn df_guesses<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        omega: f64,
+        force: f64,
+    ) -> Result<Vec<Complex64>> {
+        let h1 = linear.receptance(omega)?;
+        let ns = self.core.opts.samples_per_period;
+        Ok(describing::solve(h1, force, |a| {
+            describing::of_elements(elements, a, omega, ns)
+        }))
+    }
+
+    /// The first point of a branch: describing-function start(s), then
+    /// Newton. `direction` (+1 up, −1 down, 0 none) picks among several
+    /// describing-function amplitudes.
+    pub(super) fn cold_start<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        omega: f64,
+        force: f64,
+        direction: f64,
+    ) -> Result<(Vec<f64>, Outcome)> {
+        let mut roots = self.df_guesses(linear, elements, omega, force)?;
+        if roots.len() > 1 && direction != 0.0 {
+            if let Some(pick) = self.branch_root(linear, elements, omega, force, direction, &roots)
+            {
+                // try the branch's root first
+                roots.sort_by(|a, b| {
+                    log_gap(a.norm(), pick.norm()).total_cmp(&log_gap(b.norm(), pick.norm()))
+                });
+            }
+        }
+        self.polish(linear, elements, omega, force, &roots)
+    }
+
+    /// A describing-function restart, trying the amplitude closest to
+    /// `prefer` first.
+    fn restart<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        omega: f64,
+        force: f64,
+        prefer: Option<f64>,
+    ) -> Result<(Vec<f64>, Outcome)> {
+        let mut roots = self.df_guesses(linear, elements, omega, force)?;
+        if let Some(p) = prefer.filter(|p| p.is_finite() && *p > 0.0) {
+            roots.sort_by(|a, b| log_gap(a.norm(), p).total_cmp(&log_gap(b.norm(), p)));
+        }
+        self.polish(linear, elements, omega, force, &roots)
+    }
+
+    /// Newton from each single-harmonic guess in turn until one converges.
+    fn polish<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        omega: f64,
+        force: f64,
+        roots: &[Complex64],
+    ) -> Result<(Vec<f64>, Outcome)> {
+        self.core.set_frequency(linear, omega)?;
+        let n = self.core.n;
+        let layout = self.core.aft.layout.clone();
+        let i1 = layout.harmonics.iter().position(|&h| h == 1).unwrap_or(0);
+        let mut x = vec![0.0; n];
+        let mut reasons = Vec::new();
+        for r in roots {
+            x.fill(0.0);
+            x[layout.slots[i1]] = r.re;
+            x[layout.slots[i1] + 1] = r.im;
+            let out = self
+                .core
+                .newton(elements, force, &mut x, &mut self.counters);
+            if out.converged {
+                return Ok((x, out));
+            }
+            reasons.push(format!(
+                "from |X1| = {:.4e} m: {}",
+                r.norm(),
+                out.failure.unwrap_or_default()
+            ));
+        }
+        let why = if roots.is_empty() {
+            "the single-harmonic describing function gave no starting amplitude".to_string()
+        } else {
+            reasons.join("; ")
+        };
+        Ok((
+            x,
+            Outcome {
+                converged: false,
+                iterations: 0,
+                residual: f64::NAN,
+                failure: Some(why),
+            },
+        ))
+    }
+
+    /// With several describing-function amplitudes at `omega`, the one on
+    /// the branch a sweep in `direction` arrives on: step back (2 % at a
+    /// time, up to 50 %) until the amplitude is unique, then follow it
+    /// forward by nearest amplitude.
+    fn branch_root<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        omega: f64,
+        force: f64,
+        direction: f64,
+        roots: &[Complex64],
+    ) -> Option<Complex64> {
+        let at = |k: usize| omega * (1.0 - direction * 0.02 * k as f64);
+        for k in 1..=25 {
+            let w = at(k);
+            let r = self.df_guesses(linear, elements, w, force).ok()?;
+            if r.len() == 1 {
+                let mut current = r[0].norm();
+                for m in (1..k).rev() {
+                    let rm = self.df_guesses(linear, elements, at(m), force).ok()?;
+                    if let Some(best) = nearest(&rm, current) {
+                        current = best.norm();
+                    }
+                }
+                return nearest(roots, current);
+            }
+        }
+        None
+    }
+
+    /// Pseudo-arclength continuation of the branch through `(x0, w0)` toward
+    /// `w1`.
+    fn trace<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        force: f64,
+        x0: &[f64],
+        w0: f64,
+        w1: f64,
+    ) -> Trace {
+        const DS_MAX: f64 = 0.25;
+        const DS_MIN: f64 = 1e-5;
+        const MAX_STEPS: usize = 200;
+        const CORRECTOR_ITERATIONS: usize = 12;
+        let n = self.core.n;
+        let m = n + 1;
+        let sx = norm(x0);
+        let dw = w1 - w0;
+        // scaled unknowns: y = (x/sx, (ω − w0)/dw)
+        let mut y = vec![0.0; m];
+        for k in 0..n {
+            y[k] = x0[k] / sx;
+        }
+        let tol = self.core.opts.tolerance.max(1e-9);
+        let mut r = vec![0.0; n];
+        let mut ja = vec![0.0; n * m];
+        let mut a = vec![0.0; m * m];
+        let mut piv = vec![0; m];
+        let mut rhs = vec![0.0; m];
+        // the augmented Jacobian [∂R/∂u | ∂R/∂w] at y
+        let mut augmented = |s: &mut HbSolver,
+                             y: &[f64],
+                             r: &mut [f64],
+                             ja: &mut [f64]|
+         -> std::result::Result<f64, String> {
+            let x: Vec<f64> = y[..n].iter().map(|u| u * sx).collect();
+            let omega = w0 + dw * y[n];
+            s.core
+                .set_frequency(linear, omega)
+                .map_err(|e| e.to_string())?;
+            let mut jx = vec![0.0; n * n];
+            s.counters.residuals += 1;
+            s.counters.jacobians += 1;
+            s.core.residual(elements, force, &x, r, Some(&mut jx))?;
+            let h = 1e-7 * omega.abs().max(1.0);
+            s.core
+                .set_frequency(linear, omega + h)
+                .map_err(|e| e.to_string())?;
+            let mut rp = vec![0.0; n];
+            s.counters.residuals += 1;
+            s.core.residual(elements, force, &x, &mut rp, None)?;
+            for i in 0..n {
+                for k in 0..n {
+                    ja[i * m + k] = jx[i * n + k] * sx;
+                }
+                ja[i * m + n] = (rp[i] - r[i]) / h * dw;
+            }
+            Ok(norm(r) / norm(&x).max(f64::MIN_POSITIVE))
+        };
+        // tangent: [J; t_prev] t = e_last, normalised
+        let tangent = |ja: &[f64],
+                       prev: &[f64],
+                       a: &mut [f64],
+                       piv: &mut [usize],
+                       rhs: &mut [f64]|
+         -> Option<Vec<f64>> {
+            a[..n * m].copy_from_slice(ja);
+            a[n * m..].copy_from_slice(prev);
+            if !lu_factor(a, piv, m) {
+                return None;
+            }
+            rhs.fill(0.0);
+            rhs[n] = 1.0;
+            lu_solve(a, piv, m, rhs);
+            let s = norm(rhs);
+            Some(rhs.iter().map(|v| v / s).collect())
+        };
+        if let Err(why) = augmented(self, &y, &mut r, &mut ja) {
+            return Trace::Failed(why);
+        }
+        let mut e_last = vec![0.0; m];
+        e_last[n] = 1.0;
+        let Some(mut t) = tangent(&ja, &e_last, &mut a, &mut piv, &mut rhs) else {
+            return Trace::Failed("singular Jacobian at the start of the trace".into());
+        };
+        let mut ds = (1.0 / t[n].max(1e-12)).min(DS_MAX);
+        let mut z = vec![0.0; m];
+        let mut pred = vec![0.0; m];
+        for _ in 0..MAX_STEPS {
+            let mut last_step = false;
+            if t[n] > 0.0 && y[n] + ds * t[n] >= 1.0 {
+                ds = (1.0 - y[n]) / t[n];
+                last_step = true;
+            }
+            for k in 0..m {
+                pred[k] = y[k] + ds * t[k];
+            }
+            z.copy_from_slice(&pred);
+            let mut converged = false;
+            let mut iterations = 0;
+            for it in 0..CORRECTOR_ITERATIONS {
+                iterations = it + 1;
+                let rel = match augmented(self, &z, &mut r, &mut ja) {
+                    Ok(v) => v,
+                    Err(_) => break,
+                };
+                let arc: f64 = (0..m).map(|k| t[k] * (z[k] - pred[k])).sum();
+                if rel <= tol && arc.abs() <= 1e-9 {
+                    converged = true;
+                    break;
+                }
+                a[..n * m].copy_from_slice(&ja);
+                a[n * m..].copy_from_slice(&t);
+                if !lu_factor(&mut a, &mut piv, m) {
+                    break;
+                }
+                for i in 0..n {
+                    rhs[i] = -r[i];
+                }
+                rhs[n] = -arc;
+                lu_solve(&a, &piv, m, &mut rhs);
+                for k in 0..m {
+                    z[k] += rhs[k];
+                }
+            }
+            if !converged {
+                ds *= 0.5;
+                if ds < DS_MIN {
+                    return Trace::Failed(format!(
+                        "the arc-length corrector failed down to step {ds:.1e}"
+                    ));
+                }
+                continue;
+            }
+            let Some(t_new) = tangent(&ja, &t, &mut a, &mut piv, &mut rhs) else {
+                return Trace::Failed("singular augmented Jacobian on the branch".into());
+            };
+            if t_new[n] <= 0.0 {
+                // the frequency turned back between y and z: w(s) ≈ quadratic
+                let step = distance(&y, &z);
+                let sf = step * t[n] / (t[n] - t_new[n]);
+                let wf = y[n] + 0.5 * t[n] * sf;
+                let frac = if step > 0.0 { sf / step } else { 0.0 };
+                let xf: Vec<f64> = (0..n).map(|k| sx * (y[k] + frac * (z[k] - y[k]))).collect();
+                return Trace::Fold {
+                    omega: w0 + dw * wf,
+                    x: xf,
+                };
+            }
+            y.copy_from_slice(&z);
+            t = t_new;
+            if last_step || (y[n] - 1.0).abs() < 1e-9 {
+                let mut x: Vec<f64> = y[..n].iter().map(|u| u * sx).collect();
+                if let Err(e) = self.core.set_frequency(linear, w1) {
+                    return Trace::Failed(e.to_string());
+                }
+                let out = self
+                    .core
+                    .newton(elements, force, &mut x, &mut self.counters);
+                return if out.converged {
+                    Trace::Reached(x, out)
+                } else {
+                    Trace::Failed(format!(
+                        "Newton at the traced end failed: {}",
+                        out.failure.unwrap_or_default()
+                    ))
+                };
+            }
+            if iterations <= 3 {
+                ds = (ds * 1.5).min(DS_MAX);
+            }
+        }
+        Trace::Failed(format!(
+            "did not reach the frequency in {MAX_STEPS} arc-length steps"
+        ))
+    }
+}
+
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+fn log_gap(a: f64, b: f64) -> f64 {
+    (a.ln() - b.ln()).abs()
+}
+
+fn nearest(roots: &[Complex64], amplitude: f64) -> Option<Complex64> {
+    roots
+        .iter()
+        .copied()
+        .min_by(|a, b| log_gap(a.norm(), amplitude).total_cmp(&log_gap(b.norm(), amplitude)))
+}
