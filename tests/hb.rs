@@ -204,3 +204,390 @@ fn finite_difference_jacobian_gives_the_same_solutions() {
         sb.evaluations
     );
 }
+
+/// The simulator's receptance as harmonic balance should see it: the
+/// ramp-invariant filter is `H(f)·sinc²(f/fs)` (method notes a.1), and the
+/// element force passes the same filter, so HB with this receptance is the
+/// simulator's steady state without its sampling bias.
+struct SampledReceptance<'a> {
+    linear: &'a ModalModel,
+    sample_rate: f64,
+}
+
+impl LinearPart for SampledReceptance<'_> {
+    fn receptance(&self, omega: f64) -> hystid::Result<Complex64> {
+        let s = hystid::harmonics::sinc(omega / (2.0 * PI * self.sample_rate));
+        Ok(self.linear.receptance(omega) * (s * s))
+    }
+}
+
+/// Steady-state FRFs `X_h/F_1` of the time simulator for harmonics `hs`:
+/// integer samples per period (≥ 100 per stick period), a 0.2 s raised-cosine
+/// ramp, settled for 1.5 s (`c/2m = 10 s⁻¹`: transients below 1e-6), then 20
+/// whole periods; also the H1 drift between the last two 10-period blocks.
+fn simulated_frf<E: Element>(
+    linear: &ModalModel,
+    elements: E,
+    f: f64,
+    force: f64,
+    hs: &[usize],
+) -> (Vec<Complex64>, f64, f64) {
+    let p = (100.0 * 293.4 / f).ceil() as usize;
+    let fs = p as f64 * f;
+    let mut sim = Simulator::new(linear, elements, fs).unwrap();
+    let ramp = (0.2 * fs) as usize;
+    let settle = (1.5 * f).ceil() as usize * p;
+    let measure = 20 * p;
+    let drive = |i: usize| {
+        let env = if i < ramp {
+            0.5 - 0.5 * (PI * i as f64 / ramp as f64).cos()
+        } else {
+            1.0
+        };
+        env * force * (2.0 * PI * (i % p) as f64 / p as f64).cos()
+    };
+    let mut out = hystid::sim::Response::default();
+    sim.run_generator(settle + measure, drive, &mut out)
+        .unwrap();
+    let x = &out.displacement[settle..];
+    let harmonic = |y: &[f64], h: usize| -> Complex64 {
+        let mut acc = Complex64::new(0.0, 0.0);
+        for (n, v) in y.iter().enumerate() {
+            acc += v * Complex64::from_polar(1.0, -2.0 * PI * (h * (n % p)) as f64 / p as f64);
+        }
+        acc * (2.0 / y.len() as f64)
+    };
+    let f1: Vec<f64> = (0..measure).map(|n| drive(settle + n)).collect();
+    let f1 = harmonic(&f1, 1);
+    let frf: Vec<Complex64> = hs.iter().map(|&h| harmonic(x, h) / f1).collect();
+    let half = measure / 2;
+    let drift = rel(harmonic(&x[..half], 1), harmonic(&x[half..], 1));
+    (frf, fs, drift)
+}
+
+/// Multi-harmonic balance against the digital-filter simulator's steady
+/// state for the paper-like system, over stick, transition and slip.
+#[test]
+fn multi_harmonic_balance_matches_the_time_simulator() {
+    let linear = paper_linear();
+    let hs = hb::odd_harmonics(15);
+    let mut opts = HbOptions::with_harmonics(hs.clone());
+    opts.samples_per_period = 512;
+    let (mut worst1, mut worst3) = (0.0f64, 0.0f64);
+    let mut compared3 = 0;
+    for force in [5.0, 200.0, 500.0, 3000.0] {
+        for f in [200.0, 250.0, 290.0] {
+            let jenkins = Jenkins::new(KD, FD).unwrap();
+            let (sim, fs, drift) = simulated_frf(&linear, jenkins.clone(), f, force, &hs);
+            assert!(drift < 1e-6, "F={force} f={f}: not settled ({drift:e})");
+            let sampled = SampledReceptance {
+                linear: &linear,
+                sample_rate: fs,
+            };
+            let p = hb::solve_point(&sampled, &mut jenkins.clone(), f, force, None, &opts).unwrap();
+            assert!(p.converged, "{p:?}");
+            let e1 = rel(sim[0], p.h[0]);
+            worst1 = worst1.max(e1);
+            assert!(
+                e1 < 2e-3,
+                "F={force} f={f}: H1 sim {} hb {} ({e1:e})",
+                sim[0],
+                p.h[0]
+            );
+            if p.h[1].norm() > 1e-3 * p.h[0].norm() {
+                let e3 = rel(sim[1], p.h[1]);
+                worst3 = worst3.max(e3);
+                compared3 += 1;
+                assert!(
+                    e3 < 5e-2,
+                    "F={force} f={f}: H3 sim {} hb {} ({e3:e})",
+                    sim[1],
+                    p.h[1]
+                );
+            }
+        }
+    }
+    eprintln!(
+        "HB {{1..15}} vs simulator (≥100 samples per stick period): H1 worst {worst1:.2e}, \
+         H3 worst {worst3:.2e} over {compared3} points with |H3/H1| > 1e-3"
+    );
+    assert!(
+        compared3 >= 4,
+        "too few points with a third harmonic to compare"
+    );
+}
+
+/// More harmonics converge: the change in H1 shrinks as the set grows.
+#[test]
+fn harmonic_count_converges() {
+    let linear = paper_linear();
+    let freqs = grid(150.0, 330.0, 7);
+    let run = |hs: Vec<usize>| {
+        let mut o = HbOptions::with_harmonics(hs);
+        o.samples_per_period = 1024;
+        let mut e = Jenkins::new(KD, FD).unwrap();
+        [200.0, 500.0, 1000.0]
+            .iter()
+            .map(|&lvl| hb::sweep(&linear, &mut e, &freqs, lvl, &o).unwrap())
+            .collect::<Vec<_>>()
+    };
+    let h1 = run(vec![1]);
+    let h5 = run(hb::odd_harmonics(5));
+    let h15 = run(hb::odd_harmonics(15));
+    let h31 = run(hb::odd_harmonics(31));
+    let change = |a: &[hb::HbSweep], b: &[hb::HbSweep]| {
+        let mut w = 0.0f64;
+        for (sa, sb) in a.iter().zip(b) {
+            for (p, q) in sa.points.iter().zip(&sb.points) {
+                assert!(p.converged && q.converged);
+                w = w.max(rel(p.frf(1).unwrap(), q.frf(1).unwrap()));
+            }
+        }
+        w
+    };
+    let (c1, c5, c15) = (change(&h1, &h15), change(&h5, &h15), change(&h15, &h31));
+    eprintln!(
+        "H1 change to {{1,3,..,15}}: from {{1}} {c1:.2e}, from {{1,3,5}} {c5:.2e}; \
+         {{1..15}} to {{1..31}}: {c15:.2e}"
+    );
+    assert!(c5 < c1 / 3.0 && c15 < c5, "{c1:e} {c5:e} {c15:e}");
+    assert!(c5 < 2e-3, "{c5:e}");
+}
+
+/// Closed-form single-harmonic Duffing folds: where the cubic
+/// `A[(k − mω² + ¾k3 A)² + (cω)²] = F²` in `A = a²` changes from one to
+/// three real roots (its discriminant's sign), by bisection.
+fn duffing_folds(m: f64, c: f64, k: f64, k3: f64, force: f64, from: f64, to: f64) -> Vec<f64> {
+    let e = 0.75 * k3;
+    let a0_scale = (force / k).powi(2) * 1e4;
+    let disc = |f: f64| {
+        let w = 2.0 * PI * f;
+        let d = k - m * w * w;
+        let (a3, a2, a1, a0) = (
+            e * e * a0_scale.powi(3),
+            2.0 * d * e * a0_scale.powi(2),
+            (d * d + (c * w).powi(2)) * a0_scale,
+            -force * force,
+        );
+        18.0 * a3 * a2 * a1 * a0 - 4.0 * a2.powi(3) * a0 + a2 * a2 * a1 * a1
+            - 4.0 * a3 * a1.powi(3)
+            - 27.0 * a3 * a3 * a0 * a0
+    };
+    let mut folds = Vec::new();
+    let steps = 4000;
+    for i in 0..steps {
+        let (mut lo, mut hi) = (
+            from + (to - from) * i as f64 / steps as f64,
+            from + (to - from) * (i + 1) as f64 / steps as f64,
+        );
+        if (disc(lo) > 0.0) != (disc(hi) > 0.0) {
+            let s = disc(lo) > 0.0;
+            for _ in 0..100 {
+                let mid = 0.5 * (lo + hi);
+                if (disc(mid) > 0.0) == s {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            folds.push(0.5 * (lo + hi));
+        }
+    }
+    folds
+}
+
+#[test]
+fn hardening_cubic_sweeps_up_and_down_follow_different_branches_and_report_folds() {
+    let linear = paper_linear();
+    let (k3, force) = (4e12, 200.0);
+    let exact = duffing_folds(M, C, K, k3, force, 140.0, 200.0);
+    assert_eq!(exact.len(), 2, "{exact:?}");
+    let (lower, upper) = (exact[0], exact[1]);
+    let up = grid(150.0, 190.0, 81);
+    let down: Vec<f64> = up.iter().rev().copied().collect();
+    for harmonics in [vec![1], hb::odd_harmonics(5)] {
+        let opts = HbOptions::with_harmonics(harmonics.clone());
+        let mut e = CubicStiffness { k3 };
+        let su = hb::sweep(&linear, &mut e, &up, force, &opts).unwrap();
+        let sd = hb::sweep(&linear, &mut e, &down, force, &opts).unwrap();
+        assert!(su.points.iter().chain(&sd.points).all(|p| p.converged));
+        assert_eq!(su.folds.len(), 1, "{:?}", su.folds);
+        assert_eq!(sd.folds.len(), 1, "{:?}", sd.folds);
+        let (fu, fd) = (&su.folds[0], &sd.folds[0]);
+        eprintln!(
+            "harmonics {harmonics:?}: up-sweep fold {:.4} Hz (|X1| {:.3e} -> {:.3e} m), \
+             down-sweep fold {:.4} Hz ({:.3e} -> {:.3e} m); single-harmonic closed form \
+             {upper:.4} / {lower:.4} Hz",
+            fu.frequency_hz,
+            fu.amplitude_before,
+            fu.amplitude_after,
+            fd.frequency_hz,
+            fd.amplitude_before,
+            fd.amplitude_after
+        );
+        assert!(fu.located && fd.located);
+        // the jump lies between the two sweep points around the fold
+        assert!(up[fu.index - 1] <= fu.frequency_hz && fu.frequency_hz <= up[fu.index]);
+        assert!(down[fd.index] <= fd.frequency_hz && fd.frequency_hz <= down[fd.index - 1]);
+        // up jumps down, down jumps up
+        assert!(fu.amplitude_after < 0.5 * fu.amplitude_before);
+        assert!(fd.amplitude_after > 2.0 * fd.amplitude_before);
+        if harmonics == [1] {
+            // arc-length locates the closed-form folds
+            assert!(
+                (fu.frequency_hz - upper).abs() < 1e-3,
+                "{} vs {upper}",
+                fu.frequency_hz
+            );
+            assert!(
+                (fd.frequency_hz - lower).abs() < 1e-3,
+                "{} vs {lower}",
+                fd.frequency_hz
+            );
+        } else {
+            // harmonics 3 and 5 move the folds only slightly
+            assert!((fu.frequency_hz - upper).abs() < 0.01 * upper);
+            assert!((fd.frequency_hz - lower).abs() < 0.01 * lower);
+        }
+        // between the folds the two sweeps are on different branches; outside
+        // they agree
+        for (i, f) in up.iter().enumerate() {
+            let p = &su.points[i];
+            let q = &sd.points[up.len() - 1 - i];
+            let d = rel(p.frf(1).unwrap(), q.frf(1).unwrap());
+            if *f > fd.frequency_hz + 0.1 && *f < fu.frequency_hz - 0.1 {
+                assert!(p.amplitude() > 2.0 * q.amplitude(), "{f} Hz: {d}");
+            } else if *f < fd.frequency_hz - 0.1 || *f > fu.frequency_hz + 0.1 {
+                assert!(d < 1e-8, "{f} Hz: {d:e}");
+            }
+        }
+    }
+}
+
+/// An element that breaks down (NaN force) beyond a displacement.
+#[derive(Clone, Debug)]
+struct Breaks;
+
+impl Element for Breaks {
+    fn trial(&self, x: f64, _v: f64) -> ElementForce {
+        let k = if x.abs() > 1e-6 { f64::NAN } else { 1e6 };
+        ElementForce {
+            force: k * x,
+            stiffness: k,
+            damping: 0.0,
+        }
+    }
+    fn commit(&mut self, x: f64, v: f64) -> ElementForce {
+        self.trial(x, v)
+    }
+    fn reset(&mut self) {}
+    fn has_memory(&self) -> bool {
+        false
+    }
+}
+
+#[test]
+fn a_point_that_does_not_converge_is_flagged_with_nan_and_a_reason() {
+    let linear = paper_linear();
+    // the response (~1e-5 m) lies where the element has no force
+    let p = hb::solve_point(
+        &linear,
+        &mut Breaks,
+        150.0,
+        100.0,
+        None,
+        &HbOptions::default(),
+    )
+    .unwrap();
+    assert!(!p.converged);
+    assert!(
+        p.x.iter()
+            .chain(&p.h)
+            .all(|z| z.re.is_nan() && z.im.is_nan())
+    );
+    let why = p.failure.clone().unwrap();
+    assert!(
+        why.contains("not finite") || why.contains("no starting amplitude"),
+        "{why}"
+    );
+    // a sweep goes on past such points, and serialises them as null
+    let s = hb::sweep(
+        &linear,
+        &mut Breaks,
+        &[150.0, 160.0],
+        100.0,
+        &HbOptions::default(),
+    )
+    .unwrap();
+    assert!(s.points.iter().all(|p| !p.converged && p.failure.is_some()));
+    let json = serde_json::to_string(&s.points[0]).unwrap();
+    assert!(
+        json.contains("null") && json.contains("\"converged\":false"),
+        "{json}"
+    );
+    // too few iterations for a hard point: the reason names the cap (a
+    // smooth Masing loop; Jenkins' piecewise-linear residual is often solved
+    // in one step)
+    let mut opts = HbOptions::default();
+    opts.max_iterations = 1;
+    let mut e = Masing::new(KD, FD, 2.0).unwrap();
+    let p = hb::solve_point(&linear, &mut e, 250.0, 500.0, None, &opts).unwrap();
+    assert!(!p.converged && p.residual > opts.tolerance, "{p:?}");
+    assert!(p.failure.unwrap().contains("1 Newton iterations"));
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let linear = paper_linear();
+    let opts = HbOptions::default();
+    let mut e = NoElement;
+    assert!(hb::sweep(&linear, &mut e, &[100.0, f64::NAN], 1.0, &opts).is_err());
+    assert!(hb::sweep(&linear, &mut e, &[100.0], -1.0, &opts).is_err());
+    assert!(
+        hb::solve_point(
+            &linear,
+            &mut e,
+            100.0,
+            1.0,
+            Some(&[Complex64::new(0.0, 0.0)]),
+            &opts
+        )
+        .is_err()
+    );
+    for bad in [vec![3, 5], vec![1, 1], vec![5, 1]] {
+        assert!(HbOptions::with_harmonics(bad).validate().is_err());
+    }
+    let mut o = HbOptions::with_harmonics(hb::odd_harmonics(15));
+    o.samples_per_period = 30;
+    let e = o.validate().unwrap_err().to_string();
+    assert!(e.contains("samples_per_period"), "{e}");
+}
+
+/// The FRF set is identical run to run, and to sequential sweeps.
+#[test]
+fn frf_set_is_deterministic_and_equals_sequential_sweeps() {
+    let model = Model::new(
+        paper_linear(),
+        vec![ElementSpec::Masing {
+            kd: KD,
+            fd: FD,
+            n: 22.55,
+        }],
+    )
+    .unwrap();
+    let levels = [5.0, 200.0, 3000.0];
+    let freqs = grid(100.0, 350.0, 11);
+    let opts = HbOptions::default();
+    let a = hb::frf_set_for_model(&model, &levels, &freqs, &opts).unwrap();
+    let b = hb::frf_set_for_model(&model, &levels, &freqs, &opts).unwrap();
+    assert_eq!(
+        serde_json::to_string(&a).unwrap(),
+        serde_json::to_string(&b).unwrap()
+    );
+    let mut solver = HbSolver::new(&opts).unwrap();
+    for (lvl, s) in levels.iter().zip(&a) {
+        let mut e = model.element_set().unwrap();
+        let q = solver.sweep(&model.linear, &mut e, &freqs, *lvl).unwrap();
+        assert_eq!(&q.points, &s.points);
+    }
+}

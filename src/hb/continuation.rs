@@ -250,6 +250,7 @@ impl HbSolver {
         let i1 = layout.harmonics.iter().position(|&h| h == 1).unwrap_or(0);
         let mut x = vec![0.0; n];
         let mut reasons = Vec::new();
+        let (mut iterations, mut residual) = (0, f64::NAN);
         for r in roots {
             x.fill(0.0);
             x[layout.slots[i1]] = r.re;
@@ -259,6 +260,11 @@ impl HbSolver {
                 .newton(elements, force, &mut x, &mut self.counters);
             if out.converged {
                 return Ok((x, out));
+            }
+            // report the closest attempt's figures
+            if !(out.residual >= residual) {
+                iterations = out.iterations;
+                residual = out.residual;
             }
             reasons.push(format!(
                 "from |X1| = {:.4e} m: {}",
@@ -275,8 +281,8 @@ impl HbSolver {
             x,
             Outcome {
                 converged: false,
-                iterations: 0,
-                residual: f64::NAN,
+                iterations,
+                residual,
                 failure: Some(why),
             },
         ))
@@ -325,7 +331,9 @@ impl HbSolver {
         w1: f64,
     ) -> Trace {
         const DS_MAX: f64 = 0.25;
-        const DS_MIN: f64 = 1e-5;
+        const DS_MIN: f64 = 1e-6;
+        // the step (scaled units) over which a fold is finally interpolated
+        const FOLD_STEP: f64 = 2e-3;
         const MAX_STEPS: usize = 200;
         const CORRECTOR_ITERATIONS: usize = 12;
         let n = self.core.n;
@@ -400,6 +408,8 @@ impl HbSolver {
             return Trace::Failed("singular Jacobian at the start of the trace".into());
         };
         let mut ds = (1.0 / t[n].max(1e-12)).min(DS_MAX);
+        // shrinks when a fold is straddled, to locate it with short steps
+        let mut ds_cap = DS_MAX;
         let mut z = vec![0.0; m];
         let mut pred = vec![0.0; m];
         for _ in 0..MAX_STEPS {
@@ -451,6 +461,12 @@ impl HbSolver {
             let Some(t_new) = tangent(&ja, &t, &mut a, &mut piv, &mut rhs) else {
                 return Trace::Failed("singular augmented Jacobian on the branch".into());
             };
+            if t_new[n] <= 0.0 && ds > FOLD_STEP {
+                // a fold between y and z: approach it again in shorter steps
+                ds_cap = (0.25 * ds).max(FOLD_STEP);
+                ds = ds_cap;
+                continue;
+            }
             if t_new[n] <= 0.0 {
                 // the frequency turned back between y and z: w(s) ≈ quadratic
                 let step = distance(&y, &z);
@@ -483,7 +499,7 @@ impl HbSolver {
                 };
             }
             if iterations <= 3 {
-                ds = (ds * 1.5).min(DS_MAX);
+                ds = (ds * 1.5).min(ds_cap);
             }
         }
         Trace::Failed(format!(
