@@ -591,3 +591,97 @@ fn frf_set_is_deterministic_and_equals_sequential_sweeps() {
         assert_eq!(&q.points, &s.points);
     }
 }
+
+/// Speed figures (run with `--ignored --nocapture`; no timing asserts).
+#[test]
+#[ignore]
+fn hb_speed_report() {
+    use std::time::Instant;
+    let linear = paper_linear();
+    let masing = ElementSpec::Masing {
+        kd: KD,
+        fd: FD,
+        n: 22.55,
+    };
+    let model = Model::new(linear.clone(), vec![masing.clone()]).unwrap();
+    let freqs = grid(100.0, 350.0, 51);
+    let levels = [5.0, 50.0, 200.0, 500.0, 1000.0, 3000.0, 30000.0];
+    let opts = HbOptions::default();
+    let mut solver = HbSolver::new(&opts).unwrap();
+    let mut e = model.element_set().unwrap();
+    // warm-started single points: guess = the neighbouring frequency's solution
+    for &level in &levels {
+        let s = solver.sweep(&linear, &mut e, &freqs, level).unwrap();
+        let reps = 20;
+        let t = Instant::now();
+        let mut iters = 0;
+        for _ in 0..reps {
+            for i in 1..freqs.len() {
+                let p = solver
+                    .solve_point(&linear, &mut e, freqs[i], level, Some(&s.points[i - 1].x))
+                    .unwrap();
+                assert!(p.converged);
+                iters += p.iterations;
+            }
+        }
+        let per = t.elapsed().as_secs_f64() / (reps * (freqs.len() - 1)) as f64;
+        let t = Instant::now();
+        let mut evals = 0;
+        for _ in 0..reps {
+            evals += solver
+                .sweep(&linear, &mut e, &freqs, level)
+                .unwrap()
+                .evaluations;
+        }
+        let sweep = t.elapsed().as_secs_f64() / reps as f64;
+        eprintln!(
+            "F = {level:>6} N: warm point {:.1} us ({:.2} Newton its); sweep of 51 {:.2} ms = {:.1} us/point, {:.1} AFT evaluations/point",
+            per * 1e6,
+            iters as f64 / (reps * (freqs.len() - 1)) as f64,
+            sweep * 1e3,
+            sweep * 1e6 / 51.0,
+            evals as f64 / (reps * 51) as f64
+        );
+    }
+    // one AFT residual + Jacobian, for scale
+    let reps = 2000;
+    let mut jenk = model.element_set().unwrap();
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(hb::describing::numeric(&mut jenk, 2e-5, 1.0, 256));
+    }
+    eprintln!(
+        "one 256-sample Masing march: {:.2} us",
+        t.elapsed().as_secs_f64() / reps as f64 * 1e6
+    );
+    // the full FRF set, rayon over levels
+    let reps = 10;
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(hb::frf_set_for_model(&model, &levels, &freqs, &opts).unwrap());
+    }
+    let set = t.elapsed().as_secs_f64() / reps as f64;
+    eprintln!(
+        "FRF set 7 levels x 51 frequencies, Masing, {{1,3,5}}, 256 samples: {:.1} ms on {} threads",
+        set * 1e3,
+        rayon::current_num_threads()
+    );
+    // single-harmonic describing-function FRF: log-grid scan + Brent per point
+    let t = Instant::now();
+    let reps = 3;
+    for _ in 0..reps {
+        for &level in &levels {
+            for &f in &freqs {
+                let w = 2.0 * PI * f;
+                std::hint::black_box(describing::solve(linear.receptance(w), level, |a| {
+                    describing::masing(KD, FD, 22.55, a)
+                }));
+            }
+        }
+    }
+    let df = t.elapsed().as_secs_f64() / (reps * levels.len() * freqs.len()) as f64;
+    eprintln!(
+        "single-harmonic describing-function solve (scan + Brent, accurate quadrature): {:.1} us/point",
+        df * 1e6
+    );
+}

@@ -58,24 +58,33 @@ impl HbSolver {
         };
         let mut points = Vec::with_capacity(freqs.len());
         let mut folds = Vec::new();
-        // the last two converged points of the current branch
-        let mut last: Option<(f64, Vec<f64>)> = None;
+        // the last converged point of the current branch and its tangent
+        let mut last: Option<(f64, Vec<f64>, Option<Vec<f64>>)> = None;
         let mut before: Option<(f64, Vec<f64>)> = None;
         let mut guess = vec![0.0; n];
         let mut x = vec![0.0; n];
+        let mut tangent = vec![0.0; n];
         for (i, &f) in freqs.iter().enumerate() {
             let omega = 2.0 * PI * f;
-            let (xi, out, new_branch) = match &last {
+            let (xi, out, fresh) = match &last {
                 None => {
                     let (x0, out) = self.cold_start(linear, elements, omega, force, direction)?;
-                    (x0, out, true)
+                    (x0, out, false)
                 }
-                Some((w0, x0)) => {
-                    match &before {
-                        Some((wm, xm)) if (w0 - wm).abs() > 0.0 => {
-                            let s = (omega - w0) / (w0 - wm);
+                Some((w0, x0, t0)) => {
+                    let dw = omega - w0;
+                    match (t0, &before) {
+                        // quadratic through the tangent and the point before
+                        (Some(t0), Some((wm, xm))) => {
+                            let dm = wm - w0;
                             for k in 0..n {
-                                guess[k] = x0[k] + s * (x0[k] - xm[k]);
+                                let c = (xm[k] - x0[k] - t0[k] * dm) / (dm * dm);
+                                guess[k] = x0[k] + dw * t0[k] + c * dw * dw;
+                            }
+                        }
+                        (Some(t0), None) => {
+                            for k in 0..n {
+                                guess[k] = x0[k] + dw * t0[k];
                             }
                         }
                         _ => guess.copy_from_slice(x0),
@@ -88,28 +97,91 @@ impl HbSolver {
                     let moved = distance(&x, &guess) / norm(&x).max(norm(&guess));
                     if out.converged && moved <= JUMP_CHECK {
                         (x.clone(), out, false)
+                    } else if out.converged
+                        && self.returns_to(
+                            linear,
+                            elements,
+                            force,
+                            &x,
+                            omega,
+                            x0,
+                            *w0,
+                            &mut tangent,
+                        )
+                    {
+                        // the same branch, just a large step
+                        (x.clone(), out, false)
                     } else {
                         let (w0, x0) = (*w0, x0.clone());
-                        self.check_jump(
+                        let (xd, out, _) = self.check_jump(
                             linear, elements, force, i, &x0, w0, omega, &x, out, &mut folds,
-                        )?
+                        )?;
+                        (xd, out, true)
                     }
                 }
             };
             let point = self.point(f, force, &xi, &out);
             if out.converged {
-                if new_branch {
-                    before = None;
-                } else {
-                    before = last.take();
+                // the tangent for the next prediction (no march needed for
+                // rate-independent elements right after a solve)
+                if fresh {
+                    self.core.set_frequency(linear, omega)?;
                 }
-                last = Some((omega, xi));
-            } else {
-                before = None;
+                let ok = self.core.tangent(
+                    linear,
+                    elements,
+                    force,
+                    &xi,
+                    &mut tangent,
+                    &mut self.counters,
+                );
+                before = match (fresh, last.take()) {
+                    (false, Some((w, x, _))) => Some((w, x)),
+                    _ => None,
+                };
+                last = Some((omega, xi, ok.then(|| tangent.clone())));
             }
             points.push(point);
         }
         Ok((points, folds))
+    }
+
+    /// Whether Newton from the converged `x` at `omega`, taken back along its
+    /// tangent to `w0`, returns to `x0`: a cheap check that a large step
+    /// stayed on the branch (after a jump it lands on the other branch).
+    #[allow(clippy::too_many_arguments)]
+    fn returns_to<L: LinearPart, E: Element + 'static>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        force: f64,
+        x: &[f64],
+        omega: f64,
+        x0: &[f64],
+        w0: f64,
+        tangent: &mut [f64],
+    ) -> bool {
+        if !self
+            .core
+            .tangent(linear, elements, force, x, tangent, &mut self.counters)
+        {
+            return false;
+        }
+        let mut back: Vec<f64> = x
+            .iter()
+            .zip(tangent.iter())
+            .map(|(a, t)| a + (w0 - omega) * t)
+            .collect();
+        if self.core.set_frequency(linear, w0).is_err() {
+            return false;
+        }
+        let out = self
+            .core
+            .newton(elements, force, &mut back, &mut self.counters);
+        let same = out.converged && distance(&back, x0) <= 1e-6 * norm(x0);
+        // leave the solver at the point's own frequency
+        let _ = self.core.set_frequency(linear, omega);
+        same
     }
 
     /// After a failed or far-moved natural step from `(x0, w0)` to `omega`:
@@ -131,6 +203,13 @@ impl HbSolver {
     ) -> Result<(Vec<f64>, Outcome, bool)> {
         let layout = self.core.aft.layout.clone();
         let before_amp = layout.fundamental(x0).norm();
+        if std::env::var("HB_DEBUG").is_ok() {
+            eprintln!(
+                "check_jump at {} Hz F {force}: natural {:?}",
+                omega / 2.0 / PI,
+                natural_out.failure
+            );
+        }
         match self.trace(linear, elements, force, x0, w0, omega) {
             Trace::Reached(xa, out) => {
                 if natural_out.converged && distance(natural, &xa) <= 1e-6 * norm(&xa) {

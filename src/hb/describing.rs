@@ -239,11 +239,11 @@ fn any_element(e: &mut AnyElement, a: f64, omega: f64, samples: usize) -> Comple
 /// function `n_of(a)`; sorted by amplitude.
 ///
 /// Solved as `φ(a) = a |1 + H N(a)| − F|H| = 0` (no division by `H`): a scan
-/// of 16 points per decade over `F|H|·[1e-6, 1e6]` for sign changes, each
+/// of 8 points per decade over `F|H|·[1e-6, 1e6]` for sign changes, each
 /// refined by Brent's method to 1e-13 relative (method notes d.3). Roots
 /// closer together than one grid step can be missed.
 pub fn solve(h: Complex64, force: f64, mut n_of: impl FnMut(f64) -> Complex64) -> Vec<Complex64> {
-    const PER_DECADE: usize = 16;
+    const PER_DECADE: usize = 8;
     const DECADES: usize = 12;
     let target = force * h.norm();
     let roots = {

@@ -57,6 +57,8 @@ pub(crate) struct Core {
     jact: Vec<f64>,
     xfd: Vec<f64>,
     rfd: Vec<f64>,
+    /// Whether `jac`, `g` and `r` are those of the last converged point.
+    at_solution: bool,
 }
 
 /// Counts expensive evaluations (for reports and benches).
@@ -88,6 +90,7 @@ impl Core {
             jact: vec![0.0; n * n],
             xfd: vec![0.0; n],
             rfd: vec![0.0; n],
+            at_solution: false,
         }
     }
 
@@ -96,6 +99,7 @@ impl Core {
         if omega == self.omega {
             return Ok(());
         }
+        self.at_solution = false;
         for (i, &h) in self.aft.layout.harmonics.iter().enumerate() {
             let z = linear.receptance(h as f64 * omega).map_err(|e| match e {
                 crate::Error::InvalidInput { what, message } => crate::Error::input(
@@ -129,6 +133,7 @@ impl Core {
         r: &mut [f64],
         jac: Option<&mut [f64]>,
     ) -> Result<(), String> {
+        self.at_solution = false;
         residual(
             &mut self.aft,
             &mut self.g,
@@ -153,9 +158,11 @@ impl Core {
         counters: &mut Counters,
     ) -> Outcome {
         let n = self.n;
+        self.at_solution = false;
         let Core {
             aft,
             opts,
+            at_solution,
             hs,
             omega,
             g,
@@ -206,6 +213,8 @@ impl Core {
                 return fail(iteration, rel, "the residual is not finite".into());
             }
             if rel <= opts.tolerance {
+                // finite differences leave `g` and `r` at a perturbed point
+                *at_solution = !use_fd;
                 return Outcome {
                     converged: true,
                     iterations: iteration,
@@ -288,6 +297,94 @@ impl Core {
                 }
             }
         }
+    }
+}
+
+impl Core {
+    /// The branch tangent `dX/dω` at the converged point `x` (frequency as
+    /// set): `J t = −∂R/∂ω`. For rate-independent elements `∂R_h/∂ω =
+    /// −h H'(hω)(F δ_{h1} − G_h)` needs no march (the Jacobian and `G` of the
+    /// last Newton solve are reused); otherwise `∂R/∂ω` is a forward
+    /// difference. `false` if it cannot be formed.
+    pub fn tangent<L: LinearPart, E: Element>(
+        &mut self,
+        linear: &L,
+        elements: &mut E,
+        force: f64,
+        x: &[f64],
+        t: &mut [f64],
+        counters: &mut Counters,
+    ) -> bool {
+        let n = self.n;
+        let omega = self.omega;
+        if !self.at_solution {
+            counters.residuals += 1;
+            counters.jacobians += 1;
+            let (mut r, mut jac) = (std::mem::take(&mut self.r), std::mem::take(&mut self.jac));
+            let ok = self.residual(elements, force, x, &mut r, Some(&mut jac));
+            self.r = r;
+            self.jac = jac;
+            if ok.is_err() {
+                return false;
+            }
+            self.at_solution = true;
+        }
+        let eps = 1e-7;
+        let w2 = omega * (1.0 + eps);
+        if elements.uses_velocity() {
+            let saved_hs = self.hs.clone();
+            if self.set_frequency(linear, w2).is_err() {
+                return false;
+            }
+            counters.residuals += 1;
+            let mut rfd = std::mem::take(&mut self.rfd);
+            let ok = residual(
+                &mut self.aft,
+                &mut self.g,
+                &mut self.dg,
+                &self.hs,
+                w2,
+                self.opts.periodic_loop,
+                elements,
+                force,
+                x,
+                &mut rfd,
+                None,
+            );
+            self.hs = saved_hs;
+            self.omega = omega;
+            self.at_solution = false;
+            if ok.is_err() {
+                self.rfd = rfd;
+                return false;
+            }
+            for i in 0..n {
+                t[i] = -(rfd[i] - self.r[i]) / (w2 - omega);
+            }
+            self.rfd = rfd;
+        } else {
+            for (i, &h) in self.aft.layout.harmonics.iter().enumerate() {
+                let s = self.aft.layout.slots[i];
+                if h == 0 {
+                    t[s] = 0.0;
+                    continue;
+                }
+                let Ok(h2) = linear.receptance(h as f64 * w2) else {
+                    return false;
+                };
+                let dh = (h2 - self.hs[i]) / (w2 - omega);
+                let f = if h == 1 { force } else { 0.0 };
+                let rw = -dh * (f - Complex64::new(self.g[s], self.g[s + 1]));
+                t[s] = -rw.re;
+                t[s + 1] = -rw.im;
+            }
+        }
+        self.lu.copy_from_slice(&self.jac);
+        if !lu_factor(&mut self.lu, &mut self.piv, n) {
+            return false;
+        }
+        lu_solve(&self.lu, &self.piv, n, t);
+        t.iter().all(|v| v.is_finite())
     }
 }
 
