@@ -528,8 +528,10 @@ fn a_point_that_does_not_converge_is_flagged_with_nan_and_a_reason() {
     // too few iterations for a hard point: the reason names the cap (a
     // smooth Masing loop; Jenkins' piecewise-linear residual is often solved
     // in one step)
-    let mut opts = HbOptions::default();
-    opts.max_iterations = 1;
+    let opts = HbOptions {
+        max_iterations: 1,
+        ..HbOptions::default()
+    };
     let mut e = Masing::new(KD, FD, 2.0).unwrap();
     let p = hb::solve_point(&linear, &mut e, 250.0, 500.0, None, &opts).unwrap();
     assert!(!p.converged && p.residual > opts.tolerance, "{p:?}");
@@ -616,9 +618,9 @@ fn hb_speed_report() {
         let t = Instant::now();
         let mut iters = 0;
         for _ in 0..reps {
-            for i in 1..freqs.len() {
+            for (f, prev) in freqs[1..].iter().zip(&s.points) {
                 let p = solver
-                    .solve_point(&linear, &mut e, freqs[i], level, Some(&s.points[i - 1].x))
+                    .solve_point(&linear, &mut e, *f, level, Some(&prev.x))
                     .unwrap();
                 assert!(p.converged);
                 iters += p.iterations;
@@ -684,4 +686,40 @@ fn hb_speed_report() {
         "single-harmonic describing-function solve (scan + Brent, accurate quadrature): {:.1} us/point",
         df * 1e6
     );
+}
+
+/// An asymmetric element needs the static part and even harmonics: HB over
+/// `{0, 1, …, 8}` against the simulator's steady state (memoryless, so the
+/// periodic state is unique).
+#[test]
+fn bilinear_stiffness_static_and_even_harmonics_match_the_simulator() {
+    use hystid::model::BilinearStiffness;
+    let linear = paper_linear();
+    let e = BilinearStiffness { kb: 5e6 };
+    let hs = hb::all_harmonics(8);
+    let opts = HbOptions::with_harmonics(hs.clone());
+    for f in [120.0, 180.0] {
+        let (sim, fs, drift) = simulated_frf(&linear, e, f, 500.0, &hs);
+        assert!(drift < 1e-6);
+        let sampled = SampledReceptance {
+            linear: &linear,
+            sample_rate: fs,
+        };
+        let p = hb::solve_point(&sampled, &mut e.clone(), f, 500.0, None, &opts).unwrap();
+        assert!(p.converged, "{p:?}");
+        // static offset (the sim's DC bin is 2× the mean in `simulated_frf`)
+        let x0_sim = 0.5 * sim[0].re;
+        let x0_hb = p.h[0].re;
+        assert!(
+            p.h[0].norm() > 1e-2 * p.h[1].norm(),
+            "a real offset: {}",
+            p.h[0]
+        );
+        assert!(
+            (x0_sim - x0_hb).abs() < 1e-2 * x0_hb.abs(),
+            "X0 sim {x0_sim} hb {x0_hb}"
+        );
+        assert!(rel(sim[1], p.h[1]) < 2e-3, "H1 {} vs {}", sim[1], p.h[1]);
+        assert!(rel(sim[2], p.h[2]) < 5e-2, "H2 {} vs {}", sim[2], p.h[2]);
+    }
 }

@@ -203,13 +203,6 @@ impl HbSolver {
     ) -> Result<(Vec<f64>, Outcome, bool)> {
         let layout = self.core.aft.layout.clone();
         let before_amp = layout.fundamental(x0).norm();
-        if std::env::var("HB_DEBUG").is_ok() {
-            eprintln!(
-                "check_jump at {} Hz F {force}: natural {:?}",
-                omega / 2.0 / PI,
-                natural_out.failure
-            );
-        }
         match self.trace(linear, elements, force, x0, w0, omega) {
             Trace::Reached(xa, out) => {
                 if natural_out.converged && distance(natural, &xa) <= 1e-6 * norm(&xa) {
@@ -285,14 +278,16 @@ impl HbSolver {
         direction: f64,
     ) -> Result<(Vec<f64>, Outcome)> {
         let mut roots = self.df_guesses(linear, elements, omega, force)?;
-        if roots.len() > 1 && direction != 0.0 {
-            if let Some(pick) = self.branch_root(linear, elements, omega, force, direction, &roots)
-            {
-                // try the branch's root first
-                roots.sort_by(|a, b| {
-                    log_gap(a.norm(), pick.norm()).total_cmp(&log_gap(b.norm(), pick.norm()))
-                });
-            }
+        let pick = if roots.len() > 1 && direction != 0.0 {
+            self.branch_root(linear, elements, omega, force, direction, &roots)
+        } else {
+            None
+        };
+        if let Some(pick) = pick {
+            // try the branch's root first
+            roots.sort_by(|a, b| {
+                log_gap(a.norm(), pick.norm()).total_cmp(&log_gap(b.norm(), pick.norm()))
+            });
         }
         self.polish(linear, elements, omega, force, &roots)
     }
@@ -341,7 +336,7 @@ impl HbSolver {
                 return Ok((x, out));
             }
             // report the closest attempt's figures
-            if !(out.residual >= residual) {
+            if residual.is_nan() || out.residual < residual {
                 iterations = out.iterations;
                 residual = out.residual;
             }

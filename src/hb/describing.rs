@@ -258,9 +258,7 @@ pub fn solve(h: Complex64, force: f64, mut n_of: impl FnMut(f64) -> Complex64) -
             if p0 == 0.0 {
                 roots.push(a0);
             } else if p0.is_finite() && p1.is_finite() && p1 != 0.0 && (p0 < 0.0) != (p1 < 0.0) {
-                if let Some(r) = brent(&mut phi, a0, a1, p0, p1, 1e-13) {
-                    roots.push(r);
-                }
+                roots.extend(brent(&mut phi, a0, a1, p0, p1, 1e-13));
             }
             a0 = a1;
             p0 = p1;

@@ -523,8 +523,8 @@ pub(crate) fn lu_factor(a: &mut [f64], piv: &mut [usize], n: usize) -> bool {
 
 /// Solves with the factors of [`lu_factor`], in place.
 pub(crate) fn lu_solve(lu: &[f64], piv: &[usize], n: usize, b: &mut [f64]) {
-    for k in 0..n {
-        b.swap(k, piv[k]);
+    for (k, &p) in piv.iter().enumerate().take(n) {
+        b.swap(k, p);
     }
     for i in 0..n {
         let mut s = b[i];
