@@ -723,3 +723,32 @@ fn bilinear_stiffness_static_and_even_harmonics_match_the_simulator() {
         assert!(rel(sim[2], p.h[2]) < 5e-2, "H2 {} vs {}", sim[2], p.h[2]);
     }
 }
+
+/// AFT accuracy at the default sample counts (run with `--ignored
+/// --nocapture`): single-harmonic HB against the describing functions.
+#[test]
+#[ignore]
+fn hb_accuracy_report() {
+    let linear = paper_linear();
+    let freqs = grid(120.0, 340.0, 12);
+    for ns in [256usize, 512, 1024] {
+        let mut opts = HbOptions::with_harmonics(vec![1]);
+        opts.samples_per_period = ns;
+        let (mut wj, mut wm) = (0.0f64, 0.0f64);
+        for level in [50.0, 300.0, 1000.0, 5000.0] {
+            let mut j = Jenkins::new(KD, FD).unwrap();
+            let mut m = Masing::new(KD, FD, 22.55).unwrap();
+            let sj = hb::sweep(&linear, &mut j, &freqs, level, &opts).unwrap();
+            let sm = hb::sweep(&linear, &mut m, &freqs, level, &opts).unwrap();
+            for (p, q) in sj.points.iter().zip(&sm.points) {
+                let w = 2.0 * PI * p.frequency_hz;
+                let h = linear.receptance(w);
+                let rj = describing::solve(h, level, |a| describing::jenkins(KD, FD, a));
+                let rm = describing::solve(h, level, |a| describing::masing(KD, FD, 22.55, a));
+                wj = wj.max(rel(p.x[0], rj[0]));
+                wm = wm.max(rel(q.x[0], rm[0]));
+            }
+        }
+        eprintln!("{ns} samples: worst |ΔH1|/|H1| Jenkins {wj:.2e}, Masing N=22.55 {wm:.2e}");
+    }
+}

@@ -1,20 +1,26 @@
 //! Sweeps: natural continuation in frequency, describing-function starts,
 //! and pseudo-arclength continuation to check jumps and locate folds.
 //!
-//! * Each point starts from a secant extrapolation of the last two converged
-//!   points of the branch (the last point alone after a start or a jump).
-//! * A solve that fails, or lands farther than [`JUMP_CHECK`] (relative)
-//!   from its prediction, is checked by tracing the branch from the last
-//!   point with pseudo-arclength steps in the scaled unknowns `(X/‖X‖,
-//!   (ω − ω_prev)/(ω − ω_prev)_step)` (Keller's predictor–corrector; Seydel,
-//!   *Practical Bifurcation and Stability Analysis*; NLvib's
-//!   `solve_and_continue.m`):
-//!   - the trace reaches the new frequency: the branch continues; that
+//! * Each point starts from a prediction along the branch: the tangent
+//!   `dX/dω` at the last point (`J t = −∂R/∂ω`; for rate-independent elements
+//!   it costs no AFT march, the Jacobian of the last solve is reused), with a
+//!   quadratic term through the point before when there is one.
+//! * A solve that lands farther than [`JUMP_CHECK`] (relative) from its
+//!   prediction is first checked cheaply: Newton back at the previous
+//!   frequency from the new point must return to the previous point (after
+//!   a jump it stays on the other branch). If that fails, or the solve
+//!   itself failed, the branch is traced from the last point by
+//!   pseudo-arclength steps in the scaled unknowns `(X/‖X‖, (ω − ω_prev)/Δω)`
+//!   (Keller's predictor–corrector; Seydel, *Practical Bifurcation and
+//!   Stability Analysis*; NLvib's `solve_and_continue.m`):
+//!   - the trace reaches the new frequency: the branch continues and that
 //!     solution is taken (natural continuation may have hopped onto another
 //!     branch);
 //!   - the tangent's frequency component changes sign first: the branch
-//!     folds, the sweep jumps (to the natural solve's solution, or else to a
-//!     describing-function restart), and the [`Fold`] is reported.
+//!     folds. The fold is approached again in short steps and interpolated
+//!     (`ω(s)` quadratic), the sweep jumps (to the natural solve's solution,
+//!     or else to a describing-function restart), and the [`Fold`] is
+//!     reported.
 //! * The first point starts from the single-harmonic describing function
 //!   (method notes d.3). If it has several amplitudes there, the one on the
 //!   branch the sweep comes from is chosen by following the describing
