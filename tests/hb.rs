@@ -183,6 +183,41 @@ fn both_periodic_loop_methods_agree_for_jenkins_and_masing() {
 }
 
 #[test]
+fn half_wave_symmetry_changes_nothing_but_the_cost() {
+    let linear = paper_linear();
+    let freqs = grid(120.0, 340.0, 12);
+    for spec in [
+        ElementSpec::Jenkins { kd: KD, fd: FD },
+        ElementSpec::Masing {
+            kd: KD,
+            fd: FD,
+            n: 22.55,
+        },
+        ElementSpec::CubicStiffness { k3: 1e13 },
+    ] {
+        let mut e = spec.build().unwrap();
+        let a = HbOptions::default();
+        let b = HbOptions {
+            half_wave_symmetry: false,
+            ..HbOptions::default()
+        };
+        for level in [50.0, 500.0, 3000.0] {
+            let sa = hb::sweep(&linear, &mut e, &freqs, level, &a).unwrap();
+            let sb = hb::sweep(&linear, &mut e, &freqs, level, &b).unwrap();
+            for (p, q) in sa.points.iter().zip(&sb.points) {
+                assert!(p.converged && q.converged);
+                for (x, y) in p.x.iter().zip(&q.x) {
+                    assert!(
+                        (x - y).norm() < 1e-9 * p.amplitude(),
+                        "{spec:?}: {x} vs {y}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn finite_difference_jacobian_gives_the_same_solutions() {
     let linear = paper_linear();
     let freqs = grid(200.0, 300.0, 6);
@@ -667,6 +702,38 @@ fn hb_speed_report() {
         "FRF set 7 levels x 51 frequencies, Masing, {{1,3,5}}, 256 samples: {:.1} ms on {} threads",
         set * 1e3,
         rayon::current_num_threads()
+    );
+    for tol in [1e-8, 1e-6] {
+        let o = HbOptions {
+            tolerance: tol,
+            ..HbOptions::default()
+        };
+        let t = Instant::now();
+        let mut evals = 0;
+        for _ in 0..reps {
+            let set = hb::frf_set_for_model(&model, &levels, &freqs, &o).unwrap();
+            evals += set.iter().map(|s| s.evaluations).sum::<u64>();
+        }
+        eprintln!(
+            "  same at tolerance {tol:.0e}: {:.1} ms, {:.2} AFT evaluations/point",
+            t.elapsed().as_secs_f64() / reps as f64 * 1e3,
+            evals as f64 / (reps * levels.len() * freqs.len()) as f64
+        );
+    }
+    let mut jopts = opts.clone();
+    jopts.samples_per_period = 512;
+    let jmodel = Model::new(
+        linear.clone(),
+        vec![ElementSpec::Jenkins { kd: KD, fd: FD }],
+    )
+    .unwrap();
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(hb::frf_set_for_model(&jmodel, &levels, &freqs, &jopts).unwrap());
+    }
+    eprintln!(
+        "FRF set, Jenkins, 512 samples: {:.1} ms",
+        t.elapsed().as_secs_f64() / reps as f64 * 1e3
     );
     // single-harmonic describing-function FRF: log-grid scan + Brent per point
     let t = Instant::now();

@@ -92,6 +92,9 @@ impl Layout {
 pub(crate) struct Aft {
     pub layout: Layout,
     samples: usize,
+    /// Odd harmonics only and an even sample count: half-wave symmetry can
+    /// hold.
+    odd_only: bool,
     r2c: Arc<dyn RealToComplex<f64>>,
     c2r: Arc<dyn ComplexToReal<f64>>,
     spectrum: Vec<Complex64>,
@@ -174,9 +177,11 @@ impl Aft {
                 }
             }
         }
+        let odd_only = samples % 2 == 0 && layout.harmonics.iter().all(|h| h % 2 == 1);
         Aft {
             layout,
             samples,
+            odd_only,
             r2c,
             c2r,
             spectrum,
@@ -328,6 +333,13 @@ impl Aft {
     /// The element-force harmonics `G` (real layout) for unknowns `xs` at
     /// `omega`, and `∂G/∂X` (row-major, `n × n`) when `dg` is given.
     ///
+    /// `odd_law`: the caller vouches that the element law is odd (`g(−x,
+    /// −v) = −g(x, v)` with mirrored history, as for Masing-type loops). With
+    /// odd harmonics only, `x(θ + π) = −x(θ)`, so the periodic force obeys
+    /// `g(θ + π) = −g(θ)`: half a period is marched (from the loop tip to
+    /// the opposite tip, where the Masing rules close the loop) and mirrored.
+    /// Not with [`PeriodicLoop::TwoPeriods`], which stays the plain check.
+    ///
     /// Errors (with the reason) when an element force is not finite.
     #[allow(clippy::too_many_arguments)]
     pub fn evaluate<E: Element>(
@@ -336,6 +348,7 @@ impl Aft {
         omega: f64,
         elements: &mut E,
         method: PeriodicLoop,
+        odd_law: bool,
         g_out: &mut [f64],
         dg: Option<&mut [f64]>,
     ) -> Result<(), String> {
@@ -362,8 +375,10 @@ impl Aft {
         // turning points between them
         let mut ramp_sample = None;
         let mut ramp_extremum = None;
+        let half = odd_law && self.odd_only && !(memory && method == PeriodicLoop::TwoPeriods);
+        let period = if half { ns / 2 } else { ns };
         let (first, count) = if !memory {
-            (0, ns)
+            (0, period)
         } else {
             match method {
                 PeriodicLoop::MaxAmplitude => {
@@ -375,7 +390,7 @@ impl Aft {
                             }
                         }
                         ramp_sample = Some(js);
-                        (js + 1, ns)
+                        (js + 1, period)
                     } else {
                         let mut e = 0;
                         for (i, ex) in self.extrema.iter().enumerate() {
@@ -384,7 +399,7 @@ impl Aft {
                             }
                         }
                         ramp_extremum = Some(e);
-                        (self.extrema[e].interval + 1, ns)
+                        (self.extrema[e].interval + 1, period)
                     }
                 }
                 PeriodicLoop::TwoPeriods => (0, 2 * ns),
@@ -400,11 +415,24 @@ impl Aft {
         for s in 0..count {
             let j = (first + s) % ns;
             self.commit_sample(elements, j, omega, velocity, want, true);
-            if memory {
+            // a turning point after the last sample changes nothing stored
+            // (with the ramp, it is the ramp's own point closing the loop)
+            if memory && s + 1 < count {
                 let e = self.extremum_at[j];
-                // the ramp's turning point closes the period: not again
-                if e != NONE && Some(e) != ramp_extremum {
+                if e != NONE {
                     self.commit_extremum(elements, e, omega, velocity, want);
+                }
+            }
+        }
+        if half {
+            for s in 0..period {
+                let j = (first + s) % ns;
+                let jm = (j + period) % ns;
+                self.g[jm] = -self.g[j];
+                if want {
+                    for k in 0..n {
+                        self.dg_columns[k * ns + jm] = -self.dg_columns[k * ns + j];
+                    }
                 }
             }
         }
@@ -642,7 +670,7 @@ mod tests {
             let mut e = spec.build().unwrap();
             let mut g = vec![0.0; aft.layout.len];
             for method in [PeriodicLoop::MaxAmplitude, PeriodicLoop::TwoPeriods] {
-                aft.evaluate(&xs, omega, &mut e, method, &mut g, None)
+                aft.evaluate(&xs, omega, &mut e, method, false, &mut g, None)
                     .unwrap();
                 let reference = naive_g(&harmonics, &xs, ns, omega, &mut e);
                 for (a, b) in g.iter().zip(&reference) {
@@ -678,10 +706,10 @@ mod tests {
                 let mut e = ElementSet::new(vec![spec.build().unwrap()]);
                 let mut g = vec![0.0; n];
                 let mut dg = vec![0.0; n * n];
-                aft.evaluate(&xs, omega, &mut e, method, &mut g, Some(&mut dg))
+                aft.evaluate(&xs, omega, &mut e, method, false, &mut g, Some(&mut dg))
                     .unwrap();
                 let mut g_plain = vec![0.0; n];
-                aft.evaluate(&xs, omega, &mut e, method, &mut g_plain, None)
+                aft.evaluate(&xs, omega, &mut e, method, false, &mut g_plain, None)
                     .unwrap();
                 assert_eq!(
                     g, g_plain,
@@ -695,12 +723,12 @@ mod tests {
                     let mut xp = xs.clone();
                     xp[k] += step;
                     let mut gp = vec![0.0; n];
-                    aft.evaluate(&xp, omega, &mut e, method, &mut gp, None)
+                    aft.evaluate(&xp, omega, &mut e, method, false, &mut gp, None)
                         .unwrap();
                     let mut xm = xs.clone();
                     xm[k] -= step;
                     let mut gm = vec![0.0; n];
-                    aft.evaluate(&xm, omega, &mut e, method, &mut gm, None)
+                    aft.evaluate(&xm, omega, &mut e, method, false, &mut gm, None)
                         .unwrap();
                     for r in 0..n {
                         let fd = (gp[r] - gm[r]) / (2.0 * step);
@@ -711,6 +739,39 @@ mod tests {
                         );
                     }
                 }
+            }
+        }
+    }
+
+    /// Half a period mirrored equals the whole period, forces and
+    /// Jacobian, for every odd element (odd harmonics, inner loops).
+    #[test]
+    fn half_wave_march_equals_the_full_period() {
+        let harmonics = [1, 3, 5, 7];
+        let ns = 128;
+        let omega = 2.0 * PI * 200.0;
+        let mut aft = Aft::new(&harmonics, ns);
+        let n = aft.layout.len;
+        let xs = test_x(&aft.layout);
+        for spec in all_specs() {
+            if matches!(spec, ElementSpec::BilinearStiffness { .. }) {
+                continue;
+            }
+            let mut e = spec.build().unwrap();
+            let (mut g1, mut d1) = (vec![0.0; n], vec![0.0; n * n]);
+            let (mut g2, mut d2) = (vec![0.0; n], vec![0.0; n * n]);
+            let m = PeriodicLoop::MaxAmplitude;
+            aft.evaluate(&xs, omega, &mut e, m, false, &mut g1, Some(&mut d1))
+                .unwrap();
+            aft.evaluate(&xs, omega, &mut e, m, true, &mut g2, Some(&mut d2))
+                .unwrap();
+            let gs = g1.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let ds = d1.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            for (a, b) in g1.iter().zip(&g2) {
+                assert!((a - b).abs() <= 1e-12 * gs, "{spec:?}: {a} vs {b}");
+            }
+            for (a, b) in d1.iter().zip(&d2) {
+                assert!((a - b).abs() <= 1e-10 * ds, "{spec:?}: {a} vs {b}");
             }
         }
     }
@@ -734,6 +795,7 @@ mod tests {
             1.0,
             &mut e,
             PeriodicLoop::MaxAmplitude,
+            true,
             &mut g1,
             Some(&mut d1),
         )
@@ -755,6 +817,7 @@ mod tests {
             1.0,
             &mut e,
             PeriodicLoop::MaxAmplitude,
+            true,
             &mut g2,
             Some(&mut d2),
         )

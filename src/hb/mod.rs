@@ -52,11 +52,15 @@ pub use linear::{LinearPart, TabulatedFrf};
 use crate::error::{Error, Result};
 #[cfg(doc)]
 use crate::model::ModalModel;
-use crate::model::{Element, Model};
+use crate::model::{
+    AnyElement, CubicStiffness, Element, ElementSet, Jenkins, Masing, Model, NoElement,
+    ViscousDamping,
+};
 use newton::{Core, Counters};
 use num_complex::Complex64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::any::Any;
 
 /// How AFT makes the hysteresis loop periodic (method notes c.4).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -107,6 +111,14 @@ pub struct HbOptions {
     pub periodic_loop: PeriodicLoop,
     /// Jacobian. Default [`JacobianMethod::Analytic`].
     pub jacobian: JacobianMethod,
+    /// Use half-wave symmetry where it holds: with odd harmonics only, an
+    /// even sample count and elements whose laws are odd, the periodic
+    /// force obeys `g(θ + π) = −g(θ)` and AFT marches half a period (half
+    /// the cost; the same answer to round-off). Applied automatically to
+    /// the built-in odd elements (Jenkins, Masing, cubic stiffness,
+    /// quadratic and viscous damping, clearance; not bilinear stiffness),
+    /// never to other element types. Default true.
+    pub half_wave_symmetry: bool,
 }
 
 impl Default for HbOptions {
@@ -118,6 +130,7 @@ impl Default for HbOptions {
             max_iterations: 50,
             periodic_loop: PeriodicLoop::MaxAmplitude,
             jacobian: JacobianMethod::Analytic,
+            half_wave_symmetry: true,
         }
     }
 }
@@ -376,6 +389,29 @@ impl HbSolver {
             failure: out.failure.clone(),
         }
     }
+}
+
+/// Whether every element is of a built-in kind with an odd law (`g(−x, −v)
+/// = −g(x, v)`, hysteresis with mirrored history): the condition for
+/// half-wave symmetry. Unknown element types: `false`.
+pub(crate) fn odd_law<E: Element + 'static>(elements: &E) -> bool {
+    let any: &dyn Any = elements;
+    let any_odd = |e: &AnyElement| !matches!(e, AnyElement::BilinearStiffness(_));
+    if let Some(set) = any.downcast_ref::<ElementSet<AnyElement>>() {
+        return set.elements.iter().all(any_odd);
+    }
+    if let Some(e) = any.downcast_ref::<AnyElement>() {
+        return any_odd(e);
+    }
+    any.is::<Jenkins>()
+        || any.is::<Masing>()
+        || any.is::<NoElement>()
+        || any.is::<CubicStiffness>()
+        || any.is::<ViscousDamping>()
+        || any.is::<ElementSet<Jenkins>>()
+        || any.is::<ElementSet<Masing>>()
+        || any.is::<ElementSet<CubicStiffness>>()
+        || any.is::<ElementSet<ViscousDamping>>()
 }
 
 fn check_force(f: f64) -> Result<()> {

@@ -125,7 +125,7 @@ impl Core {
 
     /// The residual `R` at `x` (and the Jacobian `∂R/∂X` when asked), at the
     /// frequency last set.
-    pub fn residual<E: Element>(
+    pub fn residual<E: Element + 'static>(
         &mut self,
         elements: &mut E,
         force: f64,
@@ -134,6 +134,7 @@ impl Core {
         jac: Option<&mut [f64]>,
     ) -> Result<(), String> {
         self.at_solution = false;
+        let odd = self.opts.half_wave_symmetry && super::odd_law(elements);
         residual(
             &mut self.aft,
             &mut self.g,
@@ -141,6 +142,7 @@ impl Core {
             &self.hs,
             self.omega,
             self.opts.periodic_loop,
+            odd,
             elements,
             force,
             x,
@@ -150,7 +152,7 @@ impl Core {
     }
 
     /// Damped Newton from `x` (overwritten with the last iterate).
-    pub fn newton<E: Element>(
+    pub fn newton<E: Element + 'static>(
         &mut self,
         elements: &mut E,
         force: f64,
@@ -181,12 +183,13 @@ impl Core {
         } = self;
         let omega = *omega;
         let method = opts.periodic_loop;
+        let odd = opts.half_wave_symmetry && super::odd_law(elements);
         let mut eval = |x: &[f64], r: &mut [f64], j: Option<&mut [f64]>, c: &mut Counters| {
             c.residuals += 1;
             if j.is_some() {
                 c.jacobians += 1;
             }
-            residual(aft, g, dg, hs, omega, method, elements, force, x, r, j)
+            residual(aft, g, dg, hs, omega, method, odd, elements, force, x, r, j)
         };
         let fail = |iterations: usize, residual: f64, why: String| Outcome {
             converged: false,
@@ -306,7 +309,7 @@ impl Core {
     /// −h H'(hω)(F δ_{h1} − G_h)` needs no march (the Jacobian and `G` of the
     /// last Newton solve are reused); otherwise `∂R/∂ω` is a forward
     /// difference. `false` if it cannot be formed.
-    pub fn tangent<L: LinearPart, E: Element>(
+    pub fn tangent<L: LinearPart, E: Element + 'static>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -338,6 +341,7 @@ impl Core {
             }
             counters.residuals += 1;
             let mut rfd = std::mem::take(&mut self.rfd);
+            let odd = self.opts.half_wave_symmetry && super::odd_law(elements);
             let ok = residual(
                 &mut self.aft,
                 &mut self.g,
@@ -345,6 +349,7 @@ impl Core {
                 &self.hs,
                 w2,
                 self.opts.periodic_loop,
+                odd,
                 elements,
                 force,
                 x,
@@ -423,6 +428,7 @@ fn residual<E: Element>(
     hs: &[Complex64],
     omega: f64,
     method: super::PeriodicLoop,
+    odd_law: bool,
     elements: &mut E,
     force: f64,
     x: &[f64],
@@ -436,6 +442,7 @@ fn residual<E: Element>(
         omega,
         elements,
         method,
+        odd_law,
         g,
         if want { Some(dg) } else { None },
     )?;
