@@ -304,6 +304,75 @@ impl Core {
 }
 
 impl Core {
+    /// Copies `G` and `∂G/∂X` of the last converged point, if the buffers
+    /// hold them (analytic Jacobian), for [`Core::linearised_prediction`].
+    pub fn element_linearisation(&self, g: &mut Vec<f64>, dg: &mut Vec<f64>) -> bool {
+        if !(self.at_solution && self.opts.jacobian == JacobianMethod::Analytic) {
+            return false;
+        }
+        g.clear();
+        g.extend_from_slice(&self.g);
+        dg.clear();
+        dg.extend_from_slice(&self.dg);
+        true
+    }
+
+    /// A predictor at `omega` from the converged `(x0, G0, ∂G/∂X)` of
+    /// another frequency: the balance with the element linearised,
+    /// `X = H(hω)(F δ_{h1} − G0 − ∂G/∂X (X − X0))`, solved exactly (no AFT).
+    /// The receptance's change is taken in full, so a sharp resonance between
+    /// sweep points is predicted well where a tangent extrapolation is not.
+    #[allow(clippy::too_many_arguments)]
+    pub fn linearised_prediction<L: LinearPart>(
+        &mut self,
+        linear: &L,
+        omega: f64,
+        force: f64,
+        x0: &[f64],
+        g0: &[f64],
+        dg0: &[f64],
+        out: &mut [f64],
+    ) -> bool {
+        let n = self.n;
+        let layout = &self.aft.layout;
+        for (i, &h) in layout.harmonics.iter().enumerate() {
+            let s = layout.slots[i];
+            let Ok(hh) = linear.receptance(h as f64 * omega) else {
+                return false;
+            };
+            let (a, b) = (hh.re, hh.im);
+            if h == 0 {
+                // R = X − H (−G − dG (X − X0)) at X0
+                self.rfd[s] = x0[s] + a * g0[s];
+                for k in 0..n {
+                    self.lu[s * n + k] = a * dg0[s * n + k];
+                }
+            } else {
+                let f = if h == 1 { force } else { 0.0 };
+                let v =
+                    Complex64::new(x0[s], x0[s + 1]) - hh * (f - Complex64::new(g0[s], g0[s + 1]));
+                self.rfd[s] = v.re;
+                self.rfd[s + 1] = v.im;
+                for k in 0..n {
+                    let (c, d) = (dg0[s * n + k], dg0[(s + 1) * n + k]);
+                    self.lu[s * n + k] = a * c - b * d;
+                    self.lu[(s + 1) * n + k] = a * d + b * c;
+                }
+            }
+        }
+        for k in 0..n {
+            self.lu[k * n + k] += 1.0;
+        }
+        if !lu_factor(&mut self.lu, &mut self.piv, n) {
+            return false;
+        }
+        lu_solve(&self.lu, &self.piv, n, &mut self.rfd);
+        for k in 0..n {
+            out[k] = x0[k] - self.rfd[k];
+        }
+        out.iter().all(|v| v.is_finite())
+    }
+
     /// The branch tangent `dX/dω` at the converged point `x` (frequency as
     /// set): `J t = −∂R/∂ω`. For rate-independent elements `∂R_h/∂ω =
     /// −h H'(hω)(F δ_{h1} − G_h)` needs no march (the Jacobian and `G` of the
