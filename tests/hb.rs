@@ -499,6 +499,35 @@ fn hardening_cubic_sweeps_up_and_down_follow_different_branches_and_report_folds
     }
 }
 
+/// A sweep that starts inside the bistable band starts on the branch it
+/// would have arrived on: the upper one going up, the lower one going down.
+#[test]
+fn a_sweep_starting_between_the_folds_picks_the_branch_of_its_direction() {
+    let linear = paper_linear();
+    let (k3, force) = (4e12, 200.0);
+    let opts = HbOptions::default();
+    let mut e = CubicStiffness { k3 };
+    let from_below = hb::sweep(&linear, &mut e, &grid(150.0, 172.0, 45), force, &opts).unwrap();
+    let from_above = hb::sweep(&linear, &mut e, &grid(190.0, 172.0, 37), force, &opts).unwrap();
+    let upper = from_below.points.last().unwrap();
+    let lower = from_above.points.last().unwrap();
+    assert!(upper.amplitude() > 2.0 * lower.amplitude());
+    let up = hb::sweep(&linear, &mut e, &[172.0, 173.0], force, &opts).unwrap();
+    let down = hb::sweep(&linear, &mut e, &[172.0, 171.0], force, &opts).unwrap();
+    assert!(rel(up.points[0].x[0], upper.x[0]) < 1e-8);
+    assert!(rel(down.points[0].x[0], lower.x[0]) < 1e-8);
+}
+
+#[test]
+fn options_read_from_toml_with_defaults_and_reject_unknown_keys() {
+    let o: HbOptions =
+        toml::from_str("harmonics = [0, 1, 2, 3]\nperiodic_loop = \"two_periods\"\n").unwrap();
+    assert_eq!(o.harmonics, vec![0, 1, 2, 3]);
+    assert_eq!(o.periodic_loop, PeriodicLoop::TwoPeriods);
+    assert_eq!(o.samples_per_period, 256);
+    assert!(toml::from_str::<HbOptions>("harmonic = [1]\n").is_err());
+}
+
 /// An element that breaks down (NaN force) beyond a displacement.
 #[derive(Clone, Debug)]
 struct Breaks;

@@ -177,7 +177,8 @@ impl Aft {
                 }
             }
         }
-        let odd_only = samples % 2 == 0 && layout.harmonics.iter().all(|h| h % 2 == 1);
+        let odd_only =
+            samples.is_multiple_of(2) && layout.harmonics.iter().all(|h| !h.is_multiple_of(2));
         Aft {
             layout,
             samples,

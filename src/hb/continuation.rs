@@ -383,9 +383,10 @@ impl HbSolver {
     }
 
     /// With several describing-function amplitudes at `omega`, the one on
-    /// the branch a sweep in `direction` arrives on: step back (2 % at a
+    /// the branch a sweep in `direction` arrives on: step back (0.5 % at a
     /// time, up to 50 %) until the amplitude is unique, then follow it
-    /// forward by nearest amplitude.
+    /// forward, picking at each step the amplitude nearest to the linear
+    /// extrapolation (in log amplitude) of the last two.
     fn branch_root<L: LinearPart, E: Element + 'static>(
         &mut self,
         linear: &L,
@@ -395,20 +396,22 @@ impl HbSolver {
         direction: f64,
         roots: &[Complex64],
     ) -> Option<Complex64> {
-        let at = |k: usize| omega * (1.0 - direction * 0.02 * k as f64);
-        for k in 1..=25 {
-            let w = at(k);
-            let r = self.df_guesses(linear, elements, w, force).ok()?;
+        const STEP: f64 = 0.005;
+        let at = |k: usize| omega * (1.0 - direction * STEP * k as f64);
+        let mut behind: Vec<Vec<Complex64>> = Vec::new();
+        for k in 1..=100 {
+            let r = self.df_guesses(linear, elements, at(k), force).ok()?;
             if r.len() == 1 {
-                let mut current = r[0].norm();
-                for m in (1..k).rev() {
-                    let rm = self.df_guesses(linear, elements, at(m), force).ok()?;
-                    if let Some(best) = nearest(&rm, current) {
-                        current = best.norm();
-                    }
+                let (mut prev, mut current) = (r[0].norm(), r[0].norm());
+                for rm in behind.iter().rev().chain(std::iter::once(&roots.to_vec())) {
+                    let guess = current * current / prev;
+                    let best = nearest(rm, guess)?.norm();
+                    prev = current;
+                    current = best;
                 }
                 return nearest(roots, current);
             }
+            behind.push(r);
         }
         None
     }

@@ -249,37 +249,86 @@ fn any_element(e: &mut AnyElement, a: f64, omega: f64, samples: usize) -> Comple
 /// at one frequency, given the receptance `h = H(ω)` and the describing
 /// function `n_of(a)`; sorted by amplitude.
 ///
-/// Solved as `φ(a) = a |1 + H N(a)| − F|H| = 0` (no division by `H`): a scan
-/// of 8 points per decade over `F|H|·[1e-6, 1e6]` for sign changes, each
-/// refined by Brent's method to 1e-13 relative (method notes d.3). Roots
-/// closer together than one grid step can be missed.
+/// Solved as `φ(a) = a |1 + H N(a)| − F|H| = 0` (no division by `H`; method
+/// notes d.3): a scan of 8 points per decade over `F|H|·[1e-6, 1e6]`; each
+/// sign change is refined by Brent's method to 1e-13 relative. Two roots
+/// within one grid step (near a fold) leave no sign change but a local
+/// extremum of `φ` on the wrong side of zero: there `φ` is minimised (or
+/// maximised) by golden section, and if it crosses zero both roots are
+/// bracketed. Roots closer than ~1e-6 relative (a fold exactly) can be
+/// missed.
 pub fn solve(h: Complex64, force: f64, mut n_of: impl FnMut(f64) -> Complex64) -> Vec<Complex64> {
     const PER_DECADE: usize = 8;
     const DECADES: usize = 12;
+    const POINTS: usize = PER_DECADE * DECADES + 1;
     let target = force * h.norm();
     let roots = {
         let mut phi = |a: f64| a * (1.0 + h * n_of(a)).norm() - target;
         let grid = |k: usize| target * 10f64.powf(-6.0 + k as f64 / PER_DECADE as f64);
+        let a: Vec<f64> = (0..POINTS).map(grid).collect();
+        let p: Vec<f64> = a.iter().map(|&x| phi(x)).collect();
         let mut roots = Vec::new();
-        let mut a0 = grid(0);
-        let mut p0 = phi(a0);
-        for k in 1..=PER_DECADE * DECADES {
-            let a1 = grid(k);
-            let p1 = phi(a1);
-            if p0 == 0.0 {
-                roots.push(a0);
-            } else if p0.is_finite() && p1.is_finite() && p1 != 0.0 && (p0 < 0.0) != (p1 < 0.0) {
-                roots.extend(brent(&mut phi, a0, a1, p0, p1, 1e-13));
+        for k in 0..POINTS - 1 {
+            let (p0, p1) = (p[k], p[k + 1]);
+            if !(p0.is_finite() && p1.is_finite()) {
+                continue;
             }
-            a0 = a1;
-            p0 = p1;
+            if p0 == 0.0 {
+                roots.push(a[k]);
+            } else if p1 != 0.0 && (p0 < 0.0) != (p1 < 0.0) {
+                roots.extend(brent(&mut phi, a[k], a[k + 1], p0, p1, 1e-13));
+            } else if k > 0 && p[k - 1].is_finite() {
+                // a local extremum of φ that stays on one side of zero at the
+                // grid points may still cross it in between
+                let pm = p[k - 1];
+                let dip = p0 > 0.0 && p0 < pm && p0 < p1;
+                let bump = p0 < 0.0 && p0 > pm && p0 > p1;
+                if dip || bump {
+                    let sign = if dip { 1.0 } else { -1.0 };
+                    let (x, v) = golden_min(&mut |x| sign * phi(x), a[k - 1], a[k + 1]);
+                    let v = sign * v;
+                    if v != 0.0 && (v < 0.0) != (p0 < 0.0) {
+                        // the left root may lie in [a_{k-1}, a_k] or
+                        // [a_k, x]; [a_{k-1}, x] brackets it either way
+                        roots.extend(brent(&mut phi, a[k - 1], x, pm, v, 1e-13));
+                        roots.extend(brent(&mut phi, x, a[k + 1], v, p1, 1e-13));
+                    }
+                }
+            }
         }
+        roots.sort_by(f64::total_cmp);
+        roots.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * y.abs());
         roots
     };
     roots
         .into_iter()
         .map(|a| force * h / (1.0 + h * n_of(a)))
         .collect()
+}
+
+/// Golden-section minimum of `f` on `[lo, hi]` (60 steps: ~1e-12 of the
+/// bracket); returns `(x, f(x))`.
+fn golden_min(f: &mut impl FnMut(f64) -> f64, mut lo: f64, mut hi: f64) -> (f64, f64) {
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let mut x1 = hi - r * (hi - lo);
+    let mut x2 = lo + r * (hi - lo);
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..60 {
+        if f1 < f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - r * (hi - lo);
+            f1 = f(x1);
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + r * (hi - lo);
+            f2 = f(x2);
+        }
+    }
+    if f1 < f2 { (x1, f1) } else { (x2, f2) }
 }
 
 /// Brent's method (Brent 1973, `zeroin`) on a bracket with `f(a)`, `f(b)` of
@@ -458,6 +507,23 @@ mod tests {
             assert!((lhs / (f * f) - 1.0).abs() < 1e-10, "a={a}");
         }
         assert!(roots[0].norm() < roots[1].norm() && roots[1].norm() < roots[2].norm());
+    }
+
+    #[test]
+    fn single_harmonic_solve_finds_two_roots_within_one_grid_step() {
+        // paper SDOF + k3 = 4e12 at 172 Hz, F = 200 N: |X1| = 1.212e-4,
+        // 7.060e-4 and 7.784e-4 m; the last two are 10 % apart
+        let (m, c, k, k3, f) = (10.0, 200.0, 1e7, 4e12, 200.0);
+        let w = 2.0 * PI * 172.0;
+        let h = Complex64::new(1.0, 0.0) / Complex64::new(k - m * w * w, c * w);
+        let roots = solve(h, f, |a| Complex64::new(0.75 * k3 * a * a, 0.0));
+        assert_eq!(roots.len(), 3, "{roots:?}");
+        for (x, expect) in roots.iter().zip([1.2123e-4, 7.0599e-4, 7.7839e-4]) {
+            let a = x.norm();
+            assert!((a / expect - 1.0).abs() < 1e-3, "{x}");
+            let lhs = a * a * ((k - m * w * w + 0.75 * k3 * a * a).powi(2) + (c * w).powi(2));
+            assert!((lhs / (f * f) - 1.0).abs() < 1e-10, "a={a}");
+        }
     }
 
     #[test]
