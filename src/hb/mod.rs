@@ -11,32 +11,47 @@
 //! where `H` is the underlying linear receptance ([`LinearPart`]: a
 //! [`ModalModel`] or a [`TabulatedFrf`]) and `G_h` the element force's
 //! harmonic, computed by AFT from the *same* [`Element`]s the time simulator
-//! uses (`aft` module docs; method notes c.4, d.1). The equations are
-//! solved in the equivalent receptance form `X_h − H(hω)(F δ_{h1} − G_h) = 0`
-//! (better scaled; see the `newton` module docs) by damped Newton with the
-//! Jacobian carried through the hysteresis march
-//! ([`Element::commit_sensitivity`]).
+//! uses (method notes c.4, d.1; Cameron & Griffin 1989).
 //!
-//! Sweeps ([`HbSolver::sweep`]) follow a frequency list in its order (the
-//! sweep direction), warm-starting each point from a tangent prediction
-//! along the branch, from a single-harmonic describing-function solution at
-//! the first point ([`describing`]; method notes d.2–d.3). Where the branch
-//! folds, natural continuation jumps as a stepped-sine test would; a large
-//! jump (or a failed Newton solve) is checked by pseudo-arclength
-//! continuation in `(X, ω)`, which locates the fold and reports it as a
-//! [`Fold`] (details in the `continuation` module).
+//! **Residual form.** Newton solves eq. (8) multiplied by `H(hω)`:
 //!
-//! Turning points: the AFT commits, besides the `N` samples, the exact
-//! extrema of `x(θ)` between them, so hysteresis loops reverse at the true
-//! loop tips (the samples alone cut them short, an `O(N⁻²)` error of ~1e-4
-//! in `H_1` at 256 samples for Masing; with the extrema it is ~6e-5 and
-//! falls as ~`N⁻³`; Jenkins' slip kinks still give ~`N⁻²`).
+//! ```text
+//! R_h = X_h − H(hω) (F δ_{h1} − G_h(X)) = 0,   converged when ‖R‖₂/‖X‖₂ ≤ tolerance
+//! ```
 //!
-//! A point that does not converge is data, not an error: `converged =
-//! false`, `failure` says why, and `x` and `h` are **NaN** so that it can
-//! never pass for a number (serialised as `null` in JSON). Errors are kept
-//! for bad input (options, frequencies, a tabulated receptance that does not
-//! cover `h·f`).
+//! Every row is then a displacement and the Jacobian `I + H ∂G/∂X` is the
+//! identity plus the element's effect, well scaled across harmonics (the
+//! impedance form mixes `|Z_5| ≈ 6e8 N/m` rows with near-zero `|Z_1|` rows
+//! at resonance), and no `1/H` is formed, so a tabulated or multi-mode
+//! receptance near an antiresonance is harmless. The residual measure is the
+//! relative misfit of the displacement harmonics. `∂G/∂X` is carried through
+//! the hysteresis march by [`Element::commit_sensitivity`] (exact, checked
+//! against finite differences); an Armijo line search damps the steps, and a
+//! point whose line search fails retries with a finite-difference Jacobian.
+//!
+//! **Periodic loops and turning points.** AFT marches the element through a
+//! period from a virgin ramp to the loop tip ([`PeriodicLoop`]), committing,
+//! besides the `N` samples, the exact extrema of `x(θ)` between them, so
+//! loops reverse at the true tips (the samples alone cut them short: an
+//! `O(N⁻²)` error, ~3e-4 in `H_1` at 256 samples; with the extrema the
+//! Masing error is 6e-5 at 256 and 3e-6 at 512 samples, Jenkins' slip kinks
+//! keep ~`N⁻²`: 2e-4 at 256, 1e-4 at 512). With odd harmonics and odd
+//! element laws half a period is marched ([`HbOptions::half_wave_symmetry`]).
+//!
+//! **Sweeps** ([`HbSolver::sweep`]) follow a frequency list in its order (the
+//! sweep direction). The first point starts from the single-harmonic
+//! describing function ([`describing`]; method notes d.2–d.3); each later one
+//! from the balance at its frequency with the element linearised at the last
+//! solution (no AFT march). Where the branch folds, natural continuation
+//! jumps as a stepped-sine test would; a large jump (or a failed Newton
+//! solve) is checked by pseudo-arclength continuation in `(X, ω)`, which
+//! locates the fold and reports it as a [`Fold`].
+//!
+//! **Failures.** A point that does not converge is data, not an error:
+//! `converged = false`, `failure` says why, and `x` and `h` are **NaN** so
+//! that it can never pass for a number (serialised as `null` in JSON).
+//! Errors are kept for bad input (options, frequencies, a linear part that
+//! does not cover every `h·f`).
 //!
 //! Fourier convention: [`crate::harmonics`] (`x(t) = X_0 + Re Σ X_h e^{jhωt}`,
 //! single-sided; `H_h = X_h/F` with the force `F cos ωt`).
@@ -435,6 +450,12 @@ fn check_frequency(i: usize, f: f64) -> Result<()> {
         ))
     }
 }
+
+// a solver can live in a worker thread (the fit stage keeps one per worker)
+const _: fn() = || {
+    fn send<T: Send>() {}
+    send::<HbSolver>();
+};
 
 /// Solves at one frequency (a one-off [`HbSolver`]; see
 /// [`HbSolver::solve_point`]).
