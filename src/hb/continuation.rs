@@ -623,3 +623,91 @@ fn nearest(roots: &[Complex64], amplitude: f64) -> Option<Complex64> {
         .copied()
         .min_by(|a, b| log_gap(a.norm(), amplitude).total_cmp(&log_gap(b.norm(), amplitude)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hb::HbOptions;
+    use crate::model::{CubicStiffness, ModalModel, NoElement};
+
+    fn converged_at(
+        s: &mut HbSolver,
+        linear: &ModalModel,
+        e: &mut (impl Element + 'static),
+        f: f64,
+        force: f64,
+        guess: &[f64],
+    ) -> Vec<f64> {
+        s.core.set_frequency(linear, 2.0 * PI * f).unwrap();
+        let mut x = guess.to_vec();
+        let out = s.core.newton(e, force, &mut x, &mut s.counters);
+        assert!(out.converged);
+        x
+    }
+
+    /// Across a linear resonance the trace reaches the target, equal to
+    /// the receptance there.
+    #[test]
+    fn trace_reaches_the_far_side_of_a_linear_resonance() {
+        let linear = ModalModel::sdof(10.0, 200.0, 1e7).unwrap();
+        let mut s = HbSolver::new(&HbOptions::with_harmonics(vec![1])).unwrap();
+        let force = 10.0;
+        let h = linear.receptance(2.0 * PI * 150.0) * force;
+        let x0 = converged_at(&mut s, &linear, &mut NoElement, 150.0, force, &[h.re, h.im]);
+        match s.trace(
+            &linear,
+            &mut NoElement,
+            force,
+            &x0,
+            2.0 * PI * 150.0,
+            2.0 * PI * 170.0,
+        ) {
+            Trace::Reached(x, _) => {
+                let exact = linear.receptance(2.0 * PI * 170.0) * force;
+                let got = Complex64::new(x[0], x[1]);
+                assert!(
+                    (got - exact).norm() < 1e-9 * exact.norm(),
+                    "{got} vs {exact}"
+                );
+            }
+            Trace::Fold { omega, .. } => panic!("a fold at {omega} in a linear system"),
+            Trace::Failed(why) => panic!("{why}"),
+        }
+    }
+
+    /// Past the upper fold of a hardening Duffing oscillator the trace
+    /// turns back there (single harmonic: closed form 177.3740 Hz, see the
+    /// integration tests).
+    #[test]
+    fn trace_stops_at_a_fold() {
+        let linear = ModalModel::sdof(10.0, 200.0, 1e7).unwrap();
+        let mut s = HbSolver::new(&HbOptions::with_harmonics(vec![1])).unwrap();
+        let mut e = CubicStiffness { k3: 4e12 };
+        let force = 200.0;
+        // on the upper branch at 177 Hz (from a sweep up)
+        let freqs: Vec<f64> = (0..=27).map(|i| 150.0 + i as f64).collect();
+        let sweep = s.sweep(&linear, &mut e, &freqs, force).unwrap();
+        let p = sweep.points.last().unwrap();
+        assert!(sweep.folds.is_empty() && p.amplitude() > 5e-4);
+        let x0 = [p.x[0].re, p.x[0].im];
+        match s.trace(
+            &linear,
+            &mut e,
+            force,
+            &x0,
+            2.0 * PI * 177.0,
+            2.0 * PI * 178.0,
+        ) {
+            Trace::Fold { omega, x } => {
+                assert!(
+                    (omega / (2.0 * PI) - 177.3740).abs() < 1e-3,
+                    "{}",
+                    omega / (2.0 * PI)
+                );
+                assert!(x[0].hypot(x[1]) > 5e-4);
+            }
+            Trace::Reached(..) => panic!("went past the fold"),
+            Trace::Failed(why) => panic!("{why}"),
+        }
+    }
+}
