@@ -26,7 +26,8 @@
 //! receptance near an antiresonance is harmless. The residual measure is the
 //! relative misfit of the displacement harmonics. `∂G/∂X` is carried through
 //! the hysteresis march by [`Element::commit_sensitivity`] (exact, checked
-//! against finite differences); an Armijo line search damps the steps, and a
+//! against finite differences) and kept while steps contract the residual
+//! tenfold (modified Newton); an Armijo line search damps the steps, and a
 //! point whose line search fails retries with a finite-difference Jacobian.
 //!
 //! **Periodic loops and turning points.** AFT marches the element through a
