@@ -17,9 +17,7 @@ pub fn dataset(name: &str) -> Option<PathBuf> {
     match datasets().map(|d| d.join(name)) {
         Some(p) if p.is_dir() => Some(p),
         _ => {
-            eprintln!(
-                "SKIPPED: data set `{name}` not found (looked in $HYSTID_DATASETS or ../shared/datasets)"
-            );
+            eprintln!("SKIPPED: data set `{name}` not found (looked in $HYSTID_DATASETS or ../shared/datasets)");
             None
         }
     }
