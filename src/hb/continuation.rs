@@ -254,8 +254,19 @@ impl HbSolver {
             }
             Trace::Failed(why) => {
                 if natural_out.converged {
-                    // could not check: keep natural continuation's answer
-                    return Ok((natural.to_vec(), natural_out, false));
+                    // the branch could not be traced, and Newton back from the
+                    // new point did not return: most likely a jump. Keep
+                    // natural continuation's answer and report the fold as
+                    // not located.
+                    folds.push(Fold {
+                        index,
+                        frequency_hz: 0.5 * (w0 + omega) / (2.0 * PI),
+                        located: false,
+                        amplitude_at_fold: f64::NAN,
+                        amplitude_before: before_amp,
+                        amplitude_after: layout.fundamental(natural).norm(),
+                    });
+                    return Ok((natural.to_vec(), natural_out, true));
                 }
                 let (xd, mut out) =
                     self.restart(linear, elements, omega, force, Some(before_amp))?;

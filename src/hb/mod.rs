@@ -256,7 +256,10 @@ pub struct Fold {
     /// The turning point's frequency, Hz (from the arc-length trace when
     /// `located`, else the midpoint of the two sweep frequencies).
     pub frequency_hz: f64,
-    /// Whether arc-length continuation located the turning point.
+    /// Whether arc-length continuation located the turning point. `false`:
+    /// the solution moved far from its prediction, Newton from it did not
+    /// return to the previous point, and the branch could not be traced, so
+    /// the jump is reported without its turning point.
     pub located: bool,
     /// `|X_1|` at the turning point (NaN if not located), m.
     pub amplitude_at_fold: f64,
