@@ -881,3 +881,43 @@ fn hb_accuracy_report() {
         eprintln!("{ns} samples: worst |ΔH1|/|H1| Jenkins {wj:.2e}, Masing N=22.55 {wm:.2e}");
     }
 }
+
+/// Robustness over the parameter ranges a fit explores: every point of the
+/// paper's 7 × 51 FRF set converges for Masing elements from soft to stiff,
+/// weak to strong, round to sharp (N from 0.5 to 1e4), and for Jenkins.
+#[test]
+fn every_point_converges_over_a_fit_like_parameter_range() {
+    let freqs = grid(100.0, 350.0, 51);
+    let levels = [5.0, 50.0, 200.0, 500.0, 1000.0, 3000.0, 30000.0];
+    let opts = HbOptions::default();
+    let mut failures = Vec::new();
+    let mut points = 0;
+    for kd in [1e6, 2.4e7, 3e8] {
+        for fd in [10.0, 246.048, 5000.0] {
+            let specs = [0.5, 1.5, 22.55, 1000.0, 1e4]
+                .map(|n| ElementSpec::Masing { kd, fd, n })
+                .into_iter()
+                .chain([ElementSpec::Jenkins { kd, fd }]);
+            for spec in specs {
+                let model = Model::new(paper_linear(), vec![spec.clone()]).unwrap();
+                for s in hb::frf_set_for_model(&model, &levels, &freqs, &opts).unwrap() {
+                    for p in &s.points {
+                        points += 1;
+                        if !p.converged {
+                            failures.push(format!(
+                                "{spec:?} F {} f {}: {:?}",
+                                p.force_amplitude, p.frequency_hz, p.failure
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {points} failed:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
