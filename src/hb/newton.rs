@@ -647,6 +647,53 @@ pub(crate) fn lu_solve(lu: &[f64], piv: &[usize], n: usize, b: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::{ElementSet, ElementSpec, ModalModel};
+
+    /// `∂R/∂X` (receptance assembly over the AFT Jacobian, static and even
+    /// harmonics included) against central differences of `R`.
+    #[test]
+    fn residual_jacobian_equals_finite_differences() {
+        let linear = ModalModel::sdof(10.0, 200.0, 1e7).unwrap();
+        let opts = HbOptions::with_harmonics(vec![0, 1, 2, 3, 5]);
+        let mut core = Core::new(&opts);
+        core.set_frequency(&linear, 2.0 * std::f64::consts::PI * 230.0)
+            .unwrap();
+        let mut e = ElementSet::new(vec![
+            ElementSpec::Masing {
+                kd: 2.4e7,
+                fd: 246.048,
+                n: 5.0,
+            }
+            .build()
+            .unwrap(),
+            ElementSpec::BilinearStiffness { kb: 3e6 }.build().unwrap(),
+        ]);
+        let n = core.n;
+        let x: Vec<f64> = (0..n)
+            .map(|k| 2e-5 * ((k as f64 * 2.3).cos() + 0.2) / (1.0 + k as f64))
+            .collect();
+        let (mut r, mut j) = (vec![0.0; n], vec![0.0; n * n]);
+        core.residual(&mut e, 300.0, &x, &mut r, Some(&mut j))
+            .unwrap();
+        let scale = j.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for k in 0..n {
+            let h = 1e-13;
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[k] += h;
+            xm[k] -= h;
+            let (mut rp, mut rm) = (vec![0.0; n], vec![0.0; n]);
+            core.residual(&mut e, 300.0, &xp, &mut rp, None).unwrap();
+            core.residual(&mut e, 300.0, &xm, &mut rm, None).unwrap();
+            for i in 0..n {
+                let fd = (rp[i] - rm[i]) / (2.0 * h);
+                assert!(
+                    (fd - j[i * n + k]).abs() <= 1e-6 * scale,
+                    "∂R[{i}]/∂X[{k}]: {fd} vs {}",
+                    j[i * n + k]
+                );
+            }
+        }
+    }
 
     #[test]
     fn lu_solves_a_pivoting_system() {
