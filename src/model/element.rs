@@ -87,6 +87,40 @@ pub trait Element {
     fn solve_implicit(&self, _step: &ImplicitStep) -> Option<f64> {
         None
     }
+
+    /// Commits like [`Element::commit`] and carries first-order sensitivities
+    /// through the element's memory: when the committed samples depend on
+    /// parameters `p` (harmonic balance's unknowns), `dx[k] = ∂x/∂p_k` and
+    /// `dv[k] = ∂v/∂p_k` for this sample, this **adds** `∂g/∂p_k` to `df[k]`
+    /// (adding lets an [`ElementSet`] sum its members without scratch).
+    ///
+    /// The derivative includes the dependence of the force on earlier samples
+    /// through the history (a turning point, the slider position), which the
+    /// element keeps alongside its state. It is exact for the samples
+    /// committed through this method since the last [`Element::reset`]; plain
+    /// `commit`s in between leave the carried sensitivities stale.
+    ///
+    /// The default, `∂g/∂p = k ∂x/∂p + c ∂v/∂p` from the tangents, is exact
+    /// for memoryless elements; an element with memory must override it
+    /// (harmonic balance's Newton step otherwise sees an approximate
+    /// Jacobian; method notes d.1).
+    ///
+    /// # Panics
+    /// May panic if `dx`, `dv` and `df` differ in length.
+    fn commit_sensitivity(
+        &mut self,
+        x: f64,
+        v: f64,
+        dx: &[f64],
+        dv: &[f64],
+        df: &mut [f64],
+    ) -> ElementForce {
+        let f = self.commit(x, v);
+        for ((d, &a), &b) in df.iter_mut().zip(dx).zip(dv) {
+            *d += f.stiffness * a + f.damping * b;
+        }
+        f
+    }
 }
 
 /// A set of elements acting at the same point: their forces add.
@@ -124,6 +158,21 @@ impl<E: Element> Element for ElementSet<E> {
     }
     fn uses_velocity(&self) -> bool {
         self.elements.iter().any(Element::uses_velocity)
+    }
+    #[inline]
+    fn commit_sensitivity(
+        &mut self,
+        x: f64,
+        v: f64,
+        dx: &[f64],
+        dv: &[f64],
+        df: &mut [f64],
+    ) -> ElementForce {
+        self.elements
+            .iter_mut()
+            .fold(ElementForce::default(), |acc, e| {
+                acc + e.commit_sensitivity(x, v, dx, dv, df)
+            })
     }
     #[inline]
     fn solve_implicit(&self, step: &ImplicitStep) -> Option<f64> {

@@ -22,6 +22,8 @@ pub struct Jenkins {
     /// `(bx, 1/(1 + bx kd))` of the last closed-form solve: `bx` is fixed for
     /// a simulator, so the division is done once.
     stick_gain: Cell<(f64, f64)>,
+    /// `∂slider/∂p` carried by [`Element::commit_sensitivity`] (empty: zero).
+    slider_sensitivity: Vec<f64>,
 }
 
 impl Jenkins {
@@ -35,6 +37,7 @@ impl Jenkins {
             slider: 0.0,
             xc: fd / kd,
             stick_gain: Cell::new((f64::NAN, f64::NAN)),
+            slider_sensitivity: Vec::new(),
         })
     }
 
@@ -94,6 +97,35 @@ impl Element for Jenkins {
 
     fn reset(&mut self) {
         self.slider = 0.0;
+        self.slider_sensitivity.clear();
+    }
+
+    /// Stick: `g = kd (x − x_s)`, so `∂g = kd (∂x − ∂x_s)`; slip: `g = ±Fd`
+    /// and the slider follows, `∂x_s = ∂x` (NLvib's chain rule, method notes
+    /// d.1).
+    #[inline]
+    fn commit_sensitivity(
+        &mut self,
+        x: f64,
+        _v: f64,
+        dx: &[f64],
+        _dv: &[f64],
+        df: &mut [f64],
+    ) -> ElementForce {
+        if self.slider_sensitivity.len() != dx.len() {
+            self.slider_sensitivity.clear();
+            self.slider_sensitivity.resize(dx.len(), 0.0);
+        }
+        let (f, slider) = self.evaluate(x);
+        if f.stiffness != 0.0 {
+            for ((d, &a), &s) in df.iter_mut().zip(dx).zip(&self.slider_sensitivity) {
+                *d += self.kd * (a - s);
+            }
+        } else {
+            self.slider_sensitivity.copy_from_slice(dx);
+        }
+        self.slider = slider;
+        f
     }
 
     fn has_memory(&self) -> bool {

@@ -172,6 +172,12 @@ pub struct Masing<B: Backbone = PowerBackbone> {
     /// on the same branch (the implicit solve's Newton iterates, then the
     /// commit) expand around it instead of re-evaluating the backbone.
     anchor: Cell<Option<Anchor>>,
+    /// Sensitivities carried by [`Element::commit_sensitivity`]: their
+    /// length `n`, then `(∂x, ∂F)` of the previous sample (`2n`) and of each
+    /// open turning point (`2n` each, in stack order).
+    sens_dim: usize,
+    prev_sens: Vec<f64>,
+    stack_sens: Vec<f64>,
 }
 
 /// An exact evaluation on a branch: position, branch identity, force, tangent
@@ -212,6 +218,9 @@ impl<B: Backbone> Masing<B> {
             f_prev: 0.0,
             direction: 0,
             anchor: Cell::new(None),
+            sens_dim: 0,
+            prev_sens: Vec::new(),
+            stack_sens: Vec::new(),
         }
     }
 
@@ -336,6 +345,63 @@ impl<B: Backbone> Element for Masing<B> {
         self.f_prev = 0.0;
         self.direction = 0;
         self.anchor.set(None);
+        self.sens_dim = 0;
+        self.prev_sens.clear();
+        self.stack_sens.clear();
+    }
+
+    /// On the backbone `∂F = f'(x) ∂x`; on a branch from the turning point
+    /// `(x_r, F_r)`, `∂F = ∂F_r + f'((x − x_r)/2) (∂x − ∂x_r)` (method notes
+    /// d.1). Each turning point keeps the `(∂x, ∂F)` of the sample it was.
+    fn commit_sensitivity(
+        &mut self,
+        x: f64,
+        _v: f64,
+        dx: &[f64],
+        _dv: &[f64],
+        df: &mut [f64],
+    ) -> ElementForce {
+        let n = dx.len();
+        if self.sens_dim != n {
+            // first use since reset (or a new size): the history so far is
+            // taken as independent of p
+            self.sens_dim = n;
+            self.prev_sens.clear();
+            self.prev_sens.resize(2 * n, 0.0);
+            self.stack_sens.clear();
+            self.stack_sens.resize(2 * n * self.stack.len(), 0.0);
+        }
+        let at = self.locate(x);
+        let f = self.force_at(x, at);
+        if at.push && at.open > self.stack.len() {
+            self.stack.push((self.x_prev, self.f_prev));
+            self.stack_sens.extend_from_slice(&self.prev_sens);
+        } else {
+            self.stack.truncate(at.open);
+            self.stack_sens.truncate(2 * n * at.open);
+        }
+        // the branch's origin is now the top of the stack
+        let k = f.stiffness;
+        if at.open == 0 {
+            for i in 0..n {
+                let d = k * dx[i];
+                self.prev_sens[n + i] = d;
+                df[i] += d;
+            }
+        } else {
+            let r = &self.stack_sens[2 * n * (at.open - 1)..2 * n * at.open];
+            for i in 0..n {
+                let d = r[n + i] + k * (dx[i] - r[i]);
+                self.prev_sens[n + i] = d;
+                df[i] += d;
+            }
+        }
+        self.prev_sens[..n].copy_from_slice(dx);
+        self.direction = at.direction;
+        self.x_prev = x;
+        self.f_prev = f.force;
+        self.anchor.set(None);
+        f
     }
 
     fn has_memory(&self) -> bool {

@@ -244,6 +244,17 @@ impl Element for AnyElement {
     fn solve_implicit(&self, step: &ImplicitStep) -> Option<f64> {
         dispatch!(self, e => e.solve_implicit(step))
     }
+    #[inline]
+    fn commit_sensitivity(
+        &mut self,
+        x: f64,
+        v: f64,
+        dx: &[f64],
+        dv: &[f64],
+        df: &mut [f64],
+    ) -> ElementForce {
+        dispatch!(self, e => e.commit_sensitivity(x, v, dx, dv, df))
+    }
 }
 
 /// A structure: the underlying linear modes and the elements at the joint.
