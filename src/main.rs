@@ -16,7 +16,8 @@ fn main() -> ExitCode {
     }
     let result = match &args.command {
         Command::Simulate(a) => cli::simulate::simulate(a, args.quiet),
-        Command::Identify(_) | Command::Run(_) => Err(anyhow::anyhow!("not available yet")),
+        Command::Identify(a) => cli::identify::identify_command(a, args.quiet),
+        Command::Run(_) => Err(anyhow::anyhow!("not available yet")),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -67,6 +67,43 @@ pub struct IdentifyArgs {
     /// Output directory.
     #[arg(long, short)]
     pub out: PathBuf,
+    /// Response channel name (default: the virtual test's response, else the
+    /// first channel that is not the reference).
+    #[arg(long)]
+    pub response: Option<String>,
+    /// Fit settings.
+    #[command(flatten)]
+    pub fit: IdentifyOptionsArgs,
+}
+
+/// Fit settings shared by `identify` and `run`.
+#[derive(Debug, Args, Clone)]
+pub struct IdentifyOptionsArgs {
+    /// Element to fit: masing (kd, Fd, N; paper eq. 10) or jenkins (kd, Fd).
+    #[arg(long, default_value = "masing")]
+    pub element: String,
+    /// Harmonics in the cost, e.g. 1 or 1,3,5.
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    pub harmonics: Vec<usize>,
+    /// Weight the residuals by the measured standard errors.
+    #[arg(long)]
+    pub weighted: bool,
+    /// Linear parameters refined with the element: none, damping (default:
+    /// removes the friction's bias on the largest level's damping) or all.
+    #[arg(long, default_value = "damping")]
+    pub refine_linear: String,
+    /// Also run Levenberg-Marquardt and check it agrees with Nelder-Mead.
+    #[arg(long)]
+    pub lm: bool,
+    /// Parametric bootstrap refits for percentile intervals (0: none).
+    #[arg(long, default_value_t = 0)]
+    pub bootstrap: usize,
+    /// Bootstrap seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Frequency band LO:HI in Hz.
+    #[arg(long)]
+    pub band: Option<String>,
 }
 
 /// `hystid run`.
@@ -77,4 +114,7 @@ pub struct RunArgs {
     /// Output directory.
     #[arg(long, short)]
     pub out: PathBuf,
+    /// Fit settings.
+    #[command(flatten)]
+    pub fit: IdentifyOptionsArgs,
 }

@@ -18,3 +18,13 @@ pub fn bar(total: u64, message: &str, quiet: bool) -> ProgressBar {
     pb.set_message(message.to_string());
     pb
 }
+
+/// A spinner with a changing message (for iterative work of unknown length).
+pub fn spinner(message: &str, quiet: bool) -> ProgressBar {
+    let pb = ProgressBar::new_spinner();
+    if quiet || !std::io::stderr().is_terminal() || std::env::var_os("CI").is_some() {
+        pb.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    pb.set_message(message.to_string());
+    pb
+}

@@ -8,11 +8,13 @@ pub mod linear;
 pub use linear::{FrfSample, SdofEstimate, fit_sdof};
 pub mod optimise;
 pub mod params;
+pub mod predict;
 pub mod problem;
 
-pub use identify::{Estimate, FitOptions, FitResult, identify};
+pub use identify::{Estimate, FitOptions, FitResult, LinearRefinement, identify};
 pub use optimise::{Optimiser, OptimiserRun};
 pub use params::{N_MAX, Parameter, ParameterSet, Target, Transform};
+pub use predict::HbPredictor;
 pub use problem::{
     FitData, FitProblem, FrfPredictor, MeasuredPoint, MeasuredSeries, Prediction, TraceEntry,
     Weighting,

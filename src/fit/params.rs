@@ -65,6 +65,10 @@ pub enum Transform {
         /// Typical magnitude.
         scale: f64,
     },
+    /// `θ = 1/p`: for the Masing curvature `N`, whose Jenkins limit
+    /// `N → ∞` is the ordinary point `θ → 0`, near which the cost is smooth
+    /// (the loop's knee rounds off as `1/N`).
+    Reciprocal,
 }
 
 /// One free parameter.
@@ -86,6 +90,7 @@ impl Parameter {
         match self.transform {
             Transform::Log => theta.exp(),
             Transform::Scaled { scale } => theta * scale,
+            Transform::Reciprocal => 1.0 / theta,
         }
     }
 
@@ -94,6 +99,7 @@ impl Parameter {
         match self.transform {
             Transform::Log => value.ln(),
             Transform::Scaled { scale } => value / scale,
+            Transform::Reciprocal => 1.0 / value,
         }
     }
 
@@ -262,6 +268,18 @@ impl ParameterSet {
         ParameterSet { parameters }
     }
 
+    /// The viscous damping of an SDOF mode as a free parameter.
+    pub fn for_sdof_damping(mode: usize) -> ParameterSet {
+        ParameterSet {
+            parameters: vec![Parameter {
+                name: "damping".into(),
+                target: Target::Damping { mode },
+                transform: Transform::Log,
+                bounds: [1e-30, 1e30],
+            }],
+        }
+    }
+
     /// `m, c, k` of an SDOF mode as free parameters.
     pub fn for_sdof(mode: usize) -> ParameterSet {
         let p = |name: &str, target| Parameter {
@@ -292,7 +310,7 @@ pub const N_MAX: f64 = 1000.0;
 fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [f64; 2]) {
     let scale = if value != 0.0 { value.abs() } else { 1.0 };
     match (e, name) {
-        (ElementSpec::Masing { .. }, "n") => (Transform::Log, [0.5, N_MAX]),
+        (ElementSpec::Masing { .. }, "n") => (Transform::Reciprocal, [0.5, N_MAX]),
         (ElementSpec::CubicStiffness { .. }, _) | (ElementSpec::BilinearStiffness { .. }, _) => {
             (Transform::Scaled { scale }, [-1e30, 1e30])
         }

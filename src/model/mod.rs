@@ -179,6 +179,26 @@ impl ElementSpec {
         })
     }
 
+    /// The element's steady force–displacement loop under `x = a cos θ`:
+    /// the second of two periods of `samples` points from the virgin state
+    /// (for plots of hysteresis loops, paper Fig. 3.2).
+    pub fn steady_loop(&self, amplitude: f64, samples: usize) -> Result<(Vec<f64>, Vec<f64>)> {
+        let mut e = self.build()?;
+        let n = samples.max(8);
+        let (mut xs, mut fs) = (Vec::with_capacity(n + 1), Vec::with_capacity(n + 1));
+        for i in 0..=2 * n {
+            let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+            let x = amplitude * th.cos();
+            let v = -amplitude * th.sin();
+            let f = e.commit(x, v).force;
+            if i >= n {
+                xs.push(x);
+                fs.push(f);
+            }
+        }
+        Ok((xs, fs))
+    }
+
     /// The stick stiffness a hysteresis element adds at small amplitude
     /// (0 for the others).
     pub fn stick_stiffness(&self) -> f64 {

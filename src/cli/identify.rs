@@ -1,0 +1,499 @@
+//! `hystid identify`: fit a hysteresis element to a recording's nonlinear
+//! FRFs (paper Figures 2.2 and 3.3).
+
+use super::args::{IdentifyArgs, IdentifyOptionsArgs};
+use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
+use anyhow::{Context, Result, bail};
+use hystid::extract::{NonlinearFrf, ReduceOptions, reduce_stepped};
+use hystid::fit::{
+    FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, LinearRefinement, TraceEntry,
+    Weighting, identify,
+};
+use hystid::model::{ElementKind, ElementSpec};
+use hystid::plot::{self, ConvergenceSeries, FrfSeries, LoopSeries, SeriesStyle};
+use hystid::record::Recording;
+use hystid::testbench::TestDefinition;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// A recording loaded for analysis, with the test definition it came from
+/// when it is a hystid virtual test (the truth, for comparison plots).
+pub struct Loaded {
+    /// The recording.
+    pub recording: Recording,
+    /// The response channel.
+    pub response: usize,
+    /// The virtual test's definition, if recorded.
+    pub truth: Option<TestDefinition>,
+}
+
+/// Reads `run.mcap` or a WAV + JSON recording.
+pub fn load_recording(path: &Path, response: Option<&str>) -> Result<Loaded> {
+    let is_mcap = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+    let (recording, toml_text) = if is_mcap {
+        let run = hystid::record::read_run(path)?;
+        if run.truncated {
+            eprintln!(
+                "warning: {} is truncated; analysing the complete chunks",
+                path.display()
+            );
+        }
+        let text = run.info.test_definition.clone();
+        (
+            run.to_recording()
+                .with_context(|| format!("{}: rebuilding the recording", path.display()))?,
+            Some(text),
+        )
+    } else {
+        let rec = hystid::record::read_recording(path)?;
+        let text = rec
+            .meta
+            .metadata
+            .get("test_definition")
+            .and_then(|v| v.as_str())
+            .map(str::to_string);
+        (rec, text)
+    };
+    let truth =
+        toml_text.and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
+    let reference = recording.reference_channel().with_context(|| {
+        format!(
+            "{}: no force (or voltage) channel to use as the reference",
+            path.display()
+        )
+    })?;
+    let response = match response {
+        Some(name) => recording.channel_index(name).with_context(|| {
+            let names: Vec<&str> = recording
+                .meta
+                .channels
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect();
+            format!(
+                "{}: no channel `{name}` (channels: {names:?})",
+                path.display()
+            )
+        })?,
+        None => {
+            // a virtual test says which response its FRFs were of
+            let wanted = truth
+                .as_ref()
+                .map(|t| t.test.response.quantity().name().to_string());
+            wanted
+                .and_then(|q| {
+                    recording
+                        .meta
+                        .channels
+                        .iter()
+                        .position(|c| c.quantity.name() == q)
+                })
+                .or_else(|| recording.default_response_channel())
+                .with_context(|| {
+                    format!(
+                        "{}: no response channel besides the reference",
+                        path.display()
+                    )
+                })?
+        }
+    };
+    if response == reference {
+        bail!(
+            "{}: the response channel is the reference channel",
+            path.display()
+        );
+    }
+    let q = recording.meta.channels[response].quantity;
+    if !q.is_motion() {
+        bail!(
+            "{}: the response channel `{}` is a {q}, not a motion",
+            path.display(),
+            recording.meta.channels[response].name
+        );
+    }
+    let force = &recording.channels[reference];
+    if force.iter().all(|&v| v == 0.0) {
+        bail!(
+            "{}: the reference channel `{}` is flat (all zero): nothing drove the structure",
+            path.display(),
+            recording.meta.channels[reference].name
+        );
+    }
+    Ok(Loaded {
+        recording,
+        response,
+        truth,
+    })
+}
+
+/// Nonlinear FRFs of a loaded recording.
+pub fn reduce(loaded: &Loaded, max_harmonic: usize) -> Result<NonlinearFrf> {
+    let opts = ReduceOptions {
+        max_harmonic,
+        blocks: 16,
+        ..ReduceOptions::default()
+    };
+    Ok(reduce_stepped(&loaded.recording, loaded.response, &opts)?)
+}
+
+/// Fit options from the command line.
+pub fn fit_options(a: &IdentifyOptionsArgs) -> Result<FitOptions> {
+    let element = match a.element.as_str() {
+        "masing" => ElementKind::Masing,
+        "jenkins" => ElementKind::Jenkins,
+        other => bail!("--element: expected masing or jenkins, got `{other}`"),
+    };
+    let band_hz = match &a.band {
+        None => None,
+        Some(b) => {
+            let (lo, hi) = b
+                .split_once(':')
+                .with_context(|| format!("--band: expected LO:HI in Hz, got `{b}`"))?;
+            let lo: f64 = lo
+                .trim()
+                .parse()
+                .with_context(|| format!("--band: `{lo}` is not a number"))?;
+            let hi: f64 = hi
+                .trim()
+                .parse()
+                .with_context(|| format!("--band: `{hi}` is not a number"))?;
+            if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi) {
+                bail!("--band: need 0 <= LO < HI, got {lo}:{hi}");
+            }
+            Some((lo, hi))
+        }
+    };
+    Ok(FitOptions {
+        element,
+        harmonics: a.harmonics.clone(),
+        weighting: if a.weighted {
+            Weighting::StandardError
+        } else {
+            Weighting::None
+        },
+        refine_linear: match a.refine_linear.as_str() {
+            "none" => LinearRefinement::None,
+            "damping" => LinearRefinement::Damping,
+            "all" => LinearRefinement::All,
+            other => bail!("--refine-linear: expected none, damping or all, got `{other}`"),
+        },
+        second_optimiser: a.lm,
+        bootstrap: a.bootstrap,
+        seed: a.seed,
+        band_hz,
+        ..FitOptions::default()
+    })
+}
+
+/// How the fit compares with the element the data were simulated with.
+#[derive(Serialize)]
+pub struct Comparison {
+    /// Parameter name.
+    pub parameter: String,
+    /// Reference value.
+    pub reference: f64,
+    /// Estimate.
+    pub estimate: f64,
+    /// `estimate/reference − 1`.
+    pub relative_error: f64,
+    /// Whether the 95 % interval covers the reference.
+    pub covered: bool,
+}
+
+/// `fit.json`.
+#[derive(Serialize)]
+pub struct FitReport<'a> {
+    /// `identify`.
+    pub command: &'static str,
+    /// Tool version.
+    pub version: &'static str,
+    /// The recording.
+    pub recording: String,
+    /// The response analysed.
+    pub response: String,
+    /// The fit.
+    #[serde(flatten)]
+    pub fit: &'a FitResult,
+    /// The element the data came from, when known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference: Option<ElementSpec>,
+    /// Estimates against the reference.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub comparison: Vec<Comparison>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// The reference joint of a virtual test.
+pub fn reference_joint(truth: Option<&TestDefinition>) -> Option<ElementSpec> {
+    let m = truth?.model().ok()?;
+    m.elements
+        .into_iter()
+        .find(|e| matches!(e.kind(), ElementKind::Jenkins | ElementKind::Masing))
+}
+
+/// Compares estimates with a reference element's parameters.
+pub fn compare(fit: &FitResult, reference: Option<&ElementSpec>) -> Vec<Comparison> {
+    let Some(r) = reference else {
+        return Vec::new();
+    };
+    r.parameters()
+        .into_iter()
+        .filter_map(|(name, value)| {
+            let e = fit.parameters.get(name)?;
+            Some(Comparison {
+                parameter: name.to_string(),
+                reference: value,
+                estimate: e.value,
+                relative_error: e.value / value - 1.0,
+                covered: e.ci95[0] <= value && value <= e.ci95[1],
+            })
+        })
+        .collect()
+}
+
+/// The fit's figures: FRF overlay, hysteresis loops, convergence.
+pub fn write_fit_plots(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    fit: &FitResult,
+    reference: Option<&ElementSpec>,
+    predictor: &HbPredictor,
+) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    // measured vs model |H1| and phase for every level (paper Fig. 3.4 right)
+    let data = FitData::from_frf(frf, &[1], fit_band(fit), None)?;
+    let pred = predictor.predict(&fit.model, &data)?;
+    let mut series = Vec::new();
+    for (g, (s, p)) in data.series.iter().zip(&pred.h).enumerate() {
+        let label = format!("{} N", s.level);
+        let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
+        series.push(FrfSeries {
+            label: label.clone(),
+            group: g,
+            frequency_hz: f.clone(),
+            h: s.points.iter().map(|p| p.h[0]).collect(),
+            std_error: Some(s.points.iter().map(|p| p.std_error[0]).collect()),
+            style: SeriesStyle::Measured,
+        });
+        series.push(FrfSeries {
+            label: format!("{label} (model)"),
+            group: g,
+            frequency_hz: f,
+            h: p.iter()
+                .map(|m| {
+                    m.as_ref()
+                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| m[0])
+                })
+                .collect(),
+            std_error: None,
+            style: SeriesStyle::Model,
+        });
+    }
+    files.extend(plot::write_frf_plot(
+        &dir.join("fit_frf"),
+        &format!(
+            "Measured (markers) and fitted {} model (lines)",
+            fit.element.name()
+        ),
+        &plot::frf_magnitude_label(frf, 1),
+        &series,
+    )?);
+    // hysteresis loops at several amplitudes (Fig. 3.2 / 3.4 left)
+    if let Some(spec) = fit.model.elements.first() {
+        let (kd, fd) = (
+            spec.stick_stiffness(),
+            fit.parameters.get("fd").map_or(1.0, |e| e.value),
+        );
+        let xc = fd / kd;
+        let mut loops = Vec::new();
+        for (g, mult) in [0.5, 1.5, 3.0, 8.0].into_iter().enumerate() {
+            let a = mult * xc;
+            if let Some(r) = reference {
+                let (x, f) = r.steady_loop(a, 400)?;
+                loops.push(LoopSeries {
+                    label: format!("reference, a = {mult} Fd/kd"),
+                    group: g,
+                    displacement: x,
+                    force: f,
+                    style: SeriesStyle::Measured,
+                });
+            }
+            let (x, f) = spec.steady_loop(a, 400)?;
+            loops.push(LoopSeries {
+                label: format!("fitted, a = {mult} Fd/kd"),
+                group: g,
+                displacement: x,
+                force: f,
+                style: SeriesStyle::Model,
+            });
+        }
+        files.extend(plot::write_loop_plot(
+            &dir.join("loops"),
+            "Hysteresis loops: fitted element over the reference",
+            "displacement [m]",
+            "element force [N]",
+            &loops,
+        )?);
+    }
+    let cost: Vec<f64> = fit.trace.iter().map(|t| t.cost).collect();
+    if !cost.is_empty() {
+        files.extend(plot::write_convergence_plot(
+            &dir.join("convergence"),
+            "Nelder-Mead: cost per evaluation",
+            "cost (eq. 9 squared)",
+            &[ConvergenceSeries {
+                label: "Nelder-Mead".into(),
+                group: 0,
+                cost,
+            }],
+        )?);
+    }
+    Ok(files)
+}
+
+fn fit_band(_fit: &FitResult) -> Option<(f64, f64)> {
+    None
+}
+
+/// Runs the fit with a progress line and an optional MCAP fit channel.
+pub fn run_fit(
+    frf: &NonlinearFrf,
+    options: &FitOptions,
+    quiet: bool,
+    mcap: Option<&Mutex<hystid::record::McapRecorder>>,
+) -> Result<(FitResult, HbPredictor)> {
+    let predictor = HbPredictor::default();
+    let pb = progress::spinner("fitting", quiet);
+    let write_error: Mutex<Option<hystid::Error>> = Mutex::new(None);
+    let observer = |t: &TraceEntry| {
+        pb.set_message(format!("evaluation {}: cost {:.6e}", t.evaluation, t.cost));
+        pb.tick();
+        if let Some(m) = mcap
+            && let Err(e) = m
+                .lock()
+                .expect("mcap lock")
+                .write_fit_iteration(t.evaluation as u64, t)
+        {
+            write_error.lock().expect("lock").get_or_insert(e);
+        }
+    };
+    let fit = identify(frf, options, &predictor, Some(&observer))?;
+    pb.finish_and_clear();
+    if let Some(e) = write_error.into_inner().expect("lock") {
+        return Err(e.into());
+    }
+    Ok((fit, predictor))
+}
+
+/// Prints the fit in a few lines.
+pub fn print_fit(fit: &FitResult, comparison: &[Comparison]) {
+    println!(
+        "fitted {} element: relative error {:.4} (chi2/dof {:.3}), {} evaluations in {:.2} s",
+        fit.element.name(),
+        fit.error.relative,
+        fit.error.chi2_per_dof,
+        fit.effort.evaluations,
+        fit.effort.seconds
+    );
+    for (name, e) in &fit.parameters {
+        let cmp = comparison.iter().find(|c| &c.parameter == name);
+        let r = cmp.map_or(String::new(), |c| {
+            format!(
+                "  (reference {:.6e}: {:+.2} %{})",
+                c.reference,
+                100.0 * c.relative_error,
+                if c.covered {
+                    ", covered"
+                } else {
+                    ", NOT covered"
+                }
+            )
+        });
+        println!(
+            "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{}{r}",
+            e.value,
+            e.ci95[0],
+            e.ci95[1],
+            if e.identifiable {
+                ""
+            } else {
+                "  (not identifiable)"
+            }
+        );
+        if let Some(n) = &e.note {
+            println!("             {n}");
+        }
+    }
+    println!(
+        "  linear: m = {:.5} kg, c = {:.4} N s/m, k = {:.6e} N/m; stick k_low = {:.6e} N/m",
+        fit.linear.mass, fit.linear.damping, fit.linear.stiffness, fit.linear.stick.stiffness
+    );
+    for n in &fit.notes {
+        println!("  note: {n}");
+    }
+}
+
+/// `hystid identify`.
+pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
+    let options = fit_options(&args.fit)?;
+    let loaded = load_recording(&args.recording, args.response.as_deref())?;
+    let frf =
+        reduce(&loaded, 7).with_context(|| format!("reducing {}", args.recording.display()))?;
+    create_out_dir(&args.out)?;
+    let info = hystid::record::RunInfo {
+        tool_version: format!("hystid {}", env!("CARGO_PKG_VERSION")),
+        test_definition: String::new(),
+        seed: options.seed,
+        sample_rate_hz: loaded.recording.meta.sample_rate_hz,
+        channels: super::simulate::bench_channels(),
+        metadata: [(
+            "recording".to_string(),
+            args.recording.display().to_string(),
+        )]
+        .into(),
+    };
+    let mcap = Mutex::new(hystid::record::McapRecorder::create(
+        &args.out.join("fit.mcap"),
+        &info,
+    )?);
+    let (fit, predictor) = run_fit(&frf, &options, quiet, Some(&mcap))?;
+    mcap.into_inner().expect("lock").finish()?;
+    let reference = reference_joint(loaded.truth.as_ref());
+    let comparison = compare(&fit, reference.as_ref());
+    let mut files = vec![args.out.join("fit.json"), args.out.join("fit.mcap")];
+    files.extend(write_fit_plots(
+        &args.out,
+        &frf,
+        &fit,
+        reference.as_ref(),
+        &predictor,
+    )?);
+    let report = FitReport {
+        command: "identify",
+        version: env!("CARGO_PKG_VERSION"),
+        recording: args.recording.display().to_string(),
+        response: loaded.recording.meta.channels[loaded.response].name.clone(),
+        fit: &fit,
+        reference,
+        comparison,
+        files,
+    };
+    write_json(&args.out.join("fit.json"), &report)?;
+    if !quiet {
+        print_fit(&fit, &report.comparison);
+        for f in &report.files {
+            println!("  wrote {}", f.display());
+        }
+    }
+    Ok(
+        if fit.notes.iter().any(|n| n.contains("did not converge")) {
+            EXIT_DEGRADED
+        } else {
+            EXIT_OK
+        },
+    )
+}
