@@ -17,7 +17,7 @@ fn main() -> ExitCode {
     let result = match &args.command {
         Command::Simulate(a) => cli::simulate::simulate(a, args.quiet),
         Command::Identify(a) => cli::identify::identify_command(a, args.quiet),
-        Command::Run(_) => Err(anyhow::anyhow!("not available yet")),
+        Command::Run(a) => cli::run::run_command(a, args.quiet),
     };
     match result {
         Ok(code) => ExitCode::from(code),

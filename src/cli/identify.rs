@@ -364,7 +364,7 @@ pub fn run_fit(
     frf: &NonlinearFrf,
     options: &FitOptions,
     quiet: bool,
-    mcap: Option<&Mutex<hystid::record::McapRecorder>>,
+    mcap: Option<&Mutex<&mut hystid::record::McapRecorder>>,
 ) -> Result<(FitResult, HbPredictor)> {
     let predictor = HbPredictor::default();
     let pb = progress::spinner("fitting", quiet);
@@ -456,12 +456,9 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         )]
         .into(),
     };
-    let mcap = Mutex::new(hystid::record::McapRecorder::create(
-        &args.out.join("fit.mcap"),
-        &info,
-    )?);
-    let (fit, predictor) = run_fit(&frf, &options, quiet, Some(&mcap))?;
-    mcap.into_inner().expect("lock").finish()?;
+    let mut mcap = hystid::record::McapRecorder::create(&args.out.join("fit.mcap"), &info)?;
+    let (fit, predictor) = run_fit(&frf, &options, quiet, Some(&Mutex::new(&mut mcap)))?;
+    mcap.finish()?;
     let reference = reference_joint(loaded.truth.as_ref());
     let comparison = compare(&fit, reference.as_ref());
     let mut files = vec![args.out.join("fit.json"), args.out.join("fit.mcap")];

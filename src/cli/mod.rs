@@ -4,6 +4,7 @@
 pub mod args;
 pub mod identify;
 pub mod progress;
+pub mod run;
 pub mod simulate;
 
 use anyhow::{Context, Result};

@@ -136,12 +136,11 @@ impl FileSink {
         })
     }
 
-    /// Completes both files.
-    pub fn finish(mut self) -> Result<()> {
+    /// The MCAP recorder (still open, e.g. for the fit's channel) and the
+    /// WAV writer with its steps filled in.
+    pub fn into_parts(mut self) -> (McapRecorder, RecordingWriter) {
         self.wav.meta_mut().excitation.steps = std::mem::take(&mut self.steps);
-        self.mcap.finish()?;
-        self.wav.finish()?;
-        Ok(())
+        (self.mcap, self.wav)
     }
 }
 
@@ -248,12 +247,16 @@ pub struct SimulateSummary {
 }
 
 /// Runs the bench into `dir`; shared by `simulate` and `run`.
+///
+/// `after_bench` runs with the MCAP recorder still open (e.g. to add the
+/// fit's iterations to the run file).
 pub fn simulate_into(
     def: &TestDefinition,
     toml_text: &str,
     dir: &Path,
     quiet: bool,
     wav_format: WavFormat,
+    after_bench: &mut dyn FnMut(&BenchRun, &mut McapRecorder) -> Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
     let t0 = std::time::Instant::now();
     let fs = def.sample_rate_hz()?;
@@ -265,7 +268,11 @@ pub fn simulate_into(
     let tick = || pb.inc(1);
     let run = testbench::run(def, &mut sink, &tick)?;
     pb.finish_and_clear();
-    sink.finish()?;
+    let (mut mcap, wav) = sink.into_parts();
+    wav.finish()?;
+    let bench_seconds = t0.elapsed().as_secs_f64();
+    after_bench(&run, &mut mcap)?;
+    mcap.finish()?;
     let mut files = vec![
         dir.join("run.mcap"),
         dir.join("recording.wav"),
@@ -306,7 +313,7 @@ pub fn simulate_into(
             .sum::<f64>()
             / n,
         mean_noise_ratio: run.dwells.iter().map(|d| d.noise_ratio).sum::<f64>() / n,
-        seconds: t0.elapsed().as_secs_f64(),
+        seconds: bench_seconds,
         files,
     };
     Ok((run, summary))
@@ -315,7 +322,14 @@ pub fn simulate_into(
 /// `hystid simulate`.
 pub fn simulate(args: &SimulateArgs, quiet: bool) -> Result<u8> {
     let (def, text) = read_test(args.test.as_deref())?;
-    let (run, mut summary) = simulate_into(&def, &text, &args.out, quiet, args.wav_format)?;
+    let (run, mut summary) = simulate_into(
+        &def,
+        &text,
+        &args.out,
+        quiet,
+        args.wav_format,
+        &mut |_, _| Ok(()),
+    )?;
     let summary_path = args.out.join("summary.json");
     summary.files.push(summary_path.clone());
     write_json(&summary_path, &summary)?;
