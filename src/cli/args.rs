@@ -104,6 +104,11 @@ pub struct IdentifyOptionsArgs {
     /// Frequency band LO:HI in Hz.
     #[arg(long)]
     pub band: Option<String>,
+    /// Where the linear part starts: extremes (the paper: m, c, k from the
+    /// largest level, k + kd from the smallest) or lowest (real joints that
+    /// never slip fully: the smallest level's mode, k refined).
+    #[arg(long, default_value = "extremes")]
+    pub linear_start: String,
 }
 
 /// `hystid run`.

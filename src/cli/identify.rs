@@ -6,8 +6,8 @@ use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::extract::{NonlinearFrf, ReduceOptions, reduce_stepped};
 use hystid::fit::{
-    FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, LinearRefinement, TraceEntry,
-    Weighting, identify,
+    FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, LinearRefinement, LinearStart,
+    TraceEntry, Weighting, identify,
 };
 use hystid::model::{ElementKind, ElementSpec};
 use hystid::plot::{self, ConvergenceSeries, FrfSeries, LoopSeries, SeriesStyle};
@@ -180,6 +180,11 @@ pub fn fit_options(a: &IdentifyOptionsArgs) -> Result<FitOptions> {
             "all" => LinearRefinement::All,
             other => bail!("--refine-linear: expected none, damping or all, got `{other}`"),
         },
+        linear_start: match a.linear_start.as_str() {
+            "extremes" => LinearStart::Extremes,
+            "lowest" => LinearStart::Lowest,
+            other => bail!("--linear-start: expected extremes or lowest, got `{other}`"),
+        },
         second_optimiser: a.lm,
         bootstrap: a.bootstrap,
         seed: a.seed,
@@ -286,7 +291,9 @@ pub fn write_fit_plots(
             h: p.iter()
                 .map(|m| {
                     m.as_ref()
-                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| m[0])
+                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| {
+                            m[0] * fit.response_sign
+                        })
                 })
                 .collect(),
             std_error: None,

@@ -38,6 +38,8 @@ pub struct FitOptions {
     pub weighting: Weighting,
     /// Which linear parameters are refined with the element's.
     pub refine_linear: LinearRefinement,
+    /// Where the linear part starts from.
+    pub linear_start: LinearStart,
     /// Run Levenberg–Marquardt as well and compare.
     pub second_optimiser: bool,
     /// Nelder–Mead iteration cap.
@@ -57,6 +59,7 @@ impl Default for FitOptions {
             harmonics: vec![1],
             weighting: Weighting::None,
             refine_linear: LinearRefinement::Damping,
+            linear_start: LinearStart::Extremes,
             second_optimiser: false,
             max_iterations: 600,
             bootstrap: 0,
@@ -87,11 +90,26 @@ pub enum LinearRefinement {
     All,
 }
 
+/// Where the linear part of the model starts from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LinearStart {
+    /// The paper's recipe: `m, c, k` from the largest level (the joint slips
+    /// freely), `k + kd` from the smallest (it sticks). For virtual tests and
+    /// rigs driven hard enough to saturate the joint.
+    #[default]
+    Extremes,
+    /// Real jointed structures, whose joints never slip fully: the mode of
+    /// the smallest level (stick), with `kd` taken out of its stiffness and
+    /// `k` refined with the element.
+    Lowest,
+}
+
 /// The initial simplex step of a parameter, in its optimiser coordinate.
 fn initial_step(p: &super::params::Parameter) -> f64 {
     match (&p.transform, &p.target) {
         (Transform::Reciprocal, _) => 0.05,
-        (_, Target::Element { .. }) => 0.2,
+        (_, Target::Element { .. } | Target::TiedStickStiffness { .. }) => 0.2,
         _ => 0.05,
     }
 }
@@ -186,6 +204,9 @@ pub struct FitResult {
     pub effort: EffortReport,
     /// Notes (warnings) for the user.
     pub notes: Vec<String>,
+    /// The model predicts `response_sign × H_measured` (see
+    /// [`FitData::response_sign`]).
+    pub response_sign: f64,
 }
 
 /// Linear system estimates from the largest and smallest levels.
@@ -252,24 +273,52 @@ pub fn identify(
     observer: Option<&(dyn Fn(&TraceEntry) + Sync)>,
 ) -> Result<FitResult> {
     let t0 = std::time::Instant::now();
-    let data = FitData::from_frf(frf, &options.harmonics, options.band_hz, None)?;
-    let linear = linear_from_levels(frf, options.band_hz)?;
+    let mut linear = linear_from_levels(frf, options.band_hz)?;
     let mut notes = Vec::new();
-    let kd0 = if linear.kd_initial > 0.0 {
-        linear.kd_initial
-    } else {
-        notes.push(format!(
-            "the smallest level is not stiffer than the largest (k_low − k = {:.4e} N/m): no stick stiffness visible; starting from kd = k",
-            linear.kd_initial
-        ));
-        linear.stiffness
+    // the lowest level is the most linear: its modal constant's sign decides
+    let sign = linear.stick.sign;
+    if linear.underlying.sign != sign {
+        notes.push("the largest and smallest levels disagree on the sign of the modal constant; using the smallest's".into());
+    }
+    if sign < 0.0 {
+        notes.push("the response moves against the drive below resonance (a transfer FRF with a negative modal constant): the model is fitted to −H".into());
+    }
+    let data = FitData::from_frf(frf, &options.harmonics, options.band_hz, None)?.with_sign(sign);
+    let (sdof, kd0) = match options.linear_start {
+        LinearStart::Extremes => {
+            let kd0 = if linear.kd_initial > 0.0 {
+                linear.kd_initial
+            } else {
+                notes.push(format!(
+                    "the smallest level is not stiffer than the largest (k_low − k = {:.4e} N/m): no stick stiffness visible; starting from kd = k",
+                    linear.kd_initial
+                ));
+                linear.stiffness
+            };
+            (
+                ModalModel::sdof(linear.mass, linear.damping, linear.stiffness)?,
+                kd0,
+            )
+        }
+        LinearStart::Lowest => {
+            // the joint never slips fully: start from the smallest level's
+            // mode (stick) and take kd out of its stiffness, guessing twice
+            // the softening the largest level shows
+            let st = &linear.stick;
+            let softening = st.stiffness - linear.underlying.stiffness;
+            let kd0 = (2.0 * softening).clamp(0.02 * st.stiffness, 0.9 * st.stiffness);
+            linear.kd_initial = kd0;
+            (
+                ModalModel::sdof(st.mass, st.damping, st.stiffness - kd0)?,
+                kd0,
+            )
+        }
     };
-    let sdof = ModalModel::sdof(linear.mass, linear.damping, linear.stiffness)?;
     let element = match options.element {
         ElementKind::Masing => ElementSpec::Masing {
             kd: kd0,
             fd: 1.0,
-            n: 5.0,
+            n: 10.0,
         },
         ElementKind::Jenkins => ElementSpec::Jenkins { kd: kd0, fd: 1.0 },
         other => {
@@ -283,12 +332,35 @@ pub fn identify(
         }
     };
     let base = Model::new(sdof, vec![element])?;
-    let element_params = ParameterSet::for_element(&base, 0, "");
+    let mut element_params = ParameterSet::for_element(&base, 0, "");
     let mut params = element_params.clone();
-    match options.refine_linear {
-        LinearRefinement::None => {}
-        LinearRefinement::Damping => params.extend(ParameterSet::for_sdof_damping(0)),
-        LinearRefinement::All => params.extend(ParameterSet::for_sdof(0)),
+    match (options.linear_start, options.refine_linear) {
+        (LinearStart::Extremes, LinearRefinement::None) => {}
+        (LinearStart::Extremes, LinearRefinement::Damping) => {
+            params.extend(ParameterSet::for_sdof_damping(0))
+        }
+        (_, LinearRefinement::All) => params.extend(ParameterSet::for_sdof(0)),
+        (LinearStart::Lowest, _) => {
+            // k and kd are both unknown here: k is always refined
+            let mut kc = ParameterSet::for_sdof(0);
+            kc.parameters
+                .retain(|p| !matches!(p.target, Target::Mass { .. }));
+            params.extend(kc);
+        }
+    }
+    if options.linear_start == LinearStart::Lowest {
+        // stage 1 keeps k + kd at the smallest level's stiffness
+        let total = linear.stick.stiffness;
+        for p in &mut element_params.parameters {
+            if matches!(&p.target, Target::Element { name, .. } if name == "kd") {
+                p.target = Target::TiedStickStiffness {
+                    index: 0,
+                    mode: 0,
+                    total,
+                };
+                p.bounds = [1e-6 * total, 0.99 * total];
+            }
+        }
     }
     // stage 1: the element alone, on the linear system as estimated
     let stage1 = FitProblem::new(
@@ -299,27 +371,48 @@ pub fn identify(
         options.weighting,
         observer,
     );
-    // a coarse scan for the slip force: from well below the smallest level to the largest
+    // a coarse scan for the slip force, from well below the smallest level
+    // to the largest; from the smallest level's mode also for the split of
+    // its stiffness between structure and joint (a few multiples of the
+    // softening the largest level shows)
     let (lmin, lmax) = data.series.iter().fold((f64::MAX, 0.0f64), |(a, b), s| {
         (a.min(s.level), b.max(s.level))
     });
     let mut theta = element_params.theta_of(&base)?;
-    let fd_index = element_params
-        .parameters
-        .iter()
-        .position(|p| matches!(&p.target, Target::Element { name, .. } if name == "fd"))
-        .expect("fd is free");
-    let mut best = (f64::INFINITY, theta[fd_index]);
+    let index_of = |name: &str| {
+        element_params
+            .parameters
+            .iter()
+            .position(|p| p.name == name)
+            .expect("element parameter is free")
+    };
+    let (fd_index, kd_index) = (index_of("fd"), index_of("kd"));
+    let kd_candidates: Vec<f64> = match options.linear_start {
+        LinearStart::Extremes => vec![theta[kd_index]],
+        LinearStart::Lowest => {
+            let total = linear.stick.stiffness;
+            let softening = (total - linear.underlying.stiffness).max(0.01 * total);
+            [1.0, 1.4, 2.0, 3.0, 5.0]
+                .iter()
+                .map(|f| (f * softening).min(0.9 * total).ln())
+                .collect()
+        }
+    };
+    let mut best = (f64::INFINITY, theta[kd_index], theta[fd_index]);
     let scan = 16;
-    for i in 0..=scan {
-        let fd = (0.05 * lmin) * ((lmax / (0.05 * lmin)).powf(i as f64 / scan as f64));
-        theta[fd_index] = fd.ln();
-        let c = stage1.cost(&theta)?;
-        if c < best.0 {
-            best = (c, theta[fd_index]);
+    for &kd in &kd_candidates {
+        theta[kd_index] = kd;
+        for i in 0..=scan {
+            let fd = (0.05 * lmin) * ((lmax / (0.05 * lmin)).powf(i as f64 / scan as f64));
+            theta[fd_index] = fd.ln();
+            let c = stage1.cost(&theta)?;
+            if c < best.0 {
+                best = (c, kd, theta[fd_index]);
+            }
         }
     }
-    theta[fd_index] = best.1;
+    theta[kd_index] = best.1;
+    theta[fd_index] = best.2;
     let start = theta.clone();
     let steps1: Vec<f64> = element_params.parameters.iter().map(initial_step).collect();
     let r1 = optimise::nelder_mead(&stage1, &theta, &steps1, options.max_iterations, 1e-6)?;
@@ -353,7 +446,7 @@ pub fn identify(
     // intervals with every linear parameter free as well: m, c and k are
     // estimated from the same data, so the element's intervals must carry
     // their uncertainty even when the optimiser held them fixed
-    let mut u_params = element_params.clone();
+    let mut u_params = ParameterSet::for_element(&model, 0, "");
     u_params.extend(ParameterSet::for_sdof(0));
     let u_problem = FitProblem::new(
         model.clone(),
@@ -426,6 +519,7 @@ pub fn identify(
         optimiser: run,
         second_optimiser: second,
         trace,
+        response_sign: sign,
         effort: EffortReport {
             evaluations,
             hb_points: stage1.solves() + problem.solves(),

@@ -42,6 +42,15 @@ pub struct SdofEstimate {
     pub relative_rms_residual: f64,
     /// Points used.
     pub points: usize,
+    /// +1, or −1 for a transfer FRF whose modal constant is negative (the
+    /// response moves against the drive below resonance): `H = sign/(k −
+    /// mω² + jcω)` with `m, c, k` positive.
+    #[serde(default = "plus_one")]
+    pub sign: f64,
+}
+
+fn plus_one() -> f64 {
+    1.0
 }
 
 impl SdofEstimate {
@@ -147,6 +156,13 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
         }
     }
     let (k, m, c) = (theta[0], theta[1], theta[2]);
+    // a negative modal constant (a transfer FRF) flips every sign
+    let sign = if k < 0.0 && m < 0.0 && c <= 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    let (k, m, c) = (sign * k, sign * m, sign * c);
     if !(k > 0.0 && m > 0.0 && c >= 0.0 && k.is_finite() && m.is_finite()) {
         return Err(Error::input(
             what,
@@ -157,7 +173,7 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
     }
     let rms = (pts
         .iter()
-        .map(|&(w, h, _)| ((h - 1.0 / Complex64::new(k - m * w * w, c * w)) / h).norm_sqr())
+        .map(|&(w, h, _)| ((h - sign / Complex64::new(k - m * w * w, c * w)) / h).norm_sqr())
         .sum::<f64>()
         / pts.len() as f64)
         .sqrt();
@@ -167,6 +183,7 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
         stiffness: k,
         relative_rms_residual: rms,
         points: pts.len(),
+        sign,
     })
 }
 
@@ -229,6 +246,15 @@ mod tests {
             worst[0] < 2e-3 && worst[2] < 2e-3 && worst[1] < 3e-2,
             "{worst:?}"
         );
+    }
+
+    #[test]
+    fn a_negative_modal_constant_is_a_sign() {
+        let mut s = samples(10.0, 200.0, 1e7, Quantity::Acceleration, 0.0, 1);
+        s.iter_mut().for_each(|p| p.h = -p.h);
+        let e = fit_sdof(&s, Quantity::Acceleration, "t").unwrap();
+        assert_eq!(e.sign, -1.0);
+        assert!((e.mass / 10.0 - 1.0).abs() < 1e-9 && (e.stiffness / 1e7 - 1.0).abs() < 1e-9);
     }
 
     #[test]

@@ -11,7 +11,7 @@ pub mod params;
 pub mod predict;
 pub mod problem;
 
-pub use identify::{Estimate, FitOptions, FitResult, LinearRefinement, identify};
+pub use identify::{Estimate, FitOptions, FitResult, LinearRefinement, LinearStart, identify};
 pub use optimise::{Optimiser, OptimiserRun};
 pub use params::{N_MAX, Parameter, ParameterSet, Target, Transform};
 pub use predict::HbPredictor;

@@ -52,6 +52,17 @@ pub enum Target {
         /// Mode index.
         mode: usize,
     },
+    /// An element's stick stiffness `kd` taken out of mode `mode`'s
+    /// stiffness so that `k + kd = total` stays fixed: the stick stiffness a
+    /// nearly linear low level measured, split between structure and joint.
+    TiedStickStiffness {
+        /// Element index.
+        index: usize,
+        /// Mode index.
+        mode: usize,
+        /// `k + kd`, N/m.
+        total: f64,
+    },
 }
 
 /// The coordinate an optimiser sees.
@@ -142,6 +153,10 @@ impl Parameter {
             Target::Frequency { mode: i } => mode(*i)?.frequency_hz,
             Target::DampingRatio { mode: i } => mode(*i)?.damping_ratio,
             Target::Residue { mode: i } => mode(*i)?.residue,
+            Target::TiedStickStiffness { index, .. } => {
+                let j = model.parameter_index(*index, "kd")?;
+                model.elements[*index].parameters()[j].1
+            }
         })
     }
 
@@ -188,6 +203,25 @@ impl Parameter {
             Target::Frequency { mode } => model.linear.modes[*mode].frequency_hz = value,
             Target::DampingRatio { mode } => model.linear.modes[*mode].damping_ratio = value,
             Target::Residue { mode } => model.linear.modes[*mode].residue = value,
+            Target::TiedStickStiffness { index, mode, total } => {
+                Parameter {
+                    name: String::new(),
+                    target: Target::Element {
+                        index: *index,
+                        name: "kd".into(),
+                    },
+                    transform: self.transform,
+                    bounds: self.bounds,
+                }
+                .write(model, value)?;
+                Parameter {
+                    name: String::new(),
+                    target: Target::Stiffness { mode: *mode },
+                    transform: self.transform,
+                    bounds: self.bounds,
+                }
+                .write(model, total - value)?;
+            }
         }
         Ok(())
     }

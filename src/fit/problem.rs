@@ -46,6 +46,14 @@ pub struct FitData {
     pub harmonics: Vec<usize>,
     /// The series.
     pub series: Vec<MeasuredSeries>,
+    /// The measured `H` were multiplied by this (−1 for a transfer FRF with a
+    /// negative modal constant, so the model's modal constant is positive).
+    #[serde(default = "plus_one")]
+    pub response_sign: f64,
+}
+
+fn plus_one() -> f64 {
+    1.0
 }
 
 impl FitData {
@@ -106,7 +114,21 @@ impl FitData {
             response: frf.response,
             harmonics: harmonics.to_vec(),
             series,
+            response_sign: 1.0,
         })
+    }
+
+    /// Multiplies every measured `H` by `sign` (see [`FitData::response_sign`]).
+    pub fn with_sign(mut self, sign: f64) -> FitData {
+        if sign != 1.0 {
+            for s in &mut self.series {
+                for p in &mut s.points {
+                    p.h.iter_mut().for_each(|h| *h *= sign);
+                }
+            }
+        }
+        self.response_sign *= sign;
+        self
     }
 
     /// Number of complex observations.
@@ -160,8 +182,9 @@ pub fn residuals(data: &FitData, pred: &Prediction, weighting: Weighting) -> Vec
     for (s, ps) in data.series.iter().zip(&pred.h) {
         for (p, model) in s.points.iter().zip(ps) {
             for k in 0..data.harmonics.len() {
-                // a failed solve predicts nothing: the whole measurement is residual
-                let m = model.as_ref().map_or(Complex64::new(0.0, 0.0), |m| m[k]);
+                // a failed solve counts worse than predicting nothing, so an
+                // optimiser is not drawn into parameters where the model fails
+                let m = model.as_ref().map_or(-2.0 * p.h[k], |m| m[k]);
                 let w = match weighting {
                     Weighting::None => 1.0,
                     // σ is the RMS of the complex error: σ/√2 per component
