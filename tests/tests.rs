@@ -9,6 +9,7 @@ mod common;
 mod bench;
 mod cli;
 mod extract;
+mod fit;
 mod hb;
 mod import;
 mod plot;

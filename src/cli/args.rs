@@ -88,9 +88,10 @@ pub struct IdentifyOptionsArgs {
     /// Weight the residuals by the measured standard errors.
     #[arg(long)]
     pub weighted: bool,
-    /// Linear parameters refined with the element: none, damping (default:
-    /// removes the friction's bias on the largest level's damping) or all.
-    #[arg(long, default_value = "damping")]
+    /// Linear parameters refined with the element: none, damping, or all
+    /// (default: m, c, k; the largest level's estimate carries the joint's
+    /// equivalent damping and stiffness).
+    #[arg(long, default_value = "all")]
     pub refine_linear: String,
     /// Also run Levenberg-Marquardt and check it agrees with Nelder-Mead.
     #[arg(long)]

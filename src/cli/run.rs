@@ -39,6 +39,7 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         &args.out,
         quiet,
         WavFormat::Float32,
+        false,
         &mut |run: &hystid::testbench::BenchRun, mcap: &mut hystid::record::McapRecorder| {
             fit_out = Some(run_fit(&run.frf, &options, quiet, Some(&Mutex::new(mcap)))?);
             Ok(())

@@ -9,7 +9,9 @@ use hystid::record::{
     Channel, Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter,
     RunInfo, SampleFormat, Step,
 };
-use hystid::testbench::{self, BenchRun, BenchSink, DwellRecord, LevelOutput, TestDefinition};
+use hystid::testbench::{
+    self, BenchRun, BenchSink, DwellRecord, HbCheck, LevelOutput, TestDefinition,
+};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -52,6 +54,8 @@ struct DwellMessage<'a> {
     std_error: &'a [f64],
     clean_h: &'a [num_complex::Complex64],
     noise_ratio: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    hb_check: Option<&'a HbCheck>,
 }
 
 impl<'a> DwellMessage<'a> {
@@ -73,6 +77,7 @@ impl<'a> DwellMessage<'a> {
             std_error: &d.measured.std_error,
             clean_h: &d.clean_h,
             noise_ratio: d.noise_ratio,
+            hb_check: None,
         }
     }
 }
@@ -85,6 +90,8 @@ pub struct FileSink {
     pub wav: RecordingWriter,
     steps: Vec<Step>,
     dwells_written: usize,
+    /// With `--check-hb`: the model, sample rate, K, and the checks so far.
+    pub check: Option<(hystid::model::Model, f64, usize, Vec<HbCheck>)>,
     /// Called after each level.
     pub on_level: Box<dyn FnMut(&LevelOutput)>,
 }
@@ -132,6 +139,7 @@ impl FileSink {
             wav,
             steps: Vec::new(),
             dwells_written: 0,
+            check: None,
             on_level: Box::new(|_| {}),
         })
     }
@@ -147,7 +155,11 @@ impl FileSink {
 impl BenchSink for FileSink {
     fn level(&mut self, out: &LevelOutput, first_frame: u64) -> hystid::Result<()> {
         let f64s = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();
-        for d in &out.dwells {
+        let checks = match &self.check {
+            Some((model, fs, k, _)) => testbench::check_hb(model, *fs, &out.dwells, *k)?,
+            None => Vec::new(),
+        };
+        for (i, d) in out.dwells.iter().enumerate() {
             let a = (d.start - first_frame) as usize;
             let b = a + d.length;
             let step = self.dwells_written as u32;
@@ -161,6 +173,7 @@ impl BenchSink for FileSink {
             )?;
             let mut msg = DwellMessage::of(d);
             msg.step = self.dwells_written;
+            msg.hb_check = checks.get(i);
             self.mcap.write_dwell(d.start + d.length as u64, &msg)?;
             self.steps.push(Step {
                 frequency_hz: d.design.frequency_hz,
@@ -177,6 +190,9 @@ impl BenchSink for FileSink {
             &out.velocity,
             &out.acceleration,
         ])?;
+        if let Some((_, _, _, all)) = &mut self.check {
+            all.extend(checks);
+        }
         (self.on_level)(out);
         Ok(())
     }
@@ -242,8 +258,49 @@ pub struct SimulateSummary {
     pub mean_noise_ratio: f64,
     /// Wall time, s.
     pub seconds: f64,
+    /// With `--check-hb`: the harmonic-balance cross-check.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hb_check: Option<HbCheckSummary>,
     /// Files written.
     pub files: Vec<PathBuf>,
+}
+
+/// The cross-check of the two solvers over all dwells.
+#[derive(Serialize)]
+pub struct HbCheckSummary {
+    /// Dwells compared.
+    pub dwells: usize,
+    /// Harmonic-balance points that did not converge.
+    pub not_converged: usize,
+    /// Largest `|H1_sim − H1_hb|/|H1_hb|`.
+    pub h1_max: f64,
+    /// Median of the same.
+    pub h1_median: f64,
+    /// Largest higher-harmonic difference relative to `|H1|`, per harmonic.
+    pub higher_max: Vec<(usize, f64)>,
+}
+
+fn summarise_checks(checks: &[HbCheck]) -> HbCheckSummary {
+    let mut h1: Vec<f64> = checks
+        .iter()
+        .filter(|c| c.converged)
+        .map(|c| c.h1_relative_difference)
+        .collect();
+    h1.sort_by(f64::total_cmp);
+    let mut higher: std::collections::BTreeMap<usize, f64> = Default::default();
+    for c in checks.iter().filter(|c| c.converged) {
+        for &(k, d) in &c.higher {
+            let e = higher.entry(k).or_insert(0.0);
+            *e = e.max(d);
+        }
+    }
+    HbCheckSummary {
+        dwells: checks.len(),
+        not_converged: checks.iter().filter(|c| !c.converged).count(),
+        h1_max: h1.last().copied().unwrap_or(f64::NAN),
+        h1_median: h1.get(h1.len() / 2).copied().unwrap_or(f64::NAN),
+        higher_max: higher.into_iter().collect(),
+    }
 }
 
 /// Runs the bench into `dir`; shared by `simulate` and `run`.
@@ -256,6 +313,7 @@ pub fn simulate_into(
     dir: &Path,
     quiet: bool,
     wav_format: WavFormat,
+    check_hb: bool,
     after_bench: &mut dyn FnMut(&BenchRun, &mut McapRecorder) -> Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
     let t0 = std::time::Instant::now();
@@ -264,10 +322,19 @@ pub fn simulate_into(
         def.sweeps()?.iter().map(|(_, f)| f.len()).sum::<usize>() * def.test.levels_n.len();
     create_out_dir(dir)?;
     let mut sink = FileSink::create(dir, def, toml_text, fs)?;
+    if check_hb {
+        sink.check = Some((
+            def.model()?,
+            fs * def.oversample()? as f64,
+            def.test.max_harmonic,
+            Vec::new(),
+        ));
+    }
     let pb = progress::bar(total as u64, "dwells", quiet);
     let tick = || pb.inc(1);
     let run = testbench::run(def, &mut sink, &tick)?;
     pb.finish_and_clear();
+    let checks = sink.check.take().map(|c| c.3);
     let (mut mcap, wav) = sink.into_parts();
     wav.finish()?;
     let bench_seconds = t0.elapsed().as_secs_f64();
@@ -294,6 +361,13 @@ pub fn simulate_into(
         &run.frf,
         "Nonlinear FRFs (virtual stepped-sine test)",
     )?);
+    let mut hb_summary = None;
+    if let Some(checks) = checks {
+        let path = dir.join("hb_check.json");
+        write_json(&path, &checks)?;
+        files.push(path);
+        hb_summary = Some(summarise_checks(&checks));
+    }
     let n = run.dwells.len().max(1) as f64;
     let summary = SimulateSummary {
         command: "simulate",
@@ -314,6 +388,7 @@ pub fn simulate_into(
             / n,
         mean_noise_ratio: run.dwells.iter().map(|d| d.noise_ratio).sum::<f64>() / n,
         seconds: bench_seconds,
+        hb_check: hb_summary,
         files,
     };
     Ok((run, summary))
@@ -328,6 +403,7 @@ pub fn simulate(args: &SimulateArgs, quiet: bool) -> Result<u8> {
         &args.out,
         quiet,
         args.wav_format,
+        args.check_hb,
         &mut |_, _| Ok(()),
     )?;
     let summary_path = args.out.join("summary.json");
@@ -371,6 +447,20 @@ fn print_summary(def: &TestDefinition, run: &BenchRun, s: &SimulateSummary) {
                 p.frequency_hz
             );
         }
+    }
+    if let Some(c) = &s.hb_check {
+        println!(
+            "  harmonic balance vs simulation over {} dwells: H1 differs by {:.2e} (median) / {:.2e} (max); higher harmonics (relative to |H1|): {}; {} HB points not converged",
+            c.dwells,
+            c.h1_median,
+            c.h1_max,
+            c.higher_max
+                .iter()
+                .map(|(k, d)| format!("H{k} {d:.1e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            c.not_converged
+        );
     }
     if !s.unsettled.is_empty() {
         println!(

@@ -61,22 +61,51 @@ impl HbPredictor {
 }
 
 impl FrfPredictor for HbPredictor {
-    fn predict(&self, model: &Model, data: &FitData) -> Result<Prediction> {
+    fn predict_from(
+        &self,
+        model: &Model,
+        data: &FitData,
+        start: Option<&Prediction>,
+    ) -> Result<Prediction> {
         model.validate()?;
         let elements = model.element_set()?;
         let opts = self.options_for(model, data);
         // each series gets its own element state (the elements are Send, not Sync)
-        let jobs: Vec<_> = data.series.iter().map(|s| (s, elements.clone())).collect();
-        let series: Vec<Result<(Vec<Option<Vec<Complex64>>>, usize)>> = jobs
+        let starts: Vec<Option<&Vec<Option<Vec<Complex64>>>>> = (0..data.series.len())
+            .map(|i| {
+                start
+                    .and_then(|p| p.states.get(i))
+                    .filter(|s| s.len() == data.series[i].points.len())
+            })
+            .collect();
+        let jobs: Vec<_> = data
+            .series
+            .iter()
+            .zip(starts)
+            .map(|(s, st)| (s, st, elements.clone()))
+            .collect();
+        let series: Vec<
+            Result<(
+                Vec<Option<Vec<Complex64>>>,
+                Vec<Option<Vec<Complex64>>>,
+                usize,
+            )>,
+        > = jobs
             .into_par_iter()
-            .map(|(s, mut e)| {
+            .map(|(s, st, mut e)| {
                 let mut solver = HbSolver::new(&opts)?;
                 let mut previous: Option<(Vec<Complex64>, f64)> = None;
                 let mut out = Vec::with_capacity(s.points.len());
+                let mut states = Vec::with_capacity(s.points.len());
                 for p in &s.points {
-                    let guess: Option<Vec<Complex64>> = previous
-                        .as_ref()
-                        .map(|(x, f)| x.iter().map(|z| z * (p.force_amplitude / f)).collect());
+                    // from the same point of a nearby model (the best so far), else
+                    // continued from the previous point
+                    let warm = st.and_then(|st| st[states.len()].clone());
+                    let guess: Option<Vec<Complex64>> = warm.or_else(|| {
+                        previous
+                            .as_ref()
+                            .map(|(x, f)| x.iter().map(|z| z * (p.force_amplitude / f)).collect())
+                    });
                     let pt = solver.solve_point(
                         &model.linear,
                         &mut e,
@@ -95,19 +124,22 @@ impl FrfPredictor for HbPredictor {
                             })
                             .collect();
                         previous = Some((pt.x.clone(), p.force_amplitude));
+                        states.push(Some(pt.x.clone()));
                         out.push(Some(h));
                     } else {
                         previous = None;
+                        states.push(None);
                         out.push(None);
                     }
                 }
-                Ok((out, s.points.len()))
+                Ok((out, states, s.points.len()))
             })
             .collect();
         let mut pred = Prediction::default();
         for s in series {
-            let (h, n) = s?;
+            let (h, states, n) = s?;
             pred.h.push(h);
+            pred.states.push(states);
             pred.solves += n;
         }
         Ok(pred)

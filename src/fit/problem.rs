@@ -150,6 +150,9 @@ pub struct Prediction {
     pub h: Vec<Vec<Option<Vec<Complex64>>>>,
     /// Harmonic-balance points solved.
     pub solves: usize,
+    /// The solver's state per point (its displacement harmonics), for warm
+    /// starts of the next prediction; empty if the predictor keeps none.
+    pub states: Vec<Vec<Option<Vec<Complex64>>>>,
 }
 
 impl Prediction {
@@ -162,7 +165,19 @@ impl Prediction {
 /// Computes a model's FRFs at the measured points.
 pub trait FrfPredictor: Sync {
     /// The prediction of `model` for `data`.
-    fn predict(&self, model: &Model, data: &FitData) -> Result<Prediction>;
+    fn predict(&self, model: &Model, data: &FitData) -> Result<Prediction> {
+        self.predict_from(model, data, None)
+    }
+
+    /// The same, warm-started from a nearby model's prediction (its
+    /// `states`); the result must not depend on the start beyond the
+    /// solver's tolerance.
+    fn predict_from(
+        &self,
+        model: &Model,
+        data: &FitData,
+        start: Option<&Prediction>,
+    ) -> Result<Prediction>;
 }
 
 /// How residuals are scaled.
@@ -252,6 +267,11 @@ pub struct FitProblem<'a> {
     solves: AtomicUsize,
     trace: Mutex<Vec<TraceEntry>>,
     observer: Option<&'a (dyn Fn(&TraceEntry) + Sync)>,
+    /// The best prediction so far: every evaluation starts from it. Only the
+    /// sequential cost evaluations update it, so parallel Jacobian columns
+    /// all start from the same state and the result does not depend on the
+    /// thread count.
+    warm: Mutex<Option<(f64, Prediction)>>,
 }
 
 impl<'a> FitProblem<'a> {
@@ -274,13 +294,22 @@ impl<'a> FitProblem<'a> {
             solves: AtomicUsize::new(0),
             trace: Mutex::new(Vec::new()),
             observer,
+            warm: Mutex::new(None),
         }
     }
 
     /// The model and prediction at `theta`, and the distance outside bounds.
     pub fn evaluate(&self, theta: &[f64]) -> Result<(Model, Prediction, f64)> {
         let (model, outside) = self.parameters.model_at(&self.base, theta)?;
-        let pred = self.predictor.predict(&model, self.data)?;
+        let start = self
+            .warm
+            .lock()
+            .expect("warm lock")
+            .as_ref()
+            .map(|w| w.1.clone());
+        let pred = self
+            .predictor
+            .predict_from(&model, self.data, start.as_ref())?;
         self.solves.fetch_add(pred.solves, Ordering::Relaxed);
         Ok((model, pred, outside))
     }
@@ -289,16 +318,27 @@ impl<'a> FitProblem<'a> {
     /// bounds (so a simplex is pushed back in).
     pub fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
         let (_, pred, outside) = self.evaluate(theta)?;
-        let mut r = residuals(self.data, &pred, self.weighting);
+        Ok(self.residuals_of(&pred, outside))
+    }
+
+    fn residuals_of(&self, pred: &Prediction, outside: f64) -> Vec<f64> {
+        let mut r = residuals(self.data, pred, self.weighting);
         let scale = (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt();
         r.push(outside * 10.0 * scale * (r.len() as f64).sqrt());
-        Ok(r)
+        r
     }
 
     /// Cost `Σ r²` at `theta` (recorded in the trace).
     pub fn cost(&self, theta: &[f64]) -> Result<f64> {
-        let r = self.residuals(theta)?;
+        let (_, pred, outside) = self.evaluate(theta)?;
+        let r = self.residuals_of(&pred, outside);
         let cost = r.iter().map(|v| v * v).sum::<f64>();
+        {
+            let mut w = self.warm.lock().expect("warm lock");
+            if w.as_ref().is_none_or(|(c, _)| cost < *c) && pred.failures() == 0 {
+                *w = Some((cost, pred));
+            }
+        }
         let entry = TraceEntry {
             evaluation: self.evaluations.fetch_add(1, Ordering::Relaxed) + 1,
             cost,

@@ -30,6 +30,25 @@ impl LinearPart for ModalModel {
     }
 }
 
+/// A linear part as a ramp-invariant digital filter sees it: the receptance
+/// times `sinc²(f/fs)` (method notes a.1). Harmonic balance on it predicts the
+/// digital-filter simulator's steady state exactly up to the (sinc²-weighted)
+/// aliases, which is how `--check-hb` compares the two solvers on one model.
+#[derive(Clone, Debug)]
+pub struct SampledReceptance<'a, L> {
+    /// The continuous linear part.
+    pub linear: &'a L,
+    /// The simulator's sample rate, Hz.
+    pub sample_rate_hz: f64,
+}
+
+impl<L: LinearPart> LinearPart for SampledReceptance<'_, L> {
+    fn receptance(&self, omega: f64) -> Result<Complex64> {
+        let u = omega / (2.0 * PI * self.sample_rate_hz);
+        Ok(self.linear.receptance(omega)? * crate::harmonics::sinc(u).powi(2))
+    }
+}
+
 /// A tabulated receptance, interpolated between its frequencies.
 ///
 /// The interpolant is a piecewise-cubic Hermite curve through the dynamic

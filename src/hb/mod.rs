@@ -63,7 +63,7 @@ pub mod describing;
 pub mod linear;
 mod newton;
 
-pub use linear::{LinearPart, TabulatedFrf};
+pub use linear::{LinearPart, SampledReceptance, TabulatedFrf};
 
 use crate::error::{Error, Result};
 #[cfg(doc)]

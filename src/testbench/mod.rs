@@ -99,6 +99,9 @@ pub struct DwellRecord {
     pub measured: DwellHarmonics,
     /// `H_k` of the clean (noise-free) signals: the steady state itself.
     pub clean_h: Vec<Complex64>,
+    /// The clean receptance harmonics `X_k/F_1` (whatever the FRFs' response
+    /// quantity), for comparisons with harmonic balance.
+    pub clean_receptance: Vec<Complex64>,
     /// Measured noise RMS over clean RMS of the response channel.
     pub noise_ratio: f64,
 }
@@ -172,6 +175,7 @@ pub fn run(
     let mut dwells = Vec::new();
     let mut frames = 0u64;
     let mut frf_levels = Vec::new();
+    let mut counted = 0;
     // levels run in parallel a few at a time, so memory stays bounded by the
     // thread count while the sink still receives them in order
     for start in (0..levels.len()).step_by(chunk) {
@@ -184,6 +188,8 @@ pub fn run(
             let mut out = out?;
             for d in &mut out.dwells {
                 d.start += frames;
+                d.index = dwells.len() + counted;
+                counted += 1;
             }
             sink.level(&out, frames)?;
             frames += out.force.len() as u64;
@@ -215,10 +221,8 @@ pub fn run(
                 });
             }
             dwells.extend(out.dwells);
+            counted = 0;
         }
-    }
-    for (i, d) in dwells.iter_mut().enumerate() {
-        d.index = i;
     }
     Ok(BenchRun {
         sample_rate_hz: fs,
@@ -256,7 +260,12 @@ fn run_level(
     progress: &(dyn Fn() + Sync),
 ) -> Result<LevelOutput> {
     let t = &def.test;
-    let mut sim = Simulator::new(&model.linear, model.element_set()?, fs)?;
+    // the simulator runs `os` times faster than the recording; every os-th
+    // sample is recorded (an exact sampling of the simulated response), so
+    // the method's own error stays ~1e-4 without larger files
+    let os = def.oversample()?;
+    let mut sim = Simulator::new(&model.linear, model.element_set()?, fs * os as f64)?;
+    let mut fine = Response::default();
     let mut rng = ChaCha8Rng::seed_from_u64(t.seed);
     // an independent stream per level: the same bytes whatever the threads
     rng.set_stream(level_index as u64);
@@ -277,13 +286,24 @@ fn run_level(
             force.clear();
             let block = |sim: &mut Simulator<_>,
                          force: &mut Vec<f64>,
-                         clean: &mut Response|
+                         clean: &mut Response,
+                         fine: &mut Response|
              -> Result<()> {
-                let start = force.len();
-                force.extend(
-                    (0..l).map(|i| level * (phase + 2.0 * PI * (q * i) as f64 / l as f64).cos()),
-                );
-                sim.run_into(&force[start..], clean)
+                let n = l * os;
+                fine.clear();
+                sim.run_generator(
+                    n,
+                    |i| level * (phase + 2.0 * PI * (q * i) as f64 / n as f64).cos(),
+                    fine,
+                )?;
+                for i in (0..n).step_by(os) {
+                    force.push(level * (phase + 2.0 * PI * (q * i) as f64 / n as f64).cos());
+                    clean.displacement.push(fine.displacement[i]);
+                    clean.velocity.push(fine.velocity[i]);
+                    clean.acceleration.push(fine.acceleration[i]);
+                    clean.element_force.push(fine.element_force[i]);
+                }
+                Ok(())
             };
             // settle: blocks of q periods until consecutive harmonics agree
             let max_blocks = t.max_settle_periods.div_ceil(q).max(2);
@@ -291,7 +311,7 @@ fn run_level(
             let mut settled = false;
             let mut settle_blocks = 0;
             while settle_blocks < max_blocks {
-                block(&mut sim, &mut force, &mut clean)?;
+                block(&mut sim, &mut force, &mut clean, &mut fine)?;
                 settle_blocks += 1;
                 let y = channel(&clean, response_q);
                 let h = analyser.harmonics(&y[y.len() - l..], l, q, t.max_harmonic)?;
@@ -306,7 +326,7 @@ fn run_level(
             // measure whole blocks
             let blocks = t.measure_periods.div_ceil(q).max(2);
             for _ in 0..blocks {
-                block(&mut sim, &mut force, &mut clean)?;
+                block(&mut sim, &mut force, &mut clean, &mut fine)?;
             }
             let settle = settle_blocks * l;
             let n = force.len();
@@ -346,6 +366,15 @@ fn run_level(
                         e.to_string(),
                     )
                 })?;
+            let clean_receptance = analyser
+                .coherent(
+                    &force[settle..],
+                    &clean.displacement[settle..],
+                    l,
+                    q,
+                    t.max_harmonic,
+                )?
+                .h;
             let clean_y = channel(&clean, response_q);
             let clean_h = analyser
                 .coherent(&force[settle..], &clean_y[settle..], l, q, t.max_harmonic)?
@@ -369,6 +398,7 @@ fn run_level(
                 settled,
                 measured,
                 clean_h,
+                clean_receptance,
                 noise_ratio,
             });
             for (dst, src) in [
@@ -405,4 +435,78 @@ mod tests {
         }
         assert_eq!(design_dwell(250.0, 30000.0, 2e-4).periods_per_block, 1);
     }
+}
+
+/// Harmonic balance against the simulated steady state at one dwell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HbCheck {
+    /// Dwell number.
+    pub index: usize,
+    /// Frequency, Hz.
+    pub frequency_hz: f64,
+    /// Force amplitude, N.
+    pub level: f64,
+    /// Whether the harmonic-balance point converged.
+    pub converged: bool,
+    /// `|H1_sim − H1_hb| / |H1_hb|` (receptance).
+    pub h1_relative_difference: f64,
+    /// `(k, |Hk_sim − Hk_hb| / |H1_hb|)` for the higher odd harmonics.
+    pub higher: Vec<(usize, f64)>,
+}
+
+/// `--check-hb`: harmonic balance of the same model at every dwell of one
+/// level, in the dwells' order (warm-started as a sweep), on the receptance
+/// the ramp-invariant filter realises (`sinc²(f/fs)`), against the
+/// simulated steady state `clean_receptance`.
+pub fn check_hb(
+    model: &Model,
+    sample_rate_hz: f64,
+    dwells: &[DwellRecord],
+    max_harmonic: usize,
+) -> Result<Vec<HbCheck>> {
+    use crate::hb::{HbOptions, HbSolver, SampledReceptance, all_harmonics, odd_harmonics};
+    if dwells.is_empty() {
+        return Ok(Vec::new());
+    }
+    let top = (2 * max_harmonic + 1).max(15);
+    let harmonics = if model.is_asymmetric() {
+        all_harmonics(top)
+    } else {
+        odd_harmonics(top)
+    };
+    let opts = HbOptions {
+        harmonics,
+        samples_per_period: 1024,
+        ..HbOptions::default()
+    };
+    let mut solver = HbSolver::new(&opts)?;
+    let linear = SampledReceptance {
+        linear: &model.linear,
+        sample_rate_hz,
+    };
+    let mut elements = model.element_set()?;
+    let freqs: Vec<f64> = dwells.iter().map(|d| d.design.frequency_hz).collect();
+    let level = dwells[0].level;
+    let sweep = solver.sweep(&linear, &mut elements, &freqs, level)?;
+    Ok(dwells
+        .iter()
+        .zip(&sweep.points)
+        .map(|(d, p)| {
+            let h1 = p.frf(1).unwrap_or_default();
+            let rel = |k: usize| -> f64 {
+                (d.clean_receptance[k] - p.frf(k).unwrap_or_default()).norm() / h1.norm()
+            };
+            HbCheck {
+                index: d.index,
+                frequency_hz: d.design.frequency_hz,
+                level,
+                converged: p.converged,
+                h1_relative_difference: if p.converged { rel(1) } else { f64::NAN },
+                higher: (2..=max_harmonic.min(d.clean_receptance.len() - 1))
+                    .filter(|k| p.frf(*k).is_some() && (k % 2 == 1 || model.is_asymmetric()))
+                    .map(|k| (k, if p.converged { rel(k) } else { f64::NAN }))
+                    .collect(),
+            }
+        })
+        .collect())
 }

@@ -1,0 +1,114 @@
+//! Integration tests: identification, the paper end to end (issue 5).
+
+use hystid::fit::{FitOptions, FitResult, HbPredictor, identify};
+use hystid::model::ElementKind;
+use hystid::testbench::{self, NoSink, TestDefinition};
+
+fn bench(def: &TestDefinition) -> hystid::testbench::BenchRun {
+    testbench::run(def, &mut NoSink, &|| {}).unwrap()
+}
+
+fn fit(run: &hystid::testbench::BenchRun, options: &FitOptions) -> FitResult {
+    identify(&run.frf, options, &HbPredictor::default(), None).unwrap()
+}
+
+fn report(tag: &str, f: &FitResult, kd: f64, fd: f64) -> (f64, f64, bool, bool) {
+    let (ekd, efd) = (&f.parameters["kd"], &f.parameters["fd"]);
+    let (rkd, rfd) = (ekd.value / kd - 1.0, efd.value / fd - 1.0);
+    let (ckd, cfd) = (
+        ekd.ci95[0] <= kd && kd <= ekd.ci95[1],
+        efd.ci95[0] <= fd && fd <= efd.ci95[1],
+    );
+    eprintln!(
+        "{tag}: kd {:+.3} % (ci95 {:?}, covers {ckd}), Fd {:+.3} % (ci95 {:?}, covers {cfd}), N {:.4} {:?}, error {:.4}, chi2/dof {:.3}, {} evaluations, {:.2} s",
+        100.0 * rkd,
+        ekd.ci95,
+        100.0 * rfd,
+        efd.ci95,
+        f.parameters.get("n").map_or(f64::NAN, |e| e.value),
+        f.parameters.get("n").map(|e| e.ci95),
+        f.error.relative,
+        f.error.chi2_per_dof,
+        f.effort.evaluations,
+        f.effort.seconds
+    );
+    (rkd, rfd, ckd, cfd)
+}
+
+/// The paper's reference (Jenkins kd = 2.4e7, Fd = 246.048, 10 % noise)
+/// fitted with the eq. (10) Masing element: the paper reached −2.9 % and
+/// −1.6 %; we require 1 %, covered intervals, and N reported as not
+/// identifiable.
+#[test]
+fn the_paper_case_is_reproduced_within_one_percent() {
+    let def = TestDefinition::embedded_default();
+    let run = bench(&def);
+    let f = fit(
+        &run,
+        &FitOptions {
+            second_optimiser: true,
+            ..FitOptions::default()
+        },
+    );
+    let (rkd, rfd, ckd, cfd) = report("paper case", &f, 2.4e7, 246.048);
+    assert!(rkd.abs() < 0.01 && rfd.abs() < 0.01);
+    assert!(ckd && cfd);
+    let n = &f.parameters["n"];
+    assert!(
+        !n.identifiable && n.ci95[1].is_infinite() && n.ci95[0] > 20.0,
+        "N: {n:?}"
+    );
+    // Nelder–Mead and Levenberg–Marquardt agree within the 95 % intervals
+    let (lm, agrees) = f.second_optimiser.as_ref().unwrap();
+    eprintln!("LM: {} ({} evaluations)", lm.termination, lm.evaluations);
+    assert!(agrees);
+}
+
+/// Over 10 seeds the intervals cover the reference at least 8 times.
+#[test]
+fn intervals_cover_the_reference_in_at_least_8_of_10_seeds() {
+    let (mut kd_hits, mut fd_hits) = (0, 0);
+    for seed in 1..=10 {
+        let mut def = TestDefinition::embedded_default();
+        def.test.seed = seed;
+        let f = fit(&bench(&def), &FitOptions::default());
+        let (_, _, ckd, cfd) = report(&format!("seed {seed}"), &f, 2.4e7, 246.048);
+        kd_hits += ckd as usize;
+        fd_hits += cfd as usize;
+    }
+    eprintln!("coverage over 10 seeds: kd {kd_hits}/10, Fd {fd_hits}/10");
+    assert!(kd_hits >= 8 && fd_hits >= 8);
+}
+
+/// A Masing reference with N = 3 is recovered: kd, Fd within 1 %, N within 10 %.
+#[test]
+fn a_masing_reference_with_n_3_is_recovered() {
+    let text = hystid::testbench::DEFAULT_TEST
+        .replace("\nkind = \"jenkins\"\n", "\nkind = \"masing\"\nn = 3.0\n");
+    let def = TestDefinition::from_toml(&text, "masing3.toml").unwrap();
+    let f = fit(&bench(&def), &FitOptions::default());
+    let (rkd, rfd, _, _) = report("masing N=3", &f, 2.4e7, 246.048);
+    let n = &f.parameters["n"];
+    assert!(rkd.abs() < 0.01 && rfd.abs() < 0.01);
+    assert!(
+        (n.value / 3.0 - 1.0).abs() < 0.10 && n.identifiable,
+        "N: {n:?}"
+    );
+}
+
+/// A Jenkins element fitted to Jenkins data: two parameters, no N.
+#[test]
+fn a_jenkins_fit_needs_no_curvature() {
+    let mut def = TestDefinition::embedded_default();
+    def.test.seed = 3;
+    let f = fit(
+        &bench(&def),
+        &FitOptions {
+            element: ElementKind::Jenkins,
+            ..FitOptions::default()
+        },
+    );
+    let (rkd, rfd, ckd, cfd) = report("jenkins fit", &f, 2.4e7, 246.048);
+    assert!(!f.parameters.contains_key("n"));
+    assert!(rkd.abs() < 0.01 && rfd.abs() < 0.01 && ckd && cfd);
+}
