@@ -34,6 +34,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
+/// Fewest measured blocks per dwell.
+pub const MIN_BLOCKS: usize = 8;
+
 /// How a dwell's requested frequency was made coherent.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DwellDesign {
@@ -324,7 +327,9 @@ fn run_level(
                 previous = Some(h);
             }
             // measure whole blocks
-            let blocks = t.measure_periods.div_ceil(q).max(2);
+            // at least 8 blocks: the standard errors come from their scatter,
+            // and from 2 or 3 blocks they can be off by a factor of 10
+            let blocks = t.measure_periods.div_ceil(q).max(MIN_BLOCKS);
             for _ in 0..blocks {
                 block(&mut sim, &mut force, &mut clean, &mut fine)?;
             }

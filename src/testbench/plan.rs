@@ -274,7 +274,9 @@ fn default_measure_periods() -> usize {
     32
 }
 fn default_frequency_tolerance() -> f64 {
-    2e-4
+    // a dwell's frequency may move by 0.1 % (it is recorded and used
+    // exactly) so that a coherent block needs few periods
+    1e-3
 }
 
 /// Keys that hold numbers, per table.
