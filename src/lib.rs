@@ -21,12 +21,18 @@
 //! * [`testbench`]: the virtual stepped-sine test (dwells, settling, noise).
 //! * [`record`]: the WAV + JSON recording format and MCAP run files.
 //!
+//! * [`hb`]: harmonic balance with alternating frequency–time for the same elements.
+//! * [`fit`]: the paper's estimation loop (eq. 9), uncertainty, and optimisers.
+//! * [`diagnose`]: the residual traced to a missing effect, added and refitted.
+//! * [`import`], [`plot`]: real data in, figures out.
+//!
 //! Conventions (Fourier, units, FRF definition) are fixed once in
 //! [`harmonics`].
 
 #![deny(missing_docs)]
 
 pub mod atomic;
+pub mod diagnose;
 pub mod error;
 pub mod extract;
 pub mod fit;

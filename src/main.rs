@@ -18,6 +18,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => cli::simulate::simulate(a, args.quiet),
         Command::Identify(a) => cli::identify::identify_command(a, args.quiet),
         Command::Run(a) => cli::run::run_command(a, args.quiet),
+        Command::Diagnose(a) => cli::diagnose::diagnose_command(a, args.quiet),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -27,6 +27,8 @@ pub enum Command {
     Identify(IdentifyArgs),
     /// Simulate, identify and diagnose in one go (the paper end to end).
     Run(RunArgs),
+    /// Fit, then trace the residual to a missing effect, add it and refit.
+    Diagnose(DiagnoseArgs),
 }
 
 /// `hystid simulate`.
@@ -112,6 +114,26 @@ pub struct IdentifyOptionsArgs {
     pub linear_start: String,
 }
 
+/// `hystid diagnose`.
+#[derive(Debug, Args)]
+pub struct DiagnoseArgs {
+    /// The recording: a `run.mcap` from `simulate`, or NAME.wav / NAME.json.
+    pub recording: PathBuf,
+    /// Output directory.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Response channel name.
+    #[arg(long)]
+    pub response: Option<String>,
+    /// Candidate effects (default: all): second_mode, cubic_stiffness,
+    /// bilinear_stiffness, quadratic_damping, clearance.
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Vec<String>,
+    /// Fit settings for the baseline.
+    #[command(flatten)]
+    pub fit: IdentifyOptionsArgs,
+}
+
 /// `hystid run`.
 #[derive(Debug, Args)]
 pub struct RunArgs {
@@ -123,4 +145,7 @@ pub struct RunArgs {
     /// Fit settings.
     #[command(flatten)]
     pub fit: IdentifyOptionsArgs,
+    /// Skip the diagnosis stage.
+    #[arg(long)]
+    pub no_diagnose: bool,
 }

@@ -2,6 +2,7 @@
 //! and a short summary out. Only the binary sees clap, anyhow and indicatif.
 
 pub mod args;
+pub mod diagnose;
 pub mod identify;
 pub mod progress;
 pub mod run;

@@ -23,6 +23,8 @@ struct RunSummary<'a> {
     version: &'static str,
     simulate: &'a SimulateSummary,
     fit: &'a FitReport<'a>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    diagnosis: Option<serde_json::Value>,
     seconds: f64,
     files: Vec<PathBuf>,
 }
@@ -68,7 +70,36 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         files: Vec::new(),
     };
     write_json(&args.out.join("fit.json"), &report)?;
-    let md = report_markdown(&sim, &fit, reference.as_ref(), &report);
+    let mut diagnosis_md = String::new();
+    let mut diagnosis_json = None;
+    if !args.no_diagnose {
+        let t = std::time::Instant::now();
+        let (d, p) = super::diagnose::run_diagnosis(
+            &run.frf,
+            &fit,
+            &hystid::diagnose::DiagnoseOptions::default(),
+            quiet,
+        )?;
+        let secs = t.elapsed().as_secs_f64();
+        files.extend(super::diagnose::write_diagnosis(
+            &args.out, &run.frf, &d, &p, secs,
+        )?);
+        diagnosis_md = format!(
+            "## Diagnosis: what the model lacks\n\n{}\n\n(all candidates refitted in {secs:.1} s; details in `diagnosis.md`)\n\n![residual before and after](residual.png)\n",
+            d.explanation
+        );
+        if !quiet {
+            println!("diagnosis ({secs:.1} s): {}", d.explanation);
+        }
+        diagnosis_json = Some(serde_json::json!({
+            "selected": d.selected.iter().map(|s| s.effect.name()).collect::<Vec<_>>(),
+            "baseline_error_relative": d.baseline.error_relative,
+            "final_error_relative": d.final_fit.error_relative,
+            "final_chi2_per_dof": d.final_fit.chi2_per_dof,
+            "seconds": secs,
+        }));
+    }
+    let md = report_markdown(&sim, &fit, reference.as_ref(), &report) + &diagnosis_md;
     hystid::atomic::write_bytes(&args.out.join("report.md"), md.as_bytes())?;
     files.push(args.out.join("report.md"));
     files.push(args.out.join("run.json"));
@@ -77,6 +108,7 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         version: env!("CARGO_PKG_VERSION"),
         simulate: &sim,
         fit: &report,
+        diagnosis: diagnosis_json,
         seconds: t0.elapsed().as_secs_f64(),
         files,
     };

@@ -24,12 +24,15 @@ pub struct HbPredictor {
 
 impl HbPredictor {
     /// The harmonic-balance options used for `model` and `data`: at least
-    /// `{1, 3, 5}`, every fitted harmonic, and the even ones and DC when the
-    /// model is asymmetric or even harmonics are fitted; 512 time samples
-    /// for the Jenkins element's kinks.
+    /// `{1, 3, 5}`, every fitted odd harmonic, and the even ones and DC when
+    /// the model is asymmetric; 512 time samples for the Jenkins element's
+    /// kinks.
     pub fn options_for(&self, model: &Model, data: &FitData) -> HbOptions {
         let top = data.harmonics.iter().copied().max().unwrap_or(1).max(5);
-        let even = model.is_asymmetric() || data.harmonics.iter().any(|h| h % 2 == 0);
+        // a symmetric model's even harmonics and DC are zero by symmetry: they
+        // are solved for only when an element is asymmetric (the prediction
+        // of a harmonic not solved for is 0)
+        let even = model.is_asymmetric();
         let mut o = self.options.clone();
         let base: Vec<usize> = if even {
             all_harmonics(top)
@@ -100,7 +103,9 @@ impl FrfPredictor for HbPredictor {
                 for p in &s.points {
                     // from the same point of a nearby model (the best so far), else
                     // continued from the previous point
-                    let warm = st.and_then(|st| st[states.len()].clone());
+                    let warm = st
+                        .and_then(|st| st[states.len()].clone())
+                        .filter(|g| g.len() == opts.harmonics.len());
                     let guess: Option<Vec<Complex64>> = warm.or_else(|| {
                         previous
                             .as_ref()

@@ -351,6 +351,13 @@ impl<'a> FitProblem<'a> {
         Ok(cost)
     }
 
+    /// Starts every evaluation from `pred` until a better one is found (a
+    /// warm start from a nearby model's prediction).
+    pub fn with_warm_start(self, pred: Prediction) -> Self {
+        *self.warm.lock().expect("warm lock") = Some((f64::INFINITY, pred));
+        self
+    }
+
     /// Cost evaluations so far.
     pub fn evaluations(&self) -> usize {
         self.evaluations.load(Ordering::Relaxed)

@@ -1,0 +1,267 @@
+//! `hystid diagnose`: trace a fit's residual to a missing effect, add it,
+//! refit, and report the error before and after.
+
+use super::args::DiagnoseArgs;
+use super::identify::{fit_options, load_recording, reduce, run_fit};
+use super::{EXIT_OK, create_out_dir, progress, write_json};
+use anyhow::{Result, bail};
+use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect, diagnose};
+use hystid::extract::NonlinearFrf;
+use hystid::fit::{FitData, FitResult, FrfPredictor, HbPredictor};
+use hystid::plot::{self, FrfSeries, NoiseLevel, ResidualPanel, ResidualSeries, SeriesStyle};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Diagnosis options from the command line.
+pub fn diagnose_options(candidates: &[String]) -> Result<DiagnoseOptions> {
+    let mut o = DiagnoseOptions::default();
+    if !candidates.is_empty() {
+        o.candidates = candidates
+            .iter()
+            .map(|c| {
+                Effect::from_name(c).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "--candidates: unknown effect `{c}` (known: {})",
+                        Effect::ALL
+                            .iter()
+                            .map(|e| e.name())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })
+            })
+            .collect::<Result<_>>()?;
+    }
+    Ok(o)
+}
+
+/// Runs the diagnosis with a progress line.
+pub fn run_diagnosis(
+    frf: &NonlinearFrf,
+    fit: &FitResult,
+    options: &DiagnoseOptions,
+    quiet: bool,
+) -> Result<(Diagnosis, HbPredictor)> {
+    let pb = progress::spinner("diagnosing: refitting every candidate effect", quiet);
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    let predictor = HbPredictor::default();
+    let d = diagnose(frf, fit, options, &predictor)?;
+    pb.finish_and_clear();
+    Ok((d, predictor))
+}
+
+/// Writes `diagnosis.json`, `diagnosis.md` and the residual plots.
+pub fn write_diagnosis(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    d: &Diagnosis,
+    predictor: &HbPredictor,
+    seconds: f64,
+) -> Result<Vec<PathBuf>> {
+    #[derive(Serialize)]
+    struct DiagnosisJson<'a> {
+        command: &'static str,
+        version: &'static str,
+        seconds: f64,
+        #[serde(flatten)]
+        diagnosis: &'a Diagnosis,
+    }
+    let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
+    write_json(
+        &files[0],
+        &DiagnosisJson {
+            command: "diagnose",
+            version: env!("CARGO_PKG_VERSION"),
+            seconds,
+            diagnosis: d,
+        },
+    )?;
+    files.extend(residual_plots(dir, frf, d, predictor)?);
+    hystid::atomic::write_bytes(&files[1], markdown(d, seconds).as_bytes())?;
+    Ok(files)
+}
+
+/// |H1_meas − H1_model|/σ per level, before and after, and the FRF overlay
+/// of the final model.
+fn residual_plots(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    d: &Diagnosis,
+    predictor: &HbPredictor,
+) -> Result<Vec<PathBuf>> {
+    let data = FitData::from_frf(frf, &[1], None, None)?.with_sign(d.response_sign);
+    let before = predictor.predict(&d.baseline_model, &data)?;
+    let after = predictor.predict(&d.model, &data)?;
+    let panel = |pred: &hystid::fit::Prediction, heading: &str| -> ResidualPanel {
+        let series = data
+            .series
+            .iter()
+            .zip(&pred.h)
+            .enumerate()
+            .map(|(g, (s, ps))| ResidualSeries {
+                label: format!("{} N", s.level),
+                group: g,
+                frequency_hz: s.points.iter().map(|p| p.frequency_hz).collect(),
+                residual: s
+                    .points
+                    .iter()
+                    .zip(ps)
+                    .map(|(p, m)| {
+                        m.as_ref().map_or(f64::NAN, |m| {
+                            (p.h[0] - m[0]).norm() / p.std_error[0].max(f64::MIN_POSITIVE)
+                        })
+                    })
+                    .collect(),
+            })
+            .collect();
+        ResidualPanel {
+            heading: heading.to_string(),
+            series,
+        }
+    };
+    let mut files = plot::write_residual_plot(
+        &dir.join("residual"),
+        "Fit residual in units of the measured standard error, before and after the diagnosis",
+        "|H1 meas − H1 model| / σ",
+        &[
+            panel(
+                &before,
+                &format!("baseline: error {:.2} %", 100.0 * d.baseline.error_relative),
+            ),
+            panel(
+                &after,
+                &format!(
+                    "with {}: error {:.2} %",
+                    effects_label(d),
+                    100.0 * d.final_fit.error_relative
+                ),
+            ),
+        ],
+        Some(&NoiseLevel {
+            value: 2.0,
+            label: "2σ".into(),
+        }),
+    )?;
+    let mut series = Vec::new();
+    for (g, (s, ps)) in data.series.iter().zip(&after.h).enumerate() {
+        let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
+        series.push(FrfSeries {
+            label: format!("{} N", s.level),
+            group: g,
+            frequency_hz: f.clone(),
+            h: s.points.iter().map(|p| p.h[0] * d.response_sign).collect(),
+            std_error: None,
+            style: SeriesStyle::Measured,
+        });
+        series.push(FrfSeries {
+            label: format!("{} N (model)", s.level),
+            group: g,
+            frequency_hz: f,
+            h: ps
+                .iter()
+                .map(|m| {
+                    m.as_ref()
+                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| {
+                            m[0] * d.response_sign
+                        })
+                })
+                .collect(),
+            std_error: None,
+            style: SeriesStyle::Model,
+        });
+    }
+    files.extend(plot::write_frf_plot(
+        &dir.join("diagnosis_frf"),
+        &format!("Measured and the diagnosed model ({})", effects_label(d)),
+        &plot::frf_magnitude_label(frf, 1),
+        &series,
+    )?);
+    Ok(files)
+}
+
+fn effects_label(d: &Diagnosis) -> String {
+    if d.selected.is_empty() {
+        "no added effect".into()
+    } else {
+        d.selected
+            .iter()
+            .map(|s| s.effect.name())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    }
+}
+
+fn markdown(d: &Diagnosis, seconds: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Diagnosis: what the fitted joint model lacks\n");
+    let _ = writeln!(s, "{}\n", d.explanation);
+    let _ = writeln!(
+        s,
+        "| candidate | round | feature rank | Δχ² | threshold (BIC) | kept | error H1 | χ²/dof | parameters |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    for c in &d.candidates {
+        let p: Vec<String> = c
+            .effect_parameters
+            .iter()
+            .map(|(n, v)| format!("{n} = {v:.4e}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.1} | {:.1} | {} | {:.3} % | {:.3} | {} |",
+            c.effect.name(),
+            c.round,
+            c.rank,
+            c.delta_chi2,
+            c.threshold,
+            if c.accepted { "**yes**" } else { "no" },
+            100.0 * c.fit.error_relative,
+            c.fit.chi2_per_dof,
+            p.join(", ")
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nBaseline error {:.3} % → final {:.3} % (H1); χ²/dof {:.3} → {:.3} ({}). Harmonics judged: {:?}. {:.1} s.\n",
+        100.0 * d.baseline.error_relative,
+        100.0 * d.final_fit.error_relative,
+        d.baseline.chi2_per_dof,
+        d.final_fit.chi2_per_dof,
+        if d.consistent_with_noise {
+            "consistent with the noise"
+        } else {
+            "above the noise"
+        },
+        d.harmonics,
+        seconds
+    );
+    let _ = writeln!(
+        s,
+        "![residual before and after](residual.png)\n\n![the diagnosed model](diagnosis_frf.png)"
+    );
+    s
+}
+
+/// `hystid diagnose`.
+pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
+    let options = diagnose_options(&args.candidates)?;
+    if options.candidates.is_empty() {
+        bail!("--candidates: give at least one effect");
+    }
+    let fit_opts = fit_options(&args.fit)?;
+    let loaded = load_recording(&args.recording, args.response.as_deref())?;
+    let frf = reduce(&loaded, 7)?;
+    create_out_dir(&args.out)?;
+    let t0 = std::time::Instant::now();
+    let (fit, _) = run_fit(&frf, &fit_opts, quiet, None)?;
+    let (d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
+    let files = write_diagnosis(&args.out, &frf, &d, &predictor, t0.elapsed().as_secs_f64())?;
+    if !quiet {
+        println!("hystid diagnose: {}", d.explanation);
+        for f in files {
+            println!("  wrote {}", f.display());
+        }
+    }
+    Ok(EXIT_OK)
+}
