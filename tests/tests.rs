@@ -8,6 +8,7 @@ mod common;
 
 mod bench;
 mod cli;
+mod diagnose;
 mod extract;
 mod fit;
 mod hb;
