@@ -8,9 +8,11 @@ mod common;
 
 mod bench;
 mod cli;
+mod cli_realdata;
 mod extract;
 mod hb;
 mod import;
 mod plot;
+mod realdata;
 mod record;
 mod sim;

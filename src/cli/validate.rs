@@ -197,6 +197,10 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         let v = validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)
             .with_context(|| format!("validating on {}", path.display()))?;
         let stem = stem_of(path, &mut used);
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
         let channel = &rec.meta.channels[loaded.response];
         let y_label = format!("{} [{}]", channel.name, channel.unit.replace("^2", "²"));
         let fs = rec.meta.sample_rate_hz;
@@ -210,10 +214,8 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         files.extend(plot::write_time_overlay(
             &args.out.join(format!("{stem}_time")),
             &format!(
-                "{}: measured and simulated ({} model), e_RMS {:.4e}",
-                path.display(),
-                fit.kind,
-                v.whole.e_rms
+                "{name}: measured and simulated ({} model), e_RMS {:.4e}",
+                fit.kind, v.whole.e_rms
             ),
             &y_label,
             &signal("measured", measured, 0),
@@ -225,11 +227,8 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             files.extend(plot::write_time_overlay(
                 &args.out.join(format!("{stem}_time_window")),
                 &format!(
-                    "{}: {:.1}-{:.1} s, e_RMS {:.4e}",
-                    path.display(),
-                    w.start_s,
-                    w.end_s,
-                    w.e_rms
+                    "{name}: {:.1}-{:.1} s, e_RMS {:.4e}",
+                    w.start_s, w.end_s, w.e_rms
                 ),
                 &y_label,
                 &signal("measured", &measured[a..b], a),
@@ -276,8 +275,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
                 files.extend(plot::write_frf_plot(
                     &args.out.join(format!("{stem}_frf")),
                     &format!(
-                        "{}: H1 of measured (markers) and simulated ({} model, lines) response",
-                        path.display(),
+                        "{name}: H1 measured (markers), simulated ({} model)",
                         fit.kind
                     ),
                     &plot::frf_magnitude_label(m, 1),

@@ -280,7 +280,7 @@ pub fn h1_peak(points: &[FrfPoint], band_hz: Option<(f64, f64)>) -> Option<Peak>
     let (s0, s2) = ((y0 - y1) / d0, (y2 - y1) / d2);
     let c = (s2 - s0) / (d2 - d0);
     let b = s0 - c * d0;
-    if !(c < 0.0) {
+    if c.is_nan() || c >= 0.0 {
         return Some(Peak {
             frequency_hz: f,
             magnitude: a,
