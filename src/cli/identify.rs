@@ -266,6 +266,15 @@ pub fn reduce(loaded: &Loaded, r: &ReductionArgs) -> Result<Reduced> {
 /// whose sidecar states its steps is reduced from disk one dwell at a time
 /// (memory bounded whatever the file size); anything else is read whole.
 pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionArgs) -> Result<Reduced> {
+    if path
+        .to_str()
+        .is_some_and(|p| p.to_ascii_lowercase().ends_with(".quality.json"))
+    {
+        bail!(
+            "{} is the data-quality report `hystid import` writes beside a recording, not a recording (a glob such as `*.json` picks it up: name the recordings)",
+            path.display()
+        );
+    }
     if !is_mcap(path) {
         let reader = hystid::record::RecordingReader::open(path)?;
         let meta = reader.meta().clone();

@@ -103,7 +103,7 @@ fn whole_hz(mut rec: Recording) -> Result<(Recording, Option<f64>)> {
     }
     if (fs - whole).abs() > WHOLE_HZ_TOLERANCE * fs || whole < 1.0 {
         bail!(
-            "the sample rate is {fs} Hz, but a WAV recording holds a whole number of Hz:              resample the data first"
+            "the sample rate is {fs} Hz, but a WAV recording holds a whole number of Hz: resample the data first"
         );
     }
     rec.meta.sample_rate_hz = whole;
