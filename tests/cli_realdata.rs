@@ -314,7 +314,8 @@ fn import_round_trips_every_format_into_the_same_frfs() {
 }
 
 /// NaN in the data: exit 2, the channel and sample named, nothing written.
-/// Clipping and a DC offset are warnings: written, and said.
+/// Clipping, a DC offset and a declared rate the time column contradicts
+/// are warnings: written, and said.
 #[test]
 fn import_stops_on_nan_and_warns_on_clipping() {
     let dir = tempfile::tempdir().unwrap();
@@ -385,6 +386,38 @@ fn import_stops_on_nan_and_warns_on_clipping() {
         kinds.contains(&"clipping") && kinds.contains(&"dc-offset"),
         "{kinds:?}"
     );
+    // a declared rate the time column contradicts is said; a rate from a
+    // time column printed with 7 decimals is rounded to whole Hz
+    let mut lines = String::from("time_s,f,y\n");
+    for i in 0..4000 {
+        let t = i as f64 / 1024.0;
+        let f = (2.0 * PI * 10.0 * t).sin();
+        lines += &format!(
+            "{t:.7},{f:.10},{:.10}\n",
+            0.3 * (2.0 * PI * 10.0 * t - 0.4).sin()
+        );
+    }
+    let timed = dir.path().join("timed.csv");
+    std::fs::write(&timed, &lines).unwrap();
+    let ch = ["-c", "f:force", "-c", "y:velocity"];
+    let out = dir.path().join("declared");
+    let mut args = vec!["import", s(&timed), "--out", s(&out), "--rate", "1000"];
+    args.extend(ch);
+    let t = run_ok(&args);
+    assert!(t.contains("warning") && t.contains("1024.000000 Hz"), "{t}");
+    let out = dir.path().join("rounded");
+    let mut args = vec![
+        "import",
+        s(&timed),
+        "--out",
+        s(&out),
+        "--rate",
+        "time:time_s",
+    ];
+    args.extend(ch);
+    let t = run_ok(&args);
+    assert!(t.contains("rounded to 1024 Hz"), "{t}");
+    assert_eq!(read_recording(&out).unwrap().meta.sample_rate_hz, 1024.0);
 }
 
 /// Every import error names the file and the field, with exit status 2.
@@ -508,6 +541,29 @@ fn import_errors_name_the_file_and_field() {
     err(
         &["import", s(&short.with_extension("wav")), "--out", s(&out)],
         &["short_rec.wav"],
+    );
+    // a rate from a time column that is no whole number of Hz
+    let odd = dir.path().join("odd.csv");
+    let mut t = String::from("time_s,f,y\n");
+    for i in 0..200 {
+        let x = i as f64 / 610.3515625;
+        t += &format!("{x:.10},{},{}\n", (7.0 * x).sin(), (7.0 * x).cos());
+    }
+    std::fs::write(&odd, t).unwrap();
+    err(
+        &[
+            "import",
+            s(&odd),
+            "--out",
+            s(&out),
+            "-c",
+            "f:force",
+            "-c",
+            "y:velocity",
+            "--rate",
+            "time:time_s",
+        ],
+        &["odd.csv", "610.35", "whole number of Hz"],
     );
     // validate: a fit without a model, a missing recording
     let fit = dir.path().join("fit.json");

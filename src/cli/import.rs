@@ -95,7 +95,7 @@ const WHOLE_HZ_TOLERANCE: f64 = 1e-6;
 /// The recording with its rate rounded to whole Hz when it is that within
 /// [`WHOLE_HZ_TOLERANCE`] (returns the rate it had), an error when it is not
 /// (a WAV header holds whole Hz).
-fn whole_hz(mut rec: Recording) -> Result<(Recording, Option<f64>)> {
+fn whole_hz(path: &Path, mut rec: Recording) -> Result<(Recording, Option<f64>)> {
     let fs = rec.meta.sample_rate_hz;
     let whole = fs.round();
     if fs == whole {
@@ -103,7 +103,9 @@ fn whole_hz(mut rec: Recording) -> Result<(Recording, Option<f64>)> {
     }
     if (fs - whole).abs() > WHOLE_HZ_TOLERANCE * fs || whole < 1.0 {
         bail!(
-            "the sample rate is {fs} Hz, but a WAV recording holds a whole number of Hz: resample the data first"
+            "{}: the sample rate is {fs} Hz, but a WAV recording holds a whole number of Hz: \
+             resample the data first",
+            path.display()
         );
     }
     rec.meta.sample_rate_hz = whole;
@@ -151,7 +153,9 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
         let imported = import(&args.file, &spec)?;
         (imported.recording, imported.quality)
     };
-    let (recording, rounded) = whole_hz(recording)?;
+    let (recording, rounded) = whole_hz(&args.file, recording)?;
+    let mut quality = quality;
+    quality.sample_rate_hz = recording.meta.sample_rate_hz;
     let [wav, json, quality_json] = output_files(&args.out);
     if quality.has_errors() {
         eprint!("{quality}");
