@@ -654,6 +654,8 @@ fn identify_and_validate_through_the_binary() {
     assert!(rel < 0.1, "{rel}");
     assert!(rel < rel_lin);
     assert_eq!(v["model_kind"], "fitted");
+    assert_eq!(r["response"], "y");
+    assert_eq!(r["quantity"], "acceleration");
     assert_eq!(vl["model_kind"], "linear");
     for f in ["s6_time.png", "s6_time_window.svg", "s6_frf.png"] {
         assert!(val_dir.join(f).exists(), "{f}");

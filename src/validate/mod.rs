@@ -333,8 +333,8 @@ pub struct FrfComparison {
 pub struct Validation {
     /// The recording's sample rate, Hz.
     pub sample_rate_hz: f64,
-    /// Response quantity compared.
-    pub response: Quantity,
+    /// The response quantity compared.
+    pub quantity: Quantity,
     /// The simulation's upsampling factor (1: at the recording's rate).
     pub upsampling: usize,
     /// The model's highest linearised frequency, Hz.
@@ -434,7 +434,7 @@ pub fn validate_recording(
     };
     Ok(Validation {
         sample_rate_hz: fs,
-        response: quantity,
+        quantity,
         upsampling: sim.upsampling,
         highest_frequency_hz: sim.highest_frequency_hz,
         whole,
