@@ -185,7 +185,8 @@ fn s(p: &Path) -> &str {
 /// by at most one step `q` when every sample errs by at most half a step;
 /// the dwells here hold whole periods of 25 samples at 20 Hz, so the
 /// rounding errors repeat and do not average out), and the calibrated
-/// channel comes back in metres.
+/// channel comes back in metres. A TOML `--spec` gives the same recording
+/// as the flags.
 #[test]
 fn import_round_trips_every_format_into_the_same_frfs() {
     let dir = tempfile::tempdir().unwrap();
@@ -311,6 +312,31 @@ fn import_round_trips_every_format_into_the_same_frfs() {
             );
         }
     }
+    // the same MAT import from a TOML spec: the same recording
+    let spec = dir.path().join("import.toml");
+    std::fs::write(
+        &spec,
+        "sample_rate = { variable = \"Fs\" }\n\
+         [[channels]]\nvariable = \"Force\"\nname = \"force\"\nquantity = \"force\"\n\
+         [[channels]]\nvariable = \"Response\"\nrow = 2\nname = \"y\"\nquantity = \"displacement\"\n",
+    )
+    .unwrap();
+    let from_spec = dir.path().join("from_spec");
+    run_ok(&[
+        "import",
+        s(&mat),
+        "--out",
+        s(&from_spec),
+        "--spec",
+        s(&spec),
+    ]);
+    let flags = dir.path().join("bench_mat_float32");
+    let (a, b) = (
+        read_recording(&from_spec).unwrap(),
+        read_recording(&flags).unwrap(),
+    );
+    assert_eq!(a.channels, b.channels);
+    assert_eq!(a.meta.channels, b.meta.channels);
 }
 
 /// NaN in the data: exit 2, the channel and sample named, nothing written.
