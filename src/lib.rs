@@ -20,6 +20,9 @@
 //! * [`extract`]: harmonics and nonlinear FRFs from sampled signals.
 //! * [`testbench`]: the virtual stepped-sine test (dwells, settling, noise).
 //! * [`record`]: the WAV + JSON recording format and MCAP run files.
+//! * [`import`]: MAT and CSV files converted into recordings, with data checks.
+//! * [`validate`]: a fitted model driven by a recording's measured force in
+//!   the time domain and compared with the measured response (e_RMS).
 //!
 //! * [`hb`]: harmonic balance with alternating frequency–time for the same elements.
 //! * [`fit`]: the paper's estimation loop (eq. 9), uncertainty, and optimisers.
@@ -44,5 +47,6 @@ pub mod plot;
 pub mod record;
 pub mod sim;
 pub mod testbench;
+pub mod validate;
 
 pub use error::{Error, Result};

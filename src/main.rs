@@ -19,6 +19,8 @@ fn main() -> ExitCode {
         Command::Identify(a) => cli::identify::identify_command(a, args.quiet),
         Command::Run(a) => cli::run::run_command(a, args.quiet),
         Command::Diagnose(a) => cli::diagnose::diagnose_command(a, args.quiet),
+        Command::Import(a) => cli::import::import_command(a, args.quiet),
+        Command::Validate(a) => cli::validate::validate_command(a, args.quiet),
     };
     match result {
         Ok(code) => ExitCode::from(code),

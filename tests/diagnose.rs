@@ -42,7 +42,12 @@ fn selected(d: &Diagnosis) -> Vec<Effect> {
 }
 
 fn param(d: &Diagnosis, effect: Effect, name: &str) -> f64 {
-    d.selected.iter().find(|s| s.effect == effect).unwrap().parameters[name].value
+    d.selected
+        .iter()
+        .find(|s| s.effect == effect)
+        .unwrap()
+        .parameters[name]
+        .value
 }
 
 fn summary(tag: &str, seed: u64, d: &Diagnosis) {
@@ -65,32 +70,68 @@ fn check_single(tag: &str, effects: &str, effect: Effect, truth: &[(&str, f64)],
     for seed in 1..=5 {
         let d = case(effects, seed);
         summary(tag, seed, &d);
-        assert_eq!(selected(&d), vec![effect], "{tag} seed {seed}: {}", d.explanation);
+        assert_eq!(
+            selected(&d),
+            vec![effect],
+            "{tag} seed {seed}: {}",
+            d.explanation
+        );
         for (name, value) in truth {
             let got = param(&d, effect, name);
-            eprintln!("  {name} = {got:.6e} (true {value:e}, {:+.2} %)", 100.0 * (got / value - 1.0));
-            assert!((got / value - 1.0).abs() < 0.10, "{tag} seed {seed}: {name} = {got} vs {value}");
+            eprintln!(
+                "  {name} = {got:.6e} (true {value:e}, {:+.2} %)",
+                100.0 * (got / value - 1.0)
+            );
+            assert!(
+                (got / value - 1.0).abs() < 0.10,
+                "{tag} seed {seed}: {name} = {got} vs {value}"
+            );
         }
         let before = d.baseline.error_relative_per_harmonic[&judged];
         let after = d.final_fit.error_relative_per_harmonic[&judged];
-        assert!(before >= 3.0 * after, "{tag} seed {seed}: H{judged} error {before} -> {after}");
-        assert!(d.final_fit.chi2_per_dof < 2.0 && d.consistent_with_noise, "{tag} seed {seed}: chi2/dof {}", d.final_fit.chi2_per_dof);
+        assert!(
+            before >= 3.0 * after,
+            "{tag} seed {seed}: H{judged} error {before} -> {after}"
+        );
+        assert!(
+            d.final_fit.chi2_per_dof < 2.0 && d.consistent_with_noise,
+            "{tag} seed {seed}: chi2/dof {}",
+            d.final_fit.chi2_per_dof
+        );
     }
 }
 
 #[test]
 fn an_undeclared_cubic_stiffness_is_found() {
-    check_single("cubic", "[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1.0e7", Effect::CubicStiffness, &[("k3", 1.0e7)], 1);
+    check_single(
+        "cubic",
+        "[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1.0e7",
+        Effect::CubicStiffness,
+        &[("k3", 1.0e7)],
+        1,
+    );
 }
 
 #[test]
 fn an_undeclared_quadratic_damping_is_found() {
-    check_single("quadratic damping", "[[effects]]\nkind = \"quadratic_damping\"\nc2 = 0.2", Effect::QuadraticDamping, &[("c2", 0.2)], 1);
+    check_single(
+        "quadratic damping",
+        "[[effects]]\nkind = \"quadratic_damping\"\nc2 = 0.2",
+        Effect::QuadraticDamping,
+        &[("c2", 0.2)],
+        1,
+    );
 }
 
 #[test]
 fn an_undeclared_one_sided_contact_is_found_in_the_even_harmonics() {
-    check_single("bilinear", "[[effects]]\nkind = \"bilinear_stiffness\"\nkb = 2.0e6", Effect::BilinearStiffness, &[("kb", 2.0e6)], 2);
+    check_single(
+        "bilinear",
+        "[[effects]]\nkind = \"bilinear_stiffness\"\nkb = 2.0e6",
+        Effect::BilinearStiffness,
+        &[("kb", 2.0e6)],
+        2,
+    );
 }
 
 #[test]
@@ -99,7 +140,11 @@ fn an_undeclared_second_mode_is_found() {
         "second mode",
         "[[effects]]\nkind = \"second_mode\"\nfrequency_hz = 420.0\ndamping_ratio = 0.01\nmodal_mass = 50.0",
         Effect::SecondMode,
-        &[("frequency_hz", 420.0), ("damping_ratio", 0.01), ("modal_mass", 50.0)],
+        &[
+            ("frequency_hz", 420.0),
+            ("damping_ratio", 0.01),
+            ("modal_mass", 50.0),
+        ],
         1,
     );
 }
@@ -110,7 +155,11 @@ fn nothing_is_selected_when_nothing_is_missing() {
         let d = case("", seed);
         summary("none", seed, &d);
         assert!(d.selected.is_empty(), "seed {seed}: {}", d.explanation);
-        assert!(d.explanation.contains("No significant missing effect"), "{}", d.explanation);
+        assert!(
+            d.explanation.contains("No significant missing effect"),
+            "{}",
+            d.explanation
+        );
     }
 }
 
@@ -123,7 +172,12 @@ fn two_effects_at_once_are_both_found() {
             seed,
         );
         summary("two", seed, &d);
-        assert_eq!(selected(&d), vec![Effect::SecondMode, Effect::CubicStiffness], "seed {seed}: {}", d.explanation);
+        assert_eq!(
+            selected(&d),
+            vec![Effect::SecondMode, Effect::CubicStiffness],
+            "seed {seed}: {}",
+            d.explanation
+        );
         assert!((param(&d, Effect::CubicStiffness, "k3") / 1e7 - 1.0).abs() < 0.10);
         assert!((param(&d, Effect::SecondMode, "frequency_hz") / 420.0 - 1.0).abs() < 0.01);
         assert!(d.baseline.error_relative >= 3.0 * d.final_fit.error_relative);

@@ -8,11 +8,13 @@ mod common;
 
 mod bench;
 mod cli;
+mod cli_realdata;
 mod diagnose;
 mod extract;
 mod fit;
 mod hb;
 mod import;
 mod plot;
+mod realdata;
 mod record;
 mod sim;

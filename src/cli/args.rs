@@ -29,6 +29,10 @@ pub enum Command {
     Run(RunArgs),
     /// Fit, then trace the residual to a missing effect, add it and refit.
     Diagnose(DiagnoseArgs),
+    /// Convert measured data (MAT v5, CSV/TSV, WAV + JSON) into a checked recording.
+    Import(ImportArgs),
+    /// Drive a fitted model with a recording's measured force and compare responses.
+    Validate(ValidateArgs),
 }
 
 /// `hystid simulate`.
@@ -64,8 +68,11 @@ pub enum WavFormat {
 /// `hystid identify`.
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
-    /// The recording: a `run.mcap` from `simulate`, or NAME.wav / NAME.json.
-    pub recording: PathBuf,
+    /// The recordings: a `run.mcap` from `simulate`, or NAME.wav / NAME.json;
+    /// several are combined into one FRF set (one level per swept or
+    /// multi-dwell file; single-dwell files merged by level).
+    #[arg(required = true, num_args = 1..)]
+    pub recordings: Vec<PathBuf>,
     /// Output directory.
     #[arg(long, short)]
     pub out: PathBuf,
@@ -73,9 +80,121 @@ pub struct IdentifyArgs {
     /// first channel that is not the reference).
     #[arg(long)]
     pub response: Option<String>,
+    /// How the recordings are reduced.
+    #[command(flatten)]
+    pub reduction: ReductionArgs,
     /// Fit settings.
     #[command(flatten)]
     pub fit: IdentifyOptionsArgs,
+}
+
+/// Reduction of recordings into nonlinear FRFs (`identify`, `validate`).
+#[derive(Debug, Args, Clone)]
+pub struct ReductionArgs {
+    /// Excitation: auto (the recording's `excitation.kind`; stepped when
+    /// unknown), stepped or swept.
+    #[arg(long, value_enum, default_value_t = ExcitationArg::Auto)]
+    pub excitation: ExcitationArg,
+    /// Highest harmonic reduced (default: 7 for stepped sine, 3 for swept).
+    #[arg(long)]
+    pub max_harmonic: Option<usize>,
+    /// Swept sine: sweep-distortion compensation, the Gaussian window's
+    /// standard deviation in seconds; `auto` (4 time constants of the
+    /// plain reduction's resonance, at most a sixth of the sweep) or 0 (off).
+    #[arg(long, default_value = "auto")]
+    pub compensation: String,
+    /// Swept sine: hop between analysis windows, periods of the sweep.
+    #[arg(long, default_value_t = 1.0)]
+    pub hop_periods: f64,
+    /// Swept sine: analysis window, whole periods.
+    #[arg(long, default_value_t = 4)]
+    pub window_periods: usize,
+}
+
+/// Excitation kinds on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExcitationArg {
+    /// From the recording.
+    Auto,
+    /// Stepped (or single) sine dwells.
+    Stepped,
+    /// A continuous sweep.
+    Swept,
+    /// Not stated (import only).
+    Unknown,
+}
+
+/// `hystid import`.
+#[derive(Debug, Args)]
+pub struct ImportArgs {
+    /// The file: .mat (MATLAB v5), .csv/.tsv/.txt/.dat (header row after `#`
+    /// comments) or a hystid NAME.wav / NAME.json (checked and rewritten).
+    pub file: PathBuf,
+    /// Output stem: writes NAME.wav, NAME.json and NAME.quality.json.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// A channel, `[NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE]`, e.g.
+    /// `force=Force:force` or `acc2=Acceleration(2):acceleration`; `#K` is
+    /// column K (from 1). Repeat for each channel; replaces the spec's.
+    #[arg(long = "channel", short = 'c')]
+    pub channels: Vec<String>,
+    /// Sample rate: auto, comment, a number of Hz, variable:NAME or
+    /// time:COLUMN.
+    #[arg(long)]
+    pub rate: Option<String>,
+    /// What drove the structure (kept in the recording).
+    #[arg(long, value_enum)]
+    pub excitation: Option<ExcitationArg>,
+    /// An import spec (TOML: `[[channels]]`, `sample_rate`, `[quality]`, ...);
+    /// flags override its fields.
+    #[arg(long)]
+    pub spec: Option<PathBuf>,
+    /// Free text for the recording.
+    #[arg(long)]
+    pub description: Option<String>,
+    /// Sample format of NAME.wav.
+    #[arg(long, value_enum, default_value_t = WavFormat::Float32)]
+    pub format: WavFormat,
+}
+
+/// `hystid validate`.
+#[derive(Debug, Args)]
+pub struct ValidateArgs {
+    /// The fit: a `fit.json` from `identify` (or any JSON with a `model`
+    /// field and optionally `response_sign`).
+    pub fit: PathBuf,
+    /// The recordings to validate on (NAME.wav / NAME.json or run.mcap).
+    #[arg(required = true, num_args = 1..)]
+    pub recordings: Vec<PathBuf>,
+    /// Output directory.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Response channel name (default: the fit's response channel, else the
+    /// first channel that is not the reference).
+    #[arg(long)]
+    pub response: Option<String>,
+    /// Validate the fit's linear model instead: the smallest level's SDOF
+    /// (`linear.stick` of fit.json), no element; the baseline the joint
+    /// element must beat.
+    #[arg(long)]
+    pub linear: bool,
+    /// Frequency band LO:HI in Hz for the FRF comparison, and for a sweep the
+    /// time window of the second error figure.
+    #[arg(long)]
+    pub band: Option<String>,
+    /// Time window T0:T1 in seconds for the second error figure.
+    #[arg(long)]
+    pub window: Option<String>,
+    /// Fewest samples per period of the model's highest linearised
+    /// frequency before the simulation is upsampled.
+    #[arg(long, default_value_t = 20.0)]
+    pub min_samples_per_period: f64,
+    /// Skip the FRF comparison (time-domain figures only).
+    #[arg(long)]
+    pub no_frf: bool,
+    /// How both signals are reduced for the FRF comparison.
+    #[command(flatten)]
+    pub reduction: ReductionArgs,
 }
 
 /// Fit settings shared by `identify` and `run`.
@@ -117,8 +236,10 @@ pub struct IdentifyOptionsArgs {
 /// `hystid diagnose`.
 #[derive(Debug, Args)]
 pub struct DiagnoseArgs {
-    /// The recording: a `run.mcap` from `simulate`, or NAME.wav / NAME.json.
-    pub recording: PathBuf,
+    /// The recordings: `run.mcap` files from `simulate`, or NAME.wav /
+    /// NAME.json (several: one or more levels each, combined).
+    #[arg(required = true)]
+    pub recordings: Vec<PathBuf>,
     /// Output directory.
     #[arg(long, short)]
     pub out: PathBuf,
@@ -129,6 +250,9 @@ pub struct DiagnoseArgs {
     /// bilinear_stiffness, quadratic_damping, clearance.
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
+    /// How recordings are reduced.
+    #[command(flatten)]
+    pub reduction: ReductionArgs,
     /// Fit settings for the baseline.
     #[command(flatten)]
     pub fit: IdentifyOptionsArgs,

@@ -2,7 +2,7 @@
 //! refit, and report the error before and after.
 
 use super::args::DiagnoseArgs;
-use super::identify::{fit_options, load_recording, reduce, run_fit};
+use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Result, bail};
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect, diagnose};
@@ -250,11 +250,19 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         bail!("--candidates: give at least one effect");
     }
     let fit_opts = fit_options(&args.fit)?;
-    let loaded = load_recording(&args.recording, args.response.as_deref())?;
-    let frf = reduce(&loaded, 7)?;
+    let (frf, _) = reduce_recordings(
+        &args.recordings,
+        args.response.as_deref(),
+        &args.reduction,
+        quiet,
+    )?;
     create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
     let (fit, _) = run_fit(&frf, &fit_opts, quiet, None)?;
+    let options = DiagnoseOptions {
+        band_hz: fit_opts.band_hz,
+        ..options
+    };
     let (d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
     let files = write_diagnosis(&args.out, &frf, &d, &predictor, t0.elapsed().as_secs_f64())?;
     if !quiet {

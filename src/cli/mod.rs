@@ -4,9 +4,11 @@
 pub mod args;
 pub mod diagnose;
 pub mod identify;
+pub mod import;
 pub mod progress;
 pub mod run;
 pub mod simulate;
+pub mod validate;
 
 use anyhow::{Context, Result};
 use std::path::Path;

@@ -11,8 +11,10 @@
 //!   [`estimate_frequency`] finds the frequency.
 //! * [`reduce_stepped`]: a stepped-sine [`Recording`](crate::record::Recording),
 //!   with its stated steps or with dwells found in the reference
-//!   ([`find_dwells`]); [`combine`] merges single-dwell recordings.
-//! * [`reduce_sweep`]: a swept sine, following the reference's phase.
+//!   ([`find_dwells`]); [`combine`] merges single-dwell recordings;
+//!   [`reduce_stepped_file`] reduces a file on disk one dwell at a time.
+//! * [`reduce_sweep`]: a swept sine, following the reference's phase;
+//!   [`choose_compensation`] picks its sweep-distortion compensation.
 //! * [`naive`]: direct-sum references for tests and benchmarks.
 //!
 //! All dwell estimates use the H1 estimator over blocks,
@@ -22,19 +24,23 @@
 
 mod analytic;
 mod coherent;
+mod compensation;
 mod estimator;
 mod lsq;
 pub mod naive;
 mod noncoherent;
 mod stepped;
+mod streaming;
 mod sweep;
 
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
+pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
 pub use noncoherent::{estimate_frequency, noncoherent};
 pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, combine, combine_with,
     find_dwells, reduce_stepped, reduce_stepped_report, settling,
 };
+pub use streaming::reduce_stepped_file;
 pub use sweep::{
     SweepFit, SweepLaw, SweepOptions, SweepReduction, reduce_sweep, reduce_sweep_recording,
 };

@@ -537,7 +537,7 @@ fn same_level(a: f64, b: f64) -> bool {
 /// order: a new level starts where the nominal level changes or where the
 /// frequency order reverses. Returns the levels and, per input point, its
 /// `(level, point)` index.
-fn group_levels(points: Vec<(f64, FrfPoint)>) -> (Vec<FrfLevel>, Vec<(usize, usize)>) {
+pub(super) fn group_levels(points: Vec<(f64, FrfPoint)>) -> (Vec<FrfLevel>, Vec<(usize, usize)>) {
     let mut levels: Vec<FrfLevel> = Vec::new();
     let mut dir: Option<Direction> = None;
     let mut index = Vec::with_capacity(points.len());

@@ -3,7 +3,8 @@
 //!
 //! 1. The reference's instantaneous phase is taken from its analytic signal
 //!    (FFT Hilbert transform) over the active part of the record (envelope
-//!    above `amplitude_threshold` of its median), leaving `edge_periods` out
+//!    above `amplitude_threshold` of its median over the driven part),
+//!    leaving `edge_periods` out
 //!    at each end where the Hilbert transform is not local.
 //! 2. A smooth phase law is fitted to it by least squares: a quadratic
 //!    `φ(t) = p0 + p1 t + p2 t²` for a linear sweep, `φ(t) = c0 + c1 e^{λt}`
@@ -85,7 +86,8 @@ pub struct SweepOptions {
     /// The sweep law; `None` chooses the better fit.
     pub law: Option<SweepLaw>,
     /// The active sweep is where the reference's envelope exceeds this
-    /// fraction of its median.
+    /// fraction of its median over the driven part (where it exceeds 1 % of
+    /// its maximum).
     pub amplitude_threshold: f64,
     /// Periods at each end of the active sweep left out of the phase fit
     /// (the Hilbert transform is not local at the ends).
@@ -327,6 +329,41 @@ fn fit_exponential(
     fit_exponential_at(phase, range, keep, stride, 0.5 * (lo + hi))
 }
 
+/// The driven stretch `start..end` of an envelope: runs above `threshold`
+/// joined across gaps shorter than a twentieth of the record (drop-outs),
+/// the one holding the most samples above it. A silent stretch (a chirp's
+/// free decay) ends the sweep; the Hilbert transform's wrap-around at the
+/// record's ends, which can lift the envelope of a silent end above the
+/// threshold for a few samples, does not extend it.
+fn driven_stretch(envelope: &[f64], threshold: f64) -> Option<(usize, usize)> {
+    let max_gap = envelope.len() / 20;
+    // (start, end, samples above the threshold)
+    let mut best: Option<(usize, usize, usize)> = None;
+    let mut current: Option<(usize, usize, usize)> = None;
+    for (n, &v) in envelope.iter().enumerate() {
+        if v <= threshold {
+            continue;
+        }
+        current = match current {
+            Some((s, e, c)) if n - e <= max_gap => Some((s, n + 1, c + 1)),
+            other => {
+                if let Some(run) = other
+                    && best.is_none_or(|b| run.2 > b.2)
+                {
+                    best = Some(run);
+                }
+                Some((n, n + 1, 1))
+            }
+        };
+    }
+    if let Some(run) = current
+        && best.is_none_or(|b| run.2 > b.2)
+    {
+        best = Some(run);
+    }
+    best.map(|(s, e, _)| (s, e))
+}
+
 /// Active sweep, phase-law fit and the sweep's figures.
 fn fit_sweep(
     reference: &[f64],
@@ -334,18 +371,22 @@ fn fit_sweep(
     options: &SweepOptions,
 ) -> Result<(PhaseLaw, SweepFit)> {
     let a = analytic(reference);
-    let mut env = a.amplitude.clone();
+    // the median of the driven part: a record that is silent for half its
+    // length (a chirp followed by a free decay) still has a sweep
+    let peak = a.amplitude.iter().copied().fold(0.0, f64::max);
+    let mut env: Vec<f64> = a
+        .amplitude
+        .iter()
+        .copied()
+        .filter(|&v| v > 0.01 * peak)
+        .collect();
     env.sort_by(f64::total_cmp);
-    let median = env[env.len() / 2];
+    let median = env.get(env.len() / 2).copied().unwrap_or(0.0);
     let threshold = options.amplitude_threshold * median;
     let active = |v: &f64| *v > threshold;
-    let (Some(start), Some(last)) = (
-        a.amplitude.iter().position(active),
-        a.amplitude.iter().rposition(active),
-    ) else {
+    let Some((start, end)) = driven_stretch(&a.amplitude, threshold) else {
         return Err(Error::input("reference", "is zero: no sweep to follow"));
     };
-    let end = last + 1;
     // a first fit over the active part gives the period for the edge margins
     let all = vec![true; reference.len()];
     // the phase is smooth: about 20 000 samples fix the law as well as all

@@ -1,0 +1,140 @@
+//! Stepped-sine reduction of a recording on disk, one dwell in memory at a
+//! time.
+//!
+//! [`reduce_stepped`](super::reduce_stepped) needs the whole recording in
+//! memory; a long test (a gigabyte of WAV) need not be. When the sidecar
+//! states the steps, each dwell is read on its own through
+//! [`RecordingReader`], reduced exactly as the in-memory path reduces it
+//! (same settle, frequency check, blocks and phase origin: the dwell's first
+//! analysed sample), and the points are grouped into levels the same way.
+//! Memory is the largest dwell's samples, whatever the file size.
+
+use super::stepped::group_levels;
+use super::{NonlinearFrf, ReduceOptions, SteppedReduction, reduce_stepped_report};
+use crate::error::{Error, Result};
+use crate::record::{Recording, RecordingReader, Step};
+use std::path::Path;
+
+/// Reduces the stepped-sine WAV + JSON recording at `path` (either file or
+/// the stem) into nonlinear FRFs of channel `response_channel`, reading one
+/// dwell at a time (see the module docs). The result equals
+/// [`reduce_stepped_report`] on the whole recording.
+///
+/// Errors: those of [`RecordingReader::open`] and of the reduction, and a
+/// recording whose sidecar states no steps (finding dwells needs the whole
+/// reference in memory: read the recording and use
+/// [`reduce_stepped_report`]).
+pub fn reduce_stepped_file(
+    path: &Path,
+    response_channel: usize,
+    options: &ReduceOptions,
+) -> Result<SteppedReduction> {
+    let mut reader = RecordingReader::open(path)?;
+    let meta = reader.meta().clone();
+    if meta.excitation.steps.is_empty() {
+        return Err(Error::input(
+            format!("{} excitation.steps", path.display()),
+            "states no steps: a streaming reduction needs them (finding the dwells needs the \
+             whole reference in memory)",
+        ));
+    }
+    let reference = match options.reference_channel {
+        Some(r) => r,
+        None => {
+            let probe = Recording {
+                meta: meta.clone(),
+                channels: Vec::new(),
+            };
+            probe.reference_channel().ok_or_else(|| {
+                Error::input(
+                    format!("{}", path.display()),
+                    "has no force or voltage channel to use as the reference",
+                )
+            })?
+        }
+    };
+    let nch = meta.channels.len();
+    for (what, c) in [("reference", reference), ("response", response_channel)] {
+        if c >= nch {
+            return Err(Error::input(
+                format!("{what} channel {c}"),
+                format!("out of range: the recording has {nch} channels"),
+            ));
+        }
+    }
+    let frames = reader.frames();
+    let mut buffers = vec![Vec::new(); nch];
+    let mut points = Vec::with_capacity(meta.excitation.steps.len());
+    let mut dwells = Vec::with_capacity(meta.excitation.steps.len());
+    let pair_options = ReduceOptions {
+        reference_channel: Some(0),
+        ..options.clone()
+    };
+    for (i, step) in meta.excitation.steps.iter().enumerate() {
+        let end = step.start.saturating_add(step.length);
+        if end > frames {
+            return Err(Error::input(
+                format!("excitation.steps[{i}]"),
+                format!(
+                    "frames {}..{end} lie outside the recording's {frames} frames",
+                    step.start
+                ),
+            ));
+        }
+        reader.seek_frame(step.start)?;
+        let got = reader.read_frames(step.length, &mut buffers)?;
+        if got != step.length {
+            return Err(Error::input(
+                format!("excitation.steps[{i}]"),
+                format!("read {got} of its {} frames", step.length),
+            ));
+        }
+        // the dwell alone, as a two-channel recording with one step at 0
+        let mut m = meta.clone();
+        m.channels = vec![
+            meta.channels[reference].clone(),
+            meta.channels[response_channel].clone(),
+        ];
+        m.excitation.steps = vec![Step { start: 0, ..*step }];
+        let dwell = Recording {
+            meta: m,
+            channels: vec![
+                std::mem::take(&mut buffers[reference]),
+                std::mem::take(&mut buffers[response_channel]),
+            ],
+        };
+        // errors name the step by its index in the whole recording
+        let mut r = reduce_stepped_report(&dwell, 1, &pair_options).map_err(|e| match e {
+            Error::InvalidInput { what, message } => Error::InvalidInput {
+                what: what
+                    .replacen("steps[0]", &format!("steps[{i}]"), 1)
+                    .replacen("step 0 (", &format!("step {i} ("), 1),
+                message,
+            },
+            other => other,
+        })?;
+        let mut channels = dwell.channels.into_iter();
+        buffers[reference] = channels.next().unwrap_or_default();
+        buffers[response_channel] = channels.next().unwrap_or_default();
+        let mut report = r.dwells.remove(0);
+        report.step.start = step.start;
+        let point = r.frf.levels.remove(0).points.remove(0);
+        points.push((step.level, point));
+        dwells.push(report);
+    }
+    let (levels, index) = group_levels(points);
+    for (d, (l, p)) in dwells.iter_mut().zip(index) {
+        d.level = l;
+        d.point = p;
+    }
+    Ok(SteppedReduction {
+        frf: NonlinearFrf {
+            response: meta.channels[response_channel].quantity,
+            reference: meta.channels[reference].quantity,
+            max_harmonic: options.max_harmonic,
+            levels,
+        },
+        dwells,
+        dwells_found: false,
+    })
+}

@@ -1,0 +1,545 @@
+//! Validation: a fitted model against a measurement it never saw, in the
+//! time domain.
+//!
+//! The fit matches steady-state nonlinear FRFs (paper eq. 9); validation
+//! asks whether the model also reproduces a recording as measured, with no
+//! steady-state assumption (paper section 4, Fig. 4.5: "simulated and
+//! measured response"). The recording's measured reference signal (force,
+//! or amplifier voltage for a voltage-driven model) drives the model through
+//! the digital-filter simulator ([`crate::sim`]), and the simulated response,
+//! in the recording's response quantity and times the fit's
+//! `response_sign`, is compared sample by sample with the measured one:
+//!
+//! * `e_RMS = √(mean((y_sim − y_meas)²))`, the metric of the nonlinear
+//!   system-identification benchmarks (Noël & Schoukens 2016/2017, "the
+//!   output is simulated"), over the whole record and optionally over a time
+//!   window (given, or where a sweep is inside a frequency band), also
+//!   relative to the RMS of the measured response;
+//! * both signals reduced the same way into nonlinear FRFs (stepped sine on
+//!   the same dwells, or swept sine on the same fitted sweep law), with the
+//!   relative error of `H1` per level and the `|H1|` peak of each.
+//!
+//! The simulation runs at the recording's rate when that gives at least
+//! [`ValidateOptions::min_samples_per_period`] samples per period of the
+//! model's stiffest linearised mode ([`Model::highest_linearised_frequency_hz`];
+//! method notes a.4); otherwise the reference is interpolated by the
+//! smallest integer factor that does, and the response decimated back
+//! ([`resample`]). Nothing else is resampled: the comparison is at the
+//! recording's own samples.
+
+pub mod resample;
+
+use crate::error::{Error, Result};
+use crate::extract::{
+    FrfPoint, NonlinearFrf, ReduceOptions, SweepFit, SweepLaw, SweepOptions, reduce_stepped_report,
+    reduce_sweep,
+};
+use crate::harmonics::Quantity;
+use crate::model::Model;
+use crate::record::{Recording, Step};
+use crate::sim::Simulator;
+use serde::{Deserialize, Serialize};
+
+/// How both signals are reduced into nonlinear FRFs for the comparison.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reduction {
+    /// Stepped sine: the measured recording's dwells (stated or found) are
+    /// reduced, and the simulated response on exactly the same dwells.
+    Stepped(ReduceOptions),
+    /// Swept sine: both follow the sweep law fitted to the reference.
+    Swept(SweepOptions),
+}
+
+/// Options of [`validate_recording`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ValidateOptions {
+    /// Samples per period of the model's highest linearised frequency below
+    /// which the simulation is upsampled (default 20: 1.5 % error in `H1` at
+    /// a stick mode, method notes a.3; at least 2).
+    pub min_samples_per_period: f64,
+    /// A time window, seconds from the first sample, for a second set of
+    /// error figures.
+    pub window_s: Option<(f64, f64)>,
+    /// A frequency band, Hz: limits the FRF comparison (peaks, `H1` error)
+    /// and, for a swept sine without `window_s`, sets the window to where
+    /// the fitted sweep is inside the band.
+    pub band_hz: Option<(f64, f64)>,
+    /// The FRF comparison, if any.
+    pub reduction: Option<Reduction>,
+}
+
+impl Default for ValidateOptions {
+    fn default() -> Self {
+        ValidateOptions {
+            min_samples_per_period: 20.0,
+            window_s: None,
+            band_hz: None,
+            reduction: None,
+        }
+    }
+}
+
+/// A simulated response at the recording's rate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulatedResponse {
+    /// The response, in the asked quantity, times the sign.
+    pub values: Vec<f64>,
+    /// The integer factor the simulation was upsampled by (1: none).
+    pub upsampling: usize,
+    /// The model's highest linearised frequency, Hz.
+    pub highest_frequency_hz: f64,
+}
+
+/// Drives `model` from rest with `reference` (sampled at `sample_rate_hz`,
+/// in the model's force unit) and returns its `quantity` response times
+/// `sign` at the same samples, upsampling the simulation as
+/// [`ValidateOptions::min_samples_per_period`] asks (see the module docs).
+///
+/// Errors: a non-motion quantity, a non-finite or empty reference, a bad
+/// rate, a model the simulator rejects, a non-finite simulated response
+/// (an unstable model), a model needing more than
+/// [`resample::MAX_FACTOR`] times the rate.
+pub fn simulate_response(
+    model: &Model,
+    reference: &[f64],
+    sample_rate_hz: f64,
+    quantity: Quantity,
+    sign: f64,
+    min_samples_per_period: f64,
+) -> Result<SimulatedResponse> {
+    if !quantity.is_motion() {
+        return Err(Error::input(
+            "response quantity",
+            format!("{quantity} is not a motion (displacement, velocity or acceleration)"),
+        ));
+    }
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(Error::input(
+            "sample_rate_hz",
+            format!("must be finite and > 0, got {sample_rate_hz}"),
+        ));
+    }
+    if !(min_samples_per_period.is_finite() && min_samples_per_period >= 2.0) {
+        return Err(Error::plan(
+            "min_samples_per_period",
+            format!("must be at least 2, got {min_samples_per_period}"),
+        ));
+    }
+    if !(sign == 1.0 || sign == -1.0) {
+        return Err(Error::input(
+            "response_sign",
+            format!("must be +1 or -1, got {sign}"),
+        ));
+    }
+    if reference.is_empty() {
+        return Err(Error::input("reference", "holds no samples"));
+    }
+    model.validate()?;
+    let top = model.highest_linearised_frequency_hz();
+    let needed = (min_samples_per_period * top / sample_rate_hz).ceil();
+    let factor = if needed <= 1.0 { 1 } else { needed as usize };
+    if factor > resample::MAX_FACTOR {
+        return Err(Error::model(
+            "model",
+            format!(
+                "its highest linearised frequency {top:.6} Hz would need {factor} times the \
+                 recording's {sample_rate_hz} Hz (at most {}): the model is far stiffer than the \
+                 measurement can show",
+                resample::MAX_FACTOR
+            ),
+        ));
+    }
+    let drive = resample::interpolate(reference, factor)?;
+    let mut sim = Simulator::new(
+        &model.linear,
+        model.element_set()?,
+        sample_rate_hz * factor as f64,
+    )?;
+    let r = sim.run(&drive)?;
+    let fine = match quantity {
+        Quantity::Displacement => r.displacement,
+        Quantity::Velocity => r.velocity,
+        Quantity::Acceleration => r.acceleration,
+        Quantity::Force | Quantity::Voltage => unreachable!("checked above"),
+    };
+    if let Some(i) = fine.iter().position(|v| !v.is_finite()) {
+        return Err(Error::NotConverged {
+            stage: "validation simulation",
+            reason: format!(
+                "the simulated {quantity} is {} at sample {} of {}: the model is unstable",
+                fine[i],
+                i / factor,
+                reference.len()
+            ),
+        });
+    }
+    let mut values = resample::decimate(&fine, factor)?;
+    values.truncate(reference.len());
+    if sign < 0.0 {
+        values.iter_mut().for_each(|v| *v = -*v);
+    }
+    Ok(SimulatedResponse {
+        values,
+        upsampling: factor,
+        highest_frequency_hz: top,
+    })
+}
+
+/// Error figures over a stretch of samples.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ErrorMetrics {
+    /// Start of the stretch, s from the first sample.
+    pub start_s: f64,
+    /// End of the stretch (exclusive), s.
+    pub end_s: f64,
+    /// Samples compared.
+    pub samples: usize,
+    /// `√(mean((y_sim − y_meas)²))`, response unit.
+    pub e_rms: f64,
+    /// RMS of the measured response over the stretch (about its mean).
+    pub measured_rms: f64,
+    /// `e_rms / measured_rms`.
+    pub relative: f64,
+}
+
+/// The error figures of `simulated` against `measured` over samples
+/// `range` (clipped to the shorter signal).
+pub fn error_metrics(
+    measured: &[f64],
+    simulated: &[f64],
+    sample_rate_hz: f64,
+    range: std::ops::Range<usize>,
+) -> Result<ErrorMetrics> {
+    let n = measured.len().min(simulated.len());
+    let (a, b) = (range.start.min(n), range.end.min(n));
+    if a >= b {
+        return Err(Error::input(
+            "error window",
+            format!(
+                "samples {}..{} hold nothing of the {n} compared",
+                range.start, range.end
+            ),
+        ));
+    }
+    let m = &measured[a..b];
+    let s = &simulated[a..b];
+    let len = (b - a) as f64;
+    let e2 = m.iter().zip(s).map(|(x, y)| (y - x).powi(2)).sum::<f64>() / len;
+    let mean = m.iter().sum::<f64>() / len;
+    let v = m.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / len;
+    let (e_rms, measured_rms) = (e2.sqrt(), v.sqrt());
+    Ok(ErrorMetrics {
+        start_s: a as f64 / sample_rate_hz,
+        end_s: b as f64 / sample_rate_hz,
+        samples: b - a,
+        e_rms,
+        measured_rms,
+        relative: if measured_rms > 0.0 {
+            e_rms / measured_rms
+        } else {
+            f64::INFINITY
+        },
+    })
+}
+
+/// The largest `|H1|` of a series, refined by a parabola through it and its
+/// neighbours.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Peak {
+    /// Frequency, Hz.
+    pub frequency_hz: f64,
+    /// `|H1|`, response unit per reference unit.
+    pub magnitude: f64,
+}
+
+/// The `|H1|` peak of `points` (within `band_hz`), `None` when there are no
+/// points. A peak with a neighbour on each side is refined by the parabola
+/// through the three (magnitude against frequency).
+pub fn h1_peak(points: &[FrfPoint], band_hz: Option<(f64, f64)>) -> Option<Peak> {
+    let mut pts: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| in_band(p.frequency_hz, band_hz))
+        .filter_map(|p| Some((p.frequency_hz, p.h.get(1)?.norm())))
+        .filter(|(f, a)| f.is_finite() && a.is_finite())
+        .collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (i, &(f, a)) = pts
+        .iter()
+        .enumerate()
+        .max_by(|x, y| x.1.1.total_cmp(&y.1.1))?;
+    if i == 0 || i + 1 == pts.len() {
+        return Some(Peak {
+            frequency_hz: f,
+            magnitude: a,
+        });
+    }
+    let ((x0, y0), (x1, y1), (x2, y2)) = (pts[i - 1], pts[i], pts[i + 1]);
+    // y = y1 + b (x − x1) + c (x − x1)², through the three points
+    let (d0, d2) = (x0 - x1, x2 - x1);
+    let (s0, s2) = ((y0 - y1) / d0, (y2 - y1) / d2);
+    let c = (s2 - s0) / (d2 - d0);
+    let b = s0 - c * d0;
+    if c.is_nan() || c >= 0.0 {
+        return Some(Peak {
+            frequency_hz: f,
+            magnitude: a,
+        });
+    }
+    let dx = (-b / (2.0 * c)).clamp(d0, d2);
+    Some(Peak {
+        frequency_hz: x1 + dx,
+        magnitude: y1 + b * dx + c * dx * dx,
+    })
+}
+
+fn in_band(f: f64, band_hz: Option<(f64, f64)>) -> bool {
+    band_hz.is_none_or(|(lo, hi)| f >= lo && f <= hi)
+}
+
+/// One level of the FRF comparison.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LevelComparison {
+    /// Nominal level of the measured series, reference unit.
+    pub level: f64,
+    /// Points compared (within the band).
+    pub points: usize,
+    /// `‖H1_sim − H1_meas‖ / ‖H1_meas‖` over those points.
+    pub relative_h1_error: f64,
+    /// The measured `|H1|` peak in the band.
+    pub measured_peak: Option<Peak>,
+    /// The simulated `|H1|` peak in the band.
+    pub simulated_peak: Option<Peak>,
+}
+
+/// Both signals reduced the same way.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrfComparison {
+    /// Per level of the measured reduction.
+    pub levels: Vec<LevelComparison>,
+    /// The sweep fitted to the reference (swept sine only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<SweepFit>,
+    /// The measured nonlinear FRFs.
+    #[serde(skip)]
+    pub measured: Option<NonlinearFrf>,
+    /// The simulated ones, on the same dwells or sweep windows.
+    #[serde(skip)]
+    pub simulated: Option<NonlinearFrf>,
+}
+
+/// The validation of one recording.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Validation {
+    /// The recording's sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// The response quantity compared.
+    pub quantity: Quantity,
+    /// The simulation's upsampling factor (1: at the recording's rate).
+    pub upsampling: usize,
+    /// The model's highest linearised frequency, Hz.
+    pub highest_frequency_hz: f64,
+    /// Over the whole record.
+    pub whole: ErrorMetrics,
+    /// Over the window (given, or from the band through the sweep law).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window: Option<ErrorMetrics>,
+    /// The FRF comparison, if asked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frf: Option<FrfComparison>,
+    /// The simulated response, at the recording's samples.
+    #[serde(skip)]
+    pub simulated: Vec<f64>,
+}
+
+/// Validates `model` on a recording: simulates the response channel
+/// `response_channel` from the reference channel (see the module docs) and
+/// compares.
+///
+/// `response_sign` is the fit's (the model predicts `sign × H_measured`, so
+/// the simulated response is multiplied by it). Errors name the channel:
+/// no reference, a response that is not a motion or is the reference, a
+/// window outside the record, and those of [`simulate_response`] and of the
+/// reductions.
+pub fn validate_recording(
+    model: &Model,
+    response_sign: f64,
+    rec: &Recording,
+    response_channel: usize,
+    options: &ValidateOptions,
+) -> Result<Validation> {
+    let reference = rec.reference_channel().ok_or_else(|| {
+        Error::input(
+            "recording",
+            "has no force or voltage channel to drive the model with",
+        )
+    })?;
+    let nch = rec.channels.len().min(rec.meta.channels.len());
+    if response_channel >= nch || response_channel == reference {
+        return Err(Error::input(
+            format!("response channel {response_channel}"),
+            format!("must be one of the {nch} channels other than the reference {reference}"),
+        ));
+    }
+    let channel = &rec.meta.channels[response_channel];
+    let quantity = channel.quantity;
+    if !quantity.is_motion() {
+        return Err(Error::input(
+            format!("channel `{}`", channel.name),
+            format!("is a {quantity} channel; a motion response is needed"),
+        ));
+    }
+    let fs = rec.meta.sample_rate_hz;
+    let force = &rec.channels[reference];
+    let measured = &rec.channels[response_channel];
+    let sim = simulate_response(
+        model,
+        force,
+        fs,
+        quantity,
+        response_sign,
+        options.min_samples_per_period,
+    )?;
+    let whole = error_metrics(measured, &sim.values, fs, 0..measured.len())?;
+    let frf = match &options.reduction {
+        None => None,
+        Some(r) => Some(compare_frfs(
+            rec,
+            reference,
+            response_channel,
+            &sim.values,
+            r,
+            options.band_hz,
+        )?),
+    };
+    let window = match (options.window_s, options.band_hz, &frf) {
+        (Some((t0, t1)), _, _) => {
+            if !(t0.is_finite() && t1.is_finite() && 0.0 <= t0 && t0 < t1) {
+                return Err(Error::plan(
+                    "window_s",
+                    format!("need 0 <= start < end, got {t0}:{t1} s"),
+                ));
+            }
+            let a = (t0 * fs).round() as usize;
+            let b = ((t1 * fs).round() as usize).min(measured.len());
+            Some(error_metrics(measured, &sim.values, fs, a..b)?)
+        }
+        (None, Some(band), Some(FrfComparison { sweep: Some(s), .. })) => {
+            let (a, b) = sweep_window(s, band);
+            (a < b)
+                .then(|| error_metrics(measured, &sim.values, fs, a..b))
+                .transpose()?
+        }
+        _ => None,
+    };
+    Ok(Validation {
+        sample_rate_hz: fs,
+        quantity,
+        upsampling: sim.upsampling,
+        highest_frequency_hz: sim.highest_frequency_hz,
+        whole,
+        window,
+        frf,
+        simulated: sim.values,
+    })
+}
+
+/// Samples `a..b` where the fitted sweep's frequency lies inside `band`.
+pub fn sweep_window(sweep: &SweepFit, band: (f64, f64)) -> (usize, usize) {
+    let (n0, n1) = (sweep.start as f64, sweep.end as f64);
+    let (f0, f1) = (sweep.f_start_hz, sweep.f_end_hz);
+    if n1 <= n0 || f0 == f1 {
+        return (0, 0);
+    }
+    // sample at which the law reaches frequency f
+    let at = |f: f64| -> f64 {
+        let u = match sweep.law {
+            SweepLaw::Linear => (f - f0) / (f1 - f0),
+            SweepLaw::Logarithmic => (f / f0).ln() / (f1 / f0).ln(),
+        };
+        n0 + u.clamp(0.0, 1.0) * (n1 - n0)
+    };
+    let (x, y) = (at(band.0), at(band.1));
+    (x.min(y).floor() as usize, x.max(y).ceil() as usize)
+}
+
+fn compare_frfs(
+    rec: &Recording,
+    reference: usize,
+    response: usize,
+    simulated: &[f64],
+    reduction: &Reduction,
+    band_hz: Option<(f64, f64)>,
+) -> Result<FrfComparison> {
+    let fs = rec.meta.sample_rate_hz;
+    let (measured, simulated, sweep) = match reduction {
+        Reduction::Swept(opts) => {
+            let m = reduce_sweep(&rec.channels[reference], &rec.channels[response], fs, opts)?;
+            let s = reduce_sweep(&rec.channels[reference], simulated, fs, opts)?;
+            let q = rec.meta.channels[response].quantity;
+            let r = rec.meta.channels[reference].quantity;
+            let sweep = m.sweep;
+            (m.into_frf(q, r), s.into_frf(q, r), Some(sweep))
+        }
+        Reduction::Stepped(opts) => {
+            // a two-channel recording of the reference and one response
+            let pair = |y: &[f64]| -> Recording {
+                let mut meta = rec.meta.clone();
+                meta.channels = vec![
+                    rec.meta.channels[reference].clone(),
+                    rec.meta.channels[response].clone(),
+                ];
+                Recording {
+                    meta,
+                    channels: vec![rec.channels[reference].clone(), y.to_vec()],
+                }
+            };
+            let opts = ReduceOptions {
+                reference_channel: Some(0),
+                ..opts.clone()
+            };
+            let mut meas = pair(&rec.channels[response]);
+            let first = reduce_stepped_report(&meas, 1, &opts)?;
+            // the simulated response on exactly the measured dwells
+            let steps: Vec<Step> = first.dwells.iter().map(|d| d.step).collect();
+            meas.meta.excitation.steps = steps.clone();
+            let mut sim = pair(simulated);
+            sim.meta.excitation.steps = steps;
+            let m = reduce_stepped_report(&meas, 1, &opts)?.frf;
+            let s = reduce_stepped_report(&sim, 1, &opts)?.frf;
+            (m, s, None)
+        }
+    };
+    let levels = measured
+        .levels
+        .iter()
+        .zip(&simulated.levels)
+        .map(|(m, s)| {
+            let (mut num, mut den, mut n) = (0.0, 0.0, 0);
+            for (a, b) in m.points.iter().zip(&s.points) {
+                if in_band(a.frequency_hz, band_hz) {
+                    num += (b.h[1] - a.h[1]).norm_sqr();
+                    den += a.h[1].norm_sqr();
+                    n += 1;
+                }
+            }
+            LevelComparison {
+                level: m.level,
+                points: n,
+                relative_h1_error: if den > 0.0 {
+                    (num / den).sqrt()
+                } else {
+                    f64::NAN
+                },
+                measured_peak: h1_peak(&m.points, band_hz),
+                simulated_peak: h1_peak(&s.points, band_hz),
+            }
+        })
+        .collect();
+    Ok(FrfComparison {
+        levels,
+        sweep,
+        measured: Some(measured),
+        simulated: Some(simulated),
+    })
+}

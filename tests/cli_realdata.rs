@@ -1,0 +1,770 @@
+//! Integration tests: `hystid import`, `identify` on several and swept
+//! recordings, and `validate`, through the binary.
+//!
+//! Round trips compare the FRFs reduced from an imported recording with
+//! those of the same samples in memory, within the quantisation the chosen
+//! sample format implies (computed in the test from the format's step).
+
+use crate::cli::{hystid, text};
+use crate::common;
+use hystid::extract::{NonlinearFrf, ReduceOptions, reduce_stepped};
+use hystid::harmonics::{Quantity, omega};
+use hystid::model::{ElementSpec, ModalModel, Model};
+use hystid::record::{
+    Channel, Excitation, ExcitationKind, FORMAT_V1, Recording, RecordingMeta, SampleFormat, Step,
+    read_recording, write_recording,
+};
+use hystid::sim::Simulator;
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+/// SDOF 20 Hz, ζ = 2 %, 1 kg, Masing joint kd = k/2, Fd = 20 N, N = 3.
+fn joint_model() -> Model {
+    let k = omega(20.0).powi(2);
+    let c = 2.0 * 0.02 * k.sqrt();
+    Model::new(
+        ModalModel::sdof(1.0, c, k).unwrap(),
+        vec![ElementSpec::Masing {
+            kd: 0.5 * k,
+            fd: 20.0,
+            n: 3.0,
+        }],
+    )
+    .unwrap()
+}
+
+fn channel(name: &str, q: Quantity) -> Channel {
+    Channel {
+        name: name.into(),
+        quantity: q,
+        unit: q.si_unit().into(),
+        scale: 1.0,
+    }
+}
+
+fn meta(fs: f64, response: Quantity, kind: ExcitationKind) -> RecordingMeta {
+    RecordingMeta {
+        format: FORMAT_V1.into(),
+        sample_rate_hz: fs,
+        channels: vec![channel("force", Quantity::Force), channel("y", response)],
+        excitation: Excitation {
+            kind,
+            steps: Vec::new(),
+            sweep: None,
+        },
+        description: String::new(),
+        metadata: Default::default(),
+        extra: Default::default(),
+    }
+}
+
+/// Dwells of the joint model (phase-continuous), 2 s settling + 2 s
+/// measured each, displacement response; with the steps stated.
+fn stepped(fs: f64, levels: &[f64], freqs: &[f64]) -> Recording {
+    let model = joint_model();
+    let mut sim = Simulator::new(&model.linear, model.element_set().unwrap(), fs).unwrap();
+    let (mut force, mut x, mut steps) = (Vec::new(), Vec::new(), Vec::new());
+    let mut phase = 0.0;
+    for &level in levels {
+        for &f in freqs {
+            let (start, length) = (force.len(), (4.0 * fs) as usize);
+            for _ in 0..length {
+                let v = level * f64::sin(phase);
+                phase += 2.0 * PI * f / fs;
+                force.push(v);
+                x.push(sim.step(v).unwrap().displacement);
+            }
+            steps.push(Step {
+                frequency_hz: f,
+                level,
+                start,
+                settle: length / 2,
+                length,
+            });
+        }
+    }
+    let mut m = meta(fs, Quantity::Displacement, ExcitationKind::SteppedSine);
+    m.excitation.steps = steps;
+    Recording {
+        meta: m,
+        channels: vec![force, x],
+    }
+}
+
+/// A linear sweep f0 -> f1 over `seconds` at amplitude `a` (half-second
+/// fade-in), acceleration response of the joint model.
+fn swept(fs: f64, f0: f64, f1: f64, seconds: f64, a: f64) -> Recording {
+    let n = (seconds * fs) as usize;
+    let rate = (f1 - f0) / seconds;
+    let force: Vec<f64> = (0..n)
+        .map(|i| {
+            let t = i as f64 / fs;
+            let fade = if t < 0.5 {
+                0.5 - 0.5 * (PI * t).cos()
+            } else {
+                1.0
+            };
+            a * fade * (2.0 * PI * (f0 * t + 0.5 * rate * t * t)).sin()
+        })
+        .collect();
+    let model = joint_model();
+    let mut sim = Simulator::new(&model.linear, model.element_set().unwrap(), fs).unwrap();
+    let acc = sim.run(&force).unwrap().acceleration;
+    Recording {
+        meta: meta(fs, Quantity::Acceleration, ExcitationKind::SweptSine),
+        channels: vec![force, acc],
+    }
+}
+
+// ------------------------------------------------------------- MAT writer
+
+fn element(ty: u32, data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend(ty.to_le_bytes());
+    out.extend((data.len() as u32).to_le_bytes());
+    out.extend(data);
+    while out.len() % 8 != 0 {
+        out.push(0);
+    }
+    out
+}
+
+/// A level-5 MAT-file of real double matrices `name`, `rows x cols`,
+/// values in column-major order.
+fn mat_file(vars: &[(&str, usize, usize, Vec<f64>)]) -> Vec<u8> {
+    let mut out = b"MATLAB 5.0 MAT-file, hystid cli_realdata tests".to_vec();
+    out.resize(116, b' ');
+    out.extend([0u8; 8]);
+    out.extend(0x0100u16.to_le_bytes());
+    out.extend(b"IM");
+    for (name, rows, cols, values) in vars {
+        let mut m = Vec::new();
+        m.extend(element(6, &[6, 0, 0, 0, 0, 0, 0, 0])); // mxDOUBLE_CLASS
+        let mut dims = Vec::new();
+        dims.extend((*rows as i32).to_le_bytes());
+        dims.extend((*cols as i32).to_le_bytes());
+        m.extend(element(5, &dims));
+        m.extend(element(1, name.as_bytes()));
+        let data: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        m.extend(element(9, &data));
+        out.extend(element(14, &m));
+    }
+    out
+}
+
+fn h1(frf: &NonlinearFrf) -> Vec<(f64, num_complex::Complex64, f64, f64)> {
+    frf.levels
+        .iter()
+        .flat_map(|l| {
+            l.points
+                .iter()
+                .map(|p| (p.frequency_hz, p.h[1], p.force_amplitude, p.h[1].norm()))
+        })
+        .collect()
+}
+
+fn run_ok(args: &[&str]) -> String {
+    let o = hystid(args);
+    let t = text(&o);
+    assert!(o.status.success(), "hystid {args:?} failed:\n{t}");
+    t
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Synthetic stepped-sine data (2 levels x 3 frequencies of the joint
+/// model) in every input format:
+/// MAT v5 (force 1xN, response as row 2 of a 3xN matrix, Fs), CSV with a
+/// time column and the response in mm with a calibration scale, TSV with
+/// the rate in a comment, and a WAV + JSON recording; written as float 32,
+/// PCM 24 and PCM 16. Each import is reduced on the same dwells as the
+/// original f64 samples: the H1 difference must stay within the
+/// quantisation bound `q_y/|Y1| + q_f/|F1|` (a least-squares harmonic moves
+/// by at most one step `q` when every sample errs by at most half a step;
+/// the dwells here hold whole periods of 25 samples at 20 Hz, so the
+/// rounding errors repeat and do not average out), and the calibrated
+/// channel comes back in metres. A TOML `--spec` gives the same recording
+/// as the flags.
+#[test]
+fn import_round_trips_every_format_into_the_same_frfs() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 500.0;
+    let mut rec = stepped(fs, &[4.0, 12.0], &[18.0, 20.0, 22.0]);
+    // the files carry no steps; the reductions below are given the same
+    // ones, so that only the format differs (the dwell finder's discrete
+    // choice of a settled window would add its own 1e-4-scale jumps)
+    let steps = std::mem::take(&mut rec.meta.excitation.steps);
+    rec.meta.excitation.kind = ExcitationKind::Unknown;
+    let opts = ReduceOptions::default();
+    let with_steps = |r: &Recording| {
+        let mut r = r.clone();
+        r.meta.excitation.steps = steps.clone();
+        r
+    };
+    let want = h1(&reduce_stepped(&with_steps(&rec), 1, &opts).unwrap());
+    assert_eq!(want.len(), 6);
+    let (force, y) = (&rec.channels[0], &rec.channels[1]);
+    let n = force.len();
+    // MAT: Response is 3xN, row 2 the displacement
+    let mut resp = Vec::with_capacity(3 * n);
+    for i in 0..n {
+        resp.extend([0.5 * force[i], y[i], -y[i]]);
+    }
+    let mat = dir.path().join("bench.mat");
+    std::fs::write(
+        &mat,
+        mat_file(&[
+            ("Force", 1, n, force.clone()),
+            ("Response", 3, n, resp),
+            ("Fs", 1, 1, vec![fs]),
+        ]),
+    )
+    .unwrap();
+    // CSV: time column, response in mm
+    let csv = dir.path().join("bench.csv");
+    let mut t = String::from("# a synthetic bench\ntime_s,force_N,y_mm\n");
+    for i in 0..n {
+        t += &format!("{:?},{:?},{:?}\n", i as f64 / fs, force[i], 1e3 * y[i]);
+    }
+    std::fs::write(&csv, t).unwrap();
+    // TSV: rate in a comment
+    let tsv = dir.path().join("bench.tsv");
+    let mut t = format!("# fs = {fs} Hz\nF\tx\n");
+    for i in 0..n {
+        t += &format!("{:?}\t{:?}\n", force[i], y[i]);
+    }
+    std::fs::write(&tsv, t).unwrap();
+    // WAV + JSON
+    let wav = dir.path().join("bench_in");
+    write_recording(&wav, &rec, SampleFormat::Float32).unwrap();
+    let inputs: Vec<(PathBuf, Vec<&str>)> = vec![
+        (
+            mat.clone(),
+            vec![
+                "-c",
+                "force=Force:force",
+                "-c",
+                "y=Response(2):displacement",
+                "--rate",
+                "variable:Fs",
+            ],
+        ),
+        (
+            csv.clone(),
+            vec![
+                "-c",
+                "force=force_N:force",
+                "-c",
+                "y=y_mm:displacement*1e-3",
+                "--rate",
+                "time:time_s",
+            ],
+        ),
+        (
+            tsv.clone(),
+            vec!["-c", "force=F:force", "-c", "y=#2:displacement"],
+        ),
+        (wav.with_extension("json"), vec![]),
+    ];
+    for (input, flags) in &inputs {
+        for (format, bits) in [("float32", 23), ("pcm24", 23), ("pcm16", 15)] {
+            let stem = dir.path().join(format!(
+                "{}_{}_{format}",
+                input.file_stem().unwrap().to_str().unwrap(),
+                input.extension().unwrap().to_str().unwrap()
+            ));
+            let mut args = vec!["import", s(input), "--out", s(&stem), "--format", format];
+            args.extend(flags.iter().copied());
+            let out = run_ok(&args);
+            assert!(out.contains("0 errors"), "{out}");
+            let back = read_recording(&stem).unwrap();
+            assert_eq!(back.meta.sample_rate_hz, fs);
+            assert_eq!(back.meta.channels[1].quantity, Quantity::Displacement);
+            assert_eq!(back.meta.channels[1].unit, "m");
+            assert!(stem.with_extension("quality.json").exists());
+            assert!(back.meta.excitation.steps.is_empty());
+            let got = h1(&reduce_stepped(&with_steps(&back), 1, &opts).unwrap());
+            assert_eq!(got.len(), want.len(), "{}", stem.display());
+            // quantisation step: PCM full scale is the peak, float 32
+            // rounds to 2^-23 relative at most
+            let peak = |x: &[f64]| x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let q = |x: &[f64]| peak(x) / 2f64.powi(bits);
+            let mut worst = 0.0f64;
+            for (a, b) in got.iter().zip(&want) {
+                assert!((a.0 - b.0).abs() < 1e-6, "frequency {} vs {}", a.0, b.0);
+                // a least-squares harmonic of N samples moves by at most
+                // twice the largest sample error, i.e. one step
+                let bound = q(y) / (b.3 * b.2) + q(force) / b.2;
+                let err = (a.1 - b.1).norm() / b.1.norm();
+                worst = worst.max(err / bound);
+                assert!(
+                    err <= bound,
+                    "{}: {} Hz: H1 differs by {err:.3e}, bound {bound:.3e}",
+                    stem.display(),
+                    b.0
+                );
+            }
+            eprintln!(
+                "{}: worst H1 difference {worst:.3} x the quantisation bound",
+                stem.display()
+            );
+        }
+    }
+    // the same MAT import from a TOML spec: the same recording
+    let spec = dir.path().join("import.toml");
+    std::fs::write(
+        &spec,
+        "sample_rate = { variable = \"Fs\" }\n\
+         [[channels]]\nvariable = \"Force\"\nname = \"force\"\nquantity = \"force\"\n\
+         [[channels]]\nvariable = \"Response\"\nrow = 2\nname = \"y\"\nquantity = \"displacement\"\n",
+    )
+    .unwrap();
+    let from_spec = dir.path().join("from_spec");
+    run_ok(&[
+        "import",
+        s(&mat),
+        "--out",
+        s(&from_spec),
+        "--spec",
+        s(&spec),
+    ]);
+    let flags = dir.path().join("bench_mat_float32");
+    let (a, b) = (
+        read_recording(&from_spec).unwrap(),
+        read_recording(&flags).unwrap(),
+    );
+    assert_eq!(a.channels, b.channels);
+    assert_eq!(a.meta.channels, b.meta.channels);
+}
+
+/// NaN in the data: exit 2, the channel and sample named, nothing written.
+/// Clipping, a DC offset and a declared rate the time column contradicts
+/// are warnings: written, and said.
+#[test]
+fn import_stops_on_nan_and_warns_on_clipping() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 1000.0;
+    let mut lines = String::from("time_s,f,y\n");
+    for i in 0..4000 {
+        let t = i as f64 / fs;
+        let f = (2.0 * PI * 10.0 * t).sin();
+        let y = if i == 1234 {
+            f64::NAN
+        } else {
+            0.3 * (2.0 * PI * 10.0 * t - 0.4).sin()
+        };
+        lines += &format!("{t:?},{f:?},{y:?}\n");
+    }
+    let bad = dir.path().join("nan.csv");
+    std::fs::write(&bad, &lines).unwrap();
+    let out = dir.path().join("nan_out");
+    let o = hystid(&[
+        "import",
+        s(&bad),
+        "--out",
+        s(&out),
+        "-c",
+        "f:force",
+        "-c",
+        "y:velocity",
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(t.contains("`y`") && t.contains("1234"), "{t}");
+    assert!(t.contains("nothing written"), "{t}");
+    assert!(!out.with_extension("wav").exists() && !out.with_extension("json").exists());
+    // clipped force (a rail at 0.8) and a response with a large offset
+    let mut lines = String::from("# fs = 1000 Hz\nf,y\n");
+    for i in 0..4000 {
+        let t = i as f64 / fs;
+        let f = (2.0 * PI * 10.0 * t).sin().clamp(-0.8, 0.8);
+        let y = 2.0 + 0.3 * (2.0 * PI * 10.0 * t - 0.4).sin();
+        lines += &format!("{f:?},{y:?}\n");
+    }
+    let clip = dir.path().join("clip.csv");
+    std::fs::write(&clip, &lines).unwrap();
+    let out = dir.path().join("clip_out");
+    let t = run_ok(&[
+        "import",
+        s(&clip),
+        "--out",
+        s(&out),
+        "-c",
+        "f:force",
+        "-c",
+        "y:velocity",
+    ]);
+    assert!(t.contains("warning") && t.contains("clip"), "{t}");
+    assert!(t.contains("mean") && t.contains("offset"), "{t}");
+    assert!(out.with_extension("json").exists());
+    let q: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.with_extension("quality.json")).unwrap())
+            .unwrap();
+    let kinds: Vec<&str> = q["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["kind"].as_str().unwrap())
+        .collect();
+    assert!(
+        kinds.contains(&"clipping") && kinds.contains(&"dc-offset"),
+        "{kinds:?}"
+    );
+    // a declared rate the time column contradicts is said; a rate from a
+    // time column printed with 7 decimals is rounded to whole Hz
+    let mut lines = String::from("time_s,f,y\n");
+    for i in 0..4000 {
+        let t = i as f64 / 1024.0;
+        let f = (2.0 * PI * 10.0 * t).sin();
+        lines += &format!(
+            "{t:.7},{f:.10},{:.10}\n",
+            0.3 * (2.0 * PI * 10.0 * t - 0.4).sin()
+        );
+    }
+    let timed = dir.path().join("timed.csv");
+    std::fs::write(&timed, &lines).unwrap();
+    let ch = ["-c", "f:force", "-c", "y:velocity"];
+    let out = dir.path().join("declared");
+    let mut args = vec!["import", s(&timed), "--out", s(&out), "--rate", "1000"];
+    args.extend(ch);
+    let t = run_ok(&args);
+    assert!(t.contains("warning") && t.contains("1024.000000 Hz"), "{t}");
+    let out = dir.path().join("rounded");
+    let mut args = vec![
+        "import",
+        s(&timed),
+        "--out",
+        s(&out),
+        "--rate",
+        "time:time_s",
+    ];
+    args.extend(ch);
+    let t = run_ok(&args);
+    assert!(t.contains("rounded to 1024 Hz"), "{t}");
+    assert_eq!(read_recording(&out).unwrap().meta.sample_rate_hz, 1024.0);
+}
+
+/// Every import error names the file and the field, with exit status 2.
+#[test]
+fn import_errors_name_the_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 500;
+    let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.1).sin()).collect();
+    let mat = dir.path().join("short.mat");
+    std::fs::write(
+        &mat,
+        mat_file(&[
+            ("Force", 1, n, x.clone()),
+            ("Acc", 1, n - 1, x[..n - 1].to_vec()),
+            ("Fs", 1, 1, vec![100.0]),
+        ]),
+    )
+    .unwrap();
+    let out = dir.path().join("o");
+    let err = |args: &[&str], parts: &[&str]| {
+        let o = hystid(args);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {t}");
+        for p in parts {
+            assert!(t.contains(p), "{args:?}: `{p}` missing in:\n{t}");
+        }
+    };
+    // missing variable, with the variables listed
+    err(
+        &[
+            "import",
+            s(&mat),
+            "--out",
+            s(&out),
+            "-c",
+            "Nope:force",
+            "-c",
+            "Acc:acceleration",
+        ],
+        &["short.mat", "Nope", "Force"],
+    );
+    // mismatched lengths
+    err(
+        &[
+            "import",
+            s(&mat),
+            "--out",
+            s(&out),
+            "-c",
+            "Force:force",
+            "-c",
+            "Acc:acceleration",
+        ],
+        &["short.mat", "Acc", "499", "500"],
+    );
+    // no channels: the variables are listed
+    err(
+        &["import", s(&mat), "--out", s(&out)],
+        &["short.mat", "no channels", "Acc (1x499"],
+    );
+    // a bad channel spec
+    err(
+        &["import", s(&mat), "--out", s(&out), "-c", "Force:forse"],
+        &["forse", "QUANTITY"],
+    );
+    // wrong column
+    let csv = dir.path().join("t.csv");
+    std::fs::write(&csv, "# fs = 100 Hz\nf,y\n1,2\n3,4\n5,6\n").unwrap();
+    err(
+        &[
+            "import",
+            s(&csv),
+            "--out",
+            s(&out),
+            "-c",
+            "f:force",
+            "-c",
+            "z:velocity",
+        ],
+        &["t.csv", "z"],
+    );
+    // truncated MAT
+    let bytes = std::fs::read(&mat).unwrap();
+    let cut = dir.path().join("cut.mat");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    err(
+        &[
+            "import",
+            s(&cut),
+            "--out",
+            s(&out),
+            "-c",
+            "Acc:acceleration",
+            "-c",
+            "Fs:force",
+        ],
+        &["cut.mat"],
+    );
+    // a corrupted WAV header and a truncated WAV of a recording
+    let rec = stepped(200.0, &[1.0], &[20.0]);
+    let good = dir.path().join("rec");
+    write_recording(&good, &rec, SampleFormat::Pcm16).unwrap();
+    let mut wav = std::fs::read(good.with_extension("wav")).unwrap();
+    let damaged = dir.path().join("damaged");
+    std::fs::copy(good.with_extension("json"), damaged.with_extension("json")).unwrap();
+    wav[8..12].copy_from_slice(b"WAVX");
+    std::fs::write(damaged.with_extension("wav"), &wav).unwrap();
+    err(
+        &[
+            "import",
+            s(&damaged.with_extension("json")),
+            "--out",
+            s(&out),
+        ],
+        &["damaged.wav"],
+    );
+    let short = dir.path().join("short_rec");
+    std::fs::copy(good.with_extension("json"), short.with_extension("json")).unwrap();
+    let full = std::fs::read(good.with_extension("wav")).unwrap();
+    std::fs::write(short.with_extension("wav"), &full[..full.len() - 100]).unwrap();
+    err(
+        &["import", s(&short.with_extension("wav")), "--out", s(&out)],
+        &["short_rec.wav"],
+    );
+    // a rate from a time column that is no whole number of Hz
+    let odd = dir.path().join("odd.csv");
+    let mut t = String::from("time_s,f,y\n");
+    for i in 0..200 {
+        let x = i as f64 / 610.3515625;
+        t += &format!("{x:.10},{},{}\n", (7.0 * x).sin(), (7.0 * x).cos());
+    }
+    std::fs::write(&odd, t).unwrap();
+    err(
+        &[
+            "import",
+            s(&odd),
+            "--out",
+            s(&out),
+            "-c",
+            "f:force",
+            "-c",
+            "y:velocity",
+            "--rate",
+            "time:time_s",
+        ],
+        &["odd.csv", "610.35", "whole number of Hz"],
+    );
+    // validate: a fit without a model, a missing recording
+    let fit = dir.path().join("fit.json");
+    std::fs::write(&fit, "{\"response_sign\": 1}").unwrap();
+    err(
+        &[
+            "validate",
+            s(&fit),
+            s(&good.with_extension("json")),
+            "--out",
+            s(&out),
+        ],
+        &["fit.json", "model"],
+    );
+    assert!(!out.with_extension("wav").exists());
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// Swept-sine recordings of the joint model at 3, 10 and 30 N (identify
+/// with the linear start from the lowest level), validated by simulation
+/// on an unseen 6 N sweep: the fitted model's e_RMS must be a small part of
+/// the response (it is the true model's family; the fit error is what
+/// remains) and below the linear model's. Then single-dwell recordings
+/// (one WAV per dwell, 2 levels x 4 frequencies) combine into 2 levels of 4
+/// points, and a stepped recording with stated steps is reduced from disk.
+#[test]
+fn identify_and_validate_through_the_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 400.0;
+    let mut paths = Vec::new();
+    for (name, a) in [("s3", 3.0), ("s10", 10.0), ("s30", 30.0), ("s6", 6.0)] {
+        let p = dir.path().join(name);
+        write_recording(&p, &swept(fs, 14.0, 30.0, 32.0, a), SampleFormat::Float32).unwrap();
+        paths.push(p.with_extension("json"));
+    }
+    let fit_dir = dir.path().join("fit");
+    let out = run_ok(&[
+        "identify",
+        s(&paths[0]),
+        s(&paths[1]),
+        s(&paths[2]),
+        "--out",
+        s(&fit_dir),
+        "--band",
+        "15:28",
+        "--linear-start",
+        "lowest",
+        "--hop-periods",
+        "6",
+    ]);
+    eprintln!("{out}");
+    assert!(
+        out.contains("swept sine") && out.contains("compensation"),
+        "{out}"
+    );
+    let fit = json(&fit_dir.join("fit.json"));
+    assert_eq!(fit["response"], "y");
+    let val_dir = dir.path().join("val");
+    let out = run_ok(&[
+        "validate",
+        s(&fit_dir.join("fit.json")),
+        s(&paths[3]),
+        "--out",
+        s(&val_dir),
+        "--band",
+        "15:28",
+    ]);
+    eprintln!("{out}");
+    let v = json(&val_dir.join("validate.json"));
+    let r = &v["recordings"][0];
+    let rel = r["whole"]["relative"].as_f64().unwrap();
+    let lin_dir = dir.path().join("lin");
+    run_ok(&[
+        "validate",
+        s(&fit_dir.join("fit.json")),
+        s(&paths[3]),
+        "--out",
+        s(&lin_dir),
+        "--linear",
+        "--no-frf",
+    ]);
+    let vl = json(&lin_dir.join("validate.json"));
+    let rel_lin = vl["recordings"][0]["whole"]["relative"].as_f64().unwrap();
+    eprintln!("6 N sweep: fitted e_RMS {rel:.4} of the RMS, linear {rel_lin:.4}");
+    assert!(rel < 0.1, "{rel}");
+    assert!(rel < rel_lin);
+    assert_eq!(v["model_kind"], "fitted");
+    assert_eq!(r["response"], "y");
+    assert_eq!(r["quantity"], "acceleration");
+    assert_eq!(vl["model_kind"], "linear");
+    for f in ["s6_time.png", "s6_time_window.svg", "s6_frf.png"] {
+        assert!(val_dir.join(f).exists(), "{f}");
+    }
+    assert!(r["window"]["start_s"].as_f64().unwrap() > 0.0);
+    // single-dwell files combine by level
+    let mut singles = Vec::new();
+    for level in [2.0, 8.0] {
+        for f in [17.0, 19.0, 21.0, 23.0] {
+            let mut rec = stepped(fs, &[level], &[f]);
+            rec.meta.excitation.steps.clear();
+            let p = dir.path().join(format!("dwell_{level}_{f}"));
+            write_recording(&p, &rec, SampleFormat::Pcm24).unwrap();
+            singles.push(p.with_extension("json"));
+        }
+    }
+    let single_dir = dir.path().join("singles");
+    let mut args = vec!["identify"];
+    args.extend(singles.iter().map(|p| s(p)));
+    args.extend(["--out", s(&single_dir), "--element", "jenkins"]);
+    let out = run_ok(&args);
+    assert_eq!(out.matches("1 point(s)").count(), 8, "{out}");
+    let fit = json(&single_dir.join("fit.json"));
+    assert_eq!(fit["linear"]["stick"]["points"], 4);
+    assert_eq!(fit["linear"]["underlying"]["points"], 4);
+    // stated steps: reduced from disk, one dwell at a time
+    let p = dir.path().join("stepped");
+    write_recording(
+        &p,
+        &stepped(fs, &[2.0, 8.0], &[17.0, 19.0, 21.0, 23.0]),
+        SampleFormat::Float32,
+    )
+    .unwrap();
+    let out = run_ok(&[
+        "identify",
+        s(&p.with_extension("json")),
+        "--out",
+        s(&dir.path().join("streamed")),
+        "--element",
+        "jenkins",
+    ]);
+    assert!(
+        out.contains("(streamed)") && out.contains("8 point(s)"),
+        "{out}"
+    );
+}
+
+/// The UNESP single sines: one dwell per file, combined into one level of
+/// six points; a joint fit needs two levels and says so.
+#[test]
+fn unesp_single_sines_are_one_level() {
+    let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut recs = Vec::new();
+    for f in ["06Hz", "09p5Hz", "17Hz", "18Hz", "19Hz", "20Hz"] {
+        let out = dir.path().join(format!("sine_{f}"));
+        run_ok(&[
+            "import",
+            s(&data.join(format!("csv/sine_{f}_0p15V_time.csv"))),
+            "--out",
+            s(&out),
+            "-c",
+            "drive=shaker_amp_V:voltage",
+            "-c",
+            "laser=laser_velocity_m_per_s:velocity",
+            "--excitation",
+            "stepped",
+            "-q",
+        ]);
+        recs.push(out.with_extension("json"));
+    }
+    let mut args = vec!["identify"];
+    args.extend(recs.iter().map(|p| s(p)));
+    let fit_dir = dir.path().join("fit");
+    args.extend(["--out", s(&fit_dir)]);
+    let o = hystid(&args);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert_eq!(t.matches("1 point(s)").count(), 6, "{t}");
+    assert!(
+        t.contains("at least two force levels") && t.contains("found 1"),
+        "{t}"
+    );
+}
