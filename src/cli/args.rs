@@ -231,6 +231,10 @@ pub struct IdentifyOptionsArgs {
     /// never slip fully: the smallest level's mode, k refined).
     #[arg(long, default_value = "extremes")]
     pub linear_start: String,
+    /// Modes of the linear part: 1 (the paper's SDOF) or more, located in
+    /// the residual of the SDOF fits of the largest and smallest levels.
+    #[arg(long, default_value_t = 1)]
+    pub modes: usize,
 }
 
 /// `hystid diagnose`.

@@ -436,6 +436,11 @@ pub fn fit_options(a: &IdentifyOptionsArgs) -> Result<FitOptions> {
             "lowest" => LinearStart::Lowest,
             other => bail!("--linear-start: expected extremes or lowest, got `{other}`"),
         },
+        modes: if (1..=4).contains(&a.modes) {
+            a.modes
+        } else {
+            bail!("--modes: expected 1 to 4, got {}", a.modes)
+        },
         second_optimiser: a.lm,
         bootstrap: a.bootstrap,
         seed: a.seed,

@@ -28,8 +28,8 @@ pub use features::{ResidualFeatures, features};
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
 use crate::fit::{
-    Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, Parameter, ParameterSet,
-    Prediction, Target, Transform, Weighting,
+    Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, ParameterSet, Prediction,
+    Transform, Weighting,
 };
 use crate::harmonics::omega;
 use crate::model::{ElementSpec, Mode, Model};
@@ -94,6 +94,9 @@ pub struct DiagnoseOptions {
     pub band_hz: Option<(f64, f64)>,
     /// Levenberg–Marquardt patience of each refit.
     pub patience: usize,
+    /// How the baseline was identified (a candidate mode is identified the
+    /// same way, with one more mode).
+    pub fit: crate::fit::FitOptions,
 }
 
 impl Default for DiagnoseOptions {
@@ -104,6 +107,7 @@ impl Default for DiagnoseOptions {
             harmonics: None,
             band_hz: None,
             patience: 12,
+            fit: crate::fit::FitOptions::default(),
         }
     }
 }
@@ -145,6 +149,9 @@ pub struct CandidateReport {
     pub criterion: f64,
     /// Whether it was kept.
     pub accepted: bool,
+    /// Why a candidate that passed the criterion was still not kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 /// An effect kept, with its parameters' intervals.
@@ -209,37 +216,7 @@ pub fn model_parameters(model: &Model) -> ParameterSet {
         }
         p.extend(set);
     }
-    p.extend(ParameterSet::for_sdof(0));
-    for m in 1..model.linear.modes.len() {
-        let r = model.linear.modes[m].residue;
-        let name = |f: &str| {
-            if m == 1 {
-                format!("second_mode.{f}")
-            } else {
-                format!("mode_{m}.{f}")
-            }
-        };
-        p.parameters.push(Parameter {
-            name: name("frequency_hz"),
-            target: Target::Frequency { mode: m },
-            transform: Transform::Log,
-            bounds: [1e-6, 1e9],
-        });
-        p.parameters.push(Parameter {
-            name: name("damping_ratio"),
-            target: Target::DampingRatio { mode: m },
-            transform: Transform::Log,
-            bounds: [1e-5, 0.9],
-        });
-        p.parameters.push(Parameter {
-            name: name("residue"),
-            target: Target::Residue { mode: m },
-            transform: Transform::Scaled {
-                scale: r.abs().max(f64::MIN_POSITIVE),
-            },
-            bounds: [-1e30, 1e30],
-        });
-    }
+    p.extend(ParameterSet::for_linear(model));
     p
 }
 
@@ -514,6 +491,49 @@ fn effect_parameters(model: &Model, effect: Effect) -> BTreeMap<String, f64> {
     out
 }
 
+/// Why the data do not resolve an effect's own parameters in `r`, if they
+/// do not: an interval that includes zero (the effect may not be there at
+/// all) or spans more than a decade.
+fn unresolved(
+    effect: Effect,
+    r: &Refit,
+    data: &FitData,
+    predictor: &HbPredictor,
+) -> Result<Option<String>> {
+    let params = model_parameters(&r.model);
+    let problem = FitProblem::new(
+        r.model.clone(),
+        params.clone(),
+        data,
+        predictor,
+        Weighting::StandardError,
+        None,
+    )
+    .with_warm_start(r.pred.clone());
+    let theta = params.theta_of(&r.model)?;
+    let conf = crate::fit::identify::confidence(&problem, &theta, &r.pred)?;
+    let prefix = format!("{}.", effect.name());
+    for (p, e) in params.parameters.iter().zip(&conf.estimates) {
+        let Some(name) = p.name.strip_prefix(&prefix) else {
+            continue;
+        };
+        let [lo, hi] = e.ci95;
+        let straddles = lo <= 0.0 && hi >= 0.0;
+        let too_wide = !(lo.is_finite() && hi.is_finite())
+            || (lo > 0.0 && hi / lo > 10.0)
+            || (hi < 0.0 && lo / hi > 10.0);
+        if straddles || too_wide {
+            return Ok(Some(format!(
+                "lowered χ² enough, but its {name} = {} has the 95 % interval [{}, {}]: not resolved from the noise",
+                fmt_value(e.value),
+                fmt_value(lo),
+                fmt_value(hi)
+            )));
+        }
+    }
+    Ok(None)
+}
+
 /// How many parameters an effect adds.
 fn effect_size(effect: Effect) -> usize {
     match effect {
@@ -586,6 +606,11 @@ pub fn diagnose(
     let data =
         FitData::from_frf(frf, &harmonics, options.band_hz, None)?.with_sign(fit.response_sign);
     let n_real = (2 * data.observations()) as f64;
+    // χ² against what noise alone gives with block-estimated standard errors
+    let expected = crate::fit::problem::expected_chi_square(&data);
+    let normalised = |chi2: f64| chi2 / expected.max(f64::MIN_POSITIVE);
+    // within 3 standard deviations of the noise's χ²: nothing left to explain
+    let noise_band = 1.0 + 3.0 * (2.0 / n_real).sqrt();
     let base = refit(&fit.model, &data, predictor, None, options.patience)?;
     let baseline = model_fit(&base.model, &data, &base.pred, base.chi2);
     let base_features = features(&data, &base.pred);
@@ -598,7 +623,10 @@ pub fn diagnose(
     let mut reports = Vec::new();
     let mut chosen: Vec<Effect> = Vec::new();
     let mut round = 0;
-    while round < options.max_effects && !remaining.is_empty() {
+    while round < options.max_effects
+        && !remaining.is_empty()
+        && (round == 0 || normalised(current.chi2) > noise_band)
+    {
         round += 1;
         let feats = features(&data, &current.pred);
         let ranked = rank(&feats, &remaining);
@@ -606,29 +634,49 @@ pub fn diagnose(
             .par_iter()
             .enumerate()
             .map(|(i, &(effect, _))| {
-                let Some(start) = augment(&current.model, effect, &data, &current.pred, predictor)?
-                else {
-                    return Ok(None);
-                };
-                let r = refit(
-                    &start,
-                    &data,
-                    predictor,
-                    Some(&current.pred),
-                    options.patience,
-                )?;
-                Ok(Some((effect, i + 1, r)))
+                let mut starts: Vec<Model> =
+                    augment(&current.model, effect, &data, &current.pred, predictor)?
+                        .into_iter()
+                        .collect();
+                if effect == Effect::SecondMode {
+                    // a missing mode also bends the linear estimates the
+                    // baseline started from: identify afresh with one more
+                    // mode, then add back the effects kept so far
+                    let opts = crate::fit::FitOptions {
+                        modes: current.model.linear.modes.len() + 1,
+                        band_hz: options.band_hz.or(options.fit.band_hz),
+                        ..options.fit.clone()
+                    };
+                    if let Ok(f) = crate::fit::identify(frf, &opts, predictor, None) {
+                        let mut m = f.model;
+                        m.elements
+                            .extend(current.model.elements.iter().skip(1).cloned());
+                        starts.push(m);
+                    }
+                }
+                let mut best: Option<Refit> = None;
+                for start in &starts {
+                    let r = refit(
+                        start,
+                        &data,
+                        predictor,
+                        Some(&current.pred),
+                        options.patience,
+                    )?;
+                    if best.as_ref().is_none_or(|b| r.chi2 < b.chi2) {
+                        best = Some(r);
+                    }
+                }
+                Ok(best.map(|r| (effect, i + 1, r)))
             })
             .collect();
-        let dof_of = |m: &Model| (n_real - model_parameters(m).len() as f64).max(1.0);
-        let mut best: Option<(f64, usize)> = None;
         let mut round_results = Vec::new();
         for t in tried {
             let Some((effect, rank_pos, r)) = t? else {
                 continue;
             };
             let delta = current.chi2 - r.chi2;
-            let reduced = (r.chi2 / dof_of(&r.model)).max(1.0);
+            let reduced = normalised(r.chi2).max(1.0);
             let threshold = effect_size(effect) as f64 * n_real.ln() * reduced;
             let criterion = delta - threshold;
             let report = CandidateReport {
@@ -641,13 +689,34 @@ pub fn diagnose(
                 threshold,
                 criterion,
                 accepted: false,
+                note: None,
             };
-            if criterion > 0.0 && best.is_none_or(|(d, _)| delta > d) {
-                best = Some((delta, round_results.len()));
-            }
             round_results.push((report, r));
         }
-        let Some((_, i)) = best else {
+        // the best penalised improvement (an effect with more parameters must
+        // earn them) whose own parameters the data resolve: a χ² drop bought
+        // by a size whose interval straddles zero is the noise being fitted
+        let mut order: Vec<usize> = (0..round_results.len())
+            .filter(|&j| round_results[j].0.criterion > 0.0)
+            .collect();
+        order.sort_by(|&a, &b| {
+            round_results[b]
+                .0
+                .criterion
+                .total_cmp(&round_results[a].0.criterion)
+        });
+        let mut best: Option<usize> = None;
+        for j in order {
+            let (rep, r) = &mut round_results[j];
+            match unresolved(rep.effect, r, &data, predictor)? {
+                None => {
+                    best = Some(j);
+                    break;
+                }
+                Some(why) => rep.note = Some(why),
+            }
+        }
+        let Some(i) = best else {
             reports.extend(round_results.into_iter().map(|(r, _)| r));
             break;
         };
@@ -701,7 +770,7 @@ pub fn diagnose(
     }
     let final_fit = model_fit(&current.model, &data, &current.pred, current.chi2);
     let final_features = features(&data, &current.pred);
-    let consistent = final_fit.chi2_per_dof < 2.0;
+    let consistent = final_fit.chi2_per_dof < 2.0 && normalised(current.chi2) < 2.0;
     let explanation = explain(
         &baseline,
         &base_features,
@@ -760,6 +829,11 @@ fn explain(
             .iter()
             .max_by(|a, b| a.criterion.total_cmp(&b.criterion));
         match best {
+            Some(b) if b.note.is_some() => s.push_str(&format!(
+                "No significant missing effect: the best candidate, {}, {}.",
+                b.effect.name(),
+                b.note.as_deref().unwrap_or_default()
+            )),
             Some(b) => s.push_str(&format!(
                 "No significant missing effect: the best candidate, {}, lowered χ² by {:.1}, short of the {:.1} the information criterion asks for.",
                 b.effect.name(),

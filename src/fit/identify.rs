@@ -14,14 +14,14 @@
 
 use super::linear::{FrfSample, SdofEstimate, fit_sdof};
 use super::optimise::{self, OptimiserRun};
-use super::params::{N_MAX, ParameterSet, Target, Transform};
+use super::params::{N_MAX, Parameter, ParameterSet, Target, Transform};
 use super::problem::{
     FitData, FitProblem, FrfPredictor, Prediction, TraceEntry, Weighting, chi_square,
     relative_error, residuals,
 };
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
-use crate::model::{ElementKind, ElementSpec, ModalModel, Model};
+use crate::model::{ElementKind, ElementSpec, ModalModel, Mode, Model};
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -40,6 +40,13 @@ pub struct FitOptions {
     pub refine_linear: LinearRefinement,
     /// Where the linear part starts from.
     pub linear_start: LinearStart,
+    /// Modes of the linear part (1: the paper's SDOF); more are located in
+    /// the residual of the SDOF fits of the largest and smallest levels.
+    #[serde(default = "one_mode")]
+    pub modes: usize,
+    /// Starting guesses for modes beyond the first.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extra_modes: Vec<Mode>,
     /// Run Levenberg–Marquardt as well and compare.
     pub second_optimiser: bool,
     /// Nelder–Mead iteration cap.
@@ -60,6 +67,8 @@ impl Default for FitOptions {
             weighting: Weighting::None,
             refine_linear: LinearRefinement::All,
             linear_start: LinearStart::Extremes,
+            modes: 1,
+            extra_modes: Vec::new(),
             second_optimiser: false,
             max_iterations: 600,
             bootstrap: 0,
@@ -67,6 +76,30 @@ impl Default for FitOptions {
             band_hz: None,
         }
     }
+}
+
+fn one_mode() -> usize {
+    1
+}
+
+/// The joint mode's stiffness at the smallest level.
+fn stick_stiffness(linear: &LinearReport) -> f64 {
+    linear
+        .stick_modes
+        .as_ref()
+        .map_or(linear.stick.stiffness, |m| m.modes[0].modal_stiffness())
+}
+
+/// The parameters of every mode beyond the first.
+fn extra_mode_parameters(model: &Model) -> ParameterSet {
+    let mut p = ParameterSet::for_linear(model);
+    p.parameters.retain(|q| {
+        !matches!(
+            q.target,
+            Target::Mass { .. } | Target::Damping { .. } | Target::Stiffness { .. }
+        )
+    });
+    p
 }
 
 /// Which linear parameters the element fit refines.
@@ -164,6 +197,12 @@ pub struct LinearReport {
     pub stick_level: f64,
     /// Initial `kd = k_low − k`.
     pub kd_initial: f64,
+    /// With several modes: the largest level's modes (the joint's first).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub underlying_modes: Option<ModalModel>,
+    /// With several modes: the smallest level's modes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stick_modes: Option<ModalModel>,
 }
 
 /// Misfit measures.
@@ -225,6 +264,18 @@ pub struct FitResult {
 
 /// Linear system estimates from the largest and smallest levels.
 pub fn linear_from_levels(frf: &NonlinearFrf, band_hz: Option<(f64, f64)>) -> Result<LinearReport> {
+    linear_from_levels_with(frf, band_hz, 1, &[])
+}
+
+/// [`linear_from_levels`] with `modes` modes per level: the SDOF estimate
+/// first (the joint's mode), then modes located in its residual (or given
+/// in `extra`, as starting guesses), all fitted together.
+pub fn linear_from_levels_with(
+    frf: &NonlinearFrf,
+    band_hz: Option<(f64, f64)>,
+    modes: usize,
+    extra: &[Mode],
+) -> Result<LinearReport> {
     let samples = |i: usize| -> Vec<FrfSample> {
         frf.levels[i]
             .points
@@ -267,15 +318,64 @@ pub fn linear_from_levels(frf: &NonlinearFrf, band_hz: Option<(f64, f64)>) -> Re
         frf.response,
         &format!("level {} (smallest)", frf.levels[lo].level),
     )?;
+    let several = |s: &SdofEstimate,
+                   samples: &[FrfSample],
+                   what: &str|
+     -> Result<Option<ModalModel>> {
+        if modes <= 1 && extra.is_empty() {
+            return Ok(None);
+        }
+        let mut main = Mode::from_mck(s.mass, s.damping, s.stiffness)?;
+        main.residue *= s.sign;
+        let mut m = ModalModel::new(vec![main])?;
+        for i in 1..modes.max(extra.len() + 1) {
+            let guess = match extra.get(i - 1) {
+                Some(g) => Mode {
+                    residue: g.residue * s.sign,
+                    ..*g
+                },
+                None => super::linear::locate_extra_mode(samples, frf.response, &m)
+                    .ok_or_else(|| Error::input(what, "too few points to locate another mode"))?,
+            };
+            m.modes.push(guess);
+            m = super::linear::fit_modes(samples, frf.response, &m, what)?.0;
+        }
+        // the model is fitted to H × sign: flip every modal constant with it
+        for mode in &mut m.modes {
+            mode.residue *= s.sign;
+        }
+        Ok(Some(m))
+    };
+    let underlying_modes = several(
+        &underlying,
+        &samples(hi),
+        &format!("level {} (largest)", frf.levels[hi].level),
+    )?;
+    let stick_modes = several(
+        &stick,
+        &samples(lo),
+        &format!("level {} (smallest)", frf.levels[lo].level),
+    )?;
+    let k_of = |m: &Option<ModalModel>, s: &SdofEstimate| {
+        m.as_ref()
+            .map_or(s.stiffness, |m| m.modes[0].modal_stiffness())
+    };
     Ok(LinearReport {
         mass: underlying.mass,
         damping: underlying.damping,
         stiffness: underlying.stiffness,
-        kd_initial: stick.stiffness - underlying.stiffness,
+        kd_initial: match (&underlying_modes, &stick_modes) {
+            // a spring kd at the point puts the stick resonance where
+            // 1 + kd Re H(ω) = 0 (for one mode, the paper's k_low − k)
+            (Some(u), Some(st)) => -1.0 / u.receptance(st.modes[0].omega()).re,
+            _ => k_of(&stick_modes, &stick) - k_of(&underlying_modes, &underlying),
+        },
         underlying,
         underlying_level: frf.levels[hi].level,
         stick,
         stick_level: frf.levels[lo].level,
+        underlying_modes,
+        stick_modes,
     })
 }
 
@@ -287,7 +387,8 @@ pub fn identify(
     observer: Option<&(dyn Fn(&TraceEntry) + Sync)>,
 ) -> Result<FitResult> {
     let t0 = std::time::Instant::now();
-    let mut linear = linear_from_levels(frf, options.band_hz)?;
+    let mut linear =
+        linear_from_levels_with(frf, options.band_hz, options.modes, &options.extra_modes)?;
     let mut notes = Vec::new();
     // the lowest level is the most linear: its modal constant's sign decides
     let sign = linear.stick.sign;
@@ -309,23 +410,38 @@ pub fn identify(
                 ));
                 linear.stiffness
             };
-            (
-                ModalModel::sdof(linear.mass, linear.damping, linear.stiffness)?,
-                kd0,
-            )
+            let lin = match &linear.underlying_modes {
+                Some(m) => m.clone(),
+                None => ModalModel::sdof(linear.mass, linear.damping, linear.stiffness)?,
+            };
+            (lin, kd0)
         }
         LinearStart::Lowest => {
             // the joint never slips fully: start from the smallest level's
             // mode (stick) and take kd out of its stiffness, guessing twice
             // the softening the largest level shows
             let st = &linear.stick;
-            let softening = st.stiffness - linear.underlying.stiffness;
-            let kd0 = (2.0 * softening).clamp(0.02 * st.stiffness, 0.9 * st.stiffness);
+            let k_low = stick_stiffness(&linear);
+            let softening = k_low - linear.underlying.stiffness;
+            let kd0 = (2.0 * softening).clamp(0.02 * k_low, 0.9 * k_low);
             linear.kd_initial = kd0;
-            (
-                ModalModel::sdof(st.mass, st.damping, st.stiffness - kd0)?,
-                kd0,
-            )
+            let mut lin = match &linear.stick_modes {
+                Some(m) => m.clone(),
+                None => ModalModel::sdof(st.mass, st.damping, st.stiffness)?,
+            };
+            let mut as_model = Model {
+                linear: lin.clone(),
+                elements: Vec::new(),
+            };
+            Parameter {
+                name: String::new(),
+                target: Target::Stiffness { mode: 0 },
+                transform: Transform::Log,
+                bounds: [0.0, f64::INFINITY],
+            }
+            .write(&mut as_model, k_low - kd0)?;
+            lin = as_model.linear;
+            (lin, kd0)
         }
     };
     let element = match options.element {
@@ -351,12 +467,13 @@ pub fn identify(
     match (options.linear_start, options.refine_linear) {
         (LinearStart::Extremes, LinearRefinement::None) => {}
         (LinearStart::Extremes, LinearRefinement::Damping) => {
-            params.extend(ParameterSet::for_sdof_damping(0))
+            params.extend(ParameterSet::for_sdof_damping(0));
+            params.extend(extra_mode_parameters(&base));
         }
-        (_, LinearRefinement::All) => params.extend(ParameterSet::for_sdof(0)),
+        (_, LinearRefinement::All) => params.extend(ParameterSet::for_linear(&base)),
         (LinearStart::Lowest, _) => {
             // k and kd are both unknown here: k is always refined
-            let mut kc = ParameterSet::for_sdof(0);
+            let mut kc = ParameterSet::for_linear(&base);
             kc.parameters
                 .retain(|p| !matches!(p.target, Target::Mass { .. }));
             params.extend(kc);
@@ -364,7 +481,7 @@ pub fn identify(
     }
     if options.linear_start == LinearStart::Lowest {
         // stage 1 keeps k + kd at the smallest level's stiffness
-        let total = linear.stick.stiffness;
+        let total = stick_stiffness(&linear);
         for p in &mut element_params.parameters {
             if matches!(&p.target, Target::Element { name, .. } if name == "kd") {
                 p.target = Target::TiedStickStiffness {
@@ -376,10 +493,19 @@ pub fn identify(
             }
         }
     }
-    // stage 1: the element alone, on the linear system as estimated
+    // stage 1: the element, on the linear system as estimated, with its
+    // damping free: the largest level's damping carries the slipping joint's
+    // equivalent damping, which the element parameters would otherwise bend
+    // themselves to absorb
+    let mut stage1_params = element_params.clone();
+    if options.linear_start == LinearStart::Extremes
+        && options.refine_linear != LinearRefinement::None
+    {
+        stage1_params.extend(ParameterSet::for_sdof_damping(0));
+    }
     let stage1 = FitProblem::new(
         base.clone(),
-        element_params.clone(),
+        stage1_params.clone(),
         &data,
         predictor,
         options.weighting,
@@ -392,9 +518,9 @@ pub fn identify(
     let (lmin, lmax) = data.series.iter().fold((f64::MAX, 0.0f64), |(a, b), s| {
         (a.min(s.level), b.max(s.level))
     });
-    let mut theta = element_params.theta_of(&base)?;
+    let mut theta = stage1_params.theta_of(&base)?;
     let index_of = |name: &str| {
-        element_params
+        stage1_params
             .parameters
             .iter()
             .position(|p| p.name == name)
@@ -402,9 +528,12 @@ pub fn identify(
     };
     let (fd_index, kd_index) = (index_of("fd"), index_of("kd"));
     let kd_candidates: Vec<f64> = match options.linear_start {
-        LinearStart::Extremes => vec![theta[kd_index]],
+        LinearStart::Extremes => [0.7, 1.0, 1.4]
+            .iter()
+            .map(|f| theta[kd_index] + f64::ln(*f))
+            .collect(),
         LinearStart::Lowest => {
-            let total = linear.stick.stiffness;
+            let total = stick_stiffness(&linear);
             let softening = (total - linear.underlying.stiffness).max(0.01 * total);
             [1.0, 1.4, 2.0, 3.0, 5.0]
                 .iter()
@@ -428,11 +557,11 @@ pub fn identify(
     theta[kd_index] = best.1;
     theta[fd_index] = best.2;
     let start = theta.clone();
-    let steps1: Vec<f64> = element_params.parameters.iter().map(initial_step).collect();
+    let steps1: Vec<f64> = stage1_params.parameters.iter().map(initial_step).collect();
     let r1 = optimise::nelder_mead(&stage1, &theta, &steps1, options.max_iterations, 1e-5)?;
     // stage 2: every free parameter from stage 1's optimum, a small simplex
     // (also restarts a simplex that may have collapsed early)
-    let (base2, _) = element_params.model_at(&base, &r1.theta)?;
+    let (base2, _) = stage1_params.model_at(&base, &r1.theta)?;
     let problem = FitProblem::new(
         base2.clone(),
         params.clone(),
@@ -471,7 +600,7 @@ pub fn identify(
     // estimated from the same data, so the element's intervals must carry
     // their uncertainty even when the optimiser held them fixed
     let mut u_params = ParameterSet::for_element(&model, 0, "");
-    u_params.extend(ParameterSet::for_sdof(0));
+    u_params.extend(ParameterSet::for_linear(&model));
     let u_problem = FitProblem::new(
         model.clone(),
         u_params.clone(),
@@ -502,8 +631,8 @@ pub fn identify(
             None,
         );
         // from stage 1's start (the slip-force scan), every parameter free
-        let mut lm_start = params.theta_of(&base)?;
-        lm_start[..start.len()].copy_from_slice(&start);
+        let (start_model, _) = stage1_params.model_at(&base, &start)?;
+        let lm_start = params.theta_of(&start_model)?;
         let lm = optimise::levenberg_marquardt(&lm_problem, &lm_start, 60)?;
         let values = params.values(&lm.theta);
         let agrees = params.parameters.iter().zip(&values).all(|(p, v)| {

@@ -187,6 +187,229 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
     })
 }
 
+/// Locates one more mode in an FRF that `model` fits: a grid over its
+/// frequency (from 0.3 × the lowest to 10 × the highest point) and damping
+/// ratio, with the (real) modal constant by weighted least squares on the
+/// residual `H − H_model` as a receptance. `None` with fewer than 4 points.
+pub fn locate_extra_mode(
+    samples: &[FrfSample],
+    quantity: Quantity,
+    model: &crate::model::ModalModel,
+) -> Option<crate::model::Mode> {
+    if samples.len() < 4 {
+        return None;
+    }
+    let pts: Vec<(f64, Complex64, f64)> = samples
+        .iter()
+        .map(|s| {
+            let w = omega(s.frequency_hz);
+            let p = quantity.from_displacement(w);
+            let h = s.h / p;
+            let sd = if s.std_error > 0.0 {
+                s.std_error / p.norm()
+            } else {
+                h.norm()
+            };
+            (s.frequency_hz, h - model.receptance(w), sd)
+        })
+        .collect();
+    locate_mode_in(
+        &pts,
+        &model
+            .modes
+            .iter()
+            .map(|m| m.frequency_hz)
+            .collect::<Vec<_>>(),
+    )
+}
+
+/// The mode that best explains a receptance residual `(f, r, σ)`, away
+/// (3 %) from the frequencies in `avoid`.
+pub fn locate_mode_in(pts: &[(f64, Complex64, f64)], avoid: &[f64]) -> Option<crate::model::Mode> {
+    if pts.len() < 4 {
+        return None;
+    }
+    let fmin = pts.iter().map(|p| p.0).fold(f64::MAX, f64::min);
+    let fmax = pts.iter().map(|p| p.0).fold(0.0, f64::max);
+    let mut best: Option<(f64, crate::model::Mode)> = None;
+    for i in 0..=300 {
+        let f2 = 0.3 * fmin * (10.0 * fmax / (0.3 * fmin)).powf(i as f64 / 300.0);
+        if avoid.iter().any(|e| (f2 / e - 1.0).abs() < 0.03) {
+            continue;
+        }
+        for zeta in [0.002, 0.005, 0.01, 0.02, 0.05, 0.1] {
+            let w2 = omega(f2);
+            let g = |f: f64| {
+                let w = omega(f);
+                1.0 / Complex64::new(w2 * w2 - w * w, 2.0 * zeta * w2 * w)
+            };
+            let (mut num, mut den) = (0.0, 0.0);
+            for &(f, r, s) in pts {
+                let gg = g(f);
+                let wt = 1.0 / s.max(f64::MIN_POSITIVE).powi(2);
+                num += wt * (gg.conj() * r).re;
+                den += wt * gg.norm_sqr();
+            }
+            if den <= 0.0 || num == 0.0 {
+                continue;
+            }
+            let res = num / den;
+            let cost: f64 = pts
+                .iter()
+                .map(|&(f, r, s)| (r - res * g(f)).norm_sqr() / s.max(f64::MIN_POSITIVE).powi(2))
+                .sum();
+            if best.as_ref().is_none_or(|b| cost < b.0) {
+                best = Some((
+                    cost,
+                    crate::model::Mode {
+                        frequency_hz: f2,
+                        damping_ratio: zeta,
+                        residue: res,
+                    },
+                ));
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// Fits every mode of `start` (frequency, damping ratio, modal constant) to
+/// FRF points by Levenberg–Marquardt on `(H − H_model)/σ` as receptances,
+/// with the analytic Jacobian. Returns the modes and the RMS relative
+/// residual.
+pub fn fit_modes(
+    samples: &[FrfSample],
+    quantity: Quantity,
+    start: &crate::model::ModalModel,
+    what: &str,
+) -> Result<(crate::model::ModalModel, f64)> {
+    use crate::model::{ModalModel, Mode};
+    use nalgebra::{DMatrix, DVector, Dyn, Owned};
+    let pts: Vec<(f64, Complex64, f64)> = samples
+        .iter()
+        .map(|s| {
+            let w = omega(s.frequency_hz);
+            let p = quantity.from_displacement(w);
+            let h = s.h / p;
+            (
+                w,
+                h,
+                if s.std_error > 0.0 {
+                    s.std_error / p.norm()
+                } else {
+                    h.norm()
+                },
+            )
+        })
+        .collect();
+    let n = start.modes.len();
+    if pts.len() < 3 * n + 1 {
+        return Err(Error::input(
+            what,
+            format!("{} points cannot determine {n} modes", pts.len()),
+        ));
+    }
+    // θ per mode: ln ω_r, ln ζ_r, R_r / R_r0
+    let scales: Vec<f64> = start.modes.iter().map(|m| m.residue.abs()).collect();
+    struct P<'a> {
+        pts: &'a [(f64, Complex64, f64)],
+        scales: &'a [f64],
+        theta: DVector<f64>,
+    }
+    impl P<'_> {
+        fn modes(&self) -> Vec<(f64, f64, f64)> {
+            (0..self.scales.len())
+                .map(|r| {
+                    (
+                        self.theta[3 * r].exp(),
+                        self.theta[3 * r + 1].exp(),
+                        self.theta[3 * r + 2] * self.scales[r],
+                    )
+                })
+                .collect()
+        }
+    }
+    impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for P<'_> {
+        type ResidualStorage = Owned<f64, Dyn>;
+        type JacobianStorage = Owned<f64, Dyn, Dyn>;
+        type ParameterStorage = Owned<f64, Dyn>;
+        fn set_params(&mut self, x: &DVector<f64>) {
+            self.theta.copy_from(x);
+        }
+        fn params(&self) -> DVector<f64> {
+            self.theta.clone()
+        }
+        fn residuals(&self) -> Option<DVector<f64>> {
+            let modes = self.modes();
+            let mut r = DVector::zeros(2 * self.pts.len());
+            for (i, &(w, h, s)) in self.pts.iter().enumerate() {
+                let m: Complex64 = modes
+                    .iter()
+                    .map(|&(wr, z, res)| res / Complex64::new(wr * wr - w * w, 2.0 * z * wr * w))
+                    .sum();
+                let d = (h - m) / s;
+                r[2 * i] = d.re;
+                r[2 * i + 1] = d.im;
+            }
+            Some(r)
+        }
+        fn jacobian(&self) -> Option<DMatrix<f64>> {
+            let modes = self.modes();
+            let mut j = DMatrix::zeros(2 * self.pts.len(), 3 * modes.len());
+            for (i, &(w, _, s)) in self.pts.iter().enumerate() {
+                for (r, &(wr, z, res)) in modes.iter().enumerate() {
+                    let den = Complex64::new(wr * wr - w * w, 2.0 * z * wr * w);
+                    let g = 1.0 / den;
+                    // ∂(−R g)/∂θ: ∂den/∂ln ω_r = 2ω_r² + 2jζω_r ω, ∂den/∂ln ζ = 2jζω_r ω
+                    let d_lnw = res * g * g * Complex64::new(2.0 * wr * wr, 2.0 * z * wr * w) / s;
+                    let d_lnz = res * g * g * Complex64::new(0.0, 2.0 * z * wr * w) / s;
+                    let d_r = -g * self.scales[r] / s;
+                    for (c, v) in [(3 * r, d_lnw), (3 * r + 1, d_lnz), (3 * r + 2, d_r)] {
+                        j[(2 * i, c)] = v.re;
+                        j[(2 * i + 1, c)] = v.im;
+                    }
+                }
+            }
+            Some(j)
+        }
+    }
+    let mut theta = DVector::zeros(3 * n);
+    for (r, m) in start.modes.iter().enumerate() {
+        theta[3 * r] = m.omega().ln();
+        theta[3 * r + 1] = m.damping_ratio.max(1e-5).ln();
+        theta[3 * r + 2] = m.residue / scales[r];
+    }
+    let (p, report) = levenberg_marquardt::LevenbergMarquardt::new().minimize(P {
+        pts: &pts,
+        scales: &scales,
+        theta,
+    });
+    if !report.termination.was_successful() && report.objective_function.is_nan() {
+        return Err(Error::NotConverged {
+            stage: "modal fit",
+            reason: format!("{what}: {:?}", report.termination),
+        });
+    }
+    let modes: Vec<Mode> = p
+        .modes()
+        .into_iter()
+        .map(|(wr, z, res)| Mode {
+            frequency_hz: wr / (2.0 * std::f64::consts::PI),
+            damping_ratio: z.min(0.99),
+            residue: res,
+        })
+        .collect();
+    let model = ModalModel::new(modes)
+        .map_err(|e| Error::input(what, format!("the modal fit gave an invalid mode: {e}")))?;
+    let rms = (pts
+        .iter()
+        .map(|&(w, h, _)| ((h - model.receptance(w)) / h).norm_sqr())
+        .sum::<f64>()
+        / pts.len() as f64)
+        .sqrt();
+    Ok((model, rms))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -255,6 +478,39 @@ mod tests {
         let e = fit_sdof(&s, Quantity::Acceleration, "t").unwrap();
         assert_eq!(e.sign, -1.0);
         assert!((e.mass / 10.0 - 1.0).abs() < 1e-9 && (e.stiffness / 1e7 - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_second_mode_is_located_and_both_are_fitted() {
+        use crate::model::{ModalModel, Mode};
+        let truth = ModalModel::new(vec![
+            Mode::from_mck(10.0, 200.0, 1e7).unwrap(),
+            Mode::from_modal_mass(420.0, 0.01, 50.0).unwrap(),
+        ])
+        .unwrap();
+        let s: Vec<FrfSample> = (0..51)
+            .map(|i| {
+                let f = 100.0 + 5.0 * i as f64;
+                let h = truth.receptance(omega(f));
+                FrfSample {
+                    frequency_hz: f,
+                    h,
+                    std_error: 1e-3 * h.norm(),
+                }
+            })
+            .collect();
+        let sdof = fit_sdof(&s, Quantity::Displacement, "t").unwrap();
+        let one = ModalModel::sdof(sdof.mass, sdof.damping, sdof.stiffness).unwrap();
+        let extra = locate_extra_mode(&s, Quantity::Displacement, &one).unwrap();
+        assert!((extra.frequency_hz / 420.0 - 1.0).abs() < 0.15, "{extra:?}");
+        let start = ModalModel::new(vec![one.modes[0], extra]).unwrap();
+        let (fitted, rms) = fit_modes(&s, Quantity::Displacement, &start, "t").unwrap();
+        assert!(rms < 1e-8, "rms {rms}");
+        for (a, b) in fitted.modes.iter().zip(&truth.modes) {
+            assert!((a.frequency_hz / b.frequency_hz - 1.0).abs() < 1e-8);
+            assert!((a.damping_ratio / b.damping_ratio - 1.0).abs() < 1e-6);
+            assert!((a.residue / b.residue - 1.0).abs() < 1e-6);
+        }
     }
 
     #[test]

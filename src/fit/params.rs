@@ -331,6 +331,43 @@ impl ParameterSet {
         }
     }
 
+    /// The linear part's parameters: the first mode as an SDOF (`m, c, k`),
+    /// and each further mode's frequency, damping ratio and modal constant.
+    pub fn for_linear(model: &Model) -> ParameterSet {
+        let mut p = ParameterSet::for_sdof(0);
+        for m in 1..model.linear.modes.len() {
+            let r = model.linear.modes[m].residue;
+            let name = |f: &str| {
+                if m == 1 {
+                    format!("second_mode.{f}")
+                } else {
+                    format!("mode_{m}.{f}")
+                }
+            };
+            p.parameters.push(Parameter {
+                name: name("frequency_hz"),
+                target: Target::Frequency { mode: m },
+                transform: Transform::Log,
+                bounds: [1e-6, 1e9],
+            });
+            p.parameters.push(Parameter {
+                name: name("damping_ratio"),
+                target: Target::DampingRatio { mode: m },
+                transform: Transform::Log,
+                bounds: [1e-5, 0.9],
+            });
+            p.parameters.push(Parameter {
+                name: name("residue"),
+                target: Target::Residue { mode: m },
+                transform: Transform::Scaled {
+                    scale: r.abs().max(f64::MIN_POSITIVE),
+                },
+                bounds: [-1e30, 1e30],
+            });
+        }
+        p
+    }
+
     /// Appends another set.
     pub fn extend(&mut self, other: ParameterSet) {
         self.parameters.extend(other.parameters);

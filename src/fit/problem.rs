@@ -24,6 +24,9 @@ pub struct MeasuredPoint {
     pub h: Vec<Complex64>,
     /// Standard error of each.
     pub std_error: Vec<f64>,
+    /// Blocks the standard errors were estimated from (0: unknown).
+    #[serde(default)]
+    pub blocks: usize,
 }
 
 /// The points of one level (one sweep), in measurement order.
@@ -94,6 +97,7 @@ impl FitData {
                     force_amplitude: p.force_amplitude,
                     h: harmonics.iter().map(|&k| p.h[k]).collect(),
                     std_error: harmonics.iter().map(|&k| p.std_error[k]).collect(),
+                    blocks: p.blocks,
                 })
                 .collect();
             if !points.is_empty() {
@@ -229,6 +233,25 @@ pub fn relative_error(data: &FitData, pred: &Prediction, h: usize) -> Option<f64
         }
     }
     Some((num / den.max(f64::MIN_POSITIVE)).sqrt())
+}
+
+/// The `χ²` expected from noise alone: with a standard error estimated from
+/// the scatter of `B` blocks (`2(B − 1)` real degrees of freedom), each real
+/// residual component's `z²` follows `F(1, 2(B − 1))`, whose mean is
+/// `(B − 1)/(B − 2)`, not 1 (1.17 for 8 blocks, 1.07 for 16).
+pub fn expected_chi_square(data: &FitData) -> f64 {
+    let per = |b: usize| {
+        if b > 2 {
+            (b as f64 - 1.0) / (b as f64 - 2.0)
+        } else {
+            1.0
+        }
+    };
+    data.series
+        .iter()
+        .flat_map(|s| &s.points)
+        .map(|p| 2.0 * data.harmonics.len() as f64 * per(p.blocks))
+        .sum()
 }
 
 /// `χ²`: the sum of squared residuals scaled by the measured standard errors.
