@@ -583,10 +583,11 @@ impl<B: Backbone> Masing<B> {
     }
 
     /// The branch's force at `x`, from the anchor when it is close and on
-    /// the same branch, else exactly (and then it becomes the anchor).
+    /// the same branch, else exactly (and then it becomes the anchor if
+    /// `remember`: a commit, which clears the anchor, does not need it).
     #[inline]
-    fn force_at(&self, x: f64, at: Located) -> ElementForce {
-        let (force, stiffness, _) = self.branch_at(x, at);
+    fn force_at(&self, x: f64, at: Located, remember: bool) -> ElementForce {
+        let (force, stiffness, _) = self.branch_at(x, at, remember);
         ElementForce {
             force,
             stiffness,
@@ -597,7 +598,7 @@ impl<B: Backbone> Masing<B> {
     /// `(force, tangent, curvature)` of the branch `at` at `x` (see
     /// [`Masing::force_at`]).
     #[inline]
-    fn branch_at(&self, x: f64, at: Located) -> (f64, f64, f64) {
+    fn branch_at(&self, x: f64, at: Located, remember: bool) -> (f64, f64, f64) {
         if let Some(a) = self.anchor.get() {
             let h = x - a.x;
             if a.at == at && h.abs() <= a.radius {
@@ -625,14 +626,16 @@ impl<B: Backbone> Masing<B> {
                 self.backbone.taylor_radius_at(arg),
             )
         };
-        self.anchor.set(Some(Anchor {
-            x,
-            at,
-            force,
-            stiffness,
-            curvature,
-            radius,
-        }));
+        if remember {
+            self.anchor.set(Some(Anchor {
+                x,
+                at,
+                force,
+                stiffness,
+                curvature,
+                radius,
+            }));
+        }
         (force, stiffness, curvature)
     }
 }
@@ -657,13 +660,13 @@ const SOLVE_STEPS: usize = 4;
 impl<B: Backbone> Element for Masing<B> {
     #[inline]
     fn trial(&self, x: f64, _v: f64) -> ElementForce {
-        self.force_at(x, self.locate(x))
+        self.force_at(x, self.locate(x), true)
     }
 
     #[inline]
     fn commit(&mut self, x: f64, _v: f64) -> ElementForce {
         let at = self.locate(x);
-        let f = self.force_at(x, at);
+        let f = self.force_at(x, at, false);
         if at.push && at.open > self.stack.len() {
             self.stack.push((self.x_prev, self.f_prev));
         } else {
@@ -712,7 +715,7 @@ impl<B: Backbone> Element for Masing<B> {
             self.stack_sens.resize(2 * n * self.stack.len(), 0.0);
         }
         let at = self.locate(x);
-        let f = self.force_at(x, at);
+        let f = self.force_at(x, at, false);
         if at.push && at.open > self.stack.len() {
             self.stack.push((self.x_prev, self.f_prev));
             self.stack_sens.extend_from_slice(&self.prev_sens);
@@ -767,7 +770,7 @@ impl<B: Backbone> Element for Masing<B> {
         for _ in 0..SOLVE_STEPS {
             let x = s.x_pred + s.bx * u;
             let at = self.locate(x);
-            let (g, k, c) = self.branch_at(x, at);
+            let (g, k, c) = self.branch_at(x, at, true);
             let r = u - s.force + g;
             let tol = SOLVE_TOLERANCE * (s.force.abs() + g.abs() + u.abs()) + f64::MIN_POSITIVE;
             if r.abs() <= tol {
