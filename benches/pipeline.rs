@@ -28,14 +28,9 @@ mod common;
 use common::masing_model;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use hystid::fit::{FitOptions, HbPredictor, identify};
-use hystid::harmonics::Quantity;
 use hystid::hb::{HbOptions, frf_set_for_model};
-use hystid::record::{
-    Channel, Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter,
-    RunInfo,
-};
-use hystid::testbench::{self, BenchSink, LevelOutput, NoSink, TestDefinition};
-use std::collections::BTreeMap;
+use hystid::record::{Excitation, ExcitationKind, FORMAT_V1, RecordingMeta, RecordingWriter};
+use hystid::testbench::{self, NoSink, TestDefinition};
 use std::time::Duration;
 
 fn config() -> Criterion {
@@ -46,6 +41,9 @@ fn config() -> Criterion {
 }
 
 fn bench_run(c: &mut Criterion) {
+    if !common::wanted("testbench") {
+        return;
+    }
     let def = TestDefinition::embedded_default();
     let run = testbench::run(&def, &mut NoSink, &|| ()).unwrap();
     eprintln!(
@@ -62,82 +60,15 @@ fn bench_run(c: &mut Criterion) {
     g.finish();
 }
 
-/// Keeps the level with the most frames.
-struct Keep(Option<LevelOutput>);
-
-impl BenchSink for Keep {
-    fn level(&mut self, out: &LevelOutput, _first: u64) -> hystid::Result<()> {
-        if self
-            .0
-            .as_ref()
-            .is_none_or(|k| k.force.len() < out.force.len())
-        {
-            self.0 = Some(out.clone());
-        }
-        Ok(())
-    }
-}
-
-fn channels() -> Vec<Channel> {
-    [
-        ("force", Quantity::Force),
-        ("displacement", Quantity::Displacement),
-        ("velocity", Quantity::Velocity),
-        ("acceleration", Quantity::Acceleration),
-    ]
-    .into_iter()
-    .map(|(n, q)| Channel {
-        name: n.into(),
-        quantity: q,
-        unit: q.si_unit().into(),
-        scale: 1.0,
-    })
-    .collect()
-}
-
 fn bench_record(c: &mut Criterion) {
-    let def = TestDefinition::embedded_default();
-    let fs = def.sample_rate_hz().unwrap();
-    let mut keep = Keep(None);
-    testbench::run(&def, &mut keep, &|| ()).unwrap();
-    let level = keep.0.unwrap();
+    if !common::wanted("record") {
+        return;
+    }
+    let (level, fs) = common::default_level();
+    let dwells = common::dwell_signals(&level);
     let dir = tempfile::tempdir().unwrap();
-    let info = RunInfo {
-        tool_version: "bench".into(),
-        test_definition: hystid::testbench::DEFAULT_TEST.into(),
-        seed: 1,
-        sample_rate_hz: fs,
-        channels: channels(),
-        metadata: BTreeMap::new(),
-    };
-    // as the simulate command does: per dwell, f32 signals widened to f64
-    let f64s = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();
-    let dwells: Vec<(u64, [Vec<f64>; 4])> = level
-        .dwells
-        .iter()
-        .map(|d| {
-            let a = (d.start - level.dwells[0].start) as usize;
-            let r = a..a + d.length;
-            (
-                d.start - level.dwells[0].start,
-                [
-                    f64s(&level.force[r.clone()]),
-                    f64s(&level.displacement[r.clone()]),
-                    f64s(&level.velocity[r.clone()]),
-                    f64s(&level.acceleration[r]),
-                ],
-            )
-        })
-        .collect();
     let path = dir.path().join("run.mcap");
-    let write_mcap = || {
-        let mut m = McapRecorder::create(&path, &info).unwrap();
-        for (i, (start, s)) in dwells.iter().enumerate() {
-            m.write_signals(i as u32, *start, &s[0], &s[1], &s[2], &s[3])
-                .unwrap();
-        }
-        m.finish().unwrap();
-    };
+    let write_mcap = || common::write_mcap(&path, fs, &dwells);
     write_mcap();
     let bytes = std::fs::metadata(&path).unwrap().len();
     eprintln!(
@@ -152,7 +83,7 @@ fn bench_record(c: &mut Criterion) {
     let meta = RecordingMeta {
         format: FORMAT_V1.into(),
         sample_rate_hz: fs,
-        channels: channels(),
+        channels: common::bench_channels(),
         excitation: Excitation {
             kind: ExcitationKind::SteppedSine,
             steps: Vec::new(),
@@ -184,6 +115,9 @@ fn bench_record(c: &mut Criterion) {
 }
 
 fn bench_hb(c: &mut Criterion) {
+    if !common::wanted("hb") {
+        return;
+    }
     let def = TestDefinition::embedded_default();
     let levels = def.test.levels_n.clone();
     let freqs = def.frequencies().unwrap();
@@ -209,6 +143,9 @@ fn bench_hb(c: &mut Criterion) {
 }
 
 fn bench_fit(c: &mut Criterion) {
+    if !common::wanted("fit") {
+        return;
+    }
     let def = TestDefinition::embedded_default();
     let run = testbench::run(&def, &mut NoSink, &|| ()).unwrap();
     let options = FitOptions::default();

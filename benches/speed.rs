@@ -26,6 +26,11 @@
 //! * `extract/*`: one coherent dwell of 4096 samples (4 blocks of 1024, 8
 //!   periods each), harmonics 0..=7; the non-coherent least-squares
 //!   reduction of the same samples for comparison.
+//! * `record/mcap_write/one_level`: the longest level of the embedded default
+//!   test (51 dwells, four channels) written to a run file as `hystid
+//!   simulate` writes it (single-threaded zstd): ≥ 200 MB/s of file. The
+//!   CPU time leaves out waiting for the disk (`finish` syncs the file);
+//!   `cargo bench --bench pipeline -- record` has the wall time.
 
 #[path = "common/mod.rs"]
 mod common;
@@ -231,9 +236,28 @@ fn extraction(c: &mut Criterion<ThreadCpu>) {
     g.finish();
 }
 
+fn recording(c: &mut Criterion<ThreadCpu>) {
+    if !common::wanted("record") {
+        return;
+    }
+    let (level, fs) = common::default_level();
+    let dwells = common::dwell_signals(&level);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.mcap");
+    common::write_mcap(&path, fs, &dwells);
+    let bytes = std::fs::metadata(&path).unwrap().len();
+    let mut g = c.benchmark_group("record");
+    g.sample_size(10)
+        .throughput(Throughput::BytesDecimal(bytes));
+    g.bench_function("mcap_write/one_level", |b| {
+        b.iter(|| common::write_mcap(&path, fs, &dwells))
+    });
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = config();
-    targets = simulator, harmonic_balance, extraction
+    targets = simulator, harmonic_balance, extraction, recording
 }
 criterion_main!(benches);

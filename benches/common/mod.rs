@@ -4,8 +4,12 @@
 
 use criterion::Throughput;
 use criterion::measurement::{Measurement, ValueFormatter};
+use hystid::harmonics::Quantity;
 use hystid::model::{ModalModel, Model};
-use std::path::PathBuf;
+use hystid::record::{Channel, McapRecorder, RunInfo};
+use hystid::testbench::{self, BenchSink, LevelOutput, TestDefinition};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 /// The paper system (section 3): m 10 kg, c 200 N s/m, k 1e7 N/m.
 pub const M: f64 = 10.0;
@@ -46,6 +50,139 @@ pub fn dataset(name: &str) -> Option<PathBuf> {
         eprintln!("SKIPPED: data set `{name}` not found at {}", dir.display());
         None
     }
+}
+
+/// Whether a benchmark group is selected by the command line's filters
+/// (criterion's positional arguments, `|`-separated alternatives): lets a
+/// bench skip an expensive setup whose cases would all be filtered out. A
+/// rough test, erring on the side of running the setup.
+pub fn wanted(group: &str) -> bool {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut filters = Vec::new();
+    let mut skip_value = false;
+    for a in &args {
+        if skip_value {
+            skip_value = false;
+            continue;
+        }
+        if a.starts_with("--") {
+            // options with a value
+            skip_value = !a.contains('=')
+                && [
+                    "--warm-up-time",
+                    "--measurement-time",
+                    "--sample-size",
+                    "--profile-time",
+                    "--save-baseline",
+                    "--baseline",
+                    "--load-baseline",
+                    "--output-format",
+                    "--color",
+                    "--nresamples",
+                    "--noise-threshold",
+                    "--confidence-level",
+                    "--significance-level",
+                    "--plotting-backend",
+                    "--format",
+                ]
+                .contains(&a.as_str());
+            continue;
+        }
+        if !a.starts_with('-') {
+            filters.extend(a.split('|').map(str::to_string));
+        }
+    }
+    filters.is_empty()
+        || filters.iter().any(|f| {
+            let f = f.trim_start_matches('^');
+            f.starts_with(group) || group.starts_with(f.split('/').next().unwrap_or(""))
+        })
+}
+
+/// The four channels the virtual test records.
+pub fn bench_channels() -> Vec<Channel> {
+    [
+        ("force", Quantity::Force),
+        ("displacement", Quantity::Displacement),
+        ("velocity", Quantity::Velocity),
+        ("acceleration", Quantity::Acceleration),
+    ]
+    .into_iter()
+    .map(|(n, q)| Channel {
+        name: n.into(),
+        quantity: q,
+        unit: q.si_unit().into(),
+        scale: 1.0,
+    })
+    .collect()
+}
+
+/// Keeps the level with the most frames.
+struct Longest(Option<LevelOutput>);
+
+impl BenchSink for Longest {
+    fn level(&mut self, out: &LevelOutput, _first: u64) -> hystid::Result<()> {
+        if self
+            .0
+            .as_ref()
+            .is_none_or(|k| k.force.len() < out.force.len())
+        {
+            self.0 = Some(out.clone());
+        }
+        Ok(())
+    }
+}
+
+/// The longest level of the embedded default test, as recorded, and the
+/// sample rate.
+pub fn default_level() -> (LevelOutput, f64) {
+    let def = TestDefinition::embedded_default();
+    let mut keep = Longest(None);
+    testbench::run(&def, &mut keep, &|| ()).unwrap();
+    (keep.0.unwrap(), def.sample_rate_hz().unwrap())
+}
+
+/// A level's dwells as the simulate command hands them to the MCAP
+/// recorder: `(first frame, [force, displacement, velocity, acceleration])`,
+/// the f32 recording widened to f64.
+pub fn dwell_signals(level: &LevelOutput) -> Vec<(u64, [Vec<f64>; 4])> {
+    let f64s = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();
+    let first = level.dwells[0].start;
+    level
+        .dwells
+        .iter()
+        .map(|d| {
+            let a = (d.start - first) as usize;
+            let r = a..a + d.length;
+            (
+                d.start - first,
+                [
+                    f64s(&level.force[r.clone()]),
+                    f64s(&level.displacement[r.clone()]),
+                    f64s(&level.velocity[r.clone()]),
+                    f64s(&level.acceleration[r]),
+                ],
+            )
+        })
+        .collect()
+}
+
+/// Writes the dwells to a run file at `path`, as the simulate command does.
+pub fn write_mcap(path: &Path, fs: f64, dwells: &[(u64, [Vec<f64>; 4])]) {
+    let info = RunInfo {
+        tool_version: "bench".into(),
+        test_definition: testbench::DEFAULT_TEST.into(),
+        seed: 1,
+        sample_rate_hz: fs,
+        channels: bench_channels(),
+        metadata: BTreeMap::new(),
+    };
+    let mut m = McapRecorder::create(path, &info).unwrap();
+    for (i, (start, s)) in dwells.iter().enumerate() {
+        m.write_signals(i as u32, *start, &s[0], &s[1], &s[2], &s[3])
+            .unwrap();
+    }
+    m.finish().unwrap();
 }
 
 /// Peak resident set size of this process so far (`VmHWM`), bytes.
