@@ -179,8 +179,10 @@ impl Backbone for PowerBackbone {
         (f, k)
     }
 
-    /// From the table when there is one, else the formula (see
-    /// [`PowerBackbone::formula`]).
+    /// From the table when there is one ([`PowerBackbone::tabulated`]),
+    /// else the formula; the tangent and curvature follow from `f` without
+    /// further transcendentals: with `p = r^N`, `f' = (f/x)/(1 + p)` and
+    /// `f'' = −(N + 1) f' p / (x (1 + p))`.
     #[inline(always)]
     fn eval_with_curvature(&self, x: f64) -> (f64, f64, f64) {
         let r = (self.kd_over_fd * x).abs();

@@ -3,7 +3,7 @@
 //! The structure is the paper's eq. (1), `x = H * (F − g)`: the underlying
 //! linear modes as ramp-invariant IIR sections ([`filter`]), the element force
 //! `g` fed back every sample (Ahlin, Magnevall & Josefsson, ISMA 2006; the
-//! paper's ref. [1]; method notes a).
+//! paper's ref. \[1\]; method notes a).
 //!
 //! The displacement filter has a direct term `b0 ≠ 0`, so the current
 //! sample's displacement depends on the current element force. Each sample is
