@@ -174,6 +174,7 @@ impl PowerBackbone {
 
 impl Backbone for PowerBackbone {
     #[inline]
+    #[inline(always)]
     fn eval(&self, x: f64) -> (f64, f64) {
         let (f, k, _) = self.eval_with_curvature(x);
         (f, k)
@@ -598,8 +599,9 @@ impl<B: Backbone> Masing<B> {
     }
 
     /// `(force, tangent, curvature)` of the branch `at` at `x` (see
-    /// [`Masing::force_at`]).
-    #[inline]
+    /// [`Masing::force_at`]); the curvature only when `remember` (0 else:
+    /// only the anchor needs it).
+    #[inline(always)]
     fn branch_at(&self, x: f64, at: Located, remember: bool) -> (f64, f64, f64) {
         if let Some(a) = self.anchor.get() {
             let h = x - a.x;
@@ -611,33 +613,30 @@ impl<B: Backbone> Masing<B> {
                 );
             }
         }
-        let (force, stiffness, curvature, radius) = if at.open == 0 {
-            let (f, k, c) = self.backbone.eval_with_curvature(x);
-            (f, k, c, self.backbone.taylor_radius_at(x))
+        // on a branch from (x_r, F_r): F_r + 2 f((x − x_r)/2), tangent f'(·),
+        // curvature f''(·)/2; the expansion in x errs by f'''·h³/24, a
+        // quarter of the backbone's at its argument's step h/2, so the
+        // backbone's radius is safe
+        let (arg, origin, scale) = if at.open == 0 {
+            (x, 0.0, 1.0)
         } else {
-            // F_r + 2 f((x − x_r)/2): tangent f'(·), curvature f''(·)/2; the
-            // expansion in x errs by f'''·h³/24, a quarter of the backbone's
-            // at its argument's step h/2, so the backbone's radius is safe
             let (xr, fr) = self.point(at.open - 1);
-            let arg = 0.5 * (x - xr);
-            let (f, k, c) = self.backbone.eval_with_curvature(arg);
-            (
-                fr + 2.0 * f,
-                k,
-                0.5 * c,
-                self.backbone.taylor_radius_at(arg),
-            )
+            (0.5 * (x - xr), fr, 2.0)
         };
-        if remember {
-            self.anchor.set(Some(Anchor {
-                x,
-                at,
-                force,
-                stiffness,
-                curvature,
-                radius,
-            }));
+        if !remember {
+            let (f, k) = self.backbone.eval(arg);
+            return (origin + scale * f, k, 0.0);
         }
+        let (f, k, c) = self.backbone.eval_with_curvature(arg);
+        let (force, stiffness, curvature) = (origin + scale * f, k, c / scale);
+        self.anchor.set(Some(Anchor {
+            x,
+            at,
+            force,
+            stiffness,
+            curvature,
+            radius: self.backbone.taylor_radius_at(arg),
+        }));
         (force, stiffness, curvature)
     }
 }
