@@ -173,7 +173,6 @@ impl PowerBackbone {
 }
 
 impl Backbone for PowerBackbone {
-    #[inline]
     #[inline(always)]
     fn eval(&self, x: f64) -> (f64, f64) {
         let (f, k, _) = self.eval_with_curvature(x);
