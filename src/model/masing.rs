@@ -651,9 +651,9 @@ impl<B: Backbone> Masing<B> {
     }
 }
 
-/// Relative tolerance of [`Masing::solve_implicit`] on the net input, the
-/// simulator's own (`crate::sim`).
-const SOLVE_TOLERANCE: f64 = 1e-11;
+/// Relative tolerance of the element's own implicit solve on the net input:
+/// the simulator's.
+use crate::sim::SOLVE_TOLERANCE;
 /// Newton steps before handing over to the simulator's safeguarded solve.
 const SOLVE_STEPS: usize = 4;
 

@@ -113,8 +113,9 @@ pub struct Simulator<E: Element> {
 }
 
 /// Relative tolerance of the per-sample solve on `u`; far below the method's
-/// discretisation error (≥ 1e-5 at 200 samples per period).
-const SOLVE_TOLERANCE: f64 = 1e-11;
+/// discretisation error (≥ 1e-5 at 200 samples per period). Elements that
+/// solve the sample equation themselves meet the same one.
+pub(crate) const SOLVE_TOLERANCE: f64 = 1e-11;
 const MAX_NEWTON: usize = 8;
 const MAX_BRACKETED: usize = 200;
 
