@@ -3,7 +3,7 @@
 //! The structure is the paper's eq. (1), `x = H * (F − g)`: the underlying
 //! linear modes as ramp-invariant IIR sections ([`filter`]), the element force
 //! `g` fed back every sample (Ahlin, Magnevall & Josefsson, ISMA 2006; the
-//! paper's ref. [1]; method notes a).
+//! paper's ref. \[1\]; method notes a).
 //!
 //! The displacement filter has a direct term `b0 ≠ 0`, so the current
 //! sample's displacement depends on the current element force. Each sample is
@@ -113,8 +113,9 @@ pub struct Simulator<E: Element> {
 }
 
 /// Relative tolerance of the per-sample solve on `u`; far below the method's
-/// discretisation error (≥ 1e-5 at 200 samples per period).
-const SOLVE_TOLERANCE: f64 = 1e-11;
+/// discretisation error (≥ 1e-5 at 200 samples per period). Elements that
+/// solve the sample equation themselves meet the same one.
+pub(crate) const SOLVE_TOLERANCE: f64 = 1e-11;
 const MAX_NEWTON: usize = 8;
 const MAX_BRACKETED: usize = 200;
 
