@@ -266,9 +266,9 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     let (d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
     let files = write_diagnosis(&args.out, &frf, &d, &predictor, t0.elapsed().as_secs_f64())?;
     if !quiet {
-        println!("hystid diagnose: {}", d.explanation);
+        say!("hystid diagnose: {}", d.explanation);
         for f in files {
-            println!("  wrote {}", f.display());
+            say!("  wrote {}", f.display());
         }
     }
     Ok(EXIT_OK)

@@ -363,7 +363,7 @@ pub fn print_reduced(path: &Path, r: &Reduced) {
         .iter()
         .map(|l| format!("{:.4}", l.level))
         .collect();
-    print!(
+    say_part!(
         "{}: `{}` {} {} point(s) at level(s) {} {}",
         path.display(),
         r.response_name,
@@ -376,7 +376,7 @@ pub fn print_reduced(path: &Path, r: &Reduced) {
         r.frf.reference.si_unit()
     );
     if let Some((s, comp)) = &r.sweep {
-        print!(
+        say_part!(
             "; sweep {:.4} -> {:.4} Hz at {:.5} Hz/s, compensation {}",
             s.f_start_hz,
             s.f_end_hz,
@@ -385,9 +385,9 @@ pub fn print_reduced(path: &Path, r: &Reduced) {
         );
     }
     if r.streamed {
-        print!(" (streamed)");
+        say_part!(" (streamed)");
     }
-    println!();
+    say!();
 }
 
 /// Fit options from the command line.
@@ -654,7 +654,7 @@ pub fn run_fit(
 
 /// Prints the fit in a few lines.
 pub fn print_fit(fit: &FitResult, comparison: &[Comparison]) {
-    println!(
+    say!(
         "fitted {} element: relative error {:.4} (chi2/dof {:.3}), {} evaluations in {:.2} s",
         fit.element.name(),
         fit.error.relative,
@@ -676,7 +676,7 @@ pub fn print_fit(fit: &FitResult, comparison: &[Comparison]) {
                 }
             )
         });
-        println!(
+        say!(
             "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{}{r}",
             e.value,
             e.ci95[0],
@@ -688,15 +688,15 @@ pub fn print_fit(fit: &FitResult, comparison: &[Comparison]) {
             }
         );
         if let Some(n) = &e.note {
-            println!("             {n}");
+            say!("             {n}");
         }
     }
-    println!(
+    say!(
         "  linear: m = {:.5} kg, c = {:.4} N s/m, k = {:.6e} N/m; stick k_low = {:.6e} N/m",
         fit.linear.mass, fit.linear.damping, fit.linear.stiffness, fit.linear.stick.stiffness
     );
     for n in &fit.notes {
-        println!("  note: {n}");
+        say!("  note: {n}");
     }
 }
 
@@ -787,7 +787,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     if !quiet {
         print_fit(&fit, &report.comparison);
         for f in &report.files {
-            println!("  wrote {}", f.display());
+            say!("  wrote {}", f.display());
         }
     }
     Ok(

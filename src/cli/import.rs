@@ -177,13 +177,13 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
         );
     }
     if !quiet {
-        print!("{quality}");
+        say_part!("{quality}");
         let warnings = quality.with_severity(Severity::Warning).count();
         if warnings > 0 {
-            println!("{warnings} warning(s): look at them before identifying");
+            say!("{warnings} warning(s): look at them before identifying");
         }
         for f in [&wav, &json, &quality_json] {
-            println!("  wrote {}", f.display());
+            say!("  wrote {}", f.display());
         }
     } else {
         for f in quality.with_severity(Severity::Warning) {

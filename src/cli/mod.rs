@@ -1,6 +1,23 @@
 //! The command-line layer: arguments in, one library call per stage, results
 //! and a short summary out. Only the binary sees clap, anyhow and indicatif.
 
+/// `say!` that ignores a closed stdout (`hystid … | head`): the
+/// results are in the output files, the terminal summary is a courtesy.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `print!` that ignores a closed stdout, as [`say!`].
+macro_rules! say_part {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 pub mod args;
 pub mod diagnose;
 pub mod identify;

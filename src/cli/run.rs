@@ -89,7 +89,7 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
             d.explanation
         );
         if !quiet {
-            println!("diagnosis ({secs:.1} s): {}", d.explanation);
+            say!("diagnosis ({secs:.1} s): {}", d.explanation);
         }
         diagnosis_json = Some(serde_json::json!({
             "selected": d.selected.iter().map(|s| s.effect.name()).collect::<Vec<_>>(),
@@ -114,12 +114,12 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     };
     write_json(&args.out.join("run.json"), &summary)?;
     if !quiet {
-        println!(
+        say!(
             "hystid run: simulated {} dwells in {:.2} s, fitted in {:.2} s, {:.2} s in all",
             sim.dwells, sim.seconds, fit.effort.seconds, summary.seconds
         );
         print_fit(&fit, &report.comparison);
-        println!("  report: {}", args.out.join("report.md").display());
+        say!("  report: {}", args.out.join("report.md").display());
     }
     let degraded =
         !sim.unsettled.is_empty() || fit.notes.iter().any(|n| n.contains("did not converge"));

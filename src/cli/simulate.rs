@@ -420,14 +420,14 @@ pub fn simulate(args: &SimulateArgs, quiet: bool) -> Result<u8> {
 }
 
 fn print_summary(def: &TestDefinition, run: &BenchRun, s: &SimulateSummary) {
-    println!(
+    say!(
         "hystid simulate: {} levels x {} frequencies, {:.0} Hz sampling, {:.2} s",
         s.levels,
         s.dwells / s.levels.max(1),
         s.sample_rate_hz,
         s.seconds
     );
-    println!(
+    say!(
         "  {} frames recorded; mean settling {:.0} periods; response noise {:.1} % of the clean RMS",
         s.frames,
         s.mean_settle_periods,
@@ -439,7 +439,7 @@ fn print_summary(def: &TestDefinition, run: &BenchRun, s: &SimulateSummary) {
             .iter()
             .max_by(|a, b| a.h[1].norm().total_cmp(&b.h[1].norm()));
         if let Some(p) = peak {
-            println!(
+            say!(
                 "  level {:>9} N ({:?}): peak |H1| {:.4e} at {:.2} Hz",
                 l.level,
                 l.direction,
@@ -449,7 +449,7 @@ fn print_summary(def: &TestDefinition, run: &BenchRun, s: &SimulateSummary) {
         }
     }
     if let Some(c) = &s.hb_check {
-        println!(
+        say!(
             "  harmonic balance vs simulation over {} dwells: H1 differs by {:.2e} (median) / {:.2e} (max); higher harmonics (relative to |H1|): {}; {} HB points not converged",
             c.dwells,
             c.h1_median,
@@ -463,7 +463,7 @@ fn print_summary(def: &TestDefinition, run: &BenchRun, s: &SimulateSummary) {
         );
     }
     if !s.unsettled.is_empty() {
-        println!(
+        say!(
             "  WARNING: {} dwells hit the settling cap ({} periods): {:?}",
             s.unsettled.len(),
             def.test.max_settle_periods,
@@ -471,6 +471,6 @@ fn print_summary(def: &TestDefinition, run: &BenchRun, s: &SimulateSummary) {
         );
     }
     for f in &s.files {
-        println!("  wrote {}", f.display());
+        say!("  wrote {}", f.display());
     }
 }

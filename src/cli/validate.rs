@@ -158,7 +158,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     let mut files = vec![args.out.join("validate.json")];
     let mut used = Vec::new();
     if !quiet {
-        println!(
+        say!(
             "{} model: highest linearised frequency {:.4} Hz, response sign {:+}",
             fit.kind,
             fit.model.highest_linearised_frequency_hz(),
@@ -305,14 +305,14 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     write_json(&args.out.join("validate.json"), &report)?;
     if !quiet {
         for f in &report.files {
-            println!("  wrote {}", f.display());
+            say!("  wrote {}", f.display());
         }
     }
     Ok(EXIT_OK)
 }
 
 fn print_validation(path: &Path, response: &str, v: &Validation) {
-    println!(
+    say!(
         "{}: `{response}` simulated at {} Hz{}: e_RMS {:.4e} ({:.1} % of the measured RMS {:.4e})",
         path.display(),
         v.sample_rate_hz * v.upsampling as f64,
@@ -331,7 +331,7 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
         v.whole.measured_rms
     );
     if let Some(w) = &v.window {
-        println!(
+        say!(
             "  window {:.2}-{:.2} s: e_RMS {:.4e} ({:.1} % of {:.4e})",
             w.start_s,
             w.end_s,
@@ -347,7 +347,7 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
                     format!("{:.4} Hz ({:.4e})", p.frequency_hz, p.magnitude)
                 })
             };
-            println!(
+            say!(
                 "  level {:.4}: H1 error {:.1} % over {} points; |H1| peak measured {}, simulated {}",
                 l.level,
                 100.0 * l.relative_h1_error,
