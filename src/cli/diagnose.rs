@@ -100,7 +100,7 @@ fn residual_plots(
             .zip(&pred.h)
             .enumerate()
             .map(|(g, (s, ps))| ResidualSeries {
-                label: format!("{} N", s.level),
+                label: hystid::plot::level_label(s.level, frf.reference.si_unit()),
                 group: g,
                 frequency_hz: s.points.iter().map(|p| p.frequency_hz).collect(),
                 residual: s
@@ -147,7 +147,7 @@ fn residual_plots(
     for (g, (s, ps)) in data.series.iter().zip(&after.h).enumerate() {
         let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
         series.push(FrfSeries {
-            label: format!("{} N", s.level),
+            label: hystid::plot::level_label(s.level, frf.reference.si_unit()),
             group: g,
             frequency_hz: f.clone(),
             h: s.points.iter().map(|p| p.h[0] * d.response_sign).collect(),
@@ -155,7 +155,10 @@ fn residual_plots(
             style: SeriesStyle::Measured,
         });
         series.push(FrfSeries {
-            label: format!("{} N (model)", s.level),
+            label: format!(
+                "{} (model)",
+                hystid::plot::level_label(s.level, frf.reference.si_unit())
+            ),
             group: g,
             frequency_hz: f,
             h: ps

@@ -530,7 +530,7 @@ pub fn write_fit_plots(
     let pred = predictor.predict(&fit.model, &data)?;
     let mut series = Vec::new();
     for (g, (s, p)) in data.series.iter().zip(&pred.h).enumerate() {
-        let label = format!("{} N", s.level);
+        let label = hystid::plot::level_label(s.level, frf.reference.si_unit());
         let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
         series.push(FrfSeries {
             label: label.clone(),
@@ -693,7 +693,10 @@ pub fn print_fit(fit: &FitResult, comparison: &[Comparison]) {
     }
     say!(
         "  linear: m = {:.5} kg, c = {:.4} N s/m, k = {:.6e} N/m; stick k_low = {:.6e} N/m",
-        fit.linear.mass, fit.linear.damping, fit.linear.stiffness, fit.linear.stick.stiffness
+        fit.linear.mass,
+        fit.linear.damping,
+        fit.linear.stiffness,
+        fit.linear.stick.stiffness
     );
     for n in &fit.notes {
         say!("  note: {n}");

@@ -116,7 +116,10 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     if !quiet {
         say!(
             "hystid run: simulated {} dwells in {:.2} s, fitted in {:.2} s, {:.2} s in all",
-            sim.dwells, sim.seconds, fit.effort.seconds, summary.seconds
+            sim.dwells,
+            sim.seconds,
+            fit.effort.seconds,
+            summary.seconds
         );
         print_fit(&fit, &report.comparison);
         say!("  report: {}", args.out.join("report.md").display());

@@ -491,9 +491,10 @@ fn effect_parameters(model: &Model, effect: Effect) -> BTreeMap<String, f64> {
     out
 }
 
-/// Why the data do not resolve an effect's own parameters in `r`, if they
-/// do not: an interval that includes zero (the effect may not be there at
-/// all) or spans more than a decade.
+/// Why the data do not resolve an effect's size in `r` (k3, kb, c2, a
+/// clearance's stiffness, a mode's modal constant), if they do not: an
+/// interval that includes zero (the effect may not be there at all) or
+/// spans more than a decade.
 fn unresolved(
     effect: Effect,
     r: &Refit,
@@ -517,6 +518,12 @@ fn unresolved(
         let Some(name) = p.name.strip_prefix(&prefix) else {
             continue;
         };
+        // the effect's size; its shape (a mode's frequency and damping, a
+        // gap) may sit at a bound without making the effect doubtful
+        let size = matches!(name, "k3" | "kb" | "c2" | "k" | "residue");
+        if !size {
+            continue;
+        }
         let [lo, hi] = e.ci95;
         let straddles = lo <= 0.0 && hi >= 0.0;
         let too_wide = !(lo.is_finite() && hi.is_finite())
@@ -846,10 +853,21 @@ fn explain(
     }
     for sel in selected {
         let why = match sel.effect {
-            Effect::SecondMode => format!(
-                "the residual was largely the same at every level ({:.0} % of it common to all levels), as a linear effect's is",
-                100.0 * f.level_independent_share
-            ),
+            Effect::SecondMode => {
+                let at = sel
+                    .parameters
+                    .get("frequency_hz")
+                    .map(|e| format!(" at {:.4} Hz", e.value))
+                    .unwrap_or_default();
+                if f.level_independent_share >= 0.5 {
+                    format!(
+                        "the residual was largely the same at every level ({:.0} % of it common to all levels), as a linear effect's is: a further mode{at}",
+                        100.0 * f.level_independent_share
+                    )
+                } else {
+                    format!("the residual's shape over frequency matched a further linear mode{at}")
+                }
+            }
             Effect::CubicStiffness => {
                 let dir = if f.peak_shift_trend > 0.0 {
                     "upward"
@@ -857,7 +875,7 @@ fn explain(
                     "downward"
                 };
                 format!(
-                    "the residual grew with level (slope {:.2}) and the measured peak moved {dir} relative to the model as the level rose (correlation {:+.2}), which the joint cannot do",
+                    "the residual changed with level (slope {:.2}) and the measured peak moved {dir} relative to the model as the level rose (correlation {:+.2}), which the joint cannot do",
                     f.growth_with_level, f.peak_shift_trend
                 )
             }

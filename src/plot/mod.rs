@@ -375,6 +375,20 @@ fn markers(colour: RGBColor, filled: bool, points: Vec<(f64, f64)>) -> Shape {
     }
 }
 
+/// A level for a legend: 4 significant digits, no trailing zeros (a measured
+/// 4.824257419730869 N reads `4.824 N`).
+pub fn level_label(level: f64, unit: &str) -> String {
+    if !level.is_finite() || level == 0.0 {
+        return format!("{level} {unit}");
+    }
+    let decimals = (3 - level.abs().log10().floor() as i32).max(0) as usize;
+    let mut t = format!("{level:.decimals$}");
+    if t.contains('.') {
+        t = t.trim_end_matches('0').trim_end_matches('.').to_string();
+    }
+    format!("{t} {unit}")
+}
+
 /// The FRF of harmonic `harmonic` of every level of `frf`, one series per
 /// level (in file order), coloured by nominal level: an up and a down sweep
 /// at the same level share a group. Labels read `2 N`, `2 N up`/`2 N down`
@@ -408,7 +422,7 @@ pub fn frf_series_from(
                 levels.len() - 1
             }
         };
-        let mut label = format!("{} {unit}", level.level);
+        let mut label = level_label(level.level, unit);
         if both {
             label += if level.direction == Direction::Up {
                 " up"
@@ -908,6 +922,14 @@ mod tests {
     /// (−180°, 0°].
     fn sdof_phase_deg(r: f64, zeta: f64) -> f64 {
         -(2.0 * zeta * r).atan2(1.0 - r * r).to_degrees()
+    }
+
+    #[test]
+    fn level_labels_are_short() {
+        assert_eq!(level_label(4.824257419730869, "N"), "4.824 N");
+        assert_eq!(level_label(30000.0, "N"), "30000 N");
+        assert_eq!(level_label(0.05, "N"), "0.05 N");
+        assert_eq!(level_label(246.048, "N"), "246 N");
     }
 
     #[test]
