@@ -90,7 +90,7 @@ fn residual_plots(
     d: &Diagnosis,
     predictor: &HbPredictor,
 ) -> Result<Vec<PathBuf>> {
-    let data = FitData::from_frf(frf, &[1], None, None)?.with_sign(d.response_sign);
+    let data = FitData::from_frf(frf, &[1], d.band_hz, None)?.with_sign(d.response_sign);
     let before = predictor.predict(&d.baseline_model, &data)?;
     let after = predictor.predict(&d.model, &data)?;
     let panel = |pred: &hystid::fit::Prediction, heading: &str| -> ResidualPanel {
@@ -122,7 +122,7 @@ fn residual_plots(
     };
     let mut files = plot::write_residual_plot(
         &dir.join("residual"),
-        "Fit residual in units of the measured standard error, before and after the diagnosis",
+        "H1 residual / measured standard error, before and after",
         "|H1 meas − H1 model| / σ",
         &[
             panel(
@@ -218,7 +218,15 @@ fn markdown(d: &Diagnosis, seconds: f64) -> String {
             c.rank,
             c.delta_chi2,
             c.threshold,
-            if c.accepted { "**yes**" } else { "no" },
+            if c.accepted {
+                "**yes**"
+            } else if c.note.is_some() {
+                "no: size not resolved"
+            } else if c.criterion > 0.0 {
+                "no: another did better"
+            } else {
+                "no"
+            },
             100.0 * c.fit.error_relative,
             c.fit.chi2_per_dof,
             p.join(", ")

@@ -168,6 +168,9 @@ pub struct SelectedEffect {
 pub struct Diagnosis {
     /// The harmonics judged.
     pub harmonics: Vec<usize>,
+    /// The frequency band judged, Hz (all points when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_hz: Option<(f64, f64)>,
     /// The baseline (the fitted joint), refitted on those harmonics.
     pub baseline: ModelFit,
     /// The baseline residual's features.
@@ -788,6 +791,7 @@ pub fn diagnose(
     );
     Ok(Diagnosis {
         harmonics,
+        band_hz: options.band_hz,
         baseline,
         features: base_features,
         candidates: reports,

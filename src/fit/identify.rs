@@ -763,18 +763,29 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
         let value = values[j];
         let sd = cov[(j, j)].sqrt();
         if at_bound[j] {
+            // the far end of the 95 % region, away from the bound
             let lower = one_sided_range(problem, theta, j, reduced)?;
             let is_n = matches!(&p.target, Target::Element { name, .. } if name == "n");
+            let jenkins_limit = is_n && value >= 0.99 * N_MAX;
+            let ci95 = if jenkins_limit {
+                [lower, f64::INFINITY]
+            } else {
+                [lower.min(value), lower.max(value)]
+            };
+            let direction = if lower > value { "up" } else { "down" };
             estimates.push(Estimate {
                 value,
-                ci95: [lower, f64::INFINITY],
+                ci95,
                 identifiable: false,
-                note: Some(if is_n && value >= 0.99 * N_MAX {
+                note: Some(if jenkins_limit {
                     format!(
                         "N ran to its bound {N_MAX}: the loops cannot be told from a Jenkins element (N → ∞) within the noise; any N ≳ {lower:.3} fits as well (95 %)"
                     )
                 } else {
-                    format!("{} sits at its bound; the data allow at least down to {lower:.4e}", p.name)
+                    format!(
+                        "{} sits at its bound; the data allow it {direction} to {lower:.4e}",
+                        p.name
+                    )
                 }),
                 bootstrap_ci95: None,
             });
