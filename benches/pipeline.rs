@@ -83,7 +83,7 @@ fn bench_record(c: &mut Criterion) {
     let meta = RecordingMeta {
         format: FORMAT_V1.into(),
         sample_rate_hz: fs,
-        channels: common::bench_channels(),
+        channels: hystid::testbench::recorded_channels(),
         excitation: Excitation {
             kind: ExcitationKind::SteppedSine,
             steps: Vec::new(),

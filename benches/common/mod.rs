@@ -4,9 +4,8 @@
 
 use criterion::Throughput;
 use criterion::measurement::{Measurement, ValueFormatter};
-use hystid::harmonics::Quantity;
 use hystid::model::{ModalModel, Model};
-use hystid::record::{Channel, McapRecorder, RunInfo};
+use hystid::record::{McapRecorder, RunInfo};
 use hystid::testbench::{self, BenchSink, LevelOutput, TestDefinition};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -99,24 +98,6 @@ pub fn wanted(group: &str) -> bool {
         })
 }
 
-/// The four channels the virtual test records.
-pub fn bench_channels() -> Vec<Channel> {
-    [
-        ("force", Quantity::Force),
-        ("displacement", Quantity::Displacement),
-        ("velocity", Quantity::Velocity),
-        ("acceleration", Quantity::Acceleration),
-    ]
-    .into_iter()
-    .map(|(n, q)| Channel {
-        name: n.into(),
-        quantity: q,
-        unit: q.si_unit().into(),
-        scale: 1.0,
-    })
-    .collect()
-}
-
 /// Keeps the level with the most frames.
 struct Longest(Option<LevelOutput>);
 
@@ -174,7 +155,7 @@ pub fn write_mcap(path: &Path, fs: f64, dwells: &[(u64, [Vec<f64>; 4])]) {
         test_definition: testbench::DEFAULT_TEST.into(),
         seed: 1,
         sample_rate_hz: fs,
-        channels: bench_channels(),
+        channels: testbench::recorded_channels(),
         metadata: BTreeMap::new(),
     };
     let mut m = McapRecorder::create(path, &info).unwrap();

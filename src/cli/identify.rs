@@ -760,7 +760,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         test_definition: String::new(),
         seed: options.seed,
         sample_rate_hz: first.sample_rate_hz,
-        channels: super::simulate::bench_channels(),
+        channels: hystid::testbench::recorded_channels(),
         metadata: [("recording".to_string(), recording_names.join(", "))].into(),
     };
     let mut mcap = hystid::record::McapRecorder::create(&args.out.join("fit.mcap"), &info)?;

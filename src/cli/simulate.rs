@@ -4,10 +4,9 @@ use super::args::{SimulateArgs, WavFormat};
 use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, read_test, write_json};
 use anyhow::{Context, Result};
 use hystid::extract::NonlinearFrf;
-use hystid::harmonics::Quantity;
 use hystid::record::{
-    Channel, Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter,
-    RunInfo, SampleFormat, Step,
+    Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter, RunInfo,
+    SampleFormat, Step,
 };
 use hystid::testbench::{
     self, BenchRun, BenchSink, DwellRecord, HbCheck, LevelOutput, TestDefinition,
@@ -15,24 +14,6 @@ use hystid::testbench::{
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// The channels of a virtual test's recording.
-pub fn bench_channels() -> Vec<Channel> {
-    [
-        ("force", Quantity::Force),
-        ("displacement", Quantity::Displacement),
-        ("velocity", Quantity::Velocity),
-        ("acceleration", Quantity::Acceleration),
-    ]
-    .into_iter()
-    .map(|(n, q)| Channel {
-        name: n.into(),
-        quantity: q,
-        unit: q.si_unit().into(),
-        scale: 1.0,
-    })
-    .collect()
-}
 
 /// The `/hystid/dwell` message: flat, with what a reader needs to rebuild
 /// the recording's steps.
@@ -99,7 +80,7 @@ pub struct FileSink {
 impl FileSink {
     /// Opens both files (under temporary names).
     pub fn create(dir: &Path, def: &TestDefinition, toml_text: &str, fs: f64) -> Result<FileSink> {
-        let channels = bench_channels();
+        let channels = hystid::testbench::recorded_channels();
         let info = RunInfo {
             tool_version: format!("hystid {}", env!("CARGO_PKG_VERSION")),
             test_definition: toml_text.to_string(),

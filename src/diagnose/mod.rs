@@ -33,7 +33,6 @@ use crate::fit::{
 };
 use crate::harmonics::omega;
 use crate::model::{ElementSpec, Mode, Model};
-use num_complex::Complex64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -342,56 +341,12 @@ fn gauss_newton_start(
     Ok(if den > 0.0 { num / den } else { probe })
 }
 
-/// A missing mode from the level-averaged residual: a grid over frequency
-/// and damping ratio, the (real) modal constant by least squares.
+/// A missing mode from the level-averaged residual (the grid search of
+/// [`crate::fit::linear::locate_mode_in`]), away from the modes already there.
 fn locate_mode(base: &Model, data: &FitData, pred: &Prediction) -> Option<Mode> {
     let d = features::common_receptance_residual(data, pred);
-    if d.len() < 4 {
-        return None;
-    }
-    let fmin = d.iter().map(|p| p.0).fold(f64::MAX, f64::min);
-    let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
     let existing: Vec<f64> = base.linear.modes.iter().map(|m| m.frequency_hz).collect();
-    let mut best: Option<(f64, Mode)> = None;
-    for i in 0..=300 {
-        let f2 = 0.3 * fmin * (10.0 * fmax / fmin).powf(i as f64 / 300.0);
-        if existing.iter().any(|e| (f2 / e - 1.0).abs() < 0.03) {
-            continue;
-        }
-        for zeta in [0.002, 0.005, 0.01, 0.02, 0.05, 0.1] {
-            let w2 = omega(f2);
-            let g = |f: f64| {
-                let w = omega(f);
-                1.0 / Complex64::new(w2 * w2 - w * w, 2.0 * zeta * w2 * w)
-            };
-            let (mut num, mut den) = (0.0, 0.0);
-            for &(f, r, s) in &d {
-                let gg = g(f);
-                let wt = 1.0 / s.max(f64::MIN_POSITIVE).powi(2);
-                num += wt * (gg.conj() * r).re;
-                den += wt * gg.norm_sqr();
-            }
-            if den <= 0.0 {
-                continue;
-            }
-            let res = num / den;
-            let cost: f64 = d
-                .iter()
-                .map(|&(f, r, s)| (r - res * g(f)).norm_sqr() / s.max(f64::MIN_POSITIVE).powi(2))
-                .sum();
-            if best.as_ref().is_none_or(|b| cost < b.0) && res != 0.0 {
-                best = Some((
-                    cost,
-                    Mode {
-                        frequency_hz: f2,
-                        damping_ratio: zeta,
-                        residue: res,
-                    },
-                ));
-            }
-        }
-    }
-    best.map(|b| b.1)
+    crate::fit::linear::locate_mode_in(&d, &existing)
 }
 
 /// `model` with `effect` added at a starting size taken from the residual.

@@ -143,16 +143,7 @@ impl HarmonicAnalyser {
         max_harmonic: usize,
     ) -> Result<DwellHarmonics> {
         check_layout(block_len, periods_per_block, max_harmonic)?;
-        if force.len() != response.len() {
-            return Err(Error::input(
-                "response",
-                format!(
-                    "has {} samples but the force has {}: they must be sampled together",
-                    response.len(),
-                    force.len()
-                ),
-            ));
-        }
+        super::check_paired(force, response, "response")?;
         let blocks = force.len() / block_len;
         if blocks < 2 {
             return Err(Error::input(

@@ -101,6 +101,26 @@ pub struct FrfPoint {
     pub settled: bool,
 }
 
+/// Force and response must be sampled together: an error naming `field`
+/// when their lengths differ.
+pub(crate) fn check_paired(
+    force: &[f64],
+    response: &[f64],
+    field: impl Into<String>,
+) -> crate::error::Result<()> {
+    if force.len() != response.len() {
+        return Err(crate::error::Error::input(
+            field,
+            format!(
+                "has {} samples but the force has {}: they must be sampled together",
+                response.len(),
+                force.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn yes() -> bool {
     true
 }

@@ -155,16 +155,7 @@ pub(crate) fn noncoherent_named(
     what: &str,
 ) -> Result<DwellHarmonics> {
     check_rate_and_frequency(sample_rate_hz, frequency_hz, max_harmonic, what)?;
-    if force.len() != response.len() {
-        return Err(Error::input(
-            format!("{what}: response"),
-            format!(
-                "has {} samples but the force has {}: they must be sampled together",
-                response.len(),
-                force.len()
-            ),
-        ));
-    }
+    super::check_paired(force, response, format!("{what}: response"))?;
     if blocks < 2 {
         return Err(Error::input(
             format!("{what}: blocks"),

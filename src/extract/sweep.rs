@@ -503,16 +503,7 @@ pub fn reduce_sweep(
             format!("must be finite and > 0, got {sample_rate_hz}"),
         ));
     }
-    if force.len() != response.len() {
-        return Err(Error::input(
-            "response",
-            format!(
-                "has {} samples but the force has {}: they must be sampled together",
-                response.len(),
-                force.len()
-            ),
-        ));
-    }
+    super::check_paired(force, response, "response")?;
     if options.max_harmonic == 0 || options.window_periods == 0 {
         return Err(Error::plan(
             "sweep.max_harmonic / sweep.window_periods",

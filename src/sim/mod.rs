@@ -87,6 +87,25 @@ struct ModeState {
     pred: [f64; 3],
 }
 
+impl ModeState {
+    /// The part of this sample's displacement, velocity and acceleration
+    /// fixed by the past: every term of the three sections but `b0 u[n]`.
+    #[inline(always)]
+    fn predicted(&self, f: &ModeFilter, u1: f64, u2: f64) -> [f64; 3] {
+        [
+            f.displacement.b[1] * u1 + f.displacement.b[2] * u2
+                - f.displacement.a[0] * self.x[0]
+                - f.displacement.a[1] * self.x[1],
+            f.velocity.b[1] * u1 + f.velocity.b[2] * u2
+                - f.velocity.a[0] * self.v[0]
+                - f.velocity.a[1] * self.v[1],
+            f.acceleration.b[1] * u1 + f.acceleration.b[2] * u2
+                - f.acceleration.a[0] * self.a[0]
+                - f.acceleration.a[1] * self.a[1],
+        ]
+    }
+}
+
 /// Statistics of the implicit solves so far.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SolveStats {
@@ -205,17 +224,7 @@ impl<E: Element> Simulator<E> {
         let (u1, u2) = (self.u[0], self.u[1]);
         let mut pred = [0.0; 3];
         for (f, s) in self.filters.iter().zip(self.state.iter_mut()) {
-            s.pred = [
-                f.displacement.b[1] * u1 + f.displacement.b[2] * u2
-                    - f.displacement.a[0] * s.x[0]
-                    - f.displacement.a[1] * s.x[1],
-                f.velocity.b[1] * u1 + f.velocity.b[2] * u2
-                    - f.velocity.a[0] * s.v[0]
-                    - f.velocity.a[1] * s.v[1],
-                f.acceleration.b[1] * u1 + f.acceleration.b[2] * u2
-                    - f.acceleration.a[0] * s.a[0]
-                    - f.acceleration.a[1] * s.a[1],
-            ];
+            s.pred = s.predicted(f, u1, u2);
             pred[0] += s.pred[0];
             pred[1] += s.pred[1];
             pred[2] += s.pred[2];
@@ -279,17 +288,7 @@ impl<E: Element> Simulator<E> {
                 result = Err(self.bad_force(force));
                 break;
             }
-            let pred = [
-                f.displacement.b[1] * u1 + f.displacement.b[2] * u2
-                    - f.displacement.a[0] * st.x[0]
-                    - f.displacement.a[1] * st.x[1],
-                f.velocity.b[1] * u1 + f.velocity.b[2] * u2
-                    - f.velocity.a[0] * st.v[0]
-                    - f.velocity.a[1] * st.v[1],
-                f.acceleration.b[1] * u1 + f.acceleration.b[2] * u2
-                    - f.acceleration.a[0] * st.a[0]
-                    - f.acceleration.a[1] * st.a[1],
-            ];
+            let pred = st.predicted(&f, u1, u2);
             let step = ImplicitStep {
                 x_pred: pred[0],
                 v_pred: pred[1],

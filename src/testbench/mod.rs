@@ -34,6 +34,25 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
+/// The four channels a virtual test records, in recording order: force,
+/// displacement, velocity, acceleration (SI units, unit scale).
+pub fn recorded_channels() -> Vec<crate::record::Channel> {
+    [
+        ("force", Quantity::Force),
+        ("displacement", Quantity::Displacement),
+        ("velocity", Quantity::Velocity),
+        ("acceleration", Quantity::Acceleration),
+    ]
+    .into_iter()
+    .map(|(n, q)| crate::record::Channel {
+        name: n.into(),
+        quantity: q,
+        unit: q.si_unit().into(),
+        scale: 1.0,
+    })
+    .collect()
+}
+
 /// Fewest measured blocks per dwell.
 pub const MIN_BLOCKS: usize = 8;
 
