@@ -5,7 +5,7 @@ use super::args::DiagnoseArgs;
 use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Result, bail};
-use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect, diagnose};
+use hystid::diagnose::{DiagnoseEvent, DiagnoseOptions, Diagnosis, Effect, diagnose_observed};
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitData, FitResult, FrfPredictor, HbPredictor};
 use hystid::plot::{self, FrfSeries, NoiseLevel, ResidualPanel, ResidualSeries, SeriesStyle};
@@ -43,10 +43,29 @@ pub fn run_diagnosis(
     options: &DiagnoseOptions,
     quiet: bool,
 ) -> Result<(Diagnosis, HbPredictor)> {
-    let pb = progress::spinner("diagnosing: refitting every candidate effect", quiet);
+    let pb = progress::bar(0, "diagnosing", quiet);
     pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    pb.set_message("baseline refit");
     let predictor = HbPredictor::default();
-    let d = diagnose(frf, fit, options, &predictor)?;
+    let observer = |e: DiagnoseEvent| match e {
+        DiagnoseEvent::Baseline { chi2_per_dof } => {
+            pb.set_message(format!("baseline chi2/dof {chi2_per_dof:.3}"))
+        }
+        DiagnoseEvent::Round { round, candidates } => {
+            pb.set_position(0);
+            pb.set_length(candidates as u64);
+            pb.reset_eta();
+            pb.set_message(format!("round {round}: candidates"));
+        }
+        DiagnoseEvent::Candidate { round, effect } => {
+            pb.inc(1);
+            pb.set_message(format!("round {round}: {} done", effect.name()));
+        }
+        DiagnoseEvent::Checking { effect } => {
+            pb.set_message(format!("held-out check of {}", effect.name()))
+        }
+    };
+    let d = diagnose_observed(frf, fit, options, &predictor, &observer)?;
     pb.finish_and_clear();
     Ok((d, predictor))
 }
@@ -220,8 +239,14 @@ fn markdown(d: &Diagnosis, seconds: f64) -> String {
             c.threshold,
             if c.accepted {
                 "**yes**"
-            } else if c.note.is_some() {
-                "no: size not resolved"
+            } else if let Some(n) = &c.note {
+                if n.contains("held-out") {
+                    "no: no better on held-out frequencies"
+                } else if n.contains("dropped") {
+                    "no: dropped later"
+                } else {
+                    "no: size not resolved"
+                }
             } else if c.criterion > 0.0 {
                 "no: another did better"
             } else {
@@ -231,6 +256,27 @@ fn markdown(d: &Diagnosis, seconds: f64) -> String {
             c.fit.chi2_per_dof,
             p.join(", ")
         );
+    }
+    for f in &d.failed {
+        let _ = writeln!(
+            s,
+            "| {} | {} | | | | failed | | | {} |",
+            f.effect.name(),
+            f.round,
+            f.reason.replace('|', "/")
+        );
+    }
+    let notes: Vec<String> = d
+        .candidates
+        .iter()
+        .filter_map(|c| {
+            c.note
+                .as_ref()
+                .map(|n| format!("- {} (round {}): {n}", c.effect.name(), c.round))
+        })
+        .collect();
+    if !notes.is_empty() {
+        let _ = writeln!(s, "\nWhy a candidate was not kept:\n\n{}", notes.join("\n"));
     }
     let _ = writeln!(
         s,
@@ -270,8 +316,11 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
     let (fit, _) = run_fit(&frf, &fit_opts, quiet, None)?;
+    // the candidates re-identify (one more mode) with the user's fit options:
+    // the same element, band and linear start as the baseline
     let options = DiagnoseOptions {
         band_hz: fit_opts.band_hz,
+        fit: fit_opts.clone(),
         ..options
     };
     let (d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;

@@ -77,7 +77,13 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         let (d, p) = super::diagnose::run_diagnosis(
             &run.frf,
             &fit,
-            &hystid::diagnose::DiagnoseOptions::default(),
+            // the candidates re-identify (one more mode) with the user's fit
+            // options: the same element, band and linear start as the baseline
+            &hystid::diagnose::DiagnoseOptions {
+                band_hz: options.band_hz,
+                fit: options.clone(),
+                ..Default::default()
+            },
             quiet,
         )?;
         let secs = t.elapsed().as_secs_f64();

@@ -153,6 +153,18 @@ pub struct CandidateReport {
     pub note: Option<String>,
 }
 
+/// A candidate whose refit could not be done, and why: a finding of the
+/// diagnosis, which goes on without it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FailedCandidate {
+    /// The effect.
+    pub effect: Effect,
+    /// The round.
+    pub round: usize,
+    /// Why (the error, or no starting point in the residual).
+    pub reason: String,
+}
+
 /// An effect kept, with its parameters' intervals.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SelectedEffect {
@@ -176,6 +188,9 @@ pub struct Diagnosis {
     pub features: ResidualFeatures,
     /// Every candidate refit, in order of rounds.
     pub candidates: Vec<CandidateReport>,
+    /// Candidates whose refit failed, with the reason.
+    #[serde(default)]
+    pub failed: Vec<FailedCandidate>,
     /// The effects kept.
     pub selected: Vec<SelectedEffect>,
     /// The final model's fit.
@@ -257,12 +272,24 @@ fn refit(
     if let Some(w) = warm {
         problem = problem.with_warm_start(w.clone());
     }
-    let theta0 = params.theta_of(model)?;
-    let c0 = problem.cost(&theta0)?;
-    let theta = match crate::fit::optimise::levenberg_marquardt(&problem, &theta0, patience) {
-        Ok(r) if r.cost < c0 => r.theta,
-        _ => theta0,
-    };
+    let mut theta = params.theta_of(model)?;
+    let mut cost = problem.cost(&theta)?;
+    // Levenberg–Marquardt stops on its evaluation budget as often as on its
+    // tolerance: restart it from where it ended while that still pays (a
+    // start far from the optimum, as a scanned effect size can be, needs
+    // more than one budget)
+    for _ in 0..3 {
+        match crate::fit::optimise::levenberg_marquardt(&problem, &theta, patience) {
+            Ok(r) if r.cost < cost => {
+                let gain = (cost - r.cost) / cost.max(f64::MIN_POSITIVE);
+                (theta, cost) = (r.theta, r.cost);
+                if r.converged || gain < 1e-3 {
+                    break;
+                }
+            }
+            _ => break,
+        }
+    }
     let (model, pred, _) = problem.evaluate(&theta)?;
     let chi2 = crate::fit::problem::chi_square(data, &pred);
     Ok(Refit { model, pred, chi2 })
@@ -319,7 +346,7 @@ fn gauss_newton_start(
     data: &FitData,
     pred: &Prediction,
     predictor: &HbPredictor,
-    with: impl Fn(f64) -> ElementSpec,
+    with: &impl Fn(f64) -> ElementSpec,
     probe: f64,
 ) -> Result<f64> {
     let mut m = base.clone();
@@ -349,7 +376,52 @@ fn locate_mode(base: &Model, data: &FitData, pred: &Prediction) -> Option<Mode> 
     crate::fit::linear::locate_mode_in(&d, &existing)
 }
 
-/// `model` with `effect` added at a starting size taken from the residual.
+/// The best of a scan of an effect's size: the model with the effect at
+/// sizes spread over four decades around `probe` (both signs where the size
+/// may take either) and at the Gauss–Newton estimate from zero, judged by
+/// `χ²`. A linearisation from zero alone misjudges a large effect (a contact
+/// whose even harmonics are 40 % of the fundamental is far from its
+/// small-size limit); the scan finds the basin, the refit the optimum.
+fn scan_start(
+    base: &Model,
+    data: &FitData,
+    pred: &Prediction,
+    predictor: &HbPredictor,
+    with: impl Fn(f64) -> ElementSpec,
+    probe: f64,
+    signed: bool,
+) -> Option<(f64, f64)> {
+    let mut sizes: Vec<f64> = (-4..=4)
+        .map(|k| probe * 10f64.powf(0.5 * k as f64))
+        .collect();
+    if signed {
+        let neg: Vec<f64> = sizes.iter().map(|v| -v).collect();
+        sizes.extend(neg);
+    }
+    if let Ok(g) = gauss_newton_start(base, data, pred, predictor, &with, probe)
+        && g.is_finite()
+        && g != 0.0
+        && (signed || g > 0.0)
+    {
+        sizes.push(g);
+    }
+    let mut best: Option<(f64, f64)> = None;
+    for size in sizes {
+        let mut m = base.clone();
+        m.elements.push(with(size));
+        let Ok(p) = predictor.predict_from(&m, data, Some(pred)) else {
+            continue;
+        };
+        let chi2 = crate::fit::problem::chi_square(data, &p);
+        if chi2.is_finite() && best.is_none_or(|b| chi2 < b.1) {
+            best = Some((size, chi2));
+        }
+    }
+    best
+}
+
+/// `model` with `effect` added at a starting size taken from the residual
+/// (`None` when the residual offers no start, e.g. no further mode in it).
 fn augment(
     model: &Model,
     effect: Effect,
@@ -358,74 +430,80 @@ fn augment(
     predictor: &HbPredictor,
 ) -> Result<Option<Model>> {
     let (a_max, v_max) = amplitudes(data);
-    let (m, c, k) = model.linear.as_mck().unwrap_or((1.0, 1.0, 1.0));
-    let _ = m;
+    let (_, c, k) = model.linear.as_mck().unwrap_or((1.0, 1.0, 1.0));
+    // the joint's stick stiffness counts too: a contact or clearance is
+    // visible against the structure's total stiffness
+    let k = k + model
+        .elements
+        .iter()
+        .flat_map(|e| e.parameters())
+        .filter(|(n, _)| *n == "kd")
+        .map(|(_, v)| v)
+        .sum::<f64>();
     let mut out = model.clone();
-    match effect {
+    let added = match effect {
         Effect::SecondMode => match locate_mode(model, data, pred) {
-            Some(mode) => out.linear.modes.push(mode),
+            Some(mode) => {
+                out.linear.modes.push(mode);
+                return Ok(Some(out));
+            }
             None => return Ok(None),
         },
-        Effect::CubicStiffness => {
-            let probe = 0.01 * k / (a_max * a_max);
-            let k3 = gauss_newton_start(
-                model,
-                data,
-                pred,
-                predictor,
-                |p| ElementSpec::CubicStiffness { k3: p },
-                probe,
-            )?;
-            out.elements.push(ElementSpec::CubicStiffness {
-                k3: if k3 == 0.0 { probe } else { k3 },
-            });
+        Effect::CubicStiffness => scan_start(
+            model,
+            data,
+            pred,
+            predictor,
+            |p| ElementSpec::CubicStiffness { k3: p },
+            0.01 * k / (a_max * a_max),
+            true,
+        )
+        .map(|(k3, _)| ElementSpec::CubicStiffness { k3 }),
+        Effect::BilinearStiffness => scan_start(
+            model,
+            data,
+            pred,
+            predictor,
+            |p| ElementSpec::BilinearStiffness { kb: p },
+            0.01 * k,
+            true,
+        )
+        .map(|(kb, _)| ElementSpec::BilinearStiffness { kb }),
+        Effect::QuadraticDamping => scan_start(
+            model,
+            data,
+            pred,
+            predictor,
+            |p| ElementSpec::QuadraticDamping { c2: p },
+            0.01 * c / v_max,
+            false,
+        )
+        .map(|(c2, _)| ElementSpec::QuadraticDamping { c2 }),
+        Effect::Clearance => [0.25, 0.5, 0.75]
+            .iter()
+            .filter_map(|&g| {
+                let gap = g * a_max;
+                scan_start(
+                    model,
+                    data,
+                    pred,
+                    predictor,
+                    |p| ElementSpec::Clearance { k: p, gap },
+                    0.01 * k,
+                    false,
+                )
+                .map(|(kc, chi2)| (ElementSpec::Clearance { k: kc, gap }, chi2))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(e, _)| e),
+    };
+    match added {
+        Some(e) => {
+            out.elements.push(e);
+            Ok(Some(out))
         }
-        Effect::BilinearStiffness => {
-            let probe = 0.01 * k;
-            let kb = gauss_newton_start(
-                model,
-                data,
-                pred,
-                predictor,
-                |p| ElementSpec::BilinearStiffness { kb: p },
-                probe,
-            )?;
-            out.elements.push(ElementSpec::BilinearStiffness {
-                kb: if kb == 0.0 { probe } else { kb },
-            });
-        }
-        Effect::QuadraticDamping => {
-            let probe = 0.01 * c / v_max;
-            let c2 = gauss_newton_start(
-                model,
-                data,
-                pred,
-                predictor,
-                |p| ElementSpec::QuadraticDamping { c2: p },
-                probe,
-            )?;
-            out.elements.push(ElementSpec::QuadraticDamping {
-                c2: c2.max(0.01 * probe),
-            });
-        }
-        Effect::Clearance => {
-            let gap = 0.5 * a_max;
-            let probe = 0.01 * k;
-            let kc = gauss_newton_start(
-                model,
-                data,
-                pred,
-                predictor,
-                |p| ElementSpec::Clearance { k: p, gap },
-                probe,
-            )?;
-            out.elements.push(ElementSpec::Clearance {
-                k: kc.max(0.01 * probe),
-                gap,
-            });
-        }
+        None => Ok(None),
     }
-    Ok(Some(out))
 }
 
 /// The effect parameters' names and values in a model (those not in `base`).
@@ -476,11 +554,35 @@ fn unresolved(
         let Some(name) = p.name.strip_prefix(&prefix) else {
             continue;
         };
+        // a mode held at the largest damping ratio allowed is no resonance:
+        // the optimiser used it as a smooth background, not as a mode
+        if name == "damping_ratio" && e.value >= 0.99 * crate::fit::params::ZETA_MAX {
+            return Ok(Some(format!(
+                "lowered χ² enough, but only as a mode damped at the bound ζ = {:.2}: not a resolved mode",
+                e.value
+            )));
+        }
         // the effect's size; its shape (a mode's frequency and damping, a
         // gap) may sit at a bound without making the effect doubtful
         let size = matches!(name, "k3" | "kb" | "c2" | "k" | "residue");
         if !size {
             continue;
+        }
+        let at_bound = p
+            .bounds
+            .iter()
+            .any(|&b| b.is_finite() && (e.value - b).abs() <= 1e-9 * b.abs().max(e.value.abs()));
+        if !e.identifiable {
+            return Ok(Some(format!(
+                "lowered χ² enough, but the data do not determine its {name}{}",
+                e.note.as_deref().map(|n| format!(" ({n})")).unwrap_or_default()
+            )));
+        }
+        if at_bound || e.value == 0.0 {
+            return Ok(Some(format!(
+                "lowered χ² enough, but its {name} = {} sits at its bound: not resolved from the noise",
+                fmt_value(e.value)
+            )));
         }
         let [lo, hi] = e.ci95;
         let straddles = lo <= 0.0 && hi >= 0.0;
@@ -497,6 +599,122 @@ fn unresolved(
         }
     }
     Ok(None)
+}
+
+/// One candidate's refit on the current model: its start(s) from the
+/// residual, each refitted, the best kept (`None` when no start exists).
+fn try_candidate(
+    effect: Effect,
+    current: &Refit,
+    frf: &NonlinearFrf,
+    data: &FitData,
+    options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+) -> Result<Option<Refit>> {
+    let mut starts: Vec<Model> = augment(&current.model, effect, data, &current.pred, predictor)?
+        .into_iter()
+        .collect();
+    if effect == Effect::SecondMode {
+        // a missing mode also bends the linear estimates the baseline started
+        // from: identify afresh with one more mode (with the user's fit
+        // options: the same element, band and linear start), then add back
+        // the effects kept so far
+        let opts = crate::fit::FitOptions {
+            modes: current.model.linear.modes.len() + 1,
+            band_hz: options.band_hz.or(options.fit.band_hz),
+            ..options.fit.clone()
+        };
+        if let Ok(f) = crate::fit::identify(frf, &opts, predictor, None) {
+            let mut m = f.model;
+            m.elements
+                .extend(current.model.elements.iter().skip(1).cloned());
+            starts.push(m);
+        }
+    }
+    let mut best: Option<Refit> = None;
+    let mut last_error = None;
+    for start in &starts {
+        match refit(start, data, predictor, Some(&current.pred), options.patience) {
+            Ok(r) => {
+                if best.as_ref().is_none_or(|b| r.chi2 < b.chi2) {
+                    best = Some(r);
+                }
+            }
+            Err(e) => last_error = Some(e),
+        }
+    }
+    match (best, last_error) {
+        (Some(b), _) => Ok(Some(b)),
+        (None, Some(e)) => Err(e),
+        (None, None) => Ok(None),
+    }
+}
+
+/// The points of `data` with index parity `parity` in each level.
+fn half(data: &FitData, parity: usize) -> FitData {
+    let mut d = data.clone();
+    for s in &mut d.series {
+        s.points = s
+            .points
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % 2 == parity)
+            .map(|(_, p)| p.clone())
+            .collect();
+    }
+    d.series.retain(|s| !s.points.is_empty());
+    d
+}
+
+/// Cross-validation of an effect: the model with it and the model without
+/// it, each refitted on every other frequency of every level, predict the
+/// frequencies left out. An effect that fits the noise of the points it saw
+/// predicts the others no better; `Some(why)` then.
+fn held_out_check(
+    without: &Model,
+    with: &Model,
+    data: &FitData,
+    predictor: &HbPredictor,
+    patience: usize,
+) -> Option<String> {
+    let (train, test) = (half(data, 0), half(data, 1));
+    if test.observations() == 0 || train.observations() == 0 {
+        return None;
+    }
+    let held_out = |m: &Model| -> Option<f64> {
+        let r = refit(m, &train, predictor, None, patience).ok()?;
+        let p = predictor.predict(&r.model, &test).ok()?;
+        Some(crate::fit::problem::chi_square(&test, &p))
+    };
+    match (held_out(without), held_out(with)) {
+        (Some(a), Some(b)) if b < a => None,
+        (Some(a), Some(b)) => Some(format!(
+            "lowered χ² enough, but fitted on every other frequency it predicts the rest no better (held-out χ² {} with it, {} without)",
+            fmt_value(b),
+            fmt_value(a)
+        )),
+        // a refit that fails on half the data says nothing against the effect
+        _ => None,
+    }
+}
+
+/// `model` without `effect` (the last element of its kind, or the last
+/// mode beyond the first).
+fn remove_effect(model: &Model, effect: Effect) -> Option<Model> {
+    let mut m = model.clone();
+    if effect == Effect::SecondMode {
+        if m.linear.modes.len() < 2 {
+            return None;
+        }
+        m.linear.modes.pop();
+        return Some(m);
+    }
+    let i = m
+        .elements
+        .iter()
+        .rposition(|e| e.kind().name() == effect.name())?;
+    m.elements.remove(i);
+    Some(m)
 }
 
 /// How many parameters an effect adds.
@@ -551,12 +769,53 @@ pub fn default_harmonics(frf: &NonlinearFrf) -> Vec<usize> {
     h
 }
 
+/// What a diagnosis is doing, for progress displays.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DiagnoseEvent {
+    /// The baseline refit on the judged harmonics is done.
+    Baseline {
+        /// Its `χ²/dof`.
+        chi2_per_dof: f64,
+    },
+    /// A round starts with this many candidates.
+    Round {
+        /// The round (1 = on the baseline).
+        round: usize,
+        /// Candidates tried in it.
+        candidates: usize,
+    },
+    /// One candidate's refit is done (or failed).
+    Candidate {
+        /// The round.
+        round: usize,
+        /// The effect.
+        effect: Effect,
+    },
+    /// The best candidate is being checked on held-out frequencies.
+    Checking {
+        /// The effect.
+        effect: Effect,
+    },
+}
+
 /// Diagnoses a fit: see the module docs.
 pub fn diagnose(
     frf: &NonlinearFrf,
     fit: &FitResult,
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
+) -> Result<Diagnosis> {
+    diagnose_observed(frf, fit, options, predictor, &|_| {})
+}
+
+/// [`diagnose`], telling `observer` what it is doing (called from worker
+/// threads while candidates are refitted in parallel).
+pub fn diagnose_observed(
+    frf: &NonlinearFrf,
+    fit: &FitResult,
+    options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+    observer: &(dyn Fn(DiagnoseEvent) + Sync),
 ) -> Result<Diagnosis> {
     let harmonics = options
         .harmonics
@@ -578,6 +837,9 @@ pub fn diagnose(
     let noise_band = 1.0 + 3.0 * (2.0 / n_real).sqrt();
     let base = refit(&fit.model, &data, predictor, None, options.patience)?;
     let baseline = model_fit(&base.model, &data, &base.pred, base.chi2);
+    observer(DiagnoseEvent::Baseline {
+        chi2_per_dof: baseline.chi2_per_dof,
+    });
     let base_features = features(&data, &base.pred);
     let mut current = Refit {
         model: base.model.clone(),
@@ -587,6 +849,7 @@ pub fn diagnose(
     let mut remaining = options.candidates.clone();
     let mut reports = Vec::new();
     let mut chosen: Vec<Effect> = Vec::new();
+    let mut failed: Vec<FailedCandidate> = Vec::new();
     let mut round = 0;
     while round < options.max_effects
         && !remaining.is_empty()
@@ -595,50 +858,41 @@ pub fn diagnose(
         round += 1;
         let feats = features(&data, &current.pred);
         let ranked = rank(&feats, &remaining);
-        let tried: Vec<Result<Option<(Effect, usize, Refit)>>> = ranked
+        observer(DiagnoseEvent::Round {
+            round,
+            candidates: ranked.len(),
+        });
+        let tried: Vec<(Effect, usize, Result<Option<Refit>>)> = ranked
             .par_iter()
             .enumerate()
             .map(|(i, &(effect, _))| {
-                let mut starts: Vec<Model> =
-                    augment(&current.model, effect, &data, &current.pred, predictor)?
-                        .into_iter()
-                        .collect();
-                if effect == Effect::SecondMode {
-                    // a missing mode also bends the linear estimates the
-                    // baseline started from: identify afresh with one more
-                    // mode, then add back the effects kept so far
-                    let opts = crate::fit::FitOptions {
-                        modes: current.model.linear.modes.len() + 1,
-                        band_hz: options.band_hz.or(options.fit.band_hz),
-                        ..options.fit.clone()
-                    };
-                    if let Ok(f) = crate::fit::identify(frf, &opts, predictor, None) {
-                        let mut m = f.model;
-                        m.elements
-                            .extend(current.model.elements.iter().skip(1).cloned());
-                        starts.push(m);
-                    }
-                }
-                let mut best: Option<Refit> = None;
-                for start in &starts {
-                    let r = refit(
-                        start,
-                        &data,
-                        predictor,
-                        Some(&current.pred),
-                        options.patience,
-                    )?;
-                    if best.as_ref().is_none_or(|b| r.chi2 < b.chi2) {
-                        best = Some(r);
-                    }
-                }
-                Ok(best.map(|r| (effect, i + 1, r)))
+                let r = try_candidate(effect, &current, frf, &data, options, predictor);
+                observer(DiagnoseEvent::Candidate { round, effect });
+                (effect, i + 1, r)
             })
             .collect();
         let mut round_results = Vec::new();
-        for t in tried {
-            let Some((effect, rank_pos, r)) = t? else {
-                continue;
+        for (effect, rank_pos, t) in tried {
+            let r = match t {
+                Ok(Some(r)) => r,
+                Ok(None) => {
+                    failed.push(FailedCandidate {
+                        effect,
+                        round,
+                        reason: "no starting point: the residual shows no further mode".into(),
+                    });
+                    continue;
+                }
+                Err(e) => {
+                    // one candidate's failure is a finding, not the end of the
+                    // diagnosis
+                    failed.push(FailedCandidate {
+                        effect,
+                        round,
+                        reason: e.to_string(),
+                    });
+                    continue;
+                }
             };
             let delta = current.chi2 - r.chi2;
             let reduced = normalised(r.chi2).max(1.0);
@@ -659,8 +913,10 @@ pub fn diagnose(
             round_results.push((report, r));
         }
         // the best penalised improvement (an effect with more parameters must
-        // earn them) whose own parameters the data resolve: a χ² drop bought
-        // by a size whose interval straddles zero is the noise being fitted
+        // earn them) whose own parameters the data resolve (a χ² drop bought
+        // by a size whose interval straddles zero is the noise being fitted)
+        // and which predicts data it was not fitted to better than the model
+        // without it
         let mut order: Vec<usize> = (0..round_results.len())
             .filter(|&j| round_results[j].0.criterion > 0.0)
             .collect();
@@ -673,7 +929,15 @@ pub fn diagnose(
         let mut best: Option<usize> = None;
         for j in order {
             let (rep, r) = &mut round_results[j];
-            match unresolved(rep.effect, r, &data, predictor)? {
+            let why = match unresolved(rep.effect, r, &data, predictor) {
+                Ok(None) => {
+                    observer(DiagnoseEvent::Checking { effect: rep.effect });
+                    held_out_check(&current.model, &r.model, &data, predictor, options.patience)
+                }
+                Ok(Some(why)) => Some(why),
+                Err(e) => Some(format!("its intervals could not be computed: {e}")),
+            };
+            match why {
                 None => {
                     best = Some(j);
                     break;
@@ -685,6 +949,7 @@ pub fn diagnose(
             reports.extend(round_results.into_iter().map(|(r, _)| r));
             break;
         };
+        let added_now = round_results[i].0.effect;
         for (j, (mut rep, r)) in round_results.into_iter().enumerate() {
             if j == i {
                 rep.accepted = true;
@@ -693,6 +958,37 @@ pub fn diagnose(
                 current = r;
             }
             reports.push(rep);
+        }
+        // an effect kept earlier may have lost its reason to be there once
+        // this one came in (a quadratic damping that stood in for a mode):
+        // drop it, refit, and look again
+        while let Some(&gone) = chosen.iter().find(|&&e| {
+            !matches!(unresolved(e, &current, &data, predictor), Ok(None))
+        }) {
+            let why = unresolved(gone, &current, &data, predictor)
+                .ok()
+                .flatten()
+                .unwrap_or_else(|| "its intervals could not be computed".into());
+            let Some(without) = remove_effect(&current.model, gone) else {
+                break;
+            };
+            match refit(&without, &data, predictor, None, options.patience) {
+                Ok(r) => current = r,
+                Err(_) => break,
+            }
+            chosen.retain(|&e| e != gone);
+            if let Some(rep) = reports
+                .iter_mut()
+                .rev()
+                .find(|r| r.effect == gone && r.accepted)
+            {
+                rep.accepted = false;
+                rep.note = Some(format!(
+                    "kept in round {}, dropped in round {round}: once {} was added, {why}",
+                    rep.round,
+                    added_now.name()
+                ));
+            }
         }
     }
     // intervals of the effects kept, at the final model
@@ -750,6 +1046,7 @@ pub fn diagnose(
         baseline,
         features: base_features,
         candidates: reports,
+        failed,
         selected,
         final_fit,
         final_features,
@@ -796,15 +1093,16 @@ fn explain(
             .max_by(|a, b| a.criterion.total_cmp(&b.criterion));
         match best {
             Some(b) if b.note.is_some() => s.push_str(&format!(
-                "No significant missing effect: the best candidate, {}, {}.",
+                "No significant missing effect: the candidate that did best against the information criterion, {}, {}.",
                 b.effect.name(),
                 b.note.as_deref().unwrap_or_default()
             )),
             Some(b) => s.push_str(&format!(
-                "No significant missing effect: the best candidate, {}, lowered χ² by {:.1}, short of the {:.1} the information criterion asks for.",
+                "No significant missing effect: the candidate that came closest to the information criterion, {}, lowered χ² by {:.1}, short of the {:.1} it asks for {} parameter(s).",
                 b.effect.name(),
                 b.delta_chi2,
-                b.threshold
+                b.threshold,
+                effect_size(b.effect)
             )),
             None => s.push_str("No significant missing effect."),
         }

@@ -463,6 +463,23 @@ pub fn identify(
     };
     let base = Model::new(sdof, vec![element])?;
     let mut element_params = ParameterSet::for_element(&base, 0, "");
+    // bounded by the data: a slip force far below the smallest level (always
+    // slipping) or far above the largest (never slipping) is not identified
+    // by the test, and neither is a stick stiffness decades away from the
+    // structure's; the bounds keep an optimiser from running away there
+    {
+        let (lmin, lmax) = data.series.iter().fold((f64::MAX, 0.0f64), |(a, b), s| {
+            (a.min(s.level), b.max(s.level))
+        });
+        let k_ref = kd0.abs().max(f64::MIN_POSITIVE);
+        for p in &mut element_params.parameters {
+            match p.name.as_str() {
+                "fd" if lmax > 0.0 => p.bounds = [1e-3 * lmin, 1e3 * lmax],
+                "kd" => p.bounds = [1e-4 * k_ref, 1e4 * k_ref],
+                _ => {}
+            }
+        }
+    }
     let mut params = element_params.clone();
     match (options.linear_start, options.refine_linear) {
         (LinearStart::Extremes, LinearRefinement::None) => {}

@@ -255,6 +255,12 @@ impl ParameterSet {
 
     /// The model at `theta` (values clamped to their bounds) and the total
     /// distance outside the bounds (for a penalty).
+    ///
+    /// A mode's damping ratio is bounded here too, whatever coordinates
+    /// moved it: `m, c, k` in log coordinates can reach any ratio, and a mode
+    /// past [`ZETA_MAX`] is held there with the excess (in `ln ζ`) added to
+    /// the distance, so an optimiser is pushed back instead of handed a model
+    /// the simulator rejects.
     pub fn model_at(&self, base: &Model, theta: &[f64]) -> Result<(Model, f64)> {
         let mut m = base.clone();
         let mut outside = 0.0;
@@ -262,6 +268,13 @@ impl ParameterSet {
             let (v, o) = p.clamped(t);
             outside += o;
             p.write(&mut m, v)?;
+        }
+        for mode in &mut m.linear.modes {
+            let z = mode.damping_ratio;
+            if z.is_finite() && z > ZETA_MAX {
+                outside += (z / ZETA_MAX).ln();
+                mode.damping_ratio = ZETA_MAX;
+            }
         }
         Ok((m, outside))
     }
@@ -354,7 +367,7 @@ impl ParameterSet {
                 name: name("damping_ratio"),
                 target: Target::DampingRatio { mode: m },
                 transform: Transform::Log,
-                bounds: [1e-5, 0.9],
+                bounds: [1e-5, ZETA_MAX],
             });
             p.parameters.push(Parameter {
                 name: name("residue"),
@@ -374,6 +387,10 @@ impl ParameterSet {
     }
 }
 
+/// The largest damping ratio a fitted mode may take: a mode damped beyond it
+/// has no resonance to fit and is a model of something else.
+pub const ZETA_MAX: f64 = 0.9;
+
 /// Upper bound of the Masing curvature: above it eq. (10) cannot be told
 /// from a Jenkins element within measurement noise (method notes f.6).
 pub const N_MAX: f64 = 1000.0;
@@ -389,6 +406,11 @@ fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [
             (Transform::Scaled { scale }, [0.0, 1e30])
         }
         (ElementSpec::Clearance { .. }, "gap") => (Transform::Scaled { scale }, [0.0, 1e30]),
+        // positive by nature: six decades either side of the start, which
+        // no fit from a data-based start should need, and which keeps a
+        // runaway (a slip force above every level, a stiffness of 1e30) from
+        // wandering where the model means nothing
+        _ if value.is_finite() && value > 0.0 => (Transform::Log, [value * 1e-6, value * 1e6]),
         _ => (Transform::Log, [1e-30, 1e30]),
     }
 }

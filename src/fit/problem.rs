@@ -160,6 +160,20 @@ pub struct Prediction {
 }
 
 impl Prediction {
+    /// A prediction in which every point failed (a model that cannot be
+    /// built or solved at all).
+    pub fn failed(data: &FitData) -> Prediction {
+        Prediction {
+            h: data
+                .series
+                .iter()
+                .map(|s| vec![None; s.points.len()])
+                .collect(),
+            solves: 0,
+            states: Vec::new(),
+        }
+    }
+
     /// Points whose solve failed.
     pub fn failures(&self) -> usize {
         self.h.iter().flatten().filter(|p| p.is_none()).count()
@@ -322,6 +336,11 @@ impl<'a> FitProblem<'a> {
     }
 
     /// The model and prediction at `theta`, and the distance outside bounds.
+    ///
+    /// An error here is the model's, not the data's: parameters the model
+    /// rejects (a mode pushed past critical damping) or a predictor that
+    /// cannot solve it. Use [`FitProblem::evaluate_or_fail`] inside an
+    /// optimiser, where such a point must be a bad point, not the end.
     pub fn evaluate(&self, theta: &[f64]) -> Result<(Model, Prediction, f64)> {
         let (model, outside) = self.parameters.model_at(&self.base, theta)?;
         let start = self
@@ -337,10 +356,32 @@ impl<'a> FitProblem<'a> {
         Ok((model, pred, outside))
     }
 
+    /// [`FitProblem::evaluate`], with a model the library rejects or cannot
+    /// solve turned into a prediction whose every point failed (the residual
+    /// then counts each point worse than predicting nothing, see
+    /// [`residuals`]), so an optimiser steps back from it. Errors that are
+    /// not the model's (an unusable parameter set) still propagate.
+    pub fn evaluate_or_fail(&self, theta: &[f64]) -> Result<(Prediction, f64)> {
+        match self.evaluate(theta) {
+            Ok((_, pred, outside)) => Ok((pred, outside)),
+            Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
+                let outside = self
+                    .parameters
+                    .parameters
+                    .iter()
+                    .zip(theta)
+                    .map(|(p, &t)| p.clamped(t).1)
+                    .sum::<f64>();
+                Ok((Prediction::failed(self.data), outside))
+            }
+            Err(e) => Err(e),
+        }
+    }
+
     /// Residuals at `theta`, with a penalty row for any distance outside the
     /// bounds (so a simplex is pushed back in).
     pub fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
-        let (_, pred, outside) = self.evaluate(theta)?;
+        let (pred, outside) = self.evaluate_or_fail(theta)?;
         Ok(self.residuals_of(&pred, outside))
     }
 
@@ -353,7 +394,7 @@ impl<'a> FitProblem<'a> {
 
     /// Cost `Σ r²` at `theta` (recorded in the trace).
     pub fn cost(&self, theta: &[f64]) -> Result<f64> {
-        let (_, pred, outside) = self.evaluate(theta)?;
+        let (pred, outside) = self.evaluate_or_fail(theta)?;
         let r = self.residuals_of(&pred, outside);
         let cost = r.iter().map(|v| v * v).sum::<f64>();
         {
