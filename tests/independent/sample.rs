@@ -4,10 +4,8 @@
 use super::kit::corpus::{
     Case, CaseOptions, EffectKind, JointKind, Quantity, SampleFormat, Sweep, case_with, generate,
 };
-use super::kit::recording::write_recording;
-use super::kit::score::{Score, hystid_bin, run_diagnose, score};
+use super::kit::runner::{describe, run_cases};
 use std::path::PathBuf;
-use std::sync::Mutex;
 use std::time::Duration;
 
 /// The sample: a control, cubic, quadratic damping, bilinear, second
@@ -39,49 +37,6 @@ pub fn sample_cases() -> Vec<Case> {
     v.into_iter().map(|x| x.1).collect()
 }
 
-/// Generates, writes and diagnoses `cases`, `jobs` at a time.
-pub fn run_cases(cases: &[Case], dir: &std::path::Path, jobs: usize, timeout: Duration) -> Vec<Score> {
-    let next = Mutex::new(0usize);
-    let results = Mutex::new(vec![None; cases.len()]);
-    std::thread::scope(|s| {
-        for _ in 0..jobs.max(1) {
-            s.spawn(|| loop {
-                let i = {
-                    let mut n = next.lock().unwrap();
-                    *n += 1;
-                    *n - 1
-                };
-                let Some(case) = cases.get(i) else { break };
-                let rec = generate(case);
-                let js = write_recording(&dir.join("recordings"), case, &rec).expect("write recording");
-                let run = run_diagnose(&hystid_bin(), &js, &dir.join("out").join(&case.name), case.element(), timeout);
-                let sc = score(case, &run);
-                eprintln!("{}: {} in {:.1} s", case.name, if sc.passed() { "PASS" } else { "FAIL" }, sc.seconds);
-                results.lock().unwrap()[i] = Some(sc);
-            });
-        }
-    });
-    results.into_inner().unwrap().into_iter().map(|s| s.unwrap()).collect()
-}
-
-pub fn describe(s: &Score) -> String {
-    let mut t = format!("{}\n  {}\n  truth [{}] selected [{}]", s.summary, s.command, s.truth.join(","), s.selected.join(","));
-    if let (Some(b), Some(f)) = (s.baseline_error, s.final_error) {
-        t += &format!("\n  H1 error baseline {:.2} % final {:.2} %, chi2/dof baseline {:.3} final {:.3}, {:.1} s",
-            100.0 * b, 100.0 * f, s.baseline_chi2_dof.unwrap_or(f64::NAN), s.chi2_dof.unwrap_or(f64::NAN), s.seconds);
-    }
-    for p in s.joint.iter().chain(&s.effects) {
-        t += &format!("\n  {}.{}: truth {:.6e} estimate {:?} ({:.2} %)", p.effect, p.name, p.truth, p.estimate, 100.0 * p.relative());
-    }
-    for c in &s.candidates {
-        t += &format!("\n  {c}");
-    }
-    for f in &s.failures {
-        t += &format!("\n  FAIL: {f}");
-    }
-    t
-}
-
 #[test]
 #[ignore = "issue 10: hystid diagnose is not yet robust on recordings it did not make (run with --ignored)"]
 fn independent_corpus_sample() {
@@ -110,4 +65,56 @@ fn independent_sample_generates() {
         assert!(rec.response.iter().all(|x| x.is_finite()));
         assert_eq!(rec.steps.len(), case.levels.len() * case.frequencies.len());
     }
+}
+
+/// One case from the environment, for reproducing a report line:
+/// `HYSTID_CASE_SEED=N` alone regenerates the corpus case `draw_case(N)`;
+/// with `HYSTID_CASE_JOINT=jenkins|masing:N` and `HYSTID_CASE_EFFECTS=a,b`
+/// (and optionally `HYSTID_CASE_QUANTITY`, `HYSTID_CASE_FORMAT`,
+/// `HYSTID_CASE_STEPS=0|1`, `HYSTID_CASE_LEVELS`, `HYSTID_CASE_FREQS`) it
+/// builds `case_with`. Writes under `target/tmp/independent-case/` and prints
+/// the command and the scored outcome.
+#[test]
+#[ignore = "manual: reproduces one case from HYSTID_CASE_* variables"]
+fn independent_case_from_env() {
+    use super::kit::corpus::draw_case;
+    let var = |k: &str| std::env::var(k).ok();
+    let seed: u64 = var("HYSTID_CASE_SEED").and_then(|v| v.parse().ok()).unwrap_or(1);
+    let mut case = match var("HYSTID_CASE_JOINT") {
+        None => draw_case(seed),
+        Some(j) => {
+            let joint = match j.split_once(':') {
+                Some(("masing", n)) => JointKind::Masing { n: n.parse().unwrap() },
+                _ if j == "jenkins" => JointKind::Jenkins,
+                _ => panic!("HYSTID_CASE_JOINT: jenkins or masing:N"),
+            };
+            let effects: Vec<EffectKind> = var("HYSTID_CASE_EFFECTS")
+                .unwrap_or_default()
+                .split(',')
+                .filter(|s| !s.is_empty())
+                .map(|s| EffectKind::from_name(s).expect("effect name"))
+                .collect();
+            let o = CaseOptions {
+                levels: var("HYSTID_CASE_LEVELS").and_then(|v| v.parse().ok()),
+                frequencies: var("HYSTID_CASE_FREQS").and_then(|v| v.parse().ok()),
+                format: var("HYSTID_CASE_FORMAT").map(|f| match f.as_str() {
+                    "float32" => SampleFormat::Float32,
+                    "pcm16" => SampleFormat::Pcm16,
+                    _ => SampleFormat::Pcm24,
+                }),
+                quantity: var("HYSTID_CASE_QUANTITY").map(|q| match q.as_str() {
+                    "displacement" => Quantity::Displacement,
+                    "velocity" => Quantity::Velocity,
+                    _ => Quantity::Acceleration,
+                }),
+                sweep: None,
+                with_steps: var("HYSTID_CASE_STEPS").map(|v| v == "1"),
+            };
+            case_with(seed, joint, &effects, &o)
+        }
+    };
+    case.name = format!("env-{seed}");
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("independent-case");
+    let s = run_cases(&[case], &dir, 1, Duration::from_secs(900));
+    eprintln!("{}", describe(&s[0]));
 }

@@ -323,7 +323,8 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
     for &fr in &[f_slip, f_stuck] {
         for i in 0..n_near {
             let u = if n_near == 1 { 0.0 } else { i as f64 / (n_near - 1) as f64 * 2.0 - 1.0 };
-            frequencies.push(fr * (1.0 + 4.0 * zeta * u + rng.random_range(-0.5..0.5) * zeta));
+            // within the half-power band, where damping shows
+            frequencies.push(fr * (1.0 + 1.5 * zeta * u + rng.random_range(-0.3..0.3) * zeta));
         }
     }
     // off any round value: a small random detuning

@@ -6,4 +6,5 @@
 pub mod corpus;
 pub mod recording;
 pub mod refsim;
+pub mod runner;
 pub mod score;

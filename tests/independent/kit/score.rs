@@ -110,6 +110,8 @@ pub struct Score {
     pub aborted: bool,
     pub abort_reason: String,
     pub seconds: f64,
+    /// Time the reference took to generate the recording.
+    pub gen_seconds: f64,
     pub joint: Vec<ParamError>,
     pub effects: Vec<ParamError>,
     pub chi2_dof: Option<f64>,
@@ -120,6 +122,8 @@ pub struct Score {
     pub command: String,
     /// Candidate lines: effect, accepted, Δχ², threshold, note.
     pub candidates: Vec<String>,
+    /// Observations that are not failures.
+    pub notes: Vec<String>,
 }
 
 impl Score {
@@ -144,12 +148,12 @@ impl Score {
         json!({
             "name": self.name, "seed": self.seed, "summary": self.summary,
             "truth": self.truth, "selected": self.selected, "aborted": self.aborted,
-            "abort_reason": self.abort_reason, "seconds": self.seconds,
+            "abort_reason": self.abort_reason, "seconds": self.seconds, "gen_seconds": self.gen_seconds,
             "joint": pe(&self.joint), "effects": pe(&self.effects),
             "chi2_per_dof": self.chi2_dof, "baseline_chi2_per_dof": self.baseline_chi2_dof,
             "baseline_error_relative": self.baseline_error, "final_error_relative": self.final_error,
             "passed": self.passed(), "failures": self.failures, "command": self.command,
-            "candidates": self.candidates,
+            "candidates": self.candidates, "notes": self.notes,
         })
     }
 }
@@ -170,6 +174,7 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         aborted: false,
         abort_reason: String::new(),
         seconds: run.seconds,
+        gen_seconds: 0.0,
         joint: vec![],
         effects: vec![],
         chi2_dof: None,
@@ -179,6 +184,7 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         failures: vec![],
         command: run.command.clone(),
         candidates: vec![],
+        notes: vec![],
     };
     let d = match (&run.diagnosis, run.exit_code) {
         (Some(d), Some(0)) => d,
@@ -222,7 +228,17 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         JointKind::Jenkins => "jenkins",
         JointKind::Masing { .. } => "masing",
     };
-    let joint = elements.iter().find(|e| e["kind"] == joint_kind);
+    // the joint: the element of the kind asked for, else any hysteretic
+    // one (a Masing joint with N → ∞ is a Jenkins joint; noted)
+    let joint = elements
+        .iter()
+        .find(|e| e["kind"] == joint_kind)
+        .or_else(|| elements.iter().find(|e| e["kind"] == "jenkins" || e["kind"] == "masing"));
+    if let Some(j) = joint
+        && j["kind"] != joint_kind
+    {
+        s.notes.push(format!("asked for a {joint_kind} joint, the final model has {}", j));
+    }
     for (name, t) in [("kd", case.kd), ("fd", case.fd)] {
         s.joint.push(ParamError {
             effect: joint_kind.into(),
