@@ -311,7 +311,7 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
     let levels: Vec<f64> = (0..nl)
         .map(|i| lo * (hi / lo).powf(i as f64 / (nl - 1) as f64))
         .collect();
-    let nf = o.frequencies.unwrap_or_else(|| rng.random_range(15..=24usize));
+    let nf = o.frequencies.unwrap_or_else(|| rng.random_range(12..=20usize));
     let f_stuck = ((stiffness + kd) / mass).sqrt() / (2.0 * PI);
     let (flo, fhi) = (0.6 * f_slip, 1.4 * f_stuck);
     // a log grid over the band plus points around both resonances
@@ -335,7 +335,7 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
     frequencies.dedup_by(|a, b| (*a / *b - 1.0).abs() < 1e-3);
     let ftop = *frequencies.last().unwrap();
     let ok: Vec<u32> = RATES.iter().copied().filter(|&r| r as f64 >= 20.0 * ftop).collect();
-    let sample_rate = ok[rng.random_range(0..ok.len().min(2))];
+    let sample_rate = ok[0];
     let format = o.format.unwrap_or_else(|| {
         [SampleFormat::Float32, SampleFormat::Pcm16, SampleFormat::Pcm24][rng.random_range(0..3usize)]
     });
@@ -466,8 +466,8 @@ pub fn generate(case: &Case) -> Recording {
     for (l, j) in case.order() {
         let f = case.frequencies[j];
         let a = case.levels[l];
-        // settle: 5 slowest time constants, at least 20 periods, at most 400
-        let settle_periods = ((5.0 * tau * f).ceil() as u64).clamp(20, 400);
+        // settle: 5 slowest time constants, at least 20 periods, at most 250
+        let settle_periods = ((5.0 * tau * f).ceil() as u64).clamp(20, 250);
         let periods = settle_periods + case.analysis_periods;
         spec.push((f, a, periods, settle_periods as f64 / f));
     }
