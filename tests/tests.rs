@@ -14,6 +14,7 @@ mod extract;
 mod fit;
 mod hb;
 mod import;
+mod independent;
 mod plot;
 mod realdata;
 mod record;

@@ -1,0 +1,12 @@
+//! Issue 10: an independent reference simulator and a seeded corpus of
+//! recordings hystid did not make, and `hystid diagnose` run on them.
+//!
+//! `kit/` holds the simulator, generator, writer and scoring (no
+//! `use hystid` there); `reference` checks the simulator against closed
+//! forms; `sample` runs the CLI on a fixed sample of the corpus. The full
+//! report is `cargo bench --bench corpus`.
+
+pub mod kit;
+
+mod reference;
+mod sample;
