@@ -5,9 +5,15 @@
 //! * Amplitudes are single-sided: `|Y_h|` is the amplitude of harmonic `h`
 //!   (not RMS, not half), and `Y_0` is the mean (DC, real).
 //! * Harmonic index `h = 1` is the excitation frequency.
-//! * A (nonlinear) FRF is `H_h = Y_h / F_1`: the response's harmonic `h`
-//!   divided by the *measured* force fundamental, so the time origin and the
-//!   force's phase cancel. Phases are of the response relative to the force.
+//! * A (nonlinear) FRF is `H_h = Y_h / (F_1 u^(h−1))`, `u = F_1/|F_1|`: the
+//!   response's harmonic `h` divided by the *measured* force fundamental and
+//!   referred to the force's phase, i.e. the response to a force
+//!   `|F_1| cos ωt` (harmonic balance's forcing). Moving the time origin by
+//!   `τ` turns `Y_h` by `e^{jhωτ}` and `F_1` by `e^{jωτ}`: `Y_h/F_1` alone
+//!   would keep `e^{j(h−1)ωτ}` of it for `h ≠ 1`, so a recording whose
+//!   analysis window does not start at a force maximum would have its `H_2`,
+//!   `H_3`, ... turned by an arbitrary angle (see [`referred_to_force`]).
+//!   Phases are of the response relative to the force.
 //! * SI units throughout: N, m, m/s, m/s², Hz for frequencies the user sees,
 //!   rad/s inside the formulas.
 //!
@@ -99,6 +105,19 @@ impl std::fmt::Display for Quantity {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
+}
+
+/// `y_h` referred to the phase of the force fundamental `f1`: `y_h u^(1−h)`
+/// with `u = f1/|f1|` (the module's FRF convention; `h = 1` and a force at
+/// phase 0 leave `y_h` as it is). Divide by `|f1|` for the FRF.
+#[inline]
+pub fn referred_to_force(y_h: Complex64, h: usize, f1: Complex64) -> Complex64 {
+    let n = f1.norm();
+    if h == 1 || !(n > 0.0) {
+        return y_h;
+    }
+    let u = f1 / n;
+    y_h * u.powi(1 - h as i32)
 }
 
 /// Angular frequency in rad/s from a frequency in Hz.

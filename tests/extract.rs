@@ -50,8 +50,26 @@ fn sample(harmonics: &[Complex64], samples_per_period: f64, n: usize) -> Vec<f64
         .collect()
 }
 
+/// `H_h = Y_h / (F_1 u^(h−1))`, `u = F_1/|F_1|`, written out (the FRF
+/// convention: the response to `|F_1| cos ωt`).
 fn expected_h(force: &[Complex64], response: &[Complex64]) -> Vec<Complex64> {
-    response.iter().map(|y| y / force[1]).collect()
+    let f1 = force[1];
+    let u = f1 / f1.norm();
+    response
+        .iter()
+        .enumerate()
+        .map(|(h, y)| {
+            let mut turn = Complex64::new(1.0, 0.0);
+            for _ in 1..h {
+                turn *= u;
+            }
+            if h == 0 {
+                y * u / f1
+            } else {
+                y / (f1 * turn)
+            }
+        })
+        .collect()
 }
 
 fn max_rel(a: &[Complex64], b: &[Complex64]) -> f64 {
@@ -983,6 +1001,37 @@ fn unesp_single_sines_combine() {
                 (p.h[1].arg().to_degrees() - deg).abs() < 1.5,
                 "{f} Hz phase"
             );
+        }
+    }
+}
+
+/// The FRF of every harmonic is referred to the force's phase: the same
+/// periodic response analysed from windows that start anywhere in the force
+/// cycle (a sine start, a cosine start, a fraction of a sample after a zero
+/// crossing) gives the same `H_2`, `H_3`, ... Before this convention, `Y_h/F_1`
+/// kept `e^{j(h−1)φ}` of the start phase `φ`: a sine-started recording had
+/// its `H_3` sign-flipped and its `H_2` turned by 90°.
+#[test]
+fn harmonic_frfs_do_not_depend_on_where_the_window_starts_in_the_force_cycle() {
+    let (fs, f, a) = (12_800.0, 123.4567, 7.0);
+    // the response to a force a cos(ωt), harmonics 0..=4 (H_h = Y_h / a)
+    let y: [Complex64; 5] = [
+        Complex64::new(2e-4, 0.0),
+        Complex64::new(3e-3, -4e-3),
+        Complex64::new(-5e-4, 2e-4),
+        Complex64::new(1e-4, 7e-4),
+        Complex64::new(-2e-5, -3e-5),
+    ];
+    for phi in [0.0, -PI / 2.0, 1.234, 2.0 * PI * f / fs * 0.37] {
+        let n = (200.0 * fs / f) as usize;
+        let theta = |i: usize| omega(f) * i as f64 / fs + phi;
+        let force: Vec<f64> = (0..n).map(|i| a * theta(i).cos()).collect();
+        let resp: Vec<f64> = (0..n).map(|i| synthesize(&y, theta(i))).collect();
+        let d = noncoherent(&force, &resp, fs, f, 4, 8).unwrap();
+        for h in 0..=4 {
+            let want = if h == 0 { y[0] / a } else { y[h] / a };
+            let err = (d.h[h] - want).norm() / want.norm();
+            assert!(err < 1e-9, "phase {phi}: H{h} = {} vs {want} ({err:e})", d.h[h]);
         }
     }
 }

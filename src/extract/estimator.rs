@@ -2,6 +2,7 @@
 //! coherent (FFT) and non-coherent (least-squares) extractions.
 
 use super::DwellHarmonics;
+use crate::harmonics::referred_to_force;
 use crate::error::{Error, Result};
 use num_complex::Complex64;
 
@@ -20,7 +21,9 @@ pub(crate) fn check_finite(signal: &[f64], what: &str) -> Result<()> {
 /// Combines per-block harmonics into [`DwellHarmonics`].
 ///
 /// `force` and `response` hold `blocks × (K+1)` harmonics, block-major. The
-/// estimator is H1: `H_k = Σ_b Y_bk F_b1* / Σ_b |F_b1|²`. Its standard error
+/// estimator is H1: `H_k = Σ_b Y'_bk F_b1* / Σ_b |F_b1|²`, with `Y'_bk` block
+/// `b`'s response harmonic referred to its force phase
+/// ([`referred_to_force`]). Its standard error
 /// is the RMS of the complex error estimated from the block-to-block scatter
 /// of `H_bk = Y_bk / F_b1`: `sqrt(Σ_b |H_bk − H_k|² / (B(B−1)))` (the
 /// standard error of a mean of `B` independent block estimates; exact for the
@@ -68,7 +71,10 @@ pub(crate) fn h1_from_blocks(
         for k in 0..width {
             mean_f[k] += force[b * width + k];
             mean_y[k] += response[b * width + k];
-            cross[k] += response[b * width + k] * f1.conj();
+            // referred to this block's force phase (the FRF convention of
+            // `crate::harmonics`): H2, H3, ... do not depend on where the
+            // block starts
+            cross[k] += referred_to_force(response[b * width + k], k, f1) * f1.conj();
         }
     }
     let inv_b = 1.0 / blocks as f64;
@@ -79,7 +85,7 @@ pub(crate) fn h1_from_blocks(
     for b in 0..blocks {
         let f1 = force[b * width + 1];
         for k in 0..width {
-            scatter[k] += (response[b * width + k] / f1 - h[k]).norm_sqr();
+            scatter[k] += (referred_to_force(response[b * width + k], k, f1) / f1 - h[k]).norm_sqr();
         }
     }
     let std_error = scatter

@@ -748,7 +748,12 @@ pub fn reduce_stepped_report(
                 force_amplitude: f1.norm(),
                 h: d.h,
                 std_error: d.std_error,
-                force_distortion: d.force.iter().map(|fk| fk / f1).collect(),
+                force_distortion: d
+                    .force
+                    .iter()
+                    .enumerate()
+                    .map(|(k, fk)| crate::harmonics::referred_to_force(*fk, k, f1) / f1)
+                    .collect(),
                 blocks: d.blocks,
                 settle_periods: (settle as f64 * f / fs).round() as usize,
                 settled,

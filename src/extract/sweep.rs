@@ -635,7 +635,12 @@ fn point(
 ) -> FrfPoint {
     let f1 = force[1];
     let p = f1.norm_sqr();
-    let h: Vec<Complex64> = response.iter().map(|y| y / f1).collect();
+    // referred to the force's phase (the FRF convention of `crate::harmonics`)
+    let h: Vec<Complex64> = response
+        .iter()
+        .enumerate()
+        .map(|(k, y)| crate::harmonics::referred_to_force(*y, k, f1) / f1)
+        .collect();
     let std_error = h
         .iter()
         .zip(response_var)
@@ -646,7 +651,11 @@ fn point(
         force_amplitude: f1.norm(),
         h,
         std_error,
-        force_distortion: force.iter().map(|fk| fk / f1).collect(),
+        force_distortion: force
+            .iter()
+            .enumerate()
+            .map(|(k, fk)| crate::harmonics::referred_to_force(*fk, k, f1) / f1)
+            .collect(),
         blocks: 1,
         settle_periods: 0,
         settled: true,
