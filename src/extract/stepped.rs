@@ -529,6 +529,27 @@ pub fn find_dwells(
     Ok(steps)
 }
 
+/// Distinct sample values below which a dwell's response is taken as below
+/// the recording's resolution (5 bits' worth of steps).
+pub const MIN_DISTINCT_VALUES: usize = 32;
+
+/// Whether `samples` take fewer than [`MIN_DISTINCT_VALUES`] distinct values:
+/// a response quantised to a few steps of an integer (PCM) recording. A float
+/// recording, or any response a converter resolves, has thousands.
+pub fn below_resolution(samples: &[f64]) -> bool {
+    let mut seen: Vec<u64> = Vec::with_capacity(MIN_DISTINCT_VALUES);
+    for v in samples {
+        let b = v.to_bits();
+        if !seen.contains(&b) {
+            seen.push(b);
+            if seen.len() >= MIN_DISTINCT_VALUES {
+                return false;
+            }
+        }
+    }
+    !samples.is_empty()
+}
+
 fn same_level(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
 }
@@ -741,13 +762,22 @@ pub fn reduce_stepped_report(
         )?;
         let f1 = d.force[1];
         let settle = start - step.start;
+        // a response within a few steps of an integer converter is not a
+        // signal plus noise: its quantisation error follows the signal, so
+        // the block scatter says nothing of it. Its standard error is unknown
+        // (NaN), which leaves the point out of any fit.
+        let std_error = if below_resolution(&response[start..end]) {
+            vec![f64::NAN; d.std_error.len()]
+        } else {
+            d.std_error
+        };
         points.push((
             step.level,
             FrfPoint {
                 frequency_hz: f,
                 force_amplitude: f1.norm(),
                 h: d.h,
-                std_error: d.std_error,
+                std_error,
                 force_distortion: d
                     .force
                     .iter()

@@ -281,6 +281,7 @@ pub fn linear_from_levels_with(
             .points
             .iter()
             .filter(|p| band_hz.is_none_or(|(lo, hi)| p.frequency_hz >= lo && p.frequency_hz <= hi))
+            .filter(|p| super::problem::usable_point(p, &[1]))
             .map(|p| FrfSample {
                 frequency_hz: p.frequency_hz,
                 h: p.h[1],
@@ -297,27 +298,42 @@ pub fn linear_from_levels_with(
             ),
         ));
     }
-    let by_level = |cmp: fn(f64, f64) -> bool| {
-        let mut best = 0;
-        for (i, l) in frf.levels.iter().enumerate() {
-            if cmp(l.level, frf.levels[best].level) {
-                best = i;
+    // an SDOF per level; a level whose FRF is not one damped mode (a jump, a
+    // mode out of reach, a response below the recording's resolution) is
+    // passed over, not fatal
+    let mut order: Vec<usize> = (0..frf.levels.len()).collect();
+    order.sort_by(|&a, &b| frf.levels[a].level.total_cmp(&frf.levels[b].level));
+    let mut fits: Vec<(usize, SdofEstimate)> = Vec::new();
+    let mut first_error = None;
+    for &i in &order {
+        let what = format!("level {}", frf.levels[i].level);
+        match fit_sdof(&samples(i), frf.response, &what) {
+            Ok(e) => fits.push((i, e)),
+            Err(e) => {
+                first_error.get_or_insert(e);
             }
         }
-        best
-    };
-    let hi = by_level(|a, b| a > b);
-    let lo = by_level(|a, b| a < b);
-    let underlying = fit_sdof(
-        &samples(hi),
-        frf.response,
-        &format!("level {} (largest)", frf.levels[hi].level),
-    )?;
-    let stick = fit_sdof(
-        &samples(lo),
-        frf.response,
-        &format!("level {} (smallest)", frf.levels[lo].level),
-    )?;
+    }
+    if fits.len() < 2 {
+        return Err(first_error.unwrap_or_else(|| {
+            Error::input(
+                "recording",
+                "fewer than two levels look like one damped mode: no linear estimate",
+            )
+        }));
+    }
+    // the stick stiffness from the smallest level that can be read; the
+    // underlying (slipping) system from the level whose mode is softest: the
+    // joint only softens with level, so any level stiffer than another
+    // carries something more (a joint still partly stuck, or a hardening
+    // the model lacks, which would bias the whole fit if taken as linear)
+    let (lo, stick) = fits[0].clone();
+    let (hi, underlying) = fits
+        .iter()
+        .skip(1)
+        .min_by(|a, b| a.1.stiffness.total_cmp(&b.1.stiffness))
+        .cloned()
+        .expect("two fits");
     let several = |s: &SdofEstimate,
                    samples: &[FrfSample],
                    what: &str|
@@ -349,12 +365,12 @@ pub fn linear_from_levels_with(
     let underlying_modes = several(
         &underlying,
         &samples(hi),
-        &format!("level {} (largest)", frf.levels[hi].level),
+        &format!("level {} (underlying)", frf.levels[hi].level),
     )?;
     let stick_modes = several(
         &stick,
         &samples(lo),
-        &format!("level {} (smallest)", frf.levels[lo].level),
+        &format!("level {} (stick)", frf.levels[lo].level),
     )?;
     let k_of = |m: &Option<ModalModel>, s: &SdofEstimate| {
         m.as_ref()
@@ -399,6 +415,12 @@ pub fn identify(
         notes.push("the response moves against the drive below resonance (a transfer FRF with a negative modal constant): the model is fitted to −H".into());
     }
     let data = FitData::from_frf(frf, &options.harmonics, options.band_hz, None)?.with_sign(sign);
+    if data.unusable_points > 0 {
+        notes.push(format!(
+            "{} measured point(s) left out: a zero fundamental or a zero standard error (a response below the recording's resolution)",
+            data.unusable_points
+        ));
+    }
     let (sdof, kd0) = match options.linear_start {
         LinearStart::Extremes => {
             let kd0 = if linear.kd_initial > 0.0 {

@@ -53,6 +53,26 @@ pub struct FitData {
     /// negative modal constant, so the model's modal constant is positive).
     #[serde(default = "plus_one")]
     pub response_sign: f64,
+    /// Measured points left out because they carry no usable information:
+    /// a fundamental of exactly zero or a zero or non-finite standard error
+    /// (a response below the recording's resolution, e.g. a PCM16 file whose
+    /// lowest level stays within one step of the converter).
+    #[serde(default)]
+    pub unusable_points: usize,
+}
+
+/// Whether a measured point can be weighed: a non-zero, finite fundamental
+/// and finite, positive standard errors for every harmonic in `harmonics`.
+pub fn usable_point(p: &crate::extract::FrfPoint, harmonics: &[usize]) -> bool {
+    let h1 = p.h.get(1).copied().unwrap_or_default();
+    p.frequency_hz > 0.0
+        && h1.norm() > 0.0
+        && h1.re.is_finite()
+        && h1.im.is_finite()
+        && harmonics.iter().all(|&k| {
+            p.h.get(k).is_some_and(|h| h.re.is_finite() && h.im.is_finite())
+                && p.std_error.get(k).is_some_and(|s| s.is_finite() && *s > 0.0)
+        })
 }
 
 fn plus_one() -> f64 {
@@ -82,6 +102,7 @@ impl FitData {
             ));
         }
         let mut series = Vec::new();
+        let mut unusable_points = 0;
         for (i, l) in frf.levels.iter().enumerate() {
             if levels.is_some_and(|ls| !ls.contains(&i)) {
                 continue;
@@ -91,6 +112,11 @@ impl FitData {
                 .iter()
                 .filter(|p| {
                     band_hz.is_none_or(|(lo, hi)| p.frequency_hz >= lo && p.frequency_hz <= hi)
+                })
+                .filter(|p| {
+                    let ok = usable_point(p, harmonics);
+                    unusable_points += usize::from(!ok);
+                    ok
                 })
                 .map(|p| MeasuredPoint {
                     frequency_hz: p.frequency_hz,
@@ -119,6 +145,7 @@ impl FitData {
             harmonics: harmonics.to_vec(),
             series,
             response_sign: 1.0,
+            unusable_points,
         })
     }
 
