@@ -4,11 +4,21 @@
 //! samples is reduced by the non-coherent least-squares fit at the stated
 //! frequency (refined from the reference channel when the stated value is
 //! off). Without steps, the dwells are found from the reference channel
-//! ([`find_dwells`]): its instantaneous frequency and amplitude are followed
-//! over windows of whole periods of its own phase (FFT Hilbert transform),
-//! segments where both stay constant are dwells, and the transient at the
-//! start of each dwell is skipped by a settling test on consecutive blocks of
-//! whole periods (method notes e, "settling"; see [`settling`]) run on the
+//! ([`find_dwells`]). The reference is first divided by its local RMS, so
+//! that the Hilbert transform's non-local tails (and the FFT's wrap of the
+//! record's end onto its start) cannot bury a weak level under a strong one;
+//! its phase is then cut into windows of whole periods, each with a
+//! least-squares frequency and an amplitude and their standard errors. A
+//! window joins the running dwell while both agree with the dwell's mean
+//! within the tolerances or within 5 standard errors, whichever is wider, so
+//! force noise and PCM quantisation do not split a dwell; neighbouring runs
+//! of the same frequency and amplitude across a gap too short to be a dwell
+//! are merged (a noisy window does not cut a dwell in two). The first and
+//! last window of each dwell are dropped (either may hold the switch), the
+//! level's settling at the start of a dwell (force amplitude ramping in) is
+//! not taken for a dwell of its own, and the transient at the start of each
+//! dwell is skipped by a settling test on consecutive blocks of whole
+//! periods (method notes e, "settling"; see [`settling`]) run on the
 //! reference and then on the response. The points are grouped into levels by
 //! nominal level, in measurement order, and split where the frequency order
 //! reverses, which sets each level's [`Direction`]. Found dwells have no
@@ -38,8 +48,8 @@ pub struct DwellOptions {
     /// Tracking window, in periods of the reference's own phase.
     pub window_periods: usize,
     /// Windows whose frequency differs from the running dwell mean by more
-    /// than this (relative) start a new dwell. Must be below the smallest
-    /// relative frequency step.
+    /// than this (relative) or 5 standard errors, whichever is wider, start a
+    /// new dwell. Both must be below the smallest relative frequency step.
     pub frequency_tolerance: f64,
     /// Same for the reference amplitude (relative).
     pub amplitude_tolerance: f64,
@@ -343,20 +353,39 @@ fn settle_blocks(
     Ok((first_ok.min(nblocks - 1) * q, noise))
 }
 
-/// One tracking window: fractional sample bounds, mean frequency and
-/// amplitude.
+/// One tracking window: fractional sample bounds, frequency and amplitude
+/// with their standard errors.
 #[derive(Clone, Copy, Debug)]
 struct Window {
-    start: f64,
     end: f64,
     frequency: f64,
+    frequency_se: f64,
     amplitude: f64,
+    amplitude_se: f64,
 }
 
-/// Windows of `m` whole periods of the reference's own phase.
+/// Windows of `m` whole periods of the reference's own phase. A window's
+/// frequency is the least-squares slope of the instantaneous phase over its
+/// samples and its amplitude the mean envelope; their standard errors come
+/// from the residual scatter about the line and the mean, so that the
+/// segmentation can tell noise (force noise, PCM quantisation) from a step.
+/// A least-squares slope is about `√(n/6)` times less noisy than the phase
+/// advance between the window's ends.
+///
+/// The Hilbert transform is not local: the tail of a strong dwell reaches a
+/// weak one as an error of about `A_strong/(2π·p)` at `p` periods, and the
+/// FFT wraps the record's end onto its start. A test whose levels span
+/// 0.02–60 units would lose the phase of its lowest levels that way, so the
+/// reference is first divided by its local RMS over about two of its
+/// longest periods ([`normalise`]) and the phase taken from that unit-level
+/// signal; amplitudes are the normalised envelope times the local RMS.
 fn track(reference: &[f64], sample_rate_hz: f64, m: usize) -> Vec<Window> {
-    let a = analytic(reference);
     let n = reference.len();
+    let (unit, rms) = normalise(reference);
+    let mut a = analytic(&unit);
+    for (e, r) in a.amplitude.iter_mut().zip(&rms) {
+        *e *= r;
+    }
     let cycles: Vec<f64> = a
         .phase
         .iter()
@@ -383,35 +412,241 @@ fn track(reference: &[f64], sample_rate_hz: f64, m: usize) -> Vec<Window> {
             };
         let lo = prev.ceil() as usize;
         let hi = (t.floor() as usize).min(n - 1);
-        let amp = if hi >= lo {
-            a.amplitude[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64
-        } else {
-            a.amplitude[hi]
-        };
-        windows.push(Window {
-            start: prev,
+        let mut w = Window {
             end: t,
             frequency: m as f64 * sample_rate_hz / (t - prev),
-            amplitude: amp,
-        });
+            frequency_se: f64::INFINITY,
+            amplitude: a.amplitude[hi.min(lo)],
+            amplitude_se: f64::INFINITY,
+        };
+        if hi >= lo + 3 {
+            let count = (hi - lo + 1) as f64;
+            let mid = 0.5 * (lo + hi) as f64;
+            let (mut sxx, mut sxy, mut sy, mut sa) = (0.0, 0.0, 0.0, 0.0);
+            for i in lo..=hi {
+                let x = i as f64 - mid;
+                sxx += x * x;
+                sxy += x * cycles[i];
+                sy += cycles[i];
+                sa += a.amplitude[i];
+            }
+            let (slope, mean_c, mean_a) = (sxy / sxx, sy / count, sa / count);
+            let (mut rc, mut ra) = (0.0, 0.0);
+            for i in lo..=hi {
+                rc += (cycles[i] - mean_c - slope * (i as f64 - mid)).powi(2);
+                ra += (a.amplitude[i] - mean_a).powi(2);
+            }
+            w.frequency = slope * sample_rate_hz;
+            w.frequency_se = (rc / (count - 2.0) / sxx).sqrt() * sample_rate_hz;
+            w.amplitude = mean_a;
+            w.amplitude_se = (ra / (count - 1.0) / count).sqrt();
+        }
+        windows.push(w);
         prev = t;
         j += 1;
     }
     windows
 }
 
+/// The reference divided by its local RMS (mean removed), and that RMS:
+/// the local RMS is taken over about two of the signal's longest periods,
+/// found from the gaps between its zero crossings (the 90th percentile of
+/// the half periods, so that noise crossings, which only shorten gaps, do
+/// not matter).
+fn normalise(reference: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let n = reference.len();
+    let mean = reference.iter().sum::<f64>() / n as f64;
+    let mut gaps: Vec<usize> = Vec::new();
+    let mut last: Option<usize> = None;
+    for i in 1..n {
+        if (reference[i - 1] - mean < 0.0) != (reference[i] - mean < 0.0) {
+            if let Some(l) = last {
+                gaps.push(i - l);
+            }
+            last = Some(i);
+        }
+    }
+    gaps.sort_unstable();
+    let half_period = gaps
+        .get(gaps.len() * 9 / 10)
+        .copied()
+        .unwrap_or(n / 4)
+        .max(2);
+    let half = (2 * half_period).min(n / 2).max(1); // a window of 4 half periods
+    let mut cum = Vec::with_capacity(n + 1);
+    cum.push(0.0);
+    let mut acc = 0.0;
+    for &v in reference {
+        acc += (v - mean) * (v - mean);
+        cum.push(acc);
+    }
+    let mut unit = Vec::with_capacity(n);
+    let mut rms = Vec::with_capacity(n);
+    for (i, &v) in reference.iter().enumerate() {
+        let lo = i.saturating_sub(half);
+        let hi = (i + half + 1).min(n);
+        let r = ((cum[hi] - cum[lo]).max(0.0) / (hi - lo) as f64).sqrt();
+        rms.push(r);
+        unit.push(if r > 0.0 { (v - mean) / r } else { 0.0 });
+    }
+    (unit, rms)
+}
+
+/// Standard errors apart beyond which two tracking estimates differ.
+const SEPARATION: f64 = 5.0;
+
+/// A run of tracking windows taken for one dwell: first and last window,
+/// the mean frequency and amplitude and their standard errors.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    first: usize,
+    last: usize,
+    sum_f: f64,
+    var_f: f64,
+    sum_a: f64,
+    var_a: f64,
+}
+
+impl Run {
+    fn new(i: usize, w: &Window) -> Run {
+        Run {
+            first: i,
+            last: i,
+            sum_f: w.frequency,
+            var_f: w.frequency_se.powi(2),
+            sum_a: w.amplitude,
+            var_a: w.amplitude_se.powi(2),
+        }
+    }
+    fn count(&self) -> f64 {
+        (self.last - self.first + 1) as f64
+    }
+    /// Mean frequency and its standard error.
+    fn frequency(&self) -> (f64, f64) {
+        (self.sum_f / self.count(), self.var_f.sqrt() / self.count())
+    }
+    fn amplitude(&self) -> (f64, f64) {
+        (self.sum_a / self.count(), self.var_a.sqrt() / self.count())
+    }
+    /// Whether estimates `(f, se_f)` and `(a, se_a)` are those of this
+    /// run's dwell: within the relative tolerances or within the noise.
+    fn agrees(&self, f: (f64, f64), a: (f64, f64), options: &DwellOptions) -> bool {
+        let ((mf, sf), (ma, sa)) = (self.frequency(), self.amplitude());
+        let close = |x: f64, y: f64, se: f64, tol: f64| {
+            (x - y).abs() <= (tol * y.abs()).max(SEPARATION * se)
+        };
+        close(f.0, mf, sf.hypot(f.1), options.frequency_tolerance)
+            && close(a.0, ma, sa.hypot(a.1), options.amplitude_tolerance)
+    }
+    fn push(&mut self, i: usize, w: &Window) {
+        self.last = i;
+        self.sum_f += w.frequency;
+        self.var_f += w.frequency_se.powi(2);
+        self.sum_a += w.amplitude;
+        self.var_a += w.amplitude_se.powi(2);
+    }
+    /// Absorbs `other`, which follows this run after a few rejected windows
+    /// (`windows` gives their estimates).
+    fn absorb(&mut self, other: &Run, windows: &[Window]) {
+        for i in self.last + 1..other.first {
+            self.push(i, &windows[i]);
+        }
+        self.last = other.last;
+        self.sum_f += other.sum_f;
+        self.var_f += other.var_f;
+        self.sum_a += other.sum_a;
+        self.var_a += other.var_a;
+    }
+}
+
+/// The weakest dwell sought, relative to the strongest window: 80 dB. The
+/// normalised phase follows any signal, so without a floor the hum and noise
+/// after the excitation stops (a real recording's mains hum at 3e-5 of its
+/// drive) would read as dwells; a stepped-sine test's levels span far less
+/// (0.02–60 units is 70 dB), and 80 dB down a PCM16 channel holds 3 steps.
+const DYNAMIC_RANGE: f64 = 1e-4;
+
+/// Splits the windows into runs of constant frequency and amplitude, then
+/// merges neighbouring runs that are one dwell cut by a noisy window.
+fn segment(windows: &[Window], options: &DwellOptions) -> Vec<(usize, usize)> {
+    let mut runs: Vec<Run> = Vec::new();
+    let mut current: Option<Run> = None;
+    let floor = DYNAMIC_RANGE
+        * windows
+            .iter()
+            .map(|w| w.amplitude)
+            .filter(|a| a.is_finite())
+            .fold(0.0, f64::max);
+    for (i, w) in windows.iter().enumerate() {
+        let usable =
+            w.frequency_se.is_finite() && w.amplitude_se.is_finite() && w.amplitude > floor;
+        match current.as_mut() {
+            Some(r)
+                if usable
+                    && r.agrees(
+                        (w.frequency, w.frequency_se),
+                        (w.amplitude, w.amplitude_se),
+                        options,
+                    ) =>
+            {
+                r.push(i, w)
+            }
+            _ => {
+                if let Some(r) = current.take()
+                    && r.count() >= 3.0
+                {
+                    runs.push(r);
+                }
+                current = usable.then(|| Run::new(i, w));
+            }
+        }
+    }
+    if let Some(r) = current
+        && r.count() >= 3.0
+    {
+        runs.push(r);
+    }
+    // a gap shorter than a dwell cannot hide another dwell: neighbouring
+    // runs of the same frequency and amplitude across it are one dwell
+    let max_gap = options
+        .min_dwell_periods
+        .div_ceil(options.window_periods.max(1))
+        .max(1);
+    let mut merged: Vec<Run> = Vec::with_capacity(runs.len());
+    for r in runs {
+        match merged.last_mut() {
+            Some(m)
+                if r.first - m.last <= max_gap
+                    && m.agrees(r.frequency(), r.amplitude(), options) =>
+            {
+                m.absorb(&r, windows)
+            }
+            _ => merged.push(r),
+        }
+    }
+    merged.into_iter().map(|r| (r.first, r.last)).collect()
+}
+
 /// Finds the stepped-sine dwells of a recording from its reference channel.
 ///
-/// The reference's instantaneous phase (FFT Hilbert transform) is cut into
-/// windows of `window_periods` whole periods; a window joins the current
-/// dwell while its frequency and amplitude stay within the tolerances of the
-/// dwell's running means. The last window of each dwell is dropped (it may
-/// hold the first samples of the next step). Each dwell's frequency is then
-/// estimated by least squares ([`super::estimate_frequency`]), its start
-/// transient found by [`settling`] on the reference, and dwells with fewer
-/// than `min_dwell_periods` settled periods are discarded. Dwell amplitudes
-/// are clustered into levels (`level_tolerance`), and each step's `level` is
-/// its cluster's mean amplitude.
+/// The reference, divided by its local RMS, gives an instantaneous phase
+/// (FFT Hilbert transform) that is cut into windows of `window_periods` whole
+/// periods, each with a least-squares frequency and a mean amplitude and
+/// their standard errors. A window joins the current dwell while its
+/// frequency and amplitude agree with the dwell's running means within the
+/// tolerances or within 5 standard errors (whichever is wider); neighbouring
+/// runs that agree across a gap shorter than `min_dwell_periods` are one
+/// dwell. Windows weaker than 1e-4 of the strongest (80 dB) are ignored. The
+/// first and last window of each dwell are dropped (either may hold the
+/// switch), and runs shorter than `min_dwell_periods` are discarded. Each
+/// dwell's frequency is then estimated by least squares
+/// ([`super::estimate_frequency`]) and its start transient found by
+/// [`settling`] on the reference; a run followed by one at the same
+/// frequency that has not settled or lies within `level_tolerance` of it is
+/// that dwell's level moving in and is dropped; any other dwell whose
+/// reference does not settle keeps its later half. Dwell amplitudes are
+/// clustered into levels (`level_tolerance`), and each step's `level` is its
+/// cluster's mean amplitude.
 ///
 /// Errors: bad rate, a non-finite sample, no dwell found.
 pub fn find_dwells(
@@ -428,41 +663,51 @@ pub fn find_dwells(
         ));
     }
     let windows = track(reference, sample_rate_hz, options.window_periods.max(1));
-    // segment
-    let mut segments: Vec<(usize, usize)> = Vec::new();
-    let (mut first, mut sum_f, mut sum_a, mut count) = (0, 0.0, 0.0, 0usize);
-    for (i, w) in windows.iter().enumerate() {
-        let joins = count > 0 && {
-            let (mf, ma) = (sum_f / count as f64, sum_a / count as f64);
-            (w.frequency - mf).abs() <= options.frequency_tolerance * mf
-                && (w.amplitude - ma).abs() <= options.amplitude_tolerance * ma
-        };
-        if !joins {
-            if count >= 3 {
-                segments.push((first, i - 1));
-            }
-            (first, sum_f, sum_a, count) = (i, 0.0, 0.0, 0);
-        }
-        sum_f += w.frequency;
-        sum_a += w.amplitude;
-        count += 1;
-    }
-    if count >= 3 {
-        segments.push((first, windows.len() - 1));
-    }
-    let mut steps = Vec::new();
+    let segments = segment(&windows, options);
+    // candidates: bounds, first frequency estimate, settling on the reference
+    let mut candidates = Vec::with_capacity(segments.len());
     for (si, &(a, b)) in segments.iter().enumerate() {
-        // drop the last window: it may hold the next step's first samples
-        let start = windows[a].start.ceil() as usize;
+        // drop the first and the last window: a window holding a switch
+        // close to its end joins a run within the noise, so either may hold
+        // samples of the neighbouring step
+        let start = windows[a].end.ceil() as usize;
         let end = (windows[b - 1].end.floor() as usize + 1).min(reference.len());
         let what = format!("found dwell {si} (samples {start}..{end})");
         let segment = &reference[start..end];
         let Ok(f0) = estimate_frequency_named(segment, sample_rate_hz, &what) else {
             continue;
         };
-        let s = settling(segment, None, sample_rate_hz, f0, options)?;
-        if !s.settled {
+        // a run shorter than a usable dwell is the remains of a switch
+        let periods = whole_periods(segment.len(), sample_rate_hz, f0);
+        if periods < options.min_dwell_periods {
             continue;
+        }
+        let s = settling(segment, None, sample_rate_hz, f0, options)?;
+        let mean = segment.iter().sum::<f64>() / segment.len() as f64;
+        let rms =
+            (segment.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / segment.len() as f64).sqrt();
+        candidates.push((start, end, f0, periods, s, what, rms));
+    }
+    let mut steps = Vec::new();
+    for (ci, (start, end, f0, periods, mut s, what, rms)) in candidates.iter().cloned().enumerate()
+    {
+        let segment = &reference[start..end];
+        // a run followed by a run at the same frequency, which either never
+        // settles or lies within a level's tolerance of it, is that dwell's
+        // level still moving (a force amplitude ramping up or drifting in):
+        // not a dwell of its own
+        if candidates.get(ci + 1).is_some_and(|next| {
+            (next.2 - f0).abs() <= options.frequency_tolerance.max(1e-6) * f0
+                && (!s.settled || (next.6 - rms).abs() <= options.level_tolerance * next.6)
+        }) {
+            continue;
+        }
+        if !s.settled {
+            // otherwise a run of constant frequency and amplitude is a dwell
+            // even if the settling test, run at the 4-sigma noise limit on
+            // many blocks and harmonics, flags a short one: keep its later
+            // half, as for a response that never settles
+            s.settle = ((periods / 2) as f64 * sample_rate_hz / f0).floor() as usize;
         }
         let settled = &segment[s.settle..];
         let f = if s.settle > 0 {
