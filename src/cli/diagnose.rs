@@ -62,7 +62,7 @@ pub fn run_diagnosis(
             pb.set_message(format!("round {round}: {} done", effect.name()));
         }
         DiagnoseEvent::Checking { effect } => {
-            pb.set_message(format!("held-out check of {}", effect.name()))
+            pb.set_message(format!("checking {}", effect.name()))
         }
     };
     let d = diagnose_observed(frf, fit, options, &predictor, &observer)?;
@@ -240,9 +240,7 @@ fn markdown(d: &Diagnosis, seconds: f64) -> String {
             if c.accepted {
                 "**yes**"
             } else if let Some(n) = &c.note {
-                if n.contains("held-out") {
-                    "no: no better on held-out frequencies"
-                } else if n.contains("dropped") {
+                if n.contains("dropped") {
                     "no: dropped later"
                 } else {
                     "no: size not resolved"

@@ -327,13 +327,22 @@ pub fn linear_from_levels_with(
     // joint only softens with level, so any level stiffer than another
     // carries something more (a joint still partly stuck, or a hardening
     // the model lacks, which would bias the whole fit if taken as linear)
+    // (the largest level unless another is softer by more than 2 %: within
+    // that, levels that all slip freely differ by noise and by the friction
+    // damping, which is least at the largest level)
     let (lo, stick) = fits[0].clone();
-    let (hi, underlying) = fits
+    let largest = fits.last().cloned().expect("two fits");
+    let softest = fits
         .iter()
         .skip(1)
         .min_by(|a, b| a.1.stiffness.total_cmp(&b.1.stiffness))
         .cloned()
         .expect("two fits");
+    let (hi, underlying) = if softest.1.stiffness < 0.98 * largest.1.stiffness {
+        softest
+    } else {
+        largest
+    };
     let several = |s: &SdofEstimate,
                    samples: &[FrfSample],
                    what: &str|

@@ -47,6 +47,14 @@ pub struct SdofEstimate {
     /// mω² + jcω)` with `m, c, k` positive.
     #[serde(default = "plus_one")]
     pub sign: f64,
+    /// Upper residual `A` (m/N): the flexibility of modes above the band,
+    /// added as a constant to the receptance (0 when the plain SDOF fits).
+    #[serde(default)]
+    pub upper_residual: f64,
+    /// Lower residual `B` (m/N · (rad/s)²): modes below the band, added as
+    /// `−B/ω²` (0 when the plain SDOF fits).
+    #[serde(default)]
+    pub lower_residual: f64,
 }
 
 fn plus_one() -> f64 {
@@ -67,7 +75,182 @@ impl SdofEstimate {
 
 /// Fits `m, c, k` to FRF points of a motion `quantity` per force; `what`
 /// names the data in errors (e.g. `level 30000 N`).
+///
+/// Modes outside the band leave their mark in it as residual terms: a mode
+/// far below adds `−B/ω²` (a residual mass), one far above a constant `A`
+/// (a residual flexibility), the classical residuals of modal analysis.
+/// Where the plain SDOF does not explain the points (by the information
+/// criterion), `m, c, k` come from a fit of `1/(k − mω² + jcω) + A − B/ω²`
+/// instead, started from a grid over the natural frequency and damping
+/// ratio, so that a mode out of the band does not bend (or break) the one in
+/// it; `A` and `B` are reported.
 pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result<SdofEstimate> {
+    let plain = fit_sdof_plain(samples, quantity, what);
+    if samples.len() < 6 || !quantity.is_motion() {
+        return plain;
+    }
+    let pts: Vec<(f64, Complex64, f64)> = samples
+        .iter()
+        .map(|s| {
+            let w = omega(s.frequency_hz);
+            let p = quantity.from_displacement(w);
+            (w, s.h / p, s.std_error / p.norm())
+        })
+        .collect();
+    if !pts.iter().all(|p| p.2 > 0.0 && p.1.norm() > 0.0 && p.1.re.is_finite() && p.1.im.is_finite()) {
+        return plain;
+    }
+    let chi2_of = |k: f64, m: f64, c: f64, a: f64, b: f64| -> f64 {
+        pts.iter()
+            .map(|&(w, h, s)| {
+                let model = 1.0 / Complex64::new(k - m * w * w, c * w) + a - b / (w * w);
+                (h - model).norm_sqr() / (s * s)
+            })
+            .sum()
+    };
+    let Some((k, m, c, a, b)) = sdof_with_residuals(&pts) else {
+        return plain;
+    };
+    let chi2_r = chi2_of(k, m, c, a, b);
+    let n = 2.0 * pts.len() as f64;
+    let reduced = (chi2_r / (n - 5.0).max(1.0)).max(1.0);
+    // only where the plain SDOF is no mode at all, or explains the points
+    // far worse (a level's nonlinearity also leaves a misfit, which the
+    // residual terms would soak up and turn into a wrong m, c, k)
+    let better = match &plain {
+        Ok(p) => {
+            let chi2_p = chi2_of(p.sign * p.stiffness, p.sign * p.mass, p.sign * p.damping, 0.0, 0.0);
+            chi2_r + 2.0 * n.ln() * reduced < chi2_p && chi2_r < 0.1 * chi2_p
+        }
+        Err(_) => true,
+    };
+    let sign = if k < 0.0 && m < 0.0 && c <= 0.0 { -1.0 } else { 1.0 };
+    let (k, m, c) = (sign * k, sign * m, sign * c);
+    if !better || !(k > 0.0 && m > 0.0 && c >= 0.0 && k.is_finite() && m.is_finite()) {
+        return plain;
+    }
+    let rms = (pts
+        .iter()
+        .map(|&(w, h, _)| {
+            ((h - sign / Complex64::new(k - m * w * w, c * w) - a + b / (w * w)) / h).norm_sqr()
+        })
+        .sum::<f64>()
+        / pts.len() as f64)
+        .sqrt();
+    Ok(SdofEstimate {
+        mass: m,
+        damping: c,
+        stiffness: k,
+        relative_rms_residual: rms,
+        points: pts.len(),
+        sign,
+        upper_residual: a,
+        lower_residual: b,
+    })
+}
+
+/// `H = R/(ω_n² − ω² + 2jζω_nω) + A − B/ω²` fitted to receptance points
+/// `(ω, H, σ)`: a grid over `ω_n` (over the points' range) and `ζ` with `R,
+/// A, B` (real) by weighted least squares, then Gauss–Newton on `(k, m, c,
+/// A, B)` of `1/(k − mω² + jcω) + A − B/ω²`. Signed `k, m, c` (all negative
+/// for a negative modal constant).
+fn sdof_with_residuals(pts: &[(f64, Complex64, f64)]) -> Option<(f64, f64, f64, f64, f64)> {
+    use nalgebra::{DMatrix, DVector};
+    let wmin = pts.iter().map(|p| p.0).fold(f64::MAX, f64::min);
+    let wmax = pts.iter().map(|p| p.0).fold(0.0, f64::max);
+    // weighted real least squares for (R, A, B) with the mode's shape g(ω)
+    let solve_linear = |wn: f64, zeta: f64| -> Option<(f64, [f64; 3])> {
+        let mut ata = nalgebra::Matrix3::<f64>::zeros();
+        let mut atb = nalgebra::Vector3::<f64>::zeros();
+        for &(w, h, s) in pts {
+            let g = 1.0 / Complex64::new(wn * wn - w * w, 2.0 * zeta * wn * w);
+            let cols = [g, Complex64::new(1.0, 0.0), Complex64::new(-1.0 / (w * w), 0.0)];
+            let wt = 1.0 / (s * s);
+            for i in 0..3 {
+                for j in 0..3 {
+                    ata[(i, j)] += wt * (cols[i].conj() * cols[j]).re;
+                }
+                atb[i] += wt * (cols[i].conj() * h).re;
+            }
+        }
+        // scale the columns for conditioning
+        let d = nalgebra::Vector3::from_fn(|i, _| ata[(i, i)].sqrt().max(f64::MIN_POSITIVE));
+        let scaled = nalgebra::Matrix3::from_fn(|i, j| ata[(i, j)] / (d[i] * d[j]));
+        let x = scaled.lu().solve(&atb.component_div(&d))?.component_div(&d);
+        let chi2: f64 = pts
+            .iter()
+            .map(|&(w, h, s)| {
+                let g = 1.0 / Complex64::new(wn * wn - w * w, 2.0 * zeta * wn * w);
+                (h - x[0] * g - x[1] + x[2] / (w * w)).norm_sqr() / (s * s)
+            })
+            .sum();
+        chi2.is_finite().then_some((chi2, [x[0], x[1], x[2]]))
+    };
+    let mut best: Option<(f64, f64, f64, [f64; 3])> = None;
+    for i in 0..=200 {
+        let wn = wmin * (wmax / wmin).powf(i as f64 / 200.0);
+        for zeta in [0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2] {
+            if let Some((chi2, x)) = solve_linear(wn, zeta)
+                && best.is_none_or(|b| chi2 < b.0)
+            {
+                best = Some((chi2, wn, zeta, x));
+            }
+        }
+    }
+    let (_, wn, zeta, [r, mut a, mut b]) = best?;
+    if r == 0.0 {
+        return None;
+    }
+    let (mut k, mut m, mut c) = (wn * wn / r, 1.0 / r, 2.0 * zeta * wn / r);
+    // Gauss–Newton on all five, columns scaled by the parameters
+    for _ in 0..30 {
+        let np = pts.len();
+        let mut jac = DMatrix::<f64>::zeros(2 * np, 5);
+        let mut res = DVector::<f64>::zeros(2 * np);
+        for (i, &(w, h, s)) in pts.iter().enumerate() {
+            let z = Complex64::new(k - m * w * w, c * w);
+            let model = 1.0 / z + a - b / (w * w);
+            let r_i = (h - model) / s;
+            let d = -1.0 / (z * z) / s;
+            let cols = [
+                d * k,
+                d * (-w * w) * m,
+                d * Complex64::new(0.0, w) * c,
+                Complex64::new(1.0 / s, 0.0) * a.abs().max(1e-300),
+                Complex64::new(-1.0 / (w * w * s), 0.0) * b.abs().max(1e-300),
+            ];
+            for (j, col) in cols.iter().enumerate() {
+                jac[(2 * i, j)] = col.re;
+                jac[(2 * i + 1, j)] = col.im;
+            }
+            res[2 * i] = r_i.re;
+            res[2 * i + 1] = r_i.im;
+        }
+        let svd = jac.clone().svd(true, true);
+        let Ok(step) = svd.solve(&res, 1e-12) else {
+            break;
+        };
+        let scale = [k, m, c, a.abs().max(1e-300), b.abs().max(1e-300)];
+        let (k1, m1, c1, a1, b1) = (
+            k + step[0] * scale[0],
+            m + step[1] * scale[1],
+            c + step[2] * scale[2],
+            a + step[3] * scale[3],
+            b + step[4] * scale[4],
+        );
+        if ![k1, m1, c1, a1, b1].iter().all(|v| v.is_finite()) {
+            break;
+        }
+        (k, m, c, a, b) = (k1, m1, c1, a1, b1);
+        if step.iter().take(3).all(|s| s.abs() < 1e-10) {
+            break;
+        }
+    }
+    Some((k, m, c, a, b))
+}
+
+/// [`fit_sdof`] without residual terms.
+fn fit_sdof_plain(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result<SdofEstimate> {
     if !quantity.is_motion() {
         return Err(Error::input(
             what,
@@ -184,6 +367,8 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
         relative_rms_residual: rms,
         points: pts.len(),
         sign,
+        upper_residual: 0.0,
+        lower_residual: 0.0,
     })
 }
 
@@ -231,9 +416,25 @@ pub fn locate_mode_in(pts: &[(f64, Complex64, f64)], avoid: &[f64]) -> Option<cr
     }
     let fmin = pts.iter().map(|p| p.0).fold(f64::MAX, f64::min);
     let fmax = pts.iter().map(|p| p.0).fold(0.0, f64::max);
+    locate_mode_between(pts, avoid, 0.3 * fmin, 10.0 * fmax)
+}
+
+/// [`locate_mode_in`] with the mode's frequency searched between `lo_hz`
+/// and `hi_hz` only (e.g. below or above the measured band, where a mode
+/// shows only as a residual mass or flexibility and a global search may
+/// prefer a spurious mode inside the band).
+pub fn locate_mode_between(
+    pts: &[(f64, Complex64, f64)],
+    avoid: &[f64],
+    lo_hz: f64,
+    hi_hz: f64,
+) -> Option<crate::model::Mode> {
+    if pts.len() < 4 || !(lo_hz > 0.0 && hi_hz > lo_hz) {
+        return None;
+    }
     let mut best: Option<(f64, crate::model::Mode)> = None;
     for i in 0..=300 {
-        let f2 = 0.3 * fmin * (10.0 * fmax / (0.3 * fmin)).powf(i as f64 / 300.0);
+        let f2 = lo_hz * (hi_hz / lo_hz).powf(i as f64 / 300.0);
         if avoid.iter().any(|e| (f2 / e - 1.0).abs() < 0.03) {
             continue;
         }
