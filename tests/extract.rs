@@ -1043,6 +1043,7 @@ fn harmonic_frfs_do_not_depend_on_where_the_window_starts_in_the_force_cycle() {
             assert!(err < 1e-9, "phase {phi}: H{h} = {} vs {want} ({err:e})", d.h[h]);
         }
     }
+}
 
 // ---------------------------------------------------------------------------
 // dwell finding on a phase-continuous stepped sine from an independent

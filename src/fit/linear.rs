@@ -129,6 +129,20 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
     if !better || !(k > 0.0 && m > 0.0 && c >= 0.0 && k.is_finite() && m.is_finite()) {
         return plain;
     }
+    Ok(estimate(&pts, k, m, c, sign, a, b))
+}
+
+/// The estimate of `m, c, k` (positive), `sign` and residuals `a, b`, with
+/// its relative RMS misfit over the receptance points `(ω, H, σ)`.
+fn estimate(
+    pts: &[(f64, Complex64, f64)],
+    k: f64,
+    m: f64,
+    c: f64,
+    sign: f64,
+    a: f64,
+    b: f64,
+) -> SdofEstimate {
     let rms = (pts
         .iter()
         .map(|&(w, h, _)| {
@@ -137,7 +151,7 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
         .sum::<f64>()
         / pts.len() as f64)
         .sqrt();
-    Ok(SdofEstimate {
+    SdofEstimate {
         mass: m,
         damping: c,
         stiffness: k,
@@ -146,7 +160,7 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
         sign,
         upper_residual: a,
         lower_residual: b,
-    })
+    }
 }
 
 /// `H = R/(ω_n² − ω² + 2jζω_nω) + A − B/ω²` fitted to receptance points
@@ -354,22 +368,7 @@ fn fit_sdof_plain(samples: &[FrfSample], quantity: Quantity, what: &str) -> Resu
             ),
         ));
     }
-    let rms = (pts
-        .iter()
-        .map(|&(w, h, _)| ((h - sign / Complex64::new(k - m * w * w, c * w)) / h).norm_sqr())
-        .sum::<f64>()
-        / pts.len() as f64)
-        .sqrt();
-    Ok(SdofEstimate {
-        mass: m,
-        damping: c,
-        stiffness: k,
-        relative_rms_residual: rms,
-        points: pts.len(),
-        sign,
-        upper_residual: 0.0,
-        lower_residual: 0.0,
-    })
+    Ok(estimate(&pts, k, m, c, sign, 0.0, 0.0))
 }
 
 /// Locates one more mode in an FRF that `model` fits: a grid over its
