@@ -395,7 +395,7 @@ fn scan_start(
     with: &dyn Fn(f64) -> ElementSpec,
     probe: f64,
     signed: bool,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, f64, Option<f64>)> {
     let mut sizes: Vec<f64> = (-4..=4)
         .map(|k| probe * 10f64.powf(0.5 * k as f64))
         .collect();
@@ -403,13 +403,10 @@ fn scan_start(
         let neg: Vec<f64> = sizes.iter().map(|v| -v).collect();
         sizes.extend(neg);
     }
-    if let Ok(g) = gauss_newton_start(base, data, pred, predictor, with, probe)
-        && g.is_finite()
-        && g != 0.0
-        && (signed || g > 0.0)
-    {
-        sizes.push(g);
-    }
+    let gn = gauss_newton_start(base, data, pred, predictor, with, probe)
+        .ok()
+        .filter(|g| g.is_finite() && *g != 0.0 && (signed || *g > 0.0));
+    sizes.extend(gn);
     let mut best: Option<(f64, f64)> = None;
     for size in sizes {
         let mut m = base.clone();
@@ -422,18 +419,21 @@ fn scan_start(
             best = Some((size, chi2));
         }
     }
-    best
+    best.map(|(size, chi2)| (size, chi2, gn))
 }
 
-/// `model` with `effect` added at a starting size taken from the residual
-/// (`None` when the residual offers no start, e.g. no further mode in it).
+/// `model` with `effect` added at starting sizes taken from the residual:
+/// the best of the scan, and the Gauss–Newton step where it differs by more
+/// than a factor 2 (the scan's best χ² before the refit is not always the
+/// basin of the best χ² after it). Empty when the residual offers no start
+/// (e.g. no further mode in it).
 fn augment(
     model: &Model,
     effect: Effect,
     data: &FitData,
     pred: &Prediction,
     predictor: &HbPredictor,
-) -> Result<Option<Model>> {
+) -> Result<Vec<Model>> {
     let (a_max, v_max) = amplitudes(data);
     let (_, c, k) = model.linear.as_mck().unwrap_or((1.0, 1.0, 1.0));
     // the joint's stick stiffness counts too: a contact or clearance is
@@ -446,17 +446,23 @@ fn augment(
         .map(|(_, v)| v)
         .sum::<f64>();
     let mut out = model.clone();
-    // an effect of one size parameter: the best of its scan
+    // an effect of one size parameter: the best of its scan, and the
+    // Gauss–Newton step where it is a different start
     let scalar = |with: &dyn Fn(f64) -> ElementSpec, probe: f64, signed: bool| {
-        scan_start(model, data, pred, predictor, with, probe, signed).map(|(v, _)| with(v))
+        let Some((v, _, gn)) = scan_start(model, data, pred, predictor, with, probe, signed) else {
+            return Vec::new();
+        };
+        let mut sizes = vec![v];
+        sizes.extend(gn.filter(|g| g / v > 2.0 || g / v < 0.5));
+        sizes.into_iter().map(with).collect()
     };
-    let added = match effect {
+    let added: Vec<ElementSpec> = match effect {
         Effect::SecondMode => match locate_mode(model, data, pred) {
             Some(mode) => {
                 out.linear.modes.push(mode);
-                return Ok(Some(out));
+                return Ok(vec![out]);
             }
-            None => return Ok(None),
+            None => return Ok(Vec::new()),
         },
         Effect::CubicStiffness => scalar(
             &|k3| ElementSpec::CubicStiffness { k3 },
@@ -484,18 +490,21 @@ fn augment(
                     0.01 * k,
                     false,
                 )
-                .map(|(kc, chi2)| (ElementSpec::Clearance { k: kc, gap }, chi2))
+                .map(|(kc, chi2, _)| (ElementSpec::Clearance { k: kc, gap }, chi2))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(e, _)| e),
+            .map(|(e, _)| e)
+            .into_iter()
+            .collect(),
     };
-    match added {
-        Some(e) => {
-            out.elements.push(e);
-            Ok(Some(out))
-        }
-        None => Ok(None),
-    }
+    Ok(added
+        .into_iter()
+        .map(|e| {
+            let mut m = out.clone();
+            m.elements.push(e);
+            m
+        })
+        .collect())
 }
 
 /// The effect parameters' names and values in a model (those not in `base`).
@@ -615,9 +624,7 @@ fn try_candidate(
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
 ) -> Result<Option<Refit>> {
-    let mut starts: Vec<Model> = augment(&current.model, effect, data, &current.pred, predictor)?
-        .into_iter()
-        .collect();
+    let mut starts: Vec<Model> = augment(&current.model, effect, data, &current.pred, predictor)?;
     if effect == Effect::SecondMode {
         // a mode out of the band shows only as a residual mass (below) or
         // flexibility (above), which a search over every frequency may pass
