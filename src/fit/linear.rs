@@ -89,14 +89,7 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
     if samples.len() < 6 || !quantity.is_motion() {
         return plain;
     }
-    let pts: Vec<(f64, Complex64, f64)> = samples
-        .iter()
-        .map(|s| {
-            let w = omega(s.frequency_hz);
-            let p = quantity.from_displacement(w);
-            (w, s.h / p, s.std_error / p.norm())
-        })
-        .collect();
+    let pts = receptance_points(samples, quantity);
     if !pts.iter().all(|p| p.2 > 0.0 && p.1.norm() > 0.0 && p.1.re.is_finite() && p.1.im.is_finite()) {
         return plain;
     }
@@ -161,6 +154,19 @@ fn estimate(
         upper_residual: a,
         lower_residual: b,
     }
+}
+
+/// The samples as receptance points `(ω, H, σ)` (a motion FRF divided by
+/// its `(jω)^p`).
+fn receptance_points(samples: &[FrfSample], quantity: Quantity) -> Vec<(f64, Complex64, f64)> {
+    samples
+        .iter()
+        .map(|s| {
+            let w = omega(s.frequency_hz);
+            let p = quantity.from_displacement(w);
+            (w, s.h / p, s.std_error / p.norm())
+        })
+        .collect()
 }
 
 /// `H = R/(ω_n² − ω² + 2jζω_nω) + A − B/ω²` fitted to receptance points
@@ -281,14 +287,7 @@ fn fit_sdof_plain(samples: &[FrfSample], quantity: Quantity, what: &str) -> Resu
         ));
     }
     // to receptance
-    let pts: Vec<(f64, Complex64, f64)> = samples
-        .iter()
-        .map(|s| {
-            let w = omega(s.frequency_hz);
-            let p = quantity.from_displacement(w);
-            (w, s.h / p, s.std_error / p.norm())
-        })
-        .collect();
+    let pts = receptance_points(samples, quantity);
     for (i, (w, h, _)) in pts.iter().enumerate() {
         if !(w.is_finite() && *w > 0.0 && h.re.is_finite() && h.im.is_finite() && h.norm() > 0.0) {
             return Err(Error::input(
