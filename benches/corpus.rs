@@ -22,11 +22,18 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 fn env_num<T: std::str::FromStr>(name: &str, default: T) -> T {
-    std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
 }
 
 fn set_name(v: &[String]) -> String {
-    if v.is_empty() { "none".into() } else { v.join("+") }
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join("+")
+    }
 }
 
 fn quantiles(mut v: Vec<f64>) -> (f64, f64, f64) {
@@ -46,7 +53,10 @@ fn main() {
     let dir = target.join("corpus");
     std::fs::create_dir_all(&dir).expect("target/corpus");
     let cases: Vec<Case> = (seed0..seed0 + n).map(draw_case).collect();
-    eprintln!("corpus: {n} cases from seed {seed0}, {jobs} at a time, in {}", dir.display());
+    eprintln!(
+        "corpus: {n} cases from seed {seed0}, {jobs} at a time, in {}",
+        dir.display()
+    );
     let t0 = Instant::now();
     let scores = run_cases(&cases, &dir, jobs, timeout);
     let wall = t0.elapsed().as_secs_f64();
@@ -57,7 +67,13 @@ fn main() {
     }
 
     // confusion matrix: rows true set, columns selected set (or ABORT)
-    let col = |s: &Score| if s.aborted { "ABORT".to_string() } else { set_name(&s.selected) };
+    let col = |s: &Score| {
+        if s.aborted {
+            "ABORT".to_string()
+        } else {
+            set_name(&s.selected)
+        }
+    };
     let rows: BTreeSet<String> = scores.iter().map(|s| set_name(&s.truth)).collect();
     let cols: BTreeSet<String> = scores.iter().map(col).collect();
     let mut m: BTreeMap<(String, String), usize> = BTreeMap::new();
@@ -76,24 +92,40 @@ fn main() {
         print!("{r:w0$} |");
         for c in &cols_v {
             let k = m.get(&(r.clone(), (*c).clone())).copied().unwrap_or(0);
-            print!(" {:>w$}", if k == 0 { ".".into() } else { k.to_string() }, w = c.len().max(3));
+            print!(
+                " {:>w$}",
+                if k == 0 { ".".into() } else { k.to_string() },
+                w = c.len().max(3)
+            );
         }
         let total = scores.iter().filter(|s| &set_name(&s.truth) == r).count();
-        let right = scores.iter().filter(|s| &set_name(&s.truth) == r && s.effects_right()).count();
+        let right = scores
+            .iter()
+            .filter(|s| &set_name(&s.truth) == r && s.effects_right())
+            .count();
         println!(" | {right}/{total}");
     }
 
     // parameter errors
-    println!("\n== parameter errors |estimate/truth − 1| (joint: all runs; effects: when selected) ==");
-    println!("{:34} {:>4} {:>9} {:>9} {:>9} {:>8}", "parameter", "n", "median %", "p90 %", "max %", "within");
+    println!(
+        "\n== parameter errors |estimate/truth − 1| (joint: all runs; effects: when selected) =="
+    );
+    println!(
+        "{:34} {:>4} {:>9} {:>9} {:>9} {:>8}",
+        "parameter", "n", "median %", "p90 %", "max %", "within"
+    );
     let mut groups: BTreeMap<String, (Vec<f64>, f64, bool)> = BTreeMap::new();
     for s in scores.iter().filter(|s| !s.aborted) {
         for p in &s.joint {
-            let g = groups.entry(format!("joint {}.{}", p.effect, p.name)).or_insert((vec![], 0.03, p.scored));
+            let g = groups
+                .entry(format!("joint {}.{}", p.effect, p.name))
+                .or_insert((vec![], 0.03, p.scored));
             g.0.push(p.relative());
         }
         for p in &s.effects {
-            let g = groups.entry(format!("effect {}.{}", p.effect, p.name)).or_insert((vec![], 0.10, p.scored));
+            let g = groups
+                .entry(format!("effect {}.{}", p.effect, p.name))
+                .or_insert((vec![], 0.10, p.scored));
             g.0.push(p.relative());
         }
     }
@@ -101,8 +133,18 @@ fn main() {
     for (k, (v, tol, scored)) in &groups {
         let (med, p90, max) = quantiles(v.clone());
         let within = v.iter().filter(|e| **e <= *tol).count();
-        let within_s = if *scored { format!("{within}/{} ≤{:.0}%", v.len(), tol * 100.0) } else { "(not scored)".into() };
-        println!("{k:34} {:>4} {:>9.3} {:>9.3} {:>9.3} {within_s}", v.len(), 100.0 * med, 100.0 * p90, 100.0 * max);
+        let within_s = if *scored {
+            format!("{within}/{} ≤{:.0}%", v.len(), tol * 100.0)
+        } else {
+            "(not scored)".into()
+        };
+        println!(
+            "{k:34} {:>4} {:>9.3} {:>9.3} {:>9.3} {within_s}",
+            v.len(),
+            100.0 * med,
+            100.0 * p90,
+            100.0 * max
+        );
         param_stats.insert(k.clone(), json!({"n": v.len(), "median": med, "p90": p90, "max": max, "tolerance": tol, "within": within, "scored": scored}));
     }
 
@@ -123,18 +165,38 @@ fn main() {
     let aborts: Vec<&Score> = scores.iter().filter(|s| s.aborted).collect();
     println!("\n== aborts: {} of {} ==", aborts.len(), scores.len());
     for s in &aborts {
-        println!("{}: {}\n  {}", s.name, s.abort_reason.replace('\n', "\n  "), s.command);
+        println!(
+            "{}: {}\n  {}",
+            s.name,
+            s.abort_reason.replace('\n', "\n  "),
+            s.command
+        );
     }
     let (tmed, t90, tmax) = quantiles(scores.iter().map(|s| s.seconds).collect());
     let (gmed, _, gmax) = quantiles(scores.iter().map(|s| s.gen_seconds).collect());
     let passed = scores.iter().filter(|s| s.passed()).count();
     let right = scores.iter().filter(|s| s.effects_right()).count();
     let controls_right = controls.iter().filter(|s| s.effects_right()).count();
-    let controls_chi = controls.iter().filter(|s| s.chi2_dof.is_some_and(|c| c <= 2.0)).count();
+    let controls_chi = controls
+        .iter()
+        .filter(|s| s.chi2_dof.is_some_and(|c| c <= 2.0))
+        .count();
     println!("\n== summary ==");
-    println!("diagnose time per case: median {tmed:.1} s, p90 {t90:.1} s, max {tmax:.1} s; generation median {gmed:.2} s, max {gmax:.2} s; wall {wall:.0} s");
-    println!("right effects: {right}/{} ({:.0} %, target ≥ 95 %); controls right {controls_right}/{} (target all); controls chi2/dof ≤ 2: {controls_chi}/{}", scores.len(), 100.0 * right as f64 / scores.len() as f64, controls.len(), controls.len());
-    println!("aborts: {} (target 0); all criteria met: {passed}/{}", aborts.len(), scores.len());
+    println!(
+        "diagnose time per case: median {tmed:.1} s, p90 {t90:.1} s, max {tmax:.1} s; generation median {gmed:.2} s, max {gmax:.2} s; wall {wall:.0} s"
+    );
+    println!(
+        "right effects: {right}/{} ({:.0} %, target ≥ 95 %); controls right {controls_right}/{} (target all); controls chi2/dof ≤ 2: {controls_chi}/{}",
+        scores.len(),
+        100.0 * right as f64 / scores.len() as f64,
+        controls.len(),
+        controls.len()
+    );
+    println!(
+        "aborts: {} (target 0); all criteria met: {passed}/{}",
+        aborts.len(),
+        scores.len()
+    );
 
     let report = json!({
         "cases": n, "first_seed": seed0, "jobs": jobs, "wall_seconds": wall,

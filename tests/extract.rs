@@ -63,11 +63,7 @@ fn expected_h(force: &[Complex64], response: &[Complex64]) -> Vec<Complex64> {
             for _ in 1..h {
                 turn *= u;
             }
-            if h == 0 {
-                y * u / f1
-            } else {
-                y / (f1 * turn)
-            }
+            if h == 0 { y * u / f1 } else { y / (f1 * turn) }
         })
         .collect()
 }
@@ -1040,7 +1036,11 @@ fn harmonic_frfs_do_not_depend_on_where_the_window_starts_in_the_force_cycle() {
         for h in 0..=4 {
             let want = if h == 0 { y[0] / a } else { y[h] / a };
             let err = (d.h[h] - want).norm() / want.norm();
-            assert!(err < 1e-9, "phase {phi}: H{h} = {} vs {want} ({err:e})", d.h[h]);
+            assert!(
+                err < 1e-9,
+                "phase {phi}: H{h} = {} vs {want} ({err:e})",
+                d.h[h]
+            );
         }
     }
 }

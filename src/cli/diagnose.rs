@@ -61,9 +61,7 @@ pub fn run_diagnosis(
             pb.inc(1);
             pb.set_message(format!("round {round}: {} done", effect.name()));
         }
-        DiagnoseEvent::Checking { effect } => {
-            pb.set_message(format!("checking {}", effect.name()))
-        }
+        DiagnoseEvent::Checking { effect } => pb.set_message(format!("checking {}", effect.name())),
     };
     let d = diagnose_observed(frf, fit, options, &predictor, &observer)?;
     pb.finish_and_clear();

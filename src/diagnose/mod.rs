@@ -588,7 +588,10 @@ fn unresolved(
         if !e.identifiable {
             return Ok(Some(format!(
                 "lowered χ² enough, but the data do not determine its {name}{}",
-                e.note.as_deref().map(|n| format!(" ({n})")).unwrap_or_default()
+                e.note
+                    .as_deref()
+                    .map(|n| format!(" ({n})"))
+                    .unwrap_or_default()
             )));
         }
         if at_bound || e.value == 0.0 {
@@ -631,7 +634,13 @@ fn try_candidate(
         // over for a spurious mode inside the band: start from the best mode
         // below and the best above as well
         let d = features::common_receptance_residual(data, &current.pred);
-        let existing: Vec<f64> = current.model.linear.modes.iter().map(|m| m.frequency_hz).collect();
+        let existing: Vec<f64> = current
+            .model
+            .linear
+            .modes
+            .iter()
+            .map(|m| m.frequency_hz)
+            .collect();
         let fmin = d.iter().map(|p| p.0).fold(f64::MAX, f64::min);
         let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
         for (lo, hi) in [(0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax)] {
@@ -660,7 +669,13 @@ fn try_candidate(
     let mut best: Option<Refit> = None;
     let mut last_error = None;
     for start in &starts {
-        match refit(start, data, predictor, Some(&current.pred), options.patience) {
+        match refit(
+            start,
+            data,
+            predictor,
+            Some(&current.pred),
+            options.patience,
+        ) {
             Ok(r) => {
                 if best.as_ref().is_none_or(|b| r.chi2 < b.chi2) {
                     best = Some(r);
@@ -879,8 +894,9 @@ pub fn diagnose_observed(
             // the chance that noise alone passes one of them near what it is
             // for one (on the independent corpus's controls, ln n alone let
             // a contact of 1e-3 of the stiffness through)
-            let threshold =
-                (effect_size(effect) as f64 * n_real.ln() + 2.0 * (ranked.len() as f64).ln()) * reduced;
+            let threshold = (effect_size(effect) as f64 * n_real.ln()
+                + 2.0 * (ranked.len() as f64).ln())
+                * reduced;
             let criterion = delta - threshold;
             let report = CandidateReport {
                 effect,
@@ -948,9 +964,10 @@ pub fn diagnose_observed(
         // an effect kept earlier may have lost its reason to be there once
         // this one came in (a quadratic damping that stood in for a mode):
         // drop it, refit, and look again
-        while let Some(&gone) = chosen.iter().find(|&&e| {
-            !matches!(unresolved(e, &current, &data, predictor), Ok(None))
-        }) {
+        while let Some(&gone) = chosen
+            .iter()
+            .find(|&&e| !matches!(unresolved(e, &current, &data, predictor), Ok(None)))
+        {
             let why = unresolved(gone, &current, &data, predictor)
                 .ok()
                 .flatten()

@@ -2,8 +2,8 @@
 //! coherent (FFT) and non-coherent (least-squares) extractions.
 
 use super::DwellHarmonics;
-use crate::harmonics::referred_to_force;
 use crate::error::{Error, Result};
+use crate::harmonics::referred_to_force;
 use num_complex::Complex64;
 
 /// Checks that every sample is finite; the error names the signal and the
@@ -85,7 +85,8 @@ pub(crate) fn h1_from_blocks(
     for b in 0..blocks {
         let f1 = force[b * width + 1];
         for k in 0..width {
-            scatter[k] += (referred_to_force(response[b * width + k], k, f1) / f1 - h[k]).norm_sqr();
+            scatter[k] +=
+                (referred_to_force(response[b * width + k], k, f1) / f1 - h[k]).norm_sqr();
         }
     }
     let std_error = scatter

@@ -90,7 +90,10 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
         return plain;
     }
     let pts = receptance_points(samples, quantity);
-    if !pts.iter().all(|p| p.2 > 0.0 && p.1.norm() > 0.0 && p.1.re.is_finite() && p.1.im.is_finite()) {
+    if !pts
+        .iter()
+        .all(|p| p.2 > 0.0 && p.1.norm() > 0.0 && p.1.re.is_finite() && p.1.im.is_finite())
+    {
         return plain;
     }
     let chi2_of = |k: f64, m: f64, c: f64, a: f64, b: f64| -> f64 {
@@ -112,12 +115,22 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
     // residual terms would soak up and turn into a wrong m, c, k)
     let better = match &plain {
         Ok(p) => {
-            let chi2_p = chi2_of(p.sign * p.stiffness, p.sign * p.mass, p.sign * p.damping, 0.0, 0.0);
+            let chi2_p = chi2_of(
+                p.sign * p.stiffness,
+                p.sign * p.mass,
+                p.sign * p.damping,
+                0.0,
+                0.0,
+            );
             chi2_r + 2.0 * n.ln() * reduced < chi2_p && chi2_r < 0.1 * chi2_p
         }
         Err(_) => true,
     };
-    let sign = if k < 0.0 && m < 0.0 && c <= 0.0 { -1.0 } else { 1.0 };
+    let sign = if k < 0.0 && m < 0.0 && c <= 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
     let (k, m, c) = (sign * k, sign * m, sign * c);
     if !better || !(k > 0.0 && m > 0.0 && c >= 0.0 && k.is_finite() && m.is_finite()) {
         return plain;
@@ -184,7 +197,11 @@ fn sdof_with_residuals(pts: &[(f64, Complex64, f64)]) -> Option<(f64, f64, f64, 
         let mut atb = nalgebra::Vector3::<f64>::zeros();
         for &(w, h, s) in pts {
             let g = 1.0 / Complex64::new(wn * wn - w * w, 2.0 * zeta * wn * w);
-            let cols = [g, Complex64::new(1.0, 0.0), Complex64::new(-1.0 / (w * w), 0.0)];
+            let cols = [
+                g,
+                Complex64::new(1.0, 0.0),
+                Complex64::new(-1.0 / (w * w), 0.0),
+            ];
             let wt = 1.0 / (s * s);
             for i in 0..3 {
                 for j in 0..3 {

@@ -70,8 +70,11 @@ pub fn usable_point(p: &crate::extract::FrfPoint, harmonics: &[usize]) -> bool {
         && h1.re.is_finite()
         && h1.im.is_finite()
         && harmonics.iter().all(|&k| {
-            p.h.get(k).is_some_and(|h| h.re.is_finite() && h.im.is_finite())
-                && p.std_error.get(k).is_some_and(|s| s.is_finite() && *s > 0.0)
+            p.h.get(k)
+                .is_some_and(|h| h.re.is_finite() && h.im.is_finite())
+                && p.std_error
+                    .get(k)
+                    .is_some_and(|s| s.is_finite() && *s > 0.0)
         })
 }
 

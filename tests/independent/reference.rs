@@ -5,9 +5,7 @@ use super::kit::corpus::{
     CaseOptions, EffectKind, JointKind, Quantity, SampleFormat, Sweep, case_with, generate,
 };
 use super::kit::recording::{quantise, write_recording};
-use super::kit::refsim::{
-    Hysteresis, RefJoint, RefMode, RefSystem, SteppedSine, masing_backbone,
-};
+use super::kit::refsim::{Hysteresis, RefJoint, RefMode, RefSystem, SteppedSine, masing_backbone};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
@@ -30,7 +28,8 @@ fn sine_fit(y: &[f64], fs: f64, f: f64, t0: f64, from: usize, to: usize) -> Comp
     }
     // 3×3 solve by Cramer's rule
     let det = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     };
     let d = det(&ata);
@@ -55,8 +54,15 @@ fn receptance(modes: &[RefMode], f: f64) -> Complex64 {
 /// Steady state of a long single dwell against Σ R/(ω_r² − ω² + 2jζω_rω),
 /// for displacement, velocity and acceleration.
 fn check_linear(modes: Vec<RefMode>, fs: f64, freqs: &[f64]) {
-    let slowest = modes.iter().map(|m| 1.0 / (m.zeta * m.omega)).fold(0.0, f64::max);
-    let sys = RefSystem { modes: modes.clone(), joint: RefJoint::None, effects: vec![] };
+    let slowest = modes
+        .iter()
+        .map(|m| 1.0 / (m.zeta * m.omega))
+        .fold(0.0, f64::max);
+    let sys = RefSystem {
+        modes: modes.clone(),
+        joint: RefJoint::None,
+        effects: vec![],
+    };
     for &f in freqs {
         // 12 time constants of transient (e^-12 ≈ 6e-6), then 40 periods
         let settle = (12.0 * slowest * f).ceil() as u64;
@@ -74,11 +80,17 @@ fn check_linear(modes: Vec<RefMode>, fs: f64, freqs: &[f64]) {
         ] {
             let got = sine_fit(y, fs, f, t0, from, n) / 3.0;
             let rel = (got - expect).norm() / expect.norm();
-            assert!(rel < 1e-4, "{name} at {f} Hz: simulated {got}, closed form {expect}, relative {rel:.3e}");
+            assert!(
+                rel < 1e-4,
+                "{name} at {f} Hz: simulated {got}, closed form {expect}, relative {rel:.3e}"
+            );
         }
         // the force itself is exact
         let gf = sine_fit(&out.force, fs, f, t0, from, n);
-        assert!((gf - Complex64::new(3.0, 0.0)).norm() < 1e-9, "force phasor {gf}");
+        assert!(
+            (gf - Complex64::new(3.0, 0.0)).norm() < 1e-9,
+            "force phasor {gf}"
+        );
     }
 }
 
@@ -87,12 +99,19 @@ fn reference_linear_sdof_matches_receptance() {
     let m = 2.0;
     let k = m * (2.0 * PI * 50.0f64).powi(2);
     let c = 2.0 * 0.02 * (k * m).sqrt();
-    check_linear(vec![RefMode::from_mck(m, c, k)], 4096.0, &[31.3, 48.9, 50.0, 50.7, 66.1]);
+    check_linear(
+        vec![RefMode::from_mck(m, c, k)],
+        4096.0,
+        &[31.3, 48.9, 50.0, 50.7, 66.1],
+    );
 }
 
 #[test]
 fn reference_two_mode_matches_receptance() {
-    let modes = vec![RefMode::from_hz(50.0, 0.02, 2.0), RefMode::from_hz(180.0, 0.015, 0.7)];
+    let modes = vec![
+        RefMode::from_hz(50.0, 0.02, 2.0),
+        RefMode::from_hz(180.0, 0.015, 0.7),
+    ];
     check_linear(modes, 10240.0, &[37.7, 50.2, 120.3, 179.1, 230.9]);
 }
 
@@ -121,7 +140,10 @@ fn reference_jenkins_dissipation_is_4fd_a_minus_slip() {
         let a = r * xs;
         let e = dissipation(RefJoint::Jenkins { kd, fd }, a);
         let exact = 4.0 * fd * (a - xs);
-        assert!((e / exact - 1.0).abs() < 0.005, "a = {r} Fd/kd: {e} J against {exact} J");
+        assert!(
+            (e / exact - 1.0).abs() < 0.005,
+            "a = {r} Fd/kd: {e} J against {exact} J"
+        );
     }
     // in stick nothing is dissipated
     assert!(dissipation(RefJoint::Jenkins { kd, fd }, 0.9 * xs).abs() < 1e-12 * fd * xs);
@@ -136,7 +158,10 @@ fn reference_masing_approaches_jenkins_for_large_n() {
     for n in [2.0, 5.0, 10.0, 20.0, 80.0] {
         let em = dissipation(RefJoint::Masing { kd, fd, n }, a);
         let rel = (em / ej - 1.0).abs();
-        assert!(rel < last, "N = {n}: |E_masing/E_jenkins − 1| = {rel} did not shrink (was {last})");
+        assert!(
+            rel < last,
+            "N = {n}: |E_masing/E_jenkins − 1| = {rel} did not shrink (was {last})"
+        );
         last = rel;
         if n >= 20.0 {
             assert!(rel < 0.05, "N = {n}: Masing dissipates {em}, Jenkins {ej}");
@@ -146,7 +171,10 @@ fn reference_masing_approaches_jenkins_for_large_n() {
     for u in [0.2, 0.9, 1.1, 4.0] {
         let x = u * fd / kd;
         let b = masing_backbone(kd, fd, 200.0, x);
-        assert!((b - (kd * x).clamp(-fd, fd)).abs() < 0.01 * fd, "u = {u}: {b}");
+        assert!(
+            (b - (kd * x).clamp(-fd, fd)).abs() < 0.01 * fd,
+            "u = {u}: {b}"
+        );
     }
 }
 
@@ -174,10 +202,17 @@ fn reference_masing_rules_and_wipe_out() {
     let c = 0.7 * xs;
     walk(&mut h, b, c);
     let back = walk(&mut h, c, -1.0 * xs);
-    assert!((back - (f(a) + 2.0 * f((-1.0 * xs - a) / 2.0))).abs() < 1e-9 * fd, "{back}");
+    assert!(
+        (back - (f(a) + 2.0 * f((-1.0 * xs - a) / 2.0))).abs() < 1e-9 * fd,
+        "{back}"
+    );
     // continue past -a: back on the backbone (the branch meets it at -a)
     let beyond = walk(&mut h, -1.0 * xs, -3.0 * xs);
-    assert!((beyond - f(-3.0 * xs)).abs() < 1e-9 * fd, "{beyond} vs {}", f(-3.0 * xs));
+    assert!(
+        (beyond - f(-3.0 * xs)).abs() < 1e-9 * fd,
+        "{beyond} vs {}",
+        f(-3.0 * xs)
+    );
     // the stage evaluation agrees with the update without moving the state
     let peek = h.force_at(-2.0 * xs);
     let moved = h.update(-2.0 * xs);
@@ -193,18 +228,38 @@ fn reference_masing_rules_and_wipe_out() {
 #[test]
 fn reference_step_halving() {
     for (joint, effects) in [
-        (JointKind::Masing { n: 3.0 }, vec![EffectKind::CubicStiffness]),
+        (
+            JointKind::Masing { n: 3.0 },
+            vec![EffectKind::CubicStiffness],
+        ),
         (JointKind::Jenkins, vec![EffectKind::BilinearStiffness]),
     ] {
-        let o = CaseOptions { levels: Some(3), frequencies: Some(6), ..Default::default() };
+        let o = CaseOptions {
+            levels: Some(3),
+            frequencies: Some(6),
+            ..Default::default()
+        };
         let mut case = case_with(7, joint, &effects, &o);
         let a = generate(&case);
         case.substeps = 32;
         let b = generate(&case);
         let peak = a.clean_response.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let diff = a.clean_response.iter().zip(&b.clean_response).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-        eprintln!("step halving {:?} {:?}: max |x16 − x32| / peak = {:.3e}", joint, effects, diff / peak);
-        assert!(diff / peak < 1e-3, "max difference {:.3e} of the peak", diff / peak);
+        let diff = a
+            .clean_response
+            .iter()
+            .zip(&b.clean_response)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        eprintln!(
+            "step halving {:?} {:?}: max |x16 − x32| / peak = {:.3e}",
+            joint,
+            effects,
+            diff / peak
+        );
+        assert!(
+            diff / peak < 1e-3,
+            "max difference {:.3e} of the peak",
+            diff / peak
+        );
     }
 }
 
@@ -230,12 +285,16 @@ fn reference_recordings_read_back() {
         let case = case_with(30 + i as u64, JointKind::Jenkins, &[], &o);
         let rec = generate(&case);
         let js = write_recording(dir.path(), &case, &rec).unwrap();
-        let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&js).unwrap()).unwrap();
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&js).unwrap()).unwrap();
         assert_eq!(doc["format"], "hystid.recording.v1");
         assert_eq!(doc["sample_rate_hz"], case.sample_rate);
         assert_eq!(doc["channels"][0]["quantity"], "force");
         assert_eq!(doc["channels"][1]["quantity"], quantity.name());
-        let scales = [doc["channels"][0]["scale"].as_f64().unwrap(), doc["channels"][1]["scale"].as_f64().unwrap()];
+        let scales = [
+            doc["channels"][0]["scale"].as_f64().unwrap(),
+            doc["channels"][1]["scale"].as_f64().unwrap(),
+        ];
         let mut r = hound::WavReader::open(js.with_extension("wav")).unwrap();
         let spec = r.spec();
         assert_eq!((spec.channels, spec.sample_rate), (2, case.sample_rate));
@@ -243,7 +302,9 @@ fn reference_recordings_read_back() {
             SampleFormat::Float32 => r.samples::<f32>().map(|s| s.unwrap() as f64).collect(),
             _ => {
                 let full = (1i64 << (spec.bits_per_sample - 1)) as f64;
-                r.samples::<i32>().map(|s| s.unwrap() as f64 / full).collect()
+                r.samples::<i32>()
+                    .map(|s| s.unwrap() as f64 / full)
+                    .collect()
             }
         };
         assert_eq!(values.len(), 2 * rec.force.len());
@@ -260,10 +321,16 @@ fn reference_recordings_read_back() {
             };
             for (k, x) in sig.iter().enumerate() {
                 let back = values[2 * k + c] * scales[c];
-                assert!((back - x).abs() <= tol, "{format:?} channel {c} sample {k}: {back} vs {x}");
+                assert!(
+                    (back - x).abs() <= tol,
+                    "{format:?} channel {c} sample {k}: {back} vs {x}"
+                );
             }
             if format != SampleFormat::Float32 {
-                assert_eq!(quantise(peak, scales[c], bits as u32).unsigned_abs() as f64, (0.9 * (1i64 << (bits - 1)) as f64).round());
+                assert_eq!(
+                    quantise(peak, scales[c], bits as u32).unsigned_abs() as f64,
+                    (0.9 * (1i64 << (bits - 1)) as f64).round()
+                );
             }
         }
         // the steps: in time order, contiguous, each starting at the first
@@ -276,10 +343,19 @@ fn reference_recordings_read_back() {
             let f = s["frequency_hz"].as_f64().unwrap();
             let a = s["level"].as_f64().unwrap();
             let f0 = rec.clean_force[start];
-            assert!(f0 >= 0.0 && f0 <= a * (2.0 * PI * f / fs).sin() * (1.0 + 1e-9), "step {j}: force {f0} at its start");
-            assert!(rec.clean_force[start - 1] <= 0.0, "step {j}: the switch is not between samples start-1 and start");
+            assert!(
+                f0 >= 0.0 && f0 <= a * (2.0 * PI * f / fs).sin() * (1.0 + 1e-9),
+                "step {j}: force {f0} at its start"
+            );
+            assert!(
+                rec.clean_force[start - 1] <= 0.0,
+                "step {j}: the switch is not between samples start-1 and start"
+            );
             if j + 1 < steps.len() {
-                assert_eq!(start + s["length"].as_u64().unwrap() as usize, steps[j + 1]["start"].as_u64().unwrap() as usize);
+                assert_eq!(
+                    start + s["length"].as_u64().unwrap() as usize,
+                    steps[j + 1]["start"].as_u64().unwrap() as usize
+                );
             }
             assert!(s["settle"].as_u64().unwrap() < s["length"].as_u64().unwrap());
         }

@@ -24,12 +24,60 @@ pub fn sample_cases() -> Vec<Case> {
     use Quantity::*;
     use SampleFormat::*;
     let mut v = vec![
-        ("control", case_with(101, JointKind::Jenkins, &[], &o(Float32, Displacement, Sweep::Up, true))),
-        ("cubic", case_with(102, JointKind::Masing { n: 2.0 }, &[CubicStiffness], &o(Pcm24, Velocity, Sweep::Down, true))),
-        ("quadratic_damping", case_with(103, JointKind::Jenkins, &[QuadraticDamping], &o(Pcm16, Displacement, Sweep::Up, true))),
-        ("bilinear", case_with(104, JointKind::Masing { n: 5.0 }, &[BilinearStiffness], &o(Float32, Acceleration, Sweep::Alternate, true))),
-        ("second_mode", case_with(105, JointKind::Jenkins, &[SecondMode], &o(Pcm24, Displacement, Sweep::Up, true))),
-        ("masing_no_steps", case_with(106, JointKind::Masing { n: 3.0 }, &[], &o(Pcm24, Displacement, Sweep::Up, false))),
+        (
+            "control",
+            case_with(
+                101,
+                JointKind::Jenkins,
+                &[],
+                &o(Float32, Displacement, Sweep::Up, true),
+            ),
+        ),
+        (
+            "cubic",
+            case_with(
+                102,
+                JointKind::Masing { n: 2.0 },
+                &[CubicStiffness],
+                &o(Pcm24, Velocity, Sweep::Down, true),
+            ),
+        ),
+        (
+            "quadratic_damping",
+            case_with(
+                103,
+                JointKind::Jenkins,
+                &[QuadraticDamping],
+                &o(Pcm16, Displacement, Sweep::Up, true),
+            ),
+        ),
+        (
+            "bilinear",
+            case_with(
+                104,
+                JointKind::Masing { n: 5.0 },
+                &[BilinearStiffness],
+                &o(Float32, Acceleration, Sweep::Alternate, true),
+            ),
+        ),
+        (
+            "second_mode",
+            case_with(
+                105,
+                JointKind::Jenkins,
+                &[SecondMode],
+                &o(Pcm24, Displacement, Sweep::Up, true),
+            ),
+        ),
+        (
+            "masing_no_steps",
+            case_with(
+                106,
+                JointKind::Masing { n: 3.0 },
+                &[],
+                &o(Pcm24, Displacement, Sweep::Up, false),
+            ),
+        ),
     ];
     for (name, c) in &mut v {
         c.name = format!("{name}-{}", c.seed);
@@ -68,7 +116,10 @@ fn independent_corpus_sample() {
             failed.push(format!(
                 "{}: {}",
                 s.name,
-                real.iter().map(|f| f.as_str()).collect::<Vec<_>>().join("; ")
+                real.iter()
+                    .map(|f| f.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; ")
             ));
         }
     }
@@ -89,7 +140,13 @@ fn independent_sample_generates() {
         let t = std::time::Instant::now();
         let rec = generate(&case);
         let secs = t.elapsed().as_secs_f64();
-        eprintln!("{}: {} samples ({:.1} s of signal) in {:.2} s", case.summary(), rec.force.len(), rec.force.len() as f64 / case.sample_rate as f64, secs);
+        eprintln!(
+            "{}: {} samples ({:.1} s of signal) in {:.2} s",
+            case.summary(),
+            rec.force.len(),
+            rec.force.len() as f64 / case.sample_rate as f64,
+            secs
+        );
         assert!(rec.response.iter().all(|x| x.is_finite()));
         assert_eq!(rec.steps.len(), case.levels.len() * case.frequencies.len());
     }
@@ -107,12 +164,16 @@ fn independent_sample_generates() {
 fn independent_case_from_env() {
     use super::kit::corpus::draw_case;
     let var = |k: &str| std::env::var(k).ok();
-    let seed: u64 = var("HYSTID_CASE_SEED").and_then(|v| v.parse().ok()).unwrap_or(1);
+    let seed: u64 = var("HYSTID_CASE_SEED")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
     let mut case = match var("HYSTID_CASE_JOINT") {
         None => draw_case(seed),
         Some(j) => {
             let joint = match j.split_once(':') {
-                Some(("masing", n)) => JointKind::Masing { n: n.parse().unwrap() },
+                Some(("masing", n)) => JointKind::Masing {
+                    n: n.parse().unwrap(),
+                },
                 _ if j == "jenkins" => JointKind::Jenkins,
                 _ => panic!("HYSTID_CASE_JOINT: jenkins or masing:N"),
             };

@@ -49,11 +49,24 @@ impl EffectKind {
 /// A true effect with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TrueEffect {
-    SecondMode { frequency_hz: f64, damping_ratio: f64, modal_mass: f64 },
-    Cubic { k3: f64 },
-    Bilinear { kb: f64 },
-    QuadDamping { c2: f64 },
-    Clearance { k: f64, gap: f64 },
+    SecondMode {
+        frequency_hz: f64,
+        damping_ratio: f64,
+        modal_mass: f64,
+    },
+    Cubic {
+        k3: f64,
+    },
+    Bilinear {
+        kb: f64,
+    },
+    QuadDamping {
+        c2: f64,
+    },
+    Clearance {
+        k: f64,
+        gap: f64,
+    },
 }
 
 impl TrueEffect {
@@ -69,7 +82,11 @@ impl TrueEffect {
     /// Parameters, named as in hystid's model elements / modes.
     pub fn parameters(&self) -> Vec<(&'static str, f64)> {
         match *self {
-            TrueEffect::SecondMode { frequency_hz, damping_ratio, modal_mass } => vec![
+            TrueEffect::SecondMode {
+                frequency_hz,
+                damping_ratio,
+                modal_mass,
+            } => vec![
                 ("frequency_hz", frequency_hz),
                 ("damping_ratio", damping_ratio),
                 ("residue", 1.0 / modal_mass),
@@ -200,9 +217,11 @@ impl Case {
         let mut effects = Vec::new();
         for e in &self.effects {
             match *e {
-                TrueEffect::SecondMode { frequency_hz, damping_ratio, modal_mass } => {
-                    modes.push(RefMode::from_hz(frequency_hz, damping_ratio, modal_mass))
-                }
+                TrueEffect::SecondMode {
+                    frequency_hz,
+                    damping_ratio,
+                    modal_mass,
+                } => modes.push(RefMode::from_hz(frequency_hz, damping_ratio, modal_mass)),
                 TrueEffect::Cubic { k3 } => effects.push(RefEffect::Cubic { k3 }),
                 TrueEffect::Bilinear { kb } => effects.push(RefEffect::Bilinear { kb }),
                 TrueEffect::QuadDamping { c2 } => effects.push(RefEffect::QuadDamping { c2 }),
@@ -210,10 +229,21 @@ impl Case {
             }
         }
         let joint = match self.joint {
-            JointKind::Jenkins => RefJoint::Jenkins { kd: self.kd, fd: self.fd },
-            JointKind::Masing { n } => RefJoint::Masing { kd: self.kd, fd: self.fd, n },
+            JointKind::Jenkins => RefJoint::Jenkins {
+                kd: self.kd,
+                fd: self.fd,
+            },
+            JointKind::Masing { n } => RefJoint::Masing {
+                kd: self.kd,
+                fd: self.fd,
+                n,
+            },
         };
-        RefSystem { modes, joint, effects }
+        RefSystem {
+            modes,
+            joint,
+            effects,
+        }
     }
     /// The modes' slowest decay time 1/(ζω), s.
     pub fn slowest_tau(&self) -> f64 {
@@ -311,7 +341,9 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
     let levels: Vec<f64> = (0..nl)
         .map(|i| lo * (hi / lo).powf(i as f64 / (nl - 1) as f64))
         .collect();
-    let nf = o.frequencies.unwrap_or_else(|| rng.random_range(12..=20usize));
+    let nf = o
+        .frequencies
+        .unwrap_or_else(|| rng.random_range(12..=20usize));
     let f_stuck = ((stiffness + kd) / mass).sqrt() / (2.0 * PI);
     let (flo, fhi) = (0.6 * f_slip, 1.4 * f_stuck);
     // a log grid over the band plus points around both resonances
@@ -322,7 +354,11 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         .collect();
     for &fr in &[f_slip, f_stuck] {
         for i in 0..n_near {
-            let u = if n_near == 1 { 0.0 } else { i as f64 / (n_near - 1) as f64 * 2.0 - 1.0 };
+            let u = if n_near == 1 {
+                0.0
+            } else {
+                i as f64 / (n_near - 1) as f64 * 2.0 - 1.0
+            };
             // within the half-power band, where damping shows
             frequencies.push(fr * (1.0 + 1.5 * zeta * u + rng.random_range(-0.3..0.3) * zeta));
         }
@@ -334,18 +370,32 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
     frequencies.sort_by(f64::total_cmp);
     frequencies.dedup_by(|a, b| (*a / *b - 1.0).abs() < 1e-3);
     let ftop = *frequencies.last().unwrap();
-    let ok: Vec<u32> = RATES.iter().copied().filter(|&r| r as f64 >= 20.0 * ftop).collect();
+    let ok: Vec<u32> = RATES
+        .iter()
+        .copied()
+        .filter(|&r| r as f64 >= 20.0 * ftop)
+        .collect();
     let sample_rate = ok[0];
     let format = o.format.unwrap_or_else(|| {
-        [SampleFormat::Float32, SampleFormat::Pcm16, SampleFormat::Pcm24][rng.random_range(0..3usize)]
+        [
+            SampleFormat::Float32,
+            SampleFormat::Pcm16,
+            SampleFormat::Pcm24,
+        ][rng.random_range(0..3usize)]
     });
     let quantity = o.quantity.unwrap_or_else(|| {
-        [Quantity::Displacement, Quantity::Velocity, Quantity::Acceleration][rng.random_range(0..3usize)]
+        [
+            Quantity::Displacement,
+            Quantity::Velocity,
+            Quantity::Acceleration,
+        ][rng.random_range(0..3usize)]
     });
     let sweep = o
         .sweep
         .unwrap_or_else(|| [Sweep::Up, Sweep::Down, Sweep::Alternate][rng.random_range(0..3usize)]);
-    let with_steps = o.with_steps.unwrap_or_else(|| rng.random_range(0.0..1.0) < 0.7);
+    let with_steps = o
+        .with_steps
+        .unwrap_or_else(|| rng.random_range(0.0..1.0) < 0.7);
     let mut case = Case {
         seed,
         name: format!("case-{seed}"),
@@ -375,17 +425,28 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         let e = match kind {
             EffectKind::CubicStiffness => {
                 // 3/4 k3 X² = ±(3–12 %) of k at the top level's resonance
-                let delta = rng.random_range(0.03..0.12) * if rng.random_range(0.0..1.0) < 0.5 { -1.0 } else { 1.0 };
-                TrueEffect::Cubic { k3: delta * stiffness / (0.75 * x_top * x_top) }
+                let delta = rng.random_range(0.03..0.12)
+                    * if rng.random_range(0.0..1.0) < 0.5 {
+                        -1.0
+                    } else {
+                        1.0
+                    };
+                TrueEffect::Cubic {
+                    k3: delta * stiffness / (0.75 * x_top * x_top),
+                }
             }
             EffectKind::QuadraticDamping => {
                 // 8/(3π) c2 ω X = (15–45 %) of c at the top level's resonance
                 let delta = rng.random_range(0.15..0.45);
-                TrueEffect::QuadDamping { c2: delta * damping / (8.0 / (3.0 * PI) * w * x_top) }
+                TrueEffect::QuadDamping {
+                    c2: delta * damping / (8.0 / (3.0 * PI) * w * x_top),
+                }
             }
             EffectKind::BilinearStiffness => {
                 // one-sided contact, kb = 0.4–1.0 k: H2 ~ 0.07 kb/k of H1
-                TrueEffect::Bilinear { kb: rng.random_range(0.4..1.0) * stiffness }
+                TrueEffect::Bilinear {
+                    kb: rng.random_range(0.4..1.0) * stiffness,
+                }
             }
             EffectKind::Clearance => {
                 // gap at 30–60 % of the top amplitude, effective stiffness
@@ -393,7 +454,10 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
                 let g: f64 = rng.random_range(0.3..0.6);
                 let frac = 1.0 - 2.0 / PI * (g.asin() + g * (1.0 - g * g).sqrt());
                 let delta = rng.random_range(0.05..0.15);
-                TrueEffect::Clearance { k: delta * stiffness / frac, gap: g * x_top }
+                TrueEffect::Clearance {
+                    k: delta * stiffness / frac,
+                    gap: g * x_top,
+                }
             }
             EffectKind::SecondMode => {
                 let f2 = if rng.random_range(0.0..1.0) < 0.75 {
@@ -416,7 +480,11 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         _ => None,
     }) && (case.sample_rate as f64) < 8.0 * f2
     {
-        case.sample_rate = RATES.iter().copied().find(|&r| r as f64 >= 8.0 * f2).unwrap_or(204800);
+        case.sample_rate = RATES
+            .iter()
+            .copied()
+            .find(|&r| r as f64 >= 8.0 * f2)
+            .unwrap_or(204800);
     }
     case
 }
@@ -428,7 +496,9 @@ pub fn draw_case(seed: u64) -> Case {
     let joint = if rng.random_range(0.0..1.0) < 0.4 {
         JointKind::Jenkins
     } else {
-        JointKind::Masing { n: (rng.random_range(0.0f64..20f64.ln())).exp().max(1.0) }
+        JointKind::Masing {
+            n: (rng.random_range(0.0f64..20f64.ln())).exp().max(1.0),
+        }
     };
     let u: f64 = rng.random_range(0.0..1.0);
     let all = EffectKind::ALL;
@@ -497,7 +567,10 @@ pub fn generate(case: &Case) -> Recording {
     let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
     let mut covered = 0;
     for &(_, _, s, _, len) in &steps {
-        let (r_rms, f_rms) = (rms(&clean_response[s..s + len]), rms(&out.force[s..s + len]));
+        let (r_rms, f_rms) = (
+            rms(&clean_response[s..s + len]),
+            rms(&out.force[s..s + len]),
+        );
         for i in covered.max(s)..s + len {
             let a: f64 = StandardNormal.sample(&mut rng);
             let b: f64 = StandardNormal.sample(&mut rng);
@@ -508,7 +581,10 @@ pub fn generate(case: &Case) -> Recording {
     }
     // the few samples before the first dwell carry the first dwell's noise
     if let Some(&(_, _, s, _, len)) = steps.first() {
-        let (r_rms, f_rms) = (rms(&clean_response[s..s + len]), rms(&out.force[s..s + len]));
+        let (r_rms, f_rms) = (
+            rms(&clean_response[s..s + len]),
+            rms(&out.force[s..s + len]),
+        );
         for i in 0..s {
             let a: f64 = StandardNormal.sample(&mut rng);
             let b: f64 = StandardNormal.sample(&mut rng);

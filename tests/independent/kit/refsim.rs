@@ -309,7 +309,14 @@ impl RefSystem {
     /// Derivatives of (q, q') given the total external force minus the
     /// hysteretic force already evaluated.
     #[inline]
-    fn deriv(&self, q: &[f64; MAXM], p: &[f64; MAXM], f_net: f64, dq: &mut [f64; MAXM], dp: &mut [f64; MAXM]) {
+    fn deriv(
+        &self,
+        q: &[f64; MAXM],
+        p: &[f64; MAXM],
+        f_net: f64,
+        dq: &mut [f64; MAXM],
+        dp: &mut [f64; MAXM],
+    ) {
         for (r, m) in self.modes.iter().enumerate() {
             dq[r] = p[r];
             dp[r] = m.residue * f_net - 2.0 * m.zeta * m.omega * p[r] - m.omega * m.omega * q[r];
@@ -324,8 +331,10 @@ impl RefSystem {
         let mut hyst = Hysteresis::new(self.joint);
         let mut q = [0.0; MAXM];
         let mut p = [0.0; MAXM];
-        let (mut k1q, mut k1p, mut k2q, mut k2p) = ([0.0; MAXM], [0.0; MAXM], [0.0; MAXM], [0.0; MAXM]);
-        let (mut k3q, mut k3p, mut k4q, mut k4p) = ([0.0; MAXM], [0.0; MAXM], [0.0; MAXM], [0.0; MAXM]);
+        let (mut k1q, mut k1p, mut k2q, mut k2p) =
+            ([0.0; MAXM], [0.0; MAXM], [0.0; MAXM], [0.0; MAXM]);
+        let (mut k3q, mut k3p, mut k4q, mut k4p) =
+            ([0.0; MAXM], [0.0; MAXM], [0.0; MAXM], [0.0; MAXM]);
         let mut tq = [0.0; MAXM];
         let mut tp = [0.0; MAXM];
         let dt = 1.0 / fs;
@@ -349,7 +358,9 @@ impl RefSystem {
             let fnl = fh + self.smooth(x, v);
             let mut a = 0.0;
             for (r, m) in self.modes.iter().enumerate() {
-                a += m.residue * (f - fnl) - 2.0 * m.zeta * m.omega * p[r] - m.omega * m.omega * q[r];
+                a += m.residue * (f - fnl)
+                    - 2.0 * m.zeta * m.omega * p[r]
+                    - m.omega * m.omega * q[r];
             }
             out.force.push(f);
             out.displacement.push(x);
@@ -362,7 +373,12 @@ impl RefSystem {
             // advance to the next sample
             for s in 0..substeps {
                 let ts = t + s as f64 * h;
-                let stage = |q: &[f64; MAXM], p: &[f64; MAXM], tt: f64, hint: &mut usize, dq: &mut [f64; MAXM], dp: &mut [f64; MAXM]| {
+                let stage = |q: &[f64; MAXM],
+                             p: &[f64; MAXM],
+                             tt: f64,
+                             hint: &mut usize,
+                             dq: &mut [f64; MAXM],
+                             dp: &mut [f64; MAXM]| {
                     let x = q[..nm].iter().sum::<f64>();
                     let v = p[..nm].iter().sum::<f64>();
                     let fnet = force.force(tt, hint) - hyst.force_at(x) - self.smooth(x, v);

@@ -20,7 +20,13 @@ pub struct RunOutcome {
 }
 
 /// `hystid diagnose REC.json --out DIR --element E --quiet`, with a timeout.
-pub fn run_diagnose(bin: &Path, recording: &Path, out_dir: &Path, element: &str, timeout: Duration) -> RunOutcome {
+pub fn run_diagnose(
+    bin: &Path,
+    recording: &Path,
+    out_dir: &Path,
+    element: &str,
+    timeout: Duration,
+) -> RunOutcome {
     let _ = std::fs::remove_dir_all(out_dir);
     std::fs::create_dir_all(out_dir).expect("out dir");
     let args = [
@@ -36,7 +42,13 @@ pub fn run_diagnose(bin: &Path, recording: &Path, out_dir: &Path, element: &str,
     let stdout = std::fs::File::create(out_dir.join("stdout.txt")).unwrap();
     let stderr = std::fs::File::create(out_dir.join("stderr.txt")).unwrap();
     let t0 = Instant::now();
-    let mut child = match Command::new(bin).args(&args).stdout(stdout).stderr(stderr).stdin(Stdio::null()).spawn() {
+    let mut child = match Command::new(bin)
+        .args(&args)
+        .stdout(stdout)
+        .stderr(stderr)
+        .stdin(Stdio::null())
+        .spawn()
+    {
         Ok(c) => c,
         Err(e) => {
             return RunOutcome {
@@ -95,7 +107,8 @@ pub struct ParamError {
 
 impl ParamError {
     pub fn relative(&self) -> f64 {
-        self.estimate.map_or(f64::INFINITY, |e| (e - self.truth).abs() / self.truth.abs())
+        self.estimate
+            .map_or(f64::INFINITY, |e| (e - self.truth).abs() / self.truth.abs())
     }
 }
 
@@ -164,7 +177,11 @@ fn num(v: &Value) -> Option<f64> {
 
 /// Scores a run against the case's truth with the criteria.
 pub fn score(case: &Case, run: &RunOutcome) -> Score {
-    let truth: Vec<String> = case.effect_kinds().iter().map(|e| e.name().to_string()).collect();
+    let truth: Vec<String> = case
+        .effect_kinds()
+        .iter()
+        .map(|e| e.name().to_string())
+        .collect();
     let mut s = Score {
         name: case.name.clone(),
         seed: case.seed,
@@ -201,7 +218,11 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
     };
     let mut sel: Vec<String> = d["selected"]
         .as_array()
-        .map(|a| a.iter().filter_map(|e| e["effect"].as_str().map(String::from)).collect())
+        .map(|a| {
+            a.iter()
+                .filter_map(|e| e["effect"].as_str().map(String::from))
+                .collect()
+        })
         .unwrap_or_default();
     sel.sort_by_key(|n| EffectKind::from_name(n));
     s.selected = sel;
@@ -223,7 +244,10 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         ));
     }
     let model = &d["model"];
-    let elements: Vec<&Value> = model["elements"].as_array().map(|a| a.iter().collect()).unwrap_or_default();
+    let elements: Vec<&Value> = model["elements"]
+        .as_array()
+        .map(|a| a.iter().collect())
+        .unwrap_or_default();
     let joint_kind = match case.joint {
         JointKind::Jenkins => "jenkins",
         JointKind::Masing { .. } => "masing",
@@ -233,11 +257,18 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
     let joint = elements
         .iter()
         .find(|e| e["kind"] == joint_kind)
-        .or_else(|| elements.iter().find(|e| e["kind"] == "jenkins" || e["kind"] == "masing"));
+        .or_else(|| {
+            elements
+                .iter()
+                .find(|e| e["kind"] == "jenkins" || e["kind"] == "masing")
+        });
     if let Some(j) = joint
         && j["kind"] != joint_kind
     {
-        s.notes.push(format!("asked for a {joint_kind} joint, the final model has {}", j));
+        s.notes.push(format!(
+            "asked for a {joint_kind} joint, the final model has {}",
+            j
+        ));
     }
     for (name, t) in [("kd", case.kd), ("fd", case.fd)] {
         s.joint.push(ParamError {
@@ -249,10 +280,19 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         });
     }
     if let (JointKind::Masing { n }, Some(j)) = (case.joint, joint) {
-        s.joint.push(ParamError { effect: "masing".into(), name: "n".into(), truth: n, estimate: num(&j["n"]), scored: false });
+        s.joint.push(ParamError {
+            effect: "masing".into(),
+            name: "n".into(),
+            truth: n,
+            estimate: num(&j["n"]),
+            scored: false,
+        });
     }
     // effect parameters, for the true effects that were selected
-    let modes: Vec<&Value> = model["linear"]["modes"].as_array().map(|a| a.iter().collect()).unwrap_or_default();
+    let modes: Vec<&Value> = model["linear"]["modes"]
+        .as_array()
+        .map(|a| a.iter().collect())
+        .unwrap_or_default();
     for e in &case.effects {
         let kind = e.kind().name();
         if !s.selected.iter().any(|x| x == kind) {
@@ -263,16 +303,28 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
                 let fs = case.f_slip();
                 // the extra mode: of the modes beyond the one nearest the
                 // slip resonance, the one nearest the true second mode
-                let main = modes.iter().enumerate().min_by(|a, b| {
-                    let d = |m: &Value| (num(&m["frequency_hz"]).unwrap_or(f64::INFINITY) / fs).ln().abs();
-                    d(a.1).total_cmp(&d(b.1))
-                }).map(|x| x.0);
+                let main = modes
+                    .iter()
+                    .enumerate()
+                    .min_by(|a, b| {
+                        let d = |m: &Value| {
+                            (num(&m["frequency_hz"]).unwrap_or(f64::INFINITY) / fs)
+                                .ln()
+                                .abs()
+                        };
+                        d(a.1).total_cmp(&d(b.1))
+                    })
+                    .map(|x| x.0);
                 let m2 = modes
                     .iter()
                     .enumerate()
                     .filter(|(i, _)| Some(*i) != main)
                     .min_by(|a, b| {
-                        let d = |m: &Value| (num(&m["frequency_hz"]).unwrap_or(f64::INFINITY) / frequency_hz).ln().abs();
+                        let d = |m: &Value| {
+                            (num(&m["frequency_hz"]).unwrap_or(f64::INFINITY) / frequency_hz)
+                                .ln()
+                                .abs()
+                        };
                         d(a.1).total_cmp(&d(b.1))
                     })
                     .map(|x| x.1);
@@ -302,20 +354,40 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
     }
     // the criteria
     if s.selected != s.truth {
-        s.failures.push(format!("selected [{}], truth [{}]", s.selected.join(","), s.truth.join(",")));
+        s.failures.push(format!(
+            "selected [{}], truth [{}]",
+            s.selected.join(","),
+            s.truth.join(",")
+        ));
     }
     for p in &s.joint {
         if p.scored && !(p.relative() <= 0.03) {
-            s.failures.push(format!("joint {} error {:.2} % (truth {:.5e}, estimate {:?})", p.name, 100.0 * p.relative(), p.truth, p.estimate));
+            s.failures.push(format!(
+                "joint {} error {:.2} % (truth {:.5e}, estimate {:?})",
+                p.name,
+                100.0 * p.relative(),
+                p.truth,
+                p.estimate
+            ));
         }
     }
     for p in &s.effects {
         if p.scored && !(p.relative() <= 0.10) {
-            s.failures.push(format!("{}.{} error {:.2} % (truth {:.5e}, estimate {:?})", p.effect, p.name, 100.0 * p.relative(), p.truth, p.estimate));
+            s.failures.push(format!(
+                "{}.{} error {:.2} % (truth {:.5e}, estimate {:?})",
+                p.effect,
+                p.name,
+                100.0 * p.relative(),
+                p.truth,
+                p.estimate
+            ));
         }
     }
     if s.is_control() && !(s.chi2_dof.unwrap_or(f64::INFINITY) <= 2.0) {
-        s.failures.push(format!("control chi2/dof {:.3}", s.chi2_dof.unwrap_or(f64::NAN)));
+        s.failures.push(format!(
+            "control chi2/dof {:.3}",
+            s.chi2_dof.unwrap_or(f64::NAN)
+        ));
     }
     s
 }
