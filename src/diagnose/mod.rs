@@ -218,7 +218,7 @@ pub struct Diagnosis {
 /// The free parameters of a model: every element's, the first mode as an
 /// SDOF (`m, c, k`), and any further mode's frequency, damping ratio and
 /// modal constant.
-pub fn model_parameters(model: &Model) -> ParameterSet {
+pub fn model_parameters(model: &Model, data: &FitData) -> ParameterSet {
     let mut p = ParameterSet::default();
     for (i, e) in model.elements.iter().enumerate() {
         let prefix =
@@ -238,7 +238,7 @@ pub fn model_parameters(model: &Model) -> ParameterSet {
         }
         p.extend(set);
     }
-    p.extend(ParameterSet::for_linear(model));
+    p.extend(ParameterSet::for_linear_in(model, data.band_hz()));
     p
 }
 
@@ -257,7 +257,7 @@ fn refit(
     warm: Option<&Prediction>,
     patience: usize,
 ) -> Result<Refit> {
-    let mut params = model_parameters(model);
+    let mut params = model_parameters(model, data);
     // a parameter at its bound (the joint's N → ∞ for Jenkins-like data) is
     // held there: its penalty row would mislead a derivative-based step
     params.parameters.retain(|p| {
@@ -301,7 +301,7 @@ fn refit(
 }
 
 fn model_fit(model: &Model, data: &FitData, pred: &Prediction, chi2: f64) -> ModelFit {
-    let params = model_parameters(model);
+    let params = model_parameters(model, data);
     let values = params
         .theta_of(model)
         .map(|t| params.values(&t))
@@ -508,13 +508,31 @@ fn augment(
 }
 
 /// The effect parameters' names and values in a model (those not in `base`).
-fn effect_parameters(model: &Model, effect: Effect) -> BTreeMap<String, f64> {
+fn effect_parameters(model: &Model, effect: Effect, data: &FitData) -> BTreeMap<String, f64> {
     let mut out = BTreeMap::new();
     if effect == Effect::SecondMode {
-        if let Some(m) = model.linear.modes.get(1) {
+        if let Some(m) = model
+            .linear
+            .modes
+            .last()
+            .filter(|_| model.linear.modes.len() > 1)
+        {
             out.insert("frequency_hz".into(), m.frequency_hz);
-            out.insert("damping_ratio".into(), m.damping_ratio);
             out.insert("modal_mass".into(), 1.0 / m.residue);
+            // a mode above the band is seen there as a flexibility, and its
+            // damping not at all (held, so not reported as a result)
+            let above = data
+                .band_hz()
+                .is_some_and(|(_, hi)| m.frequency_hz > hi * crate::fit::params::BAND_MARGIN);
+            let below = data
+                .band_hz()
+                .is_some_and(|(lo, _)| m.frequency_hz * crate::fit::params::BAND_MARGIN < lo);
+            if above {
+                let w = 2.0 * std::f64::consts::PI * m.frequency_hz;
+                out.insert("flexibility".into(), m.residue / (w * w));
+            } else if !below {
+                out.insert("damping_ratio".into(), m.damping_ratio);
+            }
         }
         return out;
     }
@@ -538,7 +556,7 @@ fn unresolved(
     data: &FitData,
     predictor: &HbPredictor,
 ) -> Result<Option<String>> {
-    let params = model_parameters(&r.model);
+    let params = model_parameters(&r.model, data);
     let problem = FitProblem::new(
         r.model.clone(),
         params.clone(),
@@ -558,7 +576,7 @@ fn unresolved(
         // at the driving point every mode's modal constant has the sign of
         // the first: a "mode" of negative modal mass is a curve fit, not a
         // mode of the structure
-        if name == "residue"
+        if matches!(name, "residue" | "flexibility")
             && let Some(first) = r.model.linear.modes.first()
             && e.value * first.residue < 0.0
         {
@@ -577,7 +595,7 @@ fn unresolved(
         }
         // the effect's size; its shape (a mode's frequency and damping, a
         // gap) may sit at a bound without making the effect doubtful
-        let size = matches!(name, "k3" | "kb" | "c2" | "k" | "residue");
+        let size = matches!(name, "k3" | "kb" | "c2" | "k" | "residue" | "flexibility");
         if !size {
             continue;
         }
@@ -903,7 +921,7 @@ pub fn diagnose_observed(
                 round,
                 rank: rank_pos,
                 fit: model_fit(&r.model, &data, &r.pred, r.chi2),
-                effect_parameters: effect_parameters(&r.model, effect),
+                effect_parameters: effect_parameters(&r.model, effect, &data),
                 delta_chi2: delta,
                 threshold,
                 criterion,
@@ -997,7 +1015,7 @@ pub fn diagnose_observed(
     // intervals of the effects kept, at the final model
     let mut selected = Vec::new();
     if !chosen.is_empty() {
-        let params = model_parameters(&current.model);
+        let params = model_parameters(&current.model, &data);
         let problem = FitProblem::new(
             current.model.clone(),
             params.clone(),
@@ -1114,11 +1132,19 @@ fn explain(
     for sel in selected {
         let why = match sel.effect {
             Effect::SecondMode => {
-                let at = sel
-                    .parameters
-                    .get("frequency_hz")
-                    .map(|e| format!(" at {:.4} Hz", e.value))
-                    .unwrap_or_default();
+                // a mode above the band is seen in it as a flexibility
+                // only: its frequency is where the fit put it, not a result
+                let at = match (
+                    sel.parameters.get("flexibility"),
+                    sel.parameters.get("frequency_hz"),
+                ) {
+                    (Some(x), _) => format!(
+                        " above the measured band, seen in it as a residual flexibility of {} m/N (its frequency is not resolved by these data)",
+                        fmt_value(x.value)
+                    ),
+                    (None, Some(e)) => format!(" at {:.4} Hz", e.value),
+                    _ => String::new(),
+                };
                 if f.level_independent_share >= 0.5 {
                     format!(
                         "the residual was largely the same at every level ({:.0} % of it common to all levels), as a linear effect's is: a further mode{at}",

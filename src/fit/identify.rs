@@ -91,8 +91,8 @@ fn stick_stiffness(linear: &LinearReport) -> f64 {
 }
 
 /// The parameters of every mode beyond the first.
-fn extra_mode_parameters(model: &Model) -> ParameterSet {
-    let mut p = ParameterSet::for_linear(model);
+fn extra_mode_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> ParameterSet {
+    let mut p = ParameterSet::for_linear_in(model, band_hz);
     p.parameters.retain(|q| {
         !matches!(
             q.target,
@@ -516,12 +516,14 @@ pub fn identify(
         (LinearStart::Extremes, LinearRefinement::None) => {}
         (LinearStart::Extremes, LinearRefinement::Damping) => {
             params.extend(ParameterSet::for_sdof_damping(0));
-            params.extend(extra_mode_parameters(&base));
+            params.extend(extra_mode_parameters(&base, data.band_hz()));
         }
-        (_, LinearRefinement::All) => params.extend(ParameterSet::for_linear(&base)),
+        (_, LinearRefinement::All) => {
+            params.extend(ParameterSet::for_linear_in(&base, data.band_hz()))
+        }
         (LinearStart::Lowest, _) => {
             // k and kd are both unknown here: k is always refined
-            let mut kc = ParameterSet::for_linear(&base);
+            let mut kc = ParameterSet::for_linear_in(&base, data.band_hz());
             kc.parameters
                 .retain(|p| !matches!(p.target, Target::Mass { .. }));
             params.extend(kc);
@@ -648,7 +650,7 @@ pub fn identify(
     // estimated from the same data, so the element's intervals must carry
     // their uncertainty even when the optimiser held them fixed
     let mut u_params = ParameterSet::for_element(&model, 0, "");
-    u_params.extend(ParameterSet::for_linear(&model));
+    u_params.extend(ParameterSet::for_linear_in(&model, data.band_hz()));
     let u_problem = FitProblem::new(
         model.clone(),
         u_params.clone(),

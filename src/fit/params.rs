@@ -52,6 +52,14 @@ pub enum Target {
         /// Mode index.
         mode: usize,
     },
+    /// Static flexibility of mode `mode`, `R/ω²` (m/N), at its current
+    /// frequency: the size of a mode above the measured band, which shows
+    /// there only as a residual flexibility (its modal constant alone is
+    /// tied to its poorly seen frequency).
+    Flexibility {
+        /// Mode index.
+        mode: usize,
+    },
     /// An element's stick stiffness `kd` taken out of mode `mode`'s
     /// stiffness so that `k + kd = total` stays fixed: the stick stiffness a
     /// nearly linear low level measured, split between structure and joint.
@@ -153,6 +161,10 @@ impl Parameter {
             Target::Frequency { mode: i } => mode(*i)?.frequency_hz,
             Target::DampingRatio { mode: i } => mode(*i)?.damping_ratio,
             Target::Residue { mode: i } => mode(*i)?.residue,
+            Target::Flexibility { mode: i } => {
+                let m = mode(*i)?;
+                m.residue / omega2(m.frequency_hz)
+            }
             Target::TiedStickStiffness { index, .. } => {
                 let j = model.parameter_index(*index, "kd")?;
                 model.elements[*index].parameters()[j].1
@@ -203,6 +215,10 @@ impl Parameter {
             Target::Frequency { mode } => model.linear.modes[*mode].frequency_hz = value,
             Target::DampingRatio { mode } => model.linear.modes[*mode].damping_ratio = value,
             Target::Residue { mode } => model.linear.modes[*mode].residue = value,
+            Target::Flexibility { mode } => {
+                let m = mode_mut(model, *mode)?;
+                model.linear.modes[*mode].residue = value * omega2(m.frequency_hz);
+            }
             Target::TiedStickStiffness { index, mode, total } => {
                 Parameter {
                     name: String::new(),
@@ -347,9 +363,21 @@ impl ParameterSet {
     /// The linear part's parameters: the first mode as an SDOF (`m, c, k`),
     /// and each further mode's frequency, damping ratio and modal constant.
     pub fn for_linear(model: &Model) -> ParameterSet {
+        ParameterSet::for_linear_in(model, None)
+    }
+
+    /// [`ParameterSet::for_linear`] for data measured over `band_hz`: a
+    /// further mode outside the band has no resonance in it to show its
+    /// damping, which is held, and is sized by what the band does see: a
+    /// mode above by its static flexibility `R/ω²` (the residual
+    /// flexibility of modal analysis), a mode below by its modal constant
+    /// (the residual mass line `−R/ω²`). Each stays on its side of the band,
+    /// so that a mode that is only a background cannot become a sharp
+    /// resonance inside it.
+    pub fn for_linear_in(model: &Model, band_hz: Option<(f64, f64)>) -> ParameterSet {
         let mut p = ParameterSet::for_sdof(0);
         for m in 1..model.linear.modes.len() {
-            let r = model.linear.modes[m].residue;
+            let mode = model.linear.modes[m];
             let name = |f: &str| {
                 if m == 1 {
                     format!("second_mode.{f}")
@@ -357,23 +385,46 @@ impl ParameterSet {
                     format!("mode_{m}.{f}")
                 }
             };
+            let side = band_hz.and_then(|(lo, hi)| {
+                if mode.frequency_hz > hi * BAND_MARGIN {
+                    Some(Side::Above(hi))
+                } else if mode.frequency_hz * BAND_MARGIN < lo {
+                    Some(Side::Below(lo))
+                } else {
+                    None
+                }
+            });
             p.parameters.push(Parameter {
                 name: name("frequency_hz"),
                 target: Target::Frequency { mode: m },
                 transform: Transform::Log,
-                bounds: [1e-6, 1e9],
+                bounds: match side {
+                    Some(Side::Above(hi)) => [hi, 1e9],
+                    Some(Side::Below(lo)) => [1e-6, lo],
+                    None => [1e-6, 1e9],
+                },
             });
+            if side.is_none() {
+                p.parameters.push(Parameter {
+                    name: name("damping_ratio"),
+                    target: Target::DampingRatio { mode: m },
+                    transform: Transform::Log,
+                    bounds: [1e-5, ZETA_MAX],
+                });
+            }
+            let (target, label, value) = match side {
+                Some(Side::Above(_)) => (
+                    Target::Flexibility { mode: m },
+                    "flexibility",
+                    mode.residue / omega2(mode.frequency_hz),
+                ),
+                _ => (Target::Residue { mode: m }, "residue", mode.residue),
+            };
             p.parameters.push(Parameter {
-                name: name("damping_ratio"),
-                target: Target::DampingRatio { mode: m },
-                transform: Transform::Log,
-                bounds: [1e-5, ZETA_MAX],
-            });
-            p.parameters.push(Parameter {
-                name: name("residue"),
-                target: Target::Residue { mode: m },
+                name: name(label),
+                target,
                 transform: Transform::Scaled {
-                    scale: r.abs().max(f64::MIN_POSITIVE),
+                    scale: value.abs().max(f64::MIN_POSITIVE),
                 },
                 bounds: [-1e30, 1e30],
             });
@@ -385,6 +436,21 @@ impl ParameterSet {
     pub fn extend(&mut self, other: ParameterSet) {
         self.parameters.extend(other.parameters);
     }
+}
+
+/// A further mode counts as outside the measured band when its frequency
+/// is beyond the band's edge by more than this factor.
+pub const BAND_MARGIN: f64 = 1.05;
+
+#[derive(Clone, Copy)]
+enum Side {
+    Above(f64),
+    Below(f64),
+}
+
+fn omega2(frequency_hz: f64) -> f64 {
+    let w = 2.0 * std::f64::consts::PI * frequency_hz;
+    w * w
 }
 
 /// The largest damping ratio a fitted mode may take: a mode damped beyond it
@@ -447,5 +513,56 @@ mod tests {
         };
         assert!((kd / 2.4e7 - 1.0).abs() < 1e-14 && (fd / 246.0 - 1.0).abs() < 1e-14);
         assert_eq!(n, N_MAX);
+    }
+
+    #[test]
+    fn a_mode_outside_the_band_is_sized_by_what_the_band_sees() {
+        use crate::model::Mode;
+        let mut linear = ModalModel::sdof(10.0, 200.0, 1e7).unwrap();
+        let above = Mode {
+            frequency_hz: 900.0,
+            damping_ratio: 0.02,
+            residue: 0.5,
+        };
+        let below = Mode {
+            frequency_hz: 40.0,
+            damping_ratio: 0.03,
+            residue: 0.2,
+        };
+        linear.modes.push(above);
+        linear.modes.push(below);
+        let base = Model::new(linear, vec![]).unwrap();
+        // measured from 100 to 300 Hz: the 900 Hz mode is above, 40 Hz below
+        let set = ParameterSet::for_linear_in(&base, Some((100.0, 300.0)));
+        let names: Vec<&str> = set.parameters.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "mass",
+                "damping",
+                "stiffness",
+                "second_mode.frequency_hz",
+                "second_mode.flexibility",
+                "mode_2.frequency_hz",
+                "mode_2.residue"
+            ]
+        );
+        // the flexibility is R / ω² (closed form), and written back at a new
+        // frequency it keeps the static flexibility, not the modal constant
+        let w = 2.0 * std::f64::consts::PI * 900.0;
+        let flex = set.parameters[4].read(&base).unwrap();
+        assert!((flex / (0.5 / (w * w)) - 1.0).abs() < 1e-14);
+        let mut theta = set.theta_of(&base).unwrap();
+        theta[3] = 1800f64.ln();
+        let (m, out) = set.model_at(&base, &theta).unwrap();
+        assert_eq!(out, 0.0);
+        let w2 = 2.0 * std::f64::consts::PI * 1800.0;
+        assert!((m.linear.modes[1].residue / (flex * w2 * w2) - 1.0).abs() < 1e-12);
+        assert_eq!(m.linear.modes[1].damping_ratio, 0.02, "held");
+        // each stays on its side of the band
+        assert_eq!(set.parameters[3].bounds[0], 300.0);
+        assert_eq!(set.parameters[5].bounds[1], 100.0);
+        // without a band, every mode has all three
+        assert_eq!(ParameterSet::for_linear(&base).len(), 9);
     }
 }

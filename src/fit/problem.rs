@@ -174,6 +174,19 @@ impl FitData {
     pub fn harmonic_index(&self, h: usize) -> Option<usize> {
         self.harmonics.iter().position(|&k| k == h)
     }
+
+    /// The lowest and highest excitation frequency, Hz (`None` without
+    /// points).
+    pub fn band_hz(&self) -> Option<(f64, f64)> {
+        let f = self
+            .series
+            .iter()
+            .flat_map(|s| &s.points)
+            .map(|p| p.frequency_hz);
+        let lo = f.clone().fold(f64::INFINITY, f64::min);
+        let hi = f.fold(0.0, f64::max);
+        (lo.is_finite() && hi >= lo).then_some((lo, hi))
+    }
 }
 
 /// The model's FRFs at the measured points.

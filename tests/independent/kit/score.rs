@@ -3,6 +3,7 @@
 
 use super::corpus::{Case, EffectKind, JointKind, TrueEffect};
 use serde_json::{Value, json};
+use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -296,6 +297,17 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
     for e in &case.effects {
         let kind = e.kind().name();
         if !s.selected.iter().any(|x| x == kind) {
+            // the truth of an effect that was missed, shown but not scored
+            // (the miss itself is the failure)
+            for (name, t) in e.parameters() {
+                s.effects.push(ParamError {
+                    effect: kind.into(),
+                    name: name.into(),
+                    truth: t,
+                    estimate: None,
+                    scored: false,
+                });
+            }
             continue;
         }
         match e {
@@ -328,13 +340,55 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
                         d(a.1).total_cmp(&d(b.1))
                     })
                     .map(|x| x.1);
+                // a mode outside the measured band shows there only as a
+                // residual flexibility (above) or mass line (below): what
+                // the data determine, and what is scored, is its receptance
+                // at the band's nearer edge; its frequency and modal
+                // constant are shown
+                let lo = case.frequencies.iter().copied().fold(f64::MAX, f64::min);
+                let hi = case.frequencies.iter().copied().fold(0.0, f64::max);
+                let edge = if *frequency_hz > hi * 1.05 {
+                    Some(hi)
+                } else if *frequency_hz * 1.05 < lo {
+                    Some(lo)
+                } else {
+                    None
+                };
                 for (name, t) in e.parameters() {
                     s.effects.push(ParamError {
                         effect: kind.into(),
                         name: name.into(),
                         truth: t,
                         estimate: m2.and_then(|m| num(&m[name])),
-                        scored: name != "damping_ratio",
+                        scored: name != "damping_ratio" && edge.is_none(),
+                    });
+                }
+                if let Some(fe) = edge {
+                    let at_edge = |f: f64, zeta: f64, residue: f64| {
+                        let (w, we) = (2.0 * PI * f, 2.0 * PI * fe);
+                        residue / ((w * w - we * we).powi(2) + (2.0 * zeta * w * we).powi(2)).sqrt()
+                    };
+                    let TrueEffect::SecondMode {
+                        damping_ratio,
+                        modal_mass,
+                        ..
+                    } = e
+                    else {
+                        unreachable!()
+                    };
+                    let estimate = m2.and_then(|m| {
+                        Some(at_edge(
+                            num(&m["frequency_hz"])?,
+                            num(&m["damping_ratio"])?,
+                            num(&m["residue"])?,
+                        ))
+                    });
+                    s.effects.push(ParamError {
+                        effect: kind.into(),
+                        name: format!("receptance_at_{fe:.0}_hz"),
+                        truth: at_edge(*frequency_hz, *damping_ratio, 1.0 / modal_mass),
+                        estimate,
+                        scored: true,
                     });
                 }
             }
