@@ -120,7 +120,9 @@ pub enum ExcitationArg {
     Stepped,
     /// A continuous sweep.
     Swept,
-    /// Not stated (import only).
+    /// Not stated (import only: what a recording says when nobody said;
+    /// identify treats it as auto).
+    #[value(hide = true)]
     Unknown,
 }
 
@@ -130,7 +132,9 @@ pub struct ImportArgs {
     /// The file: .mat (MATLAB v5), .csv/.tsv/.txt/.dat (header row after `#`
     /// comments) or a hystid NAME.wav / NAME.json (checked and rewritten).
     pub file: PathBuf,
-    /// Output stem: writes NAME.wav, NAME.json and NAME.quality.json.
+    /// Output: a stem NAME (writes NAME.wav, NAME.json and
+    /// NAME.quality.json), or a folder (existing, or ending in `/`), where
+    /// the recording is named after the input file.
     #[arg(long, short)]
     pub out: PathBuf,
     /// A channel, `[NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE]`, e.g.
@@ -142,7 +146,8 @@ pub struct ImportArgs {
     /// time:COLUMN.
     #[arg(long)]
     pub rate: Option<String>,
-    /// What drove the structure (kept in the recording).
+    /// What drove the structure (kept in the recording): stepped, swept or
+    /// unknown (the default when the file does not say).
     #[arg(long, value_enum)]
     pub excitation: Option<ExcitationArg>,
     /// An import spec (TOML: `[[channels]]`, `sample_rate`, `[quality]`, ...);
@@ -220,8 +225,9 @@ pub struct IdentifyOptionsArgs {
     /// Parametric bootstrap refits for percentile intervals (0: none).
     #[arg(long, default_value_t = 0)]
     pub bootstrap: usize,
-    /// Bootstrap seed.
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the bootstrap's resampling (not of the test's noise, which
+    /// the test definition sets).
+    #[arg(long = "bootstrap-seed", default_value_t = 1)]
     pub seed: u64,
     /// Frequency band LO:HI in Hz.
     #[arg(long)]

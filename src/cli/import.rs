@@ -67,7 +67,15 @@ fn spec_of(args: &ImportArgs) -> Result<ImportSpec> {
 
 /// The files `import` writes for `--out NAME` (NAME.wav or NAME.json also
 /// mean the stem NAME): NAME.wav, NAME.json, NAME.quality.json.
-pub fn output_files(out: &Path) -> [PathBuf; 3] {
+pub fn output_files(out: &Path, input: &Path) -> [PathBuf; 3] {
+    // a folder (existing, or written with a trailing separator) as every
+    // other command's `--out`: the recording is named after the input file
+    let folder = out.is_dir() || out.as_os_str().to_string_lossy().ends_with(['/', '\\']);
+    let out = if folder {
+        out.join(input.file_stem().unwrap_or(std::ffi::OsStr::new("recording")))
+    } else {
+        out.to_path_buf()
+    };
     let stem = match out.extension().and_then(|e| e.to_str()) {
         Some(e) if e.eq_ignore_ascii_case("wav") || e.eq_ignore_ascii_case("json") => {
             out.with_extension("")
@@ -156,7 +164,24 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
     let (recording, rounded) = whole_hz(&args.file, recording)?;
     let mut quality = quality;
     quality.sample_rate_hz = recording.meta.sample_rate_hz;
-    let [wav, json, quality_json] = output_files(&args.out);
+    let [wav, json, quality_json] = output_files(&args.out, &args.file);
+    // a recording checked and rewritten into its own folder would overwrite
+    // what it is read from (a hystid recording is a .wav and a .json)
+    let mut inputs = vec![args.file.clone()];
+    if is_recording(&args.file) {
+        inputs.extend([args.file.with_extension("wav"), args.file.with_extension("json")]);
+    }
+    let inputs: Vec<PathBuf> = inputs.iter().filter_map(|p| p.canonicalize().ok()).collect();
+    if [&wav, &json]
+        .into_iter()
+        .any(|p| p.canonicalize().is_ok_and(|c| inputs.contains(&c)))
+    {
+        bail!(
+            "--out {}: would overwrite the input {} (choose another name or folder)",
+            args.out.display(),
+            args.file.display()
+        );
+    }
     if quality.has_errors() {
         eprint!("{quality}");
         eprintln!(
