@@ -3,7 +3,7 @@
 //! Every figure is checked against something independent: harmonics
 //! synthesised from known values, the naive direct-sum DFT, the analytic
 //! receptance of the simulated SDOF times the ramp-invariant filter's known
-//! `sinc²(f/fs)` bias (method notes a.1), a binomial band for the coverage of
+//! `sinc²(f/fs)` bias, a binomial band for the coverage of
 //! the standard errors, or the F-16 benchmark's published figures.
 
 use crate::common;
@@ -424,14 +424,15 @@ fn stepped_sine_with_and_without_steps_and_against_the_receptance() {
     assert_eq!(found_dirs, dirs);
 }
 
-/// The paper's "10 % noise" (method notes e: white, σ = 0.1·rms of each
-/// dwell's response) on the response only. The dwells are still found from
-/// the clean force and the settling test must not mistake the noise for a
-/// transient (every dwell settled). Both reductions must be unbiased with
-/// honest standard errors: `|H1 − H_true|²/se²` is `F(2, 14)`-distributed
-/// with 8 blocks (mean 14/12 = 1.17, standard deviation of a mean of 21
-/// values 0.30), so its mean must lie in 0.5–2.2 (±3.4 sd), and no value may
-/// exceed 4.5² (tail probability 7e-5 each, 0.3 % for all 42).
+/// The paper's "10 % noise" (read as white noise with σ = 0.1·rms of each
+/// dwell's response, as in ABRAVIBE's noise examples) on the response only.
+/// The dwells are still found from the clean force and the settling test must
+/// not mistake the noise for a transient (every dwell settled). Both
+/// reductions must be unbiased with honest standard errors:
+/// `|H1 − H_true|²/se²` is `F(2, 14)`-distributed with 8 blocks (mean 14/12 =
+/// 1.17, standard deviation of a mean of 21 values 0.30), so its mean must lie
+/// in 0.5–2.2 (±3.4 sd), and no value may exceed 4.5² (tail probability 7e-5
+/// each, 0.3 % for all 42).
 #[test]
 fn stepped_sine_with_response_noise() {
     let mut rec = stepped_recording();

@@ -100,14 +100,13 @@ fn tabulated_receptance_gives_the_modal_answer_and_errors_outside_its_range() {
     assert!(e.contains("2250") && e.contains("harmonic 5"), "{e}");
 }
 
-/// Single-harmonic HB against the describing-function FRF (method notes
-/// d.2–d.3), through the transition from stick to slip.
+/// Single-harmonic HB against the describing-function FRF, through the
+/// transition from stick to slip.
 #[test]
 fn single_harmonic_balance_equals_the_describing_function_frf() {
     let linear = paper_linear();
     let freqs = grid(120.0, 340.0, 12);
-    // Jenkins: AFT's kink error falls as ~N^-2 (method notes d.1): 8192
-    // samples put it below 1e-7
+    // Jenkins: AFT's kink error falls as ~N^-2: 8192 samples put it below 1e-7
     let mut opts = HbOptions::with_harmonics(vec![1]);
     opts.samples_per_period = 8192;
     let mut j = Jenkins::new(KD, FD).unwrap();
@@ -241,9 +240,9 @@ fn finite_difference_jacobian_gives_the_same_solutions() {
 }
 
 /// The simulator's receptance as harmonic balance should see it: the
-/// ramp-invariant filter is `H(f)·sinc²(f/fs)` (method notes a.1), and the
-/// element force passes the same filter, so HB with this receptance is the
-/// simulator's steady state without its sampling bias.
+/// ramp-invariant filter is `H(f)·sinc²(f/fs)` (up to sinc²-weighted aliases),
+/// and the element force passes the same filter, so HB with this receptance is
+/// the simulator's steady state without its sampling bias.
 struct SampledReceptance<'a> {
     linear: &'a ModalModel,
     sample_rate: f64,

@@ -231,7 +231,7 @@ fn report_markdown(
     if let Some(n) = fit.parameters.get("n").and_then(|e| e.note.as_ref()) {
         let _ = writeln!(
             s,
-            "On N: {n}. The paper's N = 22.55 was a finite value on the same flat valley (method notes f.6).\n"
+            "On N: {n}. The paper's N = 22.55 most likely lies on the same flat valley: eq. (10) tends to a Jenkins element as N → ∞ and the cost hardly changes once N is large, so bias and noise in a simulated measurement can settle the optimum at a finite N.\n"
         );
     }
     for note in &fit.notes {

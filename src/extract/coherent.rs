@@ -2,10 +2,10 @@
 //! one FFT per block, harmonics exactly on bins.
 //!
 //! When a block of `L` samples holds exactly `M` periods, harmonic `h` is
-//! exactly bin `hM` of the block's DFT and a rectangular window has no
-//! leakage (method notes e, "coherent sampling"; Antoni & Schoukens, IEEE TIM
-//! 58(9), 2009). The single-sided amplitude is `2 X[hM] / L` (`X[0]/L` for the
-//! mean), in the convention of [`crate::harmonics`].
+//! exactly bin `hM` of the block's DFT and a rectangular window has no leakage
+//! (coherent sampling; Antoni & Schoukens, IEEE TIM 58(9), 2009). The
+//! single-sided amplitude is `2 X[hM] / L` (`X[0]/L` for the mean), in the
+//! convention of [`crate::harmonics`].
 
 use super::DwellHarmonics;
 use super::estimator::{check_finite, h1_from_blocks};

@@ -1,7 +1,7 @@
 //! Harmonic extraction: from sampled force and response to nonlinear FRFs.
 //!
-//! The same code reduces a virtual test and a real recording (paper section 3;
-//! method notes e). Conventions are those of [`crate::harmonics`]:
+//! The same code reduces a virtual test and a real recording (paper
+//! section 3). Conventions are those of [`crate::harmonics`]:
 //! `H_h = Y_h / F_1` with the measured force fundamental.
 //!
 //! * [`HarmonicAnalyser::coherent`]: the virtual bench's dwells, sampled with
@@ -19,7 +19,8 @@
 //!
 //! All dwell estimates use the H1 estimator over blocks,
 //! `H_k = Σ_b Y_bk F_b1* / Σ_b |F_b1|²`, which is unbiased under response
-//! noise (method notes e), with the standard error of
+//! noise (it averages out of the cross-spectrum; noise on the force would
+//! bias it low), with the standard error of
 //! [`DwellHarmonics::std_error`].
 
 mod analytic;

@@ -18,12 +18,12 @@
 //! level's settling at the start of a dwell (force amplitude ramping in) is
 //! not taken for a dwell of its own, and the transient at the start of each
 //! dwell is skipped by a settling test on consecutive blocks of whole
-//! periods (method notes e, "settling"; see [`settling`]) run on the
-//! reference and then on the response. The points are grouped into levels by
-//! nominal level, in measurement order, and split where the frequency order
-//! reverses, which sets each level's [`Direction`]. Found dwells have no
-//! nominal level: their measured reference amplitudes are clustered
-//! (`level_tolerance`, 5 %), so a test whose force amplitude is not
+//! periods (how long a real structure rings is not known in advance; see
+//! [`settling`]) run on the reference and then on the response. The points are
+//! grouped into levels by nominal level, in measurement order, and split where
+//! the frequency order reverses, which sets each level's [`Direction`]. Found
+//! dwells have no nominal level: their measured reference amplitudes are
+//! clustered (`level_tolerance`, 5 %), so a test whose force amplitude is not
 //! controlled (force drop-out at resonance) should state its steps or widen
 //! the tolerance.
 

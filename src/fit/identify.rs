@@ -10,7 +10,8 @@
 //!    which must land inside the first one's confidence region.
 //! 4. Confidence intervals from the Jacobian and the measured noise; a
 //!    parameter at its bound is reported as not identifiable with the range
-//!    the data allow (method notes f.6: `N → ∞` for Jenkins data).
+//!    the data allow (for Jenkins data `N` runs off to its bound: eq. (10)
+//!    tends to the Jenkins element as `N → ∞` and the cost is flat there).
 
 use super::linear::{FrfSample, SdofEstimate, fit_sdof};
 use super::optimise::{self, OptimiserRun};
@@ -875,7 +876,7 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
 /// rises by less than the 95 % threshold (3.84 χ² units, inflated by the
 /// reduced χ²), the data cannot exclude a Jenkins element and `N` is not
 /// identifiable, whatever its Wald interval says (the valley in `N` is far
-/// from parabolic; method notes f.6).
+/// from parabolic: it flattens out towards `N → ∞`).
 fn jenkins_limit_check(
     problem: &FitProblem,
     theta: &[f64],

@@ -1,6 +1,6 @@
 //! Identification: fit the element parameters so that the harmonic-balance
 //! model's nonlinear FRFs match the measured ones (paper Figures 2.2 and 3.3,
-//! eq. 9; method notes f).
+//! eq. 9).
 
 pub mod identify;
 pub mod linear;

@@ -1,11 +1,12 @@
 //! Fit parameters: which model numbers are free, and in what coordinates.
 //!
 //! Optimisers work in transformed coordinates `θ`: `ln p` for quantities that
-//! are positive by nature (stiffnesses, slip forces, `N`, masses, damping)
-//! so that relative steps are uniform and `kd ~ 1e7` and `N ~ 10` are on the
-//! same footing (method notes f.5); `p/scale` for signed ones (`k3`, a
-//! residue). Each parameter may have physical bounds; outside them the model
-//! is clamped and the cost is penalised, so simplex methods stay inside.
+//! are positive by nature (stiffnesses, slip forces, `N`, masses, damping) so
+//! that relative steps are uniform and `kd ~ 1e7` and `N ~ 10` are on the same
+//! footing (an absolute simplex size or tolerance means nothing for `kd` in
+//! N/m); `p/scale` for signed ones (`k3`, a residue). Each parameter may have
+//! physical bounds; outside them the model is clamped and the cost is
+//! penalised, so simplex methods stay inside.
 
 use crate::error::{Error, Result};
 use crate::model::{ElementSpec, Mode, Model};
@@ -458,7 +459,8 @@ fn omega2(frequency_hz: f64) -> f64 {
 pub const ZETA_MAX: f64 = 0.9;
 
 /// Upper bound of the Masing curvature: above it eq. (10) cannot be told
-/// from a Jenkins element within measurement noise (method notes f.6).
+/// from a Jenkins element within measurement noise (the cost is flat as
+/// `N → ∞`, so an unbounded `N` only wanders).
 pub const N_MAX: f64 = 1000.0;
 
 fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [f64; 2]) {

@@ -1,13 +1,11 @@
 //! Alternating frequency–time (AFT) evaluation of the element force.
 //!
-//! From the displacement harmonics `X_h` (Cameron & Griffin 1989; method
-//! notes d.1):
+//! From the displacement harmonics `X_h` (Cameron & Griffin 1989):
 //!
 //! 1. `x_j = X_0 + Re Σ_h X_h e^{jhθ_j}`, `θ_j = 2πj/N` (an inverse real FFT),
 //!    and `v_j` likewise with `jhω X_h` when an element uses velocity;
 //! 2. the element is marched through the samples of one period, so that the
-//!    forces `g_j` lie on a closed, periodic loop ([`PeriodicLoop`]; method
-//!    notes c.4);
+//!    forces `g_j` lie on a closed, periodic loop ([`PeriodicLoop`]);
 //! 3. `G_h = (2/N) Σ_j g_j e^{−jhθ_j}` (`1/N` for `h = 0`), a forward real
 //!    FFT, in the convention of [`crate::harmonics`].
 //!

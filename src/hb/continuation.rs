@@ -25,10 +25,10 @@
 //!     (`ω(s)` quadratic), the sweep jumps (to the natural solve's solution,
 //!     or else to a describing-function restart), and the [`Fold`] is
 //!     reported.
-//! * The first point starts from the single-harmonic describing function
-//!   (method notes d.3). If it has several amplitudes there, the one on the
-//!   branch the sweep comes from is chosen by following the describing
-//!   function from a frequency (up to 50 % back) where it has one.
+//! * The first point starts from the single-harmonic describing function FRF.
+//!   If it has several amplitudes there, the one on the branch the sweep comes
+//!   from is chosen by following the describing function from a frequency (up
+//!   to 50 % back) where it has one.
 
 use super::describing;
 use super::newton::{Outcome, lu_factor, lu_solve, norm};

@@ -8,7 +8,7 @@
 //! * [`ModalModel`]: `H(ω) = Σ_r R_r/(ω_r² − ω² + 2jζ_r ω_r ω)`, exact;
 //! * [`TabulatedFrf`]: a measured or estimated receptance over a frequency
 //!   table (e.g. the paper's large-force estimate of the underlying linear
-//!   system, method notes f.2), interpolated, and an error outside its range.
+//!   system), interpolated, and an error outside its range.
 
 use crate::error::{Error, Result};
 use crate::model::ModalModel;
@@ -31,9 +31,10 @@ impl LinearPart for ModalModel {
 }
 
 /// A linear part as a ramp-invariant digital filter sees it: the receptance
-/// times `sinc²(f/fs)` (method notes a.1). Harmonic balance on it predicts the
-/// digital-filter simulator's steady state exactly up to the (sinc²-weighted)
-/// aliases, which is how `--check-hb` compares the two solvers on one model.
+/// times `sinc²(f/fs)`, the transform's known amplitude factor. Harmonic
+/// balance on it predicts the digital-filter simulator's steady state exactly
+/// up to the (sinc²-weighted) aliases, which is how `--check-hb` compares the
+/// two solvers on one model.
 #[derive(Clone, Debug)]
 pub struct SampledReceptance<'a, L> {
     /// The continuous linear part.

@@ -11,7 +11,7 @@
 //! where `H` is the underlying linear receptance ([`LinearPart`]: a
 //! [`ModalModel`] or a [`TabulatedFrf`]) and `G_h` the element force's
 //! harmonic, computed by AFT from the *same* [`Element`]s the time simulator
-//! uses (method notes c.4, d.1; Cameron & Griffin 1989).
+//! uses (Cameron & Griffin 1989).
 //!
 //! **Residual form.** Newton solves eq. (8) multiplied by `H(hω)`:
 //!
@@ -41,12 +41,12 @@
 //!
 //! **Sweeps** ([`HbSolver::sweep`]) follow a frequency list in its order (the
 //! sweep direction). The first point starts from the single-harmonic
-//! describing function ([`describing`]; method notes d.2–d.3); each later one
-//! from the balance at its frequency with the element linearised at the last
-//! solution (no AFT march). Where the branch folds, natural continuation
-//! jumps as a stepped-sine test would; a large jump (or a failed Newton
-//! solve) is checked by pseudo-arclength continuation in `(X, ω)`, which
-//! locates the fold and reports it as a [`Fold`].
+//! describing function ([`describing`]); each later one from the balance at
+//! its frequency with the element linearised at the last solution (no AFT
+//! march). Where the branch folds, natural continuation jumps as a
+//! stepped-sine test would; a large jump (or a failed Newton solve) is checked
+//! by pseudo-arclength continuation in `(X, ω)`, which locates the fold and
+//! reports it as a [`Fold`].
 //!
 //! **Failures.** A point that does not converge is data, not an error:
 //! `converged = false`, `failure` says why, and `x` and `h` are **NaN** so
@@ -78,15 +78,15 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
 
-/// How AFT makes the hysteresis loop periodic (method notes c.4).
+/// How AFT makes the hysteresis loop periodic.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PeriodicLoop {
     /// Reset, commit the sample of largest `|x|` (a virgin ramp to the loop
     /// tip), then march the period from the next sample back to it. Every
-    /// Masing-type loop then closes within the one period. (The method notes
-    /// say "the maximum"; the largest *magnitude* is what makes the march
-    /// periodic when a static offset makes `|x_min| > x_max`.)
+    /// Masing-type loop then closes within the one period. (The largest
+    /// *magnitude*, not the maximum, is what makes the march periodic when a
+    /// static offset makes `|x_min| > x_max`.)
     #[default]
     MaxAmplitude,
     /// March two periods from the virgin state and keep the second (NLvib's
@@ -115,8 +115,8 @@ pub struct HbOptions {
     /// the even harmonics). Default `{1, 3, 5}`.
     pub harmonics: Vec<usize>,
     /// AFT time samples per period, more than twice the highest harmonic.
-    /// Default 256 (512 recommended for the Jenkins element, whose kinks
-    /// converge slowly: method notes d.1).
+    /// Default 256 (512 recommended for the Jenkins element, whose slip
+    /// kinks keep AFT's error at ~`N⁻²`).
     pub samples_per_period: usize,
     /// Convergence: `‖R‖₂/‖X‖₂` of the receptance-form residual. Default
     /// 1e-10.

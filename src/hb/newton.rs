@@ -22,7 +22,7 @@
 //! without sensitivities costs ~60 % of one with them) and refreshed
 //! otherwise, or when a kept one stops giving descent. If the line search
 //! fails with a fresh analytic Jacobian, the point switches to forward
-//! differences (method notes d.1) before giving up.
+//! differences before giving up.
 
 use super::aft::Aft;
 use super::linear::LinearPart;
@@ -488,7 +488,8 @@ impl Core {
     }
 }
 
-/// Forward differences, step `1e-7·‖X‖∞` (method notes d.1).
+/// Forward differences, step `1e-7·‖X‖∞` (relative, so it scales with the
+/// response).
 fn fd_jacobian(
     eval: &mut impl FnMut(&[f64], &mut [f64], Option<&mut [f64]>, &mut Counters) -> Result<(), String>,
     x: &[f64],

@@ -7,8 +7,9 @@
 //! * the time-domain simulator (`sim`) evaluates `trial` inside its per-sample
 //!   implicit solve, then `commit`s the accepted sample;
 //! * harmonic balance (`hb`) `reset`s the element and `commit`s the samples of
-//!   one period in order (a virgin ramp to the displacement maximum first, so
-//!   hysteresis loops are periodic; method notes c.4).
+//!   one period in order (a virgin ramp to the displacement maximum first:
+//!   every inner loop then closes within the period, so one period is
+//!   already periodic).
 //!
 //! `trial` takes `&self`: the compiler guarantees that evaluating a candidate
 //! leaves no trace in the element's memory (turning points, slider position).
@@ -103,7 +104,7 @@ pub trait Element {
     /// The default, `∂g/∂p = k ∂x/∂p + c ∂v/∂p` from the tangents, is exact
     /// for memoryless elements; an element with memory must override it
     /// (harmonic balance's Newton step otherwise sees an approximate
-    /// Jacobian; method notes d.1).
+    /// Jacobian).
     ///
     /// # Panics
     /// May panic if `dx`, `dv` and `df` differ in length.

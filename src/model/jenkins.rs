@@ -1,7 +1,9 @@
 //! The Jenkins element: a spring `kd` in series with a Coulomb slider `Fd`.
 //!
-//! The paper's "stick-slip" reference element (section 3, Fig. 3.1; method
-//! notes b). In stick the force is `kd (x − x_s)` with `x_s` the slider's
+//! The paper's "stick-slip" reference element (section 3, Fig. 3.1). The
+//! paper does not write out its law; a spring and slider is what
+//! "stick-slip" and its `kd₀ = k_low − k` rule (stiffness `k + kd` at low
+//! force) imply. In stick the force is `kd (x − x_s)` with `x_s` the slider's
 //! position; when it would exceed `Fd` the slider moves and the force stays at
 //! `±Fd`. Its loops are parallelograms with slopes `kd` and 0, the `N → ∞`
 //! limit of the eq. (10) Masing element.
@@ -101,8 +103,8 @@ impl Element for Jenkins {
     }
 
     /// Stick: `g = kd (x − x_s)`, so `∂g = kd (∂x − ∂x_s)`; slip: `g = ±Fd`
-    /// and the slider follows, `∂x_s = ∂x` (NLvib's chain rule, method notes
-    /// d.1).
+    /// and the slider follows, `∂x_s = ∂x` (the chain rule NLvib's
+    /// `HB_residual.m` uses for its Jenkins element).
     #[inline]
     fn commit_sensitivity(
         &mut self,
@@ -132,8 +134,9 @@ impl Element for Jenkins {
         true
     }
 
-    /// Closed form (method notes a.3): try stick, else slip in the direction
-    /// the stick trial pushed.
+    /// Closed form (the law is linear in stick and constant in slip, so no
+    /// iteration): try stick, else slip in the direction the stick trial
+    /// pushed.
     #[inline]
     fn solve_implicit(&self, s: &ImplicitStep) -> Option<f64> {
         // stick: x = x_p + bx (F − kd (x − x_s))

@@ -1,10 +1,10 @@
 //! The Masing element: the paper's eq. (10) backbone with memory.
 //!
 //! Eq. (10), `F = kd x / (1 + (kd x/Fd)^N)^(1/N)`, is a backbone (virgin
-//! curve). Written with `|x|` it is odd and defined for any real `N > 0`
-//! (method notes c.1). Loading and unloading follow the extended Masing rules
-//! (Masing 1926; Pyke 1979; method notes c.2), kept with a stack of turning
-//! points (c.3):
+//! curve). Written with `|x|` it is odd and defined for any real `N > 0` (as
+//! printed, `(kd x/Fd)^N` is undefined for `x < 0` and non-integer `N`).
+//! Loading and unloading follow the extended Masing rules (Masing 1926;
+//! Pyke 1979; Kramer 1996, §6.4), kept with a stack of turning points:
 //!
 //! 1. first loading follows the backbone `f`;
 //! 2. after a reversal at `(x_r, F_r)` the branch is `F_r + 2 f((x − x_r)/2)`;
@@ -694,8 +694,9 @@ impl<B: Backbone> Element for Masing<B> {
     }
 
     /// On the backbone `∂F = f'(x) ∂x`; on a branch from the turning point
-    /// `(x_r, F_r)`, `∂F = ∂F_r + f'((x − x_r)/2) (∂x − ∂x_r)` (method notes
-    /// d.1). Each turning point keeps the `(∂x, ∂F)` of the sample it was.
+    /// `(x_r, F_r)`, `∂F = ∂F_r + f'((x − x_r)/2) (∂x − ∂x_r)` (the chain
+    /// rule through the branch law). Each turning point keeps the `(∂x, ∂F)`
+    /// of the sample it was.
     fn commit_sensitivity(
         &mut self,
         x: f64,

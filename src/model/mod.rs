@@ -320,8 +320,8 @@ impl Model {
 
     /// The highest frequency the linearised structure can ring at, Hz: the
     /// highest mode, or the SDOF's stick natural frequency `√((k + kd)/m)/2π`
-    /// when a hysteresis element stiffens it (sets the sample rate, method
-    /// notes a.4).
+    /// when a hysteresis element stiffens it. Sample rates are counted against
+    /// it, not against the drive: the filter must resolve the stick mode.
     pub fn highest_linearised_frequency_hz(&self) -> f64 {
         let kd = self.stick_stiffness();
         self.linear

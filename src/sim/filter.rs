@@ -3,8 +3,8 @@
 //! The ramp-invariant (first-order-hold) transform maps a continuous system to
 //! a digital filter whose output equals, at the sample instants, the
 //! continuous response to the piecewise-linear interpolation of the sampled
-//! input (Ahlin, Magnevall & Josefsson, ISMA 2006; ABRAVIBE `timefresp.m`;
-//! method notes a.1–a.2). Poles map exactly (`z = e^{pT}`), the static gain is
+//! input (Ahlin, Magnevall & Josefsson, ISMA 2006; ABRAVIBE `timefresp.m`
+//! and `fresppv.m`). Poles map exactly (`z = e^{pT}`), the static gain is
 //! exact, and the only error is the known, system-independent amplitude
 //! factor `sinc²(f/fs)` (plus sinc²-weighted aliases).
 //!
@@ -123,7 +123,9 @@ mod tests {
     use crate::harmonics::{omega, sinc};
 
     fn irvine_displacement(m: f64, c: f64, k: f64, t: f64) -> [f64; 3] {
-        // method notes a.2, closed-form real coefficients
+        // T. Irvine's closed-form real ramp-invariant coefficients ("Modal
+        // Transient Analysis ... via a Ramp Invariant Digital Recursive
+        // Filtering Relationship"), divided by m for a force input
         let wn = (k / m).sqrt();
         let z = c / (2.0 * (k * m).sqrt());
         let wd = wn * (1.0 - z * z).sqrt();

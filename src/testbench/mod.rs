@@ -1,6 +1,5 @@
 //! The virtual stepped-sine test bench: a shaker test of a simulated
-//! structure, analysed as a lab would analyse a real one (paper section 3;
-//! method notes e).
+//! structure, analysed as a lab would analyse a real one (paper section 3).
 //!
 //! For each force level the bench steps through the frequencies; the
 //! structure's state carries from dwell to dwell as on a real shaker, and the
@@ -12,8 +11,9 @@
 //! whole number of samples, which puts every harmonic on an exact FFT bin.
 //! Gaussian noise, seeded per level (so the bytes do not depend on the thread
 //! count), is added to every response channel at a given fraction of each
-//! dwell's clean RMS (the ABRAVIBE convention, method notes e), and optionally
-//! to the force.
+//! dwell's clean RMS (the convention of ABRAVIBE's noise examples, e.g.
+//! `d_2DOF_OutputNoise.m`; the paper does not define its "10 %"), and
+//! optionally to the force.
 
 pub mod plan;
 

@@ -202,13 +202,15 @@ pub struct TestSpec {
     #[serde(default = "default_response")]
     pub response: ResponseKind,
     /// Sample rate, Hz; default: at least 100 samples per period of the
-    /// stiffest linearised mode (method notes a.4), rounded up to 1 kHz.
+    /// stiffest linearised mode (a joint's stick mode, not the drive, is what
+    /// must be resolved), rounded up to 1 kHz.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sample_rate_hz: Option<f64>,
     /// The simulator runs this many times faster than the recording, which
     /// keeps every `oversample`-th sample; default: enough for 200 samples
     /// per period of the stiffest linearised mode (the digital-filter
-    /// method's error is then ~1e-4 in H1, method notes a.3).
+    /// method's error is then ~1e-4 in H1; `tests/sim.rs` holds it below
+    /// 5e-4 against an RK4 reference).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub oversample: Option<usize>,
     /// Highest harmonic extracted (K).

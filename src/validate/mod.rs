@@ -21,11 +21,11 @@
 //!
 //! The simulation runs at the recording's rate when that gives at least
 //! [`ValidateOptions::min_samples_per_period`] samples per period of the
-//! model's stiffest linearised mode ([`Model::highest_linearised_frequency_hz`];
-//! method notes a.4); otherwise the reference is interpolated by the
-//! smallest integer factor that does, and the response decimated back
-//! ([`resample`]). Nothing else is resampled: the comparison is at the
-//! recording's own samples.
+//! model's stiffest linearised mode
+//! ([`Model::highest_linearised_frequency_hz`]); otherwise the reference is
+//! interpolated by the smallest integer factor that does, and the response
+//! decimated back ([`resample`]). Nothing else is resampled: the comparison is
+//! at the recording's own samples.
 
 pub mod resample;
 
@@ -55,8 +55,9 @@ pub enum Reduction {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ValidateOptions {
     /// Samples per period of the model's highest linearised frequency below
-    /// which the simulation is upsampled (default 20: 1.5 % error in `H1` at
-    /// a stick mode, method notes a.3; at least 2).
+    /// which the simulation is upsampled (default 20: the implicit
+    /// digital-filter solve then errs by about 1.5 % in `H1` at a stick mode;
+    /// at least 2).
     pub min_samples_per_period: f64,
     /// A time window, seconds from the first sample, for a second set of
     /// error figures.

@@ -1,11 +1,11 @@
 //! Integer-factor resampling by a Kaiser-windowed sinc (polyphase FIR).
 //!
-//! The simulator needs more samples per period of the model's stiffest
-//! (stick) mode than a measurement may hold (method notes a.4: ABRAVIBE's
-//! `timefresp` upsamples by 5 and decimates back). Interpolating the
-//! measured force band-limits it to the measurement's own band; decimating
-//! the simulated response low-passes it first, so harmonics the joint makes
-//! above the measurement's Nyquist frequency do not alias into the result.
+//! The simulator needs more samples per period of the model's stiffest (stick)
+//! mode than a measurement may hold (ABRAVIBE's `timefresp` likewise upsamples
+//! by 5 and decimates back). Interpolating the measured force band-limits it
+//! to the measurement's own band; decimating the simulated response low-passes
+//! it first, so harmonics the joint makes above the measurement's Nyquist
+//! frequency do not alias into the result.
 //!
 //! Both filters are the same windowed sinc, cut off at [`CUTOFF`] of the
 //! original Nyquist frequency, [`HALF_WIDTH`] original samples on each side
