@@ -587,7 +587,17 @@ fn unresolved(
         }
         // a mode held at the largest damping ratio allowed is no resonance:
         // the optimiser used it as a smooth background, not as a mode
-        if name == "damping_ratio" && e.value >= 0.99 * crate::fit::params::ZETA_MAX {
+        // (inside the band; outside it, a mode is a background by nature
+        // and judged by its size alone)
+        if name == "damping_ratio"
+            && e.value >= 0.99 * crate::fit::params::ZETA_MAX
+            && r.model.linear.modes.last().is_some_and(|m| {
+                data.band_hz().is_none_or(|(lo, hi)| {
+                    let k = crate::fit::params::BAND_MARGIN;
+                    m.frequency_hz * k >= lo && m.frequency_hz <= hi * k
+                })
+            })
+        {
             return Ok(Some(format!(
                 "lowered χ² enough, but only as a mode damped at the bound ζ = {:.2}: not a resolved mode",
                 e.value

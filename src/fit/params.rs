@@ -368,13 +368,13 @@ impl ParameterSet {
     }
 
     /// [`ParameterSet::for_linear`] for data measured over `band_hz`: a
-    /// further mode outside the band has no resonance in it to show its
-    /// damping, which is held, and is sized by what the band does see: a
-    /// mode above by its static flexibility `R/ω²` (the residual
-    /// flexibility of modal analysis), a mode below by its modal constant
-    /// (the residual mass line `−R/ω²`). Each stays on its side of the band,
-    /// so that a mode that is only a background cannot become a sharp
-    /// resonance inside it.
+    /// further mode outside the band has no resonance in it, and is sized
+    /// by what the band does see: a mode above by its static flexibility
+    /// `R/ω²` (the residual flexibility of modal analysis), a mode below by
+    /// its modal constant (the residual mass line `−R/ω²`). Each stays on
+    /// its side of the band, so that a mode that is only a background cannot
+    /// become a sharp resonance inside it. (Its damping stays free: near
+    /// the band it still sets the phase of the mode's tail.)
     pub fn for_linear_in(model: &Model, band_hz: Option<(f64, f64)>) -> ParameterSet {
         let mut p = ParameterSet::for_sdof(0);
         for m in 1..model.linear.modes.len() {
@@ -405,14 +405,12 @@ impl ParameterSet {
                     None => [1e-6, 1e9],
                 },
             });
-            if side.is_none() {
-                p.parameters.push(Parameter {
-                    name: name("damping_ratio"),
-                    target: Target::DampingRatio { mode: m },
-                    transform: Transform::Log,
-                    bounds: [1e-5, ZETA_MAX],
-                });
-            }
+            p.parameters.push(Parameter {
+                name: name("damping_ratio"),
+                target: Target::DampingRatio { mode: m },
+                transform: Transform::Log,
+                bounds: [1e-5, ZETA_MAX],
+            });
             let (target, label, value) = match side {
                 Some(Side::Above(_)) => (
                     Target::Flexibility { mode: m },
@@ -544,15 +542,17 @@ mod tests {
                 "damping",
                 "stiffness",
                 "second_mode.frequency_hz",
+                "second_mode.damping_ratio",
                 "second_mode.flexibility",
                 "mode_2.frequency_hz",
+                "mode_2.damping_ratio",
                 "mode_2.residue"
             ]
         );
         // the flexibility is R / ω² (closed form), and written back at a new
         // frequency it keeps the static flexibility, not the modal constant
         let w = 2.0 * std::f64::consts::PI * 900.0;
-        let flex = set.parameters[4].read(&base).unwrap();
+        let flex = set.parameters[5].read(&base).unwrap();
         assert!((flex / (0.5 / (w * w)) - 1.0).abs() < 1e-14);
         let mut theta = set.theta_of(&base).unwrap();
         theta[3] = 1800f64.ln();
@@ -560,10 +560,9 @@ mod tests {
         assert_eq!(out, 0.0);
         let w2 = 2.0 * std::f64::consts::PI * 1800.0;
         assert!((m.linear.modes[1].residue / (flex * w2 * w2) - 1.0).abs() < 1e-12);
-        assert_eq!(m.linear.modes[1].damping_ratio, 0.02, "held");
         // each stays on its side of the band
         assert_eq!(set.parameters[3].bounds[0], 300.0);
-        assert_eq!(set.parameters[5].bounds[1], 100.0);
+        assert_eq!(set.parameters[6].bounds[1], 100.0);
         // without a band, every mode has all three
         assert_eq!(ParameterSet::for_linear(&base).len(), 9);
     }
