@@ -856,7 +856,30 @@ pub fn diagnose_observed(
     let normalised = |chi2: f64| chi2 / expected.max(f64::MIN_POSITIVE);
     // within 3 standard deviations of the noise's χ²: nothing left to explain
     let noise_band = 1.0 + 3.0 * (2.0 / n_real).sqrt();
-    let base = refit(&fit.model, &data, predictor, None, options.patience)?;
+    let mut base = refit(&fit.model, &data, predictor, None, options.patience)?;
+    // the fit handed in is one start of the baseline; an identification on
+    // the harmonics judged here, weighted by their standard errors, is a
+    // second: the unweighted fundamental (the paper's cost) can be led far
+    // astray by points near a recording's resolution, and a start with a
+    // parameter at its bound (N at the Jenkins limit) is held there by the
+    // refit
+    let weighted = crate::fit::FitOptions {
+        harmonics: harmonics.clone(),
+        weighting: Weighting::StandardError,
+        bootstrap: 0,
+        second_optimiser: false,
+        band_hz: options.band_hz.or(options.fit.band_hz),
+        ..options.fit.clone()
+    };
+    if (weighted.harmonics != options.fit.harmonics
+        || weighted.weighting != options.fit.weighting)
+        && let Ok(f) = crate::fit::identify(frf, &weighted, predictor, None)
+        && f.response_sign == fit.response_sign
+        && let Ok(b) = refit(&f.model, &data, predictor, None, options.patience)
+        && b.chi2 < base.chi2
+    {
+        base = b;
+    }
     let baseline = model_fit(&base.model, &data, &base.pred, base.chi2);
     observer(DiagnoseEvent::Baseline {
         chi2_per_dof: baseline.chi2_per_dof,
