@@ -122,7 +122,7 @@ fn main() {
                 .or_insert((vec![], 0.03, p.scored));
             g.0.push(p.relative());
         }
-        for p in &s.effects {
+        for p in s.effects.iter().filter(|p| p.estimate.is_some()) {
             let g = groups
                 .entry(format!("effect {}.{}", p.effect, p.name))
                 .or_insert((vec![], 0.10, p.scored));

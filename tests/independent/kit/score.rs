@@ -385,7 +385,7 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
                     });
                     s.effects.push(ParamError {
                         effect: kind.into(),
-                        name: format!("receptance_at_{fe:.0}_hz"),
+                        name: "receptance_at_band_edge".into(),
                         truth: at_edge(*frequency_hz, *damping_ratio, 1.0 / modal_mass),
                         estimate,
                         scored: true,
