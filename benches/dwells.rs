@@ -40,14 +40,12 @@ fn main() {
             &[EffectKind::CubicStiffness],
             &o(false),
         ),
-        case_with(
-            203,
-            JointKind::Jenkins,
-            &[EffectKind::SecondMode],
-            &o(true),
-        ),
+        case_with(203, JointKind::Jenkins, &[EffectKind::SecondMode], &o(true)),
     ];
-    eprintln!("dwells: {} cases of 7 x 34 dwells, one at a time", cases.len());
+    eprintln!(
+        "dwells: {} cases of 7 x 34 dwells, one at a time",
+        cases.len()
+    );
     let scores = run_cases(&cases, &dir, 1, Duration::from_secs(900));
     let mut rows = Vec::new();
     for s in &scores {

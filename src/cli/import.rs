@@ -72,7 +72,11 @@ pub fn output_files(out: &Path, input: &Path) -> [PathBuf; 3] {
     // other command's `--out`: the recording is named after the input file
     let folder = out.is_dir() || out.as_os_str().to_string_lossy().ends_with(['/', '\\']);
     let out = if folder {
-        out.join(input.file_stem().unwrap_or(std::ffi::OsStr::new("recording")))
+        out.join(
+            input
+                .file_stem()
+                .unwrap_or(std::ffi::OsStr::new("recording")),
+        )
     } else {
         out.to_path_buf()
     };
@@ -169,9 +173,15 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
     // what it is read from (a hystid recording is a .wav and a .json)
     let mut inputs = vec![args.file.clone()];
     if is_recording(&args.file) {
-        inputs.extend([args.file.with_extension("wav"), args.file.with_extension("json")]);
+        inputs.extend([
+            args.file.with_extension("wav"),
+            args.file.with_extension("json"),
+        ]);
     }
-    let inputs: Vec<PathBuf> = inputs.iter().filter_map(|p| p.canonicalize().ok()).collect();
+    let inputs: Vec<PathBuf> = inputs
+        .iter()
+        .filter_map(|p| p.canonicalize().ok())
+        .collect();
     if [&wav, &json]
         .into_iter()
         .any(|p| p.canonicalize().is_ok_and(|c| inputs.contains(&c)))

@@ -871,8 +871,7 @@ pub fn diagnose_observed(
         band_hz: options.band_hz.or(options.fit.band_hz),
         ..options.fit.clone()
     };
-    if (weighted.harmonics != options.fit.harmonics
-        || weighted.weighting != options.fit.weighting)
+    if (weighted.harmonics != options.fit.harmonics || weighted.weighting != options.fit.weighting)
         && let Ok(f) = crate::fit::identify(frf, &weighted, predictor, None)
         && f.response_sign == fit.response_sign
         && let Ok(b) = refit(&f.model, &data, predictor, None, options.patience)
