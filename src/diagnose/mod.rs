@@ -645,6 +645,65 @@ fn unresolved(
     Ok(None)
 }
 
+/// The joint identified on the lower levels only (the lowest half of those
+/// with points to fit, at least three, of at least four), with the baseline's linear part, when its stiffness or slip
+/// force differs from the baseline joint's by more than a quarter; `None` when there
+/// are too few levels, the fit fails, or the two agree.
+fn lower_levels_joint(
+    frf: &NonlinearFrf,
+    options: &crate::fit::FitOptions,
+    predictor: &HbPredictor,
+    base: &Model,
+) -> Option<Model> {
+    // the levels with something to fit (a PCM16 file's lowest may have
+    // nothing above the converter's resolution)
+    let usable: Vec<usize> = (0..frf.levels.len())
+        .filter(|&i| {
+            frf.levels[i]
+                .points
+                .iter()
+                .filter(|p| crate::fit::problem::usable_point(p, &options.harmonics))
+                .count()
+                >= 3
+        })
+        .collect();
+    let n = usable.len();
+    if n < 4 {
+        return None;
+    }
+    let mut order = usable;
+    order.sort_by(|&a, &b| frf.levels[a].level.total_cmp(&frf.levels[b].level));
+    let keep = n.div_ceil(2).max(3);
+    let mut lower = frf.clone();
+    lower.levels = order[..keep]
+        .iter()
+        .map(|&i| frf.levels[i].clone())
+        .collect();
+    let fit = crate::fit::identify(&lower, options, predictor, None).ok()?;
+    let joint = fit.model.elements.first()?.clone();
+    let base_joint = base.elements.first()?;
+    if joint.kind() != base_joint.kind() {
+        return None;
+    }
+    // the joint's scales (its stiffness and slip force, the parameters
+    // fitted in log coordinates); a shape such as Masing's N is poorly
+    // determined anyway and says little about a wrong basin
+    let scales = ParameterSet::for_element(base, 0, "");
+    let differs = joint
+        .parameters()
+        .iter()
+        .zip(base_joint.parameters())
+        .zip(&scales.parameters)
+        .filter(|(_, p)| p.transform == Transform::Log)
+        .any(|(((_, a), (_, b)), _)| !(a / b > 0.8 && a / b < 1.25));
+    if !differs {
+        return None;
+    }
+    let mut m = base.clone();
+    m.elements[0] = joint;
+    Some(m)
+}
+
 /// One candidate's refit on the current model: its start(s) from the
 /// residual, each refitted, the best kept (`None` when no start exists).
 fn try_candidate(
@@ -879,6 +938,20 @@ pub fn diagnose_observed(
     {
         base = b;
     }
+    // the joint as the lower levels see it: a strong stiffening or softening
+    // at the top levels can drag a joint-only fit of every level into
+    // another basin (N at its bound, kd tenfold), and an effect refitted
+    // from there keeps that basin; where the two joints disagree, every
+    // candidate of the first round is also started from this one
+    let lower = lower_levels_joint(frf, &weighted, predictor, &base.model).and_then(|m| {
+        let pred = predictor.predict_from(&m, &data, None).ok()?;
+        let chi2 = crate::fit::problem::chi_square(&data, &pred);
+        chi2.is_finite().then_some(Refit {
+            model: m,
+            pred,
+            chi2,
+        })
+    });
     let baseline = model_fit(&base.model, &data, &base.pred, base.chi2);
     observer(DiagnoseEvent::Baseline {
         chi2_per_dof: baseline.chi2_per_dof,
@@ -909,7 +982,16 @@ pub fn diagnose_observed(
             .par_iter()
             .enumerate()
             .map(|(i, &(effect, _))| {
-                let r = try_candidate(effect, &current, frf, &data, options, predictor);
+                let mut r = try_candidate(effect, &current, frf, &data, options, predictor);
+                if round == 1
+                    && let Some(low) = &lower
+                    && let Ok(Some(b)) = try_candidate(effect, low, frf, &data, options, predictor)
+                    && r.as_ref()
+                        .ok()
+                        .is_none_or(|a| a.as_ref().is_none_or(|a| b.chi2 < a.chi2))
+                {
+                    r = Ok(Some(b));
+                }
                 observer(DiagnoseEvent::Candidate { round, effect });
                 (effect, i + 1, r)
             })
@@ -1059,9 +1141,53 @@ pub fn diagnose_observed(
         .with_warm_start(current.pred.clone());
         let theta = params.theta_of(&current.model)?;
         let conf = crate::fit::identify::confidence(&problem, &theta, &current.pred)?;
+        // a mode outside the band was fitted by its flexibility; its modal
+        // mass is reported too, with the interval the data give it (wide
+        // where only the flexibility is seen)
+        let mut pairs: Vec<(crate::fit::params::Parameter, Estimate)> = params
+            .parameters
+            .iter()
+            .cloned()
+            .zip(conf.estimates.iter().cloned())
+            .collect();
+        if params
+            .parameters
+            .iter()
+            .any(|p| matches!(p.target, crate::fit::params::Target::Flexibility { .. }))
+        {
+            let mut plain = model_parameters(&current.model, &data);
+            plain
+                .parameters
+                .truncate(plain.len() - ParameterSet::for_linear(&current.model).len());
+            plain.extend(ParameterSet::for_linear(&current.model));
+            let problem = FitProblem::new(
+                current.model.clone(),
+                plain.clone(),
+                &data,
+                predictor,
+                Weighting::StandardError,
+                None,
+            )
+            .with_warm_start(current.pred.clone());
+            if let Ok(c) = plain
+                .theta_of(&current.model)
+                .and_then(|t| crate::fit::identify::confidence(&problem, &t, &current.pred))
+            {
+                pairs.extend(
+                    plain
+                        .parameters
+                        .iter()
+                        .cloned()
+                        .zip(c.estimates)
+                        .filter(|(p, _)| {
+                            matches!(p.target, crate::fit::params::Target::Residue { .. })
+                        }),
+                );
+            }
+        }
         for &effect in &chosen {
             let mut parameters = BTreeMap::new();
-            for (p, e) in params.parameters.iter().zip(&conf.estimates) {
+            for (p, e) in pairs.iter().map(|(p, e)| (p, e)) {
                 let prefix = format!("{}.", effect.name());
                 if let Some(rest) = p.name.strip_prefix(&prefix) {
                     let mut e = e.clone();
