@@ -646,14 +646,16 @@ fn unresolved(
 }
 
 /// The joint identified on the lower levels only (the lowest half of those
-/// with points to fit, at least three, of at least four), with the baseline's linear part, when its stiffness or slip
-/// force differs from the baseline joint's by more than a quarter; `None` when there
+/// with points to fit, at least three, of at least four), with the
+/// baseline's linear part, when the baseline explains those levels far worse
+/// than it does; `None` when there
 /// are too few levels, the fit fails, or the two agree.
 fn lower_levels_joint(
     frf: &NonlinearFrf,
     options: &crate::fit::FitOptions,
     predictor: &HbPredictor,
     base: &Model,
+    sign: f64,
 ) -> Option<Model> {
     // the levels with something to fit (a PCM16 file's lowest may have
     // nothing above the converter's resolution)
@@ -685,18 +687,17 @@ fn lower_levels_joint(
     if joint.kind() != base_joint.kind() {
         return None;
     }
-    // the joint's scales (its stiffness and slip force, the parameters
-    // fitted in log coordinates); a shape such as Masing's N is poorly
-    // determined anyway and says little about a wrong basin
-    let scales = ParameterSet::for_element(base, 0, "");
-    let differs = joint
-        .parameters()
-        .iter()
-        .zip(base_joint.parameters())
-        .zip(&scales.parameters)
-        .filter(|(_, p)| p.transform == Transform::Log)
-        .any(|(((_, a), (_, b)), _)| !(a / b > 0.8 && a / b < 1.25));
-    if !differs {
+    // pulled away when the baseline explains the lower levels far worse
+    // (twice the χ²) than a joint fitted to them alone does
+    let lower_data = FitData::from_frf(&lower, &options.harmonics, options.band_hz, None)
+        .ok()?
+        .with_sign(sign);
+    let chi2_on = |m: &Model| {
+        let p = predictor.predict_from(m, &lower_data, None).ok()?;
+        let c = crate::fit::problem::chi_square(&lower_data, &p);
+        c.is_finite().then_some(c)
+    };
+    if fit.response_sign != sign || !(chi2_on(base)? > 2.0 * chi2_on(&fit.model)?) {
         return None;
     }
     let mut m = base.clone();
@@ -943,15 +944,16 @@ pub fn diagnose_observed(
     // another basin (N at its bound, kd tenfold), and an effect refitted
     // from there keeps that basin; where the two joints disagree, every
     // candidate of the first round is also started from this one
-    let lower = lower_levels_joint(frf, &weighted, predictor, &base.model).and_then(|m| {
-        let pred = predictor.predict_from(&m, &data, None).ok()?;
-        let chi2 = crate::fit::problem::chi_square(&data, &pred);
-        chi2.is_finite().then_some(Refit {
-            model: m,
-            pred,
-            chi2,
-        })
-    });
+    let lower = lower_levels_joint(frf, &weighted, predictor, &base.model, fit.response_sign)
+        .and_then(|m| {
+            let pred = predictor.predict_from(&m, &data, None).ok()?;
+            let chi2 = crate::fit::problem::chi_square(&data, &pred);
+            chi2.is_finite().then_some(Refit {
+                model: m,
+                pred,
+                chi2,
+            })
+        });
     let baseline = model_fit(&base.model, &data, &base.pred, base.chi2);
     observer(DiagnoseEvent::Baseline {
         chi2_per_dof: baseline.chi2_per_dof,
