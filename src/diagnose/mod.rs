@@ -32,6 +32,7 @@ pub use features::{ResidualFeatures, features};
 
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
+use crate::fit::params::{BandSide, band_side};
 use crate::fit::{
     Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, ParameterSet, Prediction,
     Transform, Weighting,
@@ -217,8 +218,9 @@ pub struct Diagnosis {
 
 /// The free parameters of a model: every element's, the first mode as an
 /// SDOF (`m, c, k`), and any further mode's frequency, damping ratio and
-/// modal constant.
-pub fn model_parameters(model: &Model, data: &FitData) -> ParameterSet {
+/// modal constant (its static flexibility for a mode above `band_hz`, see
+/// [`ParameterSet::for_linear_in`]).
+pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> ParameterSet {
     let mut p = ParameterSet::default();
     for (i, e) in model.elements.iter().enumerate() {
         let prefix =
@@ -238,7 +240,7 @@ pub fn model_parameters(model: &Model, data: &FitData) -> ParameterSet {
         }
         p.extend(set);
     }
-    p.extend(ParameterSet::for_linear_in(model, data.band_hz()));
+    p.extend(ParameterSet::for_linear_in(model, band_hz));
     p
 }
 
@@ -257,7 +259,7 @@ fn refit(
     warm: Option<&Prediction>,
     patience: usize,
 ) -> Result<Refit> {
-    let mut params = model_parameters(model, data);
+    let mut params = model_parameters(model, data.band_hz());
     // a parameter at its bound (the joint's N → ∞ for Jenkins-like data) is
     // held there: its penalty row would mislead a derivative-based step
     params.parameters.retain(|p| {
@@ -301,7 +303,7 @@ fn refit(
 }
 
 fn model_fit(model: &Model, data: &FitData, pred: &Prediction, chi2: f64) -> ModelFit {
-    let params = model_parameters(model, data);
+    let params = model_parameters(model, data.band_hz());
     let values = params
         .theta_of(model)
         .map(|t| params.values(&t))
@@ -519,19 +521,16 @@ fn effect_parameters(model: &Model, effect: Effect, data: &FitData) -> BTreeMap<
         {
             out.insert("frequency_hz".into(), m.frequency_hz);
             out.insert("modal_mass".into(), 1.0 / m.residue);
-            // a mode above the band is seen there as a flexibility, and its
-            // damping not at all (held, so not reported as a result)
-            let above = data
-                .band_hz()
-                .is_some_and(|(_, hi)| m.frequency_hz > hi * crate::fit::params::BAND_MARGIN);
-            let below = data
-                .band_hz()
-                .is_some_and(|(lo, _)| m.frequency_hz * crate::fit::params::BAND_MARGIN < lo);
-            if above {
-                let w = 2.0 * std::f64::consts::PI * m.frequency_hz;
-                out.insert("flexibility".into(), m.residue / (w * w));
-            } else if !below {
-                out.insert("damping_ratio".into(), m.damping_ratio);
+            // a mode above the band is seen there as a flexibility; outside
+            // the band a damping ratio is no result
+            match band_side(m.frequency_hz, data.band_hz()) {
+                Some(BandSide::Above) => {
+                    out.insert("flexibility".into(), m.static_flexibility());
+                }
+                Some(BandSide::Below) => {}
+                None => {
+                    out.insert("damping_ratio".into(), m.damping_ratio);
+                }
             }
         }
         return out;
@@ -556,18 +555,8 @@ fn unresolved(
     data: &FitData,
     predictor: &HbPredictor,
 ) -> Result<Option<String>> {
-    let params = model_parameters(&r.model, data);
-    let problem = FitProblem::new(
-        r.model.clone(),
-        params.clone(),
-        data,
-        predictor,
-        Weighting::StandardError,
-        None,
-    )
-    .with_warm_start(r.pred.clone());
-    let theta = params.theta_of(&r.model)?;
-    let conf = crate::fit::identify::confidence(&problem, &theta, &r.pred)?;
+    let params = model_parameters(&r.model, data.band_hz());
+    let conf = confidence_at(&r.model, &params, &r.pred, data, predictor)?;
     let prefix = format!("{}.", effect.name());
     for (p, e) in params.parameters.iter().zip(&conf.estimates) {
         let Some(name) = p.name.strip_prefix(&prefix) else {
@@ -591,12 +580,11 @@ fn unresolved(
         // and judged by its size alone)
         if name == "damping_ratio"
             && e.value >= 0.99 * crate::fit::params::ZETA_MAX
-            && r.model.linear.modes.last().is_some_and(|m| {
-                data.band_hz().is_none_or(|(lo, hi)| {
-                    let k = crate::fit::params::BAND_MARGIN;
-                    m.frequency_hz * k >= lo && m.frequency_hz <= hi * k
-                })
-            })
+            && r.model
+                .linear
+                .modes
+                .last()
+                .is_some_and(|m| band_side(m.frequency_hz, data.band_hz()).is_none())
         {
             return Ok(Some(format!(
                 "lowered χ² enough, but only as a mode damped at the bound ζ = {:.2}: not a resolved mode",
@@ -645,11 +633,32 @@ fn unresolved(
     Ok(None)
 }
 
+/// The σ-weighted confidence intervals of `params` at `model`.
+fn confidence_at(
+    model: &Model,
+    params: &ParameterSet,
+    pred: &Prediction,
+    data: &FitData,
+    predictor: &HbPredictor,
+) -> Result<crate::fit::identify::Confidence> {
+    let problem = FitProblem::new(
+        model.clone(),
+        params.clone(),
+        data,
+        predictor,
+        Weighting::StandardError,
+        None,
+    )
+    .with_warm_start(pred.clone());
+    let theta = params.theta_of(model)?;
+    crate::fit::identify::confidence(&problem, &theta, pred)
+}
+
 /// The joint identified on the lower levels only (the lowest half of those
 /// with points to fit, at least three, of at least four), with the
 /// baseline's linear part, when the baseline explains those levels far worse
-/// than it does; `None` when there
-/// are too few levels, the fit fails, or the two agree.
+/// than it does; `None` when there are too few levels, the fit fails, or the
+/// two agree.
 fn lower_levels_joint(
     frf: &NonlinearFrf,
     options: &crate::fit::FitOptions,
@@ -1131,55 +1140,23 @@ pub fn diagnose_observed(
     // intervals of the effects kept, at the final model
     let mut selected = Vec::new();
     if !chosen.is_empty() {
-        let params = model_parameters(&current.model, &data);
-        let problem = FitProblem::new(
-            current.model.clone(),
-            params.clone(),
-            &data,
-            predictor,
-            Weighting::StandardError,
-            None,
-        )
-        .with_warm_start(current.pred.clone());
-        let theta = params.theta_of(&current.model)?;
-        let conf = crate::fit::identify::confidence(&problem, &theta, &current.pred)?;
-        // a mode outside the band was fitted by its flexibility; its modal
+        let params = model_parameters(&current.model, data.band_hz());
+        let conf = confidence_at(&current.model, &params, &current.pred, &data, predictor)?;
+        let mut pairs: Vec<(crate::fit::params::Parameter, Estimate)> =
+            params.parameters.into_iter().zip(conf.estimates).collect();
+        // a mode above the band was fitted by its flexibility; its modal
         // mass is reported too, with the interval the data give it (wide
         // where only the flexibility is seen)
-        let mut pairs: Vec<(crate::fit::params::Parameter, Estimate)> = params
-            .parameters
+        if pairs
             .iter()
-            .cloned()
-            .zip(conf.estimates.iter().cloned())
-            .collect();
-        if params
-            .parameters
-            .iter()
-            .any(|p| matches!(p.target, crate::fit::params::Target::Flexibility { .. }))
+            .any(|(p, _)| matches!(p.target, crate::fit::params::Target::Flexibility { .. }))
         {
-            let mut plain = model_parameters(&current.model, &data);
-            plain
-                .parameters
-                .truncate(plain.len() - ParameterSet::for_linear(&current.model).len());
-            plain.extend(ParameterSet::for_linear(&current.model));
-            let problem = FitProblem::new(
-                current.model.clone(),
-                plain.clone(),
-                &data,
-                predictor,
-                Weighting::StandardError,
-                None,
-            )
-            .with_warm_start(current.pred.clone());
-            if let Ok(c) = plain
-                .theta_of(&current.model)
-                .and_then(|t| crate::fit::identify::confidence(&problem, &t, &current.pred))
-            {
+            let plain = model_parameters(&current.model, None);
+            if let Ok(c) = confidence_at(&current.model, &plain, &current.pred, &data, predictor) {
                 pairs.extend(
                     plain
                         .parameters
-                        .iter()
-                        .cloned()
+                        .into_iter()
                         .zip(c.estimates)
                         .filter(|(p, _)| {
                             matches!(p.target, crate::fit::params::Target::Residue { .. })
@@ -1189,16 +1166,30 @@ pub fn diagnose_observed(
         }
         for &effect in &chosen {
             let mut parameters = BTreeMap::new();
-            for (p, e) in pairs.iter().map(|(p, e)| (p, e)) {
+            for (p, e) in &pairs {
                 let prefix = format!("{}.", effect.name());
                 if let Some(rest) = p.name.strip_prefix(&prefix) {
                     let mut e = e.clone();
                     if rest == "residue" {
-                        // report a modal mass, as the test definitions give it
-                        let (lo, hi) = (1.0 / e.ci95[1], 1.0 / e.ci95[0]);
+                        // report a modal mass, as the test definitions give
+                        // it; a modal constant whose interval includes zero
+                        // leaves the mass unbounded
+                        let [rlo, rhi] = e.ci95;
+                        let (ci95, identifiable, note) = if rlo <= 0.0 && rhi >= 0.0 {
+                            (
+                                [f64::NEG_INFINITY, f64::INFINITY],
+                                false,
+                                Some("the modal constant's 95 % interval includes zero".into()),
+                            )
+                        } else {
+                            let (lo, hi) = (1.0 / rhi, 1.0 / rlo);
+                            ([lo.min(hi), lo.max(hi)], e.identifiable, e.note.clone())
+                        };
                         e = Estimate {
                             value: 1.0 / e.value,
-                            ci95: [lo.min(hi), lo.max(hi)],
+                            ci95,
+                            identifiable,
+                            note,
                             ..e
                         };
                         parameters.insert("modal_mass".to_string(), e);
@@ -1294,10 +1285,19 @@ fn explain(
             Effect::SecondMode => {
                 // a mode above the band is seen in it as a flexibility
                 // only: its frequency is where the fit put it, not a result
+                let resolved = |e: &Estimate| {
+                    let [lo, hi] = e.ci95;
+                    e.identifiable && lo > 0.0 && hi / lo < 1.5
+                };
                 let at = match (
                     sel.parameters.get("flexibility"),
                     sel.parameters.get("frequency_hz"),
                 ) {
+                    (Some(x), Some(f)) if resolved(f) => format!(
+                        " at {:.4} Hz, above the measured band (a residual flexibility of {} m/N in it)",
+                        f.value,
+                        fmt_value(x.value)
+                    ),
                     (Some(x), _) => format!(
                         " above the measured band, seen in it as a residual flexibility of {} m/N (its frequency is not resolved by these data)",
                         fmt_value(x.value)

@@ -162,10 +162,7 @@ impl Parameter {
             Target::Frequency { mode: i } => mode(*i)?.frequency_hz,
             Target::DampingRatio { mode: i } => mode(*i)?.damping_ratio,
             Target::Residue { mode: i } => mode(*i)?.residue,
-            Target::Flexibility { mode: i } => {
-                let m = mode(*i)?;
-                m.residue / omega2(m.frequency_hz)
-            }
+            Target::Flexibility { mode: i } => mode(*i)?.static_flexibility(),
             Target::TiedStickStiffness { index, .. } => {
                 let j = model.parameter_index(*index, "kd")?;
                 model.elements[*index].parameters()[j].1
@@ -217,8 +214,8 @@ impl Parameter {
             Target::DampingRatio { mode } => model.linear.modes[*mode].damping_ratio = value,
             Target::Residue { mode } => model.linear.modes[*mode].residue = value,
             Target::Flexibility { mode } => {
-                let m = mode_mut(model, *mode)?;
-                model.linear.modes[*mode].residue = value * omega2(m.frequency_hz);
+                let w = mode_mut(model, *mode)?.omega();
+                model.linear.modes[*mode].residue = value * w * w;
             }
             Target::TiedStickStiffness { index, mode, total } => {
                 Parameter {
@@ -386,23 +383,15 @@ impl ParameterSet {
                     format!("mode_{m}.{f}")
                 }
             };
-            let side = band_hz.and_then(|(lo, hi)| {
-                if mode.frequency_hz > hi * BAND_MARGIN {
-                    Some(Side::Above(hi))
-                } else if mode.frequency_hz * BAND_MARGIN < lo {
-                    Some(Side::Below(lo))
-                } else {
-                    None
-                }
-            });
+            let side = band_side(mode.frequency_hz, band_hz);
             p.parameters.push(Parameter {
                 name: name("frequency_hz"),
                 target: Target::Frequency { mode: m },
                 transform: Transform::Log,
-                bounds: match side {
-                    Some(Side::Above(hi)) => [hi, 1e9],
-                    Some(Side::Below(lo)) => [1e-6, lo],
-                    None => [1e-6, 1e9],
+                bounds: match (side, band_hz) {
+                    (Some(BandSide::Above), Some((_, hi))) => [hi, 1e9],
+                    (Some(BandSide::Below), Some((lo, _))) => [1e-6, lo],
+                    _ => [1e-6, 1e9],
                 },
             });
             p.parameters.push(Parameter {
@@ -412,10 +401,10 @@ impl ParameterSet {
                 bounds: [1e-5, ZETA_MAX],
             });
             let (target, label, value) = match side {
-                Some(Side::Above(_)) => (
+                Some(BandSide::Above) => (
                     Target::Flexibility { mode: m },
                     "flexibility",
-                    mode.residue / omega2(mode.frequency_hz),
+                    mode.static_flexibility(),
                 ),
                 _ => (Target::Residue { mode: m }, "residue", mode.residue),
             };
@@ -441,15 +430,26 @@ impl ParameterSet {
 /// is beyond the band's edge by more than this factor.
 pub const BAND_MARGIN: f64 = 1.05;
 
-#[derive(Clone, Copy)]
-enum Side {
-    Above(f64),
-    Below(f64),
+/// Where a mode lies against a measured band.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BandSide {
+    /// Above the band's top by more than [`BAND_MARGIN`].
+    Above,
+    /// Below the band's bottom by more than [`BAND_MARGIN`].
+    Below,
 }
 
-fn omega2(frequency_hz: f64) -> f64 {
-    let w = 2.0 * std::f64::consts::PI * frequency_hz;
-    w * w
+/// The side of `band_hz` a mode at `frequency_hz` lies on (`None`: inside
+/// it, or no band known).
+pub fn band_side(frequency_hz: f64, band_hz: Option<(f64, f64)>) -> Option<BandSide> {
+    let (lo, hi) = band_hz?;
+    if frequency_hz > hi * BAND_MARGIN {
+        Some(BandSide::Above)
+    } else if frequency_hz * BAND_MARGIN < lo {
+        Some(BandSide::Below)
+    } else {
+        None
+    }
 }
 
 /// The largest damping ratio a fitted mode may take: a mode damped beyond it

@@ -105,6 +105,12 @@ impl Mode {
         self.omega().powi(2) / self.residue
     }
 
+    /// Static flexibility `R/ω_r²` (m/N): what a mode above a measured band
+    /// adds there (the residual flexibility of modal analysis).
+    pub fn static_flexibility(&self) -> f64 {
+        self.residue / self.omega().powi(2)
+    }
+
     /// Modal viscous damping `2ζω_r/R`.
     pub fn modal_damping(&self) -> f64 {
         2.0 * self.damping_ratio * self.omega() / self.residue

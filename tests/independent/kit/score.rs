@@ -312,34 +312,22 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         }
         match e {
             TrueEffect::SecondMode { frequency_hz, .. } => {
-                let fs = case.f_slip();
                 // the extra mode: of the modes beyond the one nearest the
                 // slip resonance, the one nearest the true second mode
-                let main = modes
-                    .iter()
-                    .enumerate()
-                    .min_by(|a, b| {
-                        let d = |m: &Value| {
-                            (num(&m["frequency_hz"]).unwrap_or(f64::INFINITY) / fs)
-                                .ln()
-                                .abs()
-                        };
-                        d(a.1).total_cmp(&d(b.1))
-                    })
-                    .map(|x| x.0);
-                let m2 = modes
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| Some(*i) != main)
-                    .min_by(|a, b| {
-                        let d = |m: &Value| {
-                            (num(&m["frequency_hz"]).unwrap_or(f64::INFINITY) / frequency_hz)
-                                .ln()
-                                .abs()
-                        };
-                        d(a.1).total_cmp(&d(b.1))
-                    })
-                    .map(|x| x.1);
+                let nearest = |f: f64, skip: Option<usize>| {
+                    let d = |m: &Value| {
+                        (num(&m["frequency_hz"]).unwrap_or(f64::INFINITY) / f)
+                            .ln()
+                            .abs()
+                    };
+                    modes
+                        .iter()
+                        .enumerate()
+                        .filter(|(i, _)| Some(*i) != skip)
+                        .min_by(|a, b| d(a.1).total_cmp(&d(b.1)))
+                };
+                let main = nearest(case.f_slip(), None).map(|x| x.0);
+                let m2 = nearest(*frequency_hz, main).map(|x| x.1);
                 // a mode outside the measured band shows there only as a
                 // residual flexibility (above) or mass line (below): what
                 // the data determine, and what is scored, is its receptance
