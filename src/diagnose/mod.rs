@@ -223,12 +223,12 @@ pub struct Diagnosis {
 pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> ParameterSet {
     let mut p = ParameterSet::default();
     for (i, e) in model.elements.iter().enumerate() {
-        let prefix =
-            if i == 0 && matches!(e, ElementSpec::Jenkins { .. } | ElementSpec::Masing { .. }) {
-                String::new()
-            } else {
-                e.kind().name().to_string()
-            };
+        // the joint's parameters keep their plain names (kd, fd, …)
+        let prefix = if i == 0 && e.description().is_joint() {
+            String::new()
+        } else {
+            e.kind().name().to_string()
+        };
         let mut set = ParameterSet::for_element(model, i, &prefix);
         for q in &mut set.parameters {
             // a parameter that starts at zero still needs a sensible scale
@@ -440,13 +440,7 @@ fn augment(
     let (_, c, k) = model.linear.as_mck().unwrap_or((1.0, 1.0, 1.0));
     // the joint's stick stiffness counts too: a contact or clearance is
     // visible against the structure's total stiffness
-    let k = k + model
-        .elements
-        .iter()
-        .flat_map(|e| e.parameters())
-        .filter(|(n, _)| *n == "kd")
-        .map(|(_, v)| v)
-        .sum::<f64>();
+    let k = k + model.stick_stiffness();
     let mut out = model.clone();
     // an effect of one size parameter: the best of its scan, and the
     // Gauss–Newton step where it is a different start

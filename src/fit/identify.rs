@@ -15,14 +15,14 @@
 
 use super::linear::{FrfSample, SdofEstimate, fit_sdof};
 use super::optimise::{self, OptimiserRun};
-use super::params::{N_MAX, Parameter, ParameterSet, Target, Transform};
+use super::params::{Parameter, ParameterSet, Target, Transform};
 use super::problem::{
     FitData, FitProblem, FrfPredictor, Prediction, TraceEntry, Weighting, chi_square,
     relative_error, residuals,
 };
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
-use crate::model::{ElementKind, ElementSpec, ModalModel, Mode, Model};
+use crate::model::{ElementKind, ElementSpec, ModalModel, Mode, Model, Role};
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -476,23 +476,15 @@ pub fn identify(
             (lin, kd0)
         }
     };
-    let element = match options.element {
-        ElementKind::Masing => ElementSpec::Masing {
-            kd: kd0,
-            fd: 1.0,
-            n: 10.0,
-        },
-        ElementKind::Jenkins => ElementSpec::Jenkins { kd: kd0, fd: 1.0 },
-        other => {
-            return Err(Error::plan(
-                "element",
-                format!(
-                    "{} is not a joint element (use masing or jenkins)",
-                    other.name()
-                ),
-            ));
-        }
-    };
+    let element = ElementSpec::joint(options.element, kd0, 1.0, "element")?;
+    // the joint's stick stiffness and slip force, by what they are to the
+    // law (every joint has both: see `Description::is_joint`)
+    let law = options.element.description();
+    let role_name = |role: Role| law.index_of(role).map(|i| law.parameters[i].name);
+    let (kd_name, fd_name) = (
+        role_name(Role::StickStiffness).unwrap_or_default(),
+        role_name(Role::SlipForce).unwrap_or_default(),
+    );
     let base = Model::new(sdof, vec![element])?;
     let mut element_params = ParameterSet::for_element(&base, 0, "");
     // bounded by the data: a slip force far below the smallest level (always
@@ -505,10 +497,10 @@ pub fn identify(
         });
         let k_ref = kd0.abs().max(f64::MIN_POSITIVE);
         for p in &mut element_params.parameters {
-            match p.name.as_str() {
-                "fd" if lmax > 0.0 => p.bounds = [1e-3 * lmin, 1e3 * lmax],
-                "kd" => p.bounds = [1e-4 * k_ref, 1e4 * k_ref],
-                _ => {}
+            if p.name == fd_name && lmax > 0.0 {
+                p.bounds = [1e-3 * lmin, 1e3 * lmax];
+            } else if p.name == kd_name {
+                p.bounds = [1e-4 * k_ref, 1e4 * k_ref];
             }
         }
     }
@@ -534,7 +526,7 @@ pub fn identify(
         // stage 1 keeps k + kd at the smallest level's stiffness
         let total = stick_stiffness(&linear);
         for p in &mut element_params.parameters {
-            if matches!(&p.target, Target::Element { name, .. } if name == "kd") {
+            if matches!(&p.target, Target::Element { name, .. } if name == kd_name) {
                 p.target = Target::TiedStickStiffness {
                     index: 0,
                     mode: 0,
@@ -577,7 +569,7 @@ pub fn identify(
             .position(|p| p.name == name)
             .expect("element parameter is free")
     };
-    let (fd_index, kd_index) = (index_of("fd"), index_of("kd"));
+    let (fd_index, kd_index) = (index_of(fd_name), index_of(kd_name));
     let kd_candidates: Vec<f64> = match options.linear_start {
         LinearStart::Extremes => [0.7, 1.0, 1.4]
             .iter()
@@ -666,7 +658,14 @@ pub fn identify(
     for (j, p) in u_params.parameters.iter().enumerate() {
         parameters.insert(p.name.clone(), uncertainty.estimates[j].clone());
     }
-    if let Some(e) = parameters.get_mut("n")
+    // a shape parameter fitted by its reciprocal (the Masing curvature) may
+    // sit in its law's limit (a Jenkins element), which its interval cannot say
+    let shape = u_params
+        .parameters
+        .iter()
+        .find(|p| matches!(p.transform, Transform::Reciprocal))
+        .map(|p| p.name.clone());
+    if let Some(e) = shape.and_then(|n| parameters.get_mut(&n))
         && e.identifiable
     {
         jenkins_limit_check(&problem, &run.theta, &pred, uncertainty.reduced_chi2, e)?;
@@ -816,8 +815,8 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
         if at_bound[j] {
             // the far end of the 95 % region, away from the bound
             let lower = one_sided_range(problem, theta, j, reduced)?;
-            let is_n = matches!(&p.target, Target::Element { name, .. } if name == "n");
-            let jenkins_limit = is_n && value >= 0.99 * N_MAX;
+            let shape = matches!(p.transform, Transform::Reciprocal);
+            let jenkins_limit = shape && value >= 0.99 * p.bounds[1];
             let ci95 = if jenkins_limit {
                 [lower, f64::INFINITY]
             } else {
@@ -830,7 +829,8 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
                 identifiable: false,
                 note: Some(if jenkins_limit {
                     format!(
-                        "N ran to its bound {N_MAX}: the loops cannot be told from a Jenkins element (N → ∞) within the noise; any N ≳ {lower:.3} fits as well (95 %)"
+                        "{} ran to its bound {}: the loops cannot be told from the law's limit (a Jenkins element for the Masing curvature) within the noise; any value ≳ {lower:.3} fits as well (95 %)",
+                        p.name, p.bounds[1]
                     )
                 } else {
                     format!(
@@ -885,13 +885,17 @@ fn jenkins_limit_check(
     estimate: &mut Estimate,
 ) -> Result<()> {
     let params = &problem.parameters;
-    let Some(j) = params.parameters.iter().position(|p| p.name == "n") else {
+    let Some(j) = params
+        .parameters
+        .iter()
+        .position(|p| matches!(p.transform, Transform::Reciprocal))
+    else {
         return Ok(());
     };
     let n_param = &params.parameters[j];
     let (base, _) = params.model_at(&problem.base, theta)?;
     let mut jenkins_like = base.clone();
-    n_param.write(&mut jenkins_like, N_MAX)?;
+    n_param.write(&mut jenkins_like, n_param.bounds[1])?;
     let mut rest = params.clone();
     rest.parameters.remove(j);
     let sub = FitProblem::new(

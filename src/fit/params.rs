@@ -9,7 +9,7 @@
 //! penalised, so simplex methods stay inside.
 
 use crate::error::{Error, Result};
-use crate::model::{ElementSpec, Mode, Model};
+use crate::model::{Domain, ElementSpec, FitScale, Mode, Model, Role};
 use serde::{Deserialize, Serialize};
 
 /// What a parameter changes in the model.
@@ -164,7 +164,7 @@ impl Parameter {
             Target::Residue { mode: i } => mode(*i)?.residue,
             Target::Flexibility { mode: i } => mode(*i)?.static_flexibility(),
             Target::TiedStickStiffness { index, .. } => {
-                let j = model.parameter_index(*index, "kd")?;
+                let j = model.parameter_index(*index, stick_stiffness_name(model, *index)?)?;
                 model.elements[*index].parameters()[j].1
             }
         })
@@ -222,7 +222,7 @@ impl Parameter {
                     name: String::new(),
                     target: Target::Element {
                         index: *index,
-                        name: "kd".into(),
+                        name: stick_stiffness_name(model, *index)?.into(),
                     },
                     transform: self.transform,
                     bounds: self.bounds,
@@ -456,28 +456,47 @@ pub fn band_side(frequency_hz: f64, band_hz: Option<(f64, f64)>) -> Option<BandS
 /// has no resonance to fit and is a model of something else.
 pub const ZETA_MAX: f64 = 0.9;
 
-/// Upper bound of the Masing curvature: above it eq. (10) cannot be told
-/// from a Jenkins element within measurement noise (the cost is flat as
-/// `N → ∞`, so an unbounded `N` only wanders).
-pub const N_MAX: f64 = 1000.0;
+/// Upper bound of the Masing curvature (see [`crate::model::masing::N_MAX`]).
+pub use crate::model::masing::N_MAX;
 
+/// The name of element `index`'s stick stiffness (an error if it has none).
+fn stick_stiffness_name(model: &Model, index: usize) -> Result<&'static str> {
+    let e = model
+        .elements
+        .get(index)
+        .ok_or_else(|| Error::model(format!("elements[{index}]"), "no such element"))?;
+    let d = e.description();
+    d.index_of(Role::StickStiffness)
+        .map(|i| d.parameters[i].name)
+        .ok_or_else(|| {
+            Error::model(
+                format!("elements[{index}]"),
+                format!("{} has no stick stiffness", d.name),
+            )
+        })
+}
+
+/// A parameter's fit coordinate and bounds, from its law's description.
 fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [f64; 2]) {
     let scale = if value != 0.0 { value.abs() } else { 1.0 };
-    match (e, name) {
-        (ElementSpec::Masing { .. }, "n") => (Transform::Reciprocal, [0.5, N_MAX]),
-        (ElementSpec::CubicStiffness { .. }, _) | (ElementSpec::BilinearStiffness { .. }, _) => {
-            (Transform::Scaled { scale }, [-1e30, 1e30])
-        }
-        (ElementSpec::QuadraticDamping { .. }, _) | (ElementSpec::ViscousDamping { .. }, _) => {
-            (Transform::Scaled { scale }, [0.0, 1e30])
-        }
-        (ElementSpec::Clearance { .. }, "gap") => (Transform::Scaled { scale }, [0.0, 1e30]),
+    let Some(info) = e.description().parameters.iter().find(|p| p.name == name) else {
+        return (Transform::Log, [1e-30, 1e30]);
+    };
+    let lower = match info.domain {
+        Domain::Signed => -1e30,
+        Domain::Positive | Domain::NonNegative => 0.0,
+    };
+    match info.scale {
+        FitScale::Reciprocal { min, max } => (Transform::Reciprocal, [min, max]),
+        FitScale::Linear => (Transform::Scaled { scale }, [lower, 1e30]),
         // positive by nature: six decades either side of the start, which
         // no fit from a data-based start should need, and which keeps a
         // runaway (a slip force above every level, a stiffness of 1e30) from
         // wandering where the model means nothing
-        _ if value.is_finite() && value > 0.0 => (Transform::Log, [value * 1e-6, value * 1e6]),
-        _ => (Transform::Log, [1e-30, 1e30]),
+        FitScale::Log if value.is_finite() && value > 0.0 => {
+            (Transform::Log, [value * 1e-6, value * 1e6])
+        }
+        FitScale::Log => (Transform::Log, [1e-30, 1e30]),
     }
 }
 

@@ -11,7 +11,7 @@ use super::problem::{FitData, FrfPredictor, Prediction};
 use crate::error::Result;
 use crate::harmonics::omega;
 use crate::hb::{HbOptions, HbSolver, all_harmonics, odd_harmonics};
-use crate::model::{ElementKind, Model};
+use crate::model::Model;
 use num_complex::Complex64;
 use rayon::prelude::*;
 
@@ -25,7 +25,7 @@ pub struct HbPredictor {
 impl HbPredictor {
     /// The harmonic-balance options used for `model` and `data`: at least
     /// `{1, 3, 5}`, every fitted odd harmonic, and the even ones and DC when
-    /// the model is asymmetric; 512 time samples for the Jenkins element's
+    /// the model is asymmetric; as many time samples as the laws ask for their
     /// kinks.
     pub fn options_for(&self, model: &Model, data: &FitData) -> HbOptions {
         let top = data.harmonics.iter().copied().max().unwrap_or(1).max(5);
@@ -49,13 +49,8 @@ impl HbPredictor {
         set.sort_unstable();
         set.dedup();
         o.harmonics = set;
-        let jenkins = model
-            .elements
-            .iter()
-            .any(|e| e.kind() == ElementKind::Jenkins);
-        if jenkins {
-            o.samples_per_period = o.samples_per_period.max(512);
-        }
+        // a law with kinks says how many samples a period resolves them
+        o.samples_per_period = o.samples_per_period.max(model.samples_per_period());
         while o.samples_per_period <= 4 * o.harmonics.last().copied().unwrap_or(1) {
             o.samples_per_period *= 2;
         }

@@ -538,7 +538,7 @@ impl Aft {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{ElementSet, ElementSpec};
+    use crate::model::{ElementKind, ElementSet, ElementSpec};
 
     /// A naive reference: direct sums for synthesis and analysis, the
     /// element marched the same way.
@@ -630,23 +630,19 @@ mod tests {
         out
     }
 
+    /// Every registered law at its description's example, and the Masing
+    /// element at a soft curvature too.
     fn all_specs() -> Vec<ElementSpec> {
-        vec![
-            ElementSpec::Jenkins {
-                kd: 2.4e7,
-                fd: 246.048,
-            },
-            ElementSpec::Masing {
-                kd: 2.4e7,
-                fd: 246.048,
-                n: 3.0,
-            },
-            ElementSpec::CubicStiffness { k3: 1e15 },
-            ElementSpec::QuadraticDamping { c2: 50.0 },
-            ElementSpec::BilinearStiffness { kb: 5e6 },
-            ElementSpec::Clearance { k: 5e6, gap: 5e-6 },
-            ElementSpec::ViscousDamping { cj: 20.0 },
-        ]
+        let mut specs: Vec<ElementSpec> = ElementKind::ALL
+            .iter()
+            .map(|&k| ElementSpec::from_values(k, k.description().example))
+            .collect();
+        specs.push(ElementSpec::Masing {
+            kd: 2.4e7,
+            fd: 246.048,
+            n: 3.0,
+        });
+        specs
     }
 
     /// A response with DC, even and odd harmonics, inner loops.
@@ -694,13 +690,7 @@ mod tests {
         let mut aft = Aft::new(&harmonics, ns);
         let n = aft.layout.len;
         let xs = test_x(&aft.layout);
-        let mut specs = all_specs();
-        specs.push(ElementSpec::Masing {
-            kd: 2.4e7,
-            fd: 246.048,
-            n: 22.55,
-        });
-        for spec in specs {
+        for spec in all_specs() {
             for method in [PeriodicLoop::MaxAmplitude, PeriodicLoop::TwoPeriods] {
                 let mut e = ElementSet::new(vec![spec.build().unwrap()]);
                 let mut g = vec![0.0; n];

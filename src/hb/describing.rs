@@ -18,35 +18,14 @@
 //! method) and returns `X_1 = F H/(1 + H N(a))`. Harmonic balance starts its
 //! sweeps there.
 
-use crate::model::{
-    AnyElement, Backbone, Element, ElementSet, Jenkins, Masing, NoElement, PowerBackbone,
-};
+use crate::model::masing::loop_describing_function;
+use crate::model::{Element, PowerBackbone};
 use num_complex::Complex64;
-use std::any::Any;
-use std::f64::consts::PI;
-use std::sync::OnceLock;
 
-/// The Jenkins element's describing function (Caughey 1960).
-///
-/// `a ≤ Fd/kd`: `kd` (stick). Beyond, with `β = arccos(1 − 2a_c/a)`:
-/// `Re N = (kd/π)(β − ½ sin 2β)`, `Im N = 4Fd(a − a_c)/(πa²)`.
-///
-/// NaN (both parts) unless `kd`, `fd` are finite and positive and the
-/// amplitude finite.
+/// The Jenkins element's describing function (Caughey 1960): see
+/// [`crate::model::jenkins::describing_function`].
 pub fn jenkins(kd: f64, fd: f64, amplitude: f64) -> Complex64 {
-    if !(valid(kd) && valid(fd) && amplitude.is_finite()) {
-        return Complex64::new(f64::NAN, f64::NAN);
-    }
-    let a = amplitude.abs();
-    let ac = fd / kd;
-    if a <= ac {
-        return Complex64::new(kd, 0.0);
-    }
-    let beta = (1.0 - 2.0 * ac / a).clamp(-1.0, 1.0).acos();
-    Complex64::new(
-        kd / PI * (beta - 0.5 * (2.0 * beta).sin()),
-        4.0 * fd * (a - ac) / (PI * a * a),
-    )
+    crate::model::jenkins::describing_function(kd, fd, amplitude)
 }
 
 /// The eq. (10) Masing element's describing function, by Gauss–Legendre
@@ -57,193 +36,34 @@ pub fn jenkins(kd: f64, fd: f64, amplitude: f64) -> Complex64 {
 /// amplitude finite.
 pub fn masing(kd: f64, fd: f64, n: f64, amplitude: f64) -> Complex64 {
     match PowerBackbone::new(kd, fd, n) {
-        Ok(b) if amplitude.is_finite() => masing_backbone(&b, fd / kd, amplitude, 8),
+        Ok(b) if amplitude.is_finite() => loop_describing_function(&b, fd / kd, amplitude, 8),
         _ => Complex64::new(f64::NAN, f64::NAN),
     }
 }
 
-fn valid(p: f64) -> bool {
-    p.is_finite() && p > 0.0
-}
-
-/// Quadrature with `panels` graded panels on each side of the knee `xc`.
-fn masing_backbone<B: Backbone>(b: &B, xc: f64, amplitude: f64, panels: usize) -> Complex64 {
-    let a = amplitude.abs();
-    if a == 0.0 {
-        return Complex64::new(b.eval(0.0).1, 0.0);
-    }
-    // Re N: θ in [0, π], knee where a sin²(θ/2) = xc
-    let re_integrand = |th: f64| b.eval(a * (0.5 * th).sin().powi(2)).0 * th.cos();
-    let (re_int, w_int) = if a > xc {
-        let th_c = 2.0 * (xc / a).sqrt().asin();
-        (
-            // the second panel set runs from the far end toward the knee
-            graded(&re_integrand, 0.0, th_c, panels) - graded(&re_integrand, PI, th_c, panels),
-            graded(&|u| b.eval(u).0, 0.0, xc, panels) - graded(&|u| b.eval(u).0, a, xc, panels),
-        )
-    } else {
-        (
-            graded(&re_integrand, 0.0, PI, panels),
-            graded(&|u| b.eval(u).0, 0.0, a, panels),
-        )
-    };
-    let re = -4.0 / (PI * a) * re_int;
-    let w = 8.0 * w_int - 4.0 * a * b.eval(a).0;
-    Complex64::new(re, w / (PI * a * a))
-}
-
-/// `∫` from `from` to `to` (either order) with panels shrinking
-/// geometrically (ratio 1/3) toward `to`, 16-point Gauss–Legendre on each.
-fn graded(f: &dyn Fn(f64) -> f64, from: f64, to: f64, panels: usize) -> f64 {
-    let (nodes, weights) = gauss_legendre_16();
-    let total = to - from;
-    // widths w, w/3, w/9, ... summing to |total|
-    let ratio: f64 = 1.0 / 3.0;
-    let first = total * (1.0 - ratio) / (1.0 - ratio.powi(panels as i32));
-    let mut sum = 0.0;
-    let mut lo = from;
-    let mut width = first;
-    for p in 0..panels {
-        let hi = if p + 1 == panels { to } else { lo + width };
-        let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-        let mut s = 0.0;
-        for (x, w) in nodes.iter().zip(weights) {
-            s += w * f(mid + half * x);
-        }
-        sum += s * half;
-        lo = hi;
-        width *= ratio;
-    }
-    sum
-}
-
-/// 16-point Gauss–Legendre nodes and weights on [−1, 1] (Newton on the
-/// Legendre recurrence, Golub–Welsch-free, computed once).
-fn gauss_legendre_16() -> &'static ([f64; 16], [f64; 16]) {
-    static TABLE: OnceLock<([f64; 16], [f64; 16])> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        const N: usize = 16;
-        let mut x = [0.0; N];
-        let mut w = [0.0; N];
-        for i in 0..N {
-            let mut z = (PI * (i as f64 + 0.75) / (N as f64 + 0.5)).cos();
-            let mut dp = 1.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, z);
-                for k in 2..=N {
-                    let k = k as f64;
-                    let p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = N as f64 * (z * p1 - p0) / (z * z - 1.0);
-                let dz = p1 / dp;
-                z -= dz;
-                if dz.abs() < 1e-16 {
-                    break;
-                }
-            }
-            x[i] = z;
-            w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
-        }
-        (x, w)
-    })
-}
-
-/// The describing function of any element, from one periodic loop of `samples`
-/// points: `x_j = a cos θ_j`, `v_j = −aω sin θ_j`, marched from the
-/// displacement maximum after a virgin ramp (so the loop closes within the one
-/// period), and the fundamental `(2/N) Σ g_j e^{−jθ_j}` divided by `a`.
+/// The describing function of any element, from one periodic loop of
+/// `samples` points: see [`crate::model::element::loop_fundamental`].
 pub fn numeric<E: Element>(
     element: &mut E,
     amplitude: f64,
     omega: f64,
     samples: usize,
 ) -> Complex64 {
-    let a = amplitude;
-    let ns = samples.max(4);
-    element.reset();
-    element.commit(a, 0.0);
-    let mut acc = Complex64::new(0.0, 0.0);
-    for s in 1..=ns {
-        let j = s % ns;
-        let th = 2.0 * PI * j as f64 / ns as f64;
-        let (sn, cs) = th.sin_cos();
-        let g = element.commit(a * cs, -a * omega * sn).force;
-        acc += Complex64::new(g * cs, -g * sn);
-    }
-    element.reset();
-    acc * (2.0 / ns as f64) / a
+    crate::model::element::loop_fundamental(element, amplitude, omega, samples)
 }
 
 /// The describing function of an element or a set of them at amplitude `a`
-/// and angular frequency `omega`: closed forms for Jenkins, cubic stiffness,
-/// viscous and quadratic damping; quadrature for the eq. (10) Masing element
-/// (a cheaper 2-panel rule than [`masing`], ~1e-4 relative: these are
-/// starting points); [`numeric`] (with `samples` points) for anything else.
-/// The element is left reset.
-pub fn of_elements<E: Element + 'static>(
+/// and angular frequency `omega`: each element's own
+/// [`Element::describing_function`] (closed forms where known, a cheap
+/// quadrature for the eq. (10) Masing element: these are starting points;
+/// else one marched loop of `samples` points). The element is left reset.
+pub fn of_elements<E: Element>(
     elements: &mut E,
     amplitude: f64,
     omega: f64,
     samples: usize,
 ) -> Complex64 {
-    let any: &mut dyn Any = elements;
-    if let Some(set) = any.downcast_mut::<ElementSet<AnyElement>>() {
-        return set
-            .elements
-            .iter_mut()
-            .map(|e| any_element(e, amplitude, omega, samples))
-            .sum();
-    }
-    if let Some(e) = any.downcast_mut::<AnyElement>() {
-        return any_element(e, amplitude, omega, samples);
-    }
-    if let Some(j) = any.downcast_mut::<Jenkins>() {
-        return jenkins(j.kd(), j.fd(), amplitude);
-    }
-    if let Some(m) = any.downcast_mut::<Masing>() {
-        return masing_fast(m.backbone(), amplitude);
-    }
-    if let Some(set) = any.downcast_mut::<ElementSet<Jenkins>>() {
-        return set
-            .elements
-            .iter()
-            .map(|j| jenkins(j.kd(), j.fd(), amplitude))
-            .sum();
-    }
-    if let Some(set) = any.downcast_mut::<ElementSet<Masing>>() {
-        return set
-            .elements
-            .iter()
-            .map(|m| masing_fast(m.backbone(), amplitude))
-            .sum();
-    }
-    if any.downcast_mut::<NoElement>().is_some() {
-        return Complex64::new(0.0, 0.0);
-    }
-    numeric(elements, amplitude, omega, samples)
-}
-
-/// A cheaper quadrature (2 panels a side), ~1e-5 relative: enough for a
-/// starting point.
-fn masing_fast(b: &PowerBackbone, amplitude: f64) -> Complex64 {
-    let (kd, fd, _) = b.parameters();
-    masing_backbone(b, fd / kd, amplitude, 2)
-}
-
-fn any_element(e: &mut AnyElement, a: f64, omega: f64, samples: usize) -> Complex64 {
-    match e {
-        AnyElement::Jenkins(j) => jenkins(j.kd(), j.fd(), a),
-        AnyElement::Masing(m) => masing_fast(m.backbone(), a),
-        AnyElement::CubicStiffness(c) => Complex64::new(0.75 * c.k3 * a * a, 0.0),
-        AnyElement::ViscousDamping(c) => Complex64::new(0.0, c.cj * omega),
-        // c2 |v| v with v = −aω sin θ: fundamental (8/3π) c2 a² ω²
-        AnyElement::QuadraticDamping(c) => {
-            Complex64::new(0.0, 8.0 / (3.0 * PI) * c.c2 * a.abs() * omega * omega)
-        }
-        other => numeric(other, a, omega, samples),
-    }
+    elements.describing_function(amplitude, omega, samples)
 }
 
 /// Every solution of the single-harmonic balance `X_1 (1/H + N(|X_1|)) = F`
@@ -406,7 +226,8 @@ pub(crate) fn brent(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{CubicStiffness, PiecewiseLinearBackbone};
+    use crate::model::{Backbone, CubicStiffness, Jenkins, PiecewiseLinearBackbone};
+    use std::f64::consts::PI;
 
     const KD: f64 = 2.4e7;
     const FD: f64 = 246.048;
@@ -440,7 +261,7 @@ mod tests {
                 let r = brute(|u| b.eval(u).0, a);
                 let err = (q - r).norm() / r.norm();
                 assert!(err < 1e-8, "n={n} a/ac={ratio}: {q} vs {r} ({err:e})");
-                let fast = masing_fast(&b, a);
+                let fast = loop_describing_function(&b, FD / KD, a, 2);
                 let err = (fast - r).norm() / r.norm();
                 assert!(
                     err < 2e-4,
@@ -461,7 +282,7 @@ mod tests {
             let j = jenkins(KD, FD, a);
             let r = brute(|u| clamp.eval(u).0, a);
             assert!((j - r).norm() < 1e-7 * r.norm(), "a/ac={ratio}: {j} vs {r}");
-            let q = masing_backbone(&clamp, FD / KD, a, 8);
+            let q = loop_describing_function(&clamp, FD / KD, a, 8);
             assert!(
                 (j - q).norm() < 1e-10 * j.norm(),
                 "a/ac={ratio}: {j} vs {q}"

@@ -68,15 +68,11 @@ pub use linear::{LinearPart, SampledReceptance, TabulatedFrf};
 use crate::error::{Error, Result};
 #[cfg(doc)]
 use crate::model::ModalModel;
-use crate::model::{
-    AnyElement, CubicStiffness, Element, ElementSet, Jenkins, Masing, Model, NoElement,
-    ViscousDamping,
-};
+use crate::model::{Element, Model};
 use newton::{Core, Counters};
 use num_complex::Complex64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::any::Any;
 
 /// How AFT makes the hysteresis loop periodic.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -410,27 +406,10 @@ impl HbSolver {
     }
 }
 
-/// Whether every element is of a built-in kind with an odd law (`g(−x, −v)
-/// = −g(x, v)`, hysteresis with mirrored history): the condition for
-/// half-wave symmetry. Unknown element types: `false`.
-pub(crate) fn odd_law<E: Element + 'static>(elements: &E) -> bool {
-    let any: &dyn Any = elements;
-    let any_odd = |e: &AnyElement| !matches!(e, AnyElement::BilinearStiffness(_));
-    if let Some(set) = any.downcast_ref::<ElementSet<AnyElement>>() {
-        return set.elements.iter().all(any_odd);
-    }
-    if let Some(e) = any.downcast_ref::<AnyElement>() {
-        return any_odd(e);
-    }
-    any.is::<Jenkins>()
-        || any.is::<Masing>()
-        || any.is::<NoElement>()
-        || any.is::<CubicStiffness>()
-        || any.is::<ViscousDamping>()
-        || any.is::<ElementSet<Jenkins>>()
-        || any.is::<ElementSet<Masing>>()
-        || any.is::<ElementSet<CubicStiffness>>()
-        || any.is::<ElementSet<ViscousDamping>>()
+/// Whether the elements' law is odd (see [`Element::odd_law`]): the
+/// condition for half-wave symmetry.
+pub(crate) fn odd_law<E: Element>(elements: &E) -> bool {
+    elements.odd_law()
 }
 
 fn check_force(f: f64) -> Result<()> {

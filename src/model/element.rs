@@ -14,7 +14,8 @@
 //! `trial` takes `&self`: the compiler guarantees that evaluating a candidate
 //! leaves no trace in the element's memory (turning points, slider position).
 
-use serde::{Deserialize, Serialize};
+use crate::error::Result;
+use num_complex::Complex64;
 
 /// An element's force and its tangents at one `(x, v)`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -80,6 +81,24 @@ pub trait Element {
     /// Whether the force depends on velocity.
     fn uses_velocity(&self) -> bool {
         false
+    }
+
+    /// Whether the law is odd, `g(−x, −v) = −g(x, v)` (for an element with
+    /// memory: with its history mirrored too). Then symmetric forcing gives a
+    /// response with half-wave symmetry, odd harmonics only, and harmonic
+    /// balance may solve for those alone. `false` (every harmonic) unless the
+    /// element says so.
+    fn odd_law(&self) -> bool {
+        false
+    }
+
+    /// The describing function `N(a, ω)`: the fundamental of the force under
+    /// `x = a cos θ`, divided by `a` (`Re N`: equivalent stiffness, `Im N`:
+    /// equivalent damping times ω). An element overrides it with a closed
+    /// form or a quadrature cheaper than the default, [`loop_fundamental`]
+    /// over one marched loop of `samples` points. Leaves the element reset.
+    fn describing_function(&mut self, amplitude: f64, omega: f64, samples: usize) -> Complex64 {
+        loop_fundamental(self, amplitude, omega, samples)
     }
 
     /// The root `u` of the per-sample implicit equation in closed form, when
@@ -160,6 +179,15 @@ impl<E: Element> Element for ElementSet<E> {
     fn uses_velocity(&self) -> bool {
         self.elements.iter().any(Element::uses_velocity)
     }
+    fn odd_law(&self) -> bool {
+        self.elements.iter().all(Element::odd_law)
+    }
+    fn describing_function(&mut self, amplitude: f64, omega: f64, samples: usize) -> Complex64 {
+        self.elements
+            .iter_mut()
+            .map(|e| e.describing_function(amplitude, omega, samples))
+            .sum()
+    }
     #[inline]
     fn commit_sensitivity(
         &mut self,
@@ -202,10 +230,43 @@ impl Element for NoElement {
     fn has_memory(&self) -> bool {
         false
     }
+    fn odd_law(&self) -> bool {
+        true
+    }
+    fn describing_function(&mut self, _amplitude: f64, _omega: f64, _samples: usize) -> Complex64 {
+        Complex64::new(0.0, 0.0)
+    }
     #[inline]
     fn solve_implicit(&self, step: &ImplicitStep) -> Option<f64> {
         Some(step.force)
     }
+}
+
+/// The describing function of any element from one periodic loop of
+/// `samples` points: `x_j = a cos θ_j`, `v_j = −aω sin θ_j`, marched from the
+/// displacement maximum after a virgin ramp (so the loop closes within the one
+/// period), and the fundamental `(2/N) Σ g_j e^{−jθ_j}` divided by `a`. The
+/// element is left reset.
+pub fn loop_fundamental<E: Element + ?Sized>(
+    element: &mut E,
+    amplitude: f64,
+    omega: f64,
+    samples: usize,
+) -> Complex64 {
+    let a = amplitude;
+    let ns = samples.max(4);
+    element.reset();
+    element.commit(a, 0.0);
+    let mut acc = Complex64::new(0.0, 0.0);
+    for s in 1..=ns {
+        let j = s % ns;
+        let th = 2.0 * std::f64::consts::PI * j as f64 / ns as f64;
+        let (sn, cs) = th.sin_cos();
+        let g = element.commit(a * cs, -a * omega * sn).force;
+        acc += Complex64::new(g * cs, -g * sn);
+    }
+    element.reset();
+    acc * (2.0 / ns as f64) / a
 }
 
 /// The sign of `x` as ±1 (0 maps to +1).
@@ -214,39 +275,119 @@ pub(crate) fn sign(x: f64) -> f64 {
     if x < 0.0 { -1.0 } else { 1.0 }
 }
 
-/// How an element kind is named in files and reports.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ElementKind {
-    /// Spring `kd` in series with a Coulomb slider `Fd`.
-    Jenkins,
-    /// Paper eq. (10) backbone with Masing rules.
-    Masing,
-    /// `k3 x³`.
-    CubicStiffness,
-    /// `c2 |v| v`.
-    QuadraticDamping,
-    /// `kb x` for `x > 0`, nothing for `x < 0`.
-    BilinearStiffness,
-    /// A two-sided gap: `k (|x| − gap) sign(x)` beyond the gap.
-    Clearance,
-    /// An extra viscous term `cj v`.
-    ViscousDamping,
+/// What values a parameter may take (what a model's check enforces).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Domain {
+    /// Finite and `> 0`.
+    Positive,
+    /// Finite and `≥ 0`.
+    NonNegative,
+    /// Finite, either sign.
+    Signed,
 }
 
-impl ElementKind {
-    /// The snake-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            ElementKind::Jenkins => "jenkins",
-            ElementKind::Masing => "masing",
-            ElementKind::CubicStiffness => "cubic_stiffness",
-            ElementKind::QuadraticDamping => "quadratic_damping",
-            ElementKind::BilinearStiffness => "bilinear_stiffness",
-            ElementKind::Clearance => "clearance",
-            ElementKind::ViscousDamping => "viscous_damping",
-        }
+/// The coordinate a fit moves a parameter in (see `fit::params`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FitScale {
+    /// Its logarithm, six decades either side of the start: a positive
+    /// quantity whose plausible values span decades (a stiffness, a force).
+    Log,
+    /// The value itself divided by its start, bounded by its domain: a size
+    /// that may be zero (or of either sign for [`Domain::Signed`]).
+    Linear,
+    /// Its reciprocal, within `[min, max]`: a shape exponent whose large
+    /// values all look alike (the fit's cost flattens as it grows).
+    Reciprocal {
+        /// Smallest value.
+        min: f64,
+        /// Largest value.
+        max: f64,
+    },
+}
+
+/// What a parameter means to the rest of the pipeline, beyond its value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// The stiffness a joint adds while it sticks (`kd`): the low-level
+    /// stiffness is shared between it and the structure.
+    StickStiffness,
+    /// The force at which a joint slips (`Fd`): bounded by the force levels
+    /// tested.
+    SlipForce,
+    /// Anything else (a shape, a size, a gap).
+    Other,
+}
+
+/// One parameter of an element law.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParameterInfo {
+    /// Its name in files and reports.
+    pub name: &'static str,
+    /// Its SI unit.
+    pub unit: &'static str,
+    /// What it is, in a few words.
+    pub meaning: &'static str,
+    /// The values it may take.
+    pub domain: Domain,
+    /// How a fit moves it.
+    pub scale: FitScale,
+    /// What it means to the pipeline.
+    pub role: Role,
+    /// Its start in a fit where the data give none (joints get `kd`, `Fd`
+    /// from the data; see `fit::identify`).
+    pub start: f64,
+}
+
+/// Everything the pipeline knows about an element law, besides its force.
+///
+/// Harmonic balance reads the symmetry and the samples a period needs, the
+/// fit reads the parameters (domain, scale, role, start), the diagnosis reads
+/// what the law is, the test definition reads the parameter names: no stage
+/// matches on an element's type.
+#[derive(Clone, Copy, Debug)]
+pub struct Description {
+    /// Its name in files and reports (snake case).
+    pub name: &'static str,
+    /// What it is, in a sentence.
+    pub summary: &'static str,
+    /// Its parameters, in the order of `ElementSpec::parameters`.
+    pub parameters: &'static [ParameterInfo],
+    /// Whether the force depends on the history (hysteresis).
+    pub memory: bool,
+    /// Whether the law is odd (see [`Element::odd_law`]).
+    pub odd: bool,
+    /// Samples per period harmonic balance needs at least to resolve the
+    /// law's kinks (0: no own need).
+    pub samples_per_period: usize,
+    /// Parameter values at the paper's system's scale (displacements ~10 µm,
+    /// forces ~100 N): what the element checks run every law with.
+    pub example: &'static [f64],
+}
+
+impl Description {
+    /// Whether this is a joint: a hysteresis law with a stick stiffness and a
+    /// slip force (what `identify` fits).
+    pub fn is_joint(&self) -> bool {
+        self.memory
+            && self.index_of(Role::StickStiffness).is_some()
+            && self.index_of(Role::SlipForce).is_some()
     }
+
+    /// The position of the parameter with `role`.
+    pub fn index_of(&self, role: Role) -> Option<usize> {
+        self.parameters.iter().position(|p| p.role == role)
+    }
+}
+
+/// An element law the registry knows: its description and how it is built
+/// from parameter values (checked against their domains beforehand).
+pub trait Law: Element + Sized {
+    /// What the pipeline knows about it.
+    const DESCRIPTION: Description;
+
+    /// The virgin element with `values` in the order of
+    /// [`Description::parameters`].
+    fn from_parameters(values: &[f64]) -> Result<Self>;
 }
 
 #[cfg(test)]

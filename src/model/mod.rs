@@ -9,95 +9,170 @@
 //! fits and reports handle); [`AnyElement`] is the element built from it, with
 //! state, dispatched without virtual calls in the simulator's loop.
 
+pub mod bilinear_stiffness;
+pub mod clearance;
+pub mod cubic_stiffness;
 pub mod element;
 pub mod jenkins;
 pub mod masing;
 pub mod modal;
-pub mod smooth;
+pub mod quadratic_damping;
+pub mod viscous_damping;
 
-pub use element::{Element, ElementForce, ElementKind, ElementSet, ImplicitStep, NoElement};
+pub use bilinear_stiffness::BilinearStiffness;
+pub use clearance::Clearance;
+pub use cubic_stiffness::CubicStiffness;
+pub use element::{
+    Description, Domain, Element, ElementForce, ElementSet, FitScale, ImplicitStep, Law, NoElement,
+    ParameterInfo, Role,
+};
 pub use jenkins::Jenkins;
 pub use masing::{Backbone, Masing, PiecewiseLinearBackbone, PowerBackbone};
 pub use modal::{ModalModel, Mode};
-pub use smooth::{BilinearStiffness, Clearance, CubicStiffness, QuadraticDamping, ViscousDamping};
+pub use quadratic_damping::QuadraticDamping;
+pub use viscous_damping::ViscousDamping;
 
 use crate::error::{Error, Result, require_finite, require_non_negative, require_positive};
 use serde::{Deserialize, Serialize};
 
-/// An element's kind and parameters.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum ElementSpec {
-    /// Spring `kd` (N/m) in series with a Coulomb slider `fd` (N).
-    Jenkins {
-        /// Stick stiffness, N/m.
-        kd: f64,
-        /// Slip force, N.
-        fd: f64,
-    },
-    /// Eq. (10) backbone with Masing rules.
-    Masing {
-        /// Stick stiffness, N/m.
-        kd: f64,
-        /// Slip force, N.
-        fd: f64,
-        /// Curvature exponent.
-        n: f64,
-    },
-    /// `k3 x³`.
-    CubicStiffness {
-        /// N/m³, either sign.
-        k3: f64,
-    },
-    /// `c2 |v| v`.
-    QuadraticDamping {
-        /// N s²/m².
-        c2: f64,
-    },
-    /// `kb x` for `x > 0`.
-    BilinearStiffness {
-        /// N/m.
-        kb: f64,
-    },
-    /// A spring `k` beyond a symmetric gap `±gap`.
-    Clearance {
-        /// N/m.
-        k: f64,
-        /// m.
-        gap: f64,
-    },
-    /// An extra viscous damper `cj v`.
-    ViscousDamping {
-        /// N s/m.
-        cj: f64,
-    },
+/// The element registry: each law's kind, its type (which implements
+/// [`Element`] and [`Law`]) and its parameter fields, once. From it come
+/// [`ElementKind`], [`ElementSpec`] (the kind and parameters as data, what
+/// TOML files, fits and reports hold) and [`AnyElement`] (the built element,
+/// dispatched without virtual calls in the simulator's loop). Adding a law is
+/// its own file and one line here.
+macro_rules! registry {
+    ($($kind:ident($ty:ty) { $($p:ident),+ }),+ $(,)?) => {
+        /// How an element kind is named in files and reports.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+        #[serde(rename_all = "snake_case")]
+        pub enum ElementKind {
+            $(
+                #[doc = concat!("See [`", stringify!($ty), "`].")]
+                $kind,
+            )+
+        }
+
+        impl ElementKind {
+            /// Every registered kind.
+            pub const ALL: &'static [ElementKind] = &[$(ElementKind::$kind),+];
+
+            /// What the pipeline knows about the law.
+            pub fn description(self) -> &'static Description {
+                match self {
+                    $(ElementKind::$kind => &<$ty as Law>::DESCRIPTION,)+
+                }
+            }
+        }
+
+        /// An element's kind and parameters (see each law's
+        /// [`Description::parameters`] for their units and meaning).
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+        pub enum ElementSpec {
+            $(
+                #[doc = concat!("See [`", stringify!($ty), "`].")]
+                $kind {
+                    $(
+                        #[doc = concat!("`", stringify!($p), "`: see the law's parameter table.")]
+                        $p: f64,
+                    )+
+                },
+            )+
+        }
+
+        impl ElementSpec {
+            /// The kind.
+            pub fn kind(&self) -> ElementKind {
+                match self {
+                    $(ElementSpec::$kind { .. } => ElementKind::$kind,)+
+                }
+            }
+
+            /// Parameter names and values, in the law's order.
+            pub fn parameters(&self) -> Vec<(&'static str, f64)> {
+                match *self {
+                    $(ElementSpec::$kind { $($p),+ } => vec![$((stringify!($p), $p)),+],)+
+                }
+            }
+
+            /// An element of `kind` with parameter `values` in the law's
+            /// order (unchecked: see [`ElementSpec::validate`]).
+            ///
+            /// # Panics
+            /// If `values` has the wrong length (a programming error).
+            pub fn from_values(kind: ElementKind, values: &[f64]) -> ElementSpec {
+                let n = kind.description().parameters.len();
+                assert_eq!(values.len(), n, "{} takes {n} parameters", kind.name());
+                match kind {
+                    $(ElementKind::$kind => {
+                        let mut v = values.iter().copied();
+                        ElementSpec::$kind { $($p: v.next().unwrap_or(f64::NAN)),+ }
+                    })+
+                }
+            }
+
+            fn build_law(&self) -> Result<AnyElement> {
+                let values: Vec<f64> = self.parameters().iter().map(|p| p.1).collect();
+                Ok(match self.kind() {
+                    $(ElementKind::$kind => AnyElement::$kind(<$ty as Law>::from_parameters(&values)?),)+
+                })
+            }
+        }
+
+        /// Any registered element, with its state.
+        #[derive(Clone, Debug)]
+        pub enum AnyElement {
+            $(
+                #[doc = concat!("See [`", stringify!($ty), "`].")]
+                $kind($ty),
+            )+
+        }
+
+        macro_rules! dispatch {
+            ($self_:expr, $e:ident => $body:expr) => {
+                match $self_ {
+                    $(AnyElement::$kind($e) => $body,)+
+                }
+            };
+        }
+    };
+}
+
+registry! {
+    Jenkins(Jenkins) { kd, fd },
+    Masing(Masing) { kd, fd, n },
+    CubicStiffness(CubicStiffness) { k3 },
+    QuadraticDamping(QuadraticDamping) { c2 },
+    BilinearStiffness(BilinearStiffness) { kb },
+    Clearance(Clearance) { k, gap },
+    ViscousDamping(ViscousDamping) { cj },
+}
+
+impl ElementKind {
+    /// The snake-case name.
+    pub fn name(self) -> &'static str {
+        self.description().name
+    }
+
+    /// The kind called `name` in files and on the command line.
+    pub fn from_name(name: &str) -> Option<ElementKind> {
+        ElementKind::ALL.iter().copied().find(|k| k.name() == name)
+    }
+
+    /// The registered joint laws (see [`Description::is_joint`]).
+    pub fn joints() -> impl Iterator<Item = ElementKind> {
+        ElementKind::ALL
+            .iter()
+            .copied()
+            .filter(|k| k.description().is_joint())
+    }
 }
 
 impl ElementSpec {
-    /// The kind.
-    pub fn kind(&self) -> ElementKind {
-        match self {
-            ElementSpec::Jenkins { .. } => ElementKind::Jenkins,
-            ElementSpec::Masing { .. } => ElementKind::Masing,
-            ElementSpec::CubicStiffness { .. } => ElementKind::CubicStiffness,
-            ElementSpec::QuadraticDamping { .. } => ElementKind::QuadraticDamping,
-            ElementSpec::BilinearStiffness { .. } => ElementKind::BilinearStiffness,
-            ElementSpec::Clearance { .. } => ElementKind::Clearance,
-            ElementSpec::ViscousDamping { .. } => ElementKind::ViscousDamping,
-        }
-    }
-
-    /// Parameter names and values, in a fixed order.
-    pub fn parameters(&self) -> Vec<(&'static str, f64)> {
-        match *self {
-            ElementSpec::Jenkins { kd, fd } => vec![("kd", kd), ("fd", fd)],
-            ElementSpec::Masing { kd, fd, n } => vec![("kd", kd), ("fd", fd), ("n", n)],
-            ElementSpec::CubicStiffness { k3 } => vec![("k3", k3)],
-            ElementSpec::QuadraticDamping { c2 } => vec![("c2", c2)],
-            ElementSpec::BilinearStiffness { kb } => vec![("kb", kb)],
-            ElementSpec::Clearance { k, gap } => vec![("k", k), ("gap", gap)],
-            ElementSpec::ViscousDamping { cj } => vec![("cj", cj)],
-        }
+    /// What the pipeline knows about the law.
+    pub fn description(&self) -> &'static Description {
+        self.kind().description()
     }
 
     /// The same kind with parameters replaced, in the order of
@@ -106,77 +181,61 @@ impl ElementSpec {
     /// # Panics
     /// If `values` has the wrong length (a programming error).
     pub fn with_parameters(&self, values: &[f64]) -> ElementSpec {
-        let n = self.parameters().len();
-        assert_eq!(
-            values.len(),
-            n,
-            "{} takes {n} parameters",
-            self.kind().name()
-        );
-        match self {
-            ElementSpec::Jenkins { .. } => ElementSpec::Jenkins {
-                kd: values[0],
-                fd: values[1],
-            },
-            ElementSpec::Masing { .. } => ElementSpec::Masing {
-                kd: values[0],
-                fd: values[1],
-                n: values[2],
-            },
-            ElementSpec::CubicStiffness { .. } => ElementSpec::CubicStiffness { k3: values[0] },
-            ElementSpec::QuadraticDamping { .. } => ElementSpec::QuadraticDamping { c2: values[0] },
-            ElementSpec::BilinearStiffness { .. } => {
-                ElementSpec::BilinearStiffness { kb: values[0] }
-            }
-            ElementSpec::Clearance { .. } => ElementSpec::Clearance {
-                k: values[0],
-                gap: values[1],
-            },
-            ElementSpec::ViscousDamping { .. } => ElementSpec::ViscousDamping { cj: values[0] },
-        }
+        ElementSpec::from_values(self.kind(), values)
     }
 
-    /// Checks the parameters; `at` prefixes the field names in messages
-    /// (e.g. `joint` or `effects[1]`).
-    pub fn validate(&self, at: &str) -> Result<()> {
-        let f = |p: &str| format!("{at}.{p}");
-        match *self {
-            ElementSpec::Jenkins { kd, fd } => {
-                require_positive(&f("kd"), kd)?;
-                require_positive(&f("fd"), fd)
-            }
-            ElementSpec::Masing { kd, fd, n } => {
-                require_positive(&f("kd"), kd)?;
-                require_positive(&f("fd"), fd)?;
-                masing::validate_curvature(&f("n"), n)
-            }
-            ElementSpec::CubicStiffness { k3 } => require_finite(&f("k3"), k3),
-            ElementSpec::QuadraticDamping { c2 } => require_non_negative(&f("c2"), c2),
-            ElementSpec::BilinearStiffness { kb } => require_finite(&f("kb"), kb),
-            ElementSpec::Clearance { k, gap } => {
-                require_non_negative(&f("k"), k)?;
-                require_non_negative(&f("gap"), gap)
-            }
-            ElementSpec::ViscousDamping { cj } => require_non_negative(&f("cj"), cj),
+    /// A joint of `kind` started at stick stiffness `kd` and slip force
+    /// `fd`, its other parameters at their law's start; an error naming
+    /// `field` if the kind is not a joint.
+    pub fn joint(kind: ElementKind, kd: f64, fd: f64, field: &str) -> Result<ElementSpec> {
+        let d = kind.description();
+        if !d.is_joint() {
+            let joints: Vec<&str> = ElementKind::joints().map(ElementKind::name).collect();
+            return Err(Error::plan(
+                field,
+                format!(
+                    "{} is not a joint element (use one of: {})",
+                    d.name,
+                    joints.join(", ")
+                ),
+            ));
         }
+        let values: Vec<f64> = d
+            .parameters
+            .iter()
+            .map(|p| match p.role {
+                Role::StickStiffness => kd,
+                Role::SlipForce => fd,
+                Role::Other => p.start,
+            })
+            .collect();
+        Ok(ElementSpec::from_values(kind, &values))
+    }
+
+    /// The value of the parameter with `role`, if the law has one.
+    pub fn value_of(&self, role: Role) -> Option<f64> {
+        let i = self.description().index_of(role)?;
+        Some(self.parameters()[i].1)
+    }
+
+    /// Checks each parameter against its domain; `at` prefixes the field
+    /// names in messages (e.g. `joint` or `effects[1]`).
+    pub fn validate(&self, at: &str) -> Result<()> {
+        for (info, (name, value)) in self.description().parameters.iter().zip(self.parameters()) {
+            let field = format!("{at}.{name}");
+            match info.domain {
+                Domain::Positive => require_positive(&field, value)?,
+                Domain::NonNegative => require_non_negative(&field, value)?,
+                Domain::Signed => require_finite(&field, value)?,
+            }
+        }
+        Ok(())
     }
 
     /// Builds a virgin element.
     pub fn build(&self) -> Result<AnyElement> {
         self.validate(self.kind().name())?;
-        Ok(match *self {
-            ElementSpec::Jenkins { kd, fd } => AnyElement::Jenkins(Jenkins::new(kd, fd)?),
-            ElementSpec::Masing { kd, fd, n } => AnyElement::Masing(Masing::new(kd, fd, n)?),
-            ElementSpec::CubicStiffness { k3 } => AnyElement::CubicStiffness(CubicStiffness { k3 }),
-            ElementSpec::QuadraticDamping { c2 } => {
-                AnyElement::QuadraticDamping(QuadraticDamping { c2 })
-            }
-            ElementSpec::BilinearStiffness { kb } => {
-                AnyElement::BilinearStiffness(BilinearStiffness { kb })
-            }
-            ElementSpec::Clearance { k, gap } => AnyElement::Clearance(Clearance { k, gap }),
-            ElementSpec::ViscousDamping { cj } => AnyElement::ViscousDamping(ViscousDamping { cj }),
-        })
+        self.build_law()
     }
 
     /// The element's steady force–displacement loop under `x = a cos θ`:
@@ -202,44 +261,8 @@ impl ElementSpec {
     /// The stick stiffness a hysteresis element adds at small amplitude
     /// (0 for the others).
     pub fn stick_stiffness(&self) -> f64 {
-        match *self {
-            ElementSpec::Jenkins { kd, .. } | ElementSpec::Masing { kd, .. } => kd,
-            _ => 0.0,
-        }
+        self.value_of(Role::StickStiffness).unwrap_or(0.0)
     }
-}
-
-/// Any built-in element, with its state.
-#[derive(Clone, Debug)]
-pub enum AnyElement {
-    /// See [`Jenkins`].
-    Jenkins(Jenkins),
-    /// See [`Masing`].
-    Masing(Masing),
-    /// See [`CubicStiffness`].
-    CubicStiffness(CubicStiffness),
-    /// See [`QuadraticDamping`].
-    QuadraticDamping(QuadraticDamping),
-    /// See [`BilinearStiffness`].
-    BilinearStiffness(BilinearStiffness),
-    /// See [`Clearance`].
-    Clearance(Clearance),
-    /// See [`ViscousDamping`].
-    ViscousDamping(ViscousDamping),
-}
-
-macro_rules! dispatch {
-    ($self:expr, $e:ident => $body:expr) => {
-        match $self {
-            AnyElement::Jenkins($e) => $body,
-            AnyElement::Masing($e) => $body,
-            AnyElement::CubicStiffness($e) => $body,
-            AnyElement::QuadraticDamping($e) => $body,
-            AnyElement::BilinearStiffness($e) => $body,
-            AnyElement::Clearance($e) => $body,
-            AnyElement::ViscousDamping($e) => $body,
-        }
-    };
 }
 
 impl Element for AnyElement {
@@ -259,6 +282,17 @@ impl Element for AnyElement {
     }
     fn uses_velocity(&self) -> bool {
         dispatch!(self, e => e.uses_velocity())
+    }
+    fn odd_law(&self) -> bool {
+        dispatch!(self, e => e.odd_law())
+    }
+    fn describing_function(
+        &mut self,
+        amplitude: f64,
+        omega: f64,
+        samples: usize,
+    ) -> num_complex::Complex64 {
+        dispatch!(self, e => e.describing_function(amplitude, omega, samples))
     }
     #[inline]
     fn solve_implicit(&self, step: &ImplicitStep) -> Option<f64> {
@@ -336,17 +370,22 @@ impl Model {
 
     /// Whether any element has memory.
     pub fn has_memory(&self) -> bool {
-        self.elements
-            .iter()
-            .any(|e| matches!(e.kind(), ElementKind::Jenkins | ElementKind::Masing))
+        self.elements.iter().any(|e| e.description().memory)
     }
 
     /// Whether any element breaks the half-wave symmetry (makes even
     /// harmonics and DC under symmetric forcing).
     pub fn is_asymmetric(&self) -> bool {
+        self.elements.iter().any(|e| !e.description().odd)
+    }
+
+    /// The most samples per period any element's law needs (0: none).
+    pub fn samples_per_period(&self) -> usize {
         self.elements
             .iter()
-            .any(|e| matches!(e.kind(), ElementKind::BilinearStiffness))
+            .map(|e| e.description().samples_per_period)
+            .max()
+            .unwrap_or(0)
     }
 
     /// Error unless `name` is a parameter of element `index`.
@@ -396,6 +435,101 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(e.contains("bouncy"), "{e}");
+    }
+
+    /// The registry and each law's description agree, and what a
+    /// description says is what the element does: its symmetry (forces
+    /// mirrored under a mirrored history), its memory (the force along a
+    /// reversing history is a function of `(x, v)` alone, or not), its
+    /// velocity dependence, and its describing function (the marched loop's
+    /// fundamental). Every law passes the element checker at its example.
+    #[test]
+    fn every_registered_law_is_what_its_description_says() {
+        use element::check::{check_element, history};
+        for &kind in ElementKind::ALL {
+            let d = kind.description();
+            let spec = ElementSpec::from_values(kind, d.example);
+            let names: Vec<&str> = spec.parameters().iter().map(|p| p.0).collect();
+            let described: Vec<&str> = d.parameters.iter().map(|p| p.name).collect();
+            assert_eq!(names, described, "{}", d.name);
+            assert_eq!(ElementKind::from_name(d.name), Some(kind));
+            assert_eq!(
+                serde_json::to_value(kind).unwrap(),
+                serde_json::json!(d.name),
+                "the serde name of {kind:?}"
+            );
+            let mut e = spec.build().unwrap();
+            assert_eq!(e.has_memory(), d.memory, "{}", d.name);
+            assert_eq!(e.odd_law(), d.odd, "{}", d.name);
+            check_element(e.clone(), 3e-5, 300.0);
+            // symmetry, memory and velocity, from forces along a history
+            let xs = history(3e-5);
+            let march = |e: &mut AnyElement, sign: f64, speed: f64| -> Vec<f64> {
+                e.reset();
+                let mut prev = 0.0;
+                xs.iter()
+                    .map(|&x| {
+                        let v = (x - prev) * speed;
+                        prev = x;
+                        e.commit(sign * x, sign * v).force
+                    })
+                    .collect()
+            };
+            let up = march(&mut e, 1.0, 1e3);
+            let down = march(&mut e, -1.0, 1e3);
+            let odd = up
+                .iter()
+                .zip(&down)
+                .all(|(a, b)| (a + b).abs() <= 1e-12 * a.abs().max(1e-9));
+            assert_eq!(odd, d.odd, "{}: odd law", d.name);
+            let slow = march(&mut e, 1.0, 2e3);
+            let velocity = up
+                .iter()
+                .zip(&slow)
+                .any(|(a, b)| (a - b).abs() > 1e-9 * a.abs().max(1e-9));
+            assert_eq!(
+                velocity,
+                e.uses_velocity(),
+                "{}: velocity dependence",
+                d.name
+            );
+            if !e.uses_velocity() {
+                // without memory the force at the same x is the same on the
+                // way up and the way down
+                let mut seen: Vec<(f64, f64)> = Vec::new();
+                let mut history_dependent = false;
+                for (&x, &f) in xs.iter().zip(&up) {
+                    if let Some(&(_, g)) = seen.iter().find(|(y, _)| (y - x).abs() < 1e-18) {
+                        history_dependent |= (g - f).abs() > 1e-9 * f.abs().max(1e-6);
+                    }
+                    seen.push((x, f));
+                }
+                assert_eq!(history_dependent, d.memory, "{}: memory", d.name);
+            }
+            // the describing function against one marched loop of many samples
+            let omega = 2.0 * std::f64::consts::PI * 200.0;
+            for a in [3e-6, 2e-5, 1e-4] {
+                let own = e.describing_function(a, omega, 4096);
+                let marched = element::loop_fundamental(&mut e, a, omega, 1 << 16);
+                assert!(
+                    (own - marched).norm() <= 2e-4 * marched.norm() + 1e-9,
+                    "{} at a = {a}: {own} vs {marched}",
+                    d.name
+                );
+            }
+            if d.is_joint() {
+                let j = ElementSpec::joint(kind, 1e7, 100.0, "element").unwrap();
+                assert_eq!(j.stick_stiffness(), 1e7);
+                assert_eq!(j.value_of(Role::SlipForce), Some(100.0));
+            } else {
+                let err = ElementSpec::joint(kind, 1e7, 100.0, "element").unwrap_err();
+                assert!(err.to_string().contains("not a joint"), "{err}");
+            }
+        }
+        assert_eq!(
+            ElementKind::joints().collect::<Vec<_>>(),
+            [ElementKind::Jenkins, ElementKind::Masing]
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@
 use crate::error::{Error, Result};
 use crate::extract::Direction;
 use crate::harmonics::Quantity;
-use crate::model::{ElementSpec, ModalModel, Mode, Model};
+use crate::model::{ElementKind, ElementSpec, ModalModel, Mode, Model};
 use serde::{Deserialize, Serialize};
 
 /// The embedded default test definition (the paper's simulated case).
@@ -61,71 +61,117 @@ pub struct ModeSpec {
     pub residue: Option<f64>,
 }
 
-/// The joint: a hysteresis element, or none.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum JointSpec {
-    /// No joint: the linear structure (plus any effects).
-    #[default]
-    None,
-    /// Spring `kd` in series with a slider `fd`.
-    Jenkins {
-        /// N/m.
-        kd: f64,
-        /// N.
-        fd: f64,
-    },
-    /// Eq. (10) with Masing rules.
-    Masing {
-        /// N/m.
-        kd: f64,
-        /// N.
-        fd: f64,
-        /// Curvature.
-        n: f64,
-    },
+/// The joint: a registered joint law (see
+/// [`crate::model::Description::is_joint`]), or none (`kind = "none"`, or no
+/// `[joint]` table).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JointSpec(pub Option<ElementSpec>);
+
+impl Serialize for JointSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        match &self.0 {
+            Some(e) => e.serialize(s),
+            None => {
+                let mut m = s.serialize_map(Some(1))?;
+                m.serialize_entry("kind", "none")?;
+                m.end()
+            }
+        }
+    }
 }
 
-/// An effect acting besides the joint.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+impl<'de> Deserialize<'de> for JointSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let v = serde_json::Value::deserialize(d)?;
+        if v.get("kind").and_then(|k| k.as_str()) == Some("none") {
+            return match v.as_object().map(|o| o.len()) {
+                Some(1) => Ok(JointSpec(None)),
+                _ => Err(D::Error::custom(
+                    "a joint of kind `none` takes no parameters",
+                )),
+            };
+        }
+        let spec: ElementSpec = serde_json::from_value(v).map_err(D::Error::custom)?;
+        if !spec.description().is_joint() {
+            return Err(D::Error::custom(format!(
+                "`{}` is not a joint law (joints: {}, or none); give it under [[effects]]",
+                spec.kind().name(),
+                joint_names().join(", ")
+            )));
+        }
+        Ok(JointSpec(Some(spec)))
+    }
+}
+
+fn joint_names() -> Vec<&'static str> {
+    ElementKind::joints().map(ElementKind::name).collect()
+}
+
+/// An effect acting besides the joint: a registered law that is not a joint,
+/// or a further linear mode (`kind = "second_mode"`).
+#[derive(Clone, Debug, PartialEq)]
 pub enum EffectSpec {
-    /// `k3 x³`.
-    CubicStiffness {
-        /// N/m³.
-        k3: f64,
-    },
-    /// `c2 |v| v`.
-    QuadraticDamping {
-        /// N s²/m².
-        c2: f64,
-    },
-    /// `kb x` for `x > 0` only.
-    BilinearStiffness {
-        /// N/m.
-        kb: f64,
-    },
-    /// A spring `k` beyond `±gap`.
-    Clearance {
-        /// N/m.
-        k: f64,
-        /// m.
-        gap: f64,
-    },
-    /// An extra viscous damper at the joint.
-    ViscousDamping {
-        /// N s/m.
-        cj: f64,
-    },
-    /// An extra linear mode.
-    SecondMode {
-        /// Hz.
-        frequency_hz: f64,
-        /// Damping ratio.
-        damping_ratio: f64,
-        /// Modal mass at the joint point, kg.
-        modal_mass: f64,
-    },
+    /// An element law at the joint point.
+    Element(ElementSpec),
+    /// A further linear mode.
+    SecondMode(SecondModeSpec),
+}
+
+/// A further linear mode given as an effect.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SecondModeSpec {
+    /// Hz.
+    pub frequency_hz: f64,
+    /// Damping ratio.
+    pub damping_ratio: f64,
+    /// Modal mass at the joint point, kg.
+    pub modal_mass: f64,
+}
+
+/// The parameter names of a further mode given as an effect.
+const SECOND_MODE_KEYS: &[&str] = &["frequency_hz", "damping_ratio", "modal_mass"];
+
+impl Serialize for EffectSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        match self {
+            EffectSpec::Element(e) => e.serialize(s),
+            EffectSpec::SecondMode(m) => {
+                let mut map = s.serialize_map(Some(4))?;
+                map.serialize_entry("kind", "second_mode")?;
+                map.serialize_entry("frequency_hz", &m.frequency_hz)?;
+                map.serialize_entry("damping_ratio", &m.damping_ratio)?;
+                map.serialize_entry("modal_mass", &m.modal_mass)?;
+                map.end()
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for EffectSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let mut v = serde_json::Value::deserialize(d)?;
+        if v.get("kind").and_then(|k| k.as_str()) == Some("second_mode") {
+            if let Some(o) = v.as_object_mut() {
+                o.remove("kind");
+            }
+            return serde_json::from_value(v)
+                .map(EffectSpec::SecondMode)
+                .map_err(D::Error::custom);
+        }
+        let spec: ElementSpec = serde_json::from_value(v).map_err(D::Error::custom)?;
+        if spec.description().is_joint() {
+            return Err(D::Error::custom(format!(
+                "`{}` is a joint law: give it as [joint]",
+                spec.kind().name()
+            )));
+        }
+        Ok(EffectSpec::Element(spec))
+    }
 }
 
 /// Frequencies: an explicit list or an evenly spaced range.
@@ -281,44 +327,47 @@ fn default_frequency_tolerance() -> f64 {
     1e-3
 }
 
-/// Keys that hold numbers, per table.
-const NUMBER_KEYS: &[(&str, &[&str])] = &[
-    ("system", &["mass", "damping", "stiffness"]),
-    ("joint", &["kd", "fd", "n"]),
-    (
-        "effects",
-        &[
-            "k3",
-            "c2",
-            "kb",
-            "k",
-            "gap",
-            "cj",
-            "frequency_hz",
-            "damping_ratio",
-            "modal_mass",
-        ],
-    ),
-    (
-        "modes",
-        &["frequency_hz", "damping_ratio", "modal_mass", "residue"],
-    ),
-    (
-        "test",
-        &[
-            "noise",
-            "force_noise",
-            "sample_rate_hz",
-            "settle_tolerance",
-            "frequency_tolerance",
-            "seed",
-            "oversample",
-            "max_harmonic",
-            "max_settle_periods",
-            "measure_periods",
-        ],
-    ),
-];
+/// Keys that hold numbers, per table: the laws' parameters from the
+/// element registry, and the fixed keys of the other tables.
+fn number_keys() -> Vec<(&'static str, Vec<&'static str>)> {
+    let names = |joints: bool| -> Vec<&'static str> {
+        let mut v: Vec<&'static str> = ElementKind::ALL
+            .iter()
+            .map(|k| k.description())
+            .filter(|d| d.is_joint() == joints)
+            .flat_map(|d| d.parameters.iter().map(|p| p.name))
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let mut effects = names(false);
+    effects.extend_from_slice(SECOND_MODE_KEYS);
+    vec![
+        ("system", vec!["mass", "damping", "stiffness"]),
+        ("joint", names(true)),
+        ("effects", effects),
+        (
+            "modes",
+            vec!["frequency_hz", "damping_ratio", "modal_mass", "residue"],
+        ),
+        (
+            "test",
+            vec![
+                "noise",
+                "force_noise",
+                "sample_rate_hz",
+                "settle_tolerance",
+                "frequency_tolerance",
+                "seed",
+                "oversample",
+                "max_harmonic",
+                "max_settle_periods",
+                "measure_periods",
+            ],
+        ),
+    ]
+}
 
 /// Names the key of a value that should be a number but is not.
 fn check_value_types(root: &toml::Table, origin: &str) -> Result<()> {
@@ -329,8 +378,8 @@ fn check_value_types(root: &toml::Table, origin: &str) -> Result<()> {
             format!("expected a number, got {} `{v}`", v.type_str()),
         )
     };
-    for (table, keys) in NUMBER_KEYS {
-        let tables: Vec<(String, &toml::Table)> = match root.get(*table) {
+    for (table, keys) in number_keys() {
+        let tables: Vec<(String, &toml::Table)> = match root.get(table) {
             Some(toml::Value::Table(t)) => vec![(table.to_string(), t)],
             Some(toml::Value::Array(a)) => a
                 .iter()
@@ -340,7 +389,7 @@ fn check_value_types(root: &toml::Table, origin: &str) -> Result<()> {
             _ => Vec::new(),
         };
         for (name, t) in tables {
-            for key in *keys {
+            for key in &keys {
                 if let Some(v) = t.get(*key)
                     && !(v.is_float() || v.is_integer())
                 {
@@ -566,35 +615,23 @@ impl TestDefinition {
             }
         };
         let mut elements = Vec::new();
-        match self.joint {
-            JointSpec::None => {}
-            JointSpec::Jenkins { kd, fd } => elements.push(ElementSpec::Jenkins { kd, fd }),
-            JointSpec::Masing { kd, fd, n } => elements.push(ElementSpec::Masing { kd, fd, n }),
-        }
-        if let Some(e) = elements.first() {
-            e.validate("joint")?;
+        if let Some(joint) = &self.joint.0 {
+            joint.validate("joint")?;
+            elements.push(joint.clone());
         }
         for (i, e) in self.effects.iter().enumerate() {
             let at = format!("effects[{i}]");
-            let spec = match *e {
-                EffectSpec::CubicStiffness { k3 } => ElementSpec::CubicStiffness { k3 },
-                EffectSpec::QuadraticDamping { c2 } => ElementSpec::QuadraticDamping { c2 },
-                EffectSpec::BilinearStiffness { kb } => ElementSpec::BilinearStiffness { kb },
-                EffectSpec::Clearance { k, gap } => ElementSpec::Clearance { k, gap },
-                EffectSpec::ViscousDamping { cj } => ElementSpec::ViscousDamping { cj },
-                EffectSpec::SecondMode {
-                    frequency_hz,
-                    damping_ratio,
-                    modal_mass,
-                } => {
-                    let mode = Mode::from_modal_mass(frequency_hz, damping_ratio, modal_mass)
+            match e {
+                EffectSpec::Element(spec) => {
+                    spec.validate(&at)?;
+                    elements.push(spec.clone());
+                }
+                EffectSpec::SecondMode(m) => {
+                    let mode = Mode::from_modal_mass(m.frequency_hz, m.damping_ratio, m.modal_mass)
                         .map_err(|e| Error::model(at.clone(), e.to_string()))?;
                     modes.push(mode);
-                    continue;
                 }
-            };
-            spec.validate(&at)?;
-            elements.push(spec);
+            }
         }
         Model::new(ModalModel::new(modes)?, elements)
     }
