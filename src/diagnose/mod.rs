@@ -26,65 +26,25 @@
 //! "No significant missing effect" is an answer, given when no candidate
 //! passes.
 
+pub mod candidates;
 pub mod features;
 
+pub use candidates::Effect;
 pub use features::{ResidualFeatures, features};
+
+use candidates::Context;
 
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
-use crate::fit::params::{BandSide, band_side};
 use crate::fit::{
     Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, ParameterSet, Prediction,
     Transform, Weighting,
 };
 use crate::harmonics::omega;
-use crate::model::{ElementSpec, Mode, Model};
+use crate::model::{ElementSpec, Model};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-
-/// A model extension the diagnosis can add.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Effect {
-    /// An extra linear mode: frequency, damping ratio, modal constant.
-    SecondMode,
-    /// `k3 x³`, either sign.
-    CubicStiffness,
-    /// `kb x` for `x > 0` only: a contact that opens and closes.
-    BilinearStiffness,
-    /// `c2 |v| v`.
-    QuadraticDamping,
-    /// A spring `k` beyond a symmetric gap `±gap`.
-    Clearance,
-}
-
-impl Effect {
-    /// Every effect.
-    pub const ALL: [Effect; 5] = [
-        Effect::SecondMode,
-        Effect::CubicStiffness,
-        Effect::BilinearStiffness,
-        Effect::QuadraticDamping,
-        Effect::Clearance,
-    ];
-
-    /// The contract name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Effect::SecondMode => "second_mode",
-            Effect::CubicStiffness => "cubic_stiffness",
-            Effect::BilinearStiffness => "bilinear_stiffness",
-            Effect::QuadraticDamping => "quadratic_damping",
-            Effect::Clearance => "clearance",
-        }
-    }
-
-    /// Parses a contract name.
-    pub fn from_name(name: &str) -> Option<Effect> {
-        Effect::ALL.into_iter().find(|e| e.name() == name)
-    }
-}
 
 /// Options of a diagnosis.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -244,10 +204,11 @@ pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> Parameter
     p
 }
 
-struct Refit {
-    model: Model,
-    pred: Prediction,
-    chi2: f64,
+/// A model refitted to the data judged, with its prediction and `χ²`.
+pub(crate) struct Refit {
+    pub(crate) model: Model,
+    pub(crate) pred: Prediction,
+    pub(crate) chi2: f64,
 }
 
 /// Refits every free parameter of `model` to `data` (σ-weighted), by
@@ -330,7 +291,7 @@ fn model_fit(model: &Model, data: &FitData, pred: &Prediction, chi2: f64) -> Mod
 }
 
 /// The largest displacement and velocity amplitudes in the data.
-fn amplitudes(data: &FitData) -> (f64, f64) {
+pub(crate) fn amplitudes(data: &FitData) -> (f64, f64) {
     let Some(k) = data.harmonic_index(1) else {
         return (1.0, 1.0);
     };
@@ -375,21 +336,13 @@ fn gauss_newton_start(
     Ok(if den > 0.0 { num / den } else { probe })
 }
 
-/// A missing mode from the level-averaged residual (the grid search of
-/// [`crate::fit::linear::locate_mode_in`]), away from the modes already there.
-fn locate_mode(base: &Model, data: &FitData, pred: &Prediction) -> Option<Mode> {
-    let d = features::common_receptance_residual(data, pred);
-    let existing: Vec<f64> = base.linear.modes.iter().map(|m| m.frequency_hz).collect();
-    crate::fit::linear::locate_mode_in(&d, &existing)
-}
-
 /// The best of a scan of an effect's size: the model with the effect at
 /// sizes spread over four decades around `probe` (both signs where the size
 /// may take either) and at the Gauss–Newton estimate from zero, judged by
 /// `χ²`. A linearisation from zero alone misjudges a large effect (a contact
 /// whose even harmonics are 40 % of the fundamental is far from its
 /// small-size limit); the scan finds the basin, the refit the optimum.
-fn scan_start(
+pub(crate) fn scan_start(
     base: &Model,
     data: &FitData,
     pred: &Prediction,
@@ -424,121 +377,6 @@ fn scan_start(
     best.map(|(size, chi2)| (size, chi2, gn))
 }
 
-/// `model` with `effect` added at starting sizes taken from the residual:
-/// the best of the scan, and the Gauss–Newton step where it differs by more
-/// than a factor 2 (the scan's best χ² before the refit is not always the
-/// basin of the best χ² after it). Empty when the residual offers no start
-/// (e.g. no further mode in it).
-fn augment(
-    model: &Model,
-    effect: Effect,
-    data: &FitData,
-    pred: &Prediction,
-    predictor: &HbPredictor,
-) -> Result<Vec<Model>> {
-    let (a_max, v_max) = amplitudes(data);
-    let (_, c, k) = model.linear.as_mck().unwrap_or((1.0, 1.0, 1.0));
-    // the joint's stick stiffness counts too: a contact or clearance is
-    // visible against the structure's total stiffness
-    let k = k + model.stick_stiffness();
-    let mut out = model.clone();
-    // an effect of one size parameter: the best of its scan, and the
-    // Gauss–Newton step where it is a different start
-    let scalar = |with: &dyn Fn(f64) -> ElementSpec, probe: f64, signed: bool| {
-        let Some((v, _, gn)) = scan_start(model, data, pred, predictor, with, probe, signed) else {
-            return Vec::new();
-        };
-        let mut sizes = vec![v];
-        sizes.extend(gn.filter(|g| g / v > 2.0 || g / v < 0.5));
-        sizes.into_iter().map(with).collect()
-    };
-    let added: Vec<ElementSpec> = match effect {
-        Effect::SecondMode => match locate_mode(model, data, pred) {
-            Some(mode) => {
-                out.linear.modes.push(mode);
-                return Ok(vec![out]);
-            }
-            None => return Ok(Vec::new()),
-        },
-        Effect::CubicStiffness => scalar(
-            &|k3| ElementSpec::CubicStiffness { k3 },
-            0.01 * k / (a_max * a_max),
-            true,
-        ),
-        Effect::BilinearStiffness => {
-            scalar(&|kb| ElementSpec::BilinearStiffness { kb }, 0.01 * k, true)
-        }
-        Effect::QuadraticDamping => scalar(
-            &|c2| ElementSpec::QuadraticDamping { c2 },
-            0.01 * c / v_max,
-            false,
-        ),
-        Effect::Clearance => [0.25, 0.5, 0.75]
-            .iter()
-            .filter_map(|&g| {
-                let gap = g * a_max;
-                scan_start(
-                    model,
-                    data,
-                    pred,
-                    predictor,
-                    &|p| ElementSpec::Clearance { k: p, gap },
-                    0.01 * k,
-                    false,
-                )
-                .map(|(kc, chi2, _)| (ElementSpec::Clearance { k: kc, gap }, chi2))
-            })
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(e, _)| e)
-            .into_iter()
-            .collect(),
-    };
-    Ok(added
-        .into_iter()
-        .map(|e| {
-            let mut m = out.clone();
-            m.elements.push(e);
-            m
-        })
-        .collect())
-}
-
-/// The effect parameters' names and values in a model (those not in `base`).
-fn effect_parameters(model: &Model, effect: Effect, data: &FitData) -> BTreeMap<String, f64> {
-    let mut out = BTreeMap::new();
-    if effect == Effect::SecondMode {
-        if let Some(m) = model
-            .linear
-            .modes
-            .last()
-            .filter(|_| model.linear.modes.len() > 1)
-        {
-            out.insert("frequency_hz".into(), m.frequency_hz);
-            out.insert("modal_mass".into(), 1.0 / m.residue);
-            // a mode above the band is seen there as a flexibility; outside
-            // the band a damping ratio is no result
-            match band_side(m.frequency_hz, data.band_hz()) {
-                Some(BandSide::Above) => {
-                    out.insert("flexibility".into(), m.static_flexibility());
-                }
-                Some(BandSide::Below) => {}
-                None => {
-                    out.insert("damping_ratio".into(), m.damping_ratio);
-                }
-            }
-        }
-        return out;
-    }
-    for e in &model.elements {
-        if e.kind().name() == effect.name() {
-            for (n, v) in e.parameters() {
-                out.insert(n.to_string(), v);
-            }
-        }
-    }
-    out
-}
-
 /// Why the data do not resolve an effect's size in `r` (k3, kb, c2, a
 /// clearance's stiffness, a mode's modal constant), if they do not: an
 /// interval that includes zero (the effect may not be there at all) or
@@ -551,44 +389,18 @@ fn unresolved(
 ) -> Result<Option<String>> {
     let params = model_parameters(&r.model, data.band_hz());
     let conf = confidence_at(&r.model, &params, &r.pred, data, predictor)?;
+    let candidate = effect.candidate();
     let prefix = format!("{}.", effect.name());
     for (p, e) in params.parameters.iter().zip(&conf.estimates) {
         let Some(name) = p.name.strip_prefix(&prefix) else {
             continue;
         };
-        // at the driving point every mode's modal constant has the sign of
-        // the first: a "mode" of negative modal mass is a curve fit, not a
-        // mode of the structure
-        if matches!(name, "residue" | "flexibility")
-            && let Some(first) = r.model.linear.modes.first()
-            && e.value * first.residue < 0.0
-        {
-            return Ok(Some(format!(
-                "lowered χ² enough, but only as a mode of negative modal mass ({}), which a driving-point response cannot have",
-                fmt_value(1.0 / e.value)
-            )));
-        }
-        // a mode held at the largest damping ratio allowed is no resonance:
-        // the optimiser used it as a smooth background, not as a mode
-        // (inside the band; outside it, a mode is a background by nature
-        // and judged by its size alone)
-        if name == "damping_ratio"
-            && e.value >= 0.99 * crate::fit::params::ZETA_MAX
-            && r.model
-                .linear
-                .modes
-                .last()
-                .is_some_and(|m| band_side(m.frequency_hz, data.band_hz()).is_none())
-        {
-            return Ok(Some(format!(
-                "lowered χ² enough, but only as a mode damped at the bound ζ = {:.2}: not a resolved mode",
-                e.value
-            )));
+        if let Some(why) = candidate.implausible(name, e, &r.model, data) {
+            return Ok(Some(why));
         }
         // the effect's size; its shape (a mode's frequency and damping, a
         // gap) may sit at a bound without making the effect doubtful
-        let size = matches!(name, "k3" | "kb" | "c2" | "k" | "residue" | "flexibility");
-        if !size {
+        if !candidate.size_parameters().contains(&name) {
             continue;
         }
         let at_bound = p
@@ -718,45 +530,14 @@ fn try_candidate(
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
 ) -> Result<Option<Refit>> {
-    let mut starts: Vec<Model> = augment(&current.model, effect, data, &current.pred, predictor)?;
-    if effect == Effect::SecondMode {
-        // a mode out of the band shows only as a residual mass (below) or
-        // flexibility (above), which a search over every frequency may pass
-        // over for a spurious mode inside the band: start from the best mode
-        // below and the best above as well
-        let d = features::common_receptance_residual(data, &current.pred);
-        let existing: Vec<f64> = current
-            .model
-            .linear
-            .modes
-            .iter()
-            .map(|m| m.frequency_hz)
-            .collect();
-        let fmin = d.iter().map(|p| p.0).fold(f64::MAX, f64::min);
-        let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
-        for (lo, hi) in [(0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax)] {
-            if let Some(mode) = crate::fit::linear::locate_mode_between(&d, &existing, lo, hi) {
-                let mut m = current.model.clone();
-                m.linear.modes.push(mode);
-                starts.push(m);
-            }
-        }
-        // a missing mode also bends the linear estimates the baseline started
-        // from: identify afresh with one more mode (with the user's fit
-        // options: the same element, band and linear start), then add back
-        // the effects kept so far
-        let opts = crate::fit::FitOptions {
-            modes: current.model.linear.modes.len() + 1,
-            band_hz: options.band_hz.or(options.fit.band_hz),
-            ..options.fit.clone()
-        };
-        if let Ok(f) = crate::fit::identify(frf, &opts, predictor, None) {
-            let mut m = f.model;
-            m.elements
-                .extend(current.model.elements.iter().skip(1).cloned());
-            starts.push(m);
-        }
-    }
+    let cx = Context {
+        current,
+        data,
+        frf,
+        options,
+        predictor,
+    };
+    let starts = effect.candidate().starts(&cx)?;
     let mut best: Option<Refit> = None;
     let mut last_error = None;
     for start in &starts {
@@ -782,59 +563,11 @@ fn try_candidate(
     }
 }
 
-/// `model` without `effect` (the last element of its kind, or the last
-/// mode beyond the first).
-fn remove_effect(model: &Model, effect: Effect) -> Option<Model> {
-    let mut m = model.clone();
-    if effect == Effect::SecondMode {
-        if m.linear.modes.len() < 2 {
-            return None;
-        }
-        m.linear.modes.pop();
-        return Some(m);
-    }
-    let i = m
-        .elements
-        .iter()
-        .rposition(|e| e.kind().name() == effect.name())?;
-    m.elements.remove(i);
-    Some(m)
-}
-
-/// How many parameters an effect adds.
-fn effect_size(effect: Effect) -> usize {
-    match effect {
-        Effect::SecondMode => 3,
-        Effect::Clearance => 2,
-        _ => 1,
-    }
-}
-
 /// Ranks the candidates by what the residual says (1 = most likely).
 fn rank(features: &ResidualFeatures, candidates: &[Effect]) -> Vec<(Effect, f64)> {
-    let even: f64 = features
-        .chi2_per_dof_by_harmonic
-        .iter()
-        .filter(|(h, _)| *h % 2 == 0)
-        .map(|(_, c)| c - 1.0)
-        .fold(0.0, f64::max);
     let mut scored: Vec<(Effect, f64)> = candidates
         .iter()
-        .map(|&e| {
-            let s = match e {
-                Effect::BilinearStiffness => even,
-                Effect::SecondMode => 10.0 * features.level_independent_share,
-                Effect::CubicStiffness => {
-                    5.0 * features.peak_shift_trend.abs() + features.growth_with_level.max(0.0)
-                }
-                Effect::QuadraticDamping => {
-                    5.0 * (-features.peak_ratio_trend).max(0.0)
-                        + features.growth_with_level.max(0.0)
-                }
-                Effect::Clearance => 2.0 * features.peak_shift_trend.max(0.0),
-            };
-            (e, s)
-        })
+        .map(|&e| (e, e.candidate().score(features)))
         .collect();
     scored.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
     scored
@@ -1031,16 +764,15 @@ pub fn diagnose_observed(
             // the chance that noise alone passes one of them near what it is
             // for one (on the independent corpus's controls, ln n alone let
             // a contact of 1e-3 of the stiffness through)
-            let threshold = (effect_size(effect) as f64 * n_real.ln()
-                + 2.0 * (ranked.len() as f64).ln())
-                * reduced;
+            let threshold =
+                (effect.size() as f64 * n_real.ln() + 2.0 * (ranked.len() as f64).ln()) * reduced;
             let criterion = delta - threshold;
             let report = CandidateReport {
                 effect,
                 round,
                 rank: rank_pos,
                 fit: model_fit(&r.model, &data, &r.pred, r.chi2),
-                effect_parameters: effect_parameters(&r.model, effect, &data),
+                effect_parameters: effect.candidate().parameters(&r.model, &data),
                 delta_chi2: delta,
                 threshold,
                 criterion,
@@ -1109,7 +841,7 @@ pub fn diagnose_observed(
                 .ok()
                 .flatten()
                 .unwrap_or_else(|| "its intervals could not be computed".into());
-            let Some(without) = remove_effect(&current.model, gone) else {
+            let Some(without) = gone.candidate().remove(&current.model) else {
                 break;
             };
             match refit(&without, &data, predictor, None, options.patience) {
@@ -1163,33 +895,8 @@ pub fn diagnose_observed(
             for (p, e) in &pairs {
                 let prefix = format!("{}.", effect.name());
                 if let Some(rest) = p.name.strip_prefix(&prefix) {
-                    let mut e = e.clone();
-                    if rest == "residue" {
-                        // report a modal mass, as the test definitions give
-                        // it; a modal constant whose interval includes zero
-                        // leaves the mass unbounded
-                        let [rlo, rhi] = e.ci95;
-                        let (ci95, identifiable, note) = if rlo <= 0.0 && rhi >= 0.0 {
-                            (
-                                [f64::NEG_INFINITY, f64::INFINITY],
-                                false,
-                                Some("the modal constant's 95 % interval includes zero".into()),
-                            )
-                        } else {
-                            let (lo, hi) = (1.0 / rhi, 1.0 / rlo);
-                            ([lo.min(hi), lo.max(hi)], e.identifiable, e.note.clone())
-                        };
-                        e = Estimate {
-                            value: 1.0 / e.value,
-                            ci95,
-                            identifiable,
-                            note,
-                            ..e
-                        };
-                        parameters.insert("modal_mass".to_string(), e);
-                    } else {
-                        parameters.insert(rest.to_string(), e);
-                    }
+                    let (name, e) = effect.candidate().reported(rest, e.clone());
+                    parameters.insert(name, e);
                 }
             }
             selected.push(SelectedEffect { effect, parameters });
@@ -1224,7 +931,7 @@ pub fn diagnose_observed(
     })
 }
 
-fn fmt_value(v: f64) -> String {
+pub(crate) fn fmt_value(v: f64) -> String {
     if v.abs() >= 1e4 || v.abs() < 1e-2 {
         format!("{v:.4e}")
     } else {
@@ -1242,12 +949,6 @@ fn explain(
     consistent: bool,
 ) -> String {
     let mut s = String::new();
-    let even = f
-        .chi2_per_dof_by_harmonic
-        .iter()
-        .filter(|(h, _)| *h % 2 == 0)
-        .map(|(h, c)| format!("H{h} χ²/dof = {c:.1}"))
-        .collect::<Vec<_>>();
     s.push_str(&format!(
         "The fitted joint left a residual of {:.2} % in H1 (χ²/dof = {:.2} over the harmonics judged). ",
         100.0 * baseline.error_relative,
@@ -1268,74 +969,14 @@ fn explain(
                 b.effect.name(),
                 b.delta_chi2,
                 b.threshold,
-                effect_size(b.effect)
+                b.effect.size()
             )),
             None => s.push_str("No significant missing effect."),
         }
         return s;
     }
     for sel in selected {
-        let why = match sel.effect {
-            Effect::SecondMode => {
-                // a mode above the band is seen in it as a flexibility
-                // only: its frequency is where the fit put it, not a result
-                let resolved = |e: &Estimate| {
-                    let [lo, hi] = e.ci95;
-                    e.identifiable && lo > 0.0 && hi / lo < 1.5
-                };
-                let at = match (
-                    sel.parameters.get("flexibility"),
-                    sel.parameters.get("frequency_hz"),
-                ) {
-                    (Some(x), Some(f)) if resolved(f) => format!(
-                        " at {:.4} Hz, above the measured band (a residual flexibility of {} m/N in it)",
-                        f.value,
-                        fmt_value(x.value)
-                    ),
-                    (Some(x), _) => format!(
-                        " above the measured band, seen in it as a residual flexibility of {} m/N (its frequency is not resolved by these data)",
-                        fmt_value(x.value)
-                    ),
-                    (None, Some(e)) => format!(" at {:.4} Hz", e.value),
-                    _ => String::new(),
-                };
-                if f.level_independent_share >= 0.5 {
-                    format!(
-                        "the residual was largely the same at every level ({:.0} % of it common to all levels), as a linear effect's is: a further mode{at}",
-                        100.0 * f.level_independent_share
-                    )
-                } else {
-                    format!("the residual's shape over frequency matched a further linear mode{at}")
-                }
-            }
-            Effect::CubicStiffness => {
-                let dir = if f.peak_shift_trend > 0.0 {
-                    "upward"
-                } else {
-                    "downward"
-                };
-                format!(
-                    "the residual changed with level (slope {:.2}) and the measured peak moved {dir} relative to the model as the level rose (correlation {:+.2}), which the joint cannot do",
-                    f.growth_with_level, f.peak_shift_trend
-                )
-            }
-            Effect::QuadraticDamping => format!(
-                "the measured peaks fell short of the model's more at higher levels (correlation {:+.2}): damping that grows with velocity",
-                f.peak_ratio_trend
-            ),
-            Effect::BilinearStiffness => format!(
-                "even harmonics stood far above the noise ({}), which a symmetric joint cannot make: one side is stiffer",
-                if even.is_empty() {
-                    "–".to_string()
-                } else {
-                    even.join(", ")
-                }
-            ),
-            Effect::Clearance => {
-                "the stiffness rose beyond a certain amplitude on both sides: a gap closing"
-                    .to_string()
-            }
-        };
+        let why = sel.effect.candidate().explain(f, sel);
         let params: Vec<String> = sel
             .parameters
             .iter()

@@ -1,0 +1,48 @@
+//! A cubic stiffness `k3 x³`: the measured peak moves against the model as
+//! the level rises (a hardening or softening no joint can make).
+
+use super::{Candidate, Context};
+use crate::diagnose::{ResidualFeatures, SelectedEffect};
+use crate::error::Result;
+use crate::model::{ElementKind, ElementSpec, Model};
+
+/// See the module docs.
+pub(crate) struct CubicStiffness;
+
+impl Candidate for CubicStiffness {
+    fn law(&self) -> Option<ElementKind> {
+        Some(ElementKind::CubicStiffness)
+    }
+
+    fn score(&self, f: &ResidualFeatures) -> f64 {
+        5.0 * f.peak_shift_trend.abs() + f.growth_with_level.max(0.0)
+    }
+
+    /// Probed where it adds 1 % of the stiffness at the largest amplitude,
+    /// either sign.
+    fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
+        let (_, k) = cx.damping_and_stiffness();
+        let (a_max, _) = cx.amplitudes();
+        Ok(cx.sized_starts(
+            &|k3| ElementSpec::CubicStiffness { k3 },
+            0.01 * k / (a_max * a_max),
+            true,
+        ))
+    }
+
+    fn size_parameters(&self) -> &'static [&'static str] {
+        &["k3"]
+    }
+
+    fn explain(&self, f: &ResidualFeatures, _: &SelectedEffect) -> String {
+        let dir = if f.peak_shift_trend > 0.0 {
+            "upward"
+        } else {
+            "downward"
+        };
+        format!(
+            "the residual changed with level (slope {:.2}) and the measured peak moved {dir} relative to the model as the level rose (correlation {:+.2}), which the joint cannot do",
+            f.growth_with_level, f.peak_shift_trend
+        )
+    }
+}

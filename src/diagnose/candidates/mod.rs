@@ -1,0 +1,229 @@
+//! The candidate effects the diagnosis can add to a model, as data.
+//!
+//! Each candidate is one file implementing [`Candidate`]: how strongly the
+//! residual's features point at it, the models it starts from (sized from
+//! the residual), its parameters in a fitted model, which of them decide
+//! whether the data resolve it, and the sentence that explains it. The
+//! [`Effect`] names come from one registry line each below; the diagnosis
+//! loop itself knows no candidate by name.
+
+mod bilinear_stiffness;
+mod clearance;
+mod cubic_stiffness;
+mod quadratic_damping;
+mod second_mode;
+
+use super::{DiagnoseOptions, Refit, ResidualFeatures, SelectedEffect};
+use crate::error::Result;
+use crate::extract::NonlinearFrf;
+use crate::fit::{Estimate, FitData, HbPredictor, Prediction};
+use crate::model::{ElementKind, ElementSpec, Model};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// What a candidate's starts are made from: the model it is added to and
+/// its prediction, the data judged, the recording's FRFs and the options.
+pub(crate) struct Context<'a> {
+    /// The model the effect is added to, with its prediction and `χ²`.
+    pub current: &'a Refit,
+    /// The data judged.
+    pub data: &'a FitData,
+    /// The nonlinear FRFs (for a candidate that identifies afresh).
+    pub frf: &'a NonlinearFrf,
+    /// The diagnosis options (the user's fit options among them).
+    pub options: &'a DiagnoseOptions,
+    /// The predictor.
+    pub predictor: &'a HbPredictor,
+}
+
+impl Context<'_> {
+    /// The model the effect is added to.
+    pub fn model(&self) -> &Model {
+        &self.current.model
+    }
+
+    /// Its prediction.
+    pub fn pred(&self) -> &Prediction {
+        &self.current.pred
+    }
+
+    /// The structure's viscous damping and its stiffness with the joint's
+    /// stick stiffness (a contact or clearance is visible against the
+    /// total): the scales an effect's size is probed at.
+    pub fn damping_and_stiffness(&self) -> (f64, f64) {
+        let (_, c, k) = self.model().linear.as_mck().unwrap_or((1.0, 1.0, 1.0));
+        (c, k + self.model().stick_stiffness())
+    }
+
+    /// The largest displacement and velocity amplitudes in the data.
+    pub fn amplitudes(&self) -> (f64, f64) {
+        super::amplitudes(self.data)
+    }
+
+    /// The model with an element of one size parameter added at starting
+    /// sizes from the residual: the best of a scan around `probe` (both
+    /// signs if `signed`), and the Gauss–Newton step where it differs by more
+    /// than a factor 2 (the scan's best `χ²` before the refit is not always
+    /// the basin of the best after it).
+    pub fn sized_starts(
+        &self,
+        with: &dyn Fn(f64) -> ElementSpec,
+        probe: f64,
+        signed: bool,
+    ) -> Vec<Model> {
+        let Some((v, _, gn)) = super::scan_start(
+            self.model(),
+            self.data,
+            self.pred(),
+            self.predictor,
+            with,
+            probe,
+            signed,
+        ) else {
+            return Vec::new();
+        };
+        let mut sizes = vec![v];
+        sizes.extend(gn.filter(|g| g / v > 2.0 || g / v < 0.5));
+        sizes
+            .into_iter()
+            .map(|s| self.with_element(with(s)))
+            .collect()
+    }
+
+    /// The model with `element` added.
+    pub fn with_element(&self, element: ElementSpec) -> Model {
+        let mut m = self.model().clone();
+        m.elements.push(element);
+        m
+    }
+}
+
+/// Everything the diagnosis knows about one candidate effect.
+pub(crate) trait Candidate: Sync {
+    /// The element law it adds (`None`: it is not an element, e.g. a mode).
+    fn law(&self) -> Option<ElementKind>;
+
+    /// How many parameters it adds (the information criterion's `p`).
+    fn size(&self) -> usize {
+        self.law().map_or(0, |k| k.description().parameters.len())
+    }
+
+    /// How strongly the residual's features point at it (higher first).
+    fn score(&self, features: &ResidualFeatures) -> f64;
+
+    /// The models it is refitted from, each the current model with the
+    /// effect added; empty when the residual offers no start.
+    fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>>;
+
+    /// The parameters that size it: the data must resolve one of these
+    /// (an interval that excludes zero, not at a bound) for it to be kept;
+    /// its shape parameters (a gap, a mode's frequency) may sit at a bound.
+    fn size_parameters(&self) -> &'static [&'static str];
+
+    /// A reason, beyond resolution, why a refit that lowered `χ²` is not
+    /// this effect (a mode of negative modal mass): `name` and `estimate`
+    /// are one of its parameters at the refit `model`.
+    fn implausible(
+        &self,
+        _name: &str,
+        _estimate: &Estimate,
+        _model: &Model,
+        _data: &FitData,
+    ) -> Option<String> {
+        None
+    }
+
+    /// Its parameters' values in `model` (which has it).
+    fn parameters(&self, model: &Model, _data: &FitData) -> BTreeMap<String, f64> {
+        let mut out = BTreeMap::new();
+        for e in model
+            .elements
+            .iter()
+            .filter(|e| Some(e.kind()) == self.law())
+        {
+            for (n, v) in e.parameters() {
+                out.insert(n.to_string(), v);
+            }
+        }
+        out
+    }
+
+    /// How a parameter's estimate is reported (its name and interval as a
+    /// user reads them): as fitted, unless the effect says otherwise.
+    fn reported(&self, name: &str, estimate: Estimate) -> (String, Estimate) {
+        (name.to_string(), estimate)
+    }
+
+    /// `model` without it (its last instance).
+    fn remove(&self, model: &Model) -> Option<Model> {
+        let mut m = model.clone();
+        let i = m
+            .elements
+            .iter()
+            .rposition(|e| Some(e.kind()) == self.law())?;
+        m.elements.remove(i);
+        Some(m)
+    }
+
+    /// Why the residual pointed at it, in a clause a sentence starts with.
+    fn explain(&self, features: &ResidualFeatures, selected: &SelectedEffect) -> String;
+}
+
+/// The candidate registry: each effect's contract name and its candidate.
+/// From it comes [`Effect`]; adding an effect is its own file and one line
+/// here.
+macro_rules! candidates {
+    ($($effect:ident($name:literal, $candidate:expr)),+ $(,)?) => {
+        /// A model extension the diagnosis can add.
+        #[derive(
+            Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize,
+        )]
+        pub enum Effect {
+            $(
+                #[doc = concat!("`", $name, "`.")]
+                #[serde(rename = $name)]
+                $effect,
+            )+
+        }
+
+        impl Effect {
+            /// Every effect, in the registry's order (which breaks ties of
+            /// the ranking).
+            pub const ALL: &'static [Effect] = &[$(Effect::$effect),+];
+
+            /// The contract name.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(Effect::$effect => $name,)+
+                }
+            }
+
+            /// What the diagnosis knows about it.
+            pub(crate) fn candidate(self) -> &'static dyn Candidate {
+                match self {
+                    $(Effect::$effect => &$candidate,)+
+                }
+            }
+        }
+    };
+}
+
+candidates! {
+    SecondMode("second_mode", second_mode::SecondMode),
+    CubicStiffness("cubic_stiffness", cubic_stiffness::CubicStiffness),
+    BilinearStiffness("bilinear_stiffness", bilinear_stiffness::BilinearStiffness),
+    QuadraticDamping("quadratic_damping", quadratic_damping::QuadraticDamping),
+    Clearance("clearance", clearance::Clearance),
+}
+
+impl Effect {
+    /// Parses a contract name.
+    pub fn from_name(name: &str) -> Option<Effect> {
+        Effect::ALL.iter().copied().find(|e| e.name() == name)
+    }
+
+    /// How many parameters it adds.
+    pub fn size(self) -> usize {
+        self.candidate().size()
+    }
+}

@@ -1,0 +1,208 @@
+//! A further linear mode: a residual that is largely the same at every
+//! level, as a linear effect's is. Inside the band it is fitted by its
+//! frequency, damping ratio and modal constant; outside, by what the band
+//! sees of it (a residual flexibility above, a residual mass below).
+
+use super::{Candidate, Context};
+use crate::diagnose::{ResidualFeatures, SelectedEffect, features, fmt_value};
+use crate::error::Result;
+use crate::fit::params::{BandSide, ZETA_MAX, band_side};
+use crate::fit::{Estimate, FitData};
+use crate::model::{ElementKind, Model};
+use std::collections::BTreeMap;
+
+/// See the module docs.
+pub(crate) struct SecondMode;
+
+impl Candidate for SecondMode {
+    fn law(&self) -> Option<ElementKind> {
+        None
+    }
+
+    fn size(&self) -> usize {
+        3
+    }
+
+    fn score(&self, f: &ResidualFeatures) -> f64 {
+        10.0 * f.level_independent_share
+    }
+
+    /// The mode the level-averaged residual shows (a grid search away from
+    /// the modes already there); the best below and the best above the
+    /// band (a mode out of the band shows only as a residual mass or
+    /// flexibility, which a search over every frequency may pass over for a
+    /// spurious mode inside it); and an identification afresh with one more
+    /// mode (a missing mode also bends the linear estimates the baseline
+    /// started from) with the user's fit options, the effects kept so far
+    /// added back.
+    fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
+        let model = cx.model();
+        let d = features::common_receptance_residual(cx.data, cx.pred());
+        let existing: Vec<f64> = model.linear.modes.iter().map(|m| m.frequency_hz).collect();
+        let mut starts = Vec::new();
+        let with = |mode| {
+            let mut m = model.clone();
+            m.linear.modes.push(mode);
+            m
+        };
+        starts.extend(crate::fit::linear::locate_mode_in(&d, &existing).map(with));
+        let fmin = d.iter().map(|p| p.0).fold(f64::MAX, f64::min);
+        let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
+        for (lo, hi) in [(0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax)] {
+            if let Some(mode) = crate::fit::linear::locate_mode_between(&d, &existing, lo, hi) {
+                starts.push(with(mode));
+            }
+        }
+        let opts = crate::fit::FitOptions {
+            modes: model.linear.modes.len() + 1,
+            band_hz: cx.options.band_hz.or(cx.options.fit.band_hz),
+            ..cx.options.fit.clone()
+        };
+        if let Ok(f) = crate::fit::identify(cx.frf, &opts, cx.predictor, None) {
+            let mut m = f.model;
+            m.elements.extend(model.elements.iter().skip(1).cloned());
+            starts.push(m);
+        }
+        Ok(starts)
+    }
+
+    fn size_parameters(&self) -> &'static [&'static str] {
+        &["residue", "flexibility"]
+    }
+
+    fn implausible(
+        &self,
+        name: &str,
+        e: &Estimate,
+        model: &Model,
+        data: &FitData,
+    ) -> Option<String> {
+        // at the driving point every mode's modal constant has the sign of
+        // the first: a "mode" of negative modal mass is a curve fit, not a
+        // mode of the structure
+        if matches!(name, "residue" | "flexibility")
+            && let Some(first) = model.linear.modes.first()
+            && e.value * first.residue < 0.0
+        {
+            return Some(format!(
+                "lowered χ² enough, but only as a mode of negative modal mass ({}), which a driving-point response cannot have",
+                fmt_value(1.0 / e.value)
+            ));
+        }
+        // a mode held at the largest damping ratio allowed is no resonance:
+        // the optimiser used it as a smooth background, not as a mode
+        // (inside the band; outside it, a mode is a background by nature
+        // and judged by its size alone)
+        if name == "damping_ratio"
+            && e.value >= 0.99 * ZETA_MAX
+            && model
+                .linear
+                .modes
+                .last()
+                .is_some_and(|m| band_side(m.frequency_hz, data.band_hz()).is_none())
+        {
+            return Some(format!(
+                "lowered χ² enough, but only as a mode damped at the bound ζ = {:.2}: not a resolved mode",
+                e.value
+            ));
+        }
+        None
+    }
+
+    fn parameters(&self, model: &Model, data: &FitData) -> BTreeMap<String, f64> {
+        let mut out = BTreeMap::new();
+        if let Some(m) = model
+            .linear
+            .modes
+            .last()
+            .filter(|_| model.linear.modes.len() > 1)
+        {
+            out.insert("frequency_hz".into(), m.frequency_hz);
+            out.insert("modal_mass".into(), 1.0 / m.residue);
+            // a mode above the band is seen there as a flexibility; outside
+            // the band a damping ratio is no result
+            match band_side(m.frequency_hz, data.band_hz()) {
+                Some(BandSide::Above) => {
+                    out.insert("flexibility".into(), m.static_flexibility());
+                }
+                Some(BandSide::Below) => {}
+                None => {
+                    out.insert("damping_ratio".into(), m.damping_ratio);
+                }
+            }
+        }
+        out
+    }
+
+    /// A modal mass, as the test definitions give it, rather than the
+    /// fitted modal constant; a modal constant whose interval includes zero
+    /// leaves the mass unbounded.
+    fn reported(&self, name: &str, e: Estimate) -> (String, Estimate) {
+        if name != "residue" {
+            return (name.to_string(), e);
+        }
+        let [rlo, rhi] = e.ci95;
+        let (ci95, identifiable, note) = if rlo <= 0.0 && rhi >= 0.0 {
+            (
+                [f64::NEG_INFINITY, f64::INFINITY],
+                false,
+                Some("the modal constant's 95 % interval includes zero".into()),
+            )
+        } else {
+            let (lo, hi) = (1.0 / rhi, 1.0 / rlo);
+            ([lo.min(hi), lo.max(hi)], e.identifiable, e.note.clone())
+        };
+        (
+            "modal_mass".to_string(),
+            Estimate {
+                value: 1.0 / e.value,
+                ci95,
+                identifiable,
+                note,
+                ..e
+            },
+        )
+    }
+
+    fn remove(&self, model: &Model) -> Option<Model> {
+        let mut m = model.clone();
+        if m.linear.modes.len() < 2 {
+            return None;
+        }
+        m.linear.modes.pop();
+        Some(m)
+    }
+
+    fn explain(&self, f: &ResidualFeatures, sel: &SelectedEffect) -> String {
+        // a mode above the band is seen in it as a flexibility only: its
+        // frequency is where the fit put it, not a result
+        let resolved = |e: &Estimate| {
+            let [lo, hi] = e.ci95;
+            e.identifiable && lo > 0.0 && hi / lo < 1.5
+        };
+        let at = match (
+            sel.parameters.get("flexibility"),
+            sel.parameters.get("frequency_hz"),
+        ) {
+            (Some(x), Some(f)) if resolved(f) => format!(
+                " at {:.4} Hz, above the measured band (a residual flexibility of {} m/N in it)",
+                f.value,
+                fmt_value(x.value)
+            ),
+            (Some(x), _) => format!(
+                " above the measured band, seen in it as a residual flexibility of {} m/N (its frequency is not resolved by these data)",
+                fmt_value(x.value)
+            ),
+            (None, Some(e)) => format!(" at {:.4} Hz", e.value),
+            _ => String::new(),
+        };
+        if f.level_independent_share >= 0.5 {
+            format!(
+                "the residual was largely the same at every level ({:.0} % of it common to all levels), as a linear effect's is: a further mode{at}",
+                100.0 * f.level_independent_share
+            )
+        } else {
+            format!("the residual's shape over frequency matched a further linear mode{at}")
+        }
+    }
+}
