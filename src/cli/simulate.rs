@@ -4,11 +4,11 @@ use super::args::{SimulateArgs, WavFormat};
 use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, read_test, write_json};
 use anyhow::{Context, Result};
 use hystid::extract::NonlinearFrf;
+use hystid::hb::{self, HbCheck, SteadyDwell};
 use hystid::record::{
     Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter, RunInfo,
     SampleFormat, Step,
 };
-use hystid::hb::{self, HbCheck, SteadyDwell};
 use hystid::testbench::{self, BenchRun, BenchSink, DwellRecord, LevelOutput, TestDefinition};
 use serde::Serialize;
 use std::collections::BTreeMap;
