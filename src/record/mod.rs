@@ -16,6 +16,10 @@
 //!   [`Recording`].
 //!
 //! This module only serialises: it knows nothing of benches or analysis.
+//! The in-memory types ([`Recording`], [`RecordingMeta`], …) are defined in
+//! [`crate::signals`] and re-exported here, so that the analysis stages use
+//! them without depending on the format; [`RecordingReader`] is also a
+//! [`FrameSource`] for the streaming reduction.
 
 mod cdr;
 mod run;
