@@ -19,6 +19,8 @@
 //!   element force fed back by an implicit per-sample solve).
 //! * [`extract`]: harmonics and nonlinear FRFs from sampled signals.
 //! * [`testbench`]: the virtual stepped-sine test (dwells, settling, noise).
+//! * [`signals`]: a recording in memory (channels, samples, excitation), shared
+//!   by the stages that produce and reduce one without the file format.
 //! * [`record`]: the WAV + JSON recording format and MCAP run files.
 //! * [`import`]: MAT and CSV files converted into recordings, with data checks.
 //! * [`validate`]: a fitted model driven by a recording's measured force in
@@ -45,6 +47,7 @@ pub mod import;
 pub mod model;
 pub mod plot;
 pub mod record;
+pub mod signals;
 pub mod sim;
 pub mod testbench;
 pub mod validate;

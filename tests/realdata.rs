@@ -13,15 +13,15 @@
 use crate::common;
 use hystid::extract::{
     Direction, FrfPoint, NonlinearFrf, ReduceOptions, SweepOptions, choose_compensation,
-    reduce_stepped_file, reduce_stepped_report, reduce_sweep,
+    reduce_stepped_report, reduce_stepped_stream, reduce_sweep,
 };
 use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearStart, identify};
 use hystid::harmonics::{Quantity, omega};
 use hystid::import::{ChannelSpec, ImportSpec, SampleRateSource, import};
 use hystid::model::{ElementSpec, ModalModel, Model};
 use hystid::record::{
-    Channel, Excitation, ExcitationKind, FORMAT_V1, Recording, RecordingMeta, SampleFormat, Step,
-    read_recording, write_recording,
+    Channel, Excitation, ExcitationKind, FORMAT_V1, Recording, RecordingMeta, RecordingReader,
+    SampleFormat, Step, read_recording, write_recording,
 };
 use hystid::sim::Simulator;
 use hystid::validate::{
@@ -393,12 +393,13 @@ fn stepped(fs: f64) -> Recording {
 /// the same file; without stated steps it says it needs them.
 #[test]
 fn streaming_stepped_reduction_equals_the_in_memory_one() {
+    let open = |p: &std::path::Path| RecordingReader::open(p).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("stepped");
     write_recording(&path, &stepped(1000.0), SampleFormat::Float32).unwrap();
     let opts = ReduceOptions::default();
     let t = std::time::Instant::now();
-    let streamed = reduce_stepped_file(&path, 1, &opts).unwrap();
+    let streamed = reduce_stepped_stream(&mut open(&path), 1, &opts).unwrap();
     let ts = t.elapsed();
     let whole = read_recording(&path).unwrap();
     let t = std::time::Instant::now();
@@ -416,9 +417,11 @@ fn streaming_stepped_reduction_equals_the_in_memory_one() {
     bare.meta.excitation.steps.clear();
     let p2 = dir.path().join("bare");
     write_recording(&p2, &bare, SampleFormat::Float32).unwrap();
-    let e = reduce_stepped_file(&p2, 1, &opts).unwrap_err().to_string();
+    let e = reduce_stepped_stream(&mut open(&p2), 1, &opts)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("steps") && e.contains("bare"), "{e}");
-    let e = reduce_stepped_file(&path, 5, &opts)
+    let e = reduce_stepped_stream(&mut open(&path), 5, &opts)
         .unwrap_err()
         .to_string();
     assert!(e.contains("response channel 5"), "{e}");

@@ -6,7 +6,7 @@ use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, choose_compensation, reduce_stepped,
-    reduce_stepped_file, reduce_sweep_recording,
+    reduce_stepped_stream, reduce_sweep_recording,
 };
 use hystid::fit::{
     FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, LinearRefinement, LinearStart,
@@ -290,7 +290,8 @@ pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionArgs) -> Re
                 blocks: 16,
                 ..ReduceOptions::default()
             };
-            let red = reduce_stepped_file(path, ch, &opts)?;
+            let mut source = hystid::record::RecordingReader::open(path)?;
+            let red = reduce_stepped_stream(&mut source, ch, &opts)?;
             return Ok(Reduced {
                 frf: red.frf,
                 response_name: meta.channels[ch].name.clone(),

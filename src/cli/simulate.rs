@@ -4,13 +4,12 @@ use super::args::{SimulateArgs, WavFormat};
 use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, read_test, write_json};
 use anyhow::{Context, Result};
 use hystid::extract::NonlinearFrf;
+use hystid::hb::{self, HbCheck, SteadyDwell};
 use hystid::record::{
     Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter, RunInfo,
     SampleFormat, Step,
 };
-use hystid::testbench::{
-    self, BenchRun, BenchSink, DwellRecord, HbCheck, LevelOutput, TestDefinition,
-};
+use hystid::testbench::{self, BenchRun, BenchSink, DwellRecord, LevelOutput, TestDefinition};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -137,7 +136,17 @@ impl BenchSink for FileSink {
     fn level(&mut self, out: &LevelOutput, first_frame: u64) -> hystid::Result<()> {
         let f64s = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();
         let checks = match &self.check {
-            Some((model, fs, k, _)) => testbench::check_hb(model, *fs, &out.dwells, *k)?,
+            Some((model, fs, k, _)) => {
+                let steady: Vec<SteadyDwell> = (out.dwells.iter())
+                    .map(|d| SteadyDwell {
+                        index: d.index,
+                        frequency_hz: d.design.frequency_hz,
+                        receptance: &d.clean_receptance,
+                    })
+                    .collect();
+                let level = out.dwells.first().map_or(0.0, |d| d.level);
+                hb::check_hb(model, *fs, level, &steady, *k)?
+            }
             None => Vec::new(),
         };
         for (i, d) in out.dwells.iter().enumerate() {

@@ -9,10 +9,14 @@
 //! * [`noncoherent`]: a dwell of a real recording at a known frequency, by a
 //!   least-squares fit of the harmonics over blocks of whole periods;
 //!   [`estimate_frequency`] finds the frequency.
-//! * [`reduce_stepped`]: a stepped-sine [`Recording`](crate::record::Recording),
+//! * [`reduce_stepped`]: a stepped-sine [`Recording`](crate::signals::Recording),
 //!   with its stated steps or with dwells found in the reference
 //!   ([`find_dwells`]); [`combine`] merges single-dwell recordings;
-//!   [`reduce_stepped_file`] reduces a file on disk one dwell at a time.
+//!   [`reduce_stepped_stream`] reduces a recording too large for memory one
+//!   dwell at a time from a [`FrameSource`](crate::signals::FrameSource).
+//!
+//! This stage reads samples, never files: the file formats are
+//! [`crate::record`]'s, which provides the readers.
 //! * [`reduce_sweep`]: a swept sine, following the reference's phase;
 //!   [`choose_compensation`] picks its sweep-distortion compensation.
 //! * [`naive`]: direct-sum references for tests and benchmarks.
@@ -41,7 +45,7 @@ pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, combine, combine_with,
     find_dwells, reduce_stepped, reduce_stepped_report, settling,
 };
-pub use streaming::reduce_stepped_file;
+pub use streaming::reduce_stepped_stream;
 pub use sweep::{
     SweepFit, SweepLaw, SweepOptions, SweepReduction, reduce_sweep, reduce_sweep_recording,
 };

@@ -37,7 +37,7 @@ use super::noncoherent::{
 use super::{Direction, FrfLevel, FrfPoint, NonlinearFrf};
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
-use crate::record::{Recording, Step};
+use crate::signals::{Recording, Step};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 

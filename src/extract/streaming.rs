@@ -1,10 +1,9 @@
-//! Stepped-sine reduction of a recording on disk, one dwell in memory at a
-//! time.
+//! Stepped-sine reduction of a recording read one dwell at a time.
 //!
 //! [`reduce_stepped`](super::reduce_stepped) needs the whole recording in
-//! memory; a long test (a gigabyte of WAV) need not be. When the sidecar
-//! states the steps, each dwell is read on its own through
-//! [`RecordingReader`], reduced exactly as the in-memory path reduces it
+//! memory; a long test (a gigabyte of WAV) need not be. When the recording
+//! states the steps, each dwell is read on its own from a [`FrameSource`]
+//! (a file reader, e.g. `record::RecordingReader`), reduced exactly as the in-memory path reduces it
 //! (same settle, frequency check, blocks and phase origin: the dwell's first
 //! analysed sample), and the points are grouped into levels the same way.
 //! Memory is the largest dwell's samples, whatever the file size.
@@ -12,28 +11,24 @@
 use super::stepped::group_levels;
 use super::{NonlinearFrf, ReduceOptions, SteppedReduction, reduce_stepped_report};
 use crate::error::{Error, Result};
-use crate::record::{Recording, RecordingReader, Step};
-use std::path::Path;
+use crate::signals::{FrameSource, Recording, Step};
 
-/// Reduces the stepped-sine WAV + JSON recording at `path` (either file or
-/// the stem) into nonlinear FRFs of channel `response_channel`, reading one
-/// dwell at a time (see the module docs). The result equals
-/// [`reduce_stepped_report`] on the whole recording.
+/// Reduces the stepped-sine recording `source` into nonlinear FRFs of
+/// channel `response_channel`, reading one dwell at a time (see the module
+/// docs). The result equals [`reduce_stepped_report`] on the whole recording.
 ///
-/// Errors: those of [`RecordingReader::open`] and of the reduction, and a
-/// recording whose sidecar states no steps (finding dwells needs the whole
-/// reference in memory: read the recording and use
-/// [`reduce_stepped_report`]).
-pub fn reduce_stepped_file(
-    path: &Path,
+/// Errors: those of [`FrameSource::read_at`] and of the reduction, and a
+/// recording that states no steps (finding dwells needs the whole reference
+/// in memory: read the recording and use [`reduce_stepped_report`]).
+pub fn reduce_stepped_stream(
+    source: &mut impl FrameSource,
     response_channel: usize,
     options: &ReduceOptions,
 ) -> Result<SteppedReduction> {
-    let mut reader = RecordingReader::open(path)?;
-    let meta = reader.meta().clone();
+    let meta = source.meta().clone();
     if meta.excitation.steps.is_empty() {
         return Err(Error::input(
-            format!("{} excitation.steps", path.display()),
+            format!("{} excitation.steps", source.source_name()),
             "states no steps: a streaming reduction needs them (finding the dwells needs the \
              whole reference in memory)",
         ));
@@ -47,7 +42,7 @@ pub fn reduce_stepped_file(
             };
             probe.reference_channel().ok_or_else(|| {
                 Error::input(
-                    format!("{}", path.display()),
+                    source.source_name(),
                     "has no force or voltage channel to use as the reference",
                 )
             })?
@@ -62,7 +57,7 @@ pub fn reduce_stepped_file(
             ));
         }
     }
-    let frames = reader.frames();
+    let frames = source.frames();
     let mut buffers = vec![Vec::new(); nch];
     let mut points = Vec::with_capacity(meta.excitation.steps.len());
     let mut dwells = Vec::with_capacity(meta.excitation.steps.len());
@@ -81,8 +76,7 @@ pub fn reduce_stepped_file(
                 ),
             ));
         }
-        reader.seek_frame(step.start)?;
-        let got = reader.read_frames(step.length, &mut buffers)?;
+        let got = source.read_at(step.start, step.length, &mut buffers)?;
         if got != step.length {
             return Err(Error::input(
                 format!("excitation.steps[{i}]"),

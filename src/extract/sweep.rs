@@ -57,7 +57,7 @@ use super::noncoherent::solve_dense;
 use super::{Direction, FrfLevel, FrfPoint, NonlinearFrf};
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
-use crate::record::Recording;
+use crate::signals::Recording;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
 use serde::{Deserialize, Serialize};

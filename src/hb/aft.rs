@@ -19,6 +19,7 @@
 //! `Im X_h` for each `h ≥ 1`, in the order of the harmonic set.
 
 use super::PeriodicLoop;
+use super::newton::EvalError;
 use crate::model::Element;
 use num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -350,7 +351,7 @@ impl Aft {
         odd_law: bool,
         g_out: &mut [f64],
         dg: Option<&mut [f64]>,
-    ) -> Result<(), String> {
+    ) -> Result<(), EvalError> {
         let n = self.layout.len;
         let ns = self.samples;
         self.synthesize(xs, omega, Target::Displacement);
@@ -436,10 +437,12 @@ impl Aft {
             }
         }
         if let Some(j) = self.g.iter().position(|g| !g.is_finite()) {
-            return Err(format!(
-                "element force is not finite at time sample {j} of {ns} (x = {:e} m, v = {:e} m/s)",
-                self.x[j], self.v[j]
-            ));
+            return Err(EvalError::ElementForce {
+                sample: j,
+                samples: ns,
+                x: self.x[j],
+                v: self.v[j],
+            });
         }
         self.buf.copy_from_slice(&self.g);
         self.analyse_buf(g_out, 1, 0);

@@ -31,7 +31,7 @@
 //!   to 50 % back) where it has one.
 
 use super::describing;
-use super::newton::{Outcome, lu_factor, lu_solve, norm};
+use super::newton::{EvalError, Outcome, lu_factor, lu_solve, norm};
 use super::{Fold, HbPoint, HbSolver, LinearPart};
 use crate::error::Result;
 use crate::model::Element;
@@ -49,7 +49,39 @@ enum Trace {
     /// The branch turns back at `omega`, state `x`.
     Fold { omega: f64, x: Vec<f64> },
     /// The trace could not follow the branch.
-    Failed(String),
+    Failed(TraceFailure),
+}
+
+/// Why pseudo-arclength continuation could not follow a branch.
+#[derive(Debug, thiserror::Error)]
+enum TraceFailure {
+    /// The receptance could not be evaluated at a frequency on the way.
+    #[error("{0}")]
+    Frequency(crate::Error),
+    /// The residual could not be evaluated at a point on the way.
+    #[error("{0}")]
+    Evaluation(EvalError),
+    /// No tangent at the starting point.
+    #[error("singular Jacobian at the start of the trace")]
+    SingularAtStart,
+    /// The corrector failed at every step length down to the minimum.
+    #[error("the arc-length corrector failed down to step {step:.1e}")]
+    Corrector {
+        /// The last step length tried (scaled units).
+        step: f64,
+    },
+    /// No tangent at a corrected point.
+    #[error("singular augmented Jacobian on the branch")]
+    SingularOnBranch,
+    /// Newton at the target frequency, from the traced point, failed.
+    #[error("Newton at the traced end failed: {0}")]
+    EndNewton(String),
+    /// The step limit was reached before the target frequency.
+    #[error("did not reach the frequency in {steps} arc-length steps")]
+    StepLimit {
+        /// Steps taken.
+        steps: usize,
+    },
 }
 
 impl HbSolver {
@@ -464,23 +496,27 @@ impl HbSolver {
                              y: &[f64],
                              r: &mut [f64],
                              ja: &mut [f64]|
-         -> std::result::Result<f64, String> {
+         -> std::result::Result<f64, TraceFailure> {
             let x: Vec<f64> = y[..n].iter().map(|u| u * sx).collect();
             let omega = w0 + dw * y[n];
             s.core
                 .set_frequency(linear, omega)
-                .map_err(|e| e.to_string())?;
+                .map_err(TraceFailure::Frequency)?;
             let mut jx = vec![0.0; n * n];
             s.counters.residuals += 1;
             s.counters.jacobians += 1;
-            s.core.residual(elements, force, &x, r, Some(&mut jx))?;
+            s.core
+                .residual(elements, force, &x, r, Some(&mut jx))
+                .map_err(TraceFailure::Evaluation)?;
             let h = 1e-7 * omega.abs().max(1.0);
             s.core
                 .set_frequency(linear, omega + h)
-                .map_err(|e| e.to_string())?;
+                .map_err(TraceFailure::Frequency)?;
             let mut rp = vec![0.0; n];
             s.counters.residuals += 1;
-            s.core.residual(elements, force, &x, &mut rp, None)?;
+            s.core
+                .residual(elements, force, &x, &mut rp, None)
+                .map_err(TraceFailure::Evaluation)?;
             for i in 0..n {
                 for k in 0..n {
                     ja[i * m + k] = jx[i * n + k] * sx;
@@ -513,7 +549,7 @@ impl HbSolver {
         let mut e_last = vec![0.0; m];
         e_last[n] = 1.0;
         let Some(mut t) = tangent(&ja, &e_last, &mut a, &mut piv, &mut rhs) else {
-            return Trace::Failed("singular Jacobian at the start of the trace".into());
+            return Trace::Failed(TraceFailure::SingularAtStart);
         };
         let mut ds = (1.0 / t[n].max(1e-12)).min(DS_MAX);
         // shrinks when a fold is straddled, to locate it with short steps
@@ -560,14 +596,12 @@ impl HbSolver {
             if !converged {
                 ds *= 0.5;
                 if ds < DS_MIN {
-                    return Trace::Failed(format!(
-                        "the arc-length corrector failed down to step {ds:.1e}"
-                    ));
+                    return Trace::Failed(TraceFailure::Corrector { step: ds });
                 }
                 continue;
             }
             let Some(t_new) = tangent(&ja, &t, &mut a, &mut piv, &mut rhs) else {
-                return Trace::Failed("singular augmented Jacobian on the branch".into());
+                return Trace::Failed(TraceFailure::SingularOnBranch);
             };
             if t_new[n] <= 0.0 && ds > FOLD_STEP {
                 // a fold between y and z: approach it again in shorter steps
@@ -592,7 +626,7 @@ impl HbSolver {
             if last_step || (y[n] - 1.0).abs() < 1e-9 {
                 let mut x: Vec<f64> = y[..n].iter().map(|u| u * sx).collect();
                 if let Err(e) = self.core.set_frequency(linear, w1) {
-                    return Trace::Failed(e.to_string());
+                    return Trace::Failed(TraceFailure::Frequency(e));
                 }
                 let out = self
                     .core
@@ -600,19 +634,14 @@ impl HbSolver {
                 return if out.converged {
                     Trace::Reached(x, out)
                 } else {
-                    Trace::Failed(format!(
-                        "Newton at the traced end failed: {}",
-                        out.failure.unwrap_or_default()
-                    ))
+                    Trace::Failed(TraceFailure::EndNewton(out.failure.unwrap_or_default()))
                 };
             }
             if iterations <= 3 {
                 ds = (ds * 1.5).min(ds_cap);
             }
         }
-        Trace::Failed(format!(
-            "did not reach the frequency in {MAX_STEPS} arc-length steps"
-        ))
+        Trace::Failed(TraceFailure::StepLimit { steps: MAX_STEPS })
     }
 }
 

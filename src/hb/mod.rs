@@ -58,11 +58,13 @@
 //! single-sided; `H_h = X_h/F` with the force `F cos ωt`).
 
 pub(crate) mod aft;
+mod check;
 mod continuation;
 pub mod describing;
 pub mod linear;
 mod newton;
 
+pub use check::{HbCheck, SteadyDwell, check_hb};
 pub use linear::{LinearPart, SampledReceptance, TabulatedFrf};
 
 use crate::error::{Error, Result};

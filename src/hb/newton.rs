@@ -30,6 +30,70 @@ use super::{HbOptions, JacobianMethod};
 use crate::model::Element;
 use num_complex::Complex64;
 
+/// Why the harmonic-balance residual could not be evaluated at a point.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub(crate) enum EvalError {
+    /// The AFT march met a non-finite element force.
+    #[error(
+        "element force is not finite at time sample {sample} of {samples} (x = {x:e} m, v = {v:e} m/s)"
+    )]
+    ElementForce {
+        /// The time sample.
+        sample: usize,
+        /// Time samples per period.
+        samples: usize,
+        /// Displacement there, m.
+        x: f64,
+        /// Velocity there, m/s.
+        v: f64,
+    },
+    /// A residual component is not finite (an overflowing receptance or force).
+    #[error("the residual is not finite (component {component})")]
+    Residual {
+        /// The real unknown's index.
+        component: usize,
+    },
+}
+
+/// Why a Newton solve stopped without converging; its text becomes the
+/// point's `failure`.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub(crate) enum SolveFailure {
+    /// The residual could not be evaluated at the starting point.
+    #[error("at the starting point: {0}")]
+    AtStart(EvalError),
+    /// The relative residual became NaN or infinite.
+    #[error("the residual is not finite")]
+    NonFiniteResidual,
+    /// The iteration limit was reached.
+    #[error(
+        "no convergence in {iterations} Newton iterations (relative residual {residual:.3e} > {tolerance:.1e})"
+    )]
+    StepLimit {
+        /// Iterations made (the limit).
+        iterations: usize,
+        /// Relative residual reached.
+        residual: f64,
+        /// Relative residual required.
+        tolerance: f64,
+    },
+    /// The Jacobian could not be factored.
+    #[error("singular Jacobian")]
+    SingularJacobian,
+    /// No step length along the Newton direction decreased the residual,
+    /// with a fresh Jacobian and with finite differences.
+    #[error(
+        "line search found no decrease of the residual along the Newton step (relative residual {residual:.3e})"
+    )]
+    LineSearch {
+        /// Relative residual where the search failed.
+        residual: f64,
+    },
+    /// The residual could not be evaluated during the iteration.
+    #[error("{0}")]
+    Evaluation(EvalError),
+}
+
 /// The result of one Newton solve.
 #[derive(Clone, Debug)]
 pub(crate) struct Outcome {
@@ -135,7 +199,7 @@ impl Core {
         x: &[f64],
         r: &mut [f64],
         jac: Option<&mut [f64]>,
-    ) -> Result<(), String> {
+    ) -> Result<(), EvalError> {
         self.at_solution = false;
         let odd = self.opts.half_wave_symmetry && super::odd_law(elements);
         residual(
@@ -194,11 +258,11 @@ impl Core {
             }
             residual(aft, g, dg, hs, omega, method, odd, elements, force, x, r, j)
         };
-        let fail = |iterations: usize, residual: f64, why: String| Outcome {
+        let fail = |iterations: usize, residual: f64, why: SolveFailure| Outcome {
             converged: false,
             iterations,
             residual,
-            failure: Some(why),
+            failure: Some(why.to_string()),
         };
         let mut use_fd = opts.jacobian == JacobianMethod::FiniteDifference;
         let first = if use_fd {
@@ -208,7 +272,7 @@ impl Core {
             eval(x, r, Some(jac), counters)
         };
         if let Err(why) = first {
-            return fail(0, f64::NAN, format!("at the starting point: {why}"));
+            return fail(0, f64::NAN, SolveFailure::AtStart(why));
         }
         let mut nr = norm(r);
         let mut switched = false;
@@ -221,7 +285,7 @@ impl Core {
         loop {
             let rel = nr / norm(x).max(f64::MIN_POSITIVE);
             if !rel.is_finite() {
-                return fail(iteration, rel, "the residual is not finite".into());
+                return fail(iteration, rel, SolveFailure::NonFiniteResidual);
             }
             if rel <= opts.tolerance {
                 // finite differences leave `g` and `r` at a perturbed point
@@ -237,16 +301,17 @@ impl Core {
                 return fail(
                     iteration,
                     rel,
-                    format!(
-                        "no convergence in {} Newton iterations (relative residual {rel:.3e} > {:.1e})",
-                        opts.max_iterations, opts.tolerance
-                    ),
+                    SolveFailure::StepLimit {
+                        iterations: opts.max_iterations,
+                        residual: rel,
+                        tolerance: opts.tolerance,
+                    },
                 );
             }
             iteration += 1;
             lu.copy_from_slice(jac);
             if !lu_factor(lu, piv, n) {
-                return fail(iteration, rel, "singular Jacobian".into());
+                return fail(iteration, rel, SolveFailure::SingularJacobian);
             }
             for (s, ri) in step.iter_mut().zip(r.iter()) {
                 *s = -ri;
@@ -276,7 +341,7 @@ impl Core {
                     if !jac_fresh && !use_fd {
                         // a kept Jacobian gone stale: refresh it and retry
                         if let Err(why) = eval(x, rt, Some(jac), counters) {
-                            return fail(iteration, rel, why);
+                            return fail(iteration, rel, SolveFailure::Evaluation(why));
                         }
                         jac_fresh = true;
                         trial_jacobian = true;
@@ -288,18 +353,11 @@ impl Core {
                         switched = true;
                         use_fd = true;
                         if let Err(why) = fd_jacobian(&mut eval, x, r, jac, xfd, rfd, counters) {
-                            return fail(iteration, rel, why);
+                            return fail(iteration, rel, SolveFailure::Evaluation(why));
                         }
                         continue;
                     }
-                    return fail(
-                        iteration,
-                        rel,
-                        format!(
-                            "line search found no decrease of the residual along the Newton \
-                             step (relative residual {rel:.3e})"
-                        ),
-                    );
+                    return fail(iteration, rel, SolveFailure::LineSearch { residual: rel });
                 }
                 Some(with_jac) => {
                     x.copy_from_slice(xt);
@@ -313,11 +371,11 @@ impl Core {
                         jac_fresh = true;
                     } else if use_fd {
                         if let Err(why) = fd_jacobian(&mut eval, x, r, jac, xfd, rfd, counters) {
-                            return fail(iteration, rel, why);
+                            return fail(iteration, rel, SolveFailure::Evaluation(why));
                         }
                     } else if poor {
                         if let Err(why) = eval(x, rt, Some(jac), counters) {
-                            return fail(iteration, rel, why);
+                            return fail(iteration, rel, SolveFailure::Evaluation(why));
                         }
                         jac_fresh = true;
                     } else {
@@ -491,14 +549,19 @@ impl Core {
 /// Forward differences, step `1e-7·‖X‖∞` (relative, so it scales with the
 /// response).
 fn fd_jacobian(
-    eval: &mut impl FnMut(&[f64], &mut [f64], Option<&mut [f64]>, &mut Counters) -> Result<(), String>,
+    eval: &mut impl FnMut(
+        &[f64],
+        &mut [f64],
+        Option<&mut [f64]>,
+        &mut Counters,
+    ) -> Result<(), EvalError>,
     x: &[f64],
     r: &[f64],
     jac: &mut [f64],
     xfd: &mut [f64],
     rfd: &mut [f64],
     counters: &mut Counters,
-) -> Result<(), String> {
+) -> Result<(), EvalError> {
     let n = x.len();
     let scale = x
         .iter()
@@ -530,7 +593,7 @@ fn residual<E: Element>(
     x: &[f64],
     r: &mut [f64],
     jac: Option<&mut [f64]>,
-) -> Result<(), String> {
+) -> Result<(), EvalError> {
     let n = x.len();
     let want = jac.is_some();
     aft.evaluate(
@@ -557,7 +620,7 @@ fn residual<E: Element>(
         }
     }
     if let Some(k) = r.iter().position(|v| !v.is_finite()) {
-        return Err(format!("the residual is not finite (component {k})"));
+        return Err(EvalError::Residual { component: k });
     }
     if let Some(j) = jac {
         for (i, &h) in layout.harmonics.iter().enumerate() {

@@ -471,7 +471,7 @@ fn require_increasing(path: &Path, name: &str, t: &[f64], lines: &[usize]) -> Re
             ),
         ));
     }
-    quality::rate_from_time(t).map_err(|m| Error::format(path, name, m))
+    quality::rate_from_time(t).map_err(|m| Error::format(path, name, m.to_string()))
 }
 
 /// Loads the spec's channels from a delimited text file.

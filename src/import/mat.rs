@@ -346,6 +346,52 @@ impl Endian {
     }
 }
 
+/// What is wrong with a data element: where (a byte offset in the buffer
+/// being parsed, the file or a decompressed element) and what was expected.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+enum ParseError {
+    /// Fewer than the 8 bytes of a tag remain.
+    #[error("data element tag at byte {offset} needs 8 bytes but only {remaining} remain")]
+    TagTruncated { offset: usize, remaining: usize },
+    /// A small data element declares more than its 4 data bytes.
+    #[error("small data element at byte {offset} declares {len} bytes (at most 4 allowed)")]
+    SmallTooLong { offset: usize, len: usize },
+    /// An element declares more bytes than remain.
+    #[error(
+        "data element at byte {offset} declares {len} bytes but only {remaining} remain (file truncated?)"
+    )]
+    Truncated {
+        offset: usize,
+        len: usize,
+        remaining: usize,
+    },
+    /// An `miMATRIX` with no content.
+    #[error("empty miMATRIX element (no flags, dimensions or name)")]
+    EmptyMatrix,
+    /// The array flags sub-element is not 8 bytes of miUINT32.
+    #[error(
+        "array flags sub-element has type {dtype} and {len} bytes (expected miUINT32, 8 bytes)"
+    )]
+    Flags { dtype: u32, len: usize },
+    /// The dimensions sub-element is not at least two miINT32.
+    #[error(
+        "dimensions sub-element has type {dtype} and {len} bytes (expected miINT32, at least 2 dimensions)"
+    )]
+    Dimensions { dtype: u32, len: usize },
+    /// A dimension below zero.
+    #[error("negative dimension {0}")]
+    NegativeDimension(i32),
+    /// The name sub-element is not text.
+    #[error("array name sub-element has type {0} (expected miINT8)")]
+    NameType(u32),
+    /// Numeric data whose length is not a multiple of its value size.
+    #[error("{bytes} bytes of data is not a whole number of {width}-byte values")]
+    Ragged { bytes: usize, width: usize },
+    /// Data of a non-numeric type where numbers were expected.
+    #[error("data of type {0} is not a numeric type")]
+    NotNumeric(u32),
+}
+
 /// A parsed tag: data type, data range and where the next element starts.
 struct Tag {
     dtype: u32,
@@ -354,22 +400,20 @@ struct Tag {
     next: usize,
 }
 
-/// Reads the tag at `pos` of `buf`. `Err` carries a message saying where.
-fn read_tag(buf: &[u8], pos: usize, e: Endian) -> std::result::Result<Tag, String> {
+/// Reads the tag at `pos` of `buf`. `Err` says where and what was expected.
+fn read_tag(buf: &[u8], pos: usize, e: Endian) -> std::result::Result<Tag, ParseError> {
     if pos + 8 > buf.len() {
-        return Err(format!(
-            "data element tag at byte {pos} needs 8 bytes but only {} remain",
-            buf.len().saturating_sub(pos)
-        ));
+        return Err(ParseError::TagTruncated {
+            offset: pos,
+            remaining: buf.len().saturating_sub(pos),
+        });
     }
     let w0 = e.u32(&buf[pos..]);
     if w0 >> 16 != 0 {
         // Small data element: 2-byte count, 2-byte type, data in the next 4 bytes.
         let len = (w0 >> 16) as usize;
         if len > 4 {
-            return Err(format!(
-                "small data element at byte {pos} declares {len} bytes (at most 4 allowed)"
-            ));
+            return Err(ParseError::SmallTooLong { offset: pos, len });
         }
         return Ok(Tag {
             dtype: w0 & 0xffff,
@@ -381,10 +425,11 @@ fn read_tag(buf: &[u8], pos: usize, e: Endian) -> std::result::Result<Tag, Strin
     let len = e.u32(&buf[pos + 4..]) as usize;
     let start = pos + 8;
     if len > buf.len() - start {
-        return Err(format!(
-            "data element at byte {pos} declares {len} bytes but only {} remain (file truncated?)",
-            buf.len() - start
-        ));
+        return Err(ParseError::Truncated {
+            offset: pos,
+            len,
+            remaining: buf.len() - start,
+        });
     }
     // Compressed elements are not padded; all others are padded to a
     // multiple of 8 bytes, counted from the element's own start (after a
@@ -419,26 +464,24 @@ fn parse_matrix_header(
     buf: &[u8],
     e: Endian,
     complete: bool,
-) -> std::result::Result<Option<MatrixHeader>, String> {
-    let short = |r: std::result::Result<Tag, String>| -> std::result::Result<Option<Tag>, String> {
-        match r {
-            Ok(t) => Ok(Some(t)),
-            Err(m) if complete => Err(m),
-            Err(_) => Ok(None),
-        }
+) -> std::result::Result<Option<MatrixHeader>, ParseError> {
+    let short = |r: std::result::Result<Tag, ParseError>| match r {
+        Ok(t) => Ok(Some(t)),
+        Err(m) if complete => Err(m),
+        Err(_) => Ok(None),
     };
     if buf.is_empty() {
         // An empty placeholder matrix (valid inside cells; odd at top level).
-        return Err("empty miMATRIX element (no flags, dimensions or name)".into());
+        return Err(ParseError::EmptyMatrix);
     }
     let Some(flags) = short(read_tag(buf, 0, e))? else {
         return Ok(None);
     };
     if flags.dtype != MI_UINT32 || flags.len != 8 {
-        return Err(format!(
-            "array flags sub-element has type {} and {} bytes (expected miUINT32, 8 bytes)",
-            flags.dtype, flags.len
-        ));
+        return Err(ParseError::Flags {
+            dtype: flags.dtype,
+            len: flags.len,
+        });
     }
     let word = e.u32(&buf[flags.start..]);
     let class = MatClass::from_code((word & 0xff) as u8);
@@ -447,16 +490,16 @@ fn parse_matrix_header(
         return Ok(None);
     };
     if dims_tag.dtype != MI_INT32 || dims_tag.len % 4 != 0 || dims_tag.len < 8 {
-        return Err(format!(
-            "dimensions sub-element has type {} and {} bytes (expected miINT32, at least 2 dimensions)",
-            dims_tag.dtype, dims_tag.len
-        ));
+        return Err(ParseError::Dimensions {
+            dtype: dims_tag.dtype,
+            len: dims_tag.len,
+        });
     }
     let mut dims = Vec::with_capacity(dims_tag.len / 4);
     for k in 0..dims_tag.len / 4 {
         let d = e.i32(&buf[dims_tag.start + 4 * k..]);
         if d < 0 {
-            return Err(format!("negative dimension {d}"));
+            return Err(ParseError::NegativeDimension(d));
         }
         dims.push(d as usize);
     }
@@ -464,10 +507,7 @@ fn parse_matrix_header(
         return Ok(None);
     };
     if name_tag.dtype != MI_INT8 && name_tag.dtype != MI_UINT8 && name_tag.dtype != MI_UTF8 {
-        return Err(format!(
-            "array name sub-element has type {} (expected miINT8)",
-            name_tag.dtype
-        ));
+        return Err(ParseError::NameType(name_tag.dtype));
     }
     let name =
         String::from_utf8_lossy(&buf[name_tag.start..name_tag.start + name_tag.len]).into_owned();
@@ -486,17 +526,16 @@ fn convert(
     dtype: u32,
     e: Endian,
     out: &mut Vec<f64>,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<(), ParseError> {
     macro_rules! conv {
         ($t:ty, $n:expr) => {{
             #[allow(clippy::modulo_one)]
             let ragged = data.len() % $n != 0;
             if ragged {
-                return Err(format!(
-                    "{} bytes of data is not a whole number of {}-byte values",
-                    data.len(),
-                    $n
-                ));
+                return Err(ParseError::Ragged {
+                    bytes: data.len(),
+                    width: $n,
+                });
             }
             out.reserve(data.len() / $n);
             if e.0 {
@@ -523,7 +562,7 @@ fn convert(
         MI_DOUBLE => conv!(f64, 8),
         MI_INT64 => conv!(i64, 8),
         MI_UINT64 => conv!(u64, 8),
-        t => return Err(format!("data of type {t} is not a numeric type")),
+        t => return Err(ParseError::NotNumeric(t)),
     }
     Ok(())
 }
@@ -614,14 +653,15 @@ impl MatFile {
         let mut pos = 128;
         let mut vars = Vec::new();
         while pos < buf.len() {
-            let tag = read_tag(buf, pos, e)
-                .map_err(|m| Error::format(&self.path, format!("element at byte {pos}"), m))?;
+            let tag = read_tag(buf, pos, e).map_err(|m| {
+                Error::format(&self.path, format!("element at byte {pos}"), m.to_string())
+            })?;
             let at = |m: String| Error::format(&self.path, format!("element at byte {pos}"), m);
             let content = &buf[tag.start..tag.start + tag.len];
             match tag.dtype {
                 MI_MATRIX => {
                     let h = parse_matrix_header(content, e, true)
-                        .map_err(at)?
+                        .map_err(|m| at(m.to_string()))?
                         .expect("complete buffers never ask for more");
                     vars.push(MatVariableInfo {
                         name: h.name,
@@ -747,7 +787,7 @@ impl MatFile {
         let e = self.endian();
         let pos = info.offset;
         let at = |m: String| Error::format(path, name, format!("element at byte {pos}: {m}"));
-        let tag = read_tag(&self.bytes, pos, e).map_err(at)?;
+        let tag = read_tag(&self.bytes, pos, e).map_err(|m| at(m.to_string()))?;
         let content = &self.bytes[tag.start..tag.start + tag.len];
         let decompressed;
         let matrix: &[u8] = if info.compressed {
@@ -769,7 +809,7 @@ impl MatFile {
             content
         };
         let h = parse_matrix_header(matrix, e, true)
-            .map_err(&at)?
+            .map_err(|m| at(m.to_string()))?
             .expect("complete buffers never ask for more");
         let count = h
             .dims

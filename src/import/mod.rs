@@ -325,9 +325,17 @@ pub enum Delimiter {
     Whitespace,
 }
 
+/// A delimiter text that names no delimiter (serde's `try_from` needs only
+/// `Display`, so the reason stays typed).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "delimiter `{0}`: expected one ASCII character, `tab`, `comma`, `semicolon` or `whitespace`"
+)]
+pub struct UnknownDelimiter(pub String);
+
 impl TryFrom<String> for Delimiter {
-    type Error = String;
-    fn try_from(s: String) -> std::result::Result<Delimiter, String> {
+    type Error = UnknownDelimiter;
+    fn try_from(s: String) -> std::result::Result<Delimiter, UnknownDelimiter> {
         Ok(match s.as_str() {
             "tab" | "\t" | "\\t" => Delimiter::Char(b'\t'),
             "comma" => Delimiter::Char(b','),
@@ -336,12 +344,7 @@ impl TryFrom<String> for Delimiter {
             c if c.len() == 1 && c.is_ascii() && c != "\"" && c != "#" => {
                 Delimiter::Char(c.as_bytes()[0])
             }
-            other => {
-                return Err(format!(
-                    "delimiter `{other}`: expected one ASCII character, `tab`, `comma`, \
-                     `semicolon` or `whitespace`"
-                ));
-            }
+            _ => return Err(UnknownDelimiter(s)),
         })
     }
 }
@@ -809,7 +812,8 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
                 ));
             };
             let t = file.read(name)?.signal(None, path)?;
-            let rate = quality::rate_from_time(&t).map_err(|m| Error::format(path, name, m))?;
+            let rate = quality::rate_from_time(&t)
+                .map_err(|m| Error::format(path, name, m.to_string()))?;
             time = Some((name.clone(), t));
             (rate, format!("time variable `{name}`"), false)
         }

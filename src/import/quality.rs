@@ -735,27 +735,55 @@ fn excitation_check(rec: &Recording, opts: &QualityOptions, out: &mut Vec<Findin
     }
 }
 
+/// Why a time axis gives no sample rate.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TimeAxisError {
+    /// Fewer than two stamps.
+    #[error("a time axis needs at least 2 samples, got {samples}")]
+    TooShort {
+        /// Stamps present.
+        samples: usize,
+    },
+    /// A stamp is NaN or infinite.
+    #[error("time stamp at sample {sample} is {value}")]
+    NotFinite {
+        /// The sample.
+        sample: usize,
+        /// Its stamp.
+        value: f64,
+    },
+    /// A stamp is not after the one before it.
+    #[error("time does not increase at sample {sample}: {before} then {value}")]
+    NotIncreasing {
+        /// The sample.
+        sample: usize,
+        /// The stamp before it, s.
+        before: f64,
+        /// Its stamp, s.
+        value: f64,
+    },
+}
+
 /// The sample rate of uniformly spaced time stamps (seconds), from a
-/// least-squares line through them. `Err` (a message with the sample
-/// index) when there are fewer than 2 stamps, a stamp is not finite, or the
-/// stamps do not strictly increase.
-pub fn rate_from_time(t: &[f64]) -> std::result::Result<f64, String> {
+/// least-squares line through them. `Err` (naming the sample) when there
+/// are fewer than 2 stamps, a stamp is not finite, or the stamps do not
+/// strictly increase.
+pub fn rate_from_time(t: &[f64]) -> std::result::Result<f64, TimeAxisError> {
     if t.len() < 2 {
-        return Err(format!(
-            "a time axis needs at least 2 samples, got {}",
-            t.len()
-        ));
+        return Err(TimeAxisError::TooShort { samples: t.len() });
     }
     if let Some(i) = t.iter().position(|v| !v.is_finite()) {
-        return Err(format!("time stamp at sample {i} is {}", t[i]));
+        return Err(TimeAxisError::NotFinite {
+            sample: i,
+            value: t[i],
+        });
     }
     if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(format!(
-            "time does not increase at sample {}: {} then {}",
-            i + 1,
-            t[i],
-            t[i + 1]
-        ));
+        return Err(TimeAxisError::NotIncreasing {
+            sample: i + 1,
+            before: t[i],
+            value: t[i + 1],
+        });
     }
     let (_, slope) = line_fit(t);
     Ok(1.0 / slope)
@@ -808,7 +836,7 @@ pub fn check_time_axis(
     };
     let rate = match rate_from_time(t) {
         Ok(r) => r,
-        Err(m) => return broken(m),
+        Err(m) => return broken(m.to_string()),
     };
     let period = 1.0 / rate;
     let (a, b) = line_fit(t);

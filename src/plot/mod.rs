@@ -51,7 +51,7 @@ pub const FIGURE_HEIGHT: u32 = 700;
 /// the first outcome.
 pub fn ensure_fonts() -> Result<()> {
     use plotters::style::{FontStyle, register_font};
-    static FONTS: std::sync::OnceLock<std::result::Result<(), String>> = std::sync::OnceLock::new();
+    static FONTS: std::sync::OnceLock<render::Draw<()>> = std::sync::OnceLock::new();
     FONTS
         .get_or_init(|| {
             let faces = [
@@ -59,13 +59,17 @@ pub fn ensure_fonts() -> Result<()> {
                 (FontStyle::Bold, dejavu::sans::bold()),
             ];
             for (style, bytes) in faces {
-                register_font("sans-serif", style, bytes)
-                    .map_err(|_| format!("the DejaVu Sans {} face is invalid", style.as_str()))?;
+                register_font("sans-serif", style, bytes).map_err(|_| {
+                    render::DrawError(format!(
+                        "the DejaVu Sans {} face is invalid",
+                        style.as_str()
+                    ))
+                })?;
             }
             Ok(())
         })
         .clone()
-        .map_err(|m| Error::input("plot fonts", m))
+        .map_err(|m| Error::input("plot fonts", m.0))
 }
 
 /// The `[png, svg]` paths a `write_*` function writes for `stem` (see the

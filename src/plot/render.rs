@@ -12,11 +12,17 @@ use plotters::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Drawing results carry the backend's message; the caller names the figure.
-pub(super) type Draw<T> = std::result::Result<T, String>;
+/// A drawing backend's failure, as its message: the backends' error types
+/// differ (bitmap, SVG) and the caller names the figure.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub(super) struct DrawError(pub String);
 
-fn fail<E: std::fmt::Display>(e: E) -> String {
-    e.to_string()
+/// Drawing results; see [`DrawError`].
+pub(super) type Draw<T> = std::result::Result<T, DrawError>;
+
+fn fail<E: std::fmt::Display>(e: E) -> DrawError {
+    DrawError(e.to_string())
 }
 
 const FONT: &str = "sans-serif";

@@ -89,22 +89,57 @@ impl SignalBlock<'_> {
     }
 }
 
+/// What is wrong with a signal block's bytes.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub(crate) enum CdrError {
+    /// The encapsulation header is not little-endian CDR.
+    #[error("expected the little-endian CDR header 00 01, got {got:02x?}")]
+    Header {
+        /// The first bytes found (up to two).
+        got: Vec<u8>,
+    },
+    /// The message ends before a field does.
+    #[error(
+        "message ends inside `{field}` (byte {offset} of the body, {needed} needed, {len} there)"
+    )]
+    Truncated {
+        /// The field.
+        field: &'static str,
+        /// Where the field starts in the body (after the header), aligned.
+        offset: usize,
+        /// Bytes the field needs.
+        needed: usize,
+        /// Bytes in the body.
+        len: usize,
+    },
+    /// An array's element count overflows the address space.
+    #[error("`{field}` too long")]
+    TooLong {
+        /// The array.
+        field: &'static str,
+    },
+}
+
 /// Decodes a signal block, or says what is wrong with it.
-pub(crate) fn decode_signal_block(data: &[u8]) -> Result<SignalBlock<'_>, String> {
+pub(crate) fn decode_signal_block(data: &[u8]) -> Result<SignalBlock<'_>, CdrError> {
     if data.len() < HEADER.len() || data[..2] != HEADER[..2] {
-        return Err(format!(
-            "expected the little-endian CDR header 00 01, got {:02x?}",
-            &data[..data.len().min(2)]
-        ));
+        return Err(CdrError::Header {
+            got: data[..data.len().min(2)].to_vec(),
+        });
     }
     let body = &data[HEADER.len()..];
     let mut at = 0usize;
-    let mut take = |size: usize, align: usize, what: &str| -> Result<&[u8], String> {
+    let mut take = |size: usize, align: usize, field: &'static str| -> Result<&[u8], CdrError> {
         at = at.div_ceil(align) * align;
         let end = at
             .checked_add(size)
             .filter(|&e| e <= body.len())
-            .ok_or_else(|| format!("message ends inside `{what}`"))?;
+            .ok_or(CdrError::Truncated {
+                field,
+                offset: at,
+                needed: size,
+                len: body.len(),
+            })?;
         let s = &body[at..end];
         at = end;
         Ok(s)
@@ -117,13 +152,12 @@ pub(crate) fn decode_signal_block(data: &[u8]) -> Result<SignalBlock<'_>, String
     let fs = f64::from_bits(u64_at(take(8, 8, "fs")?));
     let mut arrays: [&[u8]; 4] = [&[]; 4];
     for (q, name) in ["force", "displacement", "velocity", "acceleration"]
-        .iter()
+        .into_iter()
         .enumerate()
     {
         let n = u32_at(take(4, 4, name)?) as usize;
         arrays[q] = take(
-            n.checked_mul(4)
-                .ok_or_else(|| format!("`{name}` too long"))?,
+            n.checked_mul(4).ok_or(CdrError::TooLong { field: name })?,
             4,
             name,
         )?;

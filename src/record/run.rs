@@ -706,9 +706,8 @@ impl Scan {
                 match topic.as_str() {
                     TOPIC_SIGNALS => {
                         let block = cdr::decode_signal_block(&data)
-                            .map_err(|m| Error::format(path, field(), m))?;
-                        self.add_block(&block)
-                            .map_err(|m| Error::format(path, field(), m))?;
+                            .map_err(|m| Error::format(path, field(), m.to_string()))?;
+                        self.add_block(&block, path, &field())?;
                     }
                     TOPIC_DWELL | TOPIC_FIT => {
                         let v: Value = serde_json::from_slice(&data)
@@ -736,9 +735,11 @@ impl Scan {
     }
 
     /// Appends a block to its step's stretch, or starts a new stretch.
-    fn add_block(&mut self, b: &cdr::SignalBlock<'_>) -> std::result::Result<(), String> {
+    /// Errors name the file and the message (`field`).
+    fn add_block(&mut self, b: &cdr::SignalBlock<'_>, path: &Path, field: &str) -> Result<()> {
+        let bad = |message: String| Err(Error::format(path, field, message));
         if *self.block_fs.get_or_insert(b.fs) != b.fs {
-            return Err(format!(
+            return bad(format!(
                 "sample rate {} Hz differs from earlier blocks' {} Hz",
                 b.fs,
                 self.block_fs.unwrap_or_default()
@@ -746,7 +747,7 @@ impl Scan {
         }
         let n = b.len(0);
         if (1..4).any(|s| b.len(s) != 0 && b.len(s) != n) {
-            return Err(format!(
+            return bad(format!(
                 "arrays of unequal length: force {n}, displacement {}, velocity {}, acceleration {}",
                 b.len(1),
                 b.len(2),
@@ -770,7 +771,7 @@ impl Scan {
         let had = last.frames();
         for (s, q) in QUANTITIES.iter().enumerate() {
             if s > 0 && had > 0 && (last.array(s).is_empty() != (b.len(s) == 0)) {
-                return Err(format!(
+                return bad(format!(
                     "{q} recorded in some blocks of step {} but not in others",
                     b.step
                 ));

@@ -373,6 +373,27 @@ impl RecordingReader {
     }
 }
 
+/// The reader is the file glue of the streaming reduction
+/// ([`crate::extract::reduce_stepped_stream`]), which knows no files.
+impl super::FrameSource for RecordingReader {
+    fn meta(&self) -> &RecordingMeta {
+        &self.meta
+    }
+
+    fn frames(&self) -> usize {
+        self.frames
+    }
+
+    fn source_name(&self) -> String {
+        self.wav_path.display().to_string()
+    }
+
+    fn read_at(&mut self, start: usize, count: usize, out: &mut [Vec<f64>]) -> Result<usize> {
+        self.seek_frame(start)?;
+        self.read_frames(count, out)
+    }
+}
+
 /// Reads a whole recording (`NAME.wav` + `NAME.json`; `path` is either file
 /// or the stem) into memory, samples in physical units.
 pub fn read_recording(path: &Path) -> Result<Recording> {

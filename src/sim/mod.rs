@@ -25,6 +25,7 @@ pub mod filter;
 pub use filter::{ModeFilter, Section};
 
 use crate::error::{Error, Result};
+use crate::model::masing::SOLVE_TOLERANCE;
 use crate::model::{Element, ImplicitStep, ModalModel};
 
 /// One output sample.
@@ -133,10 +134,6 @@ pub struct Simulator<E: Element> {
     stats: SolveStats,
 }
 
-/// Relative tolerance of the per-sample solve on `u`; far below the method's
-/// discretisation error (≥ 1e-5 at 200 samples per period). Elements that
-/// solve the sample equation themselves meet the same one.
-pub(crate) const SOLVE_TOLERANCE: f64 = 1e-11;
 const MAX_NEWTON: usize = 8;
 const MAX_BRACKETED: usize = 200;
 
