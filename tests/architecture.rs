@@ -5,6 +5,8 @@
 //! * The model does not depend on the simulator: no `crate::sim` in `model`.
 //! * The test bench does not depend on harmonic balance: no `crate::hb`.
 //! * Harmonic balance does not depend on fitting or diagnosis.
+//! * No `dyn Any` or `downcast` in `src/`: what a stage needs to know of an
+//!   element it asks the element (`Element`, its law's `Description`).
 //! * No `Result<_, String>` (nor a `String` conversion error) anywhere in
 //!   `src/`: errors are typed.
 //!
@@ -121,6 +123,23 @@ fn harmonic_balance_does_not_depend_on_fit_or_diagnosis() {
         "hb uses fit/diagnose:\n{}",
         found.join("\n")
     );
+}
+
+#[test]
+fn no_stage_downcasts_an_element() {
+    let mut found = Vec::new();
+    for f in rust_files(&src()) {
+        let text = std::fs::read_to_string(&f).unwrap();
+        for (n, line) in code_lines(&text) {
+            if ["downcast", "dyn Any", "std::any::Any"]
+                .iter()
+                .any(|p| line.contains(p))
+            {
+                found.push(format!("{}:{n}: {}", f.display(), line.trim()));
+            }
+        }
+    }
+    assert!(found.is_empty(), "downcasts:\n{}", found.join("\n"));
 }
 
 /// The last top-level generic argument of each `Result<…>` in `line`

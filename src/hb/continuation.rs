@@ -85,7 +85,7 @@ enum TraceFailure {
 }
 
 impl HbSolver {
-    pub(super) fn run_sweep<L: LinearPart, E: Element + 'static>(
+    pub(super) fn run_sweep<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -202,7 +202,7 @@ impl HbSolver {
     /// tangent to `w0`, returns to `x0`: a cheap check that a large step
     /// stayed on the branch (after a jump it lands on the other branch).
     #[allow(clippy::too_many_arguments)]
-    fn returns_to<L: LinearPart, E: Element + 'static>(
+    fn returns_to<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -240,7 +240,7 @@ impl HbSolver {
     /// trace the branch, decide, report a fold. Returns the point's state,
     /// outcome and whether it starts a new branch.
     #[allow(clippy::too_many_arguments)]
-    fn check_jump<L: LinearPart, E: Element + 'static>(
+    fn check_jump<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -315,7 +315,7 @@ impl HbSolver {
     }
 
     /// Single-harmonic describing-function solutions at `omega`, as guesses.
-    fn df_guesses<L: LinearPart, E: Element + 'static>(
+    fn df_guesses<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -332,7 +332,7 @@ impl HbSolver {
     /// The first point of a branch: describing-function start(s), then
     /// Newton. `direction` (+1 up, −1 down, 0 none) picks among several
     /// describing-function amplitudes.
-    pub(super) fn cold_start<L: LinearPart, E: Element + 'static>(
+    pub(super) fn cold_start<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -357,7 +357,7 @@ impl HbSolver {
 
     /// A describing-function restart, trying the amplitude closest to
     /// `prefer` first.
-    fn restart<L: LinearPart, E: Element + 'static>(
+    fn restart<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -373,7 +373,7 @@ impl HbSolver {
     }
 
     /// Newton from each single-harmonic guess in turn until one converges.
-    fn polish<L: LinearPart, E: Element + 'static>(
+    fn polish<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -430,7 +430,7 @@ impl HbSolver {
     /// time, up to 50 %) until the amplitude is unique, then follow it
     /// forward, picking at each step the amplitude nearest to the linear
     /// extrapolation (in log amplitude) of the last two.
-    fn branch_root<L: LinearPart, E: Element + 'static>(
+    fn branch_root<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -461,7 +461,7 @@ impl HbSolver {
 
     /// Pseudo-arclength continuation of the branch through `(x0, w0)` toward
     /// `w1`.
-    fn trace<L: LinearPart, E: Element + 'static>(
+    fn trace<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -673,7 +673,7 @@ mod tests {
     fn converged_at(
         s: &mut HbSolver,
         linear: &ModalModel,
-        e: &mut (impl Element + 'static),
+        e: &mut (impl Element),
         f: f64,
         force: f64,
         guess: &[f64],

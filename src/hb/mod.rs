@@ -313,7 +313,7 @@ impl HbSolver {
     /// describing function (the smallest-amplitude solution when there are
     /// several). If Newton fails from a given guess, the describing-function
     /// start is tried too.
-    pub fn solve_point<L: LinearPart, E: Element + 'static>(
+    pub fn solve_point<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -361,7 +361,7 @@ impl HbSolver {
 
     /// Sweeps the frequencies in the given order (up, down, or any order),
     /// following the branch, reporting folds. See the module docs.
-    pub fn sweep<L: LinearPart, E: Element + 'static>(
+    pub fn sweep<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
@@ -444,7 +444,7 @@ const _: fn() = || {
 
 /// Solves at one frequency (a one-off [`HbSolver`]; see
 /// [`HbSolver::solve_point`]).
-pub fn solve_point<L: LinearPart, E: Element + 'static>(
+pub fn solve_point<L: LinearPart, E: Element>(
     linear: &L,
     elements: &mut E,
     frequency_hz: f64,
@@ -457,7 +457,7 @@ pub fn solve_point<L: LinearPart, E: Element + 'static>(
 
 /// Sweeps the frequencies in the given order at one force level (a one-off
 /// [`HbSolver`]; see [`HbSolver::sweep`]).
-pub fn sweep<L: LinearPart, E: Element + 'static>(
+pub fn sweep<L: LinearPart, E: Element>(
     linear: &L,
     elements: &mut E,
     frequencies_hz: &[f64],

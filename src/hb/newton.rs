@@ -192,7 +192,7 @@ impl Core {
 
     /// The residual `R` at `x` (and the Jacobian `∂R/∂X` when asked), at the
     /// frequency last set.
-    pub fn residual<E: Element + 'static>(
+    pub fn residual<E: Element>(
         &mut self,
         elements: &mut E,
         force: f64,
@@ -219,7 +219,7 @@ impl Core {
     }
 
     /// Damped Newton from `x` (overwritten with the last iterate).
-    pub fn newton<E: Element + 'static>(
+    pub fn newton<E: Element>(
         &mut self,
         elements: &mut E,
         force: f64,
@@ -462,7 +462,7 @@ impl Core {
     /// −h H'(hω)(F δ_{h1} − G_h)` needs no march (the Jacobian and `G` of the
     /// last Newton solve are reused); otherwise `∂R/∂ω` is a forward
     /// difference. `false` if it cannot be formed.
-    pub fn tangent<L: LinearPart, E: Element + 'static>(
+    pub fn tangent<L: LinearPart, E: Element>(
         &mut self,
         linear: &L,
         elements: &mut E,
