@@ -235,3 +235,66 @@ fn bad_test_definitions_fail_cleanly_without_output() {
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("/nonexistent/t.toml"));
 }
+
+/// `diagnose --element jenkins` keeps the user's joint law in every
+/// candidate: the second-mode candidate re-identifies the structure with one
+/// more mode, and once did so with the default options (a Masing joint,
+/// whose curvature `n` then appeared among the candidate's parameters).
+#[test]
+fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
+    let dir = tempfile::tempdir().unwrap();
+    let with_mode = SMALL_TEST
+        .replace("count = 11", "count = 15")
+        .replace("levels_n = [50.0, 3000.0]", "levels_n = [50.0, 1000.0, 30000.0]")
+        .replace(
+            "[test]",
+            "[[effects]]\nkind = \"second_mode\"\nfrequency_hz = 420.0\ndamping_ratio = 0.01\nmodal_mass = 50.0\n[test]",
+        );
+    let test = write_test(dir.path(), "mode.toml", &with_mode);
+    let sim = dir.path().join("sim");
+    let o = hystid(&[
+        "simulate",
+        test.to_str().unwrap(),
+        "--out",
+        sim.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = dir.path().join("diag");
+    let o = hystid(&[
+        "diagnose",
+        sim.join("recording.wav").to_str().unwrap(),
+        "--element",
+        "jenkins",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("diagnosis.json")).unwrap()).unwrap();
+    for model in ["baseline_model", "model"] {
+        assert_eq!(
+            d[model]["elements"][0]["kind"], "jenkins",
+            "{model}: {}",
+            d[model]
+        );
+    }
+    let candidates = d["candidates"].as_array().unwrap();
+    assert!(
+        candidates.iter().any(|c| c["effect"] == "second_mode"),
+        "the second-mode candidate was not tried: {candidates:?}"
+    );
+    for c in candidates {
+        let params = c["parameters"].as_object().unwrap();
+        assert!(
+            params.contains_key("kd") && params.contains_key("fd"),
+            "{c}"
+        );
+        assert!(
+            !params.contains_key("n"),
+            "{} carries a Masing curvature: {c}",
+            c["effect"]
+        );
+    }
+}

@@ -206,3 +206,72 @@ impl Candidate for SecondMode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::{DiagnoseOptions, Refit};
+    use crate::fit::{FitOptions, FrfPredictor, HbPredictor, identify};
+    use crate::testbench::{self, NoSink, TestDefinition};
+
+    /// Every start keeps the joint law the user fitted (the re-identification
+    /// with one more mode once used the default options: a Masing joint).
+    #[test]
+    fn every_start_keeps_the_users_joint_law() {
+        let text = r#"
+[system]
+mass = 10.0
+damping = 200.0
+stiffness = 1.0e7
+[joint]
+kind = "jenkins"
+kd = 2.4e7
+fd = 246.048
+[[effects]]
+kind = "second_mode"
+frequency_hz = 420.0
+damping_ratio = 0.01
+modal_mass = 50.0
+[test]
+frequencies_hz = { start = 150.0, stop = 350.0, count = 13 }
+levels_n = [50.0, 1000.0, 30000.0]
+noise = 0.10
+seed = 3
+"#;
+        let def = TestDefinition::from_toml(text, "second mode").unwrap();
+        let run = testbench::run(&def, &mut NoSink, &|| {}).unwrap();
+        let predictor = HbPredictor::default();
+        let fit_options = FitOptions {
+            element: ElementKind::Jenkins,
+            ..FitOptions::default()
+        };
+        let fit = identify(&run.frf, &fit_options, &predictor, None).unwrap();
+        let options = DiagnoseOptions {
+            fit: fit_options,
+            ..DiagnoseOptions::default()
+        };
+        let data = FitData::from_frf(&run.frf, &[1, 2, 3], None, None)
+            .unwrap()
+            .with_sign(fit.response_sign);
+        let pred = predictor.predict_from(&fit.model, &data, None).unwrap();
+        let current = Refit {
+            model: fit.model.clone(),
+            chi2: crate::fit::problem::chi_square(&data, &pred),
+            pred,
+        };
+        let cx = Context {
+            current: &current,
+            data: &data,
+            frf: &run.frf,
+            options: &options,
+            predictor: &predictor,
+        };
+        let starts = SecondMode.starts(&cx).unwrap();
+        // the residual's mode, and the identification afresh at least
+        assert!(starts.len() >= 2, "{} starts", starts.len());
+        for m in &starts {
+            assert_eq!(m.linear.modes.len(), 2);
+            assert_eq!(m.elements[0].kind(), ElementKind::Jenkins, "{m:?}");
+        }
+    }
+}
