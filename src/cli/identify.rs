@@ -2,7 +2,7 @@
 //! FRFs (paper Figures 2.2 and 3.3).
 
 use super::args::{ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs};
-use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
+use super::{create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, choose_compensation, reduce_stepped,
@@ -793,11 +793,5 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
             say!("  wrote {}", f.display());
         }
     }
-    Ok(
-        if fit.notes.iter().any(|n| n.contains("did not converge")) {
-            EXIT_DEGRADED
-        } else {
-            EXIT_OK
-        },
-    )
+    Ok(super::fit_exit_code(fit.status))
 }

@@ -7,7 +7,7 @@ use super::identify::{
     FitReport, compare, fit_options, print_fit, reference_joint, run_fit, write_fit_plots,
 };
 use super::simulate::{SimulateSummary, simulate_into};
-use super::{EXIT_DEGRADED, EXIT_OK, read_test, write_json};
+use super::{EXIT_DEGRADED, read_test, write_json};
 use anyhow::Result;
 use hystid::fit::FitResult;
 use hystid::model::ElementSpec;
@@ -130,9 +130,11 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         print_fit(&fit, &report.comparison);
         say!("  report: {}", args.out.join("report.md").display());
     }
-    let degraded =
-        !sim.unsettled.is_empty() || fit.notes.iter().any(|n| n.contains("did not converge"));
-    Ok(if degraded { EXIT_DEGRADED } else { EXIT_OK })
+    Ok(if sim.unsettled.is_empty() {
+        super::fit_exit_code(fit.status)
+    } else {
+        EXIT_DEGRADED
+    })
 }
 
 fn fmt_param(fit: &FitResult, name: &str) -> String {

@@ -14,7 +14,7 @@
 //!    tends to the Jenkins element as `N → ∞` and the cost is flat there).
 
 use super::linear::{FrfSample, SdofEstimate, fit_sdof};
-use super::optimise::{self, OptimiserRun};
+use super::optimise::{self, FitStatus, OptimiserRun};
 use super::params::{N_MAX, Parameter, ParameterSet, Target, Transform};
 use super::problem::{
     FitData, FitProblem, FrfPredictor, Prediction, TraceEntry, Weighting, chi_square,
@@ -256,6 +256,10 @@ pub struct FitResult {
     pub trace: Vec<TraceEntry>,
     /// Effort.
     pub effort: EffortReport,
+    /// How the fit ended: the main optimiser's status, or
+    /// [`FitStatus::ModelNotConverged`] when model points failed at the optimum.
+    #[serde(default)]
+    pub status: FitStatus,
     /// Notes (warnings) for the user.
     pub notes: Vec<String>,
     /// The model predicts `response_sign × H_measured` (see
@@ -712,9 +716,15 @@ pub fn identify(
             .linear
             .as_mck()
             .unwrap_or((linear.mass, linear.damping, linear.stiffness));
+    let status = if pred.failures() > 0 {
+        FitStatus::ModelNotConverged
+    } else {
+        run.status
+    };
     let seconds = t0.elapsed().as_secs_f64();
     let evaluations = stage1.evaluations() + problem.evaluations();
     Ok(FitResult {
+        status,
         element: options.element,
         parameters,
         linear: LinearReport {
