@@ -75,7 +75,5 @@ pub fn read_test(path: Option<&Path>) -> Result<(hystid::testbench::TestDefiniti
 
 /// Writes a value as pretty JSON, atomically.
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
-    let bytes = serde_json::to_vec_pretty(value).context("serialising JSON")?;
-    hystid::atomic::write_bytes(path, &bytes)?;
-    Ok(())
+    Ok(hystid::analysis::write_json(path, value)?)
 }

@@ -168,6 +168,7 @@ pub struct Estimate {
     /// Value.
     pub value: f64,
     /// 95 % confidence interval `[lo, hi]` (`hi` may be infinite).
+    #[serde(deserialize_with = "interval_from_json")]
     pub ci95: [f64; 2],
     /// Whether the data determine it.
     pub identifiable: bool,
@@ -175,8 +176,29 @@ pub struct Estimate {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
     /// Bootstrap 95 % interval, if requested.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "optional_interval_from_json"
+    )]
     pub bootstrap_ci95: Option<[f64; 2]>,
+}
+
+/// An interval as JSON writes it: an unbounded end (infinite, or not
+/// determined) is `null`, read back as that side's infinity.
+fn interval_from_json<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<[f64; 2], D::Error> {
+    let [lo, hi] = <[Option<f64>; 2]>::deserialize(d)?;
+    Ok([lo.unwrap_or(f64::NEG_INFINITY), hi.unwrap_or(f64::INFINITY)])
+}
+
+/// [`interval_from_json`] of an optional interval.
+fn optional_interval_from_json<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<[f64; 2]>, D::Error> {
+    Ok(Option::<[Option<f64>; 2]>::deserialize(d)?
+        .map(|[lo, hi]| [lo.unwrap_or(f64::NEG_INFINITY), hi.unwrap_or(f64::INFINITY)]))
 }
 
 /// The linear system estimates.
