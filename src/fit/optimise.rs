@@ -319,3 +319,29 @@ pub fn covariance(
     }
     Some((cov, reduced))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::FitStatus;
+    use argmin::core::{TerminationReason as R, TerminationStatus as S};
+
+    /// The status comes from the termination's type; fit.json spells it in
+    /// snake case.
+    #[test]
+    fn fit_status_follows_the_termination_type() {
+        let of = |r: R| FitStatus::of_argmin(&S::Terminated(r));
+        assert_eq!(of(R::SolverConverged), FitStatus::Converged);
+        assert_eq!(of(R::MaxItersReached), FitStatus::IterationLimit);
+        assert_eq!(of(R::SolverExit("maximum".into())), FitStatus::Stopped);
+        assert_eq!(
+            FitStatus::of_levenberg_marquardt(
+                &levenberg_marquardt::TerminationReason::LostPatience
+            ),
+            FitStatus::IterationLimit
+        );
+        assert_eq!(
+            serde_json::to_string(&FitStatus::IterationLimit).unwrap(),
+            "\"iteration_limit\""
+        );
+    }
+}
