@@ -57,6 +57,17 @@ pub enum Error {
         /// Why, with the figures (residual, iterations).
         reason: String,
     },
+    /// A step over one of several inputs failed (e.g. `reducing
+    /// run.mcap`); the source says why. The message names the step only:
+    /// print the error's source chain for the whole story.
+    #[error("{what}")]
+    Context {
+        /// The step and its input.
+        what: String,
+        /// Why it failed.
+        #[source]
+        source: Box<Error>,
+    },
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {
@@ -100,6 +111,13 @@ impl Error {
             path: path.as_ref().display().to_string(),
             field: field.into(),
             message: message.into(),
+        }
+    }
+    /// An [`Error::Context`]: `source` while doing `what`.
+    pub fn context(what: impl Into<String>, source: Error) -> Self {
+        Error::Context {
+            what: what.into(),
+            source: Box::new(source),
         }
     }
     /// An [`Error::Io`] for a file.

@@ -30,12 +30,16 @@
 //! * [`fit`]: the paper's estimation loop (eq. 9), uncertainty, and optimisers.
 //! * [`diagnose`]: the residual traced to a missing effect, added and refitted.
 //! * [`import`], [`plot`]: real data in, figures out.
+//! * [`analysis`]: the stages over files, as the command-line tool runs
+//!   them: recordings loaded and reduced, fits and diagnoses written with
+//!   their figures and reports.
 //!
 //! Conventions (Fourier, units, FRF definition) are fixed once in
 //! [`harmonics`].
 
 #![deny(missing_docs)]
 
+pub mod analysis;
 pub mod atomic;
 pub mod diagnose;
 pub mod error;

@@ -142,6 +142,74 @@ fn no_stage_downcasts_an_element() {
     assert!(found.is_empty(), "downcasts:\n{}", found.join("\n"));
 }
 
+/// Outcomes are types: no status is decided by matching the text of a
+/// message (an optimiser's reason, a note).
+#[test]
+fn no_status_is_read_from_message_text() {
+    let mut found = Vec::new();
+    for f in rust_files(&src()) {
+        let text = std::fs::read_to_string(&f).unwrap();
+        for (n, line) in code_lines(&text) {
+            let l = line.replace(' ', "");
+            if [
+                ".contains(\"didnotconverge",
+                ".contains(\"maximum",
+                ".contains(\"dropped",
+                "to_lowercase().contains(",
+            ]
+            .iter()
+            .any(|p| l.contains(&p.replace(' ', "")))
+            {
+                found.push(format!("{}:{n}: {}", f.display(), line.trim()));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "status read from text:\n{}",
+        found.join("\n")
+    );
+}
+
+/// Only the model (its laws and their registry) names a concrete element
+/// law in a match; every other stage reads the law's description. The
+/// diagnosis candidates name the law they add, in their own files.
+#[test]
+fn only_the_model_matches_on_element_laws() {
+    let mut found = Vec::new();
+    for f in rust_files(&src()) {
+        let rel = f.strip_prefix(src()).unwrap().to_string_lossy().to_string();
+        if rel.starts_with("model") || rel.starts_with("diagnose/candidates") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&f).unwrap();
+        for (n, line) in code_lines(&text) {
+            let matched = ["ElementSpec::", "ElementKind::", "AnyElement::"]
+                .iter()
+                .any(|ty| {
+                    line.match_indices(ty).any(|(at, _)| {
+                        let rest = &line[at + ty.len()..];
+                        // a variant (capitalised) in a pattern or `matches!`
+                        rest.starts_with(|c: char| c.is_ascii_uppercase())
+                            && !rest.starts_with("ALL")
+                            && (line.contains("matches!")
+                                || line.trim_start().starts_with("Some(")
+                                || line.contains("=>")
+                                || line.trim_start().starts_with("let "))
+                    })
+                });
+            if matched {
+                found.push(format!("{}:{n}: {}", f.display(), line.trim()));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "a stage matches on a concrete law:\n{}",
+        found.join("\n")
+    );
+}
+
 /// The last top-level generic argument of each `Result<…>` in `line`
 /// (the error type; `None` for a one-argument alias such as `Result<T>`).
 fn result_error_types(line: &str) -> Vec<Option<String>> {

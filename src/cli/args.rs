@@ -165,8 +165,7 @@ pub struct ImportArgs {
 /// `hystid validate`.
 #[derive(Debug, Args)]
 pub struct ValidateArgs {
-    /// The fit: a `fit.json` from `identify` (or any JSON with a `model`
-    /// field and optionally `response_sign`).
+    /// The fit: a `fit.json` from `identify` or `run`.
     pub fit: PathBuf,
     /// The recordings to validate on (NAME.wav / NAME.json or run.mcap).
     #[arg(required = true, num_args = 1..)]

@@ -36,6 +36,20 @@ pub const EXIT_OK: u8 = 0;
 /// dwells, non-converged solves); the results say which.
 pub const EXIT_DEGRADED: u8 = 1;
 
+/// The exit status a fit's status gives: degraded when model points failed
+/// at the optimum. An optimiser that stopped at its iteration limit still
+/// returns its best point, which the intervals and notes qualify.
+pub fn fit_exit_code(status: hystid::fit::FitStatus) -> u8 {
+    use hystid::fit::FitStatus;
+    match status {
+        FitStatus::ModelNotConverged => EXIT_DEGRADED,
+        FitStatus::Converged
+        | FitStatus::IterationLimit
+        | FitStatus::Stopped
+        | FitStatus::Unknown => EXIT_OK,
+    }
+}
+
 /// Creates the output directory.
 pub fn create_out_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir)
@@ -61,7 +75,5 @@ pub fn read_test(path: Option<&Path>) -> Result<(hystid::testbench::TestDefiniti
 
 /// Writes a value as pretty JSON, atomically.
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
-    let bytes = serde_json::to_vec_pretty(value).context("serialising JSON")?;
-    hystid::atomic::write_bytes(path, &bytes)?;
-    Ok(())
+    Ok(hystid::analysis::write_json(path, value)?)
 }

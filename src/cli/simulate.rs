@@ -1,302 +1,16 @@
 //! `hystid simulate`: a virtual stepped-sine test, recorded.
 
 use super::args::{SimulateArgs, WavFormat};
-use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, read_test, write_json};
-use anyhow::{Context, Result};
-use hystid::extract::NonlinearFrf;
-use hystid::hb::{self, HbCheck, SteadyDwell};
-use hystid::record::{
-    Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter, RunInfo,
-    SampleFormat, Step,
-};
-use hystid::testbench::{self, BenchRun, BenchSink, DwellRecord, LevelOutput, TestDefinition};
-use serde::Serialize;
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use super::import::sample_format;
+use super::{EXIT_DEGRADED, EXIT_OK, progress, read_test, write_json};
+use anyhow::Result;
+use hystid::analysis::simulate::SimulateSummary;
+use hystid::record::McapRecorder;
+use hystid::testbench::{BenchRun, TestDefinition};
+use std::path::Path;
 
-/// The `/hystid/dwell` message: flat, with what a reader needs to rebuild
-/// the recording's steps.
-#[derive(Serialize)]
-struct DwellMessage<'a> {
-    step: usize,
-    level_index: usize,
-    level: f64,
-    direction: hystid::extract::Direction,
-    frequency_hz: f64,
-    requested_frequency_hz: f64,
-    start: u64,
-    settle: usize,
-    length: usize,
-    settle_periods: usize,
-    settled: bool,
-    force_amplitude: f64,
-    h: &'a [num_complex::Complex64],
-    std_error: &'a [f64],
-    clean_h: &'a [num_complex::Complex64],
-    noise_ratio: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    hb_check: Option<&'a HbCheck>,
-}
-
-impl<'a> DwellMessage<'a> {
-    fn of(d: &'a DwellRecord) -> Self {
-        DwellMessage {
-            step: d.index,
-            level_index: d.level_index,
-            level: d.level,
-            direction: d.direction,
-            frequency_hz: d.design.frequency_hz,
-            requested_frequency_hz: d.design.requested_hz,
-            start: d.start,
-            settle: d.settle,
-            length: d.length,
-            settle_periods: d.settle_periods,
-            settled: d.settled,
-            force_amplitude: d.measured.force[1].norm(),
-            h: &d.measured.h,
-            std_error: &d.measured.std_error,
-            clean_h: &d.clean_h,
-            noise_ratio: d.noise_ratio,
-            hb_check: None,
-        }
-    }
-}
-
-/// Streams each level to the MCAP run file and the WAV recording.
-pub struct FileSink {
-    /// The MCAP recorder.
-    pub mcap: McapRecorder,
-    /// The WAV recording.
-    pub wav: RecordingWriter,
-    steps: Vec<Step>,
-    dwells_written: usize,
-    /// With `--check-hb`: the model, sample rate, K, and the checks so far.
-    pub check: Option<(hystid::model::Model, f64, usize, Vec<HbCheck>)>,
-    /// Called after each level.
-    pub on_level: Box<dyn FnMut(&LevelOutput)>,
-}
-
-impl FileSink {
-    /// Opens both files (under temporary names).
-    pub fn create(dir: &Path, def: &TestDefinition, toml_text: &str, fs: f64) -> Result<FileSink> {
-        let channels = hystid::testbench::recorded_channels();
-        let info = RunInfo {
-            tool_version: format!("hystid {}", env!("CARGO_PKG_VERSION")),
-            test_definition: toml_text.to_string(),
-            seed: def.test.seed,
-            sample_rate_hz: fs,
-            channels: channels.clone(),
-            metadata: BTreeMap::from([(
-                "response".to_string(),
-                def.test.response.quantity().name().to_string(),
-            )]),
-        };
-        let mcap = McapRecorder::create(&dir.join("run.mcap"), &info)?;
-        let meta = RecordingMeta {
-            format: FORMAT_V1.into(),
-            sample_rate_hz: fs,
-            channels,
-            excitation: Excitation {
-                kind: ExcitationKind::SteppedSine,
-                steps: Vec::new(),
-                sweep: None,
-            },
-            description: "hystid virtual stepped-sine test".into(),
-            metadata: serde_json::Map::from_iter([
-                ("tool".to_string(), serde_json::json!(info.tool_version)),
-                ("seed".to_string(), serde_json::json!(def.test.seed)),
-                ("test_definition".to_string(), serde_json::json!(toml_text)),
-                (
-                    "response".to_string(),
-                    serde_json::json!(def.test.response.quantity().name()),
-                ),
-            ]),
-            extra: Default::default(),
-        };
-        let wav = RecordingWriter::create(&dir.join("recording"), meta)?;
-        Ok(FileSink {
-            mcap,
-            wav,
-            steps: Vec::new(),
-            dwells_written: 0,
-            check: None,
-            on_level: Box::new(|_| {}),
-        })
-    }
-
-    /// The MCAP recorder (still open, e.g. for the fit's channel) and the
-    /// WAV writer with its steps filled in.
-    pub fn into_parts(mut self) -> (McapRecorder, RecordingWriter) {
-        self.wav.meta_mut().excitation.steps = std::mem::take(&mut self.steps);
-        (self.mcap, self.wav)
-    }
-}
-
-impl BenchSink for FileSink {
-    fn level(&mut self, out: &LevelOutput, first_frame: u64) -> hystid::Result<()> {
-        let f64s = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();
-        let checks = match &self.check {
-            Some((model, fs, k, _)) => {
-                let steady: Vec<SteadyDwell> = (out.dwells.iter())
-                    .map(|d| SteadyDwell {
-                        index: d.index,
-                        frequency_hz: d.design.frequency_hz,
-                        receptance: &d.clean_receptance,
-                    })
-                    .collect();
-                let level = out.dwells.first().map_or(0.0, |d| d.level);
-                hb::check_hb(model, *fs, level, &steady, *k)?
-            }
-            None => Vec::new(),
-        };
-        for (i, d) in out.dwells.iter().enumerate() {
-            let a = (d.start - first_frame) as usize;
-            let b = a + d.length;
-            let step = self.dwells_written as u32;
-            self.mcap.write_signals(
-                step,
-                d.start,
-                &f64s(&out.force[a..b]),
-                &f64s(&out.displacement[a..b]),
-                &f64s(&out.velocity[a..b]),
-                &f64s(&out.acceleration[a..b]),
-            )?;
-            let mut msg = DwellMessage::of(d);
-            msg.step = self.dwells_written;
-            msg.hb_check = checks.get(i);
-            self.mcap.write_dwell(d.start + d.length as u64, &msg)?;
-            self.steps.push(Step {
-                frequency_hz: d.design.frequency_hz,
-                level: d.level,
-                start: d.start as usize,
-                settle: d.settle,
-                length: d.length,
-            });
-            self.dwells_written += 1;
-        }
-        self.wav.write_frames(&[
-            &out.force,
-            &out.displacement,
-            &out.velocity,
-            &out.acceleration,
-        ])?;
-        if let Some((_, _, _, all)) = &mut self.check {
-            all.extend(checks);
-        }
-        (self.on_level)(out);
-        Ok(())
-    }
-}
-
-/// Writes `frf.json`, `frf.csv` and the FRF figure.
-pub fn write_frf_files(dir: &Path, frf: &NonlinearFrf, title: &str) -> Result<Vec<PathBuf>> {
-    let mut files = vec![dir.join("frf.json"), dir.join("frf.csv")];
-    write_json(&files[0], frf)?;
-    let mut csv = String::from(
-        "level,direction,frequency_hz,force_amplitude,harmonic,re,im,magnitude,phase_deg,std_error\n",
-    );
-    for l in &frf.levels {
-        for p in &l.points {
-            for (k, h) in p.h.iter().enumerate() {
-                csv.push_str(&format!(
-                    "{},{:?},{},{},{},{:e},{:e},{:e},{},{:e}\n",
-                    l.level,
-                    l.direction,
-                    p.frequency_hz,
-                    p.force_amplitude,
-                    k,
-                    h.re,
-                    h.im,
-                    h.norm(),
-                    h.arg().to_degrees(),
-                    p.std_error[k]
-                ));
-            }
-        }
-    }
-    hystid::atomic::write_bytes(&files[1], csv.as_bytes())?;
-    let series = hystid::plot::frf_series_from(frf, 1, hystid::plot::SeriesStyle::Measured)?;
-    files.extend(hystid::plot::write_frf_plot(
-        &dir.join("frf"),
-        title,
-        &hystid::plot::frf_magnitude_label(frf, 1),
-        &series,
-    )?);
-    Ok(files)
-}
-
-/// The machine-readable result of `simulate`.
-#[derive(Serialize)]
-pub struct SimulateSummary {
-    /// `simulate`.
-    pub command: &'static str,
-    /// Tool version.
-    pub version: &'static str,
-    /// Sample rate, Hz.
-    pub sample_rate_hz: f64,
-    /// Levels.
-    pub levels: usize,
-    /// Dwells.
-    pub dwells: usize,
-    /// Frames recorded.
-    pub frames: u64,
-    /// Dwells that hit the settling cap (level, frequency).
-    pub unsettled: Vec<(f64, f64)>,
-    /// Mean settling periods.
-    pub mean_settle_periods: f64,
-    /// Mean measured noise ratio of the response channel.
-    pub mean_noise_ratio: f64,
-    /// Wall time, s.
-    pub seconds: f64,
-    /// With `--check-hb`: the harmonic-balance cross-check.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub hb_check: Option<HbCheckSummary>,
-    /// Files written.
-    pub files: Vec<PathBuf>,
-}
-
-/// The cross-check of the two solvers over all dwells.
-#[derive(Serialize)]
-pub struct HbCheckSummary {
-    /// Dwells compared.
-    pub dwells: usize,
-    /// Harmonic-balance points that did not converge.
-    pub not_converged: usize,
-    /// Largest `|H1_sim − H1_hb|/|H1_hb|`.
-    pub h1_max: f64,
-    /// Median of the same.
-    pub h1_median: f64,
-    /// Largest higher-harmonic difference relative to `|H1|`, per harmonic.
-    pub higher_max: Vec<(usize, f64)>,
-}
-
-fn summarise_checks(checks: &[HbCheck]) -> HbCheckSummary {
-    let mut h1: Vec<f64> = checks
-        .iter()
-        .filter(|c| c.converged)
-        .map(|c| c.h1_relative_difference)
-        .collect();
-    h1.sort_by(f64::total_cmp);
-    let mut higher: std::collections::BTreeMap<usize, f64> = Default::default();
-    for c in checks.iter().filter(|c| c.converged) {
-        for &(k, d) in &c.higher {
-            let e = higher.entry(k).or_insert(0.0);
-            *e = e.max(d);
-        }
-    }
-    HbCheckSummary {
-        dwells: checks.len(),
-        not_converged: checks.iter().filter(|c| !c.converged).count(),
-        h1_max: h1.last().copied().unwrap_or(f64::NAN),
-        h1_median: h1.get(h1.len() / 2).copied().unwrap_or(f64::NAN),
-        higher_max: higher.into_iter().collect(),
-    }
-}
-
-/// Runs the bench into `dir`; shared by `simulate` and `run`.
-///
-/// `after_bench` runs with the MCAP recorder still open (e.g. to add the
-/// fit's iterations to the run file).
+/// Runs the bench into `dir` with a progress bar; shared by `simulate` and
+/// `run`. `after_bench` runs with the MCAP recorder still open.
 pub fn simulate_into(
     def: &TestDefinition,
     toml_text: &str,
@@ -304,84 +18,25 @@ pub fn simulate_into(
     quiet: bool,
     wav_format: WavFormat,
     check_hb: bool,
-    after_bench: &mut dyn FnMut(&BenchRun, &mut McapRecorder) -> Result<()>,
+    after_bench: &mut dyn FnMut(&BenchRun, &mut McapRecorder) -> hystid::Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
-    let t0 = std::time::Instant::now();
-    let fs = def.sample_rate_hz()?;
     let total: usize =
         def.sweeps()?.iter().map(|(_, f)| f.len()).sum::<usize>() * def.test.levels_n.len();
-    create_out_dir(dir)?;
-    let mut sink = FileSink::create(dir, def, toml_text, fs)?;
-    if check_hb {
-        sink.check = Some((
-            def.model()?,
-            fs * def.oversample()? as f64,
-            def.test.max_harmonic,
-            Vec::new(),
-        ));
-    }
     let pb = progress::bar(total as u64, "dwells", quiet);
-    let tick = || pb.inc(1);
-    let run = testbench::run(def, &mut sink, &tick)?;
-    pb.finish_and_clear();
-    let checks = sink.check.take().map(|c| c.3);
-    let (mut mcap, wav) = sink.into_parts();
-    wav.finish()?;
-    let bench_seconds = t0.elapsed().as_secs_f64();
-    after_bench(&run, &mut mcap)?;
-    mcap.finish()?;
-    let mut files = vec![
-        dir.join("run.mcap"),
-        dir.join("recording.wav"),
-        dir.join("recording.json"),
-    ];
-    if !matches!(wav_format, WavFormat::Float32) {
-        let rec = hystid::record::read_recording(&dir.join("recording.wav"))?;
-        let format = match wav_format {
-            WavFormat::Pcm16 => SampleFormat::Pcm16,
-            WavFormat::Pcm24 => SampleFormat::Pcm24,
-            WavFormat::Pcm32 => SampleFormat::Pcm32,
-            WavFormat::Float32 => SampleFormat::Float32,
-        };
-        hystid::record::write_recording(&dir.join("recording"), &rec, format)
-            .context("rewriting the recording as PCM")?;
-    }
-    files.extend(write_frf_files(
+    let out = hystid::analysis::simulate::simulate_into(
+        def,
+        toml_text,
         dir,
-        &run.frf,
-        "Nonlinear FRFs (virtual stepped-sine test)",
-    )?);
-    let mut hb_summary = None;
-    if let Some(checks) = checks {
-        let path = dir.join("hb_check.json");
-        write_json(&path, &checks)?;
-        files.push(path);
-        hb_summary = Some(summarise_checks(&checks));
-    }
-    let n = run.dwells.len().max(1) as f64;
-    let summary = SimulateSummary {
-        command: "simulate",
-        version: env!("CARGO_PKG_VERSION"),
-        sample_rate_hz: run.sample_rate_hz,
-        levels: def.test.levels_n.len(),
-        dwells: run.dwells.len(),
-        frames: run.frames,
-        unsettled: run
-            .unsettled()
-            .map(|d| (d.level, d.design.frequency_hz))
-            .collect(),
-        mean_settle_periods: run
-            .dwells
-            .iter()
-            .map(|d| d.settle_periods as f64)
-            .sum::<f64>()
-            / n,
-        mean_noise_ratio: run.dwells.iter().map(|d| d.noise_ratio).sum::<f64>() / n,
-        seconds: bench_seconds,
-        hb_check: hb_summary,
-        files,
-    };
-    Ok((run, summary))
+        sample_format(wav_format),
+        check_hb,
+        &|| pb.inc(1),
+        &mut |run, mcap| {
+            pb.finish_and_clear();
+            after_bench(run, mcap)
+        },
+    )?;
+    pb.finish_and_clear();
+    Ok(out)
 }
 
 /// `hystid simulate`.

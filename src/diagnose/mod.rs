@@ -114,9 +114,32 @@ pub struct CandidateReport {
     pub criterion: f64,
     /// Whether it was kept.
     pub accepted: bool,
+    /// Why it was kept or not, as a type (`note` says it in words).
+    #[serde(default)]
+    pub verdict: Verdict,
     /// Why a candidate that passed the criterion was still not kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+}
+
+/// What became of a candidate refit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Kept in the final model.
+    Kept,
+    /// Kept in its round, dropped in a later one when another effect made
+    /// it unresolved.
+    DroppedLater,
+    /// Passed the information criterion, but the data do not resolve its
+    /// size (or it is implausible, e.g. a mode of negative modal mass).
+    SizeNotResolved,
+    /// Passed the information criterion, but another candidate of its round
+    /// did better.
+    AnotherDidBetter,
+    /// Did not lower `χ²` by what the information criterion asks.
+    #[default]
+    BelowCriterion,
 }
 
 /// A candidate whose refit could not be done, and why: a finding of the
@@ -777,6 +800,11 @@ pub fn diagnose_observed(
                 threshold,
                 criterion,
                 accepted: false,
+                verdict: if criterion > 0.0 {
+                    Verdict::AnotherDidBetter
+                } else {
+                    Verdict::BelowCriterion
+                },
                 note: None,
             };
             round_results.push((report, r));
@@ -813,7 +841,10 @@ pub fn diagnose_observed(
                     best = Some(j);
                     break;
                 }
-                Some(why) => rep.note = Some(why),
+                Some(why) => {
+                    rep.note = Some(why);
+                    rep.verdict = Verdict::SizeNotResolved;
+                }
             }
         }
         let Some(i) = best else {
@@ -824,6 +855,7 @@ pub fn diagnose_observed(
         for (j, (mut rep, r)) in round_results.into_iter().enumerate() {
             if j == i {
                 rep.accepted = true;
+                rep.verdict = Verdict::Kept;
                 chosen.push(rep.effect);
                 remaining.retain(|e| *e != rep.effect);
                 current = r;
@@ -855,6 +887,7 @@ pub fn diagnose_observed(
                 .find(|r| r.effect == gone && r.accepted)
             {
                 rep.accepted = false;
+                rep.verdict = Verdict::DroppedLater;
                 rep.note = Some(format!(
                     "kept in round {}, dropped in round {round}: once {} was added, {why}",
                     rep.round,

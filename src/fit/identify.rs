@@ -14,7 +14,7 @@
 //!    tends to the Jenkins element as `N → ∞` and the cost is flat there).
 
 use super::linear::{FrfSample, SdofEstimate, fit_sdof};
-use super::optimise::{self, OptimiserRun};
+use super::optimise::{self, FitStatus, OptimiserRun};
 use super::params::{Parameter, ParameterSet, Target, Transform};
 use super::problem::{
     FitData, FitProblem, FrfPredictor, Prediction, TraceEntry, Weighting, chi_square,
@@ -168,6 +168,7 @@ pub struct Estimate {
     /// Value.
     pub value: f64,
     /// 95 % confidence interval `[lo, hi]` (`hi` may be infinite).
+    #[serde(deserialize_with = "interval_from_json")]
     pub ci95: [f64; 2],
     /// Whether the data determine it.
     pub identifiable: bool,
@@ -175,8 +176,29 @@ pub struct Estimate {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
     /// Bootstrap 95 % interval, if requested.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "optional_interval_from_json"
+    )]
     pub bootstrap_ci95: Option<[f64; 2]>,
+}
+
+/// An interval as JSON writes it: an unbounded end (infinite, or not
+/// determined) is `null`, read back as that side's infinity.
+fn interval_from_json<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<[f64; 2], D::Error> {
+    let [lo, hi] = <[Option<f64>; 2]>::deserialize(d)?;
+    Ok([lo.unwrap_or(f64::NEG_INFINITY), hi.unwrap_or(f64::INFINITY)])
+}
+
+/// [`interval_from_json`] of an optional interval.
+fn optional_interval_from_json<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<[f64; 2]>, D::Error> {
+    Ok(Option::<[Option<f64>; 2]>::deserialize(d)?
+        .map(|[lo, hi]| [lo.unwrap_or(f64::NEG_INFINITY), hi.unwrap_or(f64::INFINITY)]))
 }
 
 /// The linear system estimates.
@@ -256,6 +278,10 @@ pub struct FitResult {
     pub trace: Vec<TraceEntry>,
     /// Effort.
     pub effort: EffortReport,
+    /// How the fit ended: the main optimiser's status, or
+    /// [`FitStatus::ModelNotConverged`] when model points failed at the optimum.
+    #[serde(default)]
+    pub status: FitStatus,
     /// Notes (warnings) for the user.
     pub notes: Vec<String>,
     /// The model predicts `response_sign × H_measured` (see
@@ -711,9 +737,15 @@ pub fn identify(
             .linear
             .as_mck()
             .unwrap_or((linear.mass, linear.damping, linear.stiffness));
+    let status = if pred.failures() > 0 {
+        FitStatus::ModelNotConverged
+    } else {
+        run.status
+    };
     let seconds = t0.elapsed().as_secs_f64();
     let evaluations = stage1.evaluations() + problem.evaluations();
     Ok(FitResult {
+        status,
         element: options.element,
         parameters,
         linear: LinearReport {

@@ -12,7 +12,7 @@ pub mod predict;
 pub mod problem;
 
 pub use identify::{Estimate, FitOptions, FitResult, LinearRefinement, LinearStart, identify};
-pub use optimise::{Optimiser, OptimiserRun};
+pub use optimise::{FitStatus, Optimiser, OptimiserRun};
 pub use params::{N_MAX, Parameter, ParameterSet, Target, Transform};
 pub use predict::HbPredictor;
 pub use problem::{

@@ -26,6 +26,54 @@ pub enum Optimiser {
     LevenbergMarquardt,
 }
 
+/// How a fit (or one optimiser run) ended, from the optimiser's own
+/// termination type, never from its message text.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FitStatus {
+    /// The optimiser met its tolerance (or its target cost), and for a whole
+    /// fit the model solved at every point at the optimum.
+    Converged,
+    /// The optimiser ran out of iterations (or evaluations); the result is
+    /// its best point so far.
+    IterationLimit,
+    /// The optimiser stopped for another reason (interrupted, timed out, or
+    /// the solver gave up, e.g. on non-finite residuals).
+    Stopped,
+    /// Harmonic balance did not converge at some model points at the
+    /// optimum, whatever the optimiser's own status (the fit's notes say how
+    /// many): those points are missing from the fit's error.
+    ModelNotConverged,
+    /// Not recorded: a result written before the status was.
+    #[default]
+    Unknown,
+}
+
+impl FitStatus {
+    /// The status of an argmin run.
+    pub fn of_argmin(status: &argmin::core::TerminationStatus) -> Self {
+        use argmin::core::{TerminationReason as R, TerminationStatus as S};
+        match status {
+            S::Terminated(R::SolverConverged | R::TargetCostReached) => FitStatus::Converged,
+            S::Terminated(R::MaxItersReached) => FitStatus::IterationLimit,
+            S::Terminated(R::Interrupt | R::Timeout | R::SolverExit(_)) | S::NotTerminated => {
+                FitStatus::Stopped
+            }
+        }
+    }
+
+    /// The status of a Levenberg–Marquardt run.
+    pub fn of_levenberg_marquardt(reason: &levenberg_marquardt::TerminationReason) -> Self {
+        if reason.was_successful() {
+            FitStatus::Converged
+        } else if matches!(reason, levenberg_marquardt::TerminationReason::LostPatience) {
+            FitStatus::IterationLimit
+        } else {
+            FitStatus::Stopped
+        }
+    }
+}
+
 /// What an optimiser run ended with.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OptimiserRun {
@@ -41,8 +89,11 @@ pub struct OptimiserRun {
     pub evaluations: usize,
     /// Why it stopped.
     pub termination: String,
-    /// Whether that is a convergence.
+    /// Whether that is a convergence (`status` is `converged`).
     pub converged: bool,
+    /// How it ended.
+    #[serde(default)]
+    pub status: FitStatus,
 }
 
 struct Cost<'a, 'b>(&'a FitProblem<'b>);
@@ -100,12 +151,14 @@ pub fn nelder_mead(
         .get_termination_reason()
         .map(|r| r.text().to_string())
         .unwrap_or_default();
+    let status = FitStatus::of_argmin(state.get_termination_status());
     Ok(OptimiserRun {
         method: Optimiser::NelderMead,
         cost: state.get_best_cost(),
         iterations: state.get_iter(),
         evaluations: problem.evaluations() - start,
-        converged: !reason.to_lowercase().contains("maximum"),
+        converged: status == FitStatus::Converged,
+        status,
         termination: reason,
         theta,
     })
@@ -228,6 +281,7 @@ pub fn levenberg_marquardt(
         iterations: report.number_of_evaluations as u64,
         evaluations: problem.evaluations() - start + report.number_of_evaluations,
         converged: report.termination.was_successful(),
+        status: FitStatus::of_levenberg_marquardt(&report.termination),
         termination: format!("{:?}", report.termination),
     })
 }
@@ -264,4 +318,30 @@ pub fn covariance(
         }
     }
     Some((cov, reduced))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FitStatus;
+    use argmin::core::{TerminationReason as R, TerminationStatus as S};
+
+    /// The status comes from the termination's type; fit.json spells it in
+    /// snake case.
+    #[test]
+    fn fit_status_follows_the_termination_type() {
+        let of = |r: R| FitStatus::of_argmin(&S::Terminated(r));
+        assert_eq!(of(R::SolverConverged), FitStatus::Converged);
+        assert_eq!(of(R::MaxItersReached), FitStatus::IterationLimit);
+        assert_eq!(of(R::SolverExit("maximum".into())), FitStatus::Stopped);
+        assert_eq!(
+            FitStatus::of_levenberg_marquardt(
+                &levenberg_marquardt::TerminationReason::LostPatience
+            ),
+            FitStatus::IterationLimit
+        );
+        assert_eq!(
+            serde_json::to_string(&FitStatus::IterationLimit).unwrap(),
+            "\"iteration_limit\""
+        );
+    }
 }

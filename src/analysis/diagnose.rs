@@ -1,0 +1,250 @@
+//! A fit's residual traced to a missing effect, added and refitted
+//! ([`crate::diagnose`]), and its files: `diagnosis.json`, `diagnosis.md`
+//! and the residual figures.
+
+use super::write_json;
+use crate::diagnose::{DiagnoseEvent, DiagnoseOptions, Diagnosis, Verdict, diagnose_observed};
+use crate::error::Result;
+use crate::extract::NonlinearFrf;
+use crate::fit::{FitData, FitResult, FrfPredictor, HbPredictor};
+use crate::plot::{self, FrfSeries, NoiseLevel, ResidualPanel, ResidualSeries, SeriesStyle};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Diagnoses `fit` of `frf`, telling `observer` of the progress; returns the
+/// diagnosis with the predictor it used (for the figures).
+pub fn run_diagnosis(
+    frf: &NonlinearFrf,
+    fit: &FitResult,
+    options: &DiagnoseOptions,
+    observer: &(dyn Fn(DiagnoseEvent) + Sync),
+) -> Result<(Diagnosis, HbPredictor)> {
+    let predictor = HbPredictor::default();
+    let d = diagnose_observed(frf, fit, options, &predictor, observer)?;
+    Ok((d, predictor))
+}
+
+/// Writes `diagnosis.json`, `diagnosis.md` and the residual plots.
+pub fn write_diagnosis(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    d: &Diagnosis,
+    predictor: &HbPredictor,
+    seconds: f64,
+) -> Result<Vec<PathBuf>> {
+    #[derive(Serialize)]
+    struct DiagnosisJson<'a> {
+        command: &'static str,
+        version: &'static str,
+        seconds: f64,
+        #[serde(flatten)]
+        diagnosis: &'a Diagnosis,
+    }
+    let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
+    write_json(
+        &files[0],
+        &DiagnosisJson {
+            command: "diagnose",
+            version: super::VERSION,
+            seconds,
+            diagnosis: d,
+        },
+    )?;
+    files.extend(residual_plots(dir, frf, d, predictor)?);
+    crate::atomic::write_bytes(&files[1], markdown(d, seconds).as_bytes())?;
+    Ok(files)
+}
+
+/// |H1_meas − H1_model|/σ per level, before and after, and the FRF overlay
+/// of the final model.
+pub fn residual_plots(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    d: &Diagnosis,
+    predictor: &HbPredictor,
+) -> Result<Vec<PathBuf>> {
+    let data = FitData::from_frf(frf, &[1], d.band_hz, None)?.with_sign(d.response_sign);
+    let before = predictor.predict(&d.baseline_model, &data)?;
+    let after = predictor.predict(&d.model, &data)?;
+    let panel = |pred: &crate::fit::Prediction, heading: &str| -> ResidualPanel {
+        let series = data
+            .series
+            .iter()
+            .zip(&pred.h)
+            .enumerate()
+            .map(|(g, (s, ps))| ResidualSeries {
+                label: crate::plot::level_label(s.level, frf.reference.si_unit()),
+                group: g,
+                frequency_hz: s.points.iter().map(|p| p.frequency_hz).collect(),
+                residual: s
+                    .points
+                    .iter()
+                    .zip(ps)
+                    .map(|(p, m)| {
+                        m.as_ref().map_or(f64::NAN, |m| {
+                            (p.h[0] - m[0]).norm() / p.std_error[0].max(f64::MIN_POSITIVE)
+                        })
+                    })
+                    .collect(),
+            })
+            .collect();
+        ResidualPanel {
+            heading: heading.to_string(),
+            series,
+        }
+    };
+    let mut files = plot::write_residual_plot(
+        &dir.join("residual"),
+        "H1 residual / measured standard error, before and after",
+        "|H1 meas − H1 model| / σ",
+        &[
+            panel(
+                &before,
+                &format!("baseline: error {:.2} %", 100.0 * d.baseline.error_relative),
+            ),
+            panel(
+                &after,
+                &format!(
+                    "with {}: error {:.2} %",
+                    effects_label(d),
+                    100.0 * d.final_fit.error_relative
+                ),
+            ),
+        ],
+        Some(&NoiseLevel {
+            value: 2.0,
+            label: "2σ".into(),
+        }),
+    )?;
+    let mut series = Vec::new();
+    for (g, (s, ps)) in data.series.iter().zip(&after.h).enumerate() {
+        let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
+        series.push(FrfSeries {
+            label: crate::plot::level_label(s.level, frf.reference.si_unit()),
+            group: g,
+            frequency_hz: f.clone(),
+            h: s.points.iter().map(|p| p.h[0] * d.response_sign).collect(),
+            std_error: None,
+            style: SeriesStyle::Measured,
+        });
+        series.push(FrfSeries {
+            label: format!(
+                "{} (model)",
+                crate::plot::level_label(s.level, frf.reference.si_unit())
+            ),
+            group: g,
+            frequency_hz: f,
+            h: ps
+                .iter()
+                .map(|m| {
+                    m.as_ref()
+                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| {
+                            m[0] * d.response_sign
+                        })
+                })
+                .collect(),
+            std_error: None,
+            style: SeriesStyle::Model,
+        });
+    }
+    files.extend(plot::write_frf_plot(
+        &dir.join("diagnosis_frf"),
+        &format!("Measured and the diagnosed model ({})", effects_label(d)),
+        &plot::frf_magnitude_label(frf, 1),
+        &series,
+    )?);
+    Ok(files)
+}
+
+/// The added effects, `a + b`, or `no added effect`.
+pub fn effects_label(d: &Diagnosis) -> String {
+    if d.selected.is_empty() {
+        "no added effect".into()
+    } else {
+        d.selected
+            .iter()
+            .map(|s| s.effect.name())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    }
+}
+
+/// `diagnosis.md`: the candidates, what was kept and why.
+pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Diagnosis: what the fitted joint model lacks\n");
+    let _ = writeln!(s, "{}\n", d.explanation);
+    let _ = writeln!(
+        s,
+        "| candidate | round | feature rank | Δχ² | threshold (BIC) | kept | error H1 | χ²/dof | parameters |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    for c in &d.candidates {
+        let p: Vec<String> = c
+            .effect_parameters
+            .iter()
+            .map(|(n, v)| format!("{n} = {v:.4e}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.1} | {:.1} | {} | {:.3} % | {:.3} | {} |",
+            c.effect.name(),
+            c.round,
+            c.rank,
+            c.delta_chi2,
+            c.threshold,
+            match c.verdict {
+                Verdict::Kept => "**yes**",
+                Verdict::DroppedLater => "no: dropped later",
+                Verdict::SizeNotResolved => "no: size not resolved",
+                Verdict::AnotherDidBetter => "no: another did better",
+                Verdict::BelowCriterion => "no",
+            },
+            100.0 * c.fit.error_relative,
+            c.fit.chi2_per_dof,
+            p.join(", ")
+        );
+    }
+    for f in &d.failed {
+        let _ = writeln!(
+            s,
+            "| {} | {} | | | | failed | | | {} |",
+            f.effect.name(),
+            f.round,
+            f.reason.replace('|', "/")
+        );
+    }
+    let notes: Vec<String> = d
+        .candidates
+        .iter()
+        .filter_map(|c| {
+            c.note
+                .as_ref()
+                .map(|n| format!("- {} (round {}): {n}", c.effect.name(), c.round))
+        })
+        .collect();
+    if !notes.is_empty() {
+        let _ = writeln!(s, "\nWhy a candidate was not kept:\n\n{}", notes.join("\n"));
+    }
+    let _ = writeln!(
+        s,
+        "\nBaseline error {:.3} % → final {:.3} % (H1); χ²/dof {:.3} → {:.3} ({}). Harmonics judged: {:?}. {:.1} s.\n",
+        100.0 * d.baseline.error_relative,
+        100.0 * d.final_fit.error_relative,
+        d.baseline.chi2_per_dof,
+        d.final_fit.chi2_per_dof,
+        if d.consistent_with_noise {
+            "consistent with the noise"
+        } else {
+            "above the noise"
+        },
+        d.harmonics,
+        seconds
+    );
+    let _ = writeln!(
+        s,
+        "![residual before and after](residual.png)\n\n![the diagnosed model](diagnosis_frf.png)"
+    );
+    s
+}

@@ -1,0 +1,317 @@
+//! The fit of a set of nonlinear FRFs, its comparison with the element a
+//! virtual test was simulated with, `fit.json` and the fit's figures
+//! (paper Figures 2.2, 3.3 and 3.4).
+
+use crate::error::{Error, Result};
+use crate::extract::NonlinearFrf;
+use crate::fit::{FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, TraceEntry, identify};
+use crate::model::ElementSpec;
+use crate::plot::{self, ConvergenceSeries, FrfSeries, LoopSeries, SeriesStyle};
+use crate::record::McapRecorder;
+use crate::testbench::TestDefinition;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// How the fit compares with the element the data were simulated with.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Comparison {
+    /// Parameter name.
+    pub parameter: String,
+    /// Reference value.
+    pub reference: f64,
+    /// Estimate.
+    pub estimate: f64,
+    /// `estimate/reference − 1`.
+    pub relative_error: f64,
+    /// Whether the 95 % interval covers the reference.
+    pub covered: bool,
+}
+
+/// `fit.json`: the fit with what it was fitted to.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FitReport {
+    /// `identify`.
+    pub command: String,
+    /// Tool version.
+    pub version: String,
+    /// The recording (several: comma separated).
+    pub recording: String,
+    /// The response analysed.
+    pub response: String,
+    /// The fit.
+    #[serde(flatten)]
+    pub fit: FitResult,
+    /// The element the data came from, when known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference: Option<ElementSpec>,
+    /// Estimates against the reference.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub comparison: Vec<Comparison>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// The report's own fields, beside the flattened fit.
+#[derive(Deserialize)]
+struct ReportHead {
+    command: String,
+    version: String,
+    recording: String,
+    response: String,
+    #[serde(default)]
+    reference: Option<ElementSpec>,
+    #[serde(default)]
+    comparison: Vec<Comparison>,
+    #[serde(default)]
+    files: Vec<PathBuf>,
+}
+
+// By hand, through a JSON value: serde's derived `flatten` buffers the fit's
+// fields in a way that cannot read a map with integer keys
+// (`error.per_harmonic`), which a JSON value can.
+impl<'de> Deserialize<'de> for FitReport {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let value = serde_json::Value::deserialize(d)?;
+        let head: ReportHead = serde_json::from_value(value.clone()).map_err(D::Error::custom)?;
+        let fit: FitResult = serde_json::from_value(value).map_err(D::Error::custom)?;
+        Ok(FitReport {
+            command: head.command,
+            version: head.version,
+            recording: head.recording,
+            response: head.response,
+            fit,
+            reference: head.reference,
+            comparison: head.comparison,
+            files: head.files,
+        })
+    }
+}
+
+impl FitReport {
+    /// The report of `fit`, fitted to `recording`'s `response`, compared with
+    /// `reference` when known.
+    pub fn new(
+        recording: String,
+        response: String,
+        fit: FitResult,
+        reference: Option<ElementSpec>,
+        files: Vec<PathBuf>,
+    ) -> FitReport {
+        let comparison = compare(&fit, reference.as_ref());
+        FitReport {
+            command: "identify".into(),
+            version: super::VERSION.into(),
+            recording,
+            response,
+            fit,
+            reference,
+            comparison,
+            files,
+        }
+    }
+
+    /// Reads a `fit.json`.
+    pub fn read(path: &Path) -> Result<FitReport> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        serde_json::from_str(&text).map_err(|e| {
+            Error::format(
+                path,
+                "fit",
+                format!(
+                    "expected a fit.json written by `hystid identify` (with `model`, `linear` and `response_sign`): {e}"
+                ),
+            )
+        })
+    }
+}
+
+/// The reference joint of a virtual test.
+pub fn reference_joint(truth: Option<&TestDefinition>) -> Option<ElementSpec> {
+    let m = truth?.model().ok()?;
+    m.elements.into_iter().find(|e| e.description().is_joint())
+}
+
+/// Compares estimates with a reference element's parameters.
+pub fn compare(fit: &FitResult, reference: Option<&ElementSpec>) -> Vec<Comparison> {
+    let Some(r) = reference else {
+        return Vec::new();
+    };
+    r.parameters()
+        .into_iter()
+        .filter_map(|(name, value)| {
+            let e = fit.parameters.get(name)?;
+            Some(Comparison {
+                parameter: name.to_string(),
+                reference: value,
+                estimate: e.value,
+                relative_error: e.value / value - 1.0,
+                covered: e.ci95[0] <= value && value <= e.ci95[1],
+            })
+        })
+        .collect()
+}
+
+/// Writes the fit's figures into `dir`: the FRF overlay (`fit_frf`), the
+/// hysteresis loops (`loops`) and the convergence (`convergence`).
+pub fn write_fit_plots(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    fit: &FitResult,
+    reference: Option<&ElementSpec>,
+    predictor: &HbPredictor,
+) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    // measured vs model |H1| and phase for every level (paper Fig. 3.4 right)
+    let data = FitData::from_frf(frf, &[1], None, None)?;
+    let pred = predictor.predict(&fit.model, &data)?;
+    let mut series = Vec::new();
+    for (g, (s, p)) in data.series.iter().zip(&pred.h).enumerate() {
+        let label = plot::level_label(s.level, frf.reference.si_unit());
+        let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
+        series.push(FrfSeries {
+            label: label.clone(),
+            group: g,
+            frequency_hz: f.clone(),
+            h: s.points.iter().map(|p| p.h[0]).collect(),
+            std_error: Some(s.points.iter().map(|p| p.std_error[0]).collect()),
+            style: SeriesStyle::Measured,
+        });
+        series.push(FrfSeries {
+            label: format!("{label} (model)"),
+            group: g,
+            frequency_hz: f,
+            h: p.iter()
+                .map(|m| {
+                    m.as_ref()
+                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| {
+                            m[0] * fit.response_sign
+                        })
+                })
+                .collect(),
+            std_error: None,
+            style: SeriesStyle::Model,
+        });
+    }
+    files.extend(plot::write_frf_plot(
+        &dir.join("fit_frf"),
+        &format!(
+            "Measured (markers) and fitted {} model (lines)",
+            fit.element.name()
+        ),
+        &plot::frf_magnitude_label(frf, 1),
+        &series,
+    )?);
+    // hysteresis loops at several amplitudes (Fig. 3.2 / 3.4 left)
+    if let Some(spec) = fit.model.elements.first() {
+        let (kd, fd) = (
+            spec.stick_stiffness(),
+            fit.parameters.get("fd").map_or(1.0, |e| e.value),
+        );
+        let xc = fd / kd;
+        let mut loops = Vec::new();
+        for (g, mult) in [0.5, 1.5, 3.0, 8.0].into_iter().enumerate() {
+            let a = mult * xc;
+            if let Some(r) = reference {
+                let (x, f) = r.steady_loop(a, 400)?;
+                loops.push(LoopSeries {
+                    label: format!("reference, a = {mult} Fd/kd"),
+                    group: g,
+                    displacement: x,
+                    force: f,
+                    style: SeriesStyle::Measured,
+                });
+            }
+            let (x, f) = spec.steady_loop(a, 400)?;
+            loops.push(LoopSeries {
+                label: format!("fitted, a = {mult} Fd/kd"),
+                group: g,
+                displacement: x,
+                force: f,
+                style: SeriesStyle::Model,
+            });
+        }
+        files.extend(plot::write_loop_plot(
+            &dir.join("loops"),
+            "Hysteresis loops: fitted element over the reference",
+            "displacement [m]",
+            "element force [N]",
+            &loops,
+        )?);
+    }
+    let cost: Vec<f64> = fit.trace.iter().map(|t| t.cost).collect();
+    if !cost.is_empty() {
+        files.extend(plot::write_convergence_plot(
+            &dir.join("convergence"),
+            "Nelder-Mead: cost per evaluation",
+            "cost (eq. 9 squared)",
+            &[ConvergenceSeries {
+                label: "Nelder-Mead".into(),
+                group: 0,
+                cost,
+            }],
+        )?);
+    }
+    Ok(files)
+}
+
+/// Fits `frf`, telling `observer` of every cost evaluation and writing each
+/// to the MCAP run file's fit channel when given.
+pub fn run_fit(
+    frf: &NonlinearFrf,
+    options: &FitOptions,
+    observer: &(dyn Fn(&TraceEntry) + Sync),
+    mcap: Option<&Mutex<&mut McapRecorder>>,
+) -> Result<(FitResult, HbPredictor)> {
+    let predictor = HbPredictor::default();
+    // the first write error is kept and returned after the fit (an observer
+    // cannot stop the optimiser)
+    let write_error: Mutex<Option<Error>> = Mutex::new(None);
+    let observe = |t: &TraceEntry| {
+        observer(t);
+        if let Some(m) = mcap
+            && let Err(e) = m
+                .lock()
+                .expect("mcap lock")
+                .write_fit_iteration(t.evaluation as u64, t)
+        {
+            write_error.lock().expect("lock").get_or_insert(e);
+        }
+    };
+    let fit = identify(frf, options, &predictor, Some(&observe))?;
+    if let Some(e) = write_error.into_inner().expect("lock") {
+        return Err(e);
+    }
+    Ok((fit, predictor))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fit.json written by `hystid run` reads back into the same report.
+    #[test]
+    fn fit_report_round_trips_through_json() {
+        let def = TestDefinition::embedded_default();
+        let run = crate::testbench::run(&def, &mut crate::testbench::NoSink, &|| {}).unwrap();
+        let options = FitOptions::default();
+        let (fit, _) = run_fit(&run.frf, &options, &|_| {}, None).unwrap();
+        let report = FitReport::new(
+            "run.mcap".into(),
+            "acceleration".into(),
+            fit,
+            reference_joint(Some(&def)),
+            vec!["fit.json".into()],
+        );
+        let text = serde_json::to_string_pretty(&report).unwrap();
+        let back: FitReport = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, report);
+        assert_eq!(serde_json::to_string_pretty(&back).unwrap(), text);
+        // a fit.json from before the status still reads
+        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+        old.as_object_mut().unwrap().remove("status");
+        let old: FitReport = serde_json::from_value(old).unwrap();
+        assert_eq!(old.fit.status, crate::fit::FitStatus::Unknown);
+    }
+}

@@ -1,0 +1,40 @@
+//! The analysis stage: what the command-line tool does with files, as
+//! library calls.
+//!
+//! A recording on disk (MCAP run file or WAV + JSON) is loaded with the test
+//! definition it recorded, its response channel chosen, and reduced into
+//! nonlinear FRFs ([`recording`]); the FRFs are fitted and the fit written as
+//! `fit.json` with its figures ([`identify`]); a fit is validated by
+//! simulation on recordings ([`validate`]); a virtual test is run into its
+//! files ([`simulate`]); a fit's residual is diagnosed ([`diagnose`]); and the
+//! whole run is summarised in `run.json` and `report.md` ([`run`]).
+//!
+//! Nothing here prints: progress reaches the caller through observer
+//! callbacks, and every report is returned as data.
+
+pub mod diagnose;
+pub mod identify;
+pub mod recording;
+pub mod run;
+pub mod simulate;
+pub mod validate;
+
+pub use identify::{Comparison, FitReport, compare, reference_joint, run_fit, write_fit_plots};
+pub use recording::{
+    Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited, combine_recordings,
+    excitation_of, load_recording, reduce, reduce_path, reduce_recordings, response_channel,
+    sweep_options,
+};
+
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// The tool version written into every report.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Writes a value as pretty JSON, atomically.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let bytes = serde_json::to_vec_pretty(value)
+        .map_err(|e| Error::format(path, "JSON", format!("cannot serialise: {e}")))?;
+    crate::atomic::write_bytes(path, &bytes)
+}

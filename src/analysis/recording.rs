@@ -1,0 +1,424 @@
+//! Recordings on disk into nonlinear FRFs: load (MCAP run file or WAV +
+//! JSON, with the test definition a virtual test recorded), choose the
+//! response channel, reduce (stepped or swept sine), combine several.
+
+use crate::error::{Error, Result};
+use crate::extract::{
+    NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, choose_compensation, reduce_stepped,
+    reduce_stepped_stream, reduce_sweep_recording,
+};
+use crate::record::{ExcitationKind, Recording, RecordingMeta};
+use crate::testbench::TestDefinition;
+use std::path::{Path, PathBuf};
+
+/// A recording loaded for analysis, with the test definition it came from
+/// when it is a hystid virtual test (the truth, for comparison plots).
+pub struct Loaded {
+    /// The recording.
+    pub recording: Recording,
+    /// The response channel.
+    pub response: usize,
+    /// The virtual test's definition, if recorded.
+    pub truth: Option<TestDefinition>,
+    /// An MCAP run file cut short: only its complete chunks were read.
+    pub truncated: bool,
+}
+
+/// The test definition a hystid virtual test keeps in its metadata.
+fn recorded_truth(meta: &RecordingMeta) -> Option<String> {
+    meta.metadata
+        .get("test_definition")
+        .and_then(|v| v.as_str())
+        .map(str::to_string)
+}
+
+/// The response channel: `response` by name, else the virtual test's
+/// response quantity, else the first channel that is not the reference;
+/// it must be a motion and not the reference.
+pub fn response_channel(
+    path: &Path,
+    meta: &RecordingMeta,
+    response: Option<&str>,
+    truth: Option<&TestDefinition>,
+) -> Result<usize> {
+    let probe = Recording {
+        meta: meta.clone(),
+        channels: Vec::new(),
+    };
+    let reference = probe.reference_channel().ok_or_else(|| {
+        Error::format(
+            path,
+            "channels",
+            "no force (or voltage) channel to use as the reference",
+        )
+    })?;
+    let response = match response {
+        Some(name) => probe.channel_index(name).ok_or_else(|| {
+            let names: Vec<&str> = meta.channels.iter().map(|c| c.name.as_str()).collect();
+            Error::format(
+                path,
+                "channels",
+                format!("no channel `{name}` (channels: {names:?})"),
+            )
+        })?,
+        None => {
+            // a virtual test says which response its FRFs were of
+            let wanted = truth.map(|t| t.test.response.quantity().name().to_string());
+            wanted
+                .and_then(|q| meta.channels.iter().position(|c| c.quantity.name() == q))
+                .or_else(|| probe.default_response_channel())
+                .ok_or_else(|| {
+                    Error::format(
+                        path,
+                        "channels",
+                        "no response channel besides the reference",
+                    )
+                })?
+        }
+    };
+    if response == reference {
+        return Err(Error::format(
+            path,
+            "channels",
+            "the response channel is the reference channel",
+        ));
+    }
+    let q = meta.channels[response].quantity;
+    if !q.is_motion() {
+        return Err(Error::format(
+            path,
+            "channels",
+            format!(
+                "the response channel `{}` is a {q}, not a motion",
+                meta.channels[response].name
+            ),
+        ));
+    }
+    Ok(response)
+}
+
+fn is_mcap(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+}
+
+/// Reads `run.mcap` or a WAV + JSON recording, with its response channel
+/// (`response` by name, else as [`response_channel`] chooses).
+pub fn load_recording(path: &Path, response: Option<&str>) -> Result<Loaded> {
+    let (recording, toml_text, truncated) = if is_mcap(path) {
+        let run = crate::record::read_run(path)?;
+        let text = run.info.test_definition.clone();
+        let rec = run.to_recording().map_err(|e| {
+            Error::context(format!("{}: rebuilding the recording", path.display()), e)
+        })?;
+        (rec, Some(text), run.truncated)
+    } else {
+        let rec = crate::record::read_recording(path)?;
+        let text = recorded_truth(&rec.meta);
+        (rec, text, false)
+    };
+    let truth =
+        toml_text.and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
+    let response = response_channel(path, &recording.meta, response, truth.as_ref())?;
+    let reference = recording
+        .reference_channel()
+        .expect("checked by response_channel");
+    let force = &recording.channels[reference];
+    if force.iter().all(|&v| v == 0.0) {
+        return Err(Error::format(
+            path,
+            &recording.meta.channels[reference].name,
+            "the reference channel is flat (all zero): nothing drove the structure",
+        ));
+    }
+    Ok(Loaded {
+        recording,
+        response,
+        truth,
+        truncated,
+    })
+}
+
+/// How a recording is reduced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Excitation {
+    /// Dwells (stated or found).
+    Stepped,
+    /// A continuous sweep.
+    Swept,
+}
+
+/// Swept sine: the sweep-distortion compensation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Compensation {
+    /// Chosen from the data ([`choose_compensation`]).
+    Auto,
+    /// None.
+    Off,
+    /// The Gaussian window's standard deviation, s (> 0).
+    Seconds(f64),
+}
+
+/// How recordings are reduced into nonlinear FRFs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReductionOptions {
+    /// The reduction; `None`: the recording's `excitation.kind` (stepped
+    /// when not stated).
+    pub excitation: Option<Excitation>,
+    /// Highest harmonic; `None`: 7 for stepped sine, 3 for swept.
+    pub max_harmonic: Option<usize>,
+    /// Swept sine: the compensation.
+    pub compensation: Compensation,
+    /// Swept sine: hop between analysis windows, periods of the sweep.
+    pub hop_periods: f64,
+    /// Swept sine: analysis window, whole periods.
+    pub window_periods: usize,
+}
+
+impl Default for ReductionOptions {
+    fn default() -> Self {
+        ReductionOptions {
+            excitation: None,
+            max_harmonic: None,
+            compensation: Compensation::Auto,
+            hop_periods: 1.0,
+            window_periods: 4,
+        }
+    }
+}
+
+/// The reduction a recording gets: the option, else its `excitation.kind`
+/// (stepped when not stated).
+pub fn excitation_of(meta: &RecordingMeta, choice: Option<Excitation>) -> Excitation {
+    choice.unwrap_or(match meta.excitation.kind {
+        ExcitationKind::SweptSine => Excitation::Swept,
+        _ => Excitation::Stepped,
+    })
+}
+
+/// One recording reduced into nonlinear FRFs.
+pub struct Reduced {
+    /// The FRFs.
+    pub frf: NonlinearFrf,
+    /// The response channel's name.
+    pub response_name: String,
+    /// The recording's sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// How it was reduced.
+    pub excitation: Excitation,
+    /// Swept sine: the sweep found and the compensation used (s).
+    pub sweep: Option<(SweepFit, Option<f64>)>,
+    /// The virtual test's definition, if recorded.
+    pub truth: Option<TestDefinition>,
+    /// Reduced from disk one dwell at a time (memory bounded).
+    pub streamed: bool,
+    /// An MCAP run file cut short: only its complete chunks were reduced.
+    pub truncated: bool,
+}
+
+/// The highest harmonic for a reduction.
+pub fn max_harmonic(r: &ReductionOptions, e: Excitation) -> usize {
+    r.max_harmonic.unwrap_or(match e {
+        Excitation::Stepped => 7,
+        Excitation::Swept => 3,
+    })
+}
+
+/// Stepped-sine reduction options.
+pub fn stepped_options(r: &ReductionOptions) -> ReduceOptions {
+    ReduceOptions {
+        max_harmonic: max_harmonic(r, Excitation::Stepped),
+        blocks: 16,
+        ..ReduceOptions::default()
+    }
+}
+
+/// Sweep options for `force`/`response`, the compensation resolved
+/// ([`Compensation::Auto`]: [`choose_compensation`]).
+pub fn sweep_options(
+    force: &[f64],
+    response: &[f64],
+    sample_rate_hz: f64,
+    r: &ReductionOptions,
+) -> Result<SweepOptions> {
+    let mut opts = SweepOptions {
+        max_harmonic: max_harmonic(r, Excitation::Swept),
+        window_periods: r.window_periods,
+        hop_periods: r.hop_periods,
+        ..SweepOptions::default()
+    };
+    opts.compensation_s = match r.compensation {
+        Compensation::Auto => Some(choose_compensation(force, response, sample_rate_hz, &opts)?),
+        Compensation::Off => None,
+        Compensation::Seconds(s) => Some(s),
+    };
+    Ok(opts)
+}
+
+/// Nonlinear FRFs of a loaded recording.
+pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
+    let rec = &loaded.recording;
+    let excitation = excitation_of(&rec.meta, r.excitation);
+    let response_name = rec.meta.channels[loaded.response].name.clone();
+    let fs = rec.meta.sample_rate_hz;
+    let (frf, sweep) = match excitation {
+        Excitation::Stepped => (
+            reduce_stepped(rec, loaded.response, &stepped_options(r))?,
+            None,
+        ),
+        Excitation::Swept => {
+            let reference = rec
+                .reference_channel()
+                .ok_or_else(|| Error::input("recording", "no reference channel"))?;
+            let opts = sweep_options(
+                &rec.channels[reference],
+                &rec.channels[loaded.response],
+                fs,
+                r,
+            )?;
+            let red = reduce_sweep_recording(rec, loaded.response, &opts)?;
+            let sweep = red.sweep;
+            let q = rec.meta.channels[loaded.response].quantity;
+            let rq = rec.meta.channels[reference].quantity;
+            (red.into_frf(q, rq), Some((sweep, opts.compensation_s)))
+        }
+    };
+    Ok(Reduced {
+        frf,
+        response_name,
+        sample_rate_hz: fs,
+        excitation,
+        sweep,
+        truth: loaded.truth.clone(),
+        streamed: false,
+        truncated: loaded.truncated,
+    })
+}
+
+/// Reduces the recording at `path`: a stepped-sine WAV + JSON recording
+/// whose sidecar states its steps is reduced from disk one dwell at a time
+/// (memory bounded whatever the file size); anything else is read whole.
+pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionOptions) -> Result<Reduced> {
+    if path
+        .to_str()
+        .is_some_and(|p| p.to_ascii_lowercase().ends_with(".quality.json"))
+    {
+        return Err(Error::input(
+            path.display().to_string(),
+            "this is the data-quality report `hystid import` writes beside a recording, not a recording (a glob such as `*.json` picks it up: name the recordings)",
+        ));
+    }
+    if !is_mcap(path) {
+        let reader = crate::record::RecordingReader::open(path)?;
+        let meta = reader.meta().clone();
+        drop(reader);
+        if excitation_of(&meta, r.excitation) == Excitation::Stepped
+            && !meta.excitation.steps.is_empty()
+        {
+            let truth = recorded_truth(&meta)
+                .and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
+            let ch = response_channel(path, &meta, response, truth.as_ref())?;
+            let mut source = crate::record::RecordingReader::open(path)?;
+            let red = reduce_stepped_stream(&mut source, ch, &stepped_options(r))?;
+            return Ok(Reduced {
+                frf: red.frf,
+                response_name: meta.channels[ch].name.clone(),
+                sample_rate_hz: meta.sample_rate_hz,
+                excitation: Excitation::Stepped,
+                sweep: None,
+                truth,
+                streamed: true,
+                truncated: false,
+            });
+        }
+    }
+    let loaded = load_recording(path, response)?;
+    reduce(&loaded, r)
+}
+
+/// Several recordings' FRFs as one set: single-dwell recordings (one point
+/// each, e.g. steady single sines) are merged by level
+/// ([`crate::extract::combine`]); otherwise each recording's levels are
+/// kept as they are, in the order given (a swept recording is one level).
+pub fn combine_recordings(sets: &[(PathBuf, NonlinearFrf)]) -> Result<NonlinearFrf> {
+    let (first_path, first) = sets
+        .first()
+        .ok_or_else(|| Error::input("recordings", "none given"))?;
+    for (p, f) in sets {
+        if f.response != first.response || f.reference != first.reference {
+            return Err(Error::input(
+                p.display().to_string(),
+                format!(
+                    "its FRFs are {}/{} but {} gives {}/{}: recordings combine only with the \
+                     same response and reference quantities",
+                    f.response,
+                    f.reference,
+                    first_path.display(),
+                    first.response,
+                    first.reference
+                ),
+            ));
+        }
+    }
+    let single = sets
+        .iter()
+        .all(|(_, f)| f.levels.iter().map(|l| l.points.len()).sum::<usize>() == 1);
+    let k = sets.iter().map(|(_, f)| f.max_harmonic).min().unwrap_or(0);
+    // a common harmonic count: drop what not every recording holds
+    let trimmed: Vec<NonlinearFrf> = sets
+        .iter()
+        .map(|(_, f)| {
+            let mut f = f.clone();
+            f.max_harmonic = k;
+            for l in &mut f.levels {
+                for p in &mut l.points {
+                    p.h.truncate(k + 1);
+                    p.std_error.truncate(k + 1);
+                    p.force_distortion.truncate(k + 1);
+                }
+            }
+            f
+        })
+        .collect();
+    if single && sets.len() > 1 {
+        return crate::extract::combine(&trimmed);
+    }
+    let mut out = trimmed[0].clone();
+    out.levels = trimmed.into_iter().flat_map(|f| f.levels).collect();
+    Ok(out)
+}
+
+/// Reduces every recording and combines them into one FRF set (one level
+/// per file, or the levels each holds); also returns the first reduction.
+/// `on_reduced` sees each reduction as it is made.
+pub fn reduce_recordings(
+    recordings: &[PathBuf],
+    response: Option<&str>,
+    reduction: &ReductionOptions,
+    on_reduced: &mut dyn FnMut(&Path, &Reduced),
+) -> Result<(NonlinearFrf, Reduced)> {
+    let mut sets = Vec::with_capacity(recordings.len());
+    let mut first: Option<Reduced> = None;
+    for path in recordings {
+        let red = reduce_path(path, response, reduction)
+            .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
+        on_reduced(path, &red);
+        sets.push((path.clone(), red.frf.clone()));
+        first.get_or_insert(red);
+    }
+    let first = first.ok_or_else(|| Error::input("recordings", "no recording given"))?;
+    Ok((combine_recordings(&sets)?, first))
+}
+
+/// Keeps the points inside `band` (all when `None`), dropping emptied levels.
+pub fn band_limited(frf: &NonlinearFrf, band: Option<(f64, f64)>) -> NonlinearFrf {
+    let mut out = frf.clone();
+    if let Some((lo, hi)) = band {
+        for l in &mut out.levels {
+            l.points
+                .retain(|p| p.frequency_hz >= lo && p.frequency_hz <= hi);
+        }
+        out.levels.retain(|l| !l.points.is_empty());
+    }
+    out
+}

@@ -1,0 +1,259 @@
+//! A fitted model driven by recordings' measured force, its simulated
+//! response compared with the measured one (e_RMS, `H1`): the model read
+//! from `fit.json`, `validate.json` and the overlay figures.
+
+use super::identify::FitReport;
+use super::recording::{Excitation, Loaded, ReductionOptions, excitation_of, stepped_options};
+use crate::error::{Error, Result};
+use crate::model::{ModalModel, Model};
+use crate::plot::{self, FrfSeries, SeriesStyle, TimeSignal};
+use crate::validate::{Reduction, ValidateOptions, Validation, validate_recording};
+use num_complex::Complex64;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// The model to validate, from a fit.json.
+pub struct FitModel {
+    /// The model.
+    pub model: Model,
+    /// The model predicts `sign × H_measured`.
+    pub response_sign: f64,
+    /// The response channel the fit used.
+    pub response: Option<String>,
+    /// `fitted` or `linear`.
+    pub kind: &'static str,
+}
+
+/// Reads the model of a fit.json: its `model` (or, with `linear`, the SDOF
+/// of `linear.stick` with no element) and `response_sign`.
+pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
+    let report = FitReport::read(path)?;
+    let fit = report.fit;
+    let response = Some(report.response);
+    if linear {
+        let s = &fit.linear.stick;
+        let model = ModalModel::sdof(s.mass, s.damping, s.stiffness)
+            .and_then(|m| Model::new(m, Vec::new()))
+            .map_err(|e| Error::format(path, "linear.stick", e.to_string()))?;
+        return Ok(FitModel {
+            model,
+            response_sign: s.sign,
+            response,
+            kind: "linear",
+        });
+    }
+    if fit.response_sign != 1.0 && fit.response_sign != -1.0 {
+        return Err(Error::format(
+            path,
+            "response_sign",
+            format!("must be 1 or -1, got {}", fit.response_sign),
+        ));
+    }
+    fit.model
+        .validate()
+        .map_err(|e| Error::format(path, "model", e.to_string()))?;
+    Ok(FitModel {
+        model: fit.model,
+        response_sign: fit.response_sign,
+        response,
+        kind: "fitted",
+    })
+}
+
+/// One recording's entry in validate.json.
+#[derive(Serialize)]
+pub struct RecordingValidation {
+    /// The recording.
+    pub recording: String,
+    /// The response channel.
+    pub response: String,
+    /// The figures.
+    #[serde(flatten)]
+    pub validation: Validation,
+}
+
+/// validate.json.
+#[derive(Serialize)]
+pub struct ValidateReport<'a> {
+    /// `validate`.
+    pub command: &'static str,
+    /// Tool version.
+    pub version: &'static str,
+    /// The fit file.
+    pub fit: String,
+    /// `fitted` or `linear` (the fit's smallest-level SDOF).
+    pub model_kind: &'static str,
+    /// The model simulated.
+    pub model: &'a Model,
+    /// The sign the simulated response was multiplied by.
+    pub response_sign: f64,
+    /// Per recording.
+    pub recordings: Vec<RecordingValidation>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// How a recording is validated on.
+#[derive(Clone, Debug)]
+pub struct ValidationSettings {
+    /// Band of the FRF comparison (and of a sweep's second error figure), Hz.
+    pub band_hz: Option<(f64, f64)>,
+    /// Time window of the second error figure, s.
+    pub window_s: Option<(f64, f64)>,
+    /// Fewest samples per period of the model's highest linearised
+    /// frequency before the simulation is upsampled.
+    pub min_samples_per_period: f64,
+    /// Compare FRFs too (else the time domain only).
+    pub frf: bool,
+    /// How both signals are reduced for the FRF comparison.
+    pub reduction: ReductionOptions,
+}
+
+/// A file stem for `path`'s figures not yet in `used` (`name`, `name_2`, …).
+pub fn unique_stem(path: &Path, used: &mut Vec<String>) -> String {
+    let base = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "recording".into());
+    let mut name = base.clone();
+    let mut k = 2;
+    while used.contains(&name) {
+        name = format!("{base}_{k}");
+        k += 1;
+    }
+    used.push(name.clone());
+    name
+}
+
+/// Validates `fit` on the recording loaded from `path` and writes its
+/// figures into `dir` as `{stem}_time`, `{stem}_time_window`, `{stem}_frf`.
+pub fn validate_on(
+    fit: &FitModel,
+    path: &Path,
+    loaded: &Loaded,
+    settings: &ValidationSettings,
+    dir: &Path,
+    stem: &str,
+) -> Result<(RecordingValidation, Vec<PathBuf>)> {
+    let rec = &loaded.recording;
+    let reference = rec
+        .reference_channel()
+        .ok_or_else(|| Error::format(path, "channels", "no reference channel"))?;
+    let reduction = if settings.frf {
+        Some(
+            match excitation_of(&rec.meta, settings.reduction.excitation) {
+                Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
+                Excitation::Swept => Reduction::Swept(super::recording::sweep_options(
+                    &rec.channels[reference],
+                    &rec.channels[loaded.response],
+                    rec.meta.sample_rate_hz,
+                    &settings.reduction,
+                )?),
+            },
+        )
+    } else {
+        None
+    };
+    let band = settings.band_hz;
+    let opts = ValidateOptions {
+        min_samples_per_period: settings.min_samples_per_period,
+        window_s: settings.window_s,
+        band_hz: band,
+        reduction,
+    };
+    let v = validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)
+        .map_err(|e| Error::context(format!("validating on {}", path.display()), e))?;
+    let mut files = Vec::new();
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let channel = &rec.meta.channels[loaded.response];
+    let y_label = format!("{} [{}]", channel.name, channel.unit.replace("^2", "²"));
+    let fs = rec.meta.sample_rate_hz;
+    let measured = &rec.channels[loaded.response];
+    let signal = |label: &str, values: &[f64], start: usize| TimeSignal {
+        label: label.into(),
+        start_s: start as f64 / fs,
+        sample_rate_hz: fs,
+        values: values.to_vec(),
+    };
+    files.extend(plot::write_time_overlay(
+        &dir.join(format!("{stem}_time")),
+        &format!(
+            "{name}: measured and simulated ({} model), e_RMS {:.4e}",
+            fit.kind, v.whole.e_rms
+        ),
+        &y_label,
+        &signal("measured", measured, 0),
+        &signal("simulated", &v.simulated, 0),
+    )?);
+    if let Some(w) = &v.window {
+        let a = (w.start_s * fs).round() as usize;
+        let b = a + w.samples;
+        files.extend(plot::write_time_overlay(
+            &dir.join(format!("{stem}_time_window")),
+            &format!(
+                "{name}: {:.1}-{:.1} s, e_RMS {:.4e}",
+                w.start_s, w.end_s, w.e_rms
+            ),
+            &y_label,
+            &signal("measured", &measured[a..b], a),
+            &signal("simulated", &v.simulated[a..b], a),
+        )?);
+    }
+    if let Some(c) = &v.frf
+        && let (Some(m), Some(s)) = (&c.measured, &c.simulated)
+    {
+        let mut series = Vec::new();
+        for (g, (lm, ls)) in m.levels.iter().zip(&s.levels).enumerate() {
+            let keep = |f: f64| band.is_none_or(|(lo, hi)| f >= lo && f <= hi);
+            let pick = |l: &crate::extract::FrfLevel| -> (Vec<f64>, Vec<Complex64>) {
+                l.points
+                    .iter()
+                    .filter(|p| keep(p.frequency_hz))
+                    .map(|p| (p.frequency_hz, p.h[1]))
+                    .unzip()
+            };
+            let (fm, hm) = pick(lm);
+            let (fs_, hs) = pick(ls);
+            if fm.is_empty() {
+                continue;
+            }
+            let label = format!("{:.4} {}", lm.level, m.reference.si_unit());
+            series.push(FrfSeries {
+                label: format!("{label} measured"),
+                group: g,
+                frequency_hz: fm,
+                h: hm,
+                std_error: None,
+                style: SeriesStyle::Measured,
+            });
+            series.push(FrfSeries {
+                label: format!("{label} simulated"),
+                group: g,
+                frequency_hz: fs_,
+                h: hs,
+                std_error: None,
+                style: SeriesStyle::Model,
+            });
+        }
+        if !series.is_empty() {
+            files.extend(plot::write_frf_plot(
+                &dir.join(format!("{stem}_frf")),
+                &format!(
+                    "{name}: H1 measured (markers), simulated ({} model)",
+                    fit.kind
+                ),
+                &plot::frf_magnitude_label(m, 1),
+                &series,
+            )?);
+        }
+    }
+    let entry = RecordingValidation {
+        recording: path.display().to_string(),
+        response: channel.name.clone(),
+        validation: v,
+    };
+    Ok((entry, files))
+}
