@@ -45,7 +45,7 @@ fn bench_run(c: &mut Criterion) {
         return;
     }
     let def = TestDefinition::embedded_default();
-    let run = testbench::run(&def, &mut NoSink, &|| ()).unwrap();
+    let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     eprintln!(
         "testbench: {} dwells, {} frames, {} threads",
         run.dwells.len(),
@@ -55,7 +55,7 @@ fn bench_run(c: &mut Criterion) {
     let mut g = c.benchmark_group("testbench");
     g.throughput(Throughput::Elements(run.frames));
     g.bench_function("run/embedded_default", |b| {
-        b.iter(|| testbench::run(&def, &mut NoSink, &|| ()).unwrap())
+        b.iter(|| testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap())
     });
     g.finish();
 }
@@ -147,7 +147,7 @@ fn bench_fit(c: &mut Criterion) {
         return;
     }
     let def = TestDefinition::embedded_default();
-    let run = testbench::run(&def, &mut NoSink, &|| ()).unwrap();
+    let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     let options = FitOptions::default();
     let predictor = HbPredictor::default();
     let fit = identify(&run.frf, &options, &predictor, None).unwrap();

@@ -49,6 +49,7 @@ pub mod harmonics;
 pub mod hb;
 pub mod import;
 pub mod model;
+pub mod observe;
 pub mod plot;
 pub mod record;
 pub mod signals;

@@ -27,7 +27,7 @@ seed = {seed}
 #[test]
 fn linear_h1_is_the_receptance_within_honest_standard_errors() {
     let def = linear_definition(11);
-    let run = testbench::run(&def, &mut NoSink, &|| {}).unwrap();
+    let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     let model = ModalModel::sdof(10.0, 200.0, 1e7).unwrap();
     let fs = run.sample_rate_hz;
     let (mut inside, mut total, mut z2) = (0usize, 0usize, 0.0);
@@ -62,7 +62,7 @@ fn linear_h1_is_the_receptance_within_honest_standard_errors() {
 #[test]
 fn noise_is_ten_percent_of_the_clean_rms() {
     let def = linear_definition(3);
-    let run = testbench::run(&def, &mut NoSink, &|| {}).unwrap();
+    let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     let mean = run.dwells.iter().map(|d| d.noise_ratio).sum::<f64>() / run.dwells.len() as f64;
     eprintln!(
         "noise ratio: mean {mean:.5} over {} dwells",
@@ -87,7 +87,7 @@ fn dwells_settle_carry_state_and_are_coherent() {
     let mut def = def;
     def.test.levels_n = vec![200.0];
     def.test.noise = 0.0;
-    let run = testbench::run(&def, &mut NoSink, &|| {}).unwrap();
+    let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     assert_eq!(run.dwells.len(), 51);
     assert!(run.unsettled().next().is_none());
     let fs = run.sample_rate_hz;
@@ -118,14 +118,14 @@ fn same_seed_same_numbers_whatever_the_thread_count() {
         .num_threads(2)
         .build()
         .unwrap();
-    let a = one.install(|| testbench::run(&def, &mut NoSink, &|| {}).unwrap());
-    let b = two.install(|| testbench::run(&def, &mut NoSink, &|| {}).unwrap());
+    let a = one.install(|| testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap());
+    let b = two.install(|| testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap());
     assert_eq!(
         serde_json::to_string(&a).unwrap(),
         serde_json::to_string(&b).unwrap()
     );
     let mut def2 = def.clone();
     def2.test.seed = 6;
-    let c = testbench::run(&def2, &mut NoSink, &|| {}).unwrap();
+    let c = testbench::run(&def2, &mut NoSink, &hystid::observe::Silent).unwrap();
     assert_ne!(a.frf, c.frf);
 }

@@ -29,7 +29,7 @@ measure_periods = 16
 "#
     );
     let def = TestDefinition::from_toml(&text, "diagnose case").unwrap();
-    let run = testbench::run(&def, &mut NoSink, &|| {}).unwrap();
+    let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     let p = HbPredictor::default();
     let fit = identify(&run.frf, &FitOptions::default(), &p, None).unwrap();
     diagnose(&run.frf, &fit, &DiagnoseOptions::default(), &p).unwrap()

@@ -5,7 +5,7 @@ use hystid::model::ElementKind;
 use hystid::testbench::{self, NoSink, TestDefinition};
 
 fn bench(def: &TestDefinition) -> hystid::testbench::BenchRun {
-    testbench::run(def, &mut NoSink, &|| {}).unwrap()
+    testbench::run(def, &mut NoSink, &hystid::observe::Silent).unwrap()
 }
 
 fn fit(run: &hystid::testbench::BenchRun, options: &FitOptions) -> FitResult {

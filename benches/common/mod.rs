@@ -119,7 +119,7 @@ impl BenchSink for Longest {
 pub fn default_level() -> (LevelOutput, f64) {
     let def = TestDefinition::embedded_default();
     let mut keep = Longest(None);
-    testbench::run(&def, &mut keep, &|| ()).unwrap();
+    testbench::run(&def, &mut keep, &hystid::observe::Silent).unwrap();
     (keep.0.unwrap(), def.sample_rate_hz().unwrap())
 }
 

@@ -3,10 +3,11 @@
 //! and the residual figures.
 
 use super::write_json;
-use crate::diagnose::{DiagnoseEvent, DiagnoseOptions, Diagnosis, Verdict, diagnose_observed};
+use crate::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose_observed};
 use crate::error::Result;
 use crate::extract::NonlinearFrf;
 use crate::fit::{FitData, FitResult, FrfPredictor, HbPredictor};
+use crate::observe::Observer;
 use crate::plot::{self, FrfSeries, NoiseLevel, ResidualPanel, ResidualSeries, SeriesStyle};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -18,7 +19,7 @@ pub fn run_diagnosis(
     frf: &NonlinearFrf,
     fit: &FitResult,
     options: &DiagnoseOptions,
-    observer: &(dyn Fn(DiagnoseEvent) + Sync),
+    observer: &dyn Observer,
 ) -> Result<(Diagnosis, HbPredictor)> {
     let predictor = HbPredictor::default();
     let d = diagnose_observed(frf, fit, options, &predictor, observer)?;

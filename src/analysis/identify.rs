@@ -4,8 +4,9 @@
 
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
-use crate::fit::{FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, TraceEntry, identify};
+use crate::fit::{FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, identify};
 use crate::model::ElementSpec;
+use crate::observe::{Event, Observer};
 use crate::plot::{self, ConvergenceSeries, FrfSeries, LoopSeries, SeriesStyle};
 use crate::record::McapRecorder;
 use crate::testbench::TestDefinition;
@@ -261,16 +262,17 @@ pub fn write_fit_plots(
 pub fn run_fit(
     frf: &NonlinearFrf,
     options: &FitOptions,
-    observer: &(dyn Fn(&TraceEntry) + Sync),
+    observer: &dyn Observer,
     mcap: Option<&Mutex<&mut McapRecorder>>,
 ) -> Result<(FitResult, HbPredictor)> {
     let predictor = HbPredictor::default();
     // the first write error is kept and returned after the fit (an observer
     // cannot stop the optimiser)
     let write_error: Mutex<Option<Error>> = Mutex::new(None);
-    let observe = |t: &TraceEntry| {
-        observer(t);
-        if let Some(m) = mcap
+    let observe = |e: Event<'_>| {
+        observer.observe(e);
+        if let Event::Cost(t) = e
+            && let Some(m) = mcap
             && let Err(e) = m
                 .lock()
                 .expect("mcap lock")
@@ -294,9 +296,11 @@ mod tests {
     #[test]
     fn fit_report_round_trips_through_json() {
         let def = TestDefinition::embedded_default();
-        let run = crate::testbench::run(&def, &mut crate::testbench::NoSink, &|| {}).unwrap();
+        let run =
+            crate::testbench::run(&def, &mut crate::testbench::NoSink, &crate::observe::Silent)
+                .unwrap();
         let options = FitOptions::default();
-        let (fit, _) = run_fit(&run.frf, &options, &|_| {}, None).unwrap();
+        let (fit, _) = run_fit(&run.frf, &options, &crate::observe::Silent, None).unwrap();
         let report = FitReport::new(
             "run.mcap".into(),
             "acceleration".into(),

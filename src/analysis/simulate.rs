@@ -6,6 +6,7 @@ use super::write_json;
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
 use crate::hb::{self, HbCheck, SteadyDwell};
+use crate::observe::Observer;
 use crate::record::{
     Excitation, ExcitationKind, FORMAT_V1, McapRecorder, RecordingMeta, RecordingWriter, RunInfo,
     SampleFormat, Step,
@@ -298,7 +299,7 @@ pub fn summarise_checks(checks: &[HbCheck]) -> HbCheckSummary {
 /// Runs the bench into `dir` (created if missing) and writes its files;
 /// `recording.wav` in `wav_format`, `hb_check.json` with `check_hb`.
 ///
-/// `tick` is called after every dwell. `after_bench` runs with the MCAP
+/// `observer` is told of every dwell. `after_bench` runs with the MCAP
 /// recorder still open (e.g. to add the fit's iterations to the run file).
 pub fn simulate_into(
     def: &TestDefinition,
@@ -306,7 +307,7 @@ pub fn simulate_into(
     dir: &Path,
     wav_format: SampleFormat,
     check_hb: bool,
-    tick: &(dyn Fn() + Sync),
+    observer: &dyn Observer,
     after_bench: &mut dyn FnMut(&BenchRun, &mut McapRecorder) -> Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
     let t0 = std::time::Instant::now();
@@ -321,7 +322,7 @@ pub fn simulate_into(
             Vec::new(),
         ));
     }
-    let run = testbench::run(def, &mut sink, tick)?;
+    let run = testbench::run(def, &mut sink, observer)?;
     let checks = sink.check.take().map(|c| c.3);
     let (mut mcap, wav) = sink.into_parts();
     wav.finish()?;

@@ -6,7 +6,7 @@ use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
 use anyhow::{Result, bail};
 use hystid::analysis::diagnose::write_diagnosis;
-use hystid::diagnose::{DiagnoseEvent, DiagnoseOptions, Diagnosis, Effect};
+use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitResult, HbPredictor};
 
@@ -43,23 +43,7 @@ pub fn run_diagnosis(
     let pb = progress::bar(0, "diagnosing", quiet);
     pb.enable_steady_tick(std::time::Duration::from_millis(200));
     pb.set_message("baseline refit");
-    let observer = |e: DiagnoseEvent| match e {
-        DiagnoseEvent::Baseline { chi2_per_dof } => {
-            pb.set_message(format!("baseline chi2/dof {chi2_per_dof:.3}"))
-        }
-        DiagnoseEvent::Round { round, candidates } => {
-            pb.set_position(0);
-            pb.set_length(candidates as u64);
-            pb.reset_eta();
-            pb.set_message(format!("round {round}: candidates"));
-        }
-        DiagnoseEvent::Candidate { round, effect } => {
-            pb.inc(1);
-            pb.set_message(format!("round {round}: {} done", effect.name()));
-        }
-        DiagnoseEvent::Checking { effect } => pb.set_message(format!("checking {}", effect.name())),
-    };
-    let out = hystid::analysis::diagnose::run_diagnosis(frf, fit, options, &observer)?;
+    let out = hystid::analysis::diagnose::run_diagnosis(frf, fit, options, &progress::Drawn(&pb))?;
     pb.finish_and_clear();
     Ok(out)
 }

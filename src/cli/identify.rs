@@ -9,9 +9,7 @@ use hystid::analysis::{
     reference_joint, write_fit_plots,
 };
 use hystid::extract::NonlinearFrf;
-use hystid::fit::{
-    FitOptions, FitResult, HbPredictor, LinearRefinement, LinearStart, TraceEntry, Weighting,
-};
+use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearRefinement, LinearStart, Weighting};
 use hystid::model::ElementKind;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -205,11 +203,7 @@ pub fn run_fit(
     mcap: Option<&Mutex<&mut hystid::record::McapRecorder>>,
 ) -> hystid::Result<(FitResult, HbPredictor)> {
     let pb = progress::spinner("fitting", quiet);
-    let observer = |t: &TraceEntry| {
-        pb.set_message(format!("evaluation {}: cost {:.6e}", t.evaluation, t.cost));
-        pb.tick();
-    };
-    let out = hystid::analysis::run_fit(frf, options, &observer, mcap)?;
+    let out = hystid::analysis::run_fit(frf, options, &progress::Drawn(&pb), mcap)?;
     pb.finish_and_clear();
     Ok(out)
 }

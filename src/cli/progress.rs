@@ -28,3 +28,39 @@ pub fn spinner(message: &str, quiet: bool) -> ProgressBar {
     pb.set_message(message.to_string());
     pb
 }
+
+/// The terminal's one observer: every stage's events drawn on `pb`
+/// (a dwell advances the bar, a cost evaluation and the diagnosis's steps
+/// set its message).
+pub struct Drawn<'a>(pub &'a ProgressBar);
+
+impl hystid::observe::Observer for Drawn<'_> {
+    fn observe(&self, event: hystid::observe::Event<'_>) {
+        use hystid::diagnose::DiagnoseEvent as D;
+        use hystid::observe::Event;
+        let pb = self.0;
+        match event {
+            Event::Dwell { .. } => pb.inc(1),
+            Event::Cost(t) => {
+                pb.set_message(format!("evaluation {}: cost {:.6e}", t.evaluation, t.cost));
+                pb.tick();
+            }
+            Event::Diagnosis(D::Baseline { chi2_per_dof }) => {
+                pb.set_message(format!("baseline chi2/dof {chi2_per_dof:.3}"))
+            }
+            Event::Diagnosis(D::Round { round, candidates }) => {
+                pb.set_position(0);
+                pb.set_length(*candidates as u64);
+                pb.reset_eta();
+                pb.set_message(format!("round {round}: candidates"));
+            }
+            Event::Diagnosis(D::Candidate { round, effect }) => {
+                pb.inc(1);
+                pb.set_message(format!("round {round}: {} done", effect.name()));
+            }
+            Event::Diagnosis(D::Checking { effect }) => {
+                pb.set_message(format!("checking {}", effect.name()))
+            }
+        }
+    }
+}

@@ -29,7 +29,7 @@ pub fn simulate_into(
         dir,
         sample_format(wav_format),
         check_hb,
-        &|| pb.inc(1),
+        &progress::Drawn(&pb),
         &mut |run, mcap| {
             pb.finish_and_clear();
             after_bench(run, mcap)

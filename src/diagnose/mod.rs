@@ -645,7 +645,7 @@ pub fn diagnose(
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
 ) -> Result<Diagnosis> {
-    diagnose_observed(frf, fit, options, predictor, &|_| {})
+    diagnose_observed(frf, fit, options, predictor, &crate::observe::Silent)
 }
 
 /// [`diagnose`], telling `observer` what it is doing (called from worker
@@ -655,8 +655,9 @@ pub fn diagnose_observed(
     fit: &FitResult,
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
-    observer: &(dyn Fn(DiagnoseEvent) + Sync),
+    observer: &dyn crate::observe::Observer,
 ) -> Result<Diagnosis> {
+    let observer = |e: DiagnoseEvent| observer.observe(crate::observe::Event::Diagnosis(&e));
     let harmonics = options
         .harmonics
         .clone()

@@ -436,7 +436,7 @@ pub fn identify(
     frf: &NonlinearFrf,
     options: &FitOptions,
     predictor: &dyn FrfPredictor,
-    observer: Option<&(dyn Fn(&TraceEntry) + Sync)>,
+    observer: Option<&dyn crate::observe::Observer>,
 ) -> Result<FitResult> {
     let t0 = std::time::Instant::now();
     let mut linear =

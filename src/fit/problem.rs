@@ -346,7 +346,7 @@ pub struct FitProblem<'a> {
     evaluations: AtomicUsize,
     solves: AtomicUsize,
     trace: Mutex<Vec<TraceEntry>>,
-    observer: Option<&'a (dyn Fn(&TraceEntry) + Sync)>,
+    observer: Option<&'a dyn crate::observe::Observer>,
     /// The best prediction so far: every evaluation starts from it. Only the
     /// sequential cost evaluations update it, so parallel Jacobian columns
     /// all start from the same state and the result does not depend on the
@@ -362,7 +362,7 @@ impl<'a> FitProblem<'a> {
         data: &'a FitData,
         predictor: &'a dyn FrfPredictor,
         weighting: Weighting,
-        observer: Option<&'a (dyn Fn(&TraceEntry) + Sync)>,
+        observer: Option<&'a dyn crate::observe::Observer>,
     ) -> FitProblem<'a> {
         FitProblem {
             base,
@@ -452,7 +452,7 @@ impl<'a> FitProblem<'a> {
             parameters: self.parameters.values(theta),
         };
         if let Some(o) = self.observer {
-            o(&entry);
+            o.observe(crate::observe::Event::Cost(&entry));
         }
         self.trace.lock().expect("trace lock").push(entry);
         Ok(cost)

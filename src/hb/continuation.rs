@@ -673,7 +673,7 @@ mod tests {
     fn converged_at(
         s: &mut HbSolver,
         linear: &ModalModel,
-        e: &mut (impl Element),
+        e: &mut impl Element,
         f: f64,
         force: f64,
         guess: &[f64],

@@ -25,6 +25,7 @@ use crate::extract::{
 };
 use crate::harmonics::Quantity;
 use crate::model::Model;
+use crate::observe::{Event, Observer};
 use crate::sim::{Response, Simulator};
 use num_complex::Complex64;
 use rand::SeedableRng;
@@ -182,11 +183,11 @@ impl BenchRun {
 }
 
 /// Runs the virtual test of `def`, handing each level's signals to `sink` in
-/// level order and calling `progress` after each dwell (from any thread).
+/// level order and telling `observer` of each dwell (from any thread).
 pub fn run(
     def: &TestDefinition,
     sink: &mut dyn BenchSink,
-    progress: &(dyn Fn() + Sync),
+    observer: &dyn Observer,
 ) -> Result<BenchRun> {
     def.validate()?;
     let model = def.model()?;
@@ -204,7 +205,7 @@ pub fn run(
         let end = (start + chunk).min(levels.len());
         let outputs: Vec<Result<LevelOutput>> = (start..end)
             .into_par_iter()
-            .map(|i| run_level(def, &model, fs, &sweeps, i, levels[i], progress))
+            .map(|i| run_level(def, &model, fs, &sweeps, i, levels[i], observer))
             .collect();
         for out in outputs {
             let mut out = out?;
@@ -279,7 +280,7 @@ fn run_level(
     sweeps: &[(Direction, Vec<f64>)],
     level_index: usize,
     level: f64,
-    progress: &(dyn Fn() + Sync),
+    observer: &dyn Observer,
 ) -> Result<LevelOutput> {
     let t = &def.test;
     // the simulator runs `os` times faster than the recording; every os-th
@@ -303,6 +304,7 @@ fn run_level(
     for (direction, freqs) in sweeps {
         for &f_req in freqs {
             let d = design_dwell(f_req, fs, t.frequency_tolerance);
+            let frequency_hz = d.frequency_hz;
             let (l, q) = (d.block_len, d.periods_per_block);
             clean.clear();
             force.clear();
@@ -439,7 +441,10 @@ fn run_level(
             // the next dwell starts where this one's phase left off (each
             // block is whole periods, so the phase is back where it started)
             phase = phase.rem_euclid(2.0 * PI);
-            progress();
+            observer.observe(Event::Dwell {
+                level_index,
+                frequency_hz,
+            });
         }
     }
     Ok(out)

@@ -239,7 +239,7 @@ noise = 0.10
 seed = 3
 "#;
         let def = TestDefinition::from_toml(text, "second mode").unwrap();
-        let run = testbench::run(&def, &mut NoSink, &|| {}).unwrap();
+        let run = testbench::run(&def, &mut NoSink, &crate::observe::Silent).unwrap();
         let predictor = HbPredictor::default();
         let fit_options = FitOptions {
             element: ElementKind::Jenkins,

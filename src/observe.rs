@@ -1,0 +1,47 @@
+//! One observer for every long stage.
+//!
+//! The test bench, the fit and the diagnosis report what they are doing to
+//! an [`Observer`] (a progress bar, a trace writer, a log), with an
+//! [`Event`] saying which stage and what happened. Nothing in the library
+//! prints; the command line draws its progress from these events. An
+//! observer is called from worker threads (dwells and candidates run in
+//! parallel), so it is `Sync`; what it sees does not change the results.
+
+use crate::diagnose::DiagnoseEvent;
+use crate::fit::TraceEntry;
+
+/// What a stage just did.
+#[derive(Clone, Copy, Debug)]
+pub enum Event<'a> {
+    /// The test bench finished a dwell.
+    Dwell {
+        /// Its level's index.
+        level_index: usize,
+        /// Its frequency, Hz.
+        frequency_hz: f64,
+    },
+    /// The fit evaluated its cost at one parameter set.
+    Cost(&'a TraceEntry),
+    /// The diagnosis moved on.
+    Diagnosis(&'a DiagnoseEvent),
+}
+
+/// Told of every [`Event`] of the stages it is handed to.
+pub trait Observer: Sync {
+    /// One event (from any thread).
+    fn observe(&self, event: Event<'_>);
+}
+
+impl<F: Fn(Event<'_>) + Sync> Observer for F {
+    fn observe(&self, event: Event<'_>) {
+        self(event)
+    }
+}
+
+/// An observer that ignores everything.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Silent;
+
+impl Observer for Silent {
+    fn observe(&self, _: Event<'_>) {}
+}
