@@ -280,3 +280,38 @@ fn the_scanner_sees_what_it_looks_for() {
     let kept: Vec<&str> = code_lines(text).into_iter().map(|(_, l)| l).collect();
     assert_eq!(kept, vec!["use b;"]);
 }
+
+/// The command line only translates: `src/cli/` stays under 8 % of the
+/// library's lines, and the README's figure is the measured one.
+#[test]
+fn the_command_line_is_thin() {
+    let count = |files: Vec<PathBuf>| -> usize {
+        files
+            .iter()
+            .map(|f| std::fs::read_to_string(f).unwrap().lines().count())
+            .sum()
+    };
+    let cli = count(rust_files(&src().join("cli")));
+    let library = count(
+        rust_files(&src())
+            .into_iter()
+            .filter(|f| !f.starts_with(src().join("cli")) && !f.ends_with("main.rs"))
+            .collect(),
+    );
+    let share = cli as f64 / library as f64;
+    assert!(
+        share < 0.08,
+        "src/cli/ has {cli} lines, {:.1} % of the library's {library}",
+        100.0 * share
+    );
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let stated = format!(
+        "(`src/cli/`, {:.0} % of the library's lines)",
+        100.0 * share
+    );
+    assert!(
+        readme.contains(&stated),
+        "the README should say {stated} ({cli} / {library} lines)"
+    );
+}
