@@ -298,3 +298,47 @@ fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
         );
     }
 }
+
+/// `run` chains simulate and identify into one folder, and its report
+/// describes the test that ran: the measured noise, the reference joint of
+/// the definition, the fitted law's parameters by their role.
+#[test]
+fn run_reports_the_test_that_ran() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let out = dir.path().join("run");
+    let o = hystid(&[
+        "run",
+        test.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--element",
+        "jenkins",
+        "--no-diagnose",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let run: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("run.json")).unwrap()).unwrap();
+    assert_eq!(run["fit"]["status"], "converged", "{}", run["fit"]);
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    // 10 % response noise asked for: the measured RMS ratio, within its
+    // scatter over 22 dwells
+    let noise: f64 = report
+        .split(" % response noise (measured, RMS)")
+        .next()
+        .and_then(|head| head.rsplit(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no measured noise in:\n{report}"));
+    assert!((noise - 10.0).abs() < 1.0, "noise {noise} %");
+    assert!(
+        report.contains("| Reference element of this run (`jenkins`) | 246.048 | 2.4e7 | ∞"),
+        "{report}"
+    );
+    // a Jenkins fit has no curvature column entry
+    let estimated = report
+        .lines()
+        .find(|l| l.starts_with("| **Estimated (hystid)**"))
+        .unwrap();
+    assert!(estimated.ends_with("| – |"), "{estimated}");
+}

@@ -89,11 +89,12 @@ pub fn report_markdown(sim: &SimulateSummary, report: &FitReport) -> String {
     );
     let _ = writeln!(
         s,
-        "Virtual stepped-sine test: {} levels × {} frequencies, {:.0} Hz sampling, 10 % response noise; {} frames in {:.2} s. \
+        "Virtual stepped-sine test: {} levels × {} frequencies, {:.0} Hz sampling, {:.1} % response noise (measured, RMS); {} frames in {:.2} s. \
          Fitted element: `{}` by harmonic balance and Nelder–Mead on eq. (9), {} evaluations in {:.2} s.\n",
         sim.levels,
         sim.dwells / sim.levels.max(1),
         sim.sample_rate_hz,
+        100.0 * sim.mean_noise_ratio,
         sim.frames,
         sim.seconds,
         fit.element.name(),
@@ -142,14 +143,32 @@ pub fn report_markdown(sim: &SimulateSummary, report: &FitReport) -> String {
                 format!(" ({:+.2} %)", 100.0 * c.relative_error)
             })
     };
+    // the columns by what each parameter is to the fitted law
+    let law = fit.element.description();
+    let named = |role: Role| -> Vec<&str> {
+        law.parameters
+            .iter()
+            .filter(|p| p.role == role)
+            .map(|p| p.name)
+            .collect()
+    };
+    let column = |role: Role| -> String {
+        let cells: Vec<String> = named(role)
+            .into_iter()
+            .map(|n| format!("{}{}", fmt_param(fit, n), pct(n)))
+            .collect();
+        if cells.is_empty() {
+            "–".to_string()
+        } else {
+            cells.join(", ")
+        }
+    };
     let _ = writeln!(
         s,
-        "| **Estimated (hystid)**, 95 % interval | {}{} | {}{} | {} |\n",
-        fmt_param(fit, "fd"),
-        pct("fd"),
-        fmt_param(fit, "kd"),
-        pct("kd"),
-        fmt_param(fit, "n")
+        "| **Estimated (hystid)**, 95 % interval | {} | {} | {} |\n",
+        column(Role::SlipForce),
+        column(Role::StickStiffness),
+        column(Role::Other)
     );
     let _ = writeln!(
         s,
@@ -168,7 +187,11 @@ pub fn report_markdown(sim: &SimulateSummary, report: &FitReport) -> String {
         fit.linear.stick.stiffness,
         fit.linear.kd_initial
     );
-    if let Some(n) = fit.parameters.get("n").and_then(|e| e.note.as_ref()) {
+    if let Some(n) = named(Role::Other)
+        .first()
+        .and_then(|n| fit.parameters.get(*n))
+        .and_then(|e| e.note.as_ref())
+    {
         let _ = writeln!(
             s,
             "On N: {n}. The paper's N = 22.55 most likely lies on the same flat valley: eq. (10) tends to a Jenkins element as N → ∞ and the cost hardly changes once N is large, so bias and noise in a simulated measurement can settle the optimum at a finite N.\n"

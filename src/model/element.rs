@@ -59,6 +59,13 @@ pub struct ImplicitStep {
     pub force: f64,
 }
 
+/// Relative tolerance of the per-sample implicit equation's root `u` (see
+/// [`ImplicitStep`]), whoever solves it: an element's own
+/// [`Element::solve_implicit`] or the simulator's safeguarded solve. Far
+/// below the simulator's discretisation error (≥ 1e-5 at 200 samples per
+/// period).
+pub(crate) const SOLVE_TOLERANCE: f64 = 1e-11;
+
 /// A nonlinear force law, with or without memory.
 pub trait Element {
     /// The force at `(x, v)` if this sample were accepted, evaluated from the

@@ -19,7 +19,7 @@
 
 use super::element::{
     Description, Domain, Element, ElementForce, FitScale, ImplicitStep, Law, ParameterInfo, Role,
-    sign,
+    SOLVE_TOLERANCE, sign,
 };
 use crate::error::{Error, Result, require_positive};
 use num_complex::Complex64;
@@ -813,12 +813,6 @@ impl<B: Backbone> Masing<B> {
     }
 }
 
-/// Relative tolerance of the per-sample implicit solve on the net input `u`;
-/// far below the simulator's discretisation error (≥ 1e-5 at 200 samples per
-/// period). Defined here, with the element that solves the sample equation
-/// itself, so the model does not depend on the simulator; the simulator's
-/// own solve meets the same one.
-pub(crate) const SOLVE_TOLERANCE: f64 = 1e-11;
 /// Newton steps before handing over to the simulator's safeguarded solve.
 const SOLVE_STEPS: usize = 4;
 

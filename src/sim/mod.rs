@@ -25,7 +25,7 @@ pub mod filter;
 pub use filter::{ModeFilter, Section};
 
 use crate::error::{Error, Result};
-use crate::model::masing::SOLVE_TOLERANCE;
+use crate::model::element::SOLVE_TOLERANCE;
 use crate::model::{Element, ImplicitStep, ModalModel};
 
 /// One output sample.
