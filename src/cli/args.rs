@@ -204,7 +204,8 @@ pub struct ValidateArgs {
 /// Fit settings shared by `identify` and `run`.
 #[derive(Debug, Args, Clone)]
 pub struct IdentifyOptionsArgs {
-    /// Element to fit: masing (kd, Fd, N; paper eq. 10) or jenkins (kd, Fd).
+    /// Joint law to fit: masing (kd, fd, n; paper eq. 10), jenkins (kd, fd) or
+    /// iwan4 (fs, kt, chi, beta; Segalman's four-parameter Iwan).
     #[arg(long, default_value = "masing")]
     pub element: String,
     /// Harmonics in the cost, e.g. 1 or 1,3,5.

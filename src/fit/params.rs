@@ -482,13 +482,14 @@ fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [
     let Some(info) = e.description().parameters.iter().find(|p| p.name == name) else {
         return (Transform::Log, [1e-30, 1e30]);
     };
-    let lower = match info.domain {
-        Domain::Signed => -1e30,
-        Domain::Positive | Domain::NonNegative => 0.0,
+    let (lower, upper) = match info.domain {
+        Domain::Signed => (-1e30, 1e30),
+        Domain::Positive | Domain::NonNegative => (0.0, 1e30),
+        Domain::Range { min, max } => (min, max),
     };
     match info.scale {
         FitScale::Reciprocal { min, max } => (Transform::Reciprocal, [min, max]),
-        FitScale::Linear => (Transform::Scaled { scale }, [lower, 1e30]),
+        FitScale::Linear => (Transform::Scaled { scale }, [lower, upper]),
         // positive by nature: six decades either side of the start, which
         // no fit from a data-based start should need, and which keeps a
         // runaway (a slip force above every level, a stiffness of 1e30) from

@@ -283,7 +283,7 @@ pub(crate) fn sign(x: f64) -> f64 {
 }
 
 /// What values a parameter may take (what a model's check enforces).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Domain {
     /// Finite and `> 0`.
     Positive,
@@ -291,6 +291,13 @@ pub enum Domain {
     NonNegative,
     /// Finite, either sign.
     Signed,
+    /// Strictly between `min` and `max`.
+    Range {
+        /// Lower end (excluded).
+        min: f64,
+        /// Upper end (excluded).
+        max: f64,
+    },
 }
 
 /// The coordinate a fit moves a parameter in (see `fit::params`).

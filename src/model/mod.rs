@@ -13,6 +13,7 @@ pub mod bilinear_stiffness;
 pub mod clearance;
 pub mod cubic_stiffness;
 pub mod element;
+pub mod iwan;
 pub mod jenkins;
 pub mod masing;
 pub mod modal;
@@ -26,6 +27,7 @@ pub use element::{
     Description, Domain, Element, ElementForce, ElementSet, FitScale, ImplicitStep, Law, NoElement,
     ParameterInfo, Role,
 };
+pub use iwan::Iwan4Backbone;
 pub use jenkins::Jenkins;
 pub use masing::{Backbone, Masing, PiecewiseLinearBackbone, PowerBackbone};
 pub use modal::{ModalModel, Mode};
@@ -142,6 +144,7 @@ macro_rules! registry {
 registry! {
     Jenkins(Jenkins) { kd, fd },
     Masing(Masing) { kd, fd, n },
+    Iwan4(Masing<Iwan4Backbone>) { fs, kt, chi, beta },
     CubicStiffness(CubicStiffness) { k3 },
     QuadraticDamping(QuadraticDamping) { c2 },
     BilinearStiffness(BilinearStiffness) { kb },
@@ -227,6 +230,14 @@ impl ElementSpec {
                 Domain::Positive => require_positive(&field, value)?,
                 Domain::NonNegative => require_non_negative(&field, value)?,
                 Domain::Signed => require_finite(&field, value)?,
+                Domain::Range { min, max } => {
+                    if !(value > min && value < max) {
+                        return Err(Error::model(
+                            field,
+                            format!("must be between {min} and {max} (excluded), got {value}"),
+                        ));
+                    }
+                }
             }
         }
         Ok(())
@@ -528,7 +539,11 @@ mod tests {
         }
         assert_eq!(
             ElementKind::joints().collect::<Vec<_>>(),
-            [ElementKind::Jenkins, ElementKind::Masing]
+            [
+                ElementKind::Jenkins,
+                ElementKind::Masing,
+                ElementKind::Iwan4
+            ]
         );
     }
 
