@@ -408,12 +408,6 @@ impl HbSolver {
     }
 }
 
-/// Whether the elements' law is odd (see [`Element::odd_law`]): the
-/// condition for half-wave symmetry.
-pub(crate) fn odd_law<E: Element>(elements: &E) -> bool {
-    elements.odd_law()
-}
-
 fn check_force(f: f64) -> Result<()> {
     if f.is_finite() && f > 0.0 {
         Ok(())

@@ -201,7 +201,7 @@ impl Core {
         jac: Option<&mut [f64]>,
     ) -> Result<(), EvalError> {
         self.at_solution = false;
-        let odd = self.opts.half_wave_symmetry && super::odd_law(elements);
+        let odd = self.opts.half_wave_symmetry && elements.odd_law();
         residual(
             &mut self.aft,
             &mut self.g,
@@ -250,7 +250,7 @@ impl Core {
         } = self;
         let omega = *omega;
         let method = opts.periodic_loop;
-        let odd = opts.half_wave_symmetry && super::odd_law(elements);
+        let odd = opts.half_wave_symmetry && elements.odd_law();
         let mut eval = |x: &[f64], r: &mut [f64], j: Option<&mut [f64]>, c: &mut Counters| {
             c.residuals += 1;
             if j.is_some() {
@@ -494,7 +494,7 @@ impl Core {
             }
             counters.residuals += 1;
             let mut rfd = std::mem::take(&mut self.rfd);
-            let odd = self.opts.half_wave_symmetry && super::odd_law(elements);
+            let odd = self.opts.half_wave_symmetry && elements.odd_law();
             let ok = residual(
                 &mut self.aft,
                 &mut self.g,

@@ -352,6 +352,28 @@ pub struct ParameterInfo {
     pub start: f64,
 }
 
+/// A joint's stick stiffness `kd`, as the Jenkins and Masing laws name it.
+pub const STICK_STIFFNESS: ParameterInfo = ParameterInfo {
+    name: "kd",
+    unit: "N/m",
+    meaning: "stick stiffness",
+    domain: Domain::Positive,
+    scale: FitScale::Log,
+    role: Role::StickStiffness,
+    start: 1.0,
+};
+
+/// A joint's slip force `fd`, as the Jenkins and Masing laws name it.
+pub const SLIP_FORCE: ParameterInfo = ParameterInfo {
+    name: "fd",
+    unit: "N",
+    meaning: "slip force",
+    domain: Domain::Positive,
+    scale: FitScale::Log,
+    role: Role::SlipForce,
+    start: 1.0,
+};
+
 /// Everything the pipeline knows about an element law, besides its force.
 ///
 /// Harmonic balance reads the symmetry and the samples a period needs, the

@@ -9,8 +9,7 @@
 //! limit of the eq. (10) Masing element.
 
 use super::element::{
-    Description, Domain, Element, ElementForce, FitScale, ImplicitStep, Law, ParameterInfo, Role,
-    sign,
+    Description, Element, ElementForce, ImplicitStep, Law, SLIP_FORCE, STICK_STIFFNESS, sign,
 };
 use crate::error::{Result, require_positive};
 use num_complex::Complex64;
@@ -93,26 +92,7 @@ impl Law for Jenkins {
     const DESCRIPTION: Description = Description {
         name: "jenkins",
         summary: "a spring kd in series with a Coulomb slider of slip force Fd",
-        parameters: &[
-            ParameterInfo {
-                name: "kd",
-                unit: "N/m",
-                meaning: "stick stiffness",
-                domain: Domain::Positive,
-                scale: FitScale::Log,
-                role: Role::StickStiffness,
-                start: 1.0,
-            },
-            ParameterInfo {
-                name: "fd",
-                unit: "N",
-                meaning: "slip force",
-                domain: Domain::Positive,
-                scale: FitScale::Log,
-                role: Role::SlipForce,
-                start: 1.0,
-            },
-        ],
+        parameters: &[STICK_STIFFNESS, SLIP_FORCE],
         memory: true,
         odd: true,
         // the loop's corners are kinks: 512 samples a period put the

@@ -19,7 +19,7 @@
 
 use super::element::{
     Description, Domain, Element, ElementForce, FitScale, ImplicitStep, Law, ParameterInfo, Role,
-    SOLVE_TOLERANCE, sign,
+    SLIP_FORCE, SOLVE_TOLERANCE, STICK_STIFFNESS, sign,
 };
 use crate::error::{Error, Result, require_positive};
 use num_complex::Complex64;
@@ -537,24 +537,8 @@ impl Law for Masing<PowerBackbone> {
         name: "masing",
         summary: "the eq. (10) backbone kd x / (1 + |kd x/Fd|^N)^(1/N) with Masing's rules",
         parameters: &[
-            ParameterInfo {
-                name: "kd",
-                unit: "N/m",
-                meaning: "stick stiffness",
-                domain: Domain::Positive,
-                scale: FitScale::Log,
-                role: Role::StickStiffness,
-                start: 1.0,
-            },
-            ParameterInfo {
-                name: "fd",
-                unit: "N",
-                meaning: "slip force",
-                domain: Domain::Positive,
-                scale: FitScale::Log,
-                role: Role::SlipForce,
-                start: 1.0,
-            },
+            STICK_STIFFNESS,
+            SLIP_FORCE,
             ParameterInfo {
                 name: "n",
                 unit: "1",
