@@ -275,7 +275,7 @@ fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
         serde_json::from_slice(&std::fs::read(out.join("diagnosis.json")).unwrap()).unwrap();
     for model in ["baseline_model", "model"] {
         assert_eq!(
-            d[model]["elements"][0]["kind"], "jenkins",
+            d[model]["joint"]["kind"], "jenkins",
             "{model}: {}",
             d[model]
         );

@@ -172,11 +172,11 @@ fn validation_of_the_true_model_leaves_the_noise() {
     assert!((pm.frequency_hz - ps.frequency_hz).abs() < 0.05);
     // a wrong slip force, and no joint at all
     let mut wrong = model.clone();
-    wrong.elements[0] = ElementSpec::Masing {
+    wrong.joint = Some(ElementSpec::Masing {
         kd: 0.5 * model.linear.modes[0].modal_stiffness(),
         fd: 30.0,
         n: 3.0,
-    };
+    });
     let vw = validate_recording(&wrong, 1.0, &rec, 1, &ValidateOptions::default()).unwrap();
     let linear = Model::new(model.linear.clone(), Vec::new()).unwrap();
     let vl = validate_recording(&linear, 1.0, &rec, 1, &ValidateOptions::default()).unwrap();

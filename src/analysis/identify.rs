@@ -130,8 +130,7 @@ impl FitReport {
 
 /// The reference joint of a virtual test.
 pub fn reference_joint(truth: Option<&TestDefinition>) -> Option<ElementSpec> {
-    let m = truth?.model().ok()?;
-    m.elements.into_iter().find(|e| e.description().is_joint())
+    truth?.model().ok()?.joint
 }
 
 /// Compares estimates with a reference element's parameters.
@@ -205,7 +204,7 @@ pub fn write_fit_plots(
         &series,
     )?);
     // hysteresis loops at several amplitudes (Fig. 3.2 / 3.4 left)
-    if let Some(spec) = fit.model.elements.first() {
+    if let Some(spec) = &fit.model.joint {
         let (kd, fd) = (
             spec.stick_stiffness(),
             fit.parameters.get("fd").map_or(1.0, |e| e.value),

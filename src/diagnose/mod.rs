@@ -41,7 +41,7 @@ use crate::fit::{
     Transform, Weighting,
 };
 use crate::harmonics::omega;
-use crate::model::{ElementSpec, Model};
+use crate::model::{ElementAt, ElementSpec, Model};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -205,14 +205,13 @@ pub struct Diagnosis {
 /// [`ParameterSet::for_linear_in`]).
 pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> ParameterSet {
     let mut p = ParameterSet::default();
-    for (i, e) in model.elements.iter().enumerate() {
+    for (at, e) in model.placed() {
         // the joint's parameters keep their plain names (kd, fd, …)
-        let prefix = if i == 0 && e.description().is_joint() {
-            String::new()
-        } else {
-            e.kind().name().to_string()
+        let prefix = match at {
+            ElementAt::Joint => String::new(),
+            ElementAt::Effect(_) => e.kind().name().to_string(),
         };
-        let mut set = ParameterSet::for_element(model, i, &prefix);
+        let mut set = ParameterSet::for_element(model, at, &prefix);
         for q in &mut set.parameters {
             // a parameter that starts at zero still needs a sensible scale
             if let Transform::Scaled { scale } = &mut q.transform
@@ -340,8 +339,7 @@ fn gauss_newton_start(
     with: &dyn Fn(f64) -> ElementSpec,
     probe: f64,
 ) -> Result<f64> {
-    let mut m = base.clone();
-    m.elements.push(with(probe));
+    let m = base.with_effect(with(probe));
     let p1 = predictor.predict_from(&m, data, Some(pred))?;
     let (mut num, mut den) = (0.0, 0.0);
     for ((s, a), b) in data.series.iter().zip(&pred.h).zip(&p1.h) {
@@ -387,8 +385,7 @@ pub(crate) fn scan_start(
     sizes.extend(gn);
     let mut best: Option<(f64, f64)> = None;
     for size in sizes {
-        let mut m = base.clone();
-        m.elements.push(with(size));
+        let m = base.with_effect(with(size));
         let Ok(p) = predictor.predict_from(&m, data, Some(pred)) else {
             continue;
         };
@@ -520,8 +517,8 @@ fn lower_levels_joint(
         .map(|&i| frf.levels[i].clone())
         .collect();
     let fit = crate::fit::identify(&lower, options, predictor, None).ok()?;
-    let joint = fit.model.elements.first()?.clone();
-    let base_joint = base.elements.first()?;
+    let joint = fit.model.joint.clone()?;
+    let base_joint = base.joint.as_ref()?;
     if joint.kind() != base_joint.kind() {
         return None;
     }
@@ -539,7 +536,7 @@ fn lower_levels_joint(
         return None;
     }
     let mut m = base.clone();
-    m.elements[0] = joint;
+    m.joint = Some(joint);
     Some(m)
 }
 

@@ -22,7 +22,7 @@ use super::problem::{
 };
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
-use crate::model::{ElementKind, ElementSpec, ModalModel, Mode, Model, Role};
+use crate::model::{ElementAt, ElementKind, ElementSpec, ModalModel, Mode, Model, Role};
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -489,7 +489,8 @@ pub fn identify(
             };
             let mut as_model = Model {
                 linear: lin.clone(),
-                elements: Vec::new(),
+                joint: None,
+                effects: Vec::new(),
             };
             Parameter {
                 name: String::new(),
@@ -511,8 +512,8 @@ pub fn identify(
         role_name(Role::StickStiffness).unwrap_or_default(),
         role_name(Role::SlipForce).unwrap_or_default(),
     );
-    let base = Model::new(sdof, vec![element])?;
-    let mut element_params = ParameterSet::for_element(&base, 0, "");
+    let base = Model::with_joint(sdof, Some(element), Vec::new())?;
+    let mut element_params = ParameterSet::for_element(&base, ElementAt::Joint, "");
     // bounded by the data: a slip force far below the smallest level (always
     // slipping) or far above the largest (never slipping) is not identified
     // by the test, and neither is a stick stiffness decades away from the
@@ -554,7 +555,6 @@ pub fn identify(
         for p in &mut element_params.parameters {
             if matches!(&p.target, Target::Element { name, .. } if name == kd_name) {
                 p.target = Target::TiedStickStiffness {
-                    index: 0,
                     mode: 0,
                     total,
                 };
@@ -668,7 +668,7 @@ pub fn identify(
     // intervals with every linear parameter free as well: m, c and k are
     // estimated from the same data, so the element's intervals must carry
     // their uncertainty even when the optimiser held them fixed
-    let mut u_params = ParameterSet::for_element(&model, 0, "");
+    let mut u_params = ParameterSet::for_element(&model, ElementAt::Joint, "");
     u_params.extend(ParameterSet::for_linear_in(&model, data.band_hz()));
     let u_problem = FitProblem::new(
         model.clone(),

@@ -9,17 +9,17 @@
 //! penalised, so simplex methods stay inside.
 
 use crate::error::{Error, Result};
-use crate::model::{Domain, ElementSpec, FitScale, Mode, Model, Role};
+use crate::model::{Domain, ElementAt, ElementSpec, FitScale, Mode, Model, Role};
 use serde::{Deserialize, Serialize};
 
 /// What a parameter changes in the model.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "of")]
 pub enum Target {
-    /// Parameter `name` of element `index`.
+    /// Parameter `name` of the element at `at`.
     Element {
-        /// Element index in `Model::elements`.
-        index: usize,
+        /// The joint or an effect.
+        at: ElementAt,
         /// Parameter name (`kd`, `fd`, `n`, `k3`, ...).
         name: String,
     },
@@ -61,12 +61,10 @@ pub enum Target {
         /// Mode index.
         mode: usize,
     },
-    /// An element's stick stiffness `kd` taken out of mode `mode`'s
+    /// The joint's stick stiffness `kd` taken out of mode `mode`'s
     /// stiffness so that `k + kd = total` stays fixed: the stick stiffness a
     /// nearly linear low level measured, split between structure and joint.
     TiedStickStiffness {
-        /// Element index.
-        index: usize,
         /// Mode index.
         mode: usize,
         /// `k + kd`, N/m.
@@ -152,9 +150,9 @@ impl Parameter {
                 .ok_or_else(|| Error::model(format!("modes[{i}]"), "no such mode"))
         };
         Ok(match &self.target {
-            Target::Element { index, name } => {
-                let j = model.parameter_index(*index, name)?;
-                model.elements[*index].parameters()[j].1
+            Target::Element { at, name } => {
+                let j = model.parameter_index(*at, name)?;
+                model.element(*at)?.parameters()[j].1
             }
             Target::Mass { mode: i } => mode(*i)?.modal_mass(),
             Target::Damping { mode: i } => mode(*i)?.modal_damping(),
@@ -163,9 +161,10 @@ impl Parameter {
             Target::DampingRatio { mode: i } => mode(*i)?.damping_ratio,
             Target::Residue { mode: i } => mode(*i)?.residue,
             Target::Flexibility { mode: i } => mode(*i)?.static_flexibility(),
-            Target::TiedStickStiffness { index, .. } => {
-                let j = model.parameter_index(*index, stick_stiffness_name(model, *index)?)?;
-                model.elements[*index].parameters()[j].1
+            Target::TiedStickStiffness { .. } => {
+                let at = ElementAt::Joint;
+                let j = model.parameter_index(at, stick_stiffness_name(model, at)?)?;
+                model.element(at)?.parameters()[j].1
             }
         })
     }
@@ -181,15 +180,12 @@ impl Parameter {
                 .ok_or_else(|| Error::model(format!("modes[{i}]"), "no such mode"))
         };
         match &self.target {
-            Target::Element { index, name } => {
-                let j = model.parameter_index(*index, name)?;
-                let mut v: Vec<f64> = model.elements[*index]
-                    .parameters()
-                    .iter()
-                    .map(|p| p.1)
-                    .collect();
+            Target::Element { at, name } => {
+                let j = model.parameter_index(*at, name)?;
+                let e = model.element_mut(*at)?;
+                let mut v: Vec<f64> = e.parameters().iter().map(|p| p.1).collect();
                 v[j] = value;
-                model.elements[*index] = model.elements[*index].with_parameters(&v);
+                *e = e.with_parameters(&v);
             }
             Target::Mass { mode } | Target::Damping { mode } | Target::Stiffness { mode } => {
                 let m0 = mode_mut(model, *mode)?;
@@ -217,12 +213,12 @@ impl Parameter {
                 let w = mode_mut(model, *mode)?.omega();
                 model.linear.modes[*mode].residue = value * w * w;
             }
-            Target::TiedStickStiffness { index, mode, total } => {
+            Target::TiedStickStiffness { mode, total } => {
                 Parameter {
                     name: String::new(),
                     target: Target::Element {
-                        index: *index,
-                        name: stick_stiffness_name(model, *index)?.into(),
+                        at: ElementAt::Joint,
+                        name: stick_stiffness_name(model, ElementAt::Joint)?.into(),
                     },
                     transform: self.transform,
                     bounds: self.bounds,
@@ -302,10 +298,12 @@ impl ParameterSet {
             .collect()
     }
 
-    /// The element's own parameters as free parameters, with default
-    /// transforms and bounds.
-    pub fn for_element(model: &Model, index: usize, prefix: &str) -> ParameterSet {
-        let e = &model.elements[index];
+    /// The own parameters of the element at `at` as free parameters, with
+    /// default transforms and bounds (none if there is no such element).
+    pub fn for_element(model: &Model, at: ElementAt, prefix: &str) -> ParameterSet {
+        let Ok(e) = model.element(at) else {
+            return ParameterSet::default();
+        };
         let parameters = e
             .parameters()
             .into_iter()
@@ -318,7 +316,7 @@ impl ParameterSet {
                         format!("{prefix}.{name}")
                     },
                     target: Target::Element {
-                        index,
+                        at,
                         name: name.to_string(),
                     },
                     transform,
@@ -459,18 +457,15 @@ pub const ZETA_MAX: f64 = 0.9;
 /// Upper bound of the Masing curvature (see [`crate::model::masing::N_MAX`]).
 pub use crate::model::masing::N_MAX;
 
-/// The name of element `index`'s stick stiffness (an error if it has none).
-fn stick_stiffness_name(model: &Model, index: usize) -> Result<&'static str> {
-    let e = model
-        .elements
-        .get(index)
-        .ok_or_else(|| Error::model(format!("elements[{index}]"), "no such element"))?;
-    let d = e.description();
+/// The name of the stick stiffness of the element at `at` (an error if it
+/// has none).
+fn stick_stiffness_name(model: &Model, at: ElementAt) -> Result<&'static str> {
+    let d = model.element(at)?.description();
     d.index_of(Role::StickStiffness)
         .map(|i| d.parameters[i].name)
         .ok_or_else(|| {
             Error::model(
-                format!("elements[{index}]"),
+                at.to_string(),
                 format!("{} has no stick stiffness", d.name),
             )
         })
@@ -517,7 +512,7 @@ mod tests {
             }],
         )
         .unwrap();
-        let mut set = ParameterSet::for_element(&base, 0, "");
+        let mut set = ParameterSet::for_element(&base, ElementAt::Joint, "");
         set.extend(ParameterSet::for_sdof(0));
         let theta = set.theta_of(&base).unwrap();
         let (m, out) = set.model_at(&base, &theta).unwrap();
@@ -528,7 +523,7 @@ mod tests {
         t[2] = (5000.0f64).ln(); // n beyond N_MAX: clamped
         let (m, out) = set.model_at(&base, &t).unwrap();
         assert!(out > 0.0);
-        let ElementSpec::Masing { kd, fd, n } = m.elements[0] else {
+        let Some(ElementSpec::Masing { kd, fd, n }) = m.joint else {
             panic!()
         };
         assert!((kd / 2.4e7 - 1.0).abs() < 1e-14 && (fd / 246.0 - 1.0).abs() < 1e-14);

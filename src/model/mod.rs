@@ -2,8 +2,9 @@
 //!
 //! Paper eq. (1): `m x'' + c x' + k x = F − F_nl`. The linear part is a
 //! [`ModalModel`] (one or more modes at the joint point); `F_nl` is the sum of
-//! the forces of the [`Element`]s attached there: the joint (Jenkins or the
-//! eq. (10) Masing element) and any effects (cubic stiffness, ...).
+//! the forces of the [`Element`]s attached there: the joint (Jenkins, the
+//! eq. (10) Masing element, an Iwan element), a field of its own in
+//! [`Model`], and any effects (cubic stiffness, ...).
 //!
 //! [`ElementSpec`] is an element's kind and parameters as data (what TOML files,
 //! fits and reports handle); [`AnyElement`] is the element built from it, with
@@ -322,37 +323,206 @@ impl Element for AnyElement {
     }
 }
 
-/// A structure: the underlying linear modes and the elements at the joint.
+/// Where an element sits in a [`Model`]: the joint, or one of the effects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ElementAt {
+    /// The joint.
+    Joint,
+    /// Effect `i` (in `Model::effects`).
+    Effect(usize),
+}
+
+impl std::fmt::Display for ElementAt {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ElementAt::Joint => f.write_str("joint"),
+            ElementAt::Effect(i) => write!(f, "effects[{i}]"),
+        }
+    }
+}
+
+/// A structure: the underlying linear modes, the joint, and the effects
+/// acting beside it at the joint point; their forces add.
+///
+/// The joint is a field of its own, not a position in a list: it is the
+/// element a fit identifies by stick stiffness and slip force
+/// ([`Description::is_joint`]), the one a diagnosis keeps while it adds
+/// effects. Files hold `{linear, joint, effects}`; a file from before
+/// the split (`elements`, a list) is read with its joint law, wherever it
+/// stood, as the joint.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ModelForm")]
 pub struct Model {
     /// The underlying linear structure.
     pub linear: ModalModel,
-    /// The elements; their forces add.
-    pub elements: Vec<ElementSpec>,
+    /// The joint, if any: a joint law.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint: Option<ElementSpec>,
+    /// The effects: laws that are not joints.
+    pub effects: Vec<ElementSpec>,
+}
+
+/// A model as files hold it, today's form or the list form before it.
+#[derive(Deserialize)]
+struct ModelForm {
+    linear: ModalModel,
+    #[serde(default)]
+    joint: Option<ElementSpec>,
+    #[serde(default)]
+    effects: Vec<ElementSpec>,
+    #[serde(default)]
+    elements: Option<Vec<ElementSpec>>,
+}
+
+impl TryFrom<ModelForm> for Model {
+    type Error = Error;
+    fn try_from(f: ModelForm) -> Result<Model> {
+        let m = match f.elements {
+            Some(_) if f.joint.is_some() || !f.effects.is_empty() => {
+                return Err(Error::model(
+                    "elements",
+                    "give either `elements` (the old form) or `joint` and `effects`, not both",
+                ));
+            }
+            Some(list) => Model::classified(f.linear, list)?,
+            None => Model {
+                linear: f.linear,
+                joint: f.joint,
+                effects: f.effects,
+            },
+        };
+        m.check_places()?;
+        Ok(m)
+    }
 }
 
 impl Model {
-    /// A model; checks every part.
+    /// A model from the elements at the joint point, each placed by its law:
+    /// a joint law is the joint, every other law an effect. Checks every
+    /// part.
     pub fn new(linear: ModalModel, elements: Vec<ElementSpec>) -> Result<Model> {
-        let m = Model { linear, elements };
+        let m = Model::classified(linear, elements)?;
         m.validate()?;
         Ok(m)
+    }
+
+    /// A model with its joint and effects given apart. Checks every part.
+    pub fn with_joint(
+        linear: ModalModel,
+        joint: Option<ElementSpec>,
+        effects: Vec<ElementSpec>,
+    ) -> Result<Model> {
+        let m = Model {
+            linear,
+            joint,
+            effects,
+        };
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// Places each element by its law (no value checks).
+    fn classified(linear: ModalModel, elements: Vec<ElementSpec>) -> Result<Model> {
+        let (joints, effects): (Vec<_>, Vec<_>) = elements
+            .into_iter()
+            .partition(|e| e.description().is_joint());
+        if joints.len() > 1 {
+            let names: Vec<_> = joints.iter().map(|e| e.kind().name()).collect();
+            return Err(Error::model(
+                "elements",
+                format!(
+                    "{} joint laws ({}); a model has one joint",
+                    joints.len(),
+                    names.join(", ")
+                ),
+            ));
+        }
+        Ok(Model {
+            linear,
+            joint: joints.into_iter().next(),
+            effects,
+        })
+    }
+
+    /// Error unless the joint is a joint law and no effect is.
+    fn check_places(&self) -> Result<()> {
+        if let Some(j) = &self.joint
+            && !j.description().is_joint()
+        {
+            return Err(Error::model(
+                "joint",
+                format!("`{}` is not a joint law; give it as an effect", j.kind().name()),
+            ));
+        }
+        for (i, e) in self.effects.iter().enumerate() {
+            if e.description().is_joint() {
+                return Err(Error::model(
+                    format!("effects[{i}]"),
+                    format!("`{}` is a joint law; a model has one joint", e.kind().name()),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Checks every part.
     pub fn validate(&self) -> Result<()> {
         self.linear.validate()?;
-        for (i, e) in self.elements.iter().enumerate() {
-            e.validate(&format!("elements[{i}]"))?;
+        self.check_places()?;
+        for (at, e) in self.placed() {
+            e.validate(&at.to_string())?;
         }
         Ok(())
+    }
+
+    /// Every element with its place: the joint first, then the effects.
+    pub fn placed(&self) -> impl Iterator<Item = (ElementAt, &ElementSpec)> {
+        self.joint
+            .iter()
+            .map(|j| (ElementAt::Joint, j))
+            .chain(
+                self.effects
+                    .iter()
+                    .enumerate()
+                    .map(|(i, e)| (ElementAt::Effect(i), e)),
+            )
+    }
+
+    /// Every element: the joint first, then the effects.
+    pub fn elements(&self) -> impl Iterator<Item = &ElementSpec> {
+        self.placed().map(|(_, e)| e)
+    }
+
+    /// The element at `at`.
+    pub fn element(&self, at: ElementAt) -> Result<&ElementSpec> {
+        match at {
+            ElementAt::Joint => self.joint.as_ref(),
+            ElementAt::Effect(i) => self.effects.get(i),
+        }
+        .ok_or_else(|| Error::model(at.to_string(), "no such element"))
+    }
+
+    /// The element at `at`, to change.
+    pub fn element_mut(&mut self, at: ElementAt) -> Result<&mut ElementSpec> {
+        match at {
+            ElementAt::Joint => self.joint.as_mut(),
+            ElementAt::Effect(i) => self.effects.get_mut(i),
+        }
+        .ok_or_else(|| Error::model(at.to_string(), "no such element"))
+    }
+
+    /// The model with one more effect.
+    pub fn with_effect(&self, effect: ElementSpec) -> Model {
+        let mut m = self.clone();
+        m.effects.push(effect);
+        m
     }
 
     /// The elements, built and virgin.
     pub fn element_set(&self) -> Result<ElementSet<AnyElement>> {
         Ok(ElementSet::new(
-            self.elements
-                .iter()
+            self.elements()
                 .map(ElementSpec::build)
                 .collect::<Result<_>>()?,
         ))
@@ -360,7 +530,7 @@ impl Model {
 
     /// Total stick stiffness the hysteresis elements add at small amplitude.
     pub fn stick_stiffness(&self) -> f64 {
-        self.elements.iter().map(ElementSpec::stick_stiffness).sum()
+        self.elements().map(ElementSpec::stick_stiffness).sum()
     }
 
     /// The highest frequency the linearised structure can ring at, Hz: the
@@ -381,36 +551,33 @@ impl Model {
 
     /// Whether any element has memory.
     pub fn has_memory(&self) -> bool {
-        self.elements.iter().any(|e| e.description().memory)
+        self.elements().any(|e| e.description().memory)
     }
 
     /// Whether any element breaks the half-wave symmetry (makes even
     /// harmonics and DC under symmetric forcing).
     pub fn is_asymmetric(&self) -> bool {
-        self.elements.iter().any(|e| !e.description().odd)
+        self.elements().any(|e| !e.description().odd)
     }
 
     /// The most samples per period any element's law needs (0: none).
     pub fn samples_per_period(&self) -> usize {
-        self.elements
-            .iter()
+        self.elements()
             .map(|e| e.description().samples_per_period)
             .max()
             .unwrap_or(0)
     }
 
-    /// Error unless `name` is a parameter of element `index`.
-    pub fn parameter_index(&self, index: usize, name: &str) -> Result<usize> {
-        let e = self
-            .elements
-            .get(index)
-            .ok_or_else(|| Error::model(format!("elements[{index}]"), "no such element"))?;
+    /// The position of parameter `name` in the element at `at` (an error
+    /// naming both if there is none).
+    pub fn parameter_index(&self, at: ElementAt, name: &str) -> Result<usize> {
+        let e = self.element(at)?;
         e.parameters()
             .iter()
             .position(|(p, _)| *p == name)
             .ok_or_else(|| {
                 Error::model(
-                    format!("elements[{index}].{name}"),
+                    format!("{at}.{name}"),
                     format!("{} has no such parameter", e.kind().name()),
                 )
             })
@@ -446,6 +613,52 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(e.contains("bouncy"), "{e}");
+    }
+
+    /// The joint is a field: placed by its law whatever the order it is
+    /// given in, read from the list form older files hold, and a second
+    /// joint, a joint among the effects or an effect as the joint is an
+    /// error naming the place.
+    #[test]
+    fn the_joint_is_placed_by_its_law() {
+        let linear = ModalModel::sdof(10.0, 200.0, 1e7).unwrap();
+        let cubic = ElementSpec::CubicStiffness { k3: 1e12 };
+        let jenkins = ElementSpec::Jenkins { kd: 2.4e7, fd: 246.0 };
+        let m = Model::new(linear.clone(), vec![cubic.clone(), jenkins.clone()]).unwrap();
+        assert_eq!(m.joint, Some(jenkins.clone()));
+        assert_eq!(m.effects, vec![cubic.clone()]);
+        assert_eq!(
+            m.placed().map(|(at, _)| at).collect::<Vec<_>>(),
+            [ElementAt::Joint, ElementAt::Effect(0)]
+        );
+        // today's form round-trips; the old list form reads the same
+        let json = serde_json::to_value(&m).unwrap();
+        assert_eq!(json["joint"]["kind"], "jenkins");
+        assert_eq!(json["effects"][0]["kind"], "cubic_stiffness");
+        assert!(json.get("elements").is_none());
+        assert_eq!(serde_json::from_value::<Model>(json.clone()).unwrap(), m);
+        let mut old = json.clone();
+        let o = old.as_object_mut().unwrap();
+        let (j, e) = (o.remove("joint").unwrap(), o.remove("effects").unwrap());
+        o.insert("elements".into(), serde_json::json!([e[0], j]));
+        assert_eq!(serde_json::from_value::<Model>(old).unwrap(), m);
+        // misplaced laws
+        let e = Model::new(linear.clone(), vec![jenkins.clone(), jenkins.clone()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("one joint"), "{e}");
+        let e = Model::with_joint(linear.clone(), Some(cubic.clone()), vec![])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("joint") && e.contains("cubic_stiffness"), "{e}");
+        let mut bad = json;
+        bad["effects"] = serde_json::json!([bad["joint"]]);
+        let e = serde_json::from_value::<Model>(bad).unwrap_err().to_string();
+        assert!(e.contains("effects[0]") && e.contains("joint law"), "{e}");
+        // a model without a joint is a linear structure with effects
+        let m = Model::with_joint(linear, None, vec![cubic]).unwrap();
+        assert!(m.element(ElementAt::Joint).is_err());
+        assert!(!m.has_memory());
     }
 
     /// The registry and each law's description agree, and what a

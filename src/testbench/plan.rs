@@ -614,17 +614,16 @@ impl TestDefinition {
                 ));
             }
         };
-        let mut elements = Vec::new();
+        let mut effects = Vec::new();
         if let Some(joint) = &self.joint.0 {
             joint.validate("joint")?;
-            elements.push(joint.clone());
         }
         for (i, e) in self.effects.iter().enumerate() {
             let at = format!("effects[{i}]");
             match e {
                 EffectSpec::Element(spec) => {
                     spec.validate(&at)?;
-                    elements.push(spec.clone());
+                    effects.push(spec.clone());
                 }
                 EffectSpec::SecondMode(m) => {
                     let mode = Mode::from_modal_mass(m.frequency_hz, m.damping_ratio, m.modal_mass)
@@ -633,7 +632,7 @@ impl TestDefinition {
                 }
             }
         }
-        Model::new(ModalModel::new(modes)?, elements)
+        Model::with_joint(ModalModel::new(modes)?, self.joint.0.clone(), effects)
     }
 
     /// The dwell frequencies as listed (before sweep ordering), Hz.
@@ -730,12 +729,13 @@ mod tests {
         let d = TestDefinition::embedded_default();
         let m = d.model().unwrap();
         assert_eq!(
-            m.elements,
-            vec![ElementSpec::Jenkins {
+            m.joint,
+            Some(ElementSpec::Jenkins {
                 kd: 2.4e7,
                 fd: 246.048
-            }]
+            })
         );
+        assert!(m.effects.is_empty());
         assert_eq!(d.frequencies().unwrap().len(), 51);
         assert_eq!(d.test.levels_n.len(), 7);
         // 100 samples per stick period (293.4 Hz), rounded up to 1 kHz
@@ -805,7 +805,8 @@ mod tests {
             .model()
             .unwrap();
         assert_eq!(m.linear.modes.len(), 2);
-        assert_eq!(m.elements.len(), 2);
+        assert!(m.joint.is_some());
+        assert_eq!(m.effects.len(), 1);
         let text = DEFAULT_TEST
             .replace(
                 "[system]",

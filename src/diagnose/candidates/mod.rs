@@ -90,11 +90,9 @@ impl Context<'_> {
             .collect()
     }
 
-    /// The model with `element` added.
+    /// The model with `element` added as an effect.
     pub fn with_element(&self, element: ElementSpec) -> Model {
-        let mut m = self.model().clone();
-        m.elements.push(element);
-        m
+        self.model().with_effect(element)
     }
 }
 
@@ -136,10 +134,7 @@ pub(crate) trait Candidate: Sync {
     /// Its parameters' values in `model` (which has it).
     fn parameters(&self, model: &Model, _data: &FitData) -> BTreeMap<String, f64> {
         let mut out = BTreeMap::new();
-        for e in model
-            .elements
-            .iter()
-            .filter(|e| Some(e.kind()) == self.law())
+        for e in model.elements().filter(|e| Some(e.kind()) == self.law())
         {
             for (n, v) in e.parameters() {
                 out.insert(n.to_string(), v);
@@ -154,14 +149,14 @@ pub(crate) trait Candidate: Sync {
         (name.to_string(), estimate)
     }
 
-    /// `model` without it (its last instance).
+    /// `model` without it (its last instance among the effects).
     fn remove(&self, model: &Model) -> Option<Model> {
         let mut m = model.clone();
         let i = m
-            .elements
+            .effects
             .iter()
             .rposition(|e| Some(e.kind()) == self.law())?;
-        m.elements.remove(i);
+        m.effects.remove(i);
         Some(m)
     }
 

@@ -59,8 +59,10 @@ impl Candidate for SecondMode {
             ..cx.options.fit.clone()
         };
         if let Ok(f) = crate::fit::identify(cx.frf, &opts, cx.predictor, None) {
+            // the new modes with the user's joint refitted, and the effects
+            // found so far
             let mut m = f.model;
-            m.elements.extend(model.elements.iter().skip(1).cloned());
+            m.effects.extend(model.effects.iter().cloned());
             starts.push(m);
         }
         Ok(starts)
@@ -271,7 +273,11 @@ seed = 3
         assert!(starts.len() >= 2, "{} starts", starts.len());
         for m in &starts {
             assert_eq!(m.linear.modes.len(), 2);
-            assert_eq!(m.elements[0].kind(), ElementKind::Jenkins, "{m:?}");
+            assert_eq!(
+                m.joint.as_ref().map(crate::model::ElementSpec::kind),
+                Some(ElementKind::Jenkins),
+                "{m:?}"
+            );
         }
     }
 }

@@ -245,10 +245,11 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         ));
     }
     let model = &d["model"];
-    let elements: Vec<&Value> = model["elements"]
-        .as_array()
-        .map(|a| a.iter().collect())
-        .unwrap_or_default();
+    // the joint, then the effects (diagnosis.json's model form)
+    let elements: Vec<&Value> = std::iter::once(&model["joint"])
+        .filter(|j| j.is_object())
+        .chain(model["effects"].as_array().into_iter().flatten())
+        .collect();
     let joint_kind = match case.joint {
         JointKind::Jenkins => "jenkins",
         JointKind::Masing { .. } => "masing",
