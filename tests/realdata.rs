@@ -25,7 +25,7 @@ use hystid::record::{
 };
 use hystid::sim::Simulator;
 use hystid::validate::{
-    Reduction, ValidateOptions, Validation, error_metrics, h1_peak, simulate_response,
+    DriveInput, Reduction, ValidateOptions, Validation, error_metrics, h1_peak, simulate_response,
     validate_recording,
 };
 use num_complex::Complex64;
@@ -142,9 +142,16 @@ fn validation_of_the_true_model_leaves_the_noise() {
             max_harmonic: 3,
             ..SweepOptions::default()
         })),
+        // the recording's own simulator ran at its rate: straight lines
+        // between the force's samples are what drove it
+        input: DriveInput::Ramp,
         ..ValidateOptions::default()
     };
     let v = validate_recording(&model, 1.0, &rec, 1, &opts).unwrap();
+    let ramp = ValidateOptions {
+        input: DriveInput::Ramp,
+        ..ValidateOptions::default()
+    };
     let want = rms(&noise);
     eprintln!(
         "true model: e_RMS {:.6e} vs noise RMS {want:.6e}; upsampling {}",
@@ -177,9 +184,9 @@ fn validation_of_the_true_model_leaves_the_noise() {
         fd: 30.0,
         n: 3.0,
     });
-    let vw = validate_recording(&wrong, 1.0, &rec, 1, &ValidateOptions::default()).unwrap();
+    let vw = validate_recording(&wrong, 1.0, &rec, 1, &ramp).unwrap();
     let linear = Model::new(model.linear.clone(), Vec::new()).unwrap();
-    let vl = validate_recording(&linear, 1.0, &rec, 1, &ValidateOptions::default()).unwrap();
+    let vl = validate_recording(&linear, 1.0, &rec, 1, &ramp).unwrap();
     eprintln!(
         "  slip force 30 N instead of 20 N: e_RMS {:.4e}; no joint: {:.4e}",
         vw.whole.e_rms, vl.whole.e_rms
@@ -195,7 +202,7 @@ fn validation_of_the_true_model_leaves_the_noise() {
         Quantity::Acceleration,
         ExcitationKind::SweptSine,
     );
-    let v2 = validate_recording(&model, -1.0, &rec2, 1, &ValidateOptions::default()).unwrap();
+    let v2 = validate_recording(&model, -1.0, &rec2, 1, &ramp).unwrap();
     assert!((v2.whole.e_rms / want - 1.0).abs() < 1e-9);
 }
 
@@ -441,6 +448,7 @@ fn stepped_validation_uses_the_measured_dwells() {
         1,
         &ValidateOptions {
             reduction: Some(Reduction::Stepped(ReduceOptions::default())),
+            input: DriveInput::Ramp,
             ..ValidateOptions::default()
         },
     )

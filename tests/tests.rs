@@ -20,3 +20,4 @@ mod plot;
 mod realdata;
 mod record;
 mod sim;
+mod time_fit;

@@ -4,8 +4,12 @@
 
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
-use crate::fit::{FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, identify};
-use crate::model::ElementSpec;
+use crate::fit::time::time_parameters;
+use crate::fit::{
+    FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, TimeFitOptions, TimeFitResult,
+    TimeRecord, identify, identify_time,
+};
+use crate::model::{ElementSpec, Model};
 use crate::observe::{Event, Observer};
 use crate::plot::{self, ConvergenceSeries, FrfSeries, LoopSeries, SeriesStyle};
 use crate::record::McapRecorder;
@@ -51,6 +55,10 @@ pub struct FitReport {
     pub comparison: Vec<Comparison>,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// The fit refined in the time domain on the recordings themselves
+    /// (`identify --domain time`): its model is the one `validate` uses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_domain: Option<TimeFitResult>,
 }
 
 /// The report's own fields, beside the flattened fit.
@@ -66,6 +74,8 @@ struct ReportHead {
     comparison: Vec<Comparison>,
     #[serde(default)]
     files: Vec<PathBuf>,
+    #[serde(default)]
+    time_domain: Option<TimeFitResult>,
 }
 
 // By hand, through a JSON value: serde's derived `flatten` buffers the fit's
@@ -86,6 +96,7 @@ impl<'de> Deserialize<'de> for FitReport {
             reference: head.reference,
             comparison: head.comparison,
             files: head.files,
+            time_domain: head.time_domain,
         })
     }
 }
@@ -110,6 +121,16 @@ impl FitReport {
             reference,
             comparison,
             files,
+            time_domain: None,
+        }
+    }
+
+    /// The model the report stands for: the time-domain refinement's when
+    /// there is one, else the FRF fit's; with its response sign.
+    pub fn final_model(&self) -> (&Model, f64) {
+        match &self.time_domain {
+            Some(t) => (&t.model, t.response_sign),
+            None => (&self.fit.model, self.fit.response_sign),
         }
     }
 
@@ -254,6 +275,40 @@ pub fn write_fit_plots(
         )?);
     }
     Ok(files)
+}
+
+/// The recordings as the time-domain fit reads them: each one's reference
+/// and `response` channel (as [`super::load_recording`] chooses), the whole
+/// record judged.
+pub fn time_records(recordings: &[PathBuf], response: Option<&str>) -> Result<Vec<TimeRecord>> {
+    recordings
+        .iter()
+        .map(|p| {
+            let l = super::load_recording(p, response)?;
+            TimeRecord::from_recording(&p.display().to_string(), &l.recording, l.response, None)
+        })
+        .collect()
+}
+
+/// Refines `fit` in the time domain on `records`: every parameter of its
+/// model free (the linear part's inside `band_hz` as the FRF fit sees it),
+/// started from the FRF fit.
+pub fn run_time_fit(
+    fit: &FitResult,
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+    band_hz: Option<(f64, f64)>,
+    observer: &dyn Observer,
+) -> Result<TimeFitResult> {
+    let params = time_parameters(&fit.model, options.refine_linear, band_hz);
+    identify_time(
+        &fit.model,
+        params,
+        fit.response_sign,
+        records,
+        options,
+        Some(observer),
+    )
 }
 
 /// Fits `frf`, telling `observer` of every cost evaluation and writing each

@@ -19,7 +19,10 @@ pub mod run;
 pub mod simulate;
 pub mod validate;
 
-pub use identify::{Comparison, FitReport, compare, reference_joint, run_fit, write_fit_plots};
+pub use identify::{
+    Comparison, FitReport, compare, reference_joint, run_fit, run_time_fit, time_records,
+    write_fit_plots,
+};
 pub use recording::{
     Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited, combine_recordings,
     excitation_of, load_recording, reduce, reduce_path, reduce_recordings, response_channel,

@@ -20,7 +20,7 @@ pub struct FitModel {
     pub response_sign: f64,
     /// The response channel the fit used.
     pub response: Option<String>,
-    /// `fitted` or `linear`.
+    /// `fitted`, `fitted in the time domain` or `linear`.
     pub kind: &'static str,
 }
 
@@ -28,8 +28,15 @@ pub struct FitModel {
 /// of `linear.stick` with no element) and `response_sign`.
 pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
     let report = FitReport::read(path)?;
+    let response = Some(report.response.clone());
+    let (final_model, final_sign) = report.final_model();
+    let (final_model, final_sign) = (final_model.clone(), final_sign);
+    let kind = if report.time_domain.is_some() {
+        "fitted in the time domain"
+    } else {
+        "fitted"
+    };
     let fit = report.fit;
-    let response = Some(report.response);
     if linear {
         let s = &fit.linear.stick;
         let model = ModalModel::sdof(s.mass, s.damping, s.stiffness)
@@ -42,21 +49,21 @@ pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
             kind: "linear",
         });
     }
-    if fit.response_sign != 1.0 && fit.response_sign != -1.0 {
+    if final_sign != 1.0 && final_sign != -1.0 {
         return Err(Error::format(
             path,
             "response_sign",
-            format!("must be 1 or -1, got {}", fit.response_sign),
+            format!("must be 1 or -1, got {final_sign}"),
         ));
     }
-    fit.model
+    final_model
         .validate()
         .map_err(|e| Error::format(path, "model", e.to_string()))?;
     Ok(FitModel {
-        model: fit.model,
-        response_sign: fit.response_sign,
+        model: final_model,
+        response_sign: final_sign,
         response,
-        kind: "fitted",
+        kind,
     })
 }
 
@@ -160,6 +167,7 @@ pub fn validate_on(
         window_s: settings.window_s,
         band_hz: band,
         reduction,
+        ..ValidateOptions::default()
     };
     let v = validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)
         .map_err(|e| Error::context(format!("validating on {}", path.display()), e))?;

@@ -86,6 +86,21 @@ pub struct IdentifyArgs {
     /// Fit settings.
     #[command(flatten)]
     pub fit: IdentifyOptionsArgs,
+    /// What the model is fitted to: `frf` (the nonlinear FRFs by harmonic
+    /// balance) or `time` (that fit, then refined on the recorded time
+    /// histories themselves: the model driven by the measured force, its
+    /// response matched sample by sample).
+    #[arg(long, value_enum, default_value_t = Domain::Frf)]
+    pub domain: Domain,
+}
+
+/// What `identify` fits to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Domain {
+    /// The nonlinear FRFs.
+    Frf,
+    /// The FRFs, then the time histories.
+    Time,
 }
 
 /// Reduction of recordings into nonlinear FRFs (`identify`, `validate`).

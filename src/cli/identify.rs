@@ -1,7 +1,7 @@
 //! `hystid identify`: fit a hysteresis element to a recording's nonlinear
 //! FRFs (paper Figures 2.2 and 3.3).
 
-use super::args::{ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs};
+use super::args::{Domain, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs};
 use super::{create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::{
@@ -271,19 +271,83 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         reference.as_ref(),
         &predictor,
     )?);
-    let report = FitReport::new(
+    let time_domain = match args.domain {
+        Domain::Frf => None,
+        Domain::Time => {
+            let records =
+                hystid::analysis::time_records(&args.recordings, args.response.as_deref())?;
+            let pb = progress::spinner("fitting in the time domain", quiet);
+            let t = hystid::analysis::run_time_fit(
+                &fit,
+                &records,
+                &hystid::fit::TimeFitOptions::default(),
+                options.band_hz,
+                &progress::Drawn(&pb),
+            )?;
+            pb.finish_and_clear();
+            Some(t)
+        }
+    };
+    let mut report = FitReport::new(
         recording_names.join(", "),
         first.response_name.clone(),
         fit,
         reference,
         files,
     );
+    report.time_domain = time_domain;
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
         print_fit(&report.fit, &report.comparison);
+        if let Some(t) = &report.time_domain {
+            print_time_fit(t);
+        }
         for f in &report.files {
             say!("  wrote {}", f.display());
         }
     }
-    Ok(super::fit_exit_code(report.fit.status))
+    let status = report
+        .time_domain
+        .as_ref()
+        .map_or(report.fit.status, |t| t.status);
+    Ok(super::fit_exit_code(status))
+}
+
+/// Prints the time-domain refinement in a few lines.
+fn print_time_fit(t: &hystid::fit::TimeFitResult) {
+    say!(
+        "refined in the time domain on {} samples ({} evaluations, {:?}):",
+        t.samples,
+        t.optimiser.evaluations,
+        t.status
+    );
+    for (b, a) in t.before.iter().zip(&t.after) {
+        say!(
+            "  {}: e_RMS {:.4e} -> {:.4e} ({:.2} % -> {:.2} % of the RMS); over its {} segment(s) {:.2} % -> {:.2} %",
+            a.recording,
+            b.window.e_rms,
+            a.window.e_rms,
+            100.0 * b.window.relative,
+            100.0 * a.window.relative,
+            a.segments,
+            100.0 * b.segment_relative,
+            100.0 * a.segment_relative
+        );
+    }
+    for (name, e) in &t.parameters {
+        say!(
+            "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{}",
+            e.value,
+            e.ci95[0],
+            e.ci95[1],
+            if e.identifiable {
+                ""
+            } else {
+                "  (not identifiable)"
+            }
+        );
+    }
+    for n in &t.notes {
+        say!("  note: {n}");
+    }
 }

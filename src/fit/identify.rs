@@ -554,10 +554,7 @@ pub fn identify(
         let total = stick_stiffness(&linear);
         for p in &mut element_params.parameters {
             if matches!(&p.target, Target::Element { name, .. } if name == kd_name) {
-                p.target = Target::TiedStickStiffness {
-                    mode: 0,
-                    total,
-                };
+                p.target = Target::TiedStickStiffness { mode: 0, total };
                 p.bounds = [1e-6 * total, 0.99 * total];
             }
         }

@@ -1,6 +1,7 @@
 //! Identification: fit the element parameters so that the harmonic-balance
 //! model's nonlinear FRFs match the measured ones (paper Figures 2.2 and 3.3,
-//! eq. 9).
+//! eq. 9); or, from such a fit, the recording itself replayed in the time
+//! domain ([`time`]).
 
 pub mod identify;
 pub mod linear;
@@ -10,6 +11,7 @@ pub mod optimise;
 pub mod params;
 pub mod predict;
 pub mod problem;
+pub mod time;
 
 pub use identify::{Estimate, FitOptions, FitResult, LinearRefinement, LinearStart, identify};
 pub use optimise::{FitStatus, Optimiser, OptimiserRun};
@@ -19,3 +21,4 @@ pub use problem::{
     FitData, FitProblem, FrfPredictor, MeasuredPoint, MeasuredSeries, Prediction, TraceEntry,
     Weighting,
 };
+pub use time::{TimeFitOptions, TimeFitResult, TimeRecord, identify_time};

@@ -11,6 +11,32 @@
 
 use super::problem::FitProblem;
 use crate::error::{Error, Result};
+
+/// What an optimiser minimises: residuals as functions of the optimiser
+/// coordinates `θ`, the last row a penalty for the distance outside the
+/// parameters' bounds (zero inside). The FRF fit ([`FitProblem`]) and the
+/// time-domain fit ([`super::time::TimeProblem`]) are both one.
+pub trait Objective: Sync {
+    /// Residuals at `theta`, the penalty row last. A model the library
+    /// rejects or cannot solve is a bad point here, not an error.
+    fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>>;
+    /// `Σ r²` at `theta`.
+    fn cost(&self, theta: &[f64]) -> Result<f64>;
+    /// Evaluations so far.
+    fn evaluations(&self) -> usize;
+}
+
+impl Objective for FitProblem<'_> {
+    fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
+        FitProblem::residuals(self, theta)
+    }
+    fn cost(&self, theta: &[f64]) -> Result<f64> {
+        FitProblem::cost(self, theta)
+    }
+    fn evaluations(&self) -> usize {
+        FitProblem::evaluations(self)
+    }
+}
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -96,9 +122,9 @@ pub struct OptimiserRun {
     pub status: FitStatus,
 }
 
-struct Cost<'a, 'b>(&'a FitProblem<'b>);
+struct Cost<'a, P: ?Sized>(&'a P);
 
-impl argmin::core::CostFunction for Cost<'_, '_> {
+impl<P: Objective + ?Sized> argmin::core::CostFunction for Cost<'_, P> {
     type Param = DVector<f64>;
     type Output = f64;
     fn cost(&self, p: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
@@ -111,8 +137,8 @@ impl argmin::core::CostFunction for Cost<'_, '_> {
 /// Nelder–Mead from `theta0` with an initial simplex of `step` along each
 /// coordinate, until the simplex's cost spread falls below `rel_tol` of the
 /// initial cost or `max_iters` iterations.
-pub fn nelder_mead(
-    problem: &FitProblem,
+pub fn nelder_mead<P: Objective + ?Sized>(
+    problem: &P,
     theta0: &[f64],
     step: &[f64],
     max_iters: u64,
@@ -166,8 +192,8 @@ pub fn nelder_mead(
 
 /// Forward-difference Jacobian of the residuals (penalty row excluded),
 /// columns computed in parallel.
-pub fn jacobian(
-    problem: &FitProblem,
+pub fn jacobian<P: Objective + ?Sized>(
+    problem: &P,
     theta: &[f64],
     r0: &[f64],
     step: f64,
@@ -193,14 +219,14 @@ pub fn jacobian(
     Ok(jac)
 }
 
-struct Lm<'a, 'b> {
-    problem: &'a FitProblem<'b>,
+struct Lm<'a, P: ?Sized> {
+    problem: &'a P,
     theta: DVector<f64>,
     residuals: std::cell::RefCell<Option<(DVector<f64>, Vec<f64>)>>,
     error: std::cell::RefCell<Option<Error>>,
 }
 
-impl Lm<'_, '_> {
+impl<P: Objective + ?Sized> Lm<'_, P> {
     fn current(&self) -> Option<Vec<f64>> {
         if let Some((t, r)) = self.residuals.borrow().as_ref()
             && *t == self.theta
@@ -220,7 +246,7 @@ impl Lm<'_, '_> {
     }
 }
 
-impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for Lm<'_, '_> {
+impl<P: Objective + ?Sized> levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for Lm<'_, P> {
     type ResidualStorage = Owned<f64, Dyn>;
     type JacobianStorage = Owned<f64, Dyn, Dyn>;
     type ParameterStorage = Owned<f64, Dyn>;
@@ -254,8 +280,8 @@ impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for Lm<'_, '_> {
 
 /// Levenberg–Marquardt from `theta0`, at most `patience·(n+1)` residual
 /// evaluations.
-pub fn levenberg_marquardt(
-    problem: &FitProblem,
+pub fn levenberg_marquardt<P: Objective + ?Sized>(
+    problem: &P,
     theta0: &[f64],
     patience: usize,
 ) -> Result<OptimiserRun> {

@@ -463,12 +463,7 @@ fn stick_stiffness_name(model: &Model, at: ElementAt) -> Result<&'static str> {
     let d = model.element(at)?.description();
     d.index_of(Role::StickStiffness)
         .map(|i| d.parameters[i].name)
-        .ok_or_else(|| {
-            Error::model(
-                at.to_string(),
-                format!("{} has no stick stiffness", d.name),
-            )
-        })
+        .ok_or_else(|| Error::model(at.to_string(), format!("{} has no stick stiffness", d.name)))
 }
 
 /// A parameter's fit coordinate and bounds, from its law's description.

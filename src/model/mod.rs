@@ -452,14 +452,20 @@ impl Model {
         {
             return Err(Error::model(
                 "joint",
-                format!("`{}` is not a joint law; give it as an effect", j.kind().name()),
+                format!(
+                    "`{}` is not a joint law; give it as an effect",
+                    j.kind().name()
+                ),
             ));
         }
         for (i, e) in self.effects.iter().enumerate() {
             if e.description().is_joint() {
                 return Err(Error::model(
                     format!("effects[{i}]"),
-                    format!("`{}` is a joint law; a model has one joint", e.kind().name()),
+                    format!(
+                        "`{}` is a joint law; a model has one joint",
+                        e.kind().name()
+                    ),
                 ));
             }
         }
@@ -478,15 +484,12 @@ impl Model {
 
     /// Every element with its place: the joint first, then the effects.
     pub fn placed(&self) -> impl Iterator<Item = (ElementAt, &ElementSpec)> {
-        self.joint
-            .iter()
-            .map(|j| (ElementAt::Joint, j))
-            .chain(
-                self.effects
-                    .iter()
-                    .enumerate()
-                    .map(|(i, e)| (ElementAt::Effect(i), e)),
-            )
+        self.joint.iter().map(|j| (ElementAt::Joint, j)).chain(
+            self.effects
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (ElementAt::Effect(i), e)),
+        )
     }
 
     /// Every element: the joint first, then the effects.
@@ -623,7 +626,10 @@ mod tests {
     fn the_joint_is_placed_by_its_law() {
         let linear = ModalModel::sdof(10.0, 200.0, 1e7).unwrap();
         let cubic = ElementSpec::CubicStiffness { k3: 1e12 };
-        let jenkins = ElementSpec::Jenkins { kd: 2.4e7, fd: 246.0 };
+        let jenkins = ElementSpec::Jenkins {
+            kd: 2.4e7,
+            fd: 246.0,
+        };
         let m = Model::new(linear.clone(), vec![cubic.clone(), jenkins.clone()]).unwrap();
         assert_eq!(m.joint, Some(jenkins.clone()));
         assert_eq!(m.effects, vec![cubic.clone()]);
@@ -653,7 +659,9 @@ mod tests {
         assert!(e.contains("joint") && e.contains("cubic_stiffness"), "{e}");
         let mut bad = json;
         bad["effects"] = serde_json::json!([bad["joint"]]);
-        let e = serde_json::from_value::<Model>(bad).unwrap_err().to_string();
+        let e = serde_json::from_value::<Model>(bad)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("effects[0]") && e.contains("joint law"), "{e}");
         // a model without a joint is a linear structure with effects
         let m = Model::with_joint(linear, None, vec![cubic]).unwrap();

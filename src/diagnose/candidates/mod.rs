@@ -134,8 +134,7 @@ pub(crate) trait Candidate: Sync {
     /// Its parameters' values in `model` (which has it).
     fn parameters(&self, model: &Model, _data: &FitData) -> BTreeMap<String, f64> {
         let mut out = BTreeMap::new();
-        for e in model.elements().filter(|e| Some(e.kind()) == self.law())
-        {
+        for e in model.elements().filter(|e| Some(e.kind()) == self.law()) {
             for (n, v) in e.parameters() {
                 out.insert(n.to_string(), v);
             }

@@ -1,0 +1,584 @@
+//! Output-error identification in the time domain: the model driven by the
+//! measured force, its simulated response matched to the measured one sample
+//! by sample.
+//!
+//! The FRF fit (paper eq. 9) matches steady-state harmonics, one dwell at a
+//! time, each started from a virgin joint. A recording is more than that: the
+//! joint carries its state from one dwell to the next (where it settles under
+//! a static load depends on the loads before), a sweep is never steady, and
+//! a transient holds information a steady state hides. Here the recording is
+//! replayed whole through the digital-filter simulator (the same replay as
+//! [`crate::validate`]), and the parameters minimise
+//!
+//! `Σ_s Σ_{i ∈ s} (y_sim(i) − y_meas(i))² / (N_s · RMS_s²)`,
+//!
+//! the sum over segments `s` of the recordings of each segment's squared
+//! relative `e_RMS` (`N_s` samples, `RMS_s` the measured response's RMS
+//! there). A swept or unknown record is one segment; a stepped sine is cut
+//! at its dwells' starts (stated in the recording, else found from the
+//! reference), so each dwell counts as much as any other, as each point does
+//! in the FRF fit: levels span decades, and one RMS over the record would
+//! judge the loudest level only. The simulation starts from rest; a
+//! recording that does not is given a window that starts after its
+//! transient.
+//!
+//! The optimiser is Levenberg–Marquardt on those residuals (a forward
+//! difference Jacobian, one replay per free parameter, in parallel), in the
+//! bounded coordinates of [`super::params`]; a model the simulator rejects
+//! (unstable, beyond the resampling limit) is a bad point whose residual is
+//! twice the measured response, never an error. Confidence intervals take the
+//! residual as white noise (`cov = s² (JᵀJ)⁻¹`, `s²` its mean square): right
+//! for measurement noise, optimistic where model error dominates (it is
+//! correlated in time), which the reported relative error shows.
+
+use super::identify::Estimate;
+use super::optimise::{self, FitStatus, Objective, OptimiserRun};
+use super::params::{ParameterSet, Transform};
+use crate::error::{Error, Result};
+use crate::harmonics::Quantity;
+use crate::model::Model;
+use crate::validate::{DriveInput, ErrorMetrics, PreparedDrive, error_metrics, simulate_prepared};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// One recording as the time-domain fit sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TimeRecord {
+    /// A name for reports (the file).
+    pub name: String,
+    /// The measured force driving the model, N.
+    pub reference: Vec<f64>,
+    /// The measured response, in `quantity`.
+    pub response: Vec<f64>,
+    /// Samples per second.
+    pub sample_rate_hz: f64,
+    /// The response's quantity (a motion).
+    pub quantity: Quantity,
+    /// The samples judged.
+    pub window: Range<usize>,
+    /// The window cut into the stretches each judged on its own RMS (see
+    /// the module docs): consecutive, covering the window.
+    pub segments: Vec<Range<usize>>,
+}
+
+impl TimeRecord {
+    /// Checks the record: equal lengths, a motion response, a window inside
+    /// the samples that holds some, a finite measured RMS above zero there.
+    pub fn check(&self) -> Result<()> {
+        let at = |f: &str| format!("{}: {f}", self.name);
+        if self.reference.len() != self.response.len() {
+            return Err(Error::input(
+                at("response"),
+                format!(
+                    "{} samples against the force's {}",
+                    self.response.len(),
+                    self.reference.len()
+                ),
+            ));
+        }
+        if !self.quantity.is_motion() {
+            return Err(Error::input(
+                at("response quantity"),
+                format!("{} is not a motion", self.quantity),
+            ));
+        }
+        if self.window.start >= self.window.end || self.window.end > self.response.len() {
+            return Err(Error::input(
+                at("window"),
+                format!(
+                    "samples {}..{} are not inside the {} recorded",
+                    self.window.start,
+                    self.window.end,
+                    self.response.len()
+                ),
+            ));
+        }
+        let mut next = self.window.start;
+        for s in &self.segments {
+            if s.start != next || s.end <= s.start {
+                return Err(Error::input(
+                    at("segments"),
+                    format!(
+                        "must cut the window {}..{} into consecutive stretches; {}..{} does not follow {next}",
+                        self.window.start, self.window.end, s.start, s.end
+                    ),
+                ));
+            }
+            next = s.end;
+            let rms = self.measured_rms(s.clone());
+            if !(rms.is_finite() && rms > 0.0) {
+                return Err(Error::input(
+                    at("response"),
+                    format!(
+                        "its RMS over samples {}..{} is {rms}: nothing to fit",
+                        s.start, s.end
+                    ),
+                ));
+            }
+        }
+        if next != self.window.end {
+            return Err(Error::input(
+                at("segments"),
+                format!("end at {next}, the window at {}", self.window.end),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The window cut at the starts of `steps` that fall inside it, but for
+    /// the first step's: the few samples before the first dwell (silence
+    /// and noise) belong to it (one segment when no step does).
+    pub fn segments_at(window: Range<usize>, steps: &[crate::signals::Step]) -> Vec<Range<usize>> {
+        let mut cuts: Vec<usize> = steps.iter().map(|s| s.start).collect();
+        cuts.sort_unstable();
+        cuts.dedup();
+        let cuts: Vec<usize> = cuts
+            .into_iter()
+            .skip(1)
+            .filter(|&c| c > window.start && c < window.end)
+            .collect();
+        let mut out = Vec::with_capacity(cuts.len() + 1);
+        let mut a = window.start;
+        for c in cuts {
+            out.push(a..c);
+            a = c;
+        }
+        out.push(a..window.end);
+        out
+    }
+
+    /// A recording's reference driving the model and its `response`
+    /// channel, judged over samples `window` (the whole record if `None`),
+    /// cut at its dwells: the stated `steps`, else for a stepped or unknown
+    /// excitation the dwells found in the reference (none: one segment).
+    pub fn from_recording(
+        name: &str,
+        rec: &crate::signals::Recording,
+        response: usize,
+        window: Option<Range<usize>>,
+    ) -> Result<TimeRecord> {
+        let reference = rec.reference_channel().ok_or_else(|| {
+            Error::input(
+                format!("{name}: channels"),
+                "no force or voltage channel to drive the model with",
+            )
+        })?;
+        let channel = rec.meta.channels.get(response).ok_or_else(|| {
+            Error::input(
+                format!("{name}: response channel"),
+                format!("{response} is not one of the {}", rec.meta.channels.len()),
+            )
+        })?;
+        let n = rec.frames();
+        let window = window.unwrap_or(0..n);
+        let fs = rec.meta.sample_rate_hz;
+        let stated = &rec.meta.excitation.steps;
+        let steps = if !stated.is_empty() {
+            stated.clone()
+        } else if rec.meta.excitation.kind == crate::signals::ExcitationKind::SweptSine {
+            Vec::new()
+        } else {
+            crate::extract::find_dwells(
+                &rec.channels[reference],
+                fs,
+                &crate::extract::DwellOptions::default(),
+            )
+            .unwrap_or_default()
+        };
+        let r = TimeRecord {
+            name: name.to_string(),
+            reference: rec.channels[reference].clone(),
+            response: rec.channels[response].clone(),
+            sample_rate_hz: fs,
+            quantity: channel.quantity,
+            segments: TimeRecord::segments_at(window.clone(), &steps),
+            window,
+        };
+        r.check()?;
+        Ok(r)
+    }
+
+    /// RMS of the measured response over `range` (about zero: the model's
+    /// response has the same static part to match).
+    fn measured_rms(&self, range: Range<usize>) -> f64 {
+        let w = &self.response[range];
+        (w.iter().map(|v| v * v).sum::<f64>() / w.len() as f64).sqrt()
+    }
+}
+
+/// Options of [`identify_time`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeFitOptions {
+    /// Samples per period of the model's highest linearised frequency below
+    /// which the replay is upsampled (see [`crate::validate`]). Default 40,
+    /// twice validation's: at 20 the filter's error at a stick mode (about
+    /// 1 % in the response) is as large as a fit's whole residual can be
+    /// on a good recording, and the fit would bend the parameters to it.
+    pub min_samples_per_period: f64,
+    /// Levenberg–Marquardt's patience: at most `patience·(n+1)` residual
+    /// evaluations.
+    pub patience: usize,
+    /// Whether the linear part's parameters are refined with the elements'.
+    pub refine_linear: bool,
+    /// What the force is between its samples (see [`DriveInput`]).
+    pub input: DriveInput,
+}
+
+impl Default for TimeFitOptions {
+    fn default() -> Self {
+        TimeFitOptions {
+            min_samples_per_period: 40.0,
+            patience: 40,
+            refine_linear: true,
+            input: DriveInput::BandLimited,
+        }
+    }
+}
+
+/// The error of a model on one recording.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RecordError {
+    /// The recording.
+    pub recording: String,
+    /// Over its judged window.
+    pub window: ErrorMetrics,
+    /// Segments judged (dwells of a stepped sine).
+    pub segments: usize,
+    /// The root mean square over segments of each one's relative `e_RMS`
+    /// (what the fit minimises, per recording).
+    pub segment_relative: f64,
+}
+
+/// A time-domain fit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeFitResult {
+    /// The fitted model.
+    pub model: Model,
+    /// The model predicts `response_sign × measured`.
+    pub response_sign: f64,
+    /// The free parameters by name.
+    pub parameters: BTreeMap<String, Estimate>,
+    /// Each recording's error with the starting model.
+    pub before: Vec<RecordError>,
+    /// Each recording's error with the fitted model.
+    pub after: Vec<RecordError>,
+    /// The optimiser's run.
+    pub optimiser: OptimiserRun,
+    /// How it ended.
+    pub status: FitStatus,
+    /// Samples judged, over all recordings.
+    pub samples: usize,
+    /// Notes for the user.
+    pub notes: Vec<String>,
+}
+
+/// The replay of recordings through a model whose free parameters are
+/// varied.
+pub struct TimeProblem<'a> {
+    base: Model,
+    parameters: ParameterSet,
+    records: &'a [TimeRecord],
+    sign: f64,
+    options: TimeFitOptions,
+    /// `RMS_s · √N_s` per segment of each recording: the residual's divisor.
+    scale: Vec<Vec<f64>>,
+    /// Each recording's force, prepared once per upsampling factor.
+    drives: Vec<PreparedDrive<'a>>,
+    evaluations: AtomicUsize,
+    observer: Option<&'a dyn crate::observe::Observer>,
+}
+
+impl<'a> TimeProblem<'a> {
+    /// A problem; checks every record.
+    pub fn new(
+        base: Model,
+        parameters: ParameterSet,
+        records: &'a [TimeRecord],
+        sign: f64,
+        options: TimeFitOptions,
+        observer: Option<&'a dyn crate::observe::Observer>,
+    ) -> Result<TimeProblem<'a>> {
+        if records.is_empty() {
+            return Err(Error::input("recordings", "none given"));
+        }
+        for r in records {
+            r.check()?;
+        }
+        let scale = records
+            .iter()
+            .map(|r| {
+                r.segments
+                    .iter()
+                    .map(|s| r.measured_rms(s.clone()) * (s.len() as f64).sqrt())
+                    .collect()
+            })
+            .collect();
+        let drives = records
+            .iter()
+            .map(|r| PreparedDrive::new(&r.reference, options.input))
+            .collect();
+        Ok(TimeProblem {
+            drives,
+            base,
+            parameters,
+            records,
+            sign,
+            options,
+            scale,
+            evaluations: AtomicUsize::new(0),
+            observer,
+        })
+    }
+
+    /// The model at `theta` and its distance outside the bounds.
+    pub fn model_at(&self, theta: &[f64]) -> Result<(Model, f64)> {
+        self.parameters.model_at(&self.base, theta)
+    }
+
+    /// `model`'s simulated response to record `r`, every sample.
+    fn replay(&self, model: &Model, r: &TimeRecord) -> Result<Vec<f64>> {
+        let i = self
+            .records
+            .iter()
+            .position(|x| std::ptr::eq(x, r))
+            .expect("one of the problem's records");
+        Ok(simulate_prepared(
+            model,
+            &self.drives[i],
+            r.sample_rate_hz,
+            r.quantity,
+            self.sign,
+            self.options.min_samples_per_period,
+        )?
+        .values)
+    }
+
+    /// Each recording's error figures with `model`.
+    pub fn errors(&self, model: &Model) -> Result<Vec<RecordError>> {
+        self.records
+            .iter()
+            .zip(&self.scale)
+            .map(|(r, scale)| {
+                let sim = self.replay(model, r)?;
+                let mut sum = 0.0;
+                for (seg, sc) in r.segments.iter().zip(scale) {
+                    sum += seg
+                        .clone()
+                        .map(|i| ((sim[i] - r.response[i]) / sc).powi(2))
+                        .sum::<f64>();
+                }
+                Ok(RecordError {
+                    recording: r.name.clone(),
+                    window: error_metrics(&r.response, &sim, r.sample_rate_hz, r.window.clone())?,
+                    segments: r.segments.len(),
+                    segment_relative: (sum / r.segments.len() as f64).sqrt(),
+                })
+            })
+            .collect()
+    }
+
+    fn residuals_of(&self, model: &Model, outside: f64) -> Result<Vec<f64>> {
+        let mut out = Vec::with_capacity(self.records.iter().map(|r| r.window.len()).sum());
+        for (r, scale) in self.records.iter().zip(&self.scale) {
+            let sim = match self.replay(model, r) {
+                Ok(sim) => Some(sim),
+                // a model the simulator rejects: worse than predicting nothing
+                Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => None,
+                Err(e) => return Err(e),
+            };
+            for (seg, &sc) in r.segments.iter().zip(scale) {
+                let measured = &r.response[seg.clone()];
+                match &sim {
+                    Some(sim) => out.extend(
+                        measured
+                            .iter()
+                            .zip(&sim[seg.clone()])
+                            .map(|(m, s)| (s - m) / sc),
+                    ),
+                    None => out.extend(measured.iter().map(|m| -2.0 * m / sc)),
+                }
+            }
+        }
+        let rms = (out.iter().map(|v| v * v).sum::<f64>() / out.len().max(1) as f64).sqrt();
+        out.push(outside * 10.0 * rms * (out.len() as f64).sqrt());
+        Ok(out)
+    }
+
+    /// The free parameters.
+    pub fn parameters(&self) -> &ParameterSet {
+        &self.parameters
+    }
+}
+
+impl Objective for TimeProblem<'_> {
+    fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
+        let (model, outside) = self.model_at(theta)?;
+        self.residuals_of(&model, outside)
+    }
+    fn cost(&self, theta: &[f64]) -> Result<f64> {
+        let cost = self.residuals(theta)?.iter().map(|v| v * v).sum::<f64>();
+        let entry = super::problem::TraceEntry {
+            evaluation: self.evaluations.fetch_add(1, Ordering::Relaxed) + 1,
+            cost,
+            parameters: self.parameters.values(theta),
+        };
+        if let Some(o) = self.observer {
+            o.observe(crate::observe::Event::Cost(&entry));
+        }
+        Ok(cost)
+    }
+    fn evaluations(&self) -> usize {
+        self.evaluations.load(Ordering::Relaxed)
+    }
+}
+
+/// The free parameters of a time-domain fit of `model`: every element's
+/// (the joint's under their plain names, an effect's prefixed with its law),
+/// and with `refine_linear` the linear part's (see
+/// [`ParameterSet::for_linear_in`]).
+pub fn time_parameters(
+    model: &Model,
+    refine_linear: bool,
+    band_hz: Option<(f64, f64)>,
+) -> ParameterSet {
+    let mut p = ParameterSet::default();
+    for (at, e) in model.placed() {
+        let prefix = match at {
+            crate::model::ElementAt::Joint => String::new(),
+            crate::model::ElementAt::Effect(_) => e.kind().name().to_string(),
+        };
+        p.extend(ParameterSet::for_element(model, at, &prefix));
+    }
+    if refine_linear {
+        p.extend(ParameterSet::for_linear_in(model, band_hz));
+    }
+    p
+}
+
+/// Fits `parameters` of `start` to `records` in the time domain (see the
+/// module docs); `sign` is the response sign of the start's fit.
+pub fn identify_time(
+    start: &Model,
+    parameters: ParameterSet,
+    sign: f64,
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+    observer: Option<&dyn crate::observe::Observer>,
+) -> Result<TimeFitResult> {
+    if parameters.is_empty() {
+        return Err(Error::plan("parameters", "none free: nothing to fit"));
+    }
+    let problem = TimeProblem::new(
+        start.clone(),
+        parameters,
+        records,
+        sign,
+        options.clone(),
+        observer,
+    )?;
+    let before = problem.errors(start)?;
+    let theta0 = problem.parameters.theta_of(start)?;
+    let run = optimise::levenberg_marquardt(&problem, &theta0, options.patience)?;
+    let (model, _) = problem.model_at(&run.theta)?;
+    let mut notes = Vec::new();
+    let after = problem.errors(&model)?;
+    let parameters = time_confidence(&problem, &run.theta)?;
+    let samples = records.iter().map(|r| r.window.len()).sum();
+    let worse = before
+        .iter()
+        .zip(&after)
+        .filter(|(b, a)| a.window.e_rms > b.window.e_rms * (1.0 + 1e-9))
+        .count();
+    if worse > 0 {
+        notes.push(format!(
+            "{worse} recording(s) fit worse than with the start: the optimum trades them \
+             against the others"
+        ));
+    }
+    Ok(TimeFitResult {
+        model,
+        response_sign: sign,
+        parameters,
+        before,
+        after,
+        status: run.status,
+        optimiser: run,
+        samples,
+        notes,
+    })
+}
+
+/// Estimates with 95 % intervals from the Jacobian at `theta`, the residual
+/// taken as white noise (see the module docs). A parameter at a bound gets
+/// no interval (`identifiable: false`, with a note).
+fn time_confidence(problem: &TimeProblem, theta: &[f64]) -> Result<BTreeMap<String, Estimate>> {
+    let params = &problem.parameters;
+    let r0 = problem.residuals(theta)?;
+    let jac = optimise::jacobian(problem, theta, &r0, 1e-5)?;
+    let values = params.values(theta);
+    let at_bound: Vec<bool> = params
+        .parameters
+        .iter()
+        .zip(&values)
+        .map(|(p, &v)| {
+            p.bounds
+                .iter()
+                .any(|&b| (v - b).abs() <= 0.01 * b.abs().max(f64::MIN_POSITIVE))
+        })
+        .collect();
+    let m = r0.len() - 1;
+    let s2 = r0[..m].iter().map(|v| v * v).sum::<f64>() / (m as f64 - theta.len() as f64).max(1.0);
+    // `covariance` scales by the reduced χ² (here `s²` against unit
+    // variances); it never deflates, so hand it `s²` in units where it is ≥ 1
+    let free: Vec<usize> = (0..theta.len()).filter(|&j| !at_bound[j]).collect();
+    let jf = nalgebra::DMatrix::from_fn(m, free.len(), |i, k| jac[(i, free[k])]);
+    let cov = (jf.transpose() * &jf).try_inverse().map(|a| a * s2);
+    let mut out = BTreeMap::new();
+    for (j, p) in params.parameters.iter().enumerate() {
+        let value = values[j];
+        let k = free.iter().position(|&f| f == j);
+        let sd = match (&cov, k) {
+            (Some(c), Some(k)) => c[(k, k)].sqrt(),
+            _ => f64::NAN,
+        };
+        let (ci95, identifiable, note) = if at_bound[j] {
+            (
+                [value, value],
+                false,
+                Some(format!("{} sits at its bound", p.name)),
+            )
+        } else if !sd.is_finite() {
+            (
+                [f64::NEG_INFINITY, f64::INFINITY],
+                false,
+                Some(format!("{} is not determined by the recordings", p.name)),
+            )
+        } else {
+            let (lo, hi) = (p.value(theta[j] - 1.96 * sd), p.value(theta[j] + 1.96 * sd));
+            let wide = matches!(p.transform, Transform::Log) && sd > 1.0;
+            (
+                [lo.min(hi), lo.max(hi)],
+                !wide,
+                wide.then(|| {
+                    format!(
+                        "{} is poorly determined: its 95 % interval spans more than a factor 50",
+                        p.name
+                    )
+                }),
+            )
+        };
+        out.insert(
+            p.name.clone(),
+            Estimate {
+                value,
+                ci95,
+                identifiable,
+                note,
+                bootstrap_ci95: None,
+            },
+        );
+    }
+    Ok(out)
+}
