@@ -6,7 +6,11 @@ use super::write_json;
 use crate::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose_observed};
 use crate::error::Result;
 use crate::extract::NonlinearFrf;
-use crate::fit::{FitData, FitResult, FrfPredictor, HbPredictor};
+use crate::fit::time::{RecordError, TimeProblem, time_parameters};
+use crate::fit::{
+    FitData, FitResult, FrfPredictor, HbPredictor, TimeFitOptions, TimeFitResult, TimeRecord,
+    identify_time,
+};
 use crate::observe::Observer;
 use crate::plot::{self, FrfSeries, NoiseLevel, ResidualPanel, ResidualSeries, SeriesStyle};
 use serde::Serialize;
@@ -26,6 +30,52 @@ pub fn run_diagnosis(
     Ok((d, predictor))
 }
 
+/// The diagnosis's final model refined in the time domain on the
+/// recordings themselves (`diagnose --domain time`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TimeRefinement {
+    /// The baseline model's error on each recording (the joint alone, as
+    /// the FRF fit left it).
+    pub baseline: Vec<RecordError>,
+    /// The final model refitted in the time domain (`before`: the FRF
+    /// diagnosis's final model).
+    pub refit: TimeFitResult,
+}
+
+/// Refines `d`'s final model in the time domain on `records`: every
+/// parameter free (the linear part's as the diagnosis saw `band_hz`),
+/// started from the diagnosis. The effects stay those the FRF diagnosis
+/// selected; what the replay adds is the history the harmonic balance does
+/// not carry (where a joint settles under a static load) and no steady-state
+/// assumption.
+pub fn refine_in_time(
+    d: &Diagnosis,
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+    band_hz: Option<(f64, f64)>,
+    observer: &dyn Observer,
+) -> Result<TimeRefinement> {
+    let params = time_parameters(&d.model, options.refine_linear, band_hz);
+    let refit = identify_time(
+        &d.model,
+        params.clone(),
+        d.response_sign,
+        records,
+        options,
+        Some(observer),
+    )?;
+    let baseline = TimeProblem::new(
+        d.baseline_model.clone(),
+        params,
+        records,
+        d.response_sign,
+        options.clone(),
+        None,
+    )?
+    .errors(&d.baseline_model)?;
+    Ok(TimeRefinement { baseline, refit })
+}
+
 /// Writes `diagnosis.json`, `diagnosis.md` and the residual plots.
 pub fn write_diagnosis(
     dir: &Path,
@@ -34,6 +84,19 @@ pub fn write_diagnosis(
     predictor: &HbPredictor,
     seconds: f64,
 ) -> Result<Vec<PathBuf>> {
+    write_diagnosis_with(dir, frf, d, predictor, seconds, None)
+}
+
+/// [`write_diagnosis`], with the time-domain refinement when there is one
+/// (`time_domain` in `diagnosis.json`, a section in `diagnosis.md`).
+pub fn write_diagnosis_with(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    d: &Diagnosis,
+    predictor: &HbPredictor,
+    seconds: f64,
+    time: Option<&TimeRefinement>,
+) -> Result<Vec<PathBuf>> {
     #[derive(Serialize)]
     struct DiagnosisJson<'a> {
         command: &'static str,
@@ -41,6 +104,8 @@ pub fn write_diagnosis(
         seconds: f64,
         #[serde(flatten)]
         diagnosis: &'a Diagnosis,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        time_domain: Option<&'a TimeRefinement>,
     }
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
     write_json(
@@ -50,11 +115,61 @@ pub fn write_diagnosis(
             version: super::VERSION,
             seconds,
             diagnosis: d,
+            time_domain: time,
         },
     )?;
     files.extend(residual_plots(dir, frf, d, predictor)?);
-    crate::atomic::write_bytes(&files[1], markdown(d, seconds).as_bytes())?;
+    let mut md = markdown(d, seconds);
+    if let Some(t) = time {
+        md += &time_markdown(t);
+    }
+    crate::atomic::write_bytes(&files[1], md.as_bytes())?;
     Ok(files)
+}
+
+/// The time-domain refinement as a section of `diagnosis.md`.
+pub fn time_markdown(t: &TimeRefinement) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n## In the time domain\n\nThe final model refitted on the recorded time histories \
+         ({} samples, {:?}): each dwell's relative e_RMS, root mean square over the dwells.\n",
+        t.refit.samples, t.refit.status
+    );
+    let _ = writeln!(
+        s,
+        "| recording | baseline (joint alone) | final, as the FRF diagnosis fitted it | final, refitted in time |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|");
+    for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
+        let _ = writeln!(
+            s,
+            "| {} | {:.2} % | {:.2} % | {:.2} % |",
+            a.recording,
+            100.0 * b.segment_relative,
+            100.0 * f.segment_relative,
+            100.0 * a.segment_relative
+        );
+    }
+    let _ = writeln!(s, "\n| parameter | value | 95 % interval |\n|---|---|---|");
+    for (name, e) in &t.refit.parameters {
+        let _ = writeln!(
+            s,
+            "| {name} | {:.6e} | [{:.4e}, {:.4e}]{} |",
+            e.value,
+            e.ci95[0],
+            e.ci95[1],
+            if e.identifiable {
+                ""
+            } else {
+                " (not identifiable)"
+            }
+        );
+    }
+    for n in &t.refit.notes {
+        let _ = writeln!(s, "\nNote: {n}");
+    }
+    s
 }
 
 /// |H1_meas − H1_model|/σ per level, before and after, and the FRF overlay

@@ -281,6 +281,10 @@ pub struct DiagnoseArgs {
     /// Fit settings for the baseline.
     #[command(flatten)]
     pub fit: IdentifyOptionsArgs,
+    /// `frf` (the diagnosis on the nonlinear FRFs) or `time` (that, then its
+    /// final model refitted on the recorded time histories).
+    #[arg(long, value_enum, default_value_t = Domain::Frf)]
+    pub domain: Domain,
 }
 
 /// `hystid run`.

@@ -1,11 +1,11 @@
 //! `hystid diagnose`: trace a fit's residual to a missing effect, add it,
 //! refit, and report the error before and after.
 
-use super::args::DiagnoseArgs;
+use super::args::{DiagnoseArgs, Domain};
 use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
 use anyhow::{Result, bail};
-use hystid::analysis::diagnose::write_diagnosis;
+use hystid::analysis::diagnose::{refine_in_time, write_diagnosis_with};
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitResult, HbPredictor};
@@ -72,9 +72,44 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         ..options
     };
     let (d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
-    let files = write_diagnosis(&args.out, &frf, &d, &predictor, t0.elapsed().as_secs_f64())?;
+    let time = match args.domain {
+        Domain::Frf => None,
+        Domain::Time => {
+            let records =
+                hystid::analysis::time_records(&args.recordings, args.response.as_deref())?;
+            let pb = progress::spinner("refitting in the time domain", quiet);
+            let t = refine_in_time(
+                &d,
+                &records,
+                &hystid::fit::TimeFitOptions::default(),
+                options.band_hz,
+                &progress::Drawn(&pb),
+            )?;
+            pb.finish_and_clear();
+            Some(t)
+        }
+    };
+    let files = write_diagnosis_with(
+        &args.out,
+        &frf,
+        &d,
+        &predictor,
+        t0.elapsed().as_secs_f64(),
+        time.as_ref(),
+    )?;
     if !quiet {
         say!("hystid diagnose: {}", d.explanation);
+        if let Some(t) = &time {
+            for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
+                say!(
+                    "  in the time domain, {}: per-dwell relative e_RMS {:.2} % (baseline) -> {:.2} % (final) -> {:.2} % (final, refitted)",
+                    a.recording,
+                    100.0 * b.segment_relative,
+                    100.0 * f.segment_relative,
+                    100.0 * a.segment_relative
+                );
+            }
+        }
         for f in files {
             say!("  wrote {}", f.display());
         }
