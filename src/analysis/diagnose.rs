@@ -42,6 +42,20 @@ pub struct TimeRefinement {
     pub refit: TimeFitResult,
 }
 
+/// What `diagnose --domain time` got: the refinement, or why there is
+/// none (the FRF diagnosis stands either way).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum TimeOutcome {
+    /// The final model refitted.
+    Refined(Box<TimeRefinement>),
+    /// The recordings could not be replayed or the refit failed.
+    Failed {
+        /// Why.
+        failed: String,
+    },
+}
+
 /// Refines `d`'s final model in the time domain on `records`: every
 /// parameter free (the linear part's as the diagnosis saw `band_hz`),
 /// started from the diagnosis. The effects stay those the FRF diagnosis
@@ -95,7 +109,7 @@ pub fn write_diagnosis_with(
     d: &Diagnosis,
     predictor: &HbPredictor,
     seconds: f64,
-    time: Option<&TimeRefinement>,
+    time: Option<&TimeOutcome>,
 ) -> Result<Vec<PathBuf>> {
     #[derive(Serialize)]
     struct DiagnosisJson<'a> {
@@ -105,7 +119,7 @@ pub fn write_diagnosis_with(
         #[serde(flatten)]
         diagnosis: &'a Diagnosis,
         #[serde(skip_serializing_if = "Option::is_none")]
-        time_domain: Option<&'a TimeRefinement>,
+        time_domain: Option<&'a TimeOutcome>,
     }
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
     write_json(
@@ -120,8 +134,12 @@ pub fn write_diagnosis_with(
     )?;
     files.extend(residual_plots(dir, frf, d, predictor)?);
     let mut md = markdown(d, seconds);
-    if let Some(t) = time {
-        md += &time_markdown(t);
+    match time {
+        Some(TimeOutcome::Refined(t)) => md += &time_markdown(t),
+        Some(TimeOutcome::Failed { failed }) => {
+            md += &format!("\n## In the time domain\n\nNo refit: {failed}\n")
+        }
+        None => {}
     }
     crate::atomic::write_bytes(&files[1], md.as_bytes())?;
     Ok(files)

@@ -5,7 +5,7 @@ use super::args::{DiagnoseArgs, Domain};
 use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
 use anyhow::{Result, bail};
-use hystid::analysis::diagnose::{refine_in_time, write_diagnosis_with};
+use hystid::analysis::diagnose::{TimeOutcome, refine_in_time, write_diagnosis_with};
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitResult, HbPredictor};
@@ -75,18 +75,28 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     let time = match args.domain {
         Domain::Frf => None,
         Domain::Time => {
-            let records =
-                hystid::analysis::time_records(&args.recordings, args.response.as_deref())?;
+            // a refit that fails leaves the FRF diagnosis standing, with why
             let pb = progress::spinner("refitting in the time domain", quiet);
-            let t = refine_in_time(
-                &d,
-                &records,
-                &hystid::fit::TimeFitOptions::default(),
-                options.band_hz,
-                &progress::Drawn(&pb),
-            )?;
+            let t = hystid::analysis::time_records(&args.recordings, args.response.as_deref())
+                .and_then(|records| {
+                    refine_in_time(
+                        &d,
+                        &records,
+                        &hystid::fit::TimeFitOptions::default(),
+                        options.band_hz,
+                        &progress::Drawn(&pb),
+                    )
+                });
             pb.finish_and_clear();
-            Some(t)
+            Some(match t {
+                Ok(t) => TimeOutcome::Refined(Box::new(t)),
+                Err(e) => {
+                    eprintln!("warning: no refit in the time domain: {e}");
+                    TimeOutcome::Failed {
+                        failed: e.to_string(),
+                    }
+                }
+            })
         }
     };
     let files = write_diagnosis_with(
@@ -99,7 +109,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     )?;
     if !quiet {
         say!("hystid diagnose: {}", d.explanation);
-        if let Some(t) = &time {
+        if let Some(TimeOutcome::Refined(t)) = &time {
             for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
                 say!(
                     "  in the time domain, {}: per-dwell relative e_RMS {:.2} % (baseline) -> {:.2} % (final) -> {:.2} % (final, refitted)",

@@ -58,8 +58,8 @@ pub struct TimeRecord {
     pub quantity: Quantity,
     /// The samples judged.
     pub window: Range<usize>,
-    /// The window cut into the stretches each judged on its own RMS (see
-    /// the module docs): consecutive, covering the window.
+    /// The stretches of the window each judged on its own RMS (see the
+    /// module docs): ordered, not overlapping.
     pub segments: Vec<Range<usize>>,
 }
 
@@ -95,13 +95,19 @@ impl TimeRecord {
                 ),
             ));
         }
+        if self.segments.is_empty() {
+            return Err(Error::input(
+                at("segments"),
+                "none: no stretch of the response to judge",
+            ));
+        }
         let mut next = self.window.start;
         for s in &self.segments {
-            if s.start != next || s.end <= s.start {
+            if s.start < next || s.end <= s.start || s.end > self.window.end {
                 return Err(Error::input(
                     at("segments"),
                     format!(
-                        "must cut the window {}..{} into consecutive stretches; {}..{} does not follow {next}",
+                        "must be ordered, non-empty stretches inside the window {}..{}; {}..{} is not",
                         self.window.start, self.window.end, s.start, s.end
                     ),
                 ));
@@ -117,12 +123,6 @@ impl TimeRecord {
                     ),
                 ));
             }
-        }
-        if next != self.window.end {
-            return Err(Error::input(
-                at("segments"),
-                format!("end at {next}, the window at {}", self.window.end),
-            ));
         }
         Ok(())
     }
@@ -187,7 +187,7 @@ impl TimeRecord {
             )
             .unwrap_or_default()
         };
-        let r = TimeRecord {
+        let mut r = TimeRecord {
             name: name.to_string(),
             reference: rec.channels[reference].clone(),
             response: rec.channels[response].clone(),
@@ -196,6 +196,13 @@ impl TimeRecord {
             segments: TimeRecord::segments_at(window.clone(), &steps),
             window,
         };
+        // a dwell whose response the converter read as all zero (a quiet
+        // level in a 16-bit file) has no scale to be judged on: left out
+        let segments = std::mem::take(&mut r.segments);
+        r.segments = segments
+            .into_iter()
+            .filter(|s| r.measured_rms(s.clone()) > 0.0)
+            .collect();
         r.check()?;
         Ok(r)
     }
@@ -485,7 +492,10 @@ pub fn identify_time(
     let mut notes = Vec::new();
     let after = problem.errors(&model)?;
     let parameters = time_confidence(&problem, &run.theta)?;
-    let samples = records.iter().map(|r| r.window.len()).sum();
+    let samples = records
+        .iter()
+        .flat_map(|r| r.segments.iter().map(|s| s.len()))
+        .sum();
     let worse = before
         .iter()
         .zip(&after)

@@ -30,7 +30,7 @@ pub fn run_diagnose(
 ) -> RunOutcome {
     let _ = std::fs::remove_dir_all(out_dir);
     std::fs::create_dir_all(out_dir).expect("out dir");
-    let args = [
+    let mut args = vec![
         "diagnose".to_string(),
         recording.display().to_string(),
         "--out".into(),
@@ -39,6 +39,11 @@ pub fn run_diagnose(
         element.into(),
         "--quiet".into(),
     ];
+    // HYSTID_DIAGNOSE_DOMAIN=time: the final model refitted on the time
+    // history too (scored from that model)
+    if let Ok(domain) = std::env::var("HYSTID_DIAGNOSE_DOMAIN") {
+        args.extend(["--domain".into(), domain]);
+    }
     let command = format!("{} {}", bin.display(), args.join(" "));
     let stdout = std::fs::File::create(out_dir.join("stdout.txt")).unwrap();
     let stderr = std::fs::File::create(out_dir.join("stderr.txt")).unwrap();
@@ -244,7 +249,11 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
             c["note"].as_str().map(|n| format!(" note: {n}")).unwrap_or_default()
         ));
     }
-    let model = &d["model"];
+    // the time-domain refit's model when `--domain time` made one
+    let model = match &d["time_domain"]["refit"]["model"] {
+        serde_json::Value::Null => &d["model"],
+        m => m,
+    };
     // the joint, then the effects (diagnosis.json's model form)
     let elements: Vec<&Value> = std::iter::once(&model["joint"])
         .filter(|j| j.is_object())
