@@ -42,8 +42,8 @@ pub use coherent::{HarmonicAnalyser, harmonics_agree};
 pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
 pub use noncoherent::{estimate_frequency, noncoherent};
 pub use stepped::{
-    DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, combine, combine_with,
-    find_dwells, reduce_stepped, reduce_stepped_report, settling,
+    DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, below_resolution,
+    combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_report, settling,
 };
 pub use streaming::reduce_stepped_stream;
 pub use sweep::{

@@ -196,12 +196,16 @@ impl TimeRecord {
             segments: TimeRecord::segments_at(window.clone(), &steps),
             window,
         };
-        // a dwell whose response the converter read as all zero (a quiet
-        // level in a 16-bit file) has no scale to be judged on: left out
+        // a dwell whose response the converter resolved to a few steps (a
+        // quiet level in a 16-bit file) has no scale to be judged on: left
+        // out, as the FRF reduction leaves it out
         let segments = std::mem::take(&mut r.segments);
         r.segments = segments
             .into_iter()
-            .filter(|s| r.measured_rms(s.clone()) > 0.0)
+            .filter(|s| {
+                r.measured_rms(s.clone()) > 0.0
+                    && !crate::extract::below_resolution(&r.response[s.clone()])
+            })
             .collect();
         r.check()?;
         Ok(r)
