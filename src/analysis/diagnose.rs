@@ -26,6 +26,32 @@ pub fn run_diagnosis(
     Ok((d, predictor))
 }
 
+/// `diagnosis.json`: the diagnosis with the command and its wall time.
+#[derive(Serialize)]
+pub struct DiagnosisReport<'a> {
+    /// `diagnose`.
+    pub command: &'static str,
+    /// Tool version.
+    pub version: &'static str,
+    /// Wall time, s.
+    pub seconds: f64,
+    /// The diagnosis.
+    #[serde(flatten)]
+    pub diagnosis: &'a Diagnosis,
+}
+
+impl<'a> DiagnosisReport<'a> {
+    /// The report of `d`, made in `seconds`.
+    pub fn new(d: &'a Diagnosis, seconds: f64) -> Self {
+        DiagnosisReport {
+            command: "diagnose",
+            version: super::VERSION,
+            seconds,
+            diagnosis: d,
+        }
+    }
+}
+
 /// Writes `diagnosis.json`, `diagnosis.md` and the residual plots.
 pub fn write_diagnosis(
     dir: &Path,
@@ -34,24 +60,8 @@ pub fn write_diagnosis(
     predictor: &HbPredictor,
     seconds: f64,
 ) -> Result<Vec<PathBuf>> {
-    #[derive(Serialize)]
-    struct DiagnosisJson<'a> {
-        command: &'static str,
-        version: &'static str,
-        seconds: f64,
-        #[serde(flatten)]
-        diagnosis: &'a Diagnosis,
-    }
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
-    write_json(
-        &files[0],
-        &DiagnosisJson {
-            command: "diagnose",
-            version: super::VERSION,
-            seconds,
-            diagnosis: d,
-        },
-    )?;
+    write_json(&files[0], &DiagnosisReport::new(d, seconds))?;
     files.extend(residual_plots(dir, frf, d, predictor)?);
     crate::atomic::write_bytes(&files[1], markdown(d, seconds).as_bytes())?;
     Ok(files)
