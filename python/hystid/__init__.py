@@ -50,8 +50,8 @@ OUTPUTS = ("displacement", "velocity", "acceleration", "element_force")
 
 
 def _definition_text(definition):
-    """A test definition (TOML text, JSON text, a dict, or a path to a TOML
-    file) as TOML text, with the name errors give it."""
+    """A test definition (TOML text, JSON text, a dict, or a ``pathlib.Path``
+    to a TOML file) as TOML text, with the name errors give it."""
     if isinstance(definition, os.PathLike):
         with open(definition, encoding="utf-8") as f:
             return f.read(), os.fspath(definition)
@@ -70,8 +70,8 @@ def _definition_text(definition):
 def model(source):
     """A structural model.
 
-    ``source`` is a test definition (TOML text, a path to a TOML file, or
-    the same as a dict; ``[test]`` may be left out), a model in its JSON
+    ``source`` is a test definition (TOML text, a ``pathlib.Path`` to a
+    TOML file, or the same as a dict; ``[test]`` may be left out), a model in its JSON
     form (fit.json's ``model``: a dict with ``linear`` and ``elements``, or
     its JSON text), or a :class:`Model` (returned as is).
 
@@ -120,7 +120,7 @@ def simulate(model, force, sample_rate_hz, output="displacement"):
 def virtual_test(definition=None, check_hb=False):
     """A virtual stepped-sine test, as ``hystid simulate`` runs it, in memory.
 
-    ``definition``: a test definition (TOML text, a path, or a dict; the
+    ``definition``: a test definition (TOML text, a ``pathlib.Path``, or a dict; the
     embedded default, :data:`DEFAULT_TEST`, when ``None``). ``check_hb``
     also computes the harmonic-balance prediction at every dwell
     (``--check-hb``).
@@ -149,9 +149,9 @@ def virtual_test(definition=None, check_hb=False):
     }
 
 
-def _excitation(steps, sweep, kind):
-    if kind is None:
-        kind = "swept-sine" if sweep is not None else ("stepped-sine" if steps else "unknown")
+def _excitation(steps, sweep):
+    """recording.json's `excitation` of the given steps or sweep."""
+    kind = "swept-sine" if sweep is not None else ("stepped-sine" if steps else "unknown")
     e = {"kind": kind, "steps": list(steps or [])}
     if sweep is not None:
         e["sweep"] = sweep
@@ -200,7 +200,7 @@ def extract(
         _f64(response, "response"),
         response_quantity,
         float(sample_rate_hz),
-        _excitation(steps, sweep, None),
+        _excitation(steps, sweep),
         json.dumps(_reduction(excitation, max_harmonic, compensation, hop_periods, window_periods)),
     )
     return json.loads(frf)
@@ -302,7 +302,7 @@ def validate(
         _f64(response, "response"),
         response_quantity,
         float(sample_rate_hz),
-        _excitation(steps, sweep, None),
+        _excitation(steps, sweep),
         json.dumps(settings),
         fit_name,
         recording,
