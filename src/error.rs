@@ -129,6 +129,35 @@ impl Error {
     }
 }
 
+/// An error and its causes on one line, each said once, as the command line
+/// prints them: a cause whose text its parent already ends with (a file
+/// error that prints its own cause) is not repeated, nor a path the parent
+/// has just named ("reducing X" then "X: why" reads "reducing X: why").
+pub fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut out = String::new();
+    let mut cause = Some(e);
+    while let Some(c) = cause {
+        cause = c.source();
+        let text = c.to_string();
+        if out.ends_with(&text) {
+            continue;
+        }
+        let text = match out.rsplit_once(' ') {
+            Some((_, last)) if !last.is_empty() => text
+                .strip_prefix(last)
+                .and_then(|t| t.strip_prefix(": "))
+                .map(str::to_string)
+                .unwrap_or(text),
+            _ => text,
+        };
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
 /// Checks that a parameter is finite and strictly positive.
 pub(crate) fn require_positive(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {

@@ -25,37 +25,10 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            eprintln!("error: {}", error_chain(&e));
+            eprintln!("error: {}", hystid::error::one_line(e.as_ref()));
             ExitCode::from(2)
         }
     }
-}
-
-/// The error and its causes on one line, each said once: a cause whose text
-/// its parent already ends with (a file error that prints its own cause) is
-/// not repeated, nor a path the parent has just named.
-fn error_chain(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if out.ends_with(&text) {
-            continue;
-        }
-        // "reducing X" followed by "X: why" reads "reducing X: why"
-        let text = match out.rsplit_once(' ') {
-            Some((_, last)) if !last.is_empty() => text
-                .strip_prefix(last)
-                .and_then(|t| t.strip_prefix(": "))
-                .map(str::to_string)
-                .unwrap_or(text),
-            _ => text,
-        };
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&text);
-    }
-    out
 }
 
 #[cfg(test)]

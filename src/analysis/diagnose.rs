@@ -90,6 +90,36 @@ pub fn refine_in_time(
     Ok(TimeRefinement { baseline, refit })
 }
 
+/// `diagnosis.json`: the diagnosis with the command and its wall time.
+#[derive(Serialize)]
+pub struct DiagnosisReport<'a> {
+    /// `diagnose`.
+    pub command: &'static str,
+    /// Tool version.
+    pub version: &'static str,
+    /// Wall time, s.
+    pub seconds: f64,
+    /// The diagnosis.
+    #[serde(flatten)]
+    pub diagnosis: &'a Diagnosis,
+    /// Its final model refitted in the time domain (`--domain time`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_domain: Option<&'a TimeOutcome>,
+}
+
+impl<'a> DiagnosisReport<'a> {
+    /// The report of `d`, made in `seconds`.
+    pub fn new(d: &'a Diagnosis, seconds: f64) -> Self {
+        DiagnosisReport {
+            command: "diagnose",
+            version: super::VERSION,
+            seconds,
+            diagnosis: d,
+            time_domain: None,
+        }
+    }
+}
+
 /// Writes `diagnosis.json`, `diagnosis.md` and the residual plots.
 pub fn write_diagnosis(
     dir: &Path,
@@ -111,25 +141,12 @@ pub fn write_diagnosis_with(
     seconds: f64,
     time: Option<&TimeOutcome>,
 ) -> Result<Vec<PathBuf>> {
-    #[derive(Serialize)]
-    struct DiagnosisJson<'a> {
-        command: &'static str,
-        version: &'static str,
-        seconds: f64,
-        #[serde(flatten)]
-        diagnosis: &'a Diagnosis,
-        #[serde(skip_serializing_if = "Option::is_none")]
-        time_domain: Option<&'a TimeOutcome>,
-    }
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
     write_json(
         &files[0],
-        &DiagnosisJson {
-            command: "diagnose",
-            version: super::VERSION,
-            seconds,
-            diagnosis: d,
+        &DiagnosisReport {
             time_domain: time,
+            ..DiagnosisReport::new(d, seconds)
         },
     )?;
     files.extend(residual_plots(dir, frf, d, predictor)?);

@@ -7,6 +7,7 @@ use crate::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, choose_compensation, reduce_stepped,
     reduce_stepped_stream, reduce_sweep_recording,
 };
+use crate::harmonics::Quantity;
 use crate::record::{ExcitationKind, Recording, RecordingMeta};
 use crate::testbench::TestDefinition;
 use std::path::{Path, PathBuf};
@@ -22,6 +23,90 @@ pub struct Loaded {
     pub truth: Option<TestDefinition>,
     /// An MCAP run file cut short: only its complete chunks were read.
     pub truncated: bool,
+}
+
+impl Loaded {
+    /// A recording of a reference signal (`reference_quantity`: a force or
+    /// a voltage) and one response (a motion), sampled at `sample_rate_hz`,
+    /// as a script holds them: the channels named after their quantities,
+    /// in SI units; `excitation` says what drove the structure (its `steps`
+    /// the dwells, when known). Checked as [`load_recording`] checks a
+    /// file: the same length, finite samples, a reference that is not flat.
+    pub fn from_signals(
+        reference: Vec<f64>,
+        reference_quantity: Quantity,
+        response: Vec<f64>,
+        response_quantity: Quantity,
+        sample_rate_hz: f64,
+        excitation: crate::record::Excitation,
+    ) -> Result<Loaded> {
+        if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+            return Err(Error::input(
+                "sample_rate_hz",
+                format!("must be finite and > 0, got {sample_rate_hz}"),
+            ));
+        }
+        if !matches!(reference_quantity, Quantity::Force | Quantity::Voltage) {
+            return Err(Error::input(
+                "reference",
+                format!("must be a force or a voltage, not a {reference_quantity}"),
+            ));
+        }
+        if !response_quantity.is_motion() {
+            return Err(Error::input(
+                "response",
+                format!("must be a motion, not a {response_quantity}"),
+            ));
+        }
+        if reference.len() != response.len() || reference.is_empty() {
+            return Err(Error::input(
+                "signals",
+                format!(
+                    "the reference and the response must have the same, non-zero length; got {} and {} samples",
+                    reference.len(),
+                    response.len()
+                ),
+            ));
+        }
+        for (name, x) in [("reference", &reference), ("response", &response)] {
+            if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+                return Err(Error::input(
+                    format!("{name}[{i}]"),
+                    format!("is {}: samples must be finite", x[i]),
+                ));
+            }
+        }
+        if reference.iter().all(|&v| v == 0.0) {
+            return Err(Error::input(
+                "reference",
+                "is flat (all zero): nothing drove the structure",
+            ));
+        }
+        let channel = |q: Quantity| crate::record::Channel {
+            name: q.name().to_string(),
+            quantity: q,
+            unit: q.si_unit().to_string(),
+            scale: 1.0,
+        };
+        let meta = RecordingMeta {
+            format: crate::record::FORMAT_V1.into(),
+            sample_rate_hz,
+            channels: vec![channel(reference_quantity), channel(response_quantity)],
+            excitation,
+            description: String::new(),
+            metadata: Default::default(),
+            extra: Default::default(),
+        };
+        Ok(Loaded {
+            recording: Recording {
+                meta,
+                channels: vec![reference, response],
+            },
+            response: 1,
+            truth: None,
+            truncated: false,
+        })
+    }
 }
 
 /// The test definition a hystid virtual test keeps in its metadata.
@@ -421,4 +506,85 @@ pub fn band_limited(frf: &NonlinearFrf, band: Option<(f64, f64)>) -> NonlinearFr
         out.levels.retain(|l| !l.points.is_empty());
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{Excitation as Sidecar, Step};
+
+    /// Arrays as a recording: a stepped sine through the linear SDOF is
+    /// reduced on its steps; bad arrays are errors that name them.
+    #[test]
+    fn signals_in_memory_reduce_as_a_recording() {
+        let model = crate::model::Model::new(
+            crate::model::ModalModel::sdof(10.0, 200.0, 1e7).unwrap(),
+            Vec::new(),
+        )
+        .unwrap();
+        let fs = 10_000.0;
+        let (f, n) = (200.0, 20_000);
+        let force: Vec<f64> = (0..n)
+            .map(|i| 100.0 * (2.0 * std::f64::consts::PI * f * i as f64 / fs).cos())
+            .collect();
+        let x = crate::sim::simulate(&model, &force, fs, crate::sim::Output::Displacement).unwrap();
+        let steps = vec![Step {
+            frequency_hz: f,
+            level: 100.0,
+            start: 0,
+            settle: 15_000,
+            length: n,
+        }];
+        let excitation = Sidecar {
+            kind: ExcitationKind::SteppedSine,
+            steps,
+            sweep: None,
+        };
+        let loaded = Loaded::from_signals(
+            force.clone(),
+            Quantity::Force,
+            x.clone(),
+            Quantity::Displacement,
+            fs,
+            excitation.clone(),
+        )
+        .unwrap();
+        let red = reduce(&loaded, &ReductionOptions::default()).unwrap();
+        assert_eq!(red.response_name, "displacement");
+        let p = &red.frf.levels[0].points[0];
+        let w = crate::harmonics::omega(f);
+        let exact =
+            model.linear.frf(Quantity::Displacement, w) * crate::harmonics::sinc(f / fs).powi(2);
+        // the ramp-invariant filter's steady state, to its aliases (< 1e-6)
+        assert!(
+            (p.h[1] / exact - 1.0).norm() < 1e-6,
+            "{} vs {exact}",
+            p.h[1]
+        );
+        let err = |r: Result<Loaded>| r.err().unwrap().to_string();
+        let mk = |a: Vec<f64>, qa, b: Vec<f64>, qb, fs| {
+            Loaded::from_signals(a, qa, b, qb, fs, excitation.clone())
+        };
+        let d = Quantity::Displacement;
+        assert!(
+            err(mk(force.clone(), Quantity::Force, x[1..].to_vec(), d, fs))
+                .contains("same, non-zero length")
+        );
+        assert!(err(mk(x.clone(), d, x.clone(), d, fs)).contains("a force or a voltage"));
+        assert!(
+            err(mk(
+                force.clone(),
+                Quantity::Force,
+                force.clone(),
+                Quantity::Force,
+                fs
+            ))
+            .contains("must be a motion")
+        );
+        let mut bad = x.clone();
+        bad[7] = f64::NAN;
+        assert!(err(mk(force.clone(), Quantity::Force, bad, d, fs)).contains("response[7]"));
+        assert!(err(mk(vec![0.0; n], Quantity::Force, x.clone(), d, fs)).contains("flat"));
+        assert!(err(mk(force, Quantity::Force, x, d, 0.0)).contains("sample_rate_hz"));
+    }
 }

@@ -64,6 +64,78 @@ impl<'a> DwellMessage<'a> {
     }
 }
 
+fn tool_version() -> String {
+    format!("hystid {}", super::VERSION)
+}
+
+/// The sidecar (`recording.json`) of a virtual test of `def` (its TOML
+/// `toml_text`) sampled at `fs`, before its steps are known.
+pub fn recording_meta(def: &TestDefinition, toml_text: &str, fs: f64) -> RecordingMeta {
+    RecordingMeta {
+        format: FORMAT_V1.into(),
+        sample_rate_hz: fs,
+        channels: crate::testbench::recorded_channels(),
+        excitation: Excitation {
+            kind: ExcitationKind::SteppedSine,
+            steps: Vec::new(),
+            sweep: None,
+        },
+        description: "hystid virtual stepped-sine test".into(),
+        metadata: serde_json::Map::from_iter([
+            ("tool".to_string(), serde_json::json!(tool_version())),
+            ("seed".to_string(), serde_json::json!(def.test.seed)),
+            ("test_definition".to_string(), serde_json::json!(toml_text)),
+            (
+                "response".to_string(),
+                serde_json::json!(def.test.response.quantity().name()),
+            ),
+        ]),
+        extra: Default::default(),
+    }
+}
+
+/// The recording's step of a dwell.
+fn step_of(d: &DwellRecord) -> Step {
+    Step {
+        frequency_hz: d.design.frequency_hz,
+        level: d.level,
+        start: d.start as usize,
+        settle: d.settle,
+        length: d.length,
+    }
+}
+
+/// The harmonic-balance check of a level's dwells (none without a check).
+fn level_checks(
+    check: &Option<(crate::model::Model, f64, usize, Vec<HbCheck>)>,
+    out: &LevelOutput,
+) -> Result<Vec<HbCheck>> {
+    match check {
+        Some((model, fs, k, _)) => {
+            let steady: Vec<SteadyDwell> = (out.dwells.iter())
+                .map(|d| SteadyDwell {
+                    index: d.index,
+                    frequency_hz: d.design.frequency_hz,
+                    receptance: &d.clean_receptance,
+                })
+                .collect();
+            let level = out.dwells.first().map_or(0.0, |d| d.level);
+            hb::check_hb(model, *fs, level, &steady, *k)
+        }
+        None => Ok(Vec::new()),
+    }
+}
+
+/// The check `simulate --check-hb` makes, for `def`.
+fn hb_check_of(def: &TestDefinition) -> Result<(crate::model::Model, f64, usize, Vec<HbCheck>)> {
+    Ok((
+        def.model()?,
+        def.sample_rate_hz()? * def.oversample()? as f64,
+        def.test.max_harmonic,
+        Vec::new(),
+    ))
+}
+
 /// Streams each level to the MCAP run file and the WAV recording.
 pub struct FileSink {
     /// The MCAP recorder.
@@ -81,40 +153,19 @@ pub struct FileSink {
 impl FileSink {
     /// Opens both files (under temporary names).
     pub fn create(dir: &Path, def: &TestDefinition, toml_text: &str, fs: f64) -> Result<FileSink> {
-        let channels = crate::testbench::recorded_channels();
+        let meta = recording_meta(def, toml_text, fs);
         let info = RunInfo {
-            tool_version: format!("hystid {}", super::VERSION),
+            tool_version: tool_version(),
             test_definition: toml_text.to_string(),
             seed: def.test.seed,
             sample_rate_hz: fs,
-            channels: channels.clone(),
+            channels: meta.channels.clone(),
             metadata: BTreeMap::from([(
                 "response".to_string(),
                 def.test.response.quantity().name().to_string(),
             )]),
         };
         let mcap = McapRecorder::create(&dir.join("run.mcap"), &info)?;
-        let meta = RecordingMeta {
-            format: FORMAT_V1.into(),
-            sample_rate_hz: fs,
-            channels,
-            excitation: Excitation {
-                kind: ExcitationKind::SteppedSine,
-                steps: Vec::new(),
-                sweep: None,
-            },
-            description: "hystid virtual stepped-sine test".into(),
-            metadata: serde_json::Map::from_iter([
-                ("tool".to_string(), serde_json::json!(info.tool_version)),
-                ("seed".to_string(), serde_json::json!(def.test.seed)),
-                ("test_definition".to_string(), serde_json::json!(toml_text)),
-                (
-                    "response".to_string(),
-                    serde_json::json!(def.test.response.quantity().name()),
-                ),
-            ]),
-            extra: Default::default(),
-        };
         let wav = RecordingWriter::create(&dir.join("recording"), meta)?;
         Ok(FileSink {
             mcap,
@@ -137,20 +188,7 @@ impl FileSink {
 impl BenchSink for FileSink {
     fn level(&mut self, out: &LevelOutput, first_frame: u64) -> Result<()> {
         let f64s = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();
-        let checks = match &self.check {
-            Some((model, fs, k, _)) => {
-                let steady: Vec<SteadyDwell> = (out.dwells.iter())
-                    .map(|d| SteadyDwell {
-                        index: d.index,
-                        frequency_hz: d.design.frequency_hz,
-                        receptance: &d.clean_receptance,
-                    })
-                    .collect();
-                let level = out.dwells.first().map_or(0.0, |d| d.level);
-                hb::check_hb(model, *fs, level, &steady, *k)?
-            }
-            None => Vec::new(),
-        };
+        let checks = level_checks(&self.check, out)?;
         for (i, d) in out.dwells.iter().enumerate() {
             let a = (d.start - first_frame) as usize;
             let b = a + d.length;
@@ -167,13 +205,7 @@ impl BenchSink for FileSink {
             msg.step = self.dwells_written;
             msg.hb_check = checks.get(i);
             self.mcap.write_dwell(d.start + d.length as u64, &msg)?;
-            self.steps.push(Step {
-                frequency_hz: d.design.frequency_hz,
-                level: d.level,
-                start: d.start as usize,
-                settle: d.settle,
-                length: d.length,
-            });
+            self.steps.push(step_of(d));
             self.dwells_written += 1;
         }
         self.wav.write_frames(&[
@@ -257,6 +289,41 @@ pub struct SimulateSummary {
     pub files: Vec<PathBuf>,
 }
 
+impl SimulateSummary {
+    /// The summary of `run`, a virtual test of `def` that took `seconds`.
+    pub fn of(
+        def: &TestDefinition,
+        run: &BenchRun,
+        seconds: f64,
+        hb_check: Option<HbCheckSummary>,
+        files: Vec<PathBuf>,
+    ) -> SimulateSummary {
+        let n = run.dwells.len().max(1) as f64;
+        SimulateSummary {
+            command: "simulate",
+            version: super::VERSION,
+            sample_rate_hz: run.sample_rate_hz,
+            levels: def.test.levels_n.len(),
+            dwells: run.dwells.len(),
+            frames: run.frames,
+            unsettled: run
+                .unsettled()
+                .map(|d| (d.level, d.design.frequency_hz))
+                .collect(),
+            mean_settle_periods: run
+                .dwells
+                .iter()
+                .map(|d| d.settle_periods as f64)
+                .sum::<f64>()
+                / n,
+            mean_noise_ratio: run.dwells.iter().map(|d| d.noise_ratio).sum::<f64>() / n,
+            seconds,
+            hb_check,
+            files,
+        }
+    }
+}
+
 /// The cross-check of the two solvers over all dwells.
 #[derive(Serialize)]
 pub struct HbCheckSummary {
@@ -315,12 +382,7 @@ pub fn simulate_into(
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut sink = FileSink::create(dir, def, toml_text, fs)?;
     if check_hb {
-        sink.check = Some((
-            def.model()?,
-            fs * def.oversample()? as f64,
-            def.test.max_harmonic,
-            Vec::new(),
-        ));
+        sink.check = Some(hb_check_of(def)?);
     }
     let run = testbench::run(def, &mut sink, observer)?;
     let checks = sink.check.take().map(|c| c.3);
@@ -351,28 +413,152 @@ pub fn simulate_into(
         files.push(path);
         hb_summary = Some(summarise_checks(&checks));
     }
-    let n = run.dwells.len().max(1) as f64;
-    let summary = SimulateSummary {
-        command: "simulate",
-        version: super::VERSION,
-        sample_rate_hz: run.sample_rate_hz,
-        levels: def.test.levels_n.len(),
-        dwells: run.dwells.len(),
-        frames: run.frames,
-        unsettled: run
-            .unsettled()
-            .map(|d| (d.level, d.design.frequency_hz))
-            .collect(),
-        mean_settle_periods: run
-            .dwells
-            .iter()
-            .map(|d| d.settle_periods as f64)
-            .sum::<f64>()
-            / n,
-        mean_noise_ratio: run.dwells.iter().map(|d| d.noise_ratio).sum::<f64>() / n,
-        seconds: bench_seconds,
-        hb_check: hb_summary,
-        files,
-    };
+    let summary = SimulateSummary::of(def, &run, bench_seconds, hb_summary, files);
     Ok((run, summary))
+}
+
+/// Keeps a virtual test's recording in memory: its channels as
+/// `recording.wav` holds them (32-bit floats) and its steps.
+#[derive(Default)]
+pub struct MemorySink {
+    /// With a harmonic-balance check: the model, sample rate, K, and the
+    /// checks so far.
+    pub check: Option<(crate::model::Model, f64, usize, Vec<HbCheck>)>,
+    /// The steps so far.
+    pub steps: Vec<Step>,
+    /// The channels of [`crate::testbench::recorded_channels`], in order.
+    pub channels: [Vec<f32>; 4],
+}
+
+impl BenchSink for MemorySink {
+    fn level(&mut self, out: &LevelOutput, _first_frame: u64) -> Result<()> {
+        let checks = level_checks(&self.check, out)?;
+        self.steps.extend(out.dwells.iter().map(step_of));
+        for (c, v) in self.channels.iter_mut().zip([
+            &out.force,
+            &out.displacement,
+            &out.velocity,
+            &out.acceleration,
+        ]) {
+            c.extend_from_slice(v);
+        }
+        if let Some((_, _, _, all)) = &mut self.check {
+            all.extend(checks);
+        }
+        Ok(())
+    }
+}
+
+/// A virtual test run in memory: what `simulate` writes, without files.
+pub struct VirtualTest {
+    /// The bench's run (FRFs: `frf.json`; dwells).
+    pub run: BenchRun,
+    /// The recording's sidecar (`recording.json`), its steps filled in.
+    pub meta: RecordingMeta,
+    /// The recording's channels in `meta.channels`' order, as
+    /// `recording.wav` holds them.
+    pub channels: Vec<Vec<f32>>,
+    /// With a harmonic-balance check: every dwell's (`hb_check.json`).
+    pub hb_checks: Option<Vec<HbCheck>>,
+    /// `summary.json` (no files).
+    pub summary: SimulateSummary,
+}
+
+/// Runs the bench of `def` (its TOML `toml_text`) in memory, with the
+/// harmonic-balance cross-check when `check_hb`; `observer` is told of every
+/// dwell. The same run as [`simulate_into`] (the same samples, FRFs and
+/// summary), without its files.
+pub fn simulate_in_memory(
+    def: &TestDefinition,
+    toml_text: &str,
+    check_hb: bool,
+    observer: &dyn Observer,
+) -> Result<VirtualTest> {
+    let t0 = std::time::Instant::now();
+    let fs = def.sample_rate_hz()?;
+    let mut sink = MemorySink::default();
+    if check_hb {
+        sink.check = Some(hb_check_of(def)?);
+    }
+    let run = testbench::run(def, &mut sink, observer)?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let hb_checks = sink.check.take().map(|c| c.3);
+    let mut meta = recording_meta(def, toml_text, fs);
+    meta.excitation.steps = std::mem::take(&mut sink.steps);
+    let summary = SimulateSummary::of(
+        def,
+        &run,
+        seconds,
+        hb_checks.as_deref().map(summarise_checks),
+        Vec::new(),
+    );
+    Ok(VirtualTest {
+        run,
+        meta,
+        channels: sink.channels.into(),
+        hb_checks,
+        summary,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The virtual test in memory is `simulate`'s: the same samples as
+    /// recording.wav, the same sidecar, FRFs and summary.
+    #[test]
+    fn the_test_in_memory_is_the_one_on_disk() {
+        let text = r#"
+[system]
+mass = 10.0
+damping = 200.0
+stiffness = 1.0e7
+[joint]
+kind = "jenkins"
+kd = 2.4e7
+fd = 246.048
+[test]
+frequencies_hz = [150.0, 250.0]
+levels_n = [10.0, 1000.0]
+seed = 5
+"#;
+        let def = TestDefinition::from_toml(text, "t.toml").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let (run, summary) = simulate_into(
+            &def,
+            text,
+            dir.path(),
+            SampleFormat::Float32,
+            true,
+            &crate::observe::Silent,
+            &mut |_, _| Ok(()),
+        )
+        .unwrap();
+        let mem = simulate_in_memory(&def, text, true, &crate::observe::Silent).unwrap();
+        assert_eq!(mem.run, run);
+        let rec = crate::record::read_recording(&dir.path().join("recording.wav")).unwrap();
+        assert_eq!(mem.meta, rec.meta);
+        assert_eq!(mem.channels.len(), rec.channels.len());
+        for (m, r) in mem.channels.iter().zip(&rec.channels) {
+            let m: Vec<f64> = m.iter().map(|&x| x as f64).collect();
+            assert_eq!(&m, r);
+        }
+        let json = |v: &SimulateSummary| {
+            let mut v = serde_json::to_value(v).unwrap();
+            let o = v.as_object_mut().unwrap();
+            o.remove("seconds");
+            o.remove("files");
+            v
+        };
+        assert_eq!(json(&mem.summary), json(&summary));
+        assert!(mem.summary.hb_check.is_some() && mem.summary.files.is_empty());
+        let on_disk: Vec<HbCheck> =
+            serde_json::from_slice(&std::fs::read(dir.path().join("hb_check.json")).unwrap())
+                .unwrap();
+        assert_eq!(
+            serde_json::to_value(mem.hb_checks.unwrap()).unwrap(),
+            serde_json::to_value(on_disk).unwrap()
+        );
+    }
 }

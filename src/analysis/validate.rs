@@ -27,44 +27,52 @@ pub struct FitModel {
 /// Reads the model of a fit.json: its `model` (or, with `linear`, the SDOF
 /// of `linear.stick` with no element) and `response_sign`.
 pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
-    let report = FitReport::read(path)?;
-    let response = Some(report.response.clone());
-    let (final_model, final_sign) = report.final_model();
-    let (final_model, final_sign) = (final_model.clone(), final_sign);
-    let kind = if report.time_domain.is_some() {
-        "fitted in the time domain"
-    } else {
-        "fitted"
-    };
-    let fit = report.fit;
-    if linear {
-        let s = &fit.linear.stick;
-        let model = ModalModel::sdof(s.mass, s.damping, s.stiffness)
-            .and_then(|m| Model::new(m, Vec::new()))
-            .map_err(|e| Error::format(path, "linear.stick", e.to_string()))?;
-        return Ok(FitModel {
-            model,
-            response_sign: s.sign,
+    FitModel::of_report(FitReport::read(path)?, linear, path)
+}
+
+impl FitModel {
+    /// The model of a fit report read from `path` (which errors name): its
+    /// final model (or, with `linear`, the SDOF of `linear.stick` with no
+    /// element) and response sign.
+    pub fn of_report(report: FitReport, linear: bool, path: &Path) -> Result<FitModel> {
+        let response = Some(report.response.clone());
+        let (final_model, final_sign) = report.final_model();
+        let (final_model, final_sign) = (final_model.clone(), final_sign);
+        let kind = if report.time_domain.is_some() {
+            "fitted in the time domain"
+        } else {
+            "fitted"
+        };
+        let fit = report.fit;
+        if linear {
+            let s = &fit.linear.stick;
+            let model = ModalModel::sdof(s.mass, s.damping, s.stiffness)
+                .and_then(|m| Model::new(m, Vec::new()))
+                .map_err(|e| Error::format(path, "linear.stick", e.to_string()))?;
+            return Ok(FitModel {
+                model,
+                response_sign: s.sign,
+                response,
+                kind: "linear",
+            });
+        }
+        if final_sign != 1.0 && final_sign != -1.0 {
+            return Err(Error::format(
+                path,
+                "response_sign",
+                format!("must be 1 or -1, got {final_sign}"),
+            ));
+        }
+        final_model
+            .validate()
+            .map_err(|e| Error::format(path, "model", e.to_string()))?;
+        Ok(FitModel {
+            model: final_model,
+            response_sign: final_sign,
             response,
-            kind: "linear",
-        });
+            kind,
+        })
     }
-    if final_sign != 1.0 && final_sign != -1.0 {
-        return Err(Error::format(
-            path,
-            "response_sign",
-            format!("must be 1 or -1, got {final_sign}"),
-        ));
-    }
-    final_model
-        .validate()
-        .map_err(|e| Error::format(path, "model", e.to_string()))?;
-    Ok(FitModel {
-        model: final_model,
-        response_sign: final_sign,
-        response,
-        kind,
-    })
 }
 
 /// One recording's entry in validate.json.
@@ -132,20 +140,17 @@ pub fn unique_stem(path: &Path, used: &mut Vec<String>) -> String {
     name
 }
 
-/// Validates `fit` on the recording loaded from `path` and writes its
-/// figures into `dir` as `{stem}_time`, `{stem}_time_window`, `{stem}_frf`.
-pub fn validate_on(
+/// Validates `fit` on a loaded recording: [`validate_on`] without the
+/// figures.
+pub fn validate_loaded(
     fit: &FitModel,
-    path: &Path,
     loaded: &Loaded,
     settings: &ValidationSettings,
-    dir: &Path,
-    stem: &str,
-) -> Result<(RecordingValidation, Vec<PathBuf>)> {
+) -> Result<Validation> {
     let rec = &loaded.recording;
     let reference = rec
         .reference_channel()
-        .ok_or_else(|| Error::format(path, "channels", "no reference channel"))?;
+        .ok_or_else(|| Error::input("recording", "no reference channel"))?;
     let reduction = if settings.frf {
         Some(
             match excitation_of(&rec.meta, settings.reduction.excitation) {
@@ -169,8 +174,23 @@ pub fn validate_on(
         reduction,
         ..ValidateOptions::default()
     };
-    let v = validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)
+    validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)
+}
+
+/// Validates `fit` on the recording loaded from `path` and writes its
+/// figures into `dir` as `{stem}_time`, `{stem}_time_window`, `{stem}_frf`.
+pub fn validate_on(
+    fit: &FitModel,
+    path: &Path,
+    loaded: &Loaded,
+    settings: &ValidationSettings,
+    dir: &Path,
+    stem: &str,
+) -> Result<(RecordingValidation, Vec<PathBuf>)> {
+    let v = validate_loaded(fit, loaded, settings)
         .map_err(|e| Error::context(format!("validating on {}", path.display()), e))?;
+    let band = settings.band_hz;
+    let rec = &loaded.recording;
     let mut files = Vec::new();
     let name = path.file_name().map_or_else(
         || path.display().to_string(),

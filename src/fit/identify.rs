@@ -79,6 +79,39 @@ impl Default for FitOptions {
     }
 }
 
+impl FitOptions {
+    /// Checks the options, naming the first bad one: a joint law to fit,
+    /// at least one harmonic, at least one mode, a band `0 <= lo < hi`.
+    pub fn validate(&self) -> Result<()> {
+        if !self.element.description().is_joint() {
+            let joints: Vec<&str> = ElementKind::joints().map(ElementKind::name).collect();
+            return Err(Error::plan(
+                "element",
+                format!(
+                    "expected a joint law ({}), got `{}`",
+                    joints.join(" or "),
+                    self.element.name()
+                ),
+            ));
+        }
+        if self.harmonics.is_empty() {
+            return Err(Error::plan("harmonics", "give at least one harmonic"));
+        }
+        if self.modes == 0 {
+            return Err(Error::plan("modes", "expected at least 1, got 0"));
+        }
+        if let Some((lo, hi)) = self.band_hz
+            && !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi)
+        {
+            return Err(Error::plan(
+                "band_hz",
+                format!("need 0 <= lo < hi, got {lo}:{hi}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
 fn one_mode() -> usize {
     1
 }
@@ -438,6 +471,7 @@ pub fn identify(
     predictor: &dyn FrfPredictor,
     observer: Option<&dyn crate::observe::Observer>,
 ) -> Result<FitResult> {
+    options.validate()?;
     let t0 = std::time::Instant::now();
     let mut linear =
         linear_from_levels_with(frf, options.band_hz, options.modes, &options.extra_modes)?;
@@ -1086,4 +1120,45 @@ fn bootstrap(
 /// Unused-import guard for residuals (kept public for diagnosis).
 pub fn stacked_residuals(data: &FitData, pred: &Prediction, weighting: Weighting) -> Vec<f64> {
     residuals(data, pred, weighting)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Options a fit cannot use are errors that name them.
+    #[test]
+    fn fit_options_are_checked() {
+        assert!(FitOptions::default().validate().is_ok());
+        let bad = |o: FitOptions| o.validate().unwrap_err().to_string();
+        let e = bad(FitOptions {
+            element: ElementKind::CubicStiffness,
+            ..FitOptions::default()
+        });
+        assert!(
+            e.contains("`element`: expected a joint law") && e.contains("cubic_stiffness"),
+            "{e}"
+        );
+        assert!(
+            bad(FitOptions {
+                harmonics: Vec::new(),
+                ..FitOptions::default()
+            })
+            .contains("`harmonics`")
+        );
+        assert!(
+            bad(FitOptions {
+                modes: 0,
+                ..FitOptions::default()
+            })
+            .contains("`modes`")
+        );
+        assert!(
+            bad(FitOptions {
+                band_hz: Some((300.0, 100.0)),
+                ..FitOptions::default()
+            })
+            .contains("`band_hz`")
+        );
+    }
 }

@@ -26,7 +26,7 @@ pub use filter::{ModeFilter, Section};
 
 use crate::error::{Error, Result};
 use crate::model::element::SOLVE_TOLERANCE;
-use crate::model::{Element, ImplicitStep, ModalModel};
+use crate::model::{Element, ImplicitStep, ModalModel, Model};
 
 /// One output sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -372,6 +372,25 @@ impl<E: Element> Simulator<E> {
         self.drive(force.len(), |i| force[i], |i, s| x[i] = s.displacement)
     }
 
+    /// Runs a block writing one output into `out` (no allocation).
+    ///
+    /// # Panics
+    /// If `out.len() != force.len()`.
+    pub fn run_output(&mut self, force: &[f64], output: Output, out: &mut [f64]) -> Result<()> {
+        assert_eq!(
+            force.len(),
+            out.len(),
+            "output length must equal input length"
+        );
+        let n = force.len();
+        match output {
+            Output::Displacement => self.drive(n, |i| force[i], |i, s| out[i] = s.displacement),
+            Output::Velocity => self.drive(n, |i| force[i], |i, s| out[i] = s.velocity),
+            Output::Acceleration => self.drive(n, |i| force[i], |i, s| out[i] = s.acceleration),
+            Output::ElementForce => self.drive(n, |i| force[i], |i, s| out[i] = s.element_force),
+        }
+    }
+
     /// Runs a block into caller-provided slices (no allocation).
     ///
     /// # Panics
@@ -396,6 +415,71 @@ impl<E: Element> Simulator<E> {
             },
         )
     }
+}
+
+/// One time history of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// Displacement, m.
+    Displacement,
+    /// Velocity, m/s.
+    Velocity,
+    /// Acceleration, m/s².
+    Acceleration,
+    /// Total element force `g`, N.
+    ElementForce,
+}
+
+impl Output {
+    /// Every output, in [`Sample`]'s order.
+    pub const ALL: [Output; 4] = [
+        Output::Displacement,
+        Output::Velocity,
+        Output::Acceleration,
+        Output::ElementForce,
+    ];
+
+    /// The name of the output (as [`Response`]'s field).
+    pub fn name(self) -> &'static str {
+        match self {
+            Output::Displacement => "displacement",
+            Output::Velocity => "velocity",
+            Output::Acceleration => "acceleration",
+            Output::ElementForce => "element_force",
+        }
+    }
+
+    /// The output of a name.
+    pub fn from_name(name: &str) -> Option<Output> {
+        Output::ALL.into_iter().find(|o| o.name() == name)
+    }
+}
+
+/// `model` driven from rest by `force` sampled at `sample_rate_hz`: one
+/// output, sample for sample (the whole run in one call, as a script
+/// drives it).
+///
+/// Errors: the model's and the sample rate's (see [`Simulator::new`]), and
+/// a sample whose implicit solve fails.
+pub fn simulate(
+    model: &Model,
+    force: &[f64],
+    sample_rate_hz: f64,
+    output: Output,
+) -> Result<Vec<f64>> {
+    model.validate()?;
+    let mut sim = Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?;
+    let mut out = vec![0.0; force.len()];
+    sim.run_output(force, output, &mut out)?;
+    Ok(out)
+}
+
+/// `model` driven from rest by `force` sampled at `sample_rate_hz`: every
+/// output ([`simulate`] for one).
+pub fn simulate_all(model: &Model, force: &[f64], sample_rate_hz: f64) -> Result<Response> {
+    model.validate()?;
+    let mut sim = Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?;
+    sim.run(force)
 }
 
 /// Caller-owned output slices for [`Simulator::run_slices`].
@@ -501,4 +585,47 @@ fn solve_bracketed<E: Element>(e: &E, sample: u64, s: &ImplicitStep, u0: f64) ->
         stage: "implicit sample solve",
         reason: format!("bracket [{lo:e}, {hi:e}] N did not shrink at sample {sample}"),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ElementSpec;
+
+    /// [`simulate`] is the simulator's run, one output at a time.
+    #[test]
+    fn simulate_gives_each_output_of_a_run() {
+        let model = Model::new(
+            ModalModel::sdof(10.0, 200.0, 1e7).unwrap(),
+            vec![ElementSpec::Jenkins {
+                kd: 2.4e7,
+                fd: 246.048,
+            }],
+        )
+        .unwrap();
+        let fs = 50_000.0;
+        let force: Vec<f64> = (0..20_000)
+            .map(|i| 400.0 * (2.0 * std::f64::consts::PI * 150.0 * i as f64 / fs).sin())
+            .collect();
+        let all = simulate_all(&model, &force, fs).unwrap();
+        let mut sim = Simulator::new(&model.linear, model.element_set().unwrap(), fs).unwrap();
+        assert_eq!(sim.run(&force).unwrap(), all);
+        for (o, expected) in Output::ALL.into_iter().zip([
+            &all.displacement,
+            &all.velocity,
+            &all.acceleration,
+            &all.element_force,
+        ]) {
+            assert_eq!(&simulate(&model, &force, fs, o).unwrap(), expected, "{o:?}");
+            assert_eq!(Output::from_name(o.name()), Some(o));
+        }
+        // the joint slips: its force reaches Fd and no further
+        let peak = all.element_force.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+        assert!((peak / 246.048 - 1.0).abs() < 1e-9, "{peak}");
+        let e = simulate(&model, &force, 100.0, Output::Displacement).unwrap_err();
+        assert!(
+            e.to_string().contains("must exceed twice the highest mode"),
+            "{e}"
+        );
+    }
 }

@@ -17,7 +17,7 @@
 
 pub mod plan;
 
-pub use plan::{DEFAULT_TEST, TestDefinition};
+pub use plan::{DEFAULT_TEST, StructureDefinition, TestDefinition, model_from_toml};
 
 use crate::error::{Error, Result};
 use crate::extract::{

@@ -33,6 +33,40 @@ pub struct TestDefinition {
     pub test: TestSpec,
 }
 
+/// The structure of a test definition alone: its `[system]` (or
+/// `[[modes]]`), `[joint]` and `[[effects]]`, without `[test]`; what a
+/// [`Model`] is built from ([`model_from_toml`] takes either).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StructureDefinition {
+    /// The underlying linear SDOF (`mass`, `damping`, `stiffness`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub system: Option<SystemSpec>,
+    /// The multi-mode form of the underlying linear structure.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub modes: Vec<ModeSpec>,
+    /// The joint element.
+    #[serde(default)]
+    pub joint: JointSpec,
+    /// Further effects acting with the joint.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<EffectSpec>,
+}
+
+/// The model of a test definition's TOML text, or of its structure alone
+/// (no `[test]` table); `origin` names the text in errors. A text with a
+/// `[test]` table is checked whole, as [`TestDefinition::from_toml`] does.
+pub fn model_from_toml(text: &str, origin: &str) -> Result<Model> {
+    let has_test = text
+        .parse::<toml::Table>()
+        .is_ok_and(|t| t.contains_key("test"));
+    if has_test {
+        TestDefinition::from_toml(text, origin)?.model()
+    } else {
+        StructureDefinition::from_toml(text, origin)?.model()
+    }
+}
+
 /// An SDOF `m, c, k`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -412,15 +446,15 @@ fn check_value_types(root: &toml::Table, origin: &str) -> Result<()> {
     Ok(())
 }
 
-impl TestDefinition {
-    /// Parses and checks a definition; `origin` names the file in errors.
-    pub fn from_toml(text: &str, origin: &str) -> Result<TestDefinition> {
-        // a first, untyped pass: serde cannot name the key of a mistyped value
-        // inside the tagged tables, so check the number-valued keys here
-        if let Ok(value) = text.parse::<toml::Table>() {
-            check_value_types(&value, origin)?;
-        }
-        let def: TestDefinition = toml::from_str(text).map_err(|e| {
+/// Parses a definition (or its structure) from TOML, naming the key, line
+/// and table of the first bad value; `origin` names the text in errors.
+fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, origin: &str) -> Result<T> {
+    // a first, untyped pass: serde cannot name the key of a mistyped value
+    // inside the tagged tables, so check the number-valued keys here
+    if let Ok(value) = text.parse::<toml::Table>() {
+        check_value_types(&value, origin)?;
+    }
+    toml::from_str(text).map_err(|e| {
             let msg = e.message().to_string();
             let msg = if msg.contains("untagged enum FrequencyList") {
                 "`test.frequencies_hz`: expected a list of frequencies in Hz or { start, stop, count [, spacing] }"
@@ -453,7 +487,93 @@ impl TestDefinition {
                 None => ("toml".to_string(), String::new()),
             };
             Error::format(origin, field, format!("{msg}{at}"))
-        })?;
+        })
+}
+
+impl StructureDefinition {
+    /// Parses a structure (no `[test]` table); `origin` names the text in
+    /// errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<StructureDefinition> {
+        parse_toml(text, origin)
+    }
+
+    /// The structural model: linear part, joint, effects (a `second_mode`
+    /// effect adds a mode to the linear part).
+    pub fn model(&self) -> Result<Model> {
+        let mut modes = match (&self.system, self.modes.is_empty()) {
+            (Some(s), true) => vec![Mode::from_mck(s.mass, s.damping, s.stiffness)?],
+            (None, false) => self
+                .modes
+                .iter()
+                .enumerate()
+                .map(|(i, m)| {
+                    let at = format!("modes[{i}]");
+                    let residue = match (m.modal_mass, m.residue) {
+                        (Some(mm), None) => {
+                            if !(mm.is_finite() && mm != 0.0) {
+                                return Err(Error::model(
+                                    format!("{at}.modal_mass"),
+                                    format!("must be finite and non-zero, got {mm}"),
+                                ));
+                            }
+                            1.0 / mm
+                        }
+                        (None, Some(r)) => r,
+                        _ => {
+                            return Err(Error::model(
+                                at,
+                                "give exactly one of modal_mass and residue",
+                            ));
+                        }
+                    };
+                    let mode = Mode {
+                        frequency_hz: m.frequency_hz,
+                        damping_ratio: m.damping_ratio,
+                        residue,
+                    };
+                    mode.validate(&at)?;
+                    Ok(mode)
+                })
+                .collect::<Result<_>>()?,
+            (Some(_), false) => {
+                return Err(Error::model(
+                    "system",
+                    "give either [system] or [[modes]], not both",
+                ));
+            }
+            (None, true) => {
+                return Err(Error::model(
+                    "system",
+                    "missing: give [system] (mass, damping, stiffness) or [[modes]]",
+                ));
+            }
+        };
+        let mut effects = Vec::new();
+        if let Some(joint) = &self.joint.0 {
+            joint.validate("joint")?;
+        }
+        for (i, e) in self.effects.iter().enumerate() {
+            let at = format!("effects[{i}]");
+            match e {
+                EffectSpec::Element(spec) => {
+                    spec.validate(&at)?;
+                    effects.push(spec.clone());
+                }
+                EffectSpec::SecondMode(m) => {
+                    let mode = Mode::from_modal_mass(m.frequency_hz, m.damping_ratio, m.modal_mass)
+                        .map_err(|e| Error::model(at.clone(), e.to_string()))?;
+                    modes.push(mode);
+                }
+            }
+        }
+        Model::with_joint(ModalModel::new(modes)?, self.joint.0.clone(), effects)
+    }
+}
+
+impl TestDefinition {
+    /// Parses and checks a definition; `origin` names the file in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<TestDefinition> {
+        let def: TestDefinition = parse_toml(text, origin)?;
         def.validate()?;
         Ok(def)
     }
@@ -563,76 +683,20 @@ impl TestDefinition {
         Ok(())
     }
 
+    /// The structure alone (no `[test]`).
+    pub fn structure(&self) -> StructureDefinition {
+        StructureDefinition {
+            system: self.system,
+            modes: self.modes.clone(),
+            joint: self.joint.clone(),
+            effects: self.effects.clone(),
+        }
+    }
+
     /// The structural model: linear part, joint, effects (a `second_mode`
     /// effect adds a mode to the linear part).
     pub fn model(&self) -> Result<Model> {
-        let mut modes = match (&self.system, self.modes.is_empty()) {
-            (Some(s), true) => vec![Mode::from_mck(s.mass, s.damping, s.stiffness)?],
-            (None, false) => self
-                .modes
-                .iter()
-                .enumerate()
-                .map(|(i, m)| {
-                    let at = format!("modes[{i}]");
-                    let residue = match (m.modal_mass, m.residue) {
-                        (Some(mm), None) => {
-                            if !(mm.is_finite() && mm != 0.0) {
-                                return Err(Error::model(
-                                    format!("{at}.modal_mass"),
-                                    format!("must be finite and non-zero, got {mm}"),
-                                ));
-                            }
-                            1.0 / mm
-                        }
-                        (None, Some(r)) => r,
-                        _ => {
-                            return Err(Error::model(
-                                at,
-                                "give exactly one of modal_mass and residue",
-                            ));
-                        }
-                    };
-                    let mode = Mode {
-                        frequency_hz: m.frequency_hz,
-                        damping_ratio: m.damping_ratio,
-                        residue,
-                    };
-                    mode.validate(&at)?;
-                    Ok(mode)
-                })
-                .collect::<Result<_>>()?,
-            (Some(_), false) => {
-                return Err(Error::model(
-                    "system",
-                    "give either [system] or [[modes]], not both",
-                ));
-            }
-            (None, true) => {
-                return Err(Error::model(
-                    "system",
-                    "missing: give [system] (mass, damping, stiffness) or [[modes]]",
-                ));
-            }
-        };
-        let mut effects = Vec::new();
-        if let Some(joint) = &self.joint.0 {
-            joint.validate("joint")?;
-        }
-        for (i, e) in self.effects.iter().enumerate() {
-            let at = format!("effects[{i}]");
-            match e {
-                EffectSpec::Element(spec) => {
-                    spec.validate(&at)?;
-                    effects.push(spec.clone());
-                }
-                EffectSpec::SecondMode(m) => {
-                    let mode = Mode::from_modal_mass(m.frequency_hz, m.damping_ratio, m.modal_mass)
-                        .map_err(|e| Error::model(at.clone(), e.to_string()))?;
-                    modes.push(mode);
-                }
-            }
-        }
-        Model::with_joint(ModalModel::new(modes)?, self.joint.0.clone(), effects)
+        self.structure().model()
     }
 
     /// The dwell frequencies as listed (before sweep ordering), Hz.
@@ -723,6 +787,31 @@ impl TestDefinition {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A structure without `[test]` gives the model its test definition
+    /// gives; its errors name the key, as a test definition's do.
+    #[test]
+    fn a_structure_alone_gives_the_definitions_model() {
+        let whole = TestDefinition::embedded_default().model().unwrap();
+        let structure: String = DEFAULT_TEST.split("[test]").next().unwrap().to_string();
+        assert!(!structure.contains("levels_n"));
+        assert_eq!(model_from_toml(&structure, "s.toml").unwrap(), whole);
+        assert_eq!(model_from_toml(DEFAULT_TEST, "d.toml").unwrap(), whole);
+        let bad = structure.replace("mass = 10.0", "mass = -10.0");
+        let e = model_from_toml(&bad, "s.toml").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "invalid model: `system.mass`: must be a finite number > 0, got -10"
+        );
+        let e = model_from_toml(&structure.replace("kd =", "kx ="), "s.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("s.toml: `joint`") && e.contains("kx"), "{e}");
+        let e = model_from_toml("[system]\nmass = \"ten\"\n", "s.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`system.mass`: expected a number"), "{e}");
+    }
 
     #[test]
     fn the_embedded_default_is_the_paper_case() {

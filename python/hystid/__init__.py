@@ -1,0 +1,312 @@
+"""hystid from Python: friction joints in vibrating structures, simulated,
+tested, identified and diagnosed by the hystid library.
+
+Every function calls the library as the ``hystid`` command does and returns
+what the command writes, as plain dicts with the same field names (and the
+same numbers) as its JSON files, and signals as numpy arrays:
+
+==================  ==========================================  =================
+function            returns                                     the command's
+==================  ==========================================  =================
+``model``           a :class:`Model`                            test definition
+``simulate``        the response (numpy)                        (library only)
+``virtual_test``    recording arrays, ``recording`` (sidecar),  ``simulate``
+                    ``frf``, ``summary``
+``extract``         nonlinear FRFs                              ``frf.json``
+``identify``        the fit                                     ``fit.json``
+``diagnose``        the diagnosis                               ``diagnosis.json``
+``validate``        the validation (+ the simulated response)   ``validate.json``
+==================  ==========================================  =================
+
+Errors are :class:`HystidError` (a ``ValueError``) carrying the message the
+command line prints. The GIL is released while the library works, so other
+Python threads run meanwhile.
+"""
+
+import json
+import os
+
+import numpy as np
+
+from . import _hystid
+from ._hystid import DEFAULT_TEST, HystidError, Model
+
+__version__ = _hystid.VERSION
+
+__all__ = [
+    "DEFAULT_TEST",
+    "HystidError",
+    "Model",
+    "diagnose",
+    "extract",
+    "identify",
+    "model",
+    "simulate",
+    "validate",
+    "virtual_test",
+]
+
+OUTPUTS = ("displacement", "velocity", "acceleration", "element_force")
+
+
+def _definition_text(definition):
+    """A test definition (TOML text, JSON text, a dict, or a ``pathlib.Path``
+    to a TOML file) as TOML text, with the name errors give it."""
+    if isinstance(definition, os.PathLike):
+        with open(definition, encoding="utf-8") as f:
+            return f.read(), os.fspath(definition)
+    if isinstance(definition, dict):
+        return _hystid.json_to_toml(json.dumps(definition)), "test definition"
+    if isinstance(definition, str):
+        if definition.lstrip().startswith("{"):
+            return _hystid.json_to_toml(definition), "test definition"
+        return definition, "test definition"
+    raise TypeError(
+        "a test definition is TOML text, a dict, JSON text or a path, "
+        f"not {type(definition).__name__}"
+    )
+
+
+def model(source):
+    """A structural model.
+
+    ``source`` is a test definition (TOML text, a ``pathlib.Path`` to a
+    TOML file, or the same as a dict; ``[test]`` may be left out), a model in its JSON
+    form (fit.json's ``model``: a dict with ``linear`` and ``elements``, or
+    its JSON text), or a :class:`Model` (returned as is).
+
+    >>> m = model({"system": {"mass": 10.0, "damping": 200.0, "stiffness": 1e7},
+    ...            "joint": {"kind": "jenkins", "kd": 2.4e7, "fd": 246.048}})
+    """
+    if isinstance(source, Model):
+        return source
+    if isinstance(source, dict) and "linear" in source:
+        return Model.from_json(json.dumps(source))
+    if isinstance(source, str) and source.lstrip().startswith("{"):
+        parsed = json.loads(source)
+        if isinstance(parsed, dict) and "linear" in parsed:
+            return Model.from_json(source)
+    text, origin = _definition_text(source)
+    return Model.from_toml(text, origin)
+
+
+_as_model = model
+
+
+def _f64(x, name):
+    """A contiguous float64 view of ``x`` (no copy when it already is one)."""
+    a = np.ascontiguousarray(x, dtype=np.float64)
+    if a.ndim != 1:
+        raise HystidError(f"{name}: expected a 1-D array, got shape {a.shape}")
+    return a
+
+
+def simulate(model, force, sample_rate_hz, output="displacement"):
+    """The response of ``model`` (a :class:`Model` or anything :func:`model`
+    takes) driven from rest by ``force`` (N) sampled at ``sample_rate_hz``.
+
+    ``output``: ``"displacement"`` (m), ``"velocity"``, ``"acceleration"``,
+    ``"element_force"`` (the elements' total force, N), or ``"all"`` for a
+    dict of the four. A contiguous float64 ``force`` is read in place; the
+    result is a new float64 array, one sample per force sample.
+    """
+    m = _as_model(model)
+    f = _f64(force, "force")
+    if output == "all":
+        return dict(zip(OUTPUTS, _hystid.simulate_all(m, f, float(sample_rate_hz))))
+    return _hystid.simulate(m, f, float(sample_rate_hz), output)
+
+
+def virtual_test(definition=None, check_hb=False):
+    """A virtual stepped-sine test, as ``hystid simulate`` runs it, in memory.
+
+    ``definition``: a test definition (TOML text, a ``pathlib.Path``, or a dict; the
+    embedded default, :data:`DEFAULT_TEST`, when ``None``). ``check_hb``
+    also computes the harmonic-balance prediction at every dwell
+    (``--check-hb``).
+
+    Returns a dict: ``signals`` (``force``, ``displacement``, ``velocity``,
+    ``acceleration``: float32 arrays, the samples ``recording.wav`` holds),
+    ``recording`` (``recording.json``: sample rate, channels, the dwells'
+    ``excitation.steps``), ``frf`` (``frf.json``), ``summary``
+    (``summary.json``, without files), ``hb_check`` (``hb_check.json``, or
+    ``None``), and ``definition`` (the TOML text).
+    """
+    if definition is None:
+        text, origin = None, None
+    else:
+        text, origin = _definition_text(definition)
+    text, meta, frf, summary, hb, channels = _hystid.virtual_test(text, origin, check_hb)
+    meta = json.loads(meta)
+    names = [c["name"] for c in meta["channels"]]
+    return {
+        "signals": dict(zip(names, channels)),
+        "recording": meta,
+        "frf": json.loads(frf),
+        "summary": json.loads(summary),
+        "hb_check": None if hb is None else json.loads(hb),
+        "definition": text,
+    }
+
+
+def _excitation(steps, sweep):
+    """recording.json's `excitation` of the given steps or sweep."""
+    kind = "swept-sine" if sweep is not None else ("stepped-sine" if steps else "unknown")
+    e = {"kind": kind, "steps": list(steps or [])}
+    if sweep is not None:
+        e["sweep"] = sweep
+    return json.dumps(e)
+
+
+def _reduction(excitation, max_harmonic, compensation, hop_periods, window_periods):
+    return {
+        "excitation": excitation,
+        "max_harmonic": max_harmonic,
+        "compensation": compensation,
+        "hop_periods": float(hop_periods),
+        "window_periods": int(window_periods),
+    }
+
+
+def extract(
+    force,
+    response,
+    sample_rate_hz,
+    *,
+    steps=None,
+    sweep=None,
+    excitation=None,
+    response_quantity="displacement",
+    reference_quantity="force",
+    max_harmonic=None,
+    compensation="auto",
+    hop_periods=1.0,
+    window_periods=4,
+):
+    """Nonlinear FRFs (``frf.json``) of a force (or voltage) and a response
+    sampled at ``sample_rate_hz``, reduced as ``hystid identify`` reduces a
+    recording.
+
+    ``steps``: the dwells, as ``recording.json``'s ``excitation.steps``
+    (dicts with ``frequency_hz``, ``level``, ``start``, ``settle``,
+    ``length``); without them the dwells are found. ``sweep``: a sweep's
+    known ``f_start_hz``, ``f_end_hz``. ``excitation``: ``"stepped"``,
+    ``"swept"`` or ``None`` (swept when a ``sweep`` is given, else stepped).
+    The other options are the command's reduction flags.
+    """
+    frf = _hystid.extract(
+        _f64(force, "force"),
+        reference_quantity,
+        _f64(response, "response"),
+        response_quantity,
+        float(sample_rate_hz),
+        _excitation(steps, sweep),
+        json.dumps(_reduction(excitation, max_harmonic, compensation, hop_periods, window_periods)),
+    )
+    return json.loads(frf)
+
+
+def _options(options, kwargs):
+    o = dict(options or {})
+    o.update(kwargs)
+    if "band_hz" in o and o["band_hz"] is not None:
+        o["band_hz"] = list(o["band_hz"])
+    return json.dumps(o)
+
+
+def identify(frf, *, reference=None, recording="", response=None, options=None, **kwargs):
+    """Fits a joint model to nonlinear FRFs (a dict as :func:`extract`,
+    :func:`virtual_test` or ``frf.json`` give): the ``fit.json`` dict.
+
+    Fit options are the library's ``FitOptions`` fields, as keywords or an
+    ``options`` dict: ``element`` (``"masing"``, ``"jenkins"``,
+    ``"iwan4"``), ``harmonics`` (``[1]``), ``weighting`` (``"none"`` or
+    ``"standard_error"``: ``--weighted``), ``refine_linear``,
+    ``linear_start``, ``modes``, ``second_optimiser`` (``--lm``),
+    ``bootstrap``, ``seed`` (``--bootstrap-seed``), ``band_hz`` (``(lo,
+    hi)``: ``--band``), ``max_iterations``. ``reference``: the structure the
+    data came from (anything :func:`model` takes), for the ``comparison``.
+    ``recording`` and ``response`` name the data in the report.
+    """
+    ref = None if reference is None else _as_model(reference)
+    text = _hystid.identify(
+        json.dumps(frf), _options(options, kwargs), ref, recording, response
+    )
+    return json.loads(text)
+
+
+def diagnose(frf, fit=None, *, candidates=None, options=None, **kwargs):
+    """Traces a fit's residual to missing effects, adds them and refits, as
+    ``hystid diagnose`` does: the ``diagnosis.json`` dict.
+
+    ``fit``: a ``fit.json`` dict (as :func:`identify` returns), or ``None``
+    to fit ``frf`` first with the fit options (keywords as in
+    :func:`identify`). ``candidates``: effect names (default: all of
+    ``second_mode``, ``cubic_stiffness``, ``bilinear_stiffness``,
+    ``quadratic_damping``, ``clearance``).
+    """
+    text = _hystid.diagnose(
+        json.dumps(frf),
+        _options(options, kwargs),
+        None if fit is None else json.dumps(fit),
+        None if candidates is None else list(candidates),
+    )
+    return json.loads(text)
+
+
+def validate(
+    fit,
+    force,
+    response,
+    sample_rate_hz,
+    *,
+    steps=None,
+    sweep=None,
+    excitation=None,
+    response_quantity="displacement",
+    reference_quantity="force",
+    linear=False,
+    band_hz=None,
+    window_s=None,
+    min_samples_per_period=20.0,
+    frf=True,
+    max_harmonic=None,
+    compensation="auto",
+    hop_periods=1.0,
+    window_periods=4,
+    fit_name="",
+    recording="",
+):
+    """Drives a fitted model (a ``fit.json`` dict) with a measured force and
+    compares the simulated response with the measured one, as ``hystid
+    validate`` does: the ``validate.json`` dict with this one recording,
+    whose entry also holds the ``simulated`` response (numpy).
+
+    ``linear`` validates the fit's linear model instead (``--linear``);
+    ``band_hz``, ``window_s``, ``min_samples_per_period``, ``frf=False``
+    (``--no-frf``) and the reduction options are the command's flags;
+    ``steps``, ``sweep`` as in :func:`extract`.
+    """
+    settings = {
+        "band_hz": None if band_hz is None else list(band_hz),
+        "window_s": None if window_s is None else list(window_s),
+        "min_samples_per_period": float(min_samples_per_period),
+        "frf": bool(frf),
+        "reduction": _reduction(excitation, max_harmonic, compensation, hop_periods, window_periods),
+    }
+    text, simulated = _hystid.validate(
+        json.dumps(fit),
+        bool(linear),
+        _f64(force, "force"),
+        reference_quantity,
+        _f64(response, "response"),
+        response_quantity,
+        float(sample_rate_hz),
+        _excitation(steps, sweep),
+        json.dumps(settings),
+        fit_name,
+        recording,
+    )
+    report = json.loads(text)
+    report["recordings"][0]["simulated"] = simulated
+    return report

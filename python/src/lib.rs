@@ -1,0 +1,560 @@
+//! `hystid._hystid`: the native half of the Python package.
+//!
+//! Every function calls the library as the command line does (`hystid::sim`,
+//! `hystid::analysis`, `hystid::fit`, `hystid::diagnose`) and hands back what
+//! the command writes: reports as JSON text (the same serialisation, so the
+//! same field names and numbers; `hystid/__init__.py` turns them into dicts)
+//! and signals as numpy arrays. Arrays come in as read-only views (no copy
+//! for `simulate`) and results are moved into numpy (no copy). The GIL is
+//! released while the library works. Errors are `hystid.HystidError`
+//! (a `ValueError`) with the message the command line prints.
+
+use hystid::analysis::diagnose::DiagnosisReport;
+use hystid::analysis::validate::{
+    FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
+};
+use hystid::analysis::{
+    Compensation, Excitation as Reduction, FitReport, Loaded, ReductionOptions, reduce,
+};
+use hystid::diagnose::{DiagnoseOptions, Effect};
+use hystid::fit::FitOptions;
+use hystid::harmonics::Quantity;
+use hystid::model::Model;
+use hystid::observe::Silent;
+use hystid::sim::Output;
+use hystid::testbench::{DEFAULT_TEST, TestDefinition};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use serde::Deserialize;
+use serde::de::DeserializeOwned;
+use std::path::Path;
+
+create_exception!(
+    hystid,
+    HystidError,
+    PyValueError,
+    "An error of the hystid library; its message names the file, field or stage, as the command line prints it."
+);
+
+/// The library's error as a `HystidError`, with its causes on one line.
+fn err(e: hystid::Error) -> PyErr {
+    HystidError::new_err(hystid::error::one_line(&e))
+}
+
+fn fail(message: impl Into<String>) -> PyErr {
+    HystidError::new_err(message.into())
+}
+
+fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
+    serde_json::to_string(value).map_err(|e| fail(format!("cannot serialise the result: {e}")))
+}
+
+fn from_json<T: DeserializeOwned>(what: &str, text: &str) -> PyResult<T> {
+    serde_json::from_str(text).map_err(|e| fail(format!("{what}: {e}")))
+}
+
+fn quantity(what: &str, name: &str) -> PyResult<Quantity> {
+    Quantity::from_name(name).ok_or_else(|| {
+        fail(format!(
+            "{what}: unknown quantity `{name}` (force, voltage, displacement, velocity or acceleration)"
+        ))
+    })
+}
+
+fn slice<'a>(what: &str, a: &'a PyReadonlyArray1<'_, f64>) -> PyResult<&'a [f64]> {
+    a.as_slice()
+        .map_err(|e| fail(format!("{what}: {e} (pass a contiguous float64 array)")))
+}
+
+/// A structural model: the underlying linear modes and the elements at the
+/// joint (fit.json's `model`).
+#[pyclass(frozen, module = "hystid", name = "Model")]
+#[derive(Clone)]
+struct PyModel {
+    inner: Model,
+}
+
+#[pymethods]
+impl PyModel {
+    /// The model of a test definition's TOML text, or of its structure
+    /// alone (`[system]` or `[[modes]]`, `[joint]`, `[[effects]]`).
+    #[staticmethod]
+    #[pyo3(signature = (text, origin = None))]
+    fn from_toml(text: String, origin: Option<String>) -> PyResult<Self> {
+        let origin = origin.unwrap_or_else(|| "test definition".into());
+        let inner = hystid::testbench::model_from_toml(&text, &origin).map_err(err)?;
+        Ok(PyModel { inner })
+    }
+
+    /// A model in its JSON form (fit.json's `model`: `linear`, `elements`).
+    #[staticmethod]
+    fn from_json(text: String) -> PyResult<Self> {
+        let inner: Model = from_json("model", &text)?;
+        inner.validate().map_err(err)?;
+        Ok(PyModel { inner })
+    }
+
+    /// The model's JSON form (fit.json's `model`).
+    fn to_json(&self) -> PyResult<String> {
+        to_json(&self.inner)
+    }
+
+    /// The highest frequency the linearised structure can ring at, Hz (a
+    /// sample rate must be well above it).
+    #[getter]
+    fn highest_linearised_frequency_hz(&self) -> f64 {
+        self.inner.highest_linearised_frequency_hz()
+    }
+
+    fn __eq__(&self, other: &Self) -> bool {
+        self.inner == other.inner
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        Ok(format!("hystid.Model({})", to_json(&self.inner)?))
+    }
+}
+
+/// A test definition's JSON (a dict) as TOML text, so that it is read and
+/// checked exactly as a file is.
+#[pyfunction]
+fn json_to_toml(text: String) -> PyResult<String> {
+    let value: serde_json::Value = from_json("test definition", &text)?;
+    toml::to_string(&value).map_err(|e| fail(format!("test definition: {e}")))
+}
+
+fn output(name: &str) -> PyResult<Output> {
+    Output::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = Output::ALL.iter().map(|o| o.name()).collect();
+        fail(format!(
+            "output: expected one of {}, got `{name}`",
+            names.join(", ")
+        ))
+    })
+}
+
+/// `model` driven from rest by `force` sampled at `sample_rate_hz`: one
+/// output (`displacement`, `velocity`, `acceleration`, `element_force`).
+#[pyfunction]
+#[pyo3(signature = (model, force, sample_rate_hz, output_name = "displacement".to_string()))]
+fn simulate<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, PyModel>,
+    force: PyReadonlyArray1<'py, f64>,
+    sample_rate_hz: f64,
+    output_name: String,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let which = output(&output_name)?;
+    let f = slice("force", &force)?;
+    let m = &model.inner;
+    let y = py
+        .detach(|| hystid::sim::simulate(m, f, sample_rate_hz, which))
+        .map_err(err)?;
+    Ok(y.into_pyarray(py))
+}
+
+/// Every output of [`simulate`], in `Output::ALL`'s order.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn simulate_all<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, PyModel>,
+    force: PyReadonlyArray1<'py, f64>,
+    sample_rate_hz: f64,
+) -> PyResult<Vec<Bound<'py, PyArray1<f64>>>> {
+    let f = slice("force", &force)?;
+    let m = &model.inner;
+    let r = py
+        .detach(|| hystid::sim::simulate_all(m, f, sample_rate_hz))
+        .map_err(err)?;
+    Ok(vec![
+        r.displacement.into_pyarray(py),
+        r.velocity.into_pyarray(py),
+        r.acceleration.into_pyarray(py),
+        r.element_force.into_pyarray(py),
+    ])
+}
+
+/// The seconds the library's own `simulate` takes on `force` (timed in
+/// Rust, without Python): the reference of the overhead benchmark.
+#[pyfunction]
+#[pyo3(signature = (model, force, sample_rate_hz, output_name = "displacement".to_string()))]
+fn _rust_simulate_seconds<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, PyModel>,
+    force: PyReadonlyArray1<'py, f64>,
+    sample_rate_hz: f64,
+    output_name: String,
+) -> PyResult<f64> {
+    let which = output(&output_name)?;
+    let f = slice("force", &force)?;
+    let m = &model.inner;
+    py.detach(|| {
+        let t0 = std::time::Instant::now();
+        let y = hystid::sim::simulate(m, f, sample_rate_hz, which)?;
+        let s = t0.elapsed().as_secs_f64();
+        drop(y);
+        Ok(s)
+    })
+    .map_err(err)
+}
+
+/// A virtual stepped-sine test of a definition (TOML text; the embedded
+/// default when `None`), in memory: `(definition text, recording.json,
+/// frf.json, summary.json, hb_check.json or None, the four channels)`.
+#[pyfunction]
+#[pyo3(signature = (text = None, origin = None, check_hb = false))]
+#[allow(clippy::type_complexity)]
+fn virtual_test<'py>(
+    py: Python<'py>,
+    text: Option<String>,
+    origin: Option<String>,
+    check_hb: bool,
+) -> PyResult<(
+    String,
+    String,
+    String,
+    String,
+    Option<String>,
+    Vec<Bound<'py, PyArray1<f32>>>,
+)> {
+    let text = text.unwrap_or_else(|| DEFAULT_TEST.to_string());
+    let origin = origin.unwrap_or_else(|| "test definition".into());
+    let def = TestDefinition::from_toml(&text, &origin).map_err(err)?;
+    let t = py
+        .detach(|| hystid::analysis::simulate::simulate_in_memory(&def, &text, check_hb, &Silent))
+        .map_err(err)?;
+    let hb = t.hb_checks.as_ref().map(to_json).transpose()?;
+    let out = (
+        to_json(&t.meta)?,
+        to_json(&t.run.frf)?,
+        to_json(&t.summary)?,
+        hb,
+    );
+    let channels = t.channels.into_iter().map(|c| c.into_pyarray(py)).collect();
+    Ok((text, out.0, out.1, out.2, out.3, channels))
+}
+
+/// How recordings are reduced (the command line's reduction flags).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ReductionJson {
+    #[serde(default)]
+    excitation: Option<String>,
+    #[serde(default)]
+    max_harmonic: Option<usize>,
+    #[serde(default)]
+    compensation: Option<serde_json::Value>,
+    #[serde(default = "one")]
+    hop_periods: f64,
+    #[serde(default = "four")]
+    window_periods: usize,
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn four() -> usize {
+    4
+}
+
+impl ReductionJson {
+    fn options(&self) -> PyResult<ReductionOptions> {
+        let excitation = match self.excitation.as_deref() {
+            None | Some("auto") => None,
+            Some("stepped") => Some(Reduction::Stepped),
+            Some("swept") => Some(Reduction::Swept),
+            Some(other) => {
+                return Err(fail(format!(
+                    "excitation: expected auto, stepped or swept, got `{other}`"
+                )));
+            }
+        };
+        let compensation = match &self.compensation {
+            None => Compensation::Auto,
+            Some(serde_json::Value::String(s)) if s == "auto" => Compensation::Auto,
+            Some(v) => match v.as_f64() {
+                Some(s) if s.is_finite() && s > 0.0 => Compensation::Seconds(s),
+                Some(0.0) => Compensation::Off,
+                _ => {
+                    return Err(fail(format!(
+                        "compensation: must be \"auto\" or seconds >= 0, got {v}"
+                    )));
+                }
+            },
+        };
+        Ok(ReductionOptions {
+            excitation,
+            max_harmonic: self.max_harmonic,
+            compensation,
+            hop_periods: self.hop_periods,
+            window_periods: self.window_periods,
+        })
+    }
+}
+
+/// A force (or voltage) and a response sampled at `sample_rate_hz` as a
+/// loaded recording; `excitation` is recording.json's section of that name.
+fn loaded(
+    reference: &PyReadonlyArray1<'_, f64>,
+    reference_quantity: &str,
+    response: &PyReadonlyArray1<'_, f64>,
+    response_quantity: &str,
+    sample_rate_hz: f64,
+    excitation: &str,
+) -> PyResult<Loaded> {
+    let excitation: hystid::record::Excitation = from_json("excitation", excitation)?;
+    Loaded::from_signals(
+        slice("reference", reference)?.to_vec(),
+        quantity("reference_quantity", reference_quantity)?,
+        slice("response", response)?.to_vec(),
+        quantity("response_quantity", response_quantity)?,
+        sample_rate_hz,
+        excitation,
+    )
+    .map_err(err)
+}
+
+/// Nonlinear FRFs (frf.json) of a reference and a response.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn extract<'py>(
+    py: Python<'py>,
+    reference: PyReadonlyArray1<'py, f64>,
+    reference_quantity: String,
+    response: PyReadonlyArray1<'py, f64>,
+    response_quantity: String,
+    sample_rate_hz: f64,
+    excitation: String,
+    reduction: String,
+) -> PyResult<String> {
+    let options = from_json::<ReductionJson>("reduction", &reduction)?.options()?;
+    let loaded = loaded(
+        &reference,
+        &reference_quantity,
+        &response,
+        &response_quantity,
+        sample_rate_hz,
+        &excitation,
+    )?;
+    let red = py.detach(|| reduce(&loaded, &options)).map_err(err)?;
+    to_json(&red.frf)
+}
+
+/// Fit options: the library's defaults with the given fields replaced
+/// (unknown fields are errors that name them).
+fn fit_options(text: &str) -> PyResult<FitOptions> {
+    let given: serde_json::Map<String, serde_json::Value> = from_json("fit options", text)?;
+    let mut value = serde_json::to_value(FitOptions::default())
+        .map_err(|e| fail(format!("fit options: {e}")))?;
+    let fields = value.as_object_mut().expect("FitOptions is a JSON object");
+    let known: Vec<String> = fields
+        .keys()
+        .cloned()
+        .chain(["extra_modes".into()])
+        .collect();
+    for (k, v) in given {
+        if !known.contains(&k) {
+            return Err(fail(format!(
+                "fit options: unknown option `{k}` (known: {})",
+                known.join(", ")
+            )));
+        }
+        let mut one = fields.clone();
+        one.insert(k.clone(), v.clone());
+        if let Err(e) = serde_json::from_value::<FitOptions>(one.into()) {
+            return Err(fail(format!("fit options: `{k}`: {e}")));
+        }
+        fields.insert(k, v);
+    }
+    let options: FitOptions =
+        serde_json::from_value(value).map_err(|e| fail(format!("fit options: {e}")))?;
+    options.validate().map_err(err)?;
+    Ok(options)
+}
+
+/// Fits a joint model to nonlinear FRFs (frf.json): fit.json.
+#[pyfunction]
+#[pyo3(signature = (frf, options, reference = None, recording = String::new(), response = None))]
+fn identify<'py>(
+    py: Python<'py>,
+    frf: String,
+    options: String,
+    reference: Option<PyRef<'py, PyModel>>,
+    recording: String,
+    response: Option<String>,
+) -> PyResult<String> {
+    let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
+    let options = fit_options(&options)?;
+    let reference = reference.and_then(|m| m.inner.joint.clone());
+    let (fit, _) = py
+        .detach(|| hystid::analysis::run_fit(&frf, &options, &Silent, None))
+        .map_err(err)?;
+    let response = response.unwrap_or_else(|| frf.response.name().to_string());
+    let report = FitReport::new(recording, response, fit, reference, Vec::new());
+    to_json(&report)
+}
+
+/// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
+/// `options`, as `hystid diagnose` does): diagnosis.json.
+#[pyfunction]
+#[pyo3(signature = (frf, options, fit = None, candidates = None))]
+fn diagnose<'py>(
+    py: Python<'py>,
+    frf: String,
+    options: String,
+    fit: Option<String>,
+    candidates: Option<Vec<String>>,
+) -> PyResult<String> {
+    let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
+    let fit_opts = fit_options(&options)?;
+    let mut d = DiagnoseOptions::default();
+    if let Some(c) = candidates {
+        d.candidates = c
+            .iter()
+            .map(|c| {
+                Effect::from_name(c).ok_or_else(|| {
+                    let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+                    fail(format!(
+                        "candidates: unknown effect `{c}` (known: {})",
+                        known.join(", ")
+                    ))
+                })
+            })
+            .collect::<PyResult<_>>()?;
+        if d.candidates.is_empty() {
+            return Err(fail("candidates: give at least one effect"));
+        }
+    }
+    let fit = match fit {
+        Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),
+        None => None,
+    };
+    // the candidates re-identify with the user's fit options, as the
+    // command line's diagnosis does
+    let d = DiagnoseOptions {
+        band_hz: fit_opts.band_hz,
+        fit: fit_opts.clone(),
+        ..d
+    };
+    let (diagnosis, seconds) = py
+        .detach(|| {
+            let t0 = std::time::Instant::now();
+            let fit = match fit {
+                Some(f) => f,
+                None => hystid::analysis::run_fit(&frf, &fit_opts, &Silent, None)?.0,
+            };
+            let (diagnosis, _) =
+                hystid::analysis::diagnose::run_diagnosis(&frf, &fit, &d, &Silent)?;
+            Ok((diagnosis, t0.elapsed().as_secs_f64()))
+        })
+        .map_err(err)?;
+    to_json(&DiagnosisReport::new(&diagnosis, seconds))
+}
+
+/// How a recording is validated on (the command line's validate flags).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SettingsJson {
+    #[serde(default)]
+    band_hz: Option<(f64, f64)>,
+    #[serde(default)]
+    window_s: Option<(f64, f64)>,
+    #[serde(default = "twenty")]
+    min_samples_per_period: f64,
+    #[serde(default = "yes")]
+    frf: bool,
+    reduction: ReductionJson,
+}
+
+fn twenty() -> f64 {
+    20.0
+}
+fn yes() -> bool {
+    true
+}
+
+/// A fit (fit.json) driven by a measured force, compared with the measured
+/// response: validate.json with this one recording, and the simulated
+/// response.
+#[pyfunction]
+#[pyo3(signature = (fit, linear, reference, reference_quantity, response, response_quantity, sample_rate_hz, excitation, settings, fit_name = String::new(), recording_name = String::new()))]
+#[allow(clippy::too_many_arguments)]
+fn validate<'py>(
+    py: Python<'py>,
+    fit: String,
+    linear: bool,
+    reference: PyReadonlyArray1<'py, f64>,
+    reference_quantity: String,
+    response: PyReadonlyArray1<'py, f64>,
+    response_quantity: String,
+    sample_rate_hz: f64,
+    excitation: String,
+    settings: String,
+    fit_name: String,
+    recording_name: String,
+) -> PyResult<(String, Bound<'py, PyArray1<f64>>)> {
+    let report: FitReport = from_json("fit", &fit)?;
+    let origin = if fit_name.is_empty() {
+        "fit"
+    } else {
+        &fit_name
+    };
+    let fit = FitModel::of_report(report, linear, Path::new(origin)).map_err(err)?;
+    let s: SettingsJson = from_json("settings", &settings)?;
+    let settings = ValidationSettings {
+        band_hz: s.band_hz,
+        window_s: s.window_s,
+        min_samples_per_period: s.min_samples_per_period,
+        frf: s.frf,
+        reduction: s.reduction.options()?,
+    };
+    let loaded = loaded(
+        &reference,
+        &reference_quantity,
+        &response,
+        &response_quantity,
+        sample_rate_hz,
+        &excitation,
+    )?;
+    let mut v = py
+        .detach(|| validate_loaded(&fit, &loaded, &settings))
+        .map_err(err)?;
+    let simulated = std::mem::take(&mut v.simulated);
+    let response = loaded.recording.meta.channels[loaded.response].name.clone();
+    let report = ValidateReport {
+        command: "validate",
+        version: hystid::analysis::VERSION,
+        fit: fit_name,
+        model_kind: fit.kind,
+        model: &fit.model,
+        response_sign: fit.response_sign,
+        recordings: vec![RecordingValidation {
+            recording: recording_name,
+            response,
+            validation: v,
+        }],
+        files: Vec::new(),
+    };
+    Ok((to_json(&report)?, simulated.into_pyarray(py)))
+}
+
+#[pymodule]
+fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("HystidError", m.py().get_type::<HystidError>())?;
+    m.add("DEFAULT_TEST", DEFAULT_TEST)?;
+    m.add("VERSION", hystid::analysis::VERSION)?;
+    m.add_class::<PyModel>()?;
+    m.add_function(wrap_pyfunction!(json_to_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_all, m)?)?;
+    m.add_function(wrap_pyfunction!(_rust_simulate_seconds, m)?)?;
+    m.add_function(wrap_pyfunction!(virtual_test, m)?)?;
+    m.add_function(wrap_pyfunction!(extract, m)?)?;
+    m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(validate, m)?)?;
+    Ok(())
+}

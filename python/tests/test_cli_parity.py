@@ -1,0 +1,104 @@
+"""The Python results equal the command line's JSON outputs for the same
+inputs: the small test (tests/small.toml) through `hystid simulate`,
+`identify`, `validate` and `diagnose`, and through the package."""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+import hystid
+
+from conftest import SMALL
+
+
+def read_wav_f32(path):
+    """The samples of a float32 WAV file (frames x channels), by its chunks."""
+    raw = pathlib.Path(path).read_bytes()
+    assert raw[:4] == b"RIFF" and raw[8:12] == b"WAVE"
+    pos, fmt, data = 12, None, None
+    while pos + 8 <= len(raw):
+        cid, size = raw[pos : pos + 4], int.from_bytes(raw[pos + 4 : pos + 8], "little")
+        body = raw[pos + 8 : pos + 8 + size]
+        if cid == b"fmt ":
+            fmt = body
+        elif cid == b"data":
+            data = body
+        pos += 8 + size + (size & 1)
+    channels = int.from_bytes(fmt[2:4], "little")
+    bits = int.from_bytes(fmt[14:16], "little")
+    assert bits == 32, bits
+    return np.frombuffer(data, dtype="<f4").reshape(-1, channels)
+
+
+def without(d, *keys):
+    return {k: v for k, v in d.items() if k not in keys}
+
+
+@pytest.fixture(scope="module")
+def py():
+    """The package on the same input: the virtual test, its recording
+    reduced, fitted, validated and diagnosed."""
+    t = hystid.virtual_test(SMALL)
+    s, meta = t["signals"], t["recording"]
+    fs, steps = meta["sample_rate_hz"], meta["excitation"]["steps"]
+    frf = hystid.extract(s["force"], s["displacement"], fs, steps=steps)
+    fit = hystid.identify(frf, reference=SMALL, recording="sim/recording.json")
+    val = hystid.validate(
+        fit, s["force"], s["displacement"], fs, steps=steps,
+        fit_name="fit/fit.json", recording="sim/recording.json",
+    )
+    diagnosis = hystid.diagnose(frf)
+    return {"test": t, "frf": frf, "fit": fit, "validate": val, "diagnosis": diagnosis}
+
+
+def test_virtual_test_is_hystid_simulate(cli, py):
+    t = py["test"]
+    assert t["frf"] == cli["frf"]
+    assert t["recording"] == cli["recording"]
+    assert without(t["summary"], "seconds", "files") == without(cli["summary"], "seconds", "files")
+    assert t["summary"]["files"] == []
+    # the samples of recording.wav, bit for bit
+    wav = read_wav_f32(cli["dir"] / "sim" / "recording.wav")
+    names = [c["name"] for c in cli["recording"]["channels"]]
+    assert names == ["force", "displacement", "velocity", "acceleration"]
+    for i, name in enumerate(names):
+        got = t["signals"][name]
+        assert got.dtype == np.float32
+        assert got.tobytes() == wav[:, i].tobytes(), name
+    # 4 levels x 11 frequencies
+    assert t["summary"]["dwells"] == 44 and len(t["recording"]["excitation"]["steps"]) == 44
+
+
+def test_identify_is_hystid_identify(cli, py):
+    fit, ref = py["fit"], cli["fit"]
+    # everything but the wall time (and the files the command wrote)
+    assert without(fit, "effort", "files") == without(ref, "effort", "files")
+    assert without(fit["effort"], "seconds", "ms_per_evaluation") == without(
+        ref["effort"], "seconds", "ms_per_evaluation"
+    )
+    assert fit["files"] == []
+    # the fit recovers the reference joint (Jenkins kd = 2.4e7 N/m,
+    # Fd = 246.048 N) as the command does; within 2 % at 10 % noise on 44 dwells
+    cmp = {c["parameter"]: c for c in fit["comparison"]}
+    assert set(cmp) == {"kd", "fd"}
+    for c in cmp.values():
+        assert abs(c["relative_error"]) < 0.02, c
+
+
+def test_validate_is_hystid_validate(cli, py):
+    val, ref = py["validate"], cli["validate"]
+    assert without(val, "recordings", "files") == without(ref, "recordings", "files")
+    entry = dict(val["recordings"][0])
+    simulated = entry.pop("simulated")
+    assert entry == ref["recordings"][0]
+    assert simulated.shape == py["test"]["signals"]["force"].shape
+    # the simulated response's e_RMS is the report's
+    measured = py["test"]["signals"]["displacement"].astype(np.float64)
+    e_rms = np.sqrt(np.mean((simulated - measured) ** 2))
+    assert e_rms == pytest.approx(entry["whole"]["e_rms"], rel=1e-9)
+
+
+def test_diagnose_is_hystid_diagnose(cli, py):
+    assert without(py["diagnosis"], "seconds") == without(cli["diagnosis"], "seconds")
+    assert py["diagnosis"]["command"] == "diagnose"
