@@ -1157,51 +1157,25 @@ fn ascii_values(
         let before = values.len();
         tokens.clear();
         tokens.extend(s.split_whitespace());
-        let mut ok = true;
-        for t in &tokens {
-            match parse_real(t) {
-                Some(v) => values.push(v),
+        let bad = tokens.iter().position(|t| parse_real(t).is_none());
+        match bad {
+            None => values.extend(tokens.iter().filter_map(|t| parse_real(t))),
+            Some(i) => match fixed_columns(s.trim_end(), widths) {
+                // values run together in their fixed columns
+                Some(v) => values.extend(v),
                 None => {
-                    ok = false;
-                    break;
+                    return Err(w.err(
+                        k,
+                        format!(
+                            "`{}` is not a number (value {} of {need}; expected {} in {})",
+                            tokens[i],
+                            before + i + 1,
+                            case.describe(),
+                            case.format()
+                        ),
+                    ));
                 }
-            }
-        }
-        if !ok {
-            // values run together: the fixed columns of the format
-            values.truncate(before);
-            let mut at = 0;
-            let trimmed = s.trim_end();
-            let b = trimmed.as_bytes();
-            for &width in widths.iter().cycle() {
-                if at >= b.len() {
-                    break;
-                }
-                let end = (at + width).min(b.len());
-                let field = std::str::from_utf8(&b[at..end]).unwrap_or("");
-                match parse_real(field) {
-                    Some(v) => values.push(v),
-                    None => {
-                        let bad = tokens
-                            .iter()
-                            .find(|t| parse_real(t).is_none())
-                            .copied()
-                            .unwrap_or(field);
-                        return Err(w.err(
-                            k,
-                            format!(
-                                "`{}` is not a number (value {} of {need}; expected {} in {}, \
-                                 columns of {width})",
-                                bad.trim(),
-                                values.len() + 1,
-                                case.describe(),
-                                case.format()
-                            ),
-                        ));
-                    }
-                }
-                at = end;
-            }
+            },
         }
         if values.len() > need {
             return Err(w.err(
@@ -1239,6 +1213,39 @@ fn ascii_values(
             }
         }
     }
+}
+
+/// A line of numbers in fixed columns of `widths` (repeated), for values
+/// that run together (`-1.23457E-100-2.00000E+00`): `None` unless every
+/// field is one number and no column boundary cuts a number (a boundary
+/// falls next to a blank, or before the sign of a number that follows a
+/// digit).
+fn fixed_columns(line: &str, widths: &[usize]) -> Option<Vec<f64>> {
+    let b = line.as_bytes();
+    let mut out = Vec::new();
+    let mut at = 0;
+    for &width in widths.iter().cycle() {
+        if at >= b.len() {
+            return Some(out);
+        }
+        if at > 0 {
+            let (l, r) = (b[at - 1], b[at]);
+            let clean = l.is_ascii_whitespace()
+                || r.is_ascii_whitespace()
+                || ((r == b'+' || r == b'-') && (l.is_ascii_digit() || l == b'.'));
+            if !clean {
+                return None;
+            }
+        }
+        let end = (at + width).min(b.len());
+        let field = std::str::from_utf8(&b[at..end]).ok()?.trim();
+        if field.contains(char::is_whitespace) {
+            return None;
+        }
+        out.push(parse_real(field)?);
+        at = end;
+    }
+    Some(out)
 }
 
 /// The values of a binary record 12: the layout record 7 implies, with the
@@ -1288,8 +1295,36 @@ fn binary_values(
         } else {
             let at = start.saturating_add(smallest);
             let after = cur.bytes.get(at..).unwrap_or(&[]);
+            // the values in the other precision would close it: say so
+            let other = match case.precision {
+                Precision::Single => sized.iter().map(|s| s.0.saturating_mul(2)).min(),
+                Precision::Double => sized.iter().map(|s| s.0 / 2).min(),
+            }
+            .filter(|&b| b <= left && closes_at(cur.bytes, start + b));
+            let per_point = sized.first().map_or(0, |s| s.0 / n.max(1));
+            let by_header = (declared <= left
+                && closes_at(cur.bytes, start + declared)
+                && per_point > 0
+                && declared % per_point == 0)
+                .then(|| declared / per_point);
+            let hint = match (by_header, other) {
+                (Some(count), _) => format!(
+                    "; it follows the 58b line's {declared} bytes, {count} values of this type: \
+                     record 7's number of values does not match the data"
+                ),
+                (None, Some(b)) => format!(
+                    "; it follows {b} bytes, these values' size in {} precision: record 7's \
+                     data type does not match the data (pyuff 2.5 writes single-precision 58b \
+                     this way)",
+                    match case.precision {
+                        Precision::Single => "double",
+                        Precision::Double => "single",
+                    }
+                ),
+                (None, None) => String::new(),
+            };
             format!(
-                "no closing `-1` follows them (bytes after the data: {})",
+                "no closing `-1` follows them (bytes after the data: {}){hint}",
                 hex(&after[..after.len().min(8)])
             )
         };
@@ -1876,8 +1911,14 @@ pub(crate) fn load(path: &Path, file: &UffFile, spec: &ImportSpec) -> Result<(Im
         notes = n;
     }
     let mut chosen = Vec::with_capacity(spec.channels.len());
-    for (k, c) in spec.channels.iter().enumerate() {
-        let (d, f) = resolve(path, file, c, k)?;
+    for k in 0..spec.channels.len() {
+        let (d, f) = resolve(path, file, &spec.channels[k], k)?;
+        let c = &mut spec.channels[k];
+        if c.name.is_none() && matches!(c.source, Source::Index(_)) {
+            // `#3` would read `column_3`: the dataset's own name instead
+            c.name = Some(default_name(d, f, c.quantity));
+        }
+        let c = &spec.channels[k];
         if f.function_type != 1 {
             return Err(Error::format(
                 path,
