@@ -11,6 +11,10 @@
 //!   benchmark (`uval_sinesweep`, ...), compressed or not.
 //! * Delimited text, CSV/TSV/whitespace ([`delimited`]): a header row after
 //!   optional `#` comment lines, as the UNESP BERT CSVs have.
+//! * Universal File Format dataset 58, ASCII and binary 58b ([`uff`]): the
+//!   time records of Testlab, ME'scope or pyuff. Such a file says what its
+//!   channels are (quantity, units, node and direction, sample spacing), so
+//!   a spec without channels imports all of them ([`names_its_channels`]).
 //!
 //! What to take from the file is an [`ImportSpec`] (serde data, so the CLI
 //! can build it from flags or a TOML table): which variables or columns
@@ -441,8 +445,9 @@ pub(crate) struct Loaded {
 }
 
 /// Imports `source` as `spec` says: dispatches on the extension (`.mat`;
-/// `.csv`, `.tsv`, `.txt`, `.dat`), applies calibration, checks units and
-/// names, keeps the excitation in the recording and runs
+/// `.csv`, `.tsv`, `.txt`, `.dat`; UFF: [`UFF_EXTENSIONS`]), applies
+/// calibration, checks units and names, keeps the excitation in the
+/// recording and runs
 /// [`check_quality`] (plus, for a time column, the rate and jitter checks of
 /// [`quality::check_time_axis`]).
 ///

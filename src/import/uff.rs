@@ -1358,7 +1358,7 @@ fn binary_values(
         }
     };
     let read = |b: &[u8], size: usize| if size == 4 { f32_at(b) } else { f64_at(b) };
-    let per = if n == 0 { 0 } else { bytes / n };
+    let per = bytes.checked_div(n).unwrap_or(0);
     if per > 0 {
         for point in data.chunks_exact(per) {
             let mut at = 0;
@@ -2000,7 +2000,10 @@ pub(crate) fn load(path: &Path, file: &UffFile, spec: &ImportSpec) -> Result<(Im
             }
             (Abscissa::Uneven(x), Abscissa::Uneven(x0)) => {
                 let tol = 0.01 * period0(f0).abs();
-                if let Some(i) = (0..x.len()).find(|&i| !((x[i] - x0[i]).abs() <= tol)) {
+                if let Some(i) = (0..x.len()).find(|&i| {
+                    let d = (x[i] - x0[i]).abs();
+                    d.is_nan() || d > tol
+                }) {
                     return Err(mismatch(format!(
                         "abscissa value {} is {} s, but {} has {} s",
                         i + 1,
