@@ -444,9 +444,10 @@ fn testlab_and_pyuff_quirks_read_the_same_values() {
         assert_eq!(g.binary.unwrap().data_bytes, 2000, "{name}");
         assert_eq!(g.ordinate_axis.units, "N", "{name}");
     }
-    // two datasets back to back, the second after blank lines
+    // two datasets back to back, the second after blank lines and a stray
+    // `-1` (fix_58b's case in pyuff)
     let mut two = cases[0].1.clone();
-    two.extend(b"\r\n\r\n");
+    two.extend(b"\r\n    -1\r\n\r\n");
     two.extend(&cases[2].1);
     let f = parse(Path::new("two"), &two).unwrap();
     assert_eq!(f.functions().count(), 2);

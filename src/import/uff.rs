@@ -25,7 +25,7 @@
 //!
 //! All eight data cases are read (real/complex, single/double, even/uneven);
 //! other datasets (151 header, 164 units, 2411 nodes, ...) are skipped and
-//! listed. [`write`] writes dataset 58 as ASCII (what hystid's FRF export
+//! listed. [`write()`] writes dataset 58 as ASCII (what hystid's FRF export
 //! uses).
 //!
 //! What real exporters do that the specification does not, and is accepted
@@ -517,12 +517,19 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<UffFile> {
                 ),
             ));
         }
-        let Some((id_line, id_n)) = cur.next_line() else {
-            return Err(Error::format(
-                path,
-                format!("dataset {index}"),
-                format!("line {n}: the file ends after `-1`: expected a dataset number"),
-            ));
+        // a stray extra `-1` (an empty dataset) is passed over
+        let (id_line, id_n) = loop {
+            match cur.next_line() {
+                Some((l, _)) if is_delimiter(l) || is_blank(l) => continue,
+                Some(x) => break x,
+                None => {
+                    return Err(Error::format(
+                        path,
+                        format!("dataset {index}"),
+                        format!("line {n}: the file ends after `-1`: expected a dataset number"),
+                    ));
+                }
+            }
         };
         let t = text(id_line);
         let digits = t.bytes().take_while(u8::is_ascii_digit).count();
