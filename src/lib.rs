@@ -22,7 +22,8 @@
 //! * [`signals`]: a recording in memory (channels, samples, excitation), shared
 //!   by the stages that produce and reduce one without the file format.
 //! * [`record`]: the WAV + JSON recording format and MCAP run files.
-//! * [`import`]: MAT and CSV files converted into recordings, with data checks.
+//! * [`import`]: MAT, CSV and UFF 58 files converted into recordings, with data
+//!   checks (and the UFF 58 writer the FRF export uses).
 //! * [`validate`]: a fitted model driven by a recording's measured force in
 //!   the time domain and compared with the measured response (e_RMS).
 //!

@@ -53,6 +53,41 @@ fn files_in(dir: &Path) -> Vec<String> {
     v
 }
 
+/// `frf.uff` holds `frf.json`'s FRFs: one dataset per level and harmonic,
+/// frequencies ascending (six printed digits), H to 13 significant digits.
+fn frf_uff_matches_frf_json(dir: &Path) {
+    use hystid::import::uff::{Abscissa, Ordinate, UffFile};
+    let frf: hystid::extract::NonlinearFrf =
+        serde_json::from_slice(&std::fs::read(dir.join("frf.json")).unwrap()).unwrap();
+    let file = UffFile::open(&dir.join("frf.uff")).unwrap();
+    let k = frf.max_harmonic + 1;
+    assert_eq!(file.datasets.len(), frf.levels.len() * k);
+    for (d, (l, h)) in file
+        .functions()
+        .zip(frf.levels.iter().flat_map(|l| (0..k).map(move |h| (l, h))))
+    {
+        let (_, f) = d;
+        assert_eq!(f.function_type, 4);
+        assert_eq!(f.id_lines[3], format!("level {} N, sweep up", l.level));
+        assert_eq!(f.id_lines[4], format!("harmonic {h}"));
+        assert_eq!(f.version, h as i64);
+        assert_eq!(f.z_axis_value, l.level);
+        let (Abscissa::Uneven(x), Ordinate::Complex(y)) = (&f.abscissa, &f.ordinate) else {
+            panic!("{:?}", f.id_lines)
+        };
+        let mut points: Vec<_> = l.points.iter().collect();
+        points.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
+        assert_eq!(x.len(), points.len());
+        for ((x, y), p) in x.iter().zip(y).zip(points) {
+            // E13.5: half a unit in the sixth digit
+            assert!((x - p.frequency_hz).abs() <= 5e-6 * p.frequency_hz, "{x}");
+            // E20.12: half a unit in the thirteenth digit, per part
+            let scale = p.h[h].re.abs().max(p.h[h].im.abs());
+            assert!((y - p.h[h]).norm() <= 1e-12 * scale, "{y} {}", p.h[h]);
+        }
+    }
+}
+
 #[test]
 fn simulate_writes_every_output_and_is_byte_identical_across_thread_counts() {
     let dir = tempfile::tempdir().unwrap();
@@ -86,6 +121,7 @@ fn simulate_writes_every_output_and_is_byte_identical_across_thread_counts() {
         "recording.json",
         "frf.json",
         "frf.csv",
+        "frf.uff",
         "frf.png",
         "frf.svg",
         "summary.json",
@@ -98,6 +134,7 @@ fn simulate_writes_every_output_and_is_byte_identical_across_thread_counts() {
         "recording.json",
         "frf.json",
         "frf.csv",
+        "frf.uff",
         "frf.svg",
         "frf.png",
     ] {
@@ -107,6 +144,7 @@ fn simulate_writes_every_output_and_is_byte_identical_across_thread_counts() {
             "{f} differs between 1 and 2 threads"
         );
     }
+    frf_uff_matches_frf_json(&a);
     // the recording reads back and its dwells are the MCAP's
     let rec = hystid::record::read_recording(&a.join("recording.wav")).unwrap();
     let run = hystid::record::read_run(&a.join("run.mcap")).unwrap();

@@ -21,3 +21,4 @@ mod realdata;
 mod record;
 mod sim;
 mod time_fit;
+mod uff;

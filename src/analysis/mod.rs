@@ -3,7 +3,8 @@
 //!
 //! A recording on disk (MCAP run file or WAV + JSON) is loaded with the test
 //! definition it recorded, its response channel chosen, and reduced into
-//! nonlinear FRFs ([`recording`]); the FRFs are fitted and the fit written as
+//! nonlinear FRFs ([`recording`]), which are written as JSON, CSV and UFF
+//! ([`frf_uff`]); the FRFs are fitted and the fit written as
 //! `fit.json` with its figures ([`identify`]); a fit is validated by
 //! simulation on recordings ([`validate`]); a virtual test is run into its
 //! files ([`simulate`]); a fit's residual is diagnosed ([`diagnose`]); and the
@@ -13,6 +14,7 @@
 //! callbacks, and every report is returned as data.
 
 pub mod diagnose;
+pub mod frf_uff;
 pub mod identify;
 pub mod recording;
 pub mod run;

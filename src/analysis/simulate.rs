@@ -1,5 +1,5 @@
 //! A virtual stepped-sine test run into its files: the MCAP run file, the
-//! WAV + JSON recording, the FRFs (`frf.json`, `frf.csv`, figure) and, on
+//! WAV + JSON recording, the FRFs (`frf.json`, `frf.csv`, `frf.uff`, figure) and, on
 //! request, the harmonic-balance cross-check; with the run's summary.
 
 use super::write_json;
@@ -222,10 +222,16 @@ impl BenchSink for FileSink {
     }
 }
 
-/// Writes `frf.json`, `frf.csv` and the FRF figure.
+/// Writes `frf.json`, `frf.csv`, `frf.uff` (UFF datasets 58, see
+/// [`super::frf_uff`]) and the FRF figure.
 pub fn write_frf_files(dir: &Path, frf: &NonlinearFrf, title: &str) -> Result<Vec<PathBuf>> {
-    let mut files = vec![dir.join("frf.json"), dir.join("frf.csv")];
+    let mut files = vec![
+        dir.join("frf.json"),
+        dir.join("frf.csv"),
+        dir.join("frf.uff"),
+    ];
     write_json(&files[0], frf)?;
+    super::frf_uff::write_frf_uff(&files[2], frf)?;
     let mut csv = String::from(
         "level,direction,frequency_hz,force_amplitude,harmonic,re,im,magnitude,phase_deg,std_error\n",
     );

@@ -145,7 +145,9 @@ pub enum ExcitationArg {
 #[derive(Debug, Args)]
 pub struct ImportArgs {
     /// The file: .mat (MATLAB v5), .csv/.tsv/.txt/.dat (header row after `#`
-    /// comments) or a hystid NAME.wav / NAME.json (checked and rewritten).
+    /// comments), UFF dataset 58 time records, ASCII or binary (.uff, .unv,
+    /// .58: channels, units and rate from the file) or a hystid NAME.wav /
+    /// NAME.json (checked and rewritten).
     pub file: PathBuf,
     /// Output: a stem NAME (writes NAME.wav, NAME.json and
     /// NAME.quality.json), or a folder (existing, or ending in `/`), where
@@ -154,7 +156,8 @@ pub struct ImportArgs {
     pub out: PathBuf,
     /// A channel, `[NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE]`, e.g.
     /// `force=Force:force` or `acc2=Acceleration(2):acceleration`; `#K` is
-    /// column K (from 1). Repeat for each channel; replaces the spec's.
+    /// column K (from 1), in a UFF file dataset K. Repeat for each channel;
+    /// replaces the spec's (and a UFF file's own units: value × SCALE).
     #[arg(long = "channel", short = 'c')]
     pub channels: Vec<String>,
     /// Sample rate: auto, comment, a number of Hz, variable:NAME or

@@ -1,5 +1,5 @@
-//! `hystid import`: measured data (MAT v5, CSV/TSV, WAV + JSON) into a
-//! checked recording, NAME.wav + NAME.json, with its quality report.
+//! `hystid import`: measured data (MAT v5, CSV/TSV, UFF 58, WAV + JSON) into
+//! a checked recording, NAME.wav + NAME.json, with its quality report.
 
 use super::args::{ExcitationArg, ImportArgs, WavFormat};
 use super::{EXIT_OK, write_json};
@@ -147,7 +147,7 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
         let q = check_quality(&rec, &opts);
         (rec, q)
     } else {
-        if spec.channels.is_empty() {
+        if spec.channels.is_empty() && !hystid::import::names_its_channels(&args.file) {
             let listing = match args.file.extension().and_then(|e| e.to_str()) {
                 Some(e) if e.eq_ignore_ascii_case("mat") => {
                     hystid::import::mat::MatFile::open(&args.file)
@@ -163,6 +163,11 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
             );
         }
         let imported = import(&args.file, &spec)?;
+        if !quiet {
+            for n in &imported.notes {
+                eprintln!("note: {n}");
+            }
+        }
         (imported.recording, imported.quality)
     };
     let (recording, rounded) = whole_hz(&args.file, recording)?;

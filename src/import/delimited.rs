@@ -610,5 +610,7 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
         rate_declared: declared,
         time,
         metadata: meta,
+        source_texts: Vec::new(),
+        notes: Vec::new(),
     })
 }

@@ -11,6 +11,10 @@
 //!   benchmark (`uval_sinesweep`, ...), compressed or not.
 //! * Delimited text, CSV/TSV/whitespace ([`delimited`]): a header row after
 //!   optional `#` comment lines, as the UNESP BERT CSVs have.
+//! * Universal File Format dataset 58, ASCII and binary 58b ([`uff`]): the
+//!   time records of Testlab, ME'scope or pyuff. Such a file says what its
+//!   channels are (quantity, units, node and direction, sample spacing), so
+//!   a spec without channels imports all of them ([`names_its_channels`]).
 //!
 //! What to take from the file is an [`ImportSpec`] (serde data, so the CLI
 //! can build it from flags or a TOML table): which variables or columns
@@ -40,6 +44,7 @@
 pub mod delimited;
 pub mod mat;
 pub mod quality;
+pub mod uff;
 
 pub use quality::{
     Finding, FindingKind, QualityOptions, QualityReport, Severity, Span, check_quality,
@@ -410,6 +415,9 @@ pub struct Imported {
     /// Data-quality findings; `quality.has_errors()` means NaN/Inf (or a
     /// broken time axis) that an identification must not use.
     pub quality: QualityReport,
+    /// What the reader left out or assumed (a UFF file's other datasets, a
+    /// missing units label), one sentence each.
+    pub notes: Vec<String>,
 }
 
 /// What a format reader hands back: raw channel values (file units, before
@@ -428,21 +436,30 @@ pub(crate) struct Loaded {
     pub time: Option<(String, Vec<f64>)>,
     /// Format-specific metadata (`import` section).
     pub metadata: serde_json::Map<String, serde_json::Value>,
+    /// How each channel's source reads in the metadata, where the spec's
+    /// own text would mislead (a UFF `#3` is a dataset, not a column); empty:
+    /// the spec's.
+    pub source_texts: Vec<String>,
+    /// Notes for [`Imported::notes`].
+    pub notes: Vec<String>,
 }
 
 /// Imports `source` as `spec` says: dispatches on the extension (`.mat`;
-/// `.csv`, `.tsv`, `.txt`, `.dat`), applies calibration, checks units and
-/// names, keeps the excitation in the recording and runs
+/// `.csv`, `.tsv`, `.txt`, `.dat`; UFF: [`UFF_EXTENSIONS`]), applies
+/// calibration, checks units and names, keeps the excitation in the
+/// recording and runs
 /// [`check_quality`] (plus, for a time column, the rate and jitter checks of
 /// [`quality::check_time_axis`]).
 ///
 /// Errors name the file and the variable, column or row at fault.
 pub fn import(source: &Path, spec: &ImportSpec) -> Result<Imported> {
-    let ext = source
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .unwrap_or_default();
+    let ext = extension(source);
+    if UFF_EXTENSIONS.contains(&ext.as_str()) {
+        let file = uff::UffFile::open(source)?;
+        let (spec, loaded) = uff::load(source, &file, spec)?;
+        validate_spec(source, &spec)?;
+        return build(source, &spec, loaded);
+    }
     validate_spec(source, spec)?;
     let loaded = match ext.as_str() {
         "mat" => mat_load(source, spec)?,
@@ -459,12 +476,30 @@ pub fn import(source: &Path, spec: &ImportSpec) -> Result<Imported> {
                 source,
                 "extension",
                 format!(
-                    "`.{other}` is not a supported import format (expected .mat, .csv, .tsv, .txt or .dat)"
+                    "`.{other}` is not a supported import format (expected .mat, .csv, .tsv, \
+                     .txt, .dat, or UFF: .uff, .unv, .58, .bunv, .ufb)"
                 ),
             ));
         }
     };
     build(source, spec, loaded)
+}
+
+/// Extensions read as Universal File Format ([`uff`]).
+pub const UFF_EXTENSIONS: [&str; 5] = ["uff", "unv", "58", "bunv", "ufb"];
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+/// Whether the file says what its channels are, so that an [`ImportSpec`]
+/// without channels imports them all (a UFF file's time records, by their
+/// record 9), rather than being an error.
+pub fn names_its_channels(path: &Path) -> bool {
+    UFF_EXTENSIONS.contains(&extension(path).as_str())
 }
 
 /// Checks the parts of the spec that do not need the file.
@@ -605,6 +640,8 @@ fn build(path: &Path, spec: &ImportSpec, loaded: Loaded) -> Result<Imported> {
         rate_declared,
         time,
         mut metadata,
+        source_texts,
+        notes,
     } = loaded;
     if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
         return Err(Error::format(
@@ -681,7 +718,14 @@ fn build(path: &Path, spec: &ImportSpec, loaded: Loaded) -> Result<Imported> {
     let sources: serde_json::Map<String, serde_json::Value> = spec
         .channels
         .iter()
-        .map(|c| (c.channel_name(), c.source_text().into()))
+        .enumerate()
+        .map(|(k, c)| {
+            let text = source_texts
+                .get(k)
+                .cloned()
+                .unwrap_or_else(|| c.source_text());
+            (c.channel_name(), text.into())
+        })
         .collect();
     metadata.insert("channels".into(), sources.into());
     let mut meta_map = serde_json::Map::new();
@@ -717,7 +761,11 @@ fn build(path: &Path, spec: &ImportSpec, loaded: Loaded) -> Result<Imported> {
         quality.time_axis = Some(axis.summary);
     }
     quality.sort();
-    Ok(Imported { recording, quality })
+    Ok(Imported {
+        recording,
+        quality,
+        notes,
+    })
 }
 
 /// Names a MAT-file sample-rate variable may have (compared in lower case).
@@ -852,5 +900,7 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
         rate_declared: declared,
         time,
         metadata: meta,
+        source_texts: Vec::new(),
+        notes: Vec::new(),
     })
 }
