@@ -853,16 +853,7 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
     }
     let chi2 = chi_square(problem.data, pred);
     let values = params.values(theta);
-    let at_bound: Vec<bool> = params
-        .parameters
-        .iter()
-        .zip(&values)
-        .map(|(p, &v)| {
-            p.bounds
-                .iter()
-                .any(|&b| (v - b).abs() <= 0.01 * b.abs().max(f64::MIN_POSITIVE))
-        })
-        .collect();
+    let at_bound = params.at_bounds(&values);
     let cov = optimise::covariance(&jac, &variances, chi2, &at_bound);
     let (cov, reduced) = match cov {
         Some(c) => c,

@@ -289,6 +289,20 @@ impl ParameterSet {
         Ok((m, outside))
     }
 
+    /// Which of `values` (one per parameter) sit at a bound (within 1 %):
+    /// no Wald interval there.
+    pub fn at_bounds(&self, values: &[f64]) -> Vec<bool> {
+        self.parameters
+            .iter()
+            .zip(values)
+            .map(|(p, &v)| {
+                p.bounds
+                    .iter()
+                    .any(|&b| (v - b).abs() <= 0.01 * b.abs().max(f64::MIN_POSITIVE))
+            })
+            .collect()
+    }
+
     /// Physical values at `theta` (clamped).
     pub fn values(&self, theta: &[f64]) -> Vec<f64> {
         self.parameters

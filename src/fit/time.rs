@@ -348,13 +348,9 @@ impl<'a> TimeProblem<'a> {
         self.parameters.model_at(&self.base, theta)
     }
 
-    /// `model`'s simulated response to record `r`, every sample.
-    fn replay(&self, model: &Model, r: &TimeRecord) -> Result<Vec<f64>> {
-        let i = self
-            .records
-            .iter()
-            .position(|x| std::ptr::eq(x, r))
-            .expect("one of the problem's records");
+    /// `model`'s simulated response to record `i`, every sample.
+    fn replay(&self, model: &Model, i: usize) -> Result<Vec<f64>> {
+        let r = &self.records[i];
         Ok(simulate_prepared(
             model,
             &self.drives[i],
@@ -371,8 +367,9 @@ impl<'a> TimeProblem<'a> {
         self.records
             .iter()
             .zip(&self.scale)
-            .map(|(r, scale)| {
-                let sim = self.replay(model, r)?;
+            .enumerate()
+            .map(|(i, (r, scale))| {
+                let sim = self.replay(model, i)?;
                 let mut sum = 0.0;
                 for (seg, sc) in r.segments.iter().zip(scale) {
                     sum += seg
@@ -392,8 +389,8 @@ impl<'a> TimeProblem<'a> {
 
     fn residuals_of(&self, model: &Model, outside: f64) -> Result<Vec<f64>> {
         let mut out = Vec::with_capacity(self.records.iter().map(|r| r.window.len()).sum());
-        for (r, scale) in self.records.iter().zip(&self.scale) {
-            let sim = match self.replay(model, r) {
+        for (i, (r, scale)) in self.records.iter().zip(&self.scale).enumerate() {
+            let sim = match self.replay(model, i) {
                 Ok(sim) => Some(sim),
                 // a model the simulator rejects: worse than predicting nothing
                 Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => None,
@@ -532,20 +529,11 @@ fn time_confidence(problem: &TimeProblem, theta: &[f64]) -> Result<BTreeMap<Stri
     let r0 = problem.residuals(theta)?;
     let jac = optimise::jacobian(problem, theta, &r0, 1e-5)?;
     let values = params.values(theta);
-    let at_bound: Vec<bool> = params
-        .parameters
-        .iter()
-        .zip(&values)
-        .map(|(p, &v)| {
-            p.bounds
-                .iter()
-                .any(|&b| (v - b).abs() <= 0.01 * b.abs().max(f64::MIN_POSITIVE))
-        })
-        .collect();
+    let at_bound = params.at_bounds(&values);
     let m = r0.len() - 1;
     let s2 = r0[..m].iter().map(|v| v * v).sum::<f64>() / (m as f64 - theta.len() as f64).max(1.0);
-    // `covariance` scales by the reduced χ² (here `s²` against unit
-    // variances); it never deflates, so hand it `s²` in units where it is ≥ 1
+    // `s² (JᵀJ)⁻¹` directly: `optimise::covariance` never deflates below
+    // the unit variances, and these residuals are relative errors (≪ 1)
     let free: Vec<usize> = (0..theta.len()).filter(|&j| !at_bound[j]).collect();
     let jf = nalgebra::DMatrix::from_fn(m, free.len(), |i, k| jac[(i, free[k])]);
     let cov = (jf.transpose() * &jf).try_inverse().map(|a| a * s2);
