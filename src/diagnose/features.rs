@@ -255,6 +255,37 @@ pub fn common_receptance_residual(data: &FitData, pred: &Prediction) -> Vec<(f64
         .collect()
 }
 
+/// The model's receptance sensitivities to its stiffness, mass and damping
+/// (`−H²`, `ω²H²`, `−iωH²` of a single-mode dynamic stiffness, averaged over
+/// the levels), at the points of [`common_receptance_residual`]: what the
+/// fitted model can already absorb of a missing mode by bending its own
+/// linear parameters.
+pub fn common_receptance_background(data: &FitData, pred: &Prediction) -> Vec<Vec<Complex64>> {
+    let Some(k) = data.harmonic_index(1) else {
+        return Vec::new();
+    };
+    let mut grid: BTreeMap<u64, ([Complex64; 3], usize)> = BTreeMap::new();
+    for (s, ps) in data.series.iter().zip(&pred.h) {
+        for (p, m) in s.points.iter().zip(ps) {
+            if let Some(m) = m {
+                let w = omega(p.frequency_hz);
+                let h = m[k] / data.response.from_displacement(w);
+                let h2 = h * h;
+                let e = grid
+                    .entry((p.frequency_hz * 1e6).round() as u64)
+                    .or_insert(([Complex64::default(); 3], 0));
+                e.0[0] -= h2;
+                e.0[1] += w * w * h2;
+                e.0[2] -= Complex64::i() * w * h2;
+                e.1 += 1;
+            }
+        }
+    }
+    (0..3)
+        .map(|j| grid.values().map(|(c, n)| c[j] / *n as f64).collect())
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -445,8 +445,47 @@ pub fn locate_mode_between(
     lo_hz: f64,
     hi_hz: f64,
 ) -> Option<crate::model::Mode> {
-    if pts.len() < 4 || !(lo_hz > 0.0 && hi_hz > lo_hz) {
+    locate_mode_against(pts, &[], avoid, lo_hz, hi_hz)
+}
+
+/// [`locate_mode_between`] with the mode fitted together with real
+/// multiples of `background` (columns over `pts`, e.g. the receptance's
+/// sensitivities to the fitted mass, stiffness and damping).
+///
+/// A residual is what the fitted model left: when the model already bent
+/// its own parameters towards a missing mode, the residual is the mode
+/// *minus* that bending, and a search for the mode alone prefers a far,
+/// heavily damped one that mimics the difference. Projecting the
+/// bending out (variable projection: the linear coefficients solved at
+/// each trial frequency and damping) finds the mode itself.
+pub fn locate_mode_against(
+    pts: &[(f64, Complex64, f64)],
+    background: &[Vec<Complex64>],
+    avoid: &[f64],
+    lo_hz: f64,
+    hi_hz: f64,
+) -> Option<crate::model::Mode> {
+    let columns = 1 + background.len();
+    if pts.len() < 2 * columns || !(lo_hz > 0.0 && hi_hz > lo_hz)
+        || background.iter().any(|b| b.len() != pts.len())
+    {
         return None;
+    }
+    let weight: Vec<f64> = pts
+        .iter()
+        .map(|p| 1.0 / p.2.max(f64::MIN_POSITIVE))
+        .collect();
+    // the weighted real and imaginary rows of the response and background
+    let n = 2 * pts.len();
+    let mut y = nalgebra::DVector::<f64>::zeros(n);
+    let mut a = nalgebra::DMatrix::<f64>::zeros(n, columns);
+    for (i, p) in pts.iter().enumerate() {
+        y[2 * i] = weight[i] * p.1.re;
+        y[2 * i + 1] = weight[i] * p.1.im;
+        for (j, b) in background.iter().enumerate() {
+            a[(2 * i, j + 1)] = weight[i] * b[i].re;
+            a[(2 * i + 1, j + 1)] = weight[i] * b[i].im;
+        }
     }
     let mut best: Option<(f64, crate::model::Mode)> = None;
     for i in 0..=300 {
@@ -456,25 +495,22 @@ pub fn locate_mode_between(
         }
         for zeta in [0.002, 0.005, 0.01, 0.02, 0.05, 0.1] {
             let w2 = omega(f2);
-            let g = |f: f64| {
-                let w = omega(f);
-                1.0 / Complex64::new(w2 * w2 - w * w, 2.0 * zeta * w2 * w)
-            };
-            let (mut num, mut den) = (0.0, 0.0);
-            for &(f, r, s) in pts {
-                let gg = g(f);
-                let wt = 1.0 / s.max(f64::MIN_POSITIVE).powi(2);
-                num += wt * (gg.conj() * r).re;
-                den += wt * gg.norm_sqr();
+            for (k, p) in pts.iter().enumerate() {
+                let w = omega(p.0);
+                let g = 1.0 / Complex64::new(w2 * w2 - w * w, 2.0 * zeta * w2 * w);
+                a[(2 * k, 0)] = weight[k] * g.re;
+                a[(2 * k + 1, 0)] = weight[k] * g.im;
             }
-            if den <= 0.0 || num == 0.0 {
+            let ata = a.transpose() * &a;
+            let aty = a.transpose() * &y;
+            let Some(x) = ata.cholesky().map(|c| c.solve(&aty)) else {
+                continue;
+            };
+            let res = x[0];
+            if !res.is_finite() || res == 0.0 {
                 continue;
             }
-            let res = num / den;
-            let cost: f64 = pts
-                .iter()
-                .map(|&(f, r, s)| (r - res * g(f)).norm_sqr() / s.max(f64::MIN_POSITIVE).powi(2))
-                .sum();
+            let cost = (&y - &a * &x).norm_squared();
             if best.as_ref().is_none_or(|b| cost < b.0) {
                 best = Some((
                     cost,
@@ -650,6 +686,72 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// A mode above the band that a single-mode fit has already bent its
+    /// own stiffness and mass towards: the residual is the mode minus that
+    /// bending. Projecting the bending out finds the mode's frequency (to
+    /// the trial grid's spacing and the linearised bending's error).
+    #[test]
+    fn a_mode_above_the_band_is_found_under_the_fits_own_bending() {
+        let (m, c, k) = (2.0, 40.0, 2.0e6); // 159 Hz
+        let (f2, z2, r2) = (1.6 * 350.0, 0.03, 0.8);
+        let mode = |f: f64| {
+            let (w, w2) = (omega(f), omega(f2));
+            r2 / Complex64::new(w2 * w2 - w * w, 2.0 * z2 * w2 * w)
+        };
+        let data: Vec<FrfSample> = (0..51)
+            .map(|i| {
+                let f = 100.0 + 5.0 * i as f64;
+                let w = omega(f);
+                let h = 1.0 / Complex64::new(k - m * w * w, c * w) + mode(f);
+                FrfSample {
+                    frequency_hz: f,
+                    h,
+                    std_error: 1e-3 * h.norm(),
+                }
+            })
+            .collect();
+        let start = crate::model::ModalModel {
+            modes: vec![crate::model::Mode {
+                frequency_hz: 159.0,
+                damping_ratio: 0.01,
+                residue: 0.5,
+            }],
+        };
+        let (fitted, _) = fit_modes(&data, Quantity::Displacement, &start, "test").unwrap();
+        let fit = fitted.modes[0];
+        let residual: Vec<(f64, Complex64, f64)> = data
+            .iter()
+            .map(|p| (p.frequency_hz, p.h - fit.receptance(omega(p.frequency_hz)), p.std_error))
+            .collect();
+        let background: Vec<Vec<Complex64>> = (0..3)
+            .map(|j| {
+                data.iter()
+                    .map(|p| {
+                        let w = omega(p.frequency_hz);
+                        let h2 = fit.receptance(omega(p.frequency_hz)).powi(2);
+                        [-h2, w * w * h2, -Complex64::i() * w * h2][j]
+                    })
+                    .collect()
+            })
+            .collect();
+        let found = locate_mode_against(&residual, &background, &[fit.frequency_hz], 385.0, 1050.0)
+            .expect("a mode");
+        // the plain search, misled by the bending, stops at the range's edge
+        let plain = locate_mode_between(&residual, &[fit.frequency_hz], 385.0, 1050.0).unwrap();
+        assert!(plain.frequency_hz < 390.0, "{plain:?}");
+        // the projected one is in the mode's basin (its flexibility traded
+        // against its frequency, the bending being large here): a two-mode
+        // fit from it recovers the mode
+        assert!((found.frequency_hz / f2 - 1.0).abs() < 0.2, "{found:?}");
+        let two = crate::model::ModalModel {
+            modes: vec![fit, found],
+        };
+        let (both, _) = fit_modes(&data, Quantity::Displacement, &two, "test").unwrap();
+        let m2 = both.modes[1];
+        assert!((m2.frequency_hz / f2 - 1.0).abs() < 1e-3, "{m2:?}");
+        assert!((m2.residue / r2 - 1.0).abs() < 1e-2, "{m2:?}");
     }
 
     #[test]

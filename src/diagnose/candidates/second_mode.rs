@@ -28,31 +28,60 @@ impl Candidate for SecondMode {
     }
 
     /// The mode the level-averaged residual shows (a grid search away from
-    /// the modes already there); the best below and the best above the
-    /// band (a mode out of the band shows only as a residual mass or
+    /// the modes already there); the best below and the best above the band
+    /// (a mode out of the band shows only as a residual mass or
     /// flexibility, which a search over every frequency may pass over for a
-    /// spurious mode inside it); and an identification afresh with one more
+    /// spurious mode inside it), searched on the residual as it is and with
+    /// the baseline's bending projected out; and an identification afresh with one more
     /// mode (a missing mode also bends the linear estimates the baseline
     /// started from) with the user's fit options, the effects kept so far
     /// added back.
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let model = cx.model();
         let d = features::common_receptance_residual(cx.data, cx.pred());
+        let background = features::common_receptance_background(cx.data, cx.pred());
         let existing: Vec<f64> = model.linear.modes.iter().map(|m| m.frequency_hz).collect();
-        let mut starts = Vec::new();
         let with = |mode| {
             let mut m = model.clone();
             m.linear.modes.push(mode);
             m
         };
-        starts.extend(crate::fit::linear::locate_mode_in(&d, &existing).map(with));
+        let mut modes = Vec::new();
+        modes.extend(crate::fit::linear::locate_mode_in(&d, &existing));
         let fmin = d.iter().map(|p| p.0).fold(f64::MAX, f64::min);
         let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
-        for (lo, hi) in [(0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax)] {
-            if let Some(mode) = crate::fit::linear::locate_mode_between(&d, &existing, lo, hi) {
-                starts.push(with(mode));
+        let (below, above) = ((0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax));
+        for (lo, hi) in [below, above] {
+            modes.extend(crate::fit::linear::locate_mode_between(&d, &existing, lo, hi));
+        }
+        // the same sides with the baseline's own bending projected out (see
+        // `locate_mode_against`), near and far apart: the best far mode can
+        // hide a near one, and a refit does not cross from one to the other
+        for (lo, hi) in [
+            (below.0, 0.3 * fmin),
+            (0.3 * fmin, below.1),
+            (above.0, 3.0 * fmax),
+            (3.0 * fmax, above.1),
+        ] {
+            modes.extend(crate::fit::linear::locate_mode_against(
+                &d,
+                &background,
+                &existing,
+                lo,
+                hi,
+            ));
+        }
+        // one refit per distinct start
+        let mut kept: Vec<crate::model::Mode> = Vec::new();
+        for m in modes {
+            if !kept.iter().any(|k| {
+                (k.frequency_hz / m.frequency_hz - 1.0).abs() < 0.05
+                    && (k.damping_ratio / m.damping_ratio - 1.0).abs() < 0.5
+            }) {
+                kept.push(m);
             }
         }
+        let mut starts: Vec<Model> = kept.into_iter().map(with).collect();
         let opts = crate::fit::FitOptions {
             modes: model.linear.modes.len() + 1,
             band_hz: cx.options.band_hz.or(cx.options.fit.band_hz),

@@ -444,7 +444,10 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
     s
 }
 
-/// The crate's `hystid` binary (built by cargo for tests and benches).
+/// The binary under test: the one cargo built, or `HYSTID_BIN` (e.g. a copy,
+/// so that a long corpus run is not changed under it by a rebuild).
 pub fn hystid_bin() -> PathBuf {
-    PathBuf::from(env!("CARGO_BIN_EXE_hystid"))
+    std::env::var_os("HYSTID_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_hystid")))
 }
