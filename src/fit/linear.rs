@@ -466,7 +466,8 @@ pub fn locate_mode_against(
     hi_hz: f64,
 ) -> Option<crate::model::Mode> {
     let columns = 1 + background.len();
-    if pts.len() < 2 * columns || !(lo_hz > 0.0 && hi_hz > lo_hz)
+    if pts.len() < 2 * columns
+        || !(lo_hz > 0.0 && hi_hz > lo_hz)
         || background.iter().any(|b| b.len() != pts.len())
     {
         return None;
@@ -723,7 +724,13 @@ mod tests {
         let fit = fitted.modes[0];
         let residual: Vec<(f64, Complex64, f64)> = data
             .iter()
-            .map(|p| (p.frequency_hz, p.h - fit.receptance(omega(p.frequency_hz)), p.std_error))
+            .map(|p| {
+                (
+                    p.frequency_hz,
+                    p.h - fit.receptance(omega(p.frequency_hz)),
+                    p.std_error,
+                )
+            })
             .collect();
         let background: Vec<Vec<Complex64>> = (0..3)
             .map(|j| {

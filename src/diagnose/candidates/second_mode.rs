@@ -52,7 +52,9 @@ impl Candidate for SecondMode {
         let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
         let (below, above) = ((0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax));
         for (lo, hi) in [below, above] {
-            modes.extend(crate::fit::linear::locate_mode_between(&d, &existing, lo, hi));
+            modes.extend(crate::fit::linear::locate_mode_between(
+                &d, &existing, lo, hi,
+            ));
         }
         // the same sides with the baseline's own bending projected out (see
         // `locate_mode_against`), near and far apart: the best far mode can
