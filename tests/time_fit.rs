@@ -119,7 +119,7 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
         residue: 0.01 / case.stiffness * w * w,
     });
     let sure = TimeFitOptions::default().min_samples_per_period;
-    let problem = TimeProblem::new(
+    let mut problem = TimeProblem::new(
         model.clone(),
         time_parameters(&model, false, None),
         std::slice::from_ref(&record),
@@ -128,6 +128,8 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
         None,
     )
     .unwrap();
+    assert_eq!(problem.replay_samples_per_period()[0], sure);
+    problem.choose_replay_rates();
     let chosen = problem.replay_samples_per_period()[0];
     assert!(chosen < sure, "replayed at {chosen} samples per period");
     assert_eq!(
