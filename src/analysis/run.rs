@@ -12,7 +12,7 @@
 //! bound of its fit, outside its physical domain, or not resolved by the
 //! data carries a [`Flag`], in words in `report.md` and as a list in
 //! `run.json`. The paper's Table 3.1 is set beside the result only when
-//! the test is the paper's case (the embedded default).
+//! the test is of the paper's system (the embedded default's structure).
 
 use super::identify::FitReport;
 use super::simulate::SimulateSummary;
@@ -537,7 +537,8 @@ pub fn reference_values(truth: &Model) -> BTreeMap<String, f64> {
     out
 }
 
-/// Whether `def` is the paper's case: the embedded default's structure.
+/// Whether `def` tests the paper's system: the embedded default's
+/// structure (linear part and joint, no effects), whatever the test plan.
 pub fn is_papers_case(def: &TestDefinition) -> bool {
     match (def.model(), TestDefinition::embedded_default().model()) {
         (Ok(a), Ok(b)) => a == b,

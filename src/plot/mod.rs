@@ -1065,4 +1065,43 @@ mod tests {
             "{up:?}"
         );
     }
+
+    /// A level whose own mean puts it a turn away from the others (a
+    /// lightly damped one that spends most of its band past −180°) is drawn
+    /// on the same turn as they are.
+    #[test]
+    fn phases_of_all_levels_are_drawn_on_one_turn() {
+        let r: Vec<f64> = (0..60).map(|i| 0.5 + 0.05 * i as f64).collect();
+        let lag = Complex64::from_polar(1.0, -100f64.to_radians());
+        let series = |lag: Complex64| -> Vec<Complex64> {
+            r.iter()
+                .map(|&r| lag / Complex64::new(1.0 - r * r, 2.0 * 0.01 * r))
+                .collect()
+        };
+        let (a, b) = (
+            unwrapped_phase_deg(&series(Complex64::new(1.0, 0.0))),
+            unwrapped_phase_deg(&series(lag)),
+        );
+        // each alone: the lagging one centred a turn up (+260° instead of
+        // −100° against the other)
+        assert!((b[0] - a[0]).abs() > 180.0, "{} vs {}", a[0], b[0]);
+        let pts =
+            |p: &[f64]| -> Vec<(f64, f64)> { r.iter().copied().zip(p.iter().copied()).collect() };
+        let mut traces = vec![((), Vec::new(), pts(&a)), ((), Vec::new(), pts(&b))];
+        align_phases(&mut traces);
+        assert!((traces[1].2[0].1 - traces[0].2[0].1 + 100.0).abs() < 1.0);
+    }
+
+    /// The level colours run in order from dark to light, and the ends of
+    /// the map stay put whatever the number of levels.
+    #[test]
+    fn level_colours_are_a_sequential_map() {
+        let lightness = |[r, g, b]: [u8; 3]| 0.299 * r as f64 + 0.587 * g as f64 + 0.114 * b as f64;
+        for n in [2, 7, 12] {
+            let l: Vec<f64> = (0..n).map(|g| lightness(level_colour(g, n))).collect();
+            assert!(l.windows(2).all(|w| w[1] > w[0]), "{n}: {l:?}");
+            assert_eq!(level_colour(0, n), [68, 1, 84]);
+            assert_eq!(level_colour(n - 1, n), level_colour(1, 2));
+        }
+    }
 }
