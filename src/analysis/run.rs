@@ -462,8 +462,8 @@ pub fn flags_of(name: &str, e: &Estimate, at_bound: bool, domain: Option<Domain>
     }
     let leaf = name.rsplit('.').next().unwrap_or(name);
     let outside = match domain {
-        Some(Domain::Positive) => !(v > 0.0),
-        Some(Domain::NonNegative) => !(v >= 0.0),
+        Some(Domain::Positive) => v.is_nan() || v <= 0.0,
+        Some(Domain::NonNegative) => v.is_nan() || v < 0.0,
         Some(Domain::Range { min, max }) => !(v > min && v < max),
         Some(Domain::Signed) | None => false,
     };
@@ -474,7 +474,7 @@ pub fn flags_of(name: &str, e: &Estimate, at_bound: bool, domain: Option<Domain>
         flags.push(Flag::NonPhysical);
     }
     let [lo, hi] = e.ci95;
-    if !e.identifiable || !(lo.is_finite() && hi.is_finite()) {
+    if !(e.identifiable && lo.is_finite() && hi.is_finite()) {
         flags.push(Flag::NotIdentifiable);
     } else if (lo <= 0.0 && hi >= 0.0)
         || (lo > 0.0 && hi / lo > 10.0)

@@ -52,7 +52,7 @@ pub struct SimulateArgs {
     pub wav_format: WavFormat,
     /// Write no time histories (run.mcap, recording.wav/.json: about 250 MB
     /// for the default test); the FRFs and results are the same.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "wav_format")]
     pub no_recording: bool,
 }
 

@@ -30,8 +30,8 @@
 //!   ([`group_colour`]). Groups 10–19 are drawn with hollow markers. Series
 //!   with an empty label stay out of the legend.
 //! * **Fonts.** Text is rendered with the DejaVu Sans faces compiled into the
-//!   binary ([`ensure_fonts`]), so no system font library is needed
-//!   (crate notes 2.3).
+//!   binary ([`ensure_fonts`]), so no system font library is needed (and
+//!   the same text renders the same on every machine).
 
 mod decimate;
 mod render;
@@ -282,12 +282,15 @@ fn unwrapped_phase_deg(h: &[Complex64]) -> Vec<f64> {
     phase
 }
 
+/// A series with its magnitude and phase points.
+type PhaseTrace<T> = (T, Vec<(f64, f64)>, Vec<(f64, f64)>);
+
 /// Shifts each series' unwrapped phase by whole turns so that, where it
 /// starts (its lowest frequency), it lies within half a turn of the first
 /// series' phase there: the levels of one test, measured and modelled,
 /// are then drawn on the same turn (each series alone is centred on its own
 /// mean, which can put one level a turn away from the others).
-fn align_phases<T>(traces: &mut [(T, Vec<(f64, f64)>, Vec<(f64, f64)>)]) {
+fn align_phases<T>(traces: &mut [PhaseTrace<T>]) {
     let start = |phase: &[(f64, f64)]| -> Option<f64> {
         phase
             .iter()
