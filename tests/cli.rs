@@ -378,15 +378,14 @@ fn run_reports_the_test_that_ran_and_flags_a_parameter_at_its_bound() {
         ),
         "{report}"
     );
-    assert!(
-        !report.contains("Table 3.1"),
-        "not the paper's case:\n{report}"
-    );
+    // the paper's system (another test plan): its Table 3.1 beside the result
+    assert!(report.contains("## Table 3.1"), "{report}");
     // the final model is the fit's; its parameters beside the simulated ones
     let fin = &run["final"];
     assert_eq!(fin["source"], "fit");
     assert!(fin.get("before").is_none(), "{fin}");
-    assert_eq!(fin["parameters"]["kd"]["reference"], 2.4e7);
+    let kd_reference = fin["parameters"]["kd"]["reference"].as_f64().unwrap();
+    assert!((kd_reference / 2.4e7 - 1.0).abs() < 1e-12, "{fin}");
     let kd = report
         .lines()
         .find(|l| l.starts_with("| kd |"))
@@ -484,7 +483,8 @@ fn run_reports_the_model_after_the_diagnosis_with_the_first_fit_as_before() {
     assert_eq!(fin["added_effects"], serde_json::json!(["cubic_stiffness"]));
     assert_eq!(fin["model"], diagnosis["model"]);
     let k3 = &fin["parameters"]["cubic_stiffness.k3"];
-    assert_eq!(k3["reference"], 1e7);
+    let k3_reference = k3["reference"].as_f64().unwrap();
+    assert!((k3_reference / 1e7 - 1.0).abs() < 1e-12, "{k3}");
     let v = k3["value"].as_f64().unwrap();
     assert!((v / 1e7 - 1.0).abs() < 0.3, "{k3}");
     assert!(k3.get("flags").is_none(), "{k3}");

@@ -517,15 +517,13 @@ fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
 /// mode's frequency, damping ratio, modal constant and modal mass.
 pub fn reference_values(truth: &Model) -> BTreeMap<String, f64> {
     let set = model_parameters(truth, None);
-    let mut out: BTreeMap<String, f64> = match set.theta_of(truth) {
-        Ok(theta) => set
-            .parameters
-            .iter()
-            .map(|p| p.name.clone())
-            .zip(set.values(&theta))
-            .collect(),
-        Err(_) => BTreeMap::new(),
-    };
+    // read from the model, not through the fit's coordinates (a round trip
+    // through a logarithm is not exact)
+    let mut out: BTreeMap<String, f64> = set
+        .parameters
+        .iter()
+        .filter_map(|p| Some((p.name.clone(), p.read(truth).ok()?)))
+        .collect();
     let residues: Vec<(String, f64)> = out
         .iter()
         .filter_map(|(n, v)| {
