@@ -338,10 +338,15 @@ fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
 }
 
 /// `run` chains simulate and identify into one folder, and its report
-/// describes the test that ran: the measured noise, the reference joint of
-/// the definition, the fitted law's parameters by their role.
+/// describes the test that ran: the measured noise, the system and joint of
+/// the definition, the fitted law's parameters with the values they were
+/// simulated with, the paper's table for the paper's system. A parameter
+/// at its bound (a Masing curvature fitted to a Jenkins joint runs to its
+/// limit) is flagged in report.md, run.json and the terminal. With
+/// `--no-recording` nothing but the time histories is missing: the FRFs
+/// are the same bytes and the fit the same numbers.
 #[test]
-fn run_reports_the_test_that_ran() {
+fn run_reports_the_test_that_ran_and_flags_a_parameter_at_its_bound() {
     let dir = tempfile::tempdir().unwrap();
     let test = write_test(dir.path(), "small.toml", SMALL_TEST);
     let out = dir.path().join("run");
@@ -350,12 +355,10 @@ fn run_reports_the_test_that_ran() {
         test.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-        "--element",
-        "jenkins",
         "--no-diagnose",
-        "--quiet",
     ]);
     assert!(o.status.success(), "{}", text(&o));
+    let terminal = text(&o);
     let run: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("run.json")).unwrap()).unwrap();
     assert_eq!(run["fit"]["status"], "converged", "{}", run["fit"]);
@@ -370,13 +373,164 @@ fn run_reports_the_test_that_ran() {
         .unwrap_or_else(|| panic!("no measured noise in:\n{report}"));
     assert!((noise - 10.0).abs() < 1.0, "noise {noise} %");
     assert!(
-        report.contains("| Reference element of this run (`jenkins`) | 246.048 | 2.4e7 | ∞"),
+        report.contains(
+            "an SDOF, m = 10 kg, c = 200 N s/m, k = 1e7 N/m with joint `jenkins` (kd = 2.4e7, fd = 246.048): 2 levels (50, 3000 N) × 11 frequencies 150–300 Hz"
+        ),
         "{report}"
     );
-    // a Jenkins fit has no curvature column entry
-    let estimated = report
+    // the paper's system (another test plan): its Table 3.1 beside the result
+    assert!(report.contains("## Table 3.1"), "{report}");
+    // the final model is the fit's; its parameters beside the simulated ones
+    let fin = &run["final"];
+    assert_eq!(fin["source"], "fit");
+    assert!(fin.get("before").is_none(), "{fin}");
+    let kd_reference = fin["parameters"]["kd"]["reference"].as_f64().unwrap();
+    assert!((kd_reference / 2.4e7 - 1.0).abs() < 1e-12, "{fin}");
+    let kd = report
         .lines()
-        .find(|l| l.starts_with("| **Estimated (hystid)**"))
-        .unwrap();
-    assert!(estimated.ends_with("| – |"), "{estimated}");
+        .find(|l| l.starts_with("| kd |"))
+        .unwrap_or_else(|| panic!("no kd row:\n{report}"));
+    assert!(kd.contains("| 2.4000e7 ("), "{kd}");
+    // the curvature at its bound, flagged in all three
+    let n = &fin["parameters"]["n"];
+    assert_eq!(
+        n["flags"],
+        serde_json::json!(["at_bound", "not_identifiable"]),
+        "{n}"
+    );
+    assert!(fin["parameters"]["kd"].get("flags").is_none(), "{fin}");
+    assert!(
+        report.contains("- **n**: at a bound of its fit; not identifiable"),
+        "{report}"
+    );
+    assert!(
+        terminal.contains("FLAG: at a bound of its fit; not identifiable"),
+        "{terminal}"
+    );
+    // the same without the time histories
+    let bare = dir.path().join("bare");
+    let o = hystid(&[
+        "run",
+        test.to_str().unwrap(),
+        "--out",
+        bare.to_str().unwrap(),
+        "--no-diagnose",
+        "--no-recording",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let (with, without) = (files_in(&out), files_in(&bare));
+    let missing: Vec<&String> = with.iter().filter(|f| !without.contains(f)).collect();
+    assert_eq!(
+        missing,
+        ["recording.json", "recording.wav", "run.mcap"],
+        "{without:?}"
+    );
+    for f in ["frf.json", "frf.csv", "frf.uff"] {
+        assert_eq!(
+            std::fs::read(out.join(f)).unwrap(),
+            std::fs::read(bare.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let bare_run: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(bare.join("run.json")).unwrap()).unwrap();
+    assert_eq!(bare_run["final"], run["final"]);
+    assert_eq!(bare_run["fit"]["model"], run["fit"]["model"]);
+}
+
+/// `run` on a test with an undeclared cubic stiffness reports one model,
+/// the diagnosis's, everywhere: the terminal, report.md and run.json name
+/// it and give its parameters (the cubic's with the value it was simulated
+/// with), and the first fit is the "before", its error measured as the
+/// final model's (one definition, the same points: fit.json's figure for
+/// the first fit, diagnosis.json's for the final model).
+#[test]
+fn run_reports_the_model_after_the_diagnosis_with_the_first_fit_as_before() {
+    let dir = tempfile::tempdir().unwrap();
+    let cubic = SMALL_TEST
+        .replace(
+            "levels_n = [50.0, 3000.0]",
+            "levels_n = [50.0, 1000.0, 30000.0]",
+        )
+        .replace(
+            "[test]",
+            "[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1.0e7\n[test]",
+        );
+    let test = write_test(dir.path(), "cubic.toml", &cubic);
+    let out = dir.path().join("run");
+    let o = hystid(&[
+        "run",
+        test.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--element",
+        "jenkins",
+        "--no-recording",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let terminal = text(&o);
+    assert!(
+        terminal.contains("final model (after the diagnosis): jenkins joint + cubic_stiffness"),
+        "{terminal}"
+    );
+    let json = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(out.join(name)).unwrap()).unwrap()
+    };
+    let (run, fit, diagnosis) = (json("run.json"), json("fit.json"), json("diagnosis.json"));
+    let fin = &run["final"];
+    assert_eq!(fin["source"], "diagnosis");
+    assert_eq!(fin["added_effects"], serde_json::json!(["cubic_stiffness"]));
+    assert_eq!(fin["model"], diagnosis["model"]);
+    let k3 = &fin["parameters"]["cubic_stiffness.k3"];
+    let k3_reference = k3["reference"].as_f64().unwrap();
+    assert!((k3_reference / 1e7 - 1.0).abs() < 1e-12, "{k3}");
+    let v = k3["value"].as_f64().unwrap();
+    assert!((v / 1e7 - 1.0).abs() < 0.3, "{k3}");
+    assert!(k3.get("flags").is_none(), "{k3}");
+    for p in ["kd", "fd", "mass", "damping", "stiffness"] {
+        assert!(
+            fin["parameters"][p]["ci95"][1].as_f64().is_some(),
+            "{p}: {fin}"
+        );
+    }
+    // one error figure: the first fit's as fit.json has it, the final
+    // model's as diagnosis.json has it
+    let close = |a: &serde_json::Value, b: &serde_json::Value| {
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        assert!((a / b - 1.0).abs() < 1e-6, "{a} vs {b}");
+    };
+    close(
+        &fin["before"]["error"]["relative"],
+        &fit["error"]["relative"],
+    );
+    close(
+        &fin["error"]["relative"],
+        &diagnosis["final"]["error_relative"],
+    );
+    close(
+        &fin["baseline"]["relative"],
+        &diagnosis["baseline"]["error_relative"],
+    );
+    assert!(fin["error"]["relative"].as_f64() < fin["before"]["error"]["relative"].as_f64());
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("## The model: jenkins joint + cubic_stiffness"),
+        "{report}"
+    );
+    assert!(report.contains("| cubic_stiffness.k3 | "), "{report}");
+    assert!(
+        report.contains("| before: the first fit (jenkins joint alone) |"),
+        "{report}"
+    );
+    assert!(report.contains("![final model](final_frf.png)"), "{report}");
+    // not the paper's system: no paper's table
+    assert!(!report.contains("Table 3.1"), "{report}");
+    let files = files_in(&out);
+    for f in ["final_frf.png", "loops.png", "fit_frf.png", "residual.png"] {
+        assert!(files.contains(&f.to_string()), "{f}: {files:?}");
+    }
+    for f in ["run.mcap", "recording.wav", "recording.json"] {
+        assert!(!files.contains(&f.to_string()), "{f}: {files:?}");
+    }
 }

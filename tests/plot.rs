@@ -71,6 +71,12 @@ fn hex(group: usize) -> String {
     format!("#{r:02X}{g:02X}{b:02X}")
 }
 
+/// The colour of level `group` of `groups` (the figures over levels).
+fn lhex(group: usize, groups: usize) -> String {
+    let [r, g, b] = level_colour(group, groups);
+    format!("#{r:02X}{g:02X}{b:02X}")
+}
+
 /// The opening tags `<tag ...>` of an SVG.
 fn tags<'a>(svg: &'a str, tag: &str) -> Vec<&'a str> {
     let open = format!("<{tag} ");
@@ -198,7 +204,7 @@ fn frf_plot_draws_every_finite_point_and_breaks_lines_at_nan() {
         );
     }
     // Level 0: 41 − 2 skipped measured points in each panel, plus the legend marker.
-    let c0 = hex(0);
+    let c0 = lhex(0, 3);
     assert_eq!(count(&svg, "circle", &[("fill", &c0)]), 2 * 39 + 1);
     // ... the model line broken once in each panel ...
     assert_eq!(
@@ -211,7 +217,7 @@ fn frf_plot_draws_every_finite_point_and_breaks_lines_at_nan() {
         2 * 39
     );
     for g in 1..3 {
-        let c = hex(g);
+        let c = lhex(g, 3);
         assert_eq!(
             count(&svg, "circle", &[("fill", &c)]),
             2 * 41 + 1,
@@ -400,7 +406,10 @@ fn frf_series_from_groups_levels_and_picks_the_harmonic() {
     .unwrap();
     let svg = check_files(&files, &stem);
     // Two series (up and down) share group 0: 2 × 5 markers per panel + 1 legend marker each.
-    assert_eq!(count(&svg, "circle", &[("fill", &hex(0))]), 2 * 2 * 5 + 2);
+    assert_eq!(
+        count(&svg, "circle", &[("fill", &lhex(0, 2))]),
+        2 * 2 * 5 + 2
+    );
 }
 
 /// Masing loop of a Jenkins element (stiffness k, slip force fs) at
@@ -466,7 +475,7 @@ fn loop_plot_draws_reference_bands_under_fitted_lines() {
         assert!(svg.contains(t), "SVG lacks `{t}`");
     }
     for g in 0..3 {
-        let c = hex(g);
+        let c = lhex(g, 3);
         assert_eq!(
             count(&svg, "polyline", &[("stroke", &c), ("opacity", "0.35")]),
             1,
@@ -481,7 +490,7 @@ fn loop_plot_draws_reference_bands_under_fitted_lines() {
     }
     // Bands are drawn first, so the fitted lines lie on top.
     let first_line = svg
-        .find(&format!("opacity=\"1\" stroke=\"{}\"", hex(0)))
+        .find(&format!("opacity=\"1\" stroke=\"{}\"", lhex(0, 3)))
         .unwrap();
     let last_band = svg.rfind("opacity=\"0.35\"").unwrap();
     assert!(last_band < first_line);
@@ -564,14 +573,22 @@ fn residual_plot_compares_panels_against_the_noise_level() {
     }
     // One line per level and panel; the zero breaks level 1's "after" line.
     assert_eq!(
-        count(&svg, "polyline", &[("stroke", &hex(0)), ("opacity", "1")]),
+        count(
+            &svg,
+            "polyline",
+            &[("stroke", &lhex(0, 3)), ("opacity", "1")]
+        ),
         2
     );
     assert_eq!(
-        count(&svg, "polyline", &[("stroke", &hex(1)), ("opacity", "1")]),
+        count(
+            &svg,
+            "polyline",
+            &[("stroke", &lhex(1, 3)), ("opacity", "1")]
+        ),
         3
     );
-    assert_eq!(count(&svg, "circle", &[("fill", &hex(1))]), 41 + 40 + 1);
+    assert_eq!(count(&svg, "circle", &[("fill", &lhex(1, 3))]), 41 + 40 + 1);
     // The legend lists each level once although it appears in both panels.
     assert_eq!(svg.matches(">\n4 N\n<").count(), 1);
     assert!(
@@ -609,7 +626,7 @@ fn convergence_plot_skips_non_positive_costs() {
     for t in [
         "Optimiser convergence",
         "cost (eq. 9)",
-        "iteration",
+        "evaluation",
         "Nelder–Mead",
         "Levenberg–Marquardt",
     ] {

@@ -6,12 +6,12 @@ use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
 use crate::fit::time::time_parameters;
 use crate::fit::{
-    FitData, FitOptions, FitResult, FrfPredictor, HbPredictor, TimeFitOptions, TimeFitResult,
-    TimeRecord, identify, identify_time,
+    FitData, FitOptions, FitResult, HbPredictor, TimeFitOptions, TimeFitResult, TimeRecord,
+    identify, identify_time,
 };
 use crate::model::{ElementSpec, Model};
 use crate::observe::{Event, Observer};
-use crate::plot::{self, ConvergenceSeries, FrfSeries, LoopSeries, SeriesStyle};
+use crate::plot::{self, ConvergenceSeries};
 use crate::record::McapRecorder;
 use crate::testbench::TestDefinition;
 use serde::{Deserialize, Serialize};
@@ -174,8 +174,9 @@ pub fn compare(fit: &FitResult, reference: Option<&ElementSpec>) -> Vec<Comparis
         .collect()
 }
 
-/// Writes the fit's figures into `dir`: the FRF overlay (`fit_frf`), the
-/// hysteresis loops (`loops`) and the convergence (`convergence`).
+/// Writes the fit's figures into `dir`: the FRF overlay (`fit_frf`, the
+/// model on a fine grid), the hysteresis loops at the amplitudes the test
+/// reached (`loops`) and the convergence (`convergence`).
 pub fn write_fit_plots(
     dir: &Path,
     frf: &NonlinearFrf,
@@ -183,98 +184,80 @@ pub fn write_fit_plots(
     reference: Option<&ElementSpec>,
     predictor: &HbPredictor,
 ) -> Result<Vec<PathBuf>> {
-    let mut files = Vec::new();
-    // measured vs model |H1| and phase for every level (paper Fig. 3.4 right)
-    let data = FitData::from_frf(frf, &[1], None, None)?;
-    let pred = predictor.predict(&fit.model, &data)?;
-    let mut series = Vec::new();
-    for (g, (s, p)) in data.series.iter().zip(&pred.h).enumerate() {
-        let label = plot::level_label(s.level, frf.reference.si_unit());
-        let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
-        series.push(FrfSeries {
-            label: label.clone(),
-            group: g,
-            frequency_hz: f.clone(),
-            h: s.points.iter().map(|p| p.h[0]).collect(),
-            std_error: Some(s.points.iter().map(|p| p.std_error[0]).collect()),
-            style: SeriesStyle::Measured,
-        });
-        series.push(FrfSeries {
-            label: format!("{label} (model)"),
-            group: g,
-            frequency_hz: f,
-            h: p.iter()
-                .map(|m| {
-                    m.as_ref()
-                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| {
-                            m[0] * fit.response_sign
-                        })
-                })
-                .collect(),
-            std_error: None,
-            style: SeriesStyle::Model,
-        });
-    }
-    files.extend(plot::write_frf_plot(
+    let mut files = write_fit_frf(dir, frf, fit, predictor)?;
+    files.extend(write_fit_loops(
+        dir,
+        frf,
+        &fit.model,
+        fit.response_sign,
+        reference,
+    )?);
+    files.extend(write_convergence(dir, fit)?);
+    Ok(files)
+}
+
+/// The fit's FRF overlay, `fit_frf` (paper Fig. 3.4 right).
+pub fn write_fit_frf(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    fit: &FitResult,
+    predictor: &HbPredictor,
+) -> Result<Vec<PathBuf>> {
+    super::figures::write_frf_overlay(
         &dir.join("fit_frf"),
         &format!(
-            "Measured (markers) and fitted {} model (lines)",
+            "Measured (markers) and the fitted {} model (lines)",
             fit.element.name()
         ),
-        &plot::frf_magnitude_label(frf, 1),
-        &series,
-    )?);
-    // hysteresis loops at several amplitudes (Fig. 3.2 / 3.4 left)
-    if let Some(spec) = &fit.model.joint {
-        let (kd, fd) = (
-            spec.stick_stiffness(),
-            fit.parameters.get("fd").map_or(1.0, |e| e.value),
-        );
-        let xc = fd / kd;
-        let mut loops = Vec::new();
-        for (g, mult) in [0.5, 1.5, 3.0, 8.0].into_iter().enumerate() {
-            let a = mult * xc;
-            if let Some(r) = reference {
-                let (x, f) = r.steady_loop(a, 400)?;
-                loops.push(LoopSeries {
-                    label: format!("reference, a = {mult} Fd/kd"),
-                    group: g,
-                    displacement: x,
-                    force: f,
-                    style: SeriesStyle::Measured,
-                });
-            }
-            let (x, f) = spec.steady_loop(a, 400)?;
-            loops.push(LoopSeries {
-                label: format!("fitted, a = {mult} Fd/kd"),
-                group: g,
-                displacement: x,
-                force: f,
-                style: SeriesStyle::Model,
-            });
-        }
-        files.extend(plot::write_loop_plot(
-            &dir.join("loops"),
-            "Hysteresis loops: fitted element over the reference",
-            "displacement [m]",
-            "element force [N]",
-            &loops,
-        )?);
-    }
+        frf,
+        None,
+        super::figures::Drawn {
+            model: &fit.model,
+            response_sign: fit.response_sign,
+        },
+        predictor,
+    )
+}
+
+/// `model`'s joint loops, `loops`, at the largest displacement amplitude
+/// each level of `frf` reached (Fig. 3.2 / 3.4 left), over `reference`'s
+/// when known; nothing without a joint.
+pub fn write_fit_loops(
+    dir: &Path,
+    frf: &NonlinearFrf,
+    model: &Model,
+    response_sign: f64,
+    reference: Option<&ElementSpec>,
+) -> Result<Vec<PathBuf>> {
+    let Some(spec) = &model.joint else {
+        return Ok(Vec::new());
+    };
+    let data = FitData::from_frf(frf, &[1], None, None)?.with_sign(response_sign);
+    super::figures::write_joint_loops(
+        &dir.join("loops"),
+        spec,
+        reference,
+        &super::figures::reached_amplitudes(&data),
+        frf.reference.si_unit(),
+    )
+}
+
+/// The optimiser's cost per evaluation, `convergence`.
+pub fn write_convergence(dir: &Path, fit: &FitResult) -> Result<Vec<PathBuf>> {
     let cost: Vec<f64> = fit.trace.iter().map(|t| t.cost).collect();
-    if !cost.is_empty() {
-        files.extend(plot::write_convergence_plot(
-            &dir.join("convergence"),
-            "Nelder-Mead: cost per evaluation",
-            "cost (eq. 9 squared)",
-            &[ConvergenceSeries {
-                label: "Nelder-Mead".into(),
-                group: 0,
-                cost,
-            }],
-        )?);
+    if cost.is_empty() {
+        return Ok(Vec::new());
     }
-    Ok(files)
+    plot::write_convergence_plot(
+        &dir.join("convergence"),
+        &format!("{:?}: cost per evaluation", fit.optimiser.method),
+        "cost (eq. 9 squared)",
+        &[ConvergenceSeries {
+            label: "cost of each evaluation".into(),
+            group: 0,
+            cost,
+        }],
+    )
 }
 
 /// The recordings as the time-domain fit reads them: each one's reference

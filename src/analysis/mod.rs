@@ -14,6 +14,7 @@
 //! callbacks, and every report is returned as data.
 
 pub mod diagnose;
+pub mod figures;
 pub mod frf_uff;
 pub mod identify;
 pub mod recording;

@@ -369,44 +369,85 @@ pub fn summarise_checks(checks: &[HbCheck]) -> HbCheckSummary {
     }
 }
 
+/// Whether a virtual test keeps its time histories on disk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recording {
+    /// `run.mcap` and `recording.wav` + `recording.json` (in the format
+    /// given).
+    Written(SampleFormat),
+    /// No time histories (`--no-recording`): the FRFs and everything
+    /// derived from them are the same, byte for byte.
+    Skipped,
+}
+
+/// The harmonic-balance check alone, where no recording is kept.
+struct CheckSink(Option<(crate::model::Model, f64, usize, Vec<HbCheck>)>);
+
+impl BenchSink for CheckSink {
+    fn level(&mut self, out: &LevelOutput, _first_frame: u64) -> Result<()> {
+        let checks = level_checks(&self.0, out)?;
+        if let Some((_, _, _, all)) = &mut self.0 {
+            all.extend(checks);
+        }
+        Ok(())
+    }
+}
+
 /// Runs the bench into `dir` (created if missing) and writes its files;
-/// `recording.wav` in `wav_format`, `hb_check.json` with `check_hb`.
+/// the time histories as `recording` says, `hb_check.json` with `check_hb`.
 ///
 /// `observer` is told of every dwell. `after_bench` runs with the MCAP
-/// recorder still open (e.g. to add the fit's iterations to the run file).
+/// recorder still open when there is one (e.g. to add the fit's iterations
+/// to the run file).
 pub fn simulate_into(
     def: &TestDefinition,
     toml_text: &str,
     dir: &Path,
-    wav_format: SampleFormat,
+    recording: Recording,
     check_hb: bool,
     observer: &dyn Observer,
-    after_bench: &mut dyn FnMut(&BenchRun, &mut McapRecorder) -> Result<()>,
+    after_bench: &mut dyn FnMut(&BenchRun, Option<&mut McapRecorder>) -> Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
     let t0 = std::time::Instant::now();
     let fs = def.sample_rate_hz()?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut sink = FileSink::create(dir, def, toml_text, fs)?;
-    if check_hb {
-        sink.check = Some(hb_check_of(def)?);
-    }
-    let run = testbench::run(def, &mut sink, observer)?;
-    let checks = sink.check.take().map(|c| c.3);
-    let (mut mcap, wav) = sink.into_parts();
-    wav.finish()?;
-    let bench_seconds = t0.elapsed().as_secs_f64();
-    after_bench(&run, &mut mcap)?;
-    mcap.finish()?;
-    let mut files = vec![
-        dir.join("run.mcap"),
-        dir.join("recording.wav"),
-        dir.join("recording.json"),
-    ];
-    if wav_format != SampleFormat::Float32 {
-        let rec = crate::record::read_recording(&dir.join("recording.wav"))?;
-        crate::record::write_recording(&dir.join("recording"), &rec, wav_format)
-            .map_err(|e| Error::context("rewriting the recording as PCM", e))?;
-    }
+    let check = if check_hb {
+        Some(hb_check_of(def)?)
+    } else {
+        None
+    };
+    let mut files = Vec::new();
+    let (run, checks, bench_seconds) = match recording {
+        Recording::Written(wav_format) => {
+            let mut sink = FileSink::create(dir, def, toml_text, fs)?;
+            sink.check = check;
+            let run = testbench::run(def, &mut sink, observer)?;
+            let checks = sink.check.take().map(|c| c.3);
+            let (mut mcap, wav) = sink.into_parts();
+            wav.finish()?;
+            let bench_seconds = t0.elapsed().as_secs_f64();
+            after_bench(&run, Some(&mut mcap))?;
+            mcap.finish()?;
+            files.extend([
+                dir.join("run.mcap"),
+                dir.join("recording.wav"),
+                dir.join("recording.json"),
+            ]);
+            if wav_format != SampleFormat::Float32 {
+                let rec = crate::record::read_recording(&dir.join("recording.wav"))?;
+                crate::record::write_recording(&dir.join("recording"), &rec, wav_format)
+                    .map_err(|e| Error::context("rewriting the recording as PCM", e))?;
+            }
+            (run, checks, bench_seconds)
+        }
+        Recording::Skipped => {
+            let mut sink = CheckSink(check);
+            let run = testbench::run(def, &mut sink, observer)?;
+            let bench_seconds = t0.elapsed().as_secs_f64();
+            after_bench(&run, None)?;
+            (run, sink.0.map(|c| c.3), bench_seconds)
+        }
+    };
     files.extend(write_frf_files(
         dir,
         &run.frf,
@@ -535,7 +576,7 @@ seed = 5
             &def,
             text,
             dir.path(),
-            SampleFormat::Float32,
+            Recording::Written(SampleFormat::Float32),
             true,
             &crate::observe::Silent,
             &mut |_, _| Ok(()),

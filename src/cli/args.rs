@@ -50,6 +50,10 @@ pub struct SimulateArgs {
     /// Sample format of recording.wav.
     #[arg(long, value_enum, default_value_t = WavFormat::Float32)]
     pub wav_format: WavFormat,
+    /// Write no time histories (run.mcap, recording.wav/.json: about 250 MB
+    /// for the default test); the FRFs and results are the same.
+    #[arg(long, conflicts_with = "wav_format")]
+    pub no_recording: bool,
 }
 
 /// WAV sample formats.
@@ -304,4 +308,8 @@ pub struct RunArgs {
     /// Skip the diagnosis stage.
     #[arg(long)]
     pub no_diagnose: bool,
+    /// Write no time histories (run.mcap, recording.wav/.json: about 250 MB
+    /// for the default test); the FRFs, fit, diagnosis and report are the same.
+    #[arg(long)]
+    pub no_recording: bool,
 }

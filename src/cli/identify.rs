@@ -300,7 +300,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     if !quiet {
         print_fit(&report.fit, &report.comparison);
         if let Some(t) = &report.time_domain {
-            print_time_fit(t);
+            print_time_fit(t, &report.response);
         }
         for f in &report.files {
             say!("  wrote {}", f.display());
@@ -314,7 +314,8 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
 }
 
 /// Prints the time-domain refinement in a few lines.
-fn print_time_fit(t: &hystid::fit::TimeFitResult) {
+fn print_time_fit(t: &hystid::fit::TimeFitResult, response: &str) {
+    let unit = hystid::harmonics::Quantity::from_name(response).map_or("", |q| q.si_unit());
     say!(
         "refined in the time domain on {} samples ({} evaluations, {:?}):",
         t.samples,
@@ -323,7 +324,7 @@ fn print_time_fit(t: &hystid::fit::TimeFitResult) {
     );
     for (b, a) in t.before.iter().zip(&t.after) {
         say!(
-            "  {}: e_RMS {:.4e} -> {:.4e} ({:.2} % -> {:.2} % of the RMS); over its {} segment(s) {:.2} % -> {:.2} %",
+            "  {}: e_RMS {:.4e} -> {:.4e} {unit} ({:.2} % -> {:.2} % of the RMS); over its {} segment(s) {:.2} % -> {:.2} %",
             a.recording,
             b.window.e_rms,
             a.window.e_rms,

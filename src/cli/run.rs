@@ -1,14 +1,17 @@
-//! `hystid run`: the paper end to end in one command. Simulate the test
-//! bench, identify the element from the recorded FRFs, and write a short
-//! report that sets the result beside the paper's Table 3.1.
+//! `hystid run`: a virtual test end to end in one command. Simulate the
+//! test bench, identify the element from the recorded FRFs, diagnose what it
+//! lacks, and report the final model (`report.md`, `run.json`).
 
 use super::args::{RunArgs, WavFormat};
-use super::identify::{fit_options, print_fit, run_fit};
+use super::identify::{fit_options, run_fit};
 use super::simulate::simulate_into;
 use super::{EXIT_DEGRADED, read_test, write_json};
 use anyhow::Result;
-use hystid::analysis::run::{DiagnosisSummary, RunSummary, diagnosis_markdown, report_markdown};
-use hystid::analysis::{FitReport, reference_joint, write_fit_plots};
+use hystid::analysis::identify::{write_convergence, write_fit_frf};
+use hystid::analysis::run::{
+    DiagnosisSummary, FinalModel, RunSummary, report_markdown, write_final_figures,
+};
+use hystid::analysis::{FitReport, reference_joint};
 use hystid::fit::{FitResult, HbPredictor};
 use std::sync::Mutex;
 
@@ -23,33 +26,33 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         &text,
         &args.out,
         quiet,
-        WavFormat::Float32,
+        (!args.no_recording).then_some(WavFormat::Float32),
         false,
-        &mut |run: &hystid::testbench::BenchRun, mcap: &mut hystid::record::McapRecorder| {
-            fit_out = Some(run_fit(&run.frf, &options, quiet, Some(&Mutex::new(mcap)))?);
+        &mut |run: &hystid::testbench::BenchRun,
+              mcap: Option<&mut hystid::record::McapRecorder>| {
+            let mcap = mcap.map(Mutex::new);
+            fit_out = Some(run_fit(&run.frf, &options, quiet, mcap.as_ref())?);
             Ok(())
         },
     )?;
     let (fit, predictor) = fit_out.expect("the fit ran");
     let reference = reference_joint(Some(&def));
     let mut files = sim.files.clone();
-    files.extend(write_fit_plots(
-        &args.out,
-        &run.frf,
-        &fit,
-        reference.as_ref(),
-        &predictor,
-    )?);
+    files.extend(write_fit_frf(&args.out, &run.frf, &fit, &predictor)?);
+    files.extend(write_convergence(&args.out, &fit)?);
     files.push(args.out.join("fit.json"));
     let report = FitReport::new(
-        args.out.join("run.mcap").display().to_string(),
+        if args.no_recording {
+            "(not recorded: --no-recording)".to_string()
+        } else {
+            args.out.join("run.mcap").display().to_string()
+        },
         def.test.response.quantity().name().to_string(),
         fit,
-        reference,
+        reference.clone(),
         Vec::new(),
     );
     write_json(&args.out.join("fit.json"), &report)?;
-    let mut diagnosis_md = String::new();
     let mut diagnosis = None;
     if !args.no_diagnose {
         let t = std::time::Instant::now();
@@ -69,13 +72,33 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         files.extend(hystid::analysis::diagnose::write_diagnosis(
             &args.out, &run.frf, &d, &p, secs,
         )?);
-        diagnosis_md = diagnosis_markdown(&d, secs);
-        if !quiet {
-            say!("diagnosis ({secs:.1} s): {}", d.explanation);
-        }
-        diagnosis = Some(DiagnosisSummary::of(&d, secs));
+        diagnosis = Some((d, secs));
     }
-    let md = report_markdown(&sim, &report) + &diagnosis_md;
+    let truth = def.model().ok();
+    let final_model = FinalModel::of(
+        &run.frf,
+        &report.fit,
+        &options.harmonics,
+        options.band_hz,
+        diagnosis.as_ref().map(|(d, _)| d),
+        truth.as_ref(),
+        &predictor,
+    )?;
+    files.extend(write_final_figures(
+        &args.out,
+        &run.frf,
+        &final_model,
+        options.band_hz,
+        reference.as_ref(),
+        &predictor,
+    )?);
+    let md = report_markdown(
+        &def,
+        &sim,
+        &report,
+        &final_model,
+        diagnosis.as_ref().map(|(d, s)| (d, *s)),
+    );
     hystid::atomic::write_bytes(&args.out.join("report.md"), md.as_bytes())?;
     files.push(args.out.join("report.md"));
     files.push(args.out.join("run.json"));
@@ -83,8 +106,9 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         command: "run",
         version: env!("CARGO_PKG_VERSION"),
         simulate: &sim,
+        final_model: &final_model,
         fit: &report,
-        diagnosis,
+        diagnosis: diagnosis.as_ref().map(|(d, s)| DiagnosisSummary::of(d, *s)),
         seconds: t0.elapsed().as_secs_f64(),
         files,
     };
@@ -97,7 +121,12 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
             report.fit.effort.seconds,
             summary.seconds
         );
-        print_fit(&report.fit, &report.comparison);
+        if let Some((d, secs)) = &diagnosis {
+            say!("diagnosis ({secs:.1} s): {}", d.explanation);
+        }
+        for line in final_model.summary_lines() {
+            say!("{line}");
+        }
         say!("  report: {}", args.out.join("report.md").display());
     }
     Ok(if sim.unsettled.is_empty() {

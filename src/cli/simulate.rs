@@ -4,21 +4,22 @@ use super::args::{SimulateArgs, WavFormat};
 use super::import::sample_format;
 use super::{EXIT_DEGRADED, EXIT_OK, progress, read_test, write_json};
 use anyhow::Result;
-use hystid::analysis::simulate::SimulateSummary;
+use hystid::analysis::simulate::{Recording, SimulateSummary};
 use hystid::record::McapRecorder;
 use hystid::testbench::{BenchRun, TestDefinition};
 use std::path::Path;
 
 /// Runs the bench into `dir` with a progress bar; shared by `simulate` and
-/// `run`. `after_bench` runs with the MCAP recorder still open.
+/// `run`. `after_bench` runs with the MCAP recorder still open (none
+/// without a recording).
 pub fn simulate_into(
     def: &TestDefinition,
     toml_text: &str,
     dir: &Path,
     quiet: bool,
-    wav_format: WavFormat,
+    recording: Option<WavFormat>,
     check_hb: bool,
-    after_bench: &mut dyn FnMut(&BenchRun, &mut McapRecorder) -> hystid::Result<()>,
+    after_bench: &mut dyn FnMut(&BenchRun, Option<&mut McapRecorder>) -> hystid::Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
     let total: usize =
         def.sweeps()?.iter().map(|(_, f)| f.len()).sum::<usize>() * def.test.levels_n.len();
@@ -27,7 +28,10 @@ pub fn simulate_into(
         def,
         toml_text,
         dir,
-        sample_format(wav_format),
+        match recording {
+            Some(f) => Recording::Written(sample_format(f)),
+            None => Recording::Skipped,
+        },
         check_hb,
         &progress::Drawn(&pb),
         &mut |run, mcap| {
@@ -47,7 +51,7 @@ pub fn simulate(args: &SimulateArgs, quiet: bool) -> Result<u8> {
         &text,
         &args.out,
         quiet,
-        args.wav_format,
+        (!args.no_recording).then_some(args.wav_format),
         args.check_hb,
         &mut |_, _| Ok(()),
     )?;

@@ -95,8 +95,9 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
 }
 
 fn print_validation(path: &Path, response: &str, v: &Validation) {
+    let unit = hystid::harmonics::Quantity::from_name(response).map_or("", |q| q.si_unit());
     say!(
-        "{}: `{response}` simulated at {} Hz{}: e_RMS {:.4e} ({:.1} % of the measured RMS {:.4e})",
+        "{}: `{response}` simulated at {} Hz{}: e_RMS {:.4e} {unit} ({:.1} % of the measured RMS {:.4e} {unit})",
         path.display(),
         v.sample_rate_hz * v.upsampling as f64,
         if v.upsampling > 1 {
@@ -115,7 +116,7 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
     );
     if let Some(w) = &v.window {
         say!(
-            "  window {:.2}-{:.2} s: e_RMS {:.4e} ({:.1} % of {:.4e})",
+            "  window {:.2}-{:.2} s: e_RMS {:.4e} {unit} ({:.1} % of {:.4e} {unit})",
             w.start_s,
             w.end_s,
             w.e_rms,

@@ -22,12 +22,16 @@
 //!   series. Individual NaN/±Inf points (and zeros on a log axis) are
 //!   skipped: markers are omitted and lines are broken at them.
 //! * **Colour.** Each series carries a `group` (an excitation level, say):
-//!   measured markers and model lines of one group share its colour from a
-//!   10-colour palette ([`group_colour`]); groups 10–19 reuse the colours
-//!   with hollow markers. Series with an empty label stay out of the legend.
+//!   measured markers and model lines of one group share its colour. The
+//!   figures over levels (FRFs, loops, residuals) take it from a sequential
+//!   colour map ([`level_colour`], viridis from dark to light green, lowest
+//!   level darkest), so that 7 or more levels stay in order and readable;
+//!   the others (time overlays, convergence) from a 10-colour palette
+//!   ([`group_colour`]). Groups 10–19 are drawn with hollow markers. Series
+//!   with an empty label stay out of the legend.
 //! * **Fonts.** Text is rendered with the DejaVu Sans faces compiled into the
-//!   binary ([`ensure_fonts`]), so no system font library is needed
-//!   (crate notes 2.3).
+//!   binary ([`ensure_fonts`]), so no system font library is needed (and
+//!   the same text renders the same on every machine).
 
 mod decimate;
 mod render;
@@ -101,6 +105,53 @@ pub fn group_colour(group: usize) -> [u8; 3] {
 fn colour(group: usize) -> RGBColor {
     let [r, g, b] = group_colour(group);
     RGBColor(r, g, b)
+}
+
+/// The colour of group `group` of `groups` ordered ones (levels, lowest
+/// first) as RGB bytes: viridis sampled evenly from 0 (dark purple) to 0.85
+/// (green; its pale yellow end is left out, which reads poorly on white).
+pub fn level_colour(group: usize, groups: usize) -> [u8; 3] {
+    const VIRIDIS: [[f64; 3]; 9] = [
+        [68.0, 1.0, 84.0],
+        [71.0, 44.0, 122.0],
+        [59.0, 81.0, 139.0],
+        [44.0, 113.0, 142.0],
+        [33.0, 144.0, 141.0],
+        [39.0, 173.0, 129.0],
+        [92.0, 200.0, 99.0],
+        [170.0, 220.0, 50.0],
+        [253.0, 231.0, 37.0],
+    ];
+    let t = if groups <= 1 {
+        0.0
+    } else {
+        0.85 * (group.min(groups - 1) as f64) / ((groups - 1) as f64)
+    };
+    let x = t * (VIRIDIS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(VIRIDIS.len() - 2);
+    let w = x - i as f64;
+    let mut rgb = [0u8; 3];
+    for (k, c) in rgb.iter_mut().enumerate() {
+        *c = (VIRIDIS[i][k] * (1.0 - w) + VIRIDIS[i + 1][k] * w).round() as u8;
+    }
+    rgb
+}
+
+/// The colours of a figure over ordered groups: [`level_colour`] over this
+/// many groups.
+#[derive(Clone, Copy, Debug)]
+struct Palette(usize);
+
+impl Palette {
+    /// A sequential map over the groups of `groups`.
+    fn over(groups: impl Iterator<Item = usize>) -> Palette {
+        Palette(groups.max().map_or(1, |g| g + 1))
+    }
+
+    fn colour(self, group: usize) -> RGBColor {
+        let [r, g, b] = level_colour(group, self.0);
+        RGBColor(r, g, b)
+    }
 }
 
 /// Groups 10–19 (30–39, ...) repeat the palette with hollow markers.
@@ -189,10 +240,10 @@ fn require_series(title: &str, count: usize) -> Result<()> {
 /// The non-finite point that breaks a line.
 const GAP: (f64, f64) = (f64::NAN, f64::NAN);
 
-fn legend_entry(label: &str, group: usize, sample: Sample) -> Option<LegendEntry> {
+fn legend_entry(label: &str, colour: RGBColor, sample: Sample) -> Option<LegendEntry> {
     (!label.is_empty()).then(|| LegendEntry {
         label: label.to_string(),
-        colour: colour(group),
+        colour,
         sample,
     })
 }
@@ -229,6 +280,33 @@ fn unwrapped_phase_deg(h: &[Complex64]) -> Vec<f64> {
         phase.iter_mut().for_each(|p| *p -= shift);
     }
     phase
+}
+
+/// A series with its magnitude and phase points.
+type PhaseTrace<T> = (T, Vec<(f64, f64)>, Vec<(f64, f64)>);
+
+/// Shifts each series' unwrapped phase by whole turns so that, where it
+/// starts (its lowest frequency), it lies within half a turn of the first
+/// series' phase there: the levels of one test, measured and modelled,
+/// are then drawn on the same turn (each series alone is centred on its own
+/// mean, which can put one level a turn away from the others).
+fn align_phases<T>(traces: &mut [PhaseTrace<T>]) {
+    let start = |phase: &[(f64, f64)]| -> Option<f64> {
+        phase
+            .iter()
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|p| p.1)
+    };
+    let Some(reference) = traces.iter().find_map(|t| start(&t.2)) else {
+        return;
+    };
+    for t in traces.iter_mut() {
+        if let Some(p0) = start(&t.2) {
+            let shift = 360.0 * ((reference - p0) / 360.0).round();
+            t.2.iter_mut().for_each(|p| p.1 += shift);
+        }
+    }
 }
 
 /// Writes the FRF overlay: |H| on a log axis (labelled `magnitude_label`,
@@ -278,7 +356,9 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
             .collect();
         traces.push((s, magnitude, phase));
     }
+    align_phases(&mut traces);
     let mags: Vec<&[(f64, f64)]> = traces.iter().map(|t| t.1.as_slice()).collect();
+    let palette = Palette::over(series.iter().map(|s| s.group));
     let phases: Vec<&[(f64, f64)]> = traces.iter().map(|t| t.2.as_slice()).collect();
     let x = range_of(&mags, |p| p.0, false);
     let mut top = panel(magnitude_label, x, range_of(&mags, |p| p.1, true), true, 3);
@@ -287,7 +367,7 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
     bottom.x_label = "frequency [Hz]".into();
     for pass in [SeriesStyle::Model, SeriesStyle::Measured] {
         for (s, magnitude, phase) in traces.iter().filter(|t| t.0.style == pass) {
-            let (c, full) = (colour(s.group), filled(s.group));
+            let (c, full) = (palette.colour(s.group), filled(s.group));
             if pass == SeriesStyle::Model {
                 top.shapes.push(line(c, 2, magnitude.clone()));
                 bottom.shapes.push(line(c, 2, phase.clone()));
@@ -308,10 +388,30 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
             bottom.shapes.push(markers(c, full, phase.clone()));
         }
     }
-    let legend = series
+    let mut legend: Vec<LegendEntry> = series
         .iter()
-        .filter_map(|s| legend_entry(&s.label, s.group, sample(s.style, s.group)))
+        .filter_map(|s| legend_entry(&s.label, palette.colour(s.group), sample(s.style, s.group)))
         .collect();
+    // model lines left out of the legend (one entry per level) are named
+    // once, in grey, with what the markers are
+    let unlabelled_model = series
+        .iter()
+        .any(|s| s.style == SeriesStyle::Model && s.label.is_empty());
+    if unlabelled_model {
+        let measured = series.iter().any(|s| s.style == SeriesStyle::Measured);
+        if measured {
+            legend.push(LegendEntry {
+                label: "measured".into(),
+                colour: GREY,
+                sample: Sample::Marker { filled: true },
+            });
+        }
+        legend.push(LegendEntry {
+            label: "model".into(),
+            colour: GREY,
+            sample: Sample::Line,
+        });
+    }
     Ok(Figure {
         title: title.into(),
         panels: vec![top, bottom],
@@ -521,9 +621,10 @@ pub fn write_loop_plot(
         1,
     );
     p.x_label = x_label.into();
+    let palette = Palette::over(series.iter().map(|s| s.group));
     for pass in [SeriesStyle::Measured, SeriesStyle::Model] {
         for (s, points) in traces.iter().filter(|t| t.0.style == pass) {
-            let (c, points) = (colour(s.group), points.clone());
+            let (c, points) = (palette.colour(s.group), points.clone());
             p.shapes.push(match pass {
                 SeriesStyle::Measured => Shape::Line {
                     colour: c,
@@ -540,7 +641,7 @@ pub fn write_loop_plot(
             SeriesStyle::Measured => Sample::Band,
             SeriesStyle::Model => Sample::Line,
         };
-        legend_entry(&s.label, s.group, sample)
+        legend_entry(&s.label, palette.colour(s.group), sample)
     });
     let figure = Figure {
         title: title.into(),
@@ -709,6 +810,7 @@ pub fn write_residual_plot(
         .flat_map(|p| p.iter().map(|q| q.1))
         .chain(noise_y);
     let y = axis_range(ys, true).unwrap_or((1.0, 10.0));
+    let palette = Palette::over(panels.iter().flat_map(|p| &p.series).map(|s| s.group));
     let mut figure_panels = Vec::new();
     for (i, (p, lines)) in panels.iter().zip(&traces).enumerate() {
         let mut fp = panel(y_label, x, y, true, 1);
@@ -717,7 +819,7 @@ pub fn write_residual_plot(
             fp.x_label = "frequency [Hz]".into();
         }
         for (s, points) in lines {
-            let c = colour(s.group);
+            let c = palette.colour(s.group);
             fp.shapes.push(line(c, 1, points.clone()));
             fp.shapes.push(markers(c, filled(s.group), points.clone()));
         }
@@ -733,9 +835,12 @@ pub fn write_residual_plot(
     for s in panels.iter().flat_map(|p| &p.series) {
         let duplicate = legend
             .iter()
-            .any(|e| e.label == s.label && e.colour == colour(s.group));
-        if let Some(e) = legend_entry(&s.label, s.group, sample(SeriesStyle::Measured, s.group))
-            && !duplicate
+            .any(|e| e.label == s.label && e.colour == palette.colour(s.group));
+        if let Some(e) = legend_entry(
+            &s.label,
+            palette.colour(s.group),
+            sample(SeriesStyle::Measured, s.group),
+        ) && !duplicate
         {
             legend.push(e);
         }
@@ -843,8 +948,8 @@ pub fn write_time_overlay(
     bottom.shapes = vec![line(colour(3), 1, d)];
     let legend = [(&measured.label, 0), (&simulated.label, 1)]
         .into_iter()
-        .filter_map(|(l, g)| legend_entry(l, g, Sample::Line))
-        .chain(legend_entry("difference", 3, Sample::Line));
+        .filter_map(|(l, g)| legend_entry(l, colour(g), Sample::Line))
+        .chain(legend_entry("difference", colour(3), Sample::Line));
     let figure = Figure {
         title: title.into(),
         panels: vec![top, bottom],
@@ -853,7 +958,7 @@ pub fn write_time_overlay(
     render::write_figure(stem, &figure)
 }
 
-/// An optimiser's cost per iteration (index 0 is the initial guess).
+/// An optimiser's cost per evaluation (index 0 is the initial guess).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ConvergenceSeries {
     /// Legend text, e.g. `Nelder–Mead, start 2`; empty keeps it out of the
@@ -861,11 +966,11 @@ pub struct ConvergenceSeries {
     pub label: String,
     /// Colour group.
     pub group: usize,
-    /// Cost after each iteration (plotted on a log axis: zeros are skipped).
+    /// Cost of each evaluation (plotted on a log axis: zeros are skipped).
     pub cost: Vec<f64>,
 }
 
-/// Writes cost against iteration on a log axis, one line per run. Returns
+/// Writes cost against evaluation on a log axis, one line per run. Returns
 /// `[png, svg]`.
 pub fn write_convergence_plot(
     stem: &Path,
@@ -902,14 +1007,14 @@ pub fn write_convergence_plot(
         true,
         1,
     );
-    p.x_label = "iteration".into();
+    p.x_label = "evaluation".into();
     p.shapes = traces
         .iter()
         .map(|(s, pts)| line(colour(s.group), 2, pts.clone()))
         .collect();
     let legend = series
         .iter()
-        .filter_map(|s| legend_entry(&s.label, s.group, Sample::Line));
+        .filter_map(|s| legend_entry(&s.label, colour(s.group), Sample::Line));
     let figure = Figure {
         title: title.into(),
         panels: vec![p],
@@ -962,5 +1067,44 @@ mod tests {
             (up[0] - 3f64.to_degrees()).abs() < 1e-9 && up[1] > 180.0,
             "{up:?}"
         );
+    }
+
+    /// A level whose own mean puts it a turn away from the others (a
+    /// lightly damped one that spends most of its band past −180°) is drawn
+    /// on the same turn as they are.
+    #[test]
+    fn phases_of_all_levels_are_drawn_on_one_turn() {
+        let r: Vec<f64> = (0..60).map(|i| 0.5 + 0.05 * i as f64).collect();
+        let lag = Complex64::from_polar(1.0, -100f64.to_radians());
+        let series = |lag: Complex64| -> Vec<Complex64> {
+            r.iter()
+                .map(|&r| lag / Complex64::new(1.0 - r * r, 2.0 * 0.01 * r))
+                .collect()
+        };
+        let (a, b) = (
+            unwrapped_phase_deg(&series(Complex64::new(1.0, 0.0))),
+            unwrapped_phase_deg(&series(lag)),
+        );
+        // each alone: the lagging one centred a turn up (+260° instead of
+        // −100° against the other)
+        assert!((b[0] - a[0]).abs() > 180.0, "{} vs {}", a[0], b[0]);
+        let pts =
+            |p: &[f64]| -> Vec<(f64, f64)> { r.iter().copied().zip(p.iter().copied()).collect() };
+        let mut traces = vec![((), Vec::new(), pts(&a)), ((), Vec::new(), pts(&b))];
+        align_phases(&mut traces);
+        assert!((traces[1].2[0].1 - traces[0].2[0].1 + 100.0).abs() < 1.0);
+    }
+
+    /// The level colours run in order from dark to light, and the ends of
+    /// the map stay put whatever the number of levels.
+    #[test]
+    fn level_colours_are_a_sequential_map() {
+        let lightness = |[r, g, b]: [u8; 3]| 0.299 * r as f64 + 0.587 * g as f64 + 0.114 * b as f64;
+        for n in [2, 7, 12] {
+            let l: Vec<f64> = (0..n).map(|g| lightness(level_colour(g, n))).collect();
+            assert!(l.windows(2).all(|w| w[1] > w[0]), "{n}: {l:?}");
+            assert_eq!(level_colour(0, n), [68, 1, 84]);
+            assert_eq!(level_colour(n - 1, n), level_colour(1, 2));
+        }
     }
 }

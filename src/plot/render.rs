@@ -103,7 +103,19 @@ fn draw_figure<DB: DrawingBackend>(
     bitmap: bool,
 ) -> Draw<()> {
     root.fill(&WHITE).map_err(fail)?;
-    let title = FontDesc::new(FontFamily::SansSerif, 26.0, FontStyle::Bold);
+    // the title's size shrinks (to 14 px) until it fits the figure's width
+    let (full_width, _) = root.dim_in_pixel();
+    let mut size = 26.0;
+    let title = loop {
+        let font = FontDesc::new(FontFamily::SansSerif, size, FontStyle::Bold);
+        let (w, _) = root
+            .estimate_text_size(&figure.title, &TextStyle::from(font.clone()))
+            .map_err(fail)?;
+        if w + 20 <= full_width || size <= 14.0 {
+            break font;
+        }
+        size -= 1.0;
+    };
     let body = root
         .margin(10, 0, 0, 0)
         .titled(&figure.title, title)
