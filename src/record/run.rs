@@ -616,8 +616,19 @@ const RECORD_LIMIT: u64 = 1 << 30;
 /// A file without its summary/footer (a run cut short) is read up to its
 /// first incomplete record and returned with `truncated: true`.
 pub fn read_run(path: &Path) -> Result<McapRun> {
-    let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    read_run_from(path, file, len)
+}
+
+/// [`read_run`] on a run file already in memory; `path` names it in
+/// messages.
+pub fn read_run_bytes(path: &Path, bytes: &[u8]) -> Result<McapRun> {
+    read_run_from(path, bytes, bytes.len() as u64)
+}
+
+/// Reads a run of `len` bytes from `file`.
+fn read_run_from(path: &Path, mut file: impl Read, len: u64) -> Result<McapRun> {
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default()
             .with_prevalidate_chunk_crcs(true)
@@ -650,7 +661,7 @@ pub fn read_run(path: &Path) -> Result<McapRun> {
 }
 
 /// Reads until `buf` is full or the file ends (0 only at the end).
-fn read_some(file: &mut File, buf: &mut [u8]) -> std::io::Result<usize> {
+fn read_some(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut n = 0;
     while n < buf.len() {
         match file.read(&mut buf[n..]) {
