@@ -688,3 +688,42 @@ fn two_runs_on_one_out_do_not_mix_their_files() {
     }
     eprintln!("two runs on one --out: {refused} of 4 rounds refused the second run");
 }
+
+// ---------------------------------------------------------------- declared sizes and fuzz findings
+
+/// The error text of reading `bytes` with `read`; panics on success.
+fn refused<T>(read: impl FnOnce() -> hystid::Result<T>) -> String {
+    match read() {
+        Ok(_) => panic!("accepted"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// A definition's declared sizes are checked before anything is made of
+/// them: 2^40 dwell frequencies or periods are an error, not an allocation
+/// (found by review; the TOML fuzzing did not reach such a count).
+#[test]
+fn declared_counts_in_a_definition_are_errors_not_allocations() {
+    use hystid::testbench::TestDefinition;
+    for (from, to, field) in [
+        (
+            "count = 11",
+            "count = 1099511627776",
+            "test.frequencies_hz.count",
+        ),
+        (
+            "seed = 4",
+            "seed = 4\nmeasure_periods = 1099511627776",
+            "test.measure_periods",
+        ),
+        (
+            "seed = 4",
+            "seed = 4\nmax_settle_periods = 1099511627776",
+            "test.max_settle_periods",
+        ),
+    ] {
+        let text = SMALL_TEST.replace(from, to);
+        let e = refused(|| TestDefinition::from_toml(&text, "huge.toml"));
+        assert!(e.contains(field) && e.contains("1099511627776"), "{e}");
+    }
+}
