@@ -36,13 +36,13 @@ pub(crate) enum Storage {
 }
 
 pub(crate) struct Var {
-    name: &'static str,
-    class: u8,
-    dims: Vec<usize>,
-    storage: Storage,
-    real: Vec<f64>,
-    imag: Option<Vec<f64>>,
-    compressed: bool,
+    pub(crate) name: &'static str,
+    pub(crate) class: u8,
+    pub(crate) dims: Vec<usize>,
+    pub(crate) storage: Storage,
+    pub(crate) real: Vec<f64>,
+    pub(crate) imag: Option<Vec<f64>>,
+    pub(crate) compressed: bool,
 }
 
 impl Var {

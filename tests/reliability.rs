@@ -727,3 +727,17 @@ fn declared_counts_in_a_definition_are_errors_not_allocations() {
         assert!(e.contains(field) && e.contains("1099511627776"), "{e}");
     }
 }
+
+/// A compressed MAT variable whose header (here 2^20 dimensions, 4 MiB of
+/// zeros in 4 KiB) runs past what a header can be: indexing refuses it
+/// after at most 1 MiB of inflating, where it once inflated the element
+/// whole however large (a zlib bomb).
+#[test]
+fn mat_header_past_its_limit_is_refused_without_inflating_it_all() {
+    let mut v = Var::double("big", 0, 0, vec![]).compressed();
+    v.dims = vec![0; 1 << 20];
+    let bytes = mat_bytes(&[v], false);
+    assert!(bytes.len() < 64 << 10, "{} bytes", bytes.len());
+    let e = refused(|| hystid::import::mat::MatFile::from_bytes(Path::new("bomb.mat"), bytes));
+    assert!(e.contains("bomb.mat") && e.contains("runs past"), "{e}");
+}
