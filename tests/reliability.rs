@@ -247,9 +247,10 @@ fn read_seed(target: &str, bytes: &[u8]) -> Result<(), String> {
             hystid::import::uff::channels(Path::new("s.uff"), &f).map_err(e)?;
         }
         "recording" => {
-            let i = bytes.iter().position(|&b| b == 0).unwrap();
-            read_recording_bytes(Path::new("s"), &bytes[..i], bytes[i + 1..].to_vec())
-                .map_err(e)?;
+            // as the fuzz target splits it: the sidecar, a NUL, the WAV
+            let i = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+            let wav = bytes.get(i + 1..).unwrap_or(&[]).to_vec();
+            read_recording_bytes(Path::new("s"), &bytes[..i], wav).map_err(e)?;
         }
         "mcap_run" => {
             read_run_bytes(Path::new("s.mcap"), bytes)
@@ -378,11 +379,7 @@ fn check_out_dir(dir: &Path) -> (Vec<String>, usize) {
         if name == hystid::atomic::LOCK_FILE {
             continue;
         }
-        if let Some(pid) = name
-            .strip_suffix(".tmp")
-            .and_then(|s| s.rsplit_once('.'))
-            .and_then(|(_, pid)| pid.parse::<u32>().ok())
-        {
+        if let Some(pid) = hystid::atomic::temporary_pid(&name) {
             if Path::new("/proc").join(pid.to_string()).exists() {
                 problems.push(format!("{name}: a temporary of a live process"));
             }
@@ -740,4 +737,84 @@ fn mat_header_past_its_limit_is_refused_without_inflating_it_all() {
     assert!(bytes.len() < 64 << 10, "{} bytes", bytes.len());
     let e = refused(|| hystid::import::mat::MatFile::from_bytes(Path::new("bomb.mat"), bytes));
     assert!(e.contains("bomb.mat") && e.contains("runs past"), "{e}");
+}
+
+/// The largest single allocation made by the calling thread (the fuzz
+/// targets' 16x rule, checked in the ordinary tests too).
+mod largest {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    thread_local! {
+        static LARGEST: Cell<usize> = const { Cell::new(0) };
+    }
+
+    fn note(size: usize) {
+        let _ = LARGEST.try_with(|l| l.set(l.get().max(size)));
+    }
+
+    pub struct Counting;
+
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            note(layout.size());
+            unsafe { System.alloc(layout) }
+        }
+        unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+            note(layout.size());
+            unsafe { System.alloc_zeroed(layout) }
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            unsafe { System.dealloc(ptr, layout) }
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            note(new_size);
+            unsafe { System.realloc(ptr, layout, new_size) }
+        }
+    }
+
+    /// Runs `f` and returns what it returned with the largest block it
+    /// allocated.
+    pub fn during<T>(f: impl FnOnce() -> T) -> (T, usize) {
+        LARGEST.with(|l| l.set(0));
+        let r = f();
+        (r, LARGEST.with(|l| l.get()))
+    }
+}
+
+#[global_allocator]
+static ALLOC: largest::Counting = largest::Counting;
+
+/// Every input the fuzzing found (minimised, or rebuilt by hand to the same
+/// shape; `tests/fuzz-regressions/<target>/`) gives its reader's clear
+/// error, naming the file, with no allocation above 16 times its size (nor
+/// 1 MiB, the fuzz targets' floor for fixed buffers).
+#[test]
+fn fuzz_findings_give_clear_errors() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-regressions");
+    let mut count = 0;
+    for target in std::fs::read_dir(&root).unwrap() {
+        let target = target.unwrap().path();
+        let t = target.file_name().unwrap().to_str().unwrap().to_string();
+        for input in std::fs::read_dir(&target).unwrap() {
+            let input = input.unwrap().path();
+            let name = input.file_name().unwrap().to_str().unwrap().to_string();
+            let bytes = std::fs::read(&input).unwrap();
+            let (r, big) = largest::during(|| read_seed(&t, &bytes));
+            let e = r.err().unwrap_or_else(|| panic!("{t}/{name} was accepted"));
+            assert!(e.contains("s."), "{t}/{name}: the error names no file: {e}");
+            let limit = (16 * bytes.len()).max(1 << 20);
+            assert!(
+                big <= limit,
+                "{t}/{name}: allocated {big} bytes at once ({} in)",
+                bytes.len()
+            );
+            count += 1;
+        }
+    }
+    assert!(
+        count >= 4,
+        "only {count} regression inputs found in {}",
+        root.display()
+    );
 }
