@@ -7,8 +7,9 @@
 //! (SIGKILL, power loss) cannot, so the next run that claims the directory
 //! ([`OutDir::claim`]) removes the temporaries of processes no longer alive.
 //! The standard is therefore: in an output directory, a file under its final
-//! name is complete; anything else is a `*.tmp` of a dead run, removed by the
-//! next run, or of a live one.
+//! name is complete; anything else is a temporary (`NAME.<pid>.tmp`, or
+//! `NAME.<pid>.tmp.png` for a bitmap whose encoder needs the extension) of a
+//! dead run, removed by the next run, or of a live one.
 //!
 //! [`OutDir::claim`] also locks the directory, so that two runs writing to
 //! the same `--out` at once do not mix their files: the second stops with an
@@ -194,9 +195,17 @@ fn same_file(_: &File, path: &Path) -> bool {
     path.exists()
 }
 
-/// The process id in a temporary's name (`NAME.<pid>.tmp`).
-fn temporary_pid(name: &str) -> Option<u32> {
-    let stem = name.strip_suffix(".tmp")?;
+/// The process id in a temporary's name: `NAME.<pid>.tmp`, or
+/// `NAME.<pid>.tmp.<ext>` where an encoder picks its format from the
+/// extension (the plots' PNG); None for any other name.
+pub fn temporary_pid(name: &str) -> Option<u32> {
+    let stem = name.strip_suffix(".tmp").or_else(|| {
+        let (rest, ext) = name.rsplit_once('.')?;
+        if ext.is_empty() || !ext.bytes().all(|b| b.is_ascii_alphanumeric()) {
+            return None;
+        }
+        rest.strip_suffix(".tmp")
+    })?;
     let (_, pid) = stem.rsplit_once('.')?;
     pid.parse().ok()
 }
@@ -259,9 +268,13 @@ mod tests {
         for p in [&dead, &ours] {
             std::fs::write(p, b"x").unwrap();
         }
+        let dead_png = d.join("p.png.0.tmp.png");
+        std::fs::write(&dead_png, b"x").unwrap();
         std::fs::write(d.join("c.tmp"), b"not ours").unwrap();
+        std::fs::write(d.join("c.1.tmp.x.y"), b"not ours").unwrap();
         let _out = OutDir::claim(d).unwrap();
-        assert!(!dead.exists());
+        assert!(!dead.exists() && !dead_png.exists());
+        assert!(d.join("c.1.tmp.x.y").exists());
         assert!(ours.exists());
         assert!(d.join("c.tmp").exists());
     }
