@@ -699,23 +699,26 @@ fn check_lengths(opcode: u8, data: &[u8]) -> std::result::Result<(), String> {
         Skip(usize),
         /// A string: u32 length, then bytes.
         Str,
-        /// A map or array: u32 byte length, then entries (of strings when
-        /// `true`: each checked).
-        Map(bool),
+        /// A map of strings: u32 byte length, then key and value strings.
+        Strings,
+        /// A map or array of fixed-size entries (bytes each): u32 byte
+        /// length, a whole number of entries (mcap reads whole entries, so a
+        /// partial one would shift every later field).
+        Entries(usize),
     }
     use F::*;
     let fields: &[F] = match opcode {
-        0x01 => &[Str, Str],                           // header
-        0x03 => &[Skip(2), Str, Str],                  // schema (data checked by mcap)
-        0x04 => &[Skip(4), Str, Str, Map(true)],       // channel
-        0x06 => &[Skip(28), Str],                      // chunk (records checked by mcap)
-        0x07 => &[Skip(2), Map(false)],                // message index
-        0x08 => &[Skip(32), Map(false), Skip(8), Str], // chunk index
-        0x09 => &[Skip(16), Str, Str, Skip(12)],       // attachment: then data length, crc
-        0x0a => &[Skip(40), Str, Str],                 // attachment index
-        0x0b => &[Skip(42), Map(false)],               // statistics
-        0x0c => &[Str, Map(true)],                     // metadata
-        0x0d => &[Skip(16), Str],                      // metadata index
+        0x01 => &[Str, Str],                            // header
+        0x03 => &[Skip(2), Str, Str],                   // schema (data checked by mcap)
+        0x04 => &[Skip(4), Str, Str, Strings],          // channel
+        0x06 => &[Skip(28), Str],                       // chunk (records checked by mcap)
+        0x07 => &[Skip(2), Entries(16)],                // message index
+        0x08 => &[Skip(32), Entries(10), Skip(8), Str], // chunk index
+        0x09 => &[Skip(16), Str, Str, Skip(12)],        // attachment: then data length, crc
+        0x0a => &[Skip(40), Str, Str],                  // attachment index
+        0x0b => &[Skip(42), Entries(10)],               // statistics
+        0x0c => &[Str, Strings],                        // metadata
+        0x0d => &[Skip(16), Str],                       // metadata index
         _ => &[],
     };
     let mut at = 0usize;
@@ -742,11 +745,21 @@ fn check_lengths(opcode: u8, data: &[u8]) -> std::result::Result<(), String> {
                 let n = prefix(&mut at, "a string's length")?;
                 take(&mut at, n, "a string")?;
             }
-            Map(strings) => {
+            Entries(size) => {
+                let n = prefix(&mut at, "a map's length")?;
+                if n % size != 0 {
+                    return Err(format!(
+                        "a map of {n} bytes at byte {} is not a whole number of {size}-byte entries",
+                        at - 4
+                    ));
+                }
+                take(&mut at, n, "a map")?;
+            }
+            Strings => {
                 let n = prefix(&mut at, "a map's length")?;
                 let end = at;
                 take(&mut at, n, "a map")?;
-                if *strings {
+                {
                     let mut k = end;
                     while k < at {
                         for what in ["a key", "a value"] {
