@@ -661,13 +661,7 @@ fn read_run_from(path: &Path, mut file: impl Read, len: u64) -> Result<McapRun> 
             None => break,
             Some(Ok(LinearReadEvent::ReadRequest(n))) => n,
             Some(Ok(LinearReadEvent::Record { opcode, data })) => {
-                if let Err(m) = check_lengths(opcode, data) {
-                    return Err(Error::format(
-                        path,
-                        format!("MCAP record (opcode {opcode:#04x})"),
-                        m,
-                    ));
-                }
+                check_lengths(path, opcode, data)?;
                 let record = mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))?;
                 scan.record(path, record)?;
                 continue;
@@ -693,7 +687,8 @@ fn read_run_from(path: &Path, mut file: impl Read, len: u64) -> Result<McapRun> 
 /// record, before `mcap::parse_record` allocates what they declare (it reads
 /// a string's declared length, up to 4 GiB, before checking it). Layouts from
 /// the MCAP specification; records without such fields pass.
-fn check_lengths(opcode: u8, data: &[u8]) -> std::result::Result<(), String> {
+fn check_lengths(path: &Path, opcode: u8, data: &[u8]) -> Result<()> {
+    let fail = |m: String| Error::format(path, format!("MCAP record (opcode {opcode:#04x})"), m);
     enum F {
         /// Fixed-size fields, bytes.
         Skip(usize),
@@ -724,16 +719,16 @@ fn check_lengths(opcode: u8, data: &[u8]) -> std::result::Result<(), String> {
     let mut at = 0usize;
     let take = |at: &mut usize, n: usize, what: &str| {
         if n > data.len() - *at {
-            return Err(format!(
+            return Err(fail(format!(
                 "{what} of {n} bytes at byte {} runs past the record's {} bytes",
                 *at,
                 data.len()
-            ));
+            )));
         }
         *at += n;
         Ok(())
     };
-    let prefix = |at: &mut usize, what: &str| -> std::result::Result<usize, String> {
+    let prefix = |at: &mut usize, what: &str| -> Result<usize> {
         let start = *at;
         take(at, 4, what)?;
         Ok(u32::from_le_bytes(data[start..start + 4].try_into().unwrap()) as usize)
@@ -748,10 +743,10 @@ fn check_lengths(opcode: u8, data: &[u8]) -> std::result::Result<(), String> {
             Entries(size) => {
                 let n = prefix(&mut at, "a map's length")?;
                 if n % size != 0 {
-                    return Err(format!(
+                    return Err(fail(format!(
                         "a map of {n} bytes at byte {} is not a whole number of {size}-byte entries",
                         at - 4
-                    ));
+                    )));
                 }
                 take(&mut at, n, "a map")?;
             }
@@ -765,15 +760,17 @@ fn check_lengths(opcode: u8, data: &[u8]) -> std::result::Result<(), String> {
                         for what in ["a key", "a value"] {
                             let start = k;
                             if at - k < 4 {
-                                return Err(format!("{what} at byte {start} runs past its map"));
+                                return Err(fail(format!(
+                                    "{what} at byte {start} runs past its map"
+                                )));
                             }
                             let len =
                                 u32::from_le_bytes(data[k..k + 4].try_into().unwrap()) as usize;
                             k += 4;
                             if len > at - k {
-                                return Err(format!(
+                                return Err(fail(format!(
                                     "{what} of {len} bytes at byte {start} runs past its map"
-                                ));
+                                )));
                             }
                             k += len;
                         }
