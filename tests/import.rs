@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 // A minimal MAT v5 writer (matfile_format.pdf), independent of the reader.
 
 #[derive(Clone, Copy)]
-enum Storage {
+pub(crate) enum Storage {
     Double,
     Single,
     Int16,
@@ -35,18 +35,18 @@ enum Storage {
     Utf16,
 }
 
-struct Var {
-    name: &'static str,
-    class: u8,
-    dims: Vec<usize>,
-    storage: Storage,
-    real: Vec<f64>,
-    imag: Option<Vec<f64>>,
-    compressed: bool,
+pub(crate) struct Var {
+    pub(crate) name: &'static str,
+    pub(crate) class: u8,
+    pub(crate) dims: Vec<usize>,
+    pub(crate) storage: Storage,
+    pub(crate) real: Vec<f64>,
+    pub(crate) imag: Option<Vec<f64>>,
+    pub(crate) compressed: bool,
 }
 
 impl Var {
-    fn double(name: &'static str, rows: usize, cols: usize, data: Vec<f64>) -> Var {
+    pub(crate) fn double(name: &'static str, rows: usize, cols: usize, data: Vec<f64>) -> Var {
         assert_eq!(rows * cols, data.len());
         Var {
             name,
@@ -58,11 +58,11 @@ impl Var {
             compressed: false,
         }
     }
-    fn compressed(mut self) -> Var {
+    pub(crate) fn compressed(mut self) -> Var {
         self.compressed = true;
         self
     }
-    fn stored(mut self, s: Storage) -> Var {
+    pub(crate) fn stored(mut self, s: Storage) -> Var {
         self.storage = s;
         self
     }
@@ -147,7 +147,7 @@ fn matrix(v: &Var, be: bool) -> Vec<u8> {
     element(14, &content, be)
 }
 
-fn mat_bytes(vars: &[Var], be: bool) -> Vec<u8> {
+pub(crate) fn mat_bytes(vars: &[Var], be: bool) -> Vec<u8> {
     let mut out = Vec::new();
     let mut text = b"MATLAB 5.0 MAT-file, written by the hystid import tests".to_vec();
     text.resize(116, b' ');

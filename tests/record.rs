@@ -25,7 +25,7 @@ fn channel(name: &str, quantity: Quantity, scale: f64) -> Channel {
 
 /// A 3-channel recording: a sine force, a noisy displacement, an
 /// acceleration, with two dwells.
-fn sample_recording(frames: usize, seed: u64) -> Recording {
+pub(crate) fn sample_recording(frames: usize, seed: u64) -> Recording {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let noise = Normal::new(0.0, 1.0).unwrap();
     let fs = 8192.0;
@@ -79,7 +79,7 @@ fn sample_recording(frames: usize, seed: u64) -> Recording {
 
 /// Minimal RIFF/WAVE writer written from the format description (not
 /// hound), for checking the reader against an independent reference.
-fn wav_bytes(
+pub(crate) fn wav_bytes(
     tag: u16,
     channels: u16,
     rate: u32,
@@ -121,13 +121,13 @@ fn wav_bytes(
 }
 
 /// KSDATAFORMAT_SUBTYPE_PCM / _IEEE_FLOAT.
-fn guid(kind: u8) -> [u8; 16] {
+pub(crate) fn guid(kind: u8) -> [u8; 16] {
     [
         kind, 0, 0, 0, 0, 0, 0x10, 0, 0x80, 0, 0, 0xaa, 0, 0x38, 0x9b, 0x71,
     ]
 }
 
-fn sidecar(rate: u32, channels: &[(&str, &str, &str, f64)]) -> serde_json::Value {
+pub(crate) fn sidecar(rate: u32, channels: &[(&str, &str, &str, f64)]) -> serde_json::Value {
     json!({
         "format": "hystid.recording.v1",
         "sample_rate_hz": rate,
@@ -545,7 +545,7 @@ fn wav_damaged_files_are_reported() {
 
 // ---------------------------------------------------------------- MCAP
 
-fn run_info(fs: f64) -> RunInfo {
+pub(crate) fn run_info(fs: f64) -> RunInfo {
     RunInfo {
         tool_version: "hystid 0.1.0-test".into(),
         test_definition: "[test]\nlevels_n = [10.0, 20.0]\nseed = 42\n".into(),
@@ -562,7 +562,7 @@ fn run_info(fs: f64) -> RunInfo {
 
 /// A virtual test as plain data: per step (frequency, level, frames) and the
 /// signals of the whole run.
-struct Run {
+pub(crate) struct Run {
     steps: Vec<(f64, f64, usize)>,
     force: Vec<f64>,
     disp: Vec<f64>,
@@ -570,7 +570,7 @@ struct Run {
     acc: Vec<f64>,
 }
 
-fn virtual_run(fs: f64, steps: Vec<(f64, f64, usize)>, seed: u64) -> Run {
+pub(crate) fn virtual_run(fs: f64, steps: Vec<(f64, f64, usize)>, seed: u64) -> Run {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let noise = Normal::new(0.0, 0.01).unwrap();
     let (mut force, mut disp, mut vel, mut acc) = (vec![], vec![], vec![], vec![]);
@@ -594,7 +594,7 @@ fn virtual_run(fs: f64, steps: Vec<(f64, f64, usize)>, seed: u64) -> Run {
 
 /// Writes `run` the way the bench would: signals per step (split into two
 /// calls), a dwell message at the end of each step, then fit iterations.
-fn record_run(path: &Path, info: &RunInfo, run: &Run, fit_iterations: u64) {
+pub(crate) fn record_run(path: &Path, info: &RunInfo, run: &Run, fit_iterations: u64) {
     let mut rec = McapRecorder::create(path, info).unwrap();
     let mut start = 0usize;
     for (k, &(f, level, n)) in run.steps.iter().enumerate() {

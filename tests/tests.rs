@@ -19,6 +19,7 @@ mod independent;
 mod plot;
 mod realdata;
 mod record;
+mod reliability;
 mod sim;
 mod time_fit;
 mod uff;

@@ -26,7 +26,7 @@ use std::process::Command;
 
 /// One time record to write.
 #[derive(Clone)]
-struct Rec {
+pub(crate) struct Rec {
     id1: &'static str,
     function_type: i64,
     node: i64,
@@ -41,7 +41,7 @@ struct Rec {
 
 /// How the values are stored.
 #[derive(Clone, Copy)]
-enum Store {
+pub(crate) enum Store {
     /// ASCII, double precision, shortest round-trip text, blank-separated.
     Ascii,
     /// 58b.
@@ -65,7 +65,7 @@ const LE_SINGLE: Store = Store::Binary {
     before_close: b"",
 };
 
-fn bin(big: bool, single: bool) -> Store {
+pub(crate) fn bin(big: bool, single: bool) -> Store {
     Store::Binary {
         big,
         single,
@@ -75,7 +75,7 @@ fn bin(big: bool, single: bool) -> Store {
     }
 }
 
-fn rec(id1: &'static str, data_type: i64, units: &'static str, values: Vec<f64>) -> Rec {
+pub(crate) fn rec(id1: &'static str, data_type: i64, units: &'static str, values: Vec<f64>) -> Rec {
     Rec {
         id1,
         function_type: 1,
@@ -103,7 +103,7 @@ fn lines(ls: &[String], eol: &str, pad: bool) -> Vec<u8> {
     out
 }
 
-fn dataset58(r: &Rec, store: Store, eol: &str, pad: bool) -> Vec<u8> {
+pub(crate) fn dataset58(r: &Rec, store: Store, eol: &str, pad: bool) -> Vec<u8> {
     let n = r.values.len();
     let (ord, width, per_x) = match store {
         Store::Ascii => (4, 8, 8),
@@ -216,7 +216,7 @@ fn other_dataset(number: &str, body: &[&str], eol: &str) -> Vec<u8> {
 }
 
 /// A test signal whose f32 and f64 bytes hold line feeds and `-1` lookalikes.
-fn signal(n: usize, amp: f64, phase: f64) -> Vec<f64> {
+pub(crate) fn signal(n: usize, amp: f64, phase: f64) -> Vec<f64> {
     let mut v: Vec<f64> = (0..n)
         .map(|k| amp * (2.0 * std::f64::consts::PI * 50.0 * k as f64 / 3200.0 + phase).sin())
         .collect();

@@ -136,8 +136,14 @@ impl FitReport {
 
     /// Reads a `fit.json`.
     pub fn read(path: &Path) -> Result<FitReport> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        serde_json::from_str(&text).map_err(|e| {
+        let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        FitReport::parse(path, &text)
+    }
+
+    /// [`FitReport::read`] on a file already in memory; `path` names it in
+    /// messages.
+    pub fn parse(path: &Path, bytes: &[u8]) -> Result<FitReport> {
+        serde_json::from_slice(bytes).map_err(|e| {
             Error::format(
                 path,
                 "fit",

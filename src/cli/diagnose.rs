@@ -61,7 +61,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         &args.reduction,
         quiet,
     )?;
-    create_out_dir(&args.out)?;
+    let _out = create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
     let (fit, _) = run_fit(&frf, &fit_opts, quiet, None)?;
     // the candidates re-identify (one more mode) with the user's fit options:

@@ -250,7 +250,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         .iter()
         .map(|p| p.display().to_string())
         .collect();
-    create_out_dir(&args.out)?;
+    let _out = create_out_dir(&args.out)?;
     let info = hystid::record::RunInfo {
         tool_version: format!("hystid {}", env!("CARGO_PKG_VERSION")),
         test_definition: String::new(),

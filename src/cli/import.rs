@@ -205,9 +205,11 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
         );
         return Ok(EXIT_BAD_DATA);
     }
-    if let Some(dir) = json.parent().filter(|d| !d.as_os_str().is_empty()) {
-        super::create_out_dir(dir)?;
-    }
+    let dir = json
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let _out = super::create_out_dir(dir)?;
     write_recording(&json, &recording, sample_format(args.format))?;
     write_json(&quality_json, &quality)?;
     if let Some(fs) = rounded {

@@ -50,10 +50,13 @@ pub fn fit_exit_code(status: hystid::fit::FitStatus) -> u8 {
     }
 }
 
-/// Creates the output directory.
-pub fn create_out_dir(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create the output directory {}", dir.display()))
+/// Creates the output directory and claims it for this run: locked against
+/// other runs while the returned value lives, cleared of dead runs'
+/// temporaries (`hystid::atomic::OutDir`). Keep it until the last file is
+/// written.
+#[must_use = "the directory is locked only while the value lives"]
+pub fn create_out_dir(dir: &Path) -> Result<hystid::atomic::OutDir> {
+    Ok(hystid::atomic::OutDir::claim(dir)?)
 }
 
 /// Reads a test definition file, or the embedded default; returns it with

@@ -20,6 +20,7 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     let t0 = std::time::Instant::now();
     let options = fit_options(&args.fit)?;
     let (def, text) = read_test(args.test.as_deref())?;
+    let _out = super::create_out_dir(&args.out)?;
     let mut fit_out: Option<(FitResult, HbPredictor)> = None;
     let (run, sim) = simulate_into(
         &def,

@@ -46,6 +46,7 @@ pub fn simulate_into(
 /// `hystid simulate`.
 pub fn simulate(args: &SimulateArgs, quiet: bool) -> Result<u8> {
     let (def, text) = read_test(args.test.as_deref())?;
+    let _out = super::create_out_dir(&args.out)?;
     let (run, mut summary) = simulate_into(
         &def,
         &text,

@@ -46,7 +46,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         frf: !args.no_frf,
         reduction: reduction_options(&args.reduction)?,
     };
-    create_out_dir(&args.out)?;
+    let _out = create_out_dir(&args.out)?;
     let mut entries = Vec::new();
     let mut files = vec![args.out.join("validate.json")];
     let mut used = Vec::new();

@@ -212,11 +212,10 @@ struct Layout<'a> {
     body: Vec<(usize, &'a str)>,
 }
 
-fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    String::from_utf8(bytes).map_err(|e| {
-        let valid = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
+/// `bytes` as text, or an error naming the line of the first bad byte.
+fn as_text<'a>(path: &Path, bytes: &'a [u8]) -> Result<&'a str> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let valid = e.valid_up_to();
         let line = bytes[..valid].iter().filter(|&&b| b == b'\n').count() + 1;
         Error::format(
             path,
@@ -371,8 +370,20 @@ pub fn read_columns(
     delimiter: Option<Delimiter>,
     wanted: &[Source],
 ) -> Result<TextTable> {
-    let text = read_text(path)?;
-    extract(path, layout(path, &text, delimiter)?, wanted)
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_columns(path, &bytes, delimiter, wanted)
+}
+
+/// [`read_columns`] on a file already in memory; `path` names it in messages
+/// (and its extension `.tsv` prefers tabs, as for a file).
+pub fn parse_columns(
+    path: &Path,
+    bytes: &[u8],
+    delimiter: Option<Delimiter>,
+    wanted: &[Source],
+) -> Result<TextTable> {
+    let text = as_text(path, bytes)?;
+    extract(path, layout(path, text, delimiter)?, wanted)
 }
 
 /// Reads a number at the start of `s` (after blanks): `(value, rest)`.
@@ -503,8 +514,8 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
         SampleRateSource::Time(s) => Some(s.clone()),
         _ => spec.time_column.clone(),
     };
-    let text = read_text(path)?;
-    let lay = layout(path, &text, spec.delimiter)?;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let lay = layout(path, as_text(path, &bytes)?, spec.delimiter)?;
     let time_src = explicit_time.or_else(|| {
         lay.header
             .iter()

@@ -50,6 +50,10 @@ const MI_UTF8: u32 = 16;
 /// flags, a few dimensions and the name fit easily).
 const INDEX_PREFIX: u64 = 1024;
 
+/// Most decompressed bytes indexing reads for one variable's header (a name
+/// of at most 63 characters and a few dimensions take well under 1 KiB).
+const HEADER_LIMIT: u64 = 1 << 20;
+
 /// The MATLAB class of a variable (matfile_format.pdf, Table 1-3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -692,15 +696,21 @@ impl MatFile {
                     let mut h = parse_matrix_header(&prefix[8..], e, whole)
                         .map_err(|m| at(format!("in the decompressed data: {m}")))?;
                     if h.is_none() {
-                        // Very long name or many dimensions: decompress it all.
-                        let all = inflate(content, u64::MAX)
+                        // Very long name or many dimensions: decompress more,
+                        // but never more than a header can be (indexing must
+                        // not inflate a variable's data, or a zlib bomb).
+                        let more = inflate(content, HEADER_LIMIT)
                             .map_err(|x| at(format!("compressed element is corrupted: {x}")))?;
-                        let t = read_tag(&all, 0, e)
-                            .map_err(|m| at(format!("in the decompressed data: {m}")))?;
-                        h = parse_matrix_header(&all[t.start..t.start + t.len], e, true)
+                        let whole = (more.len() as u64) < HEADER_LIMIT;
+                        h = parse_matrix_header(&more[8..], e, whole)
                             .map_err(|m| at(format!("in the decompressed data: {m}")))?;
                     }
-                    let h = h.expect("complete buffers never ask for more");
+                    let Some(h) = h else {
+                        return Err(at(format!(
+                            "the variable's header (flags, dimensions, name) runs past \
+                             its first {HEADER_LIMIT} decompressed bytes: corrupted"
+                        )));
+                    };
                     vars.push(MatVariableInfo {
                         name: h.name,
                         class: h.class,

@@ -29,8 +29,12 @@ mod wav;
 pub use run::{
     McapRecorder, McapRun, RUN_FORMAT, RUN_METADATA, RunInfo, SIGNAL_BLOCK_FRAMES, StepSignals,
     TEST_ATTACHMENT, TOPIC_DWELL, TOPIC_FIT, TOPIC_PREVIEW, TOPIC_SIGNALS, read_run,
+    read_run_bytes,
 };
-pub use wav::{RecordingReader, RecordingWriter, SampleFormat, read_recording, write_recording};
+pub use wav::{
+    RecordingReader, RecordingWriter, SampleFormat, read_recording, read_recording_bytes,
+    write_recording,
+};
 // The in-memory types are the format's content but not the format: they live
 // in `signals` so that the analysis stages can use them without the file code.
 pub use crate::signals::{

@@ -610,21 +610,50 @@ pub struct McapRun {
 /// hystid's chunks are about 4 MiB).
 const RECORD_LIMIT: u64 = 1 << 30;
 
+/// A record, or a chunk once decompressed, may be at most this many times
+/// the file's size: lengths are declared, and are checked before the reader
+/// allocates for them (hystid's chunks of noisy signals compress by less
+/// than 2).
+const RECORD_PER_FILE_BYTE: u64 = 8;
+
 /// Reads a run file, checking every chunk's CRC (and the data and summary
 /// section CRCs of a complete file).
 ///
 /// A file without its summary/footer (a run cut short) is read up to its
 /// first incomplete record and returned with `truncated: true`.
 pub fn read_run(path: &Path) -> Result<McapRun> {
-    let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    read_run_from(path, file, len)
+}
+
+/// [`read_run`] on a run file already in memory; `path` names it in
+/// messages.
+pub fn read_run_bytes(path: &Path, bytes: &[u8]) -> Result<McapRun> {
+    read_run_from(path, bytes, bytes.len() as u64)
+}
+
+/// Reads a run of `len` bytes from `file`.
+fn read_run_from(path: &Path, mut file: impl Read, len: u64) -> Result<McapRun> {
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default()
             .with_prevalidate_chunk_crcs(true)
             .with_validate_data_section_crc(true)
             .with_validate_summary_section_crc(true)
-            .with_record_length_limit(len.max(RECORD_LIMIT) as usize),
+            .with_record_length_limit(
+                len.saturating_mul(RECORD_PER_FILE_BYTE).min(RECORD_LIMIT) as usize
+            ),
     );
+    let too_large = |what: &str, n: u64| {
+        Error::format(
+            path,
+            "MCAP",
+            format!(
+                "{what} declares {n} bytes, more than {RECORD_PER_FILE_BYTE} times the file's \
+                 {len} (or 1 GiB): corrupted"
+            ),
+        )
+    };
     let mut scan = Scan::default();
     let mut truncated = false;
     loop {
@@ -632,6 +661,7 @@ pub fn read_run(path: &Path) -> Result<McapRun> {
             None => break,
             Some(Ok(LinearReadEvent::ReadRequest(n))) => n,
             Some(Ok(LinearReadEvent::Record { opcode, data })) => {
+                check_lengths(path, opcode, data)?;
                 let record = mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))?;
                 scan.record(path, record)?;
                 continue;
@@ -640,6 +670,10 @@ pub fn read_run(path: &Path) -> Result<McapRun> {
                 truncated = true;
                 break;
             }
+            Some(Err(McapError::RecordTooLarge { opcode, len })) => {
+                return Err(too_large(&format!("a record (opcode {opcode:#04x})"), len));
+            }
+            Some(Err(McapError::ChunkTooLarge(n))) => return Err(too_large("a chunk", n)),
             Some(Err(e)) => return Err(mcap_error(path, e)),
         };
         let buf = reader.insert(request);
@@ -649,8 +683,107 @@ pub fn read_run(path: &Path) -> Result<McapRun> {
     scan.finish(path, truncated)
 }
 
+/// Checks that every length-prefixed string and map of a record fits in the
+/// record, before `mcap::parse_record` allocates what they declare (it reads
+/// a string's declared length, up to 4 GiB, before checking it). Layouts from
+/// the MCAP specification; records without such fields pass.
+fn check_lengths(path: &Path, opcode: u8, data: &[u8]) -> Result<()> {
+    let fail = |m: String| Error::format(path, format!("MCAP record (opcode {opcode:#04x})"), m);
+    enum F {
+        /// Fixed-size fields, bytes.
+        Skip(usize),
+        /// A string: u32 length, then bytes.
+        Str,
+        /// A map of strings: u32 byte length, then key and value strings.
+        Strings,
+        /// A map or array of fixed-size entries (bytes each): u32 byte
+        /// length, a whole number of entries (mcap reads whole entries, so a
+        /// partial one would shift every later field).
+        Entries(usize),
+    }
+    use F::*;
+    let fields: &[F] = match opcode {
+        0x01 => &[Str, Str],                            // header
+        0x03 => &[Skip(2), Str, Str],                   // schema (data checked by mcap)
+        0x04 => &[Skip(4), Str, Str, Strings],          // channel
+        0x06 => &[Skip(28), Str],                       // chunk (records checked by mcap)
+        0x07 => &[Skip(2), Entries(16)],                // message index
+        0x08 => &[Skip(32), Entries(10), Skip(8), Str], // chunk index
+        0x09 => &[Skip(16), Str, Str, Skip(12)],        // attachment: then data length, crc
+        0x0a => &[Skip(40), Str, Str],                  // attachment index
+        0x0b => &[Skip(42), Entries(10)],               // statistics
+        0x0c => &[Str, Strings],                        // metadata
+        0x0d => &[Skip(16), Str],                       // metadata index
+        _ => &[],
+    };
+    let mut at = 0usize;
+    let take = |at: &mut usize, n: usize, what: &str| {
+        if n > data.len() - *at {
+            return Err(fail(format!(
+                "{what} of {n} bytes at byte {} runs past the record's {} bytes",
+                *at,
+                data.len()
+            )));
+        }
+        *at += n;
+        Ok(())
+    };
+    let prefix = |at: &mut usize, what: &str| -> Result<usize> {
+        let start = *at;
+        take(at, 4, what)?;
+        Ok(u32::from_le_bytes(data[start..start + 4].try_into().unwrap()) as usize)
+    };
+    for f in fields {
+        match f {
+            Skip(n) => take(&mut at, *n, "a field")?,
+            Str => {
+                let n = prefix(&mut at, "a string's length")?;
+                take(&mut at, n, "a string")?;
+            }
+            Entries(size) => {
+                let n = prefix(&mut at, "a map's length")?;
+                if n % size != 0 {
+                    return Err(fail(format!(
+                        "a map of {n} bytes at byte {} is not a whole number of {size}-byte entries",
+                        at - 4
+                    )));
+                }
+                take(&mut at, n, "a map")?;
+            }
+            Strings => {
+                let n = prefix(&mut at, "a map's length")?;
+                let end = at;
+                take(&mut at, n, "a map")?;
+                {
+                    let mut k = end;
+                    while k < at {
+                        for what in ["a key", "a value"] {
+                            let start = k;
+                            if at - k < 4 {
+                                return Err(fail(format!(
+                                    "{what} at byte {start} runs past its map"
+                                )));
+                            }
+                            let len =
+                                u32::from_le_bytes(data[k..k + 4].try_into().unwrap()) as usize;
+                            k += 4;
+                            if len > at - k {
+                                return Err(fail(format!(
+                                    "{what} of {len} bytes at byte {start} runs past its map"
+                                )));
+                            }
+                            k += len;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Reads until `buf` is full or the file ends (0 only at the end).
-fn read_some(file: &mut File, buf: &mut [u8]) -> std::io::Result<usize> {
+fn read_some(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut n = 0;
     while n < buf.len() {
         match file.read(&mut buf[n..]) {

@@ -89,6 +89,11 @@ impl Encoding {
 /// channels × 4 bytes).
 const BLOCK_FRAMES: usize = 16384;
 
+/// Where the samples come from: a file, or bytes already in memory (the
+/// fuzz targets and tests read the same code without writing files).
+trait Samples: Read + Seek + Send {}
+impl<T: Read + Seek + Send> Samples for T {}
+
 /// Reads a recording's samples block by block, in physical units.
 ///
 /// Memory is one block of raw bytes plus what the caller asks for, so a
@@ -96,7 +101,7 @@ const BLOCK_FRAMES: usize = 16384;
 pub struct RecordingReader {
     wav_path: PathBuf,
     meta: RecordingMeta,
-    file: BufReader<File>,
+    file: BufReader<Box<dyn Samples>>,
     encoding: Encoding,
     data_start: u64,
     frames: usize,
@@ -122,15 +127,40 @@ impl RecordingReader {
     /// and against format v1.
     pub fn open(path: &Path) -> Result<Self> {
         let (wav_path, json_path) = recording_paths(path);
-        let text = std::fs::read(&json_path).map_err(|e| Error::io(&json_path, e))?;
-        let text = String::from_utf8(text)
+        let json = std::fs::read(&json_path).map_err(|e| Error::io(&json_path, e))?;
+        let file = File::open(&wav_path).map_err(|e| Error::io(&wav_path, e))?;
+        let file_len = file.metadata().map_err(|e| Error::io(&wav_path, e))?.len();
+        Self::from_source(wav_path, json_path, &json, Box::new(file), file_len)
+    }
+
+    /// [`RecordingReader::open`] on a recording already in memory: `json`
+    /// and `wav` are the two files' bytes, `path` (file or stem) names them
+    /// in messages.
+    pub fn from_bytes(path: &Path, json: &[u8], wav: Vec<u8>) -> Result<Self> {
+        let (wav_path, json_path) = recording_paths(path);
+        let len = wav.len() as u64;
+        Self::from_source(
+            wav_path,
+            json_path,
+            json,
+            Box::new(std::io::Cursor::new(wav)),
+            len,
+        )
+    }
+
+    fn from_source(
+        wav_path: PathBuf,
+        json_path: PathBuf,
+        json: &[u8],
+        source: Box<dyn Samples>,
+        file_len: u64,
+    ) -> Result<Self> {
+        let text = std::str::from_utf8(json)
             .map_err(|e| Error::format(&json_path, "JSON", format!("not UTF-8 text: {e}")))?;
         // Some Windows tools start UTF-8 text with a byte-order mark.
         let meta = sidecar::parse(&json_path, text.trim_start_matches('\u{feff}'))?;
 
-        let file = File::open(&wav_path).map_err(|e| Error::io(&wav_path, e))?;
-        let file_len = file.metadata().map_err(|e| Error::io(&wav_path, e))?.len();
-        let mut file = BufReader::with_capacity(1 << 16, file);
+        let mut file = BufReader::with_capacity(1 << 16, source);
         let (spec, samples) = {
             let header = hound::WavReader::new(&mut file).map_err(|e| {
                 Error::format(
@@ -397,7 +427,16 @@ impl super::FrameSource for RecordingReader {
 /// Reads a whole recording (`NAME.wav` + `NAME.json`; `path` is either file
 /// or the stem) into memory, samples in physical units.
 pub fn read_recording(path: &Path) -> Result<Recording> {
-    let mut reader = RecordingReader::open(path)?;
+    read_all(RecordingReader::open(path)?)
+}
+
+/// [`read_recording`] on a recording already in memory (see
+/// [`RecordingReader::from_bytes`]).
+pub fn read_recording_bytes(path: &Path, json: &[u8], wav: Vec<u8>) -> Result<Recording> {
+    read_all(RecordingReader::from_bytes(path, json, wav)?)
+}
+
+fn read_all(mut reader: RecordingReader) -> Result<Recording> {
     let frames = reader.frames();
     let mut channels = vec![Vec::with_capacity(frames); reader.factors.len()];
     while reader.append_frames(frames, &mut channels)? > 0 {}

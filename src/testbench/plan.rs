@@ -446,6 +446,15 @@ fn check_value_types(root: &toml::Table, origin: &str) -> Result<()> {
     Ok(())
 }
 
+/// Most dwell frequencies a `{ start, stop, count }` range may ask for: the
+/// count is a declared size, checked before the list is made (a count of
+/// 2^40 would otherwise be a 8 TB allocation).
+pub const MAX_FREQUENCIES: usize = 100_000;
+
+/// Most periods a dwell may settle or measure for: each is simulated and
+/// kept in memory, so a huge value would exhaust memory mid-run.
+pub const MAX_PERIODS: usize = 1_000_000;
+
 /// Parses a definition (or its structure) from TOML, naming the key, line
 /// and table of the first bad value; `origin` names the text in errors.
 fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, origin: &str) -> Result<T> {
@@ -637,14 +646,17 @@ impl TestDefinition {
                 format!("must be in (0, 1), got {}", t.settle_tolerance),
             ));
         }
-        if t.max_settle_periods == 0 {
-            return Err(Error::plan("test.max_settle_periods", "must be at least 1"));
+        if !(1..=MAX_PERIODS).contains(&t.max_settle_periods) {
+            return Err(Error::plan(
+                "test.max_settle_periods",
+                format!("must be in 1..={MAX_PERIODS}, got {}", t.max_settle_periods),
+            ));
         }
-        if t.measure_periods < 2 {
+        if !(2..=MAX_PERIODS).contains(&t.measure_periods) {
             return Err(Error::plan(
                 "test.measure_periods",
                 format!(
-                    "must be at least 2 (standard errors need 2 blocks), got {}",
+                    "must be in 2..={MAX_PERIODS} (standard errors need 2 blocks), got {}",
                     t.measure_periods
                 ),
             ));
@@ -712,10 +724,10 @@ impl TestDefinition {
                 Ok(v.clone())
             }
             FrequencyList::Range(r) => {
-                if r.count == 0 {
+                if !(1..=MAX_FREQUENCIES).contains(&r.count) {
                     return Err(Error::plan(
                         "test.frequencies_hz.count",
-                        "must be at least 1",
+                        format!("must be in 1..={MAX_FREQUENCIES}, got {}", r.count),
                     ));
                 }
                 for (k, v) in [("start", r.start), ("stop", r.stop)] {
