@@ -16,7 +16,7 @@
 //! * a peak that falls short of the model's more at high levels: damping
 //!   that grows with velocity.
 
-use crate::fit::{FitData, Prediction};
+use crate::fit::{FitData, MeasuredPoint, Prediction};
 use crate::harmonics::omega;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -230,28 +230,45 @@ fn parabola_peak(v: &[(f64, f64)]) -> Option<f64> {
     Some((-b / (2.0 * a)).clamp(x0, x2))
 }
 
-/// The level-averaged fundamental residual as a receptance, per frequency
-/// (`(f, mean residual, mean σ)`), for locating a missing mode.
-pub fn common_receptance_residual(data: &FitData, pred: &Prediction) -> Vec<(f64, Complex64, f64)> {
-    let Some(k) = data.harmonic_index(1) else {
-        return Vec::new();
-    };
-    let mut grid: BTreeMap<u64, (f64, Complex64, f64, usize)> = BTreeMap::new();
+/// The measured points with a model prediction, grouped by frequency (1e-6 Hz
+/// apart counts as one), each with its fundamental's index, its `ω` and the
+/// factor `conv` that turns a receptance into the data's response quantity:
+/// the frequency grid on which a residual common to all levels is read.
+fn fundamental_by_frequency<'a>(
+    data: &'a FitData,
+    pred: &'a Prediction,
+) -> Option<(
+    usize,
+    BTreeMap<u64, Vec<(&'a MeasuredPoint, Complex64, Complex64)>>,
+)> {
+    let k = data.harmonic_index(1)?;
+    let mut grid: BTreeMap<u64, Vec<_>> = BTreeMap::new();
     for (s, ps) in data.series.iter().zip(&pred.h) {
         for (p, m) in s.points.iter().zip(ps) {
             if let Some(m) = m {
                 let conv = data.response.from_displacement(omega(p.frequency_hz));
-                let e = grid
-                    .entry((p.frequency_hz * 1e6).round() as u64)
-                    .or_insert((p.frequency_hz, Complex64::default(), 0.0, 0));
-                e.1 += (p.h[k] - m[k]) / conv;
-                e.2 += p.std_error[k] / conv.norm();
-                e.3 += 1;
+                grid.entry((p.frequency_hz * 1e6).round() as u64)
+                    .or_default()
+                    .push((p, m[k], conv));
             }
         }
     }
+    Some((k, grid))
+}
+
+/// The level-averaged fundamental residual as a receptance, per frequency
+/// (`(f, mean residual, mean σ)`), for locating a missing mode.
+pub fn common_receptance_residual(data: &FitData, pred: &Prediction) -> Vec<(f64, Complex64, f64)> {
+    let Some((k, grid)) = fundamental_by_frequency(data, pred) else {
+        return Vec::new();
+    };
     grid.values()
-        .map(|&(f, d, s, n)| (f, d / n as f64, s / n as f64 / (n as f64).sqrt()))
+        .map(|pts| {
+            let n = pts.len() as f64;
+            let d: Complex64 = pts.iter().map(|(p, m, c)| (p.h[k] - m) / c).sum();
+            let s: f64 = pts.iter().map(|(p, _, c)| p.std_error[k] / c.norm()).sum();
+            (pts[0].0.frequency_hz, d / n, s / n / n.sqrt())
+        })
         .collect()
 }
 
@@ -261,28 +278,22 @@ pub fn common_receptance_residual(data: &FitData, pred: &Prediction) -> Vec<(f64
 /// fitted model can already absorb of a missing mode by bending its own
 /// linear parameters.
 pub fn common_receptance_background(data: &FitData, pred: &Prediction) -> Vec<Vec<Complex64>> {
-    let Some(k) = data.harmonic_index(1) else {
+    let Some((_, grid)) = fundamental_by_frequency(data, pred) else {
         return Vec::new();
     };
-    let mut grid: BTreeMap<u64, ([Complex64; 3], usize)> = BTreeMap::new();
-    for (s, ps) in data.series.iter().zip(&pred.h) {
-        for (p, m) in s.points.iter().zip(ps) {
-            if let Some(m) = m {
+    let mean = |pts: &[(&MeasuredPoint, Complex64, Complex64)], j: usize| {
+        let sum: Complex64 = pts
+            .iter()
+            .map(|(p, m, c)| {
                 let w = omega(p.frequency_hz);
-                let h = m[k] / data.response.from_displacement(w);
-                let h2 = h * h;
-                let e = grid
-                    .entry((p.frequency_hz * 1e6).round() as u64)
-                    .or_insert(([Complex64::default(); 3], 0));
-                e.0[0] -= h2;
-                e.0[1] += w * w * h2;
-                e.0[2] -= Complex64::i() * w * h2;
-                e.1 += 1;
-            }
-        }
-    }
+                let h2 = (m / c) * (m / c);
+                [-h2, w * w * h2, -Complex64::i() * w * h2][j]
+            })
+            .sum();
+        sum / pts.len() as f64
+    };
     (0..3)
-        .map(|j| grid.values().map(|(c, n)| c[j] / *n as f64).collect())
+        .map(|j| grid.values().map(|pts| mean(pts, j)).collect())
         .collect()
 }
 
