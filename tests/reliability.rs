@@ -411,7 +411,11 @@ fn command_args(command: &str, out: &Path) -> Vec<String> {
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let mut a = vec![command.to_string()];
     match command {
-        "simulate" => a.push(s(&f.test)),
+        "simulate" | "run" => a.push(s(&f.test)),
+        "validate" => {
+            a.push(s(&f.fit.join("fit.json")));
+            a.push(s(&f.sim.join("recording.wav")));
+        }
         _ => {
             a.push(s(&f.sim.join("recording.wav")));
             a.extend(["--element".into(), "jenkins".into()]);
@@ -502,6 +506,20 @@ fn killed_identify_leaves_only_complete_files() {
 #[test]
 fn killed_diagnose_leaves_only_complete_files() {
     kill_at_random_moments("diagnose");
+}
+
+#[cfg(unix)]
+#[test]
+fn killed_validate_leaves_only_complete_files() {
+    kill_at_random_moments("validate");
+}
+
+/// `run` writes every kind of output of the others (MCAP, WAV, FRFs, fit,
+/// diagnosis, figures, report) in one directory.
+#[cfg(unix)]
+#[test]
+fn killed_run_leaves_only_complete_files() {
+    kill_at_random_moments("run");
 }
 
 // ---------------------------------------------------------------- full disk
