@@ -230,6 +230,9 @@ fn parabola_peak(v: &[(f64, f64)]) -> Option<f64> {
     Some((-b / (2.0 * a)).clamp(x0, x2))
 }
 
+/// A measured point with its model fundamental and the factor `conv`.
+type PointWithModel<'a> = (&'a MeasuredPoint, Complex64, Complex64);
+
 /// The measured points with a model prediction, grouped by frequency (1e-6 Hz
 /// apart counts as one), each with its fundamental's index, its `ω` and the
 /// factor `conv` that turns a receptance into the data's response quantity:
@@ -237,10 +240,7 @@ fn parabola_peak(v: &[(f64, f64)]) -> Option<f64> {
 fn fundamental_by_frequency<'a>(
     data: &'a FitData,
     pred: &'a Prediction,
-) -> Option<(
-    usize,
-    BTreeMap<u64, Vec<(&'a MeasuredPoint, Complex64, Complex64)>>,
-)> {
+) -> Option<(usize, BTreeMap<u64, Vec<PointWithModel<'a>>>)> {
     let k = data.harmonic_index(1)?;
     let mut grid: BTreeMap<u64, Vec<_>> = BTreeMap::new();
     for (s, ps) in data.series.iter().zip(&pred.h) {
@@ -281,7 +281,7 @@ pub fn common_receptance_background(data: &FitData, pred: &Prediction) -> Vec<Ve
     let Some((_, grid)) = fundamental_by_frequency(data, pred) else {
         return Vec::new();
     };
-    let mean = |pts: &[(&MeasuredPoint, Complex64, Complex64)], j: usize| {
+    let mean = |pts: &[PointWithModel<'_>], j: usize| {
         let sum: Complex64 = pts
             .iter()
             .map(|(p, m, c)| {
