@@ -836,3 +836,22 @@ fn fuzz_findings_give_clear_errors() {
         root.display()
     );
 }
+
+/// A zstd chunk whose frame declares a 128 MiB window (the `mcap_run`
+/// fuzzing's last finding: libzstd allocates the window on the frame header
+/// alone, outside Rust's allocator, so `largest::during` cannot see it) is
+/// refused by the window bound before anything is allocated for it.
+#[test]
+fn a_zstd_window_beyond_the_files_share_is_refused() {
+    let input = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-regressions/mcap_run/zstd-window-128MiB");
+    let bytes = std::fs::read(&input).unwrap();
+    let Err(e) = hystid::record::read_run_bytes(&input, &bytes) else {
+        panic!("a 128 MiB window in a 99-byte file was read");
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("zstd-window-128MiB") && e.contains("windows are limited to 512 KiB"),
+        "{e}"
+    );
+}

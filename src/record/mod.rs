@@ -25,6 +25,7 @@ mod cdr;
 mod run;
 mod sidecar;
 mod wav;
+mod zstd_window;
 
 pub use run::{
     McapRecorder, McapRun, RUN_FORMAT, RUN_METADATA, RunInfo, SIGNAL_BLOCK_FRAMES, StepSignals,

@@ -635,15 +635,21 @@ pub fn read_run_bytes(path: &Path, bytes: &[u8]) -> Result<McapRun> {
 
 /// Reads a run of `len` bytes from `file`.
 fn read_run_from(path: &Path, mut file: impl Read, len: u64) -> Result<McapRun> {
+    let limit = len.saturating_mul(RECORD_PER_FILE_BYTE).min(RECORD_LIMIT);
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default()
             .with_prevalidate_chunk_crcs(true)
             .with_validate_data_section_crc(true)
             .with_validate_summary_section_crc(true)
-            .with_record_length_limit(
-                len.saturating_mul(RECORD_PER_FILE_BYTE).min(RECORD_LIMIT) as usize
-            ),
+            .with_record_length_limit(limit as usize),
     );
+    // a zstd frame's declared window is allocated on its header alone: bound
+    // it by what a chunk of this file may decompress to
+    reader
+        .add_decompressor(super::zstd_window::BoundedZstd::new(
+            super::zstd_window::window_log_for(limit),
+        ))
+        .map_err(|e| mcap_error(path, e))?;
     let too_large = |what: &str, n: u64| {
         Error::format(
             path,
