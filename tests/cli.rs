@@ -335,6 +335,31 @@ fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
             c["effect"]
         );
     }
+    // the final model as reported (with flags) is the diagnosis's final fit,
+    // parameter for parameter (and derived ones, such as a mode's modal
+    // mass), and diagnosis.md states it
+    let reported = &d["final_model"];
+    let fitted = d["final"]["parameters"].as_object().unwrap();
+    let shown = reported["parameters"].as_object().unwrap();
+    for (name, e) in fitted {
+        assert_eq!(&shown[name]["value"], e, "{name}: {}", shown[name]);
+    }
+    let added: Vec<&serde_json::Value> = d["selected"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| &s["effect"])
+        .collect();
+    assert_eq!(
+        reported["added_effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .collect::<Vec<_>>(),
+        added
+    );
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    assert!(md.contains("## The model: jenkins joint"), "{md}");
 }
 
 /// `run` chains simulate and identify into one folder, and its report

@@ -105,6 +105,11 @@ pub struct DiagnosisReport<'a> {
     /// Its final model refitted in the time domain (`--domain time`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub time_domain: Option<&'a TimeOutcome>,
+    /// The final model as reported: every parameter with its interval and
+    /// flags, the first fit as the "before" (`diagnose`; `run` puts it in
+    /// `run.json`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub final_model: Option<&'a super::run::FinalModel>,
 }
 
 impl<'a> DiagnosisReport<'a> {
@@ -116,6 +121,7 @@ impl<'a> DiagnosisReport<'a> {
             seconds,
             diagnosis: d,
             time_domain: None,
+            final_model: None,
         }
     }
 }
@@ -128,11 +134,13 @@ pub fn write_diagnosis(
     predictor: &HbPredictor,
     seconds: f64,
 ) -> Result<Vec<PathBuf>> {
-    write_diagnosis_with(dir, frf, d, predictor, seconds, None)
+    write_diagnosis_with(dir, frf, d, predictor, seconds, None, None)
 }
 
 /// [`write_diagnosis`], with the time-domain refinement when there is one
-/// (`time_domain` in `diagnosis.json`, a section in `diagnosis.md`).
+/// (`time_domain` in `diagnosis.json`, a section in `diagnosis.md`) and the
+/// final model as reported, with its flags (`final_model`, and a section
+/// after the explanation).
 pub fn write_diagnosis_with(
     dir: &Path,
     frf: &NonlinearFrf,
@@ -140,17 +148,23 @@ pub fn write_diagnosis_with(
     predictor: &HbPredictor,
     seconds: f64,
     time: Option<&TimeOutcome>,
+    final_model: Option<&super::run::FinalModel>,
 ) -> Result<Vec<PathBuf>> {
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
     write_json(
         &files[0],
         &DiagnosisReport {
             time_domain: time,
+            final_model,
             ..DiagnosisReport::new(d, seconds)
         },
     )?;
     files.extend(residual_plots(dir, frf, d, predictor)?);
     let mut md = markdown(d, seconds);
+    if let Some(f) = final_model {
+        md += "\n";
+        md += &super::run::final_markdown(f);
+    }
     match time {
         Some(TimeOutcome::Refined(t)) => md += &time_markdown(t),
         Some(TimeOutcome::Failed { failed }) => {

@@ -6,6 +6,7 @@ use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
 use anyhow::{Result, bail};
 use hystid::analysis::diagnose::{TimeOutcome, refine_in_time, write_diagnosis_with};
+use hystid::analysis::run::FinalModel;
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitResult, HbPredictor};
@@ -99,6 +100,15 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             })
         }
     };
+    let final_model = FinalModel::of(
+        &frf,
+        &fit,
+        &fit_opts.harmonics,
+        options.band_hz,
+        Some(&d),
+        None,
+        &predictor,
+    )?;
     let files = write_diagnosis_with(
         &args.out,
         &frf,
@@ -106,9 +116,13 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         &predictor,
         t0.elapsed().as_secs_f64(),
         time.as_ref(),
+        Some(&final_model),
     )?;
     if !quiet {
         say!("hystid diagnose: {}", d.explanation);
+        for line in final_model.summary_lines() {
+            say!("{line}");
+        }
         if let Some(TimeOutcome::Refined(t)) = &time {
             for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
                 say!(
