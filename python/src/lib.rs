@@ -10,6 +10,7 @@
 //! (a `ValueError`) with the message the command line prints.
 
 use hystid::analysis::diagnose::DiagnosisReport;
+use hystid::analysis::run::FinalModel;
 use hystid::analysis::validate::{
     FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
 };
@@ -439,19 +440,32 @@ fn diagnose<'py>(
         fit: fit_opts.clone(),
         ..d
     };
-    let (diagnosis, seconds) = py
+    let (diagnosis, final_model, seconds) = py
         .detach(|| {
             let t0 = std::time::Instant::now();
             let fit = match fit {
                 Some(f) => f,
                 None => hystid::analysis::run_fit(&frf, &fit_opts, &Silent, None)?.0,
             };
-            let (diagnosis, _) =
+            let (diagnosis, predictor) =
                 hystid::analysis::diagnose::run_diagnosis(&frf, &fit, &d, &Silent)?;
-            Ok((diagnosis, t0.elapsed().as_secs_f64()))
+            // the final model as reported, with its flags, as the command states it
+            let final_model = FinalModel::of(
+                &frf,
+                &fit,
+                &fit_opts.harmonics,
+                d.band_hz,
+                Some(&diagnosis),
+                None,
+                &predictor,
+            )?;
+            Ok((diagnosis, final_model, t0.elapsed().as_secs_f64()))
         })
         .map_err(err)?;
-    to_json(&DiagnosisReport::new(&diagnosis, seconds))
+    to_json(&DiagnosisReport {
+        final_model: Some(&final_model),
+        ..DiagnosisReport::new(&diagnosis, seconds)
+    })
 }
 
 /// How a recording is validated on (the command line's validate flags).
