@@ -19,6 +19,18 @@ pub fn text(o: &Output) -> String {
     )
 }
 
+/// `hystid simulate TEST --out OUT --quiet`, which must succeed.
+pub fn simulated(test: &Path, out: &Path) {
+    let o = hystid(&[
+        "simulate",
+        test.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+}
+
 /// A small, fast test definition (2 levels, 11 frequencies).
 pub const SMALL_TEST: &str = r#"
 [system]
@@ -179,14 +191,7 @@ fn simulate_mcap_passes_the_official_python_reader() {
     let dir = tempfile::tempdir().unwrap();
     let test = write_test(dir.path(), "small.toml", SMALL_TEST);
     let out = dir.path().join("o");
-    let o = hystid(&[
-        "simulate",
-        test.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", text(&o));
+    simulated(&test, &out);
     let rec = hystid::record::read_recording(&out.join("recording.wav")).unwrap();
     // expected counts from the dwells, independently of the MCAP reader
     let steps = &rec.meta.excitation.steps;
@@ -290,14 +295,7 @@ fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
         );
     let test = write_test(dir.path(), "mode.toml", &with_mode);
     let sim = dir.path().join("sim");
-    let o = hystid(&[
-        "simulate",
-        test.to_str().unwrap(),
-        "--out",
-        sim.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", text(&o));
+    simulated(&test, &sim);
     let out = dir.path().join("diag");
     let o = hystid(&[
         "diagnose",

@@ -10,7 +10,7 @@
 //!   error naming the file with no partial output; two runs on one `--out`
 //!   do not mix their files.
 
-use crate::cli::{SMALL_TEST, hystid, text};
+use crate::cli::{SMALL_TEST, hystid, simulated, text};
 use crate::import::{Storage, Var, mat_bytes};
 use crate::record::{
     guid, record_run, run_info, sample_recording, sidecar, virtual_run, wav_bytes,
@@ -44,14 +44,7 @@ pub(crate) fn finished() -> &'static Finished {
         let test = dir.path().join("tiny.toml");
         std::fs::write(&test, tiny_test()).unwrap();
         let sim = dir.path().join("sim");
-        let o = hystid(&[
-            "simulate",
-            test.to_str().unwrap(),
-            "--out",
-            sim.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert!(o.status.success(), "{}", text(&o));
+        simulated(&test, &sim);
         let fit = dir.path().join("fit");
         let o = hystid(&[
             "identify",
@@ -643,14 +636,7 @@ fn two_runs_on_one_out_do_not_mix_their_files() {
     let mut alone = Vec::new();
     for (k, t) in [&f.test, &other].iter().enumerate() {
         let out = dir.path().join(format!("alone{k}"));
-        let o = hystid(&[
-            "simulate",
-            t.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert!(o.status.success(), "{}", text(&o));
+        simulated(t, &out);
         alone.push(out);
     }
     let compared = ["run.mcap", "recording.wav", "frf.csv", "frf.uff"];
