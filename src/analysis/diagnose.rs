@@ -365,6 +365,7 @@ pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
                 Verdict::SizeNotResolved => "no: size not resolved",
                 Verdict::AnotherDidBetter => "no: another did better",
                 Verdict::BelowCriterion => "no",
+                Verdict::NotConfirmedInTime => "no: not confirmed in the time domain",
             },
             100.0 * c.fit.error_relative,
             c.fit.chi2_per_dof,

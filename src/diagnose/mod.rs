@@ -140,6 +140,10 @@ pub enum Verdict {
     /// Did not lower `χ²` by what the information criterion asks.
     #[default]
     BelowCriterion,
+    /// Kept by the FRF diagnosis, dropped when the model without it, refitted
+    /// on the recorded time histories, fitted them as well (see
+    /// [`without_effect`]).
+    NotConfirmedInTime,
 }
 
 /// A candidate whose refit could not be done, and why: a finding of the
@@ -549,6 +553,7 @@ fn try_candidate(
     data: &FitData,
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
+    identified: &candidates::Identified,
 ) -> Result<Option<Refit>> {
     let cx = Context {
         current,
@@ -556,6 +561,7 @@ fn try_candidate(
         frf,
         options,
         predictor,
+        identified,
     };
     let starts = effect.candidate().starts(&cx)?;
     let mut best: Option<Refit> = None;
@@ -721,6 +727,7 @@ pub fn diagnose_observed(
         pred: base.pred.clone(),
         chi2: base.chi2,
     };
+    let identified = candidates::Identified::default();
     let mut remaining = options.candidates.clone();
     let mut reports = Vec::new();
     let mut chosen: Vec<Effect> = Vec::new();
@@ -741,10 +748,19 @@ pub fn diagnose_observed(
             .par_iter()
             .enumerate()
             .map(|(i, &(effect, _))| {
-                let mut r = try_candidate(effect, &current, frf, &data, options, predictor);
+                let mut r = try_candidate(
+                    effect,
+                    &current,
+                    frf,
+                    &data,
+                    options,
+                    predictor,
+                    &identified,
+                );
                 if round == 1
                     && let Some(low) = &lower
-                    && let Ok(Some(b)) = try_candidate(effect, low, frf, &data, options, predictor)
+                    && let Ok(Some(b)) =
+                        try_candidate(effect, low, frf, &data, options, predictor, &identified)
                     && r.as_ref()
                         .ok()
                         .is_none_or(|a| a.as_ref().is_none_or(|a| b.chi2 < a.chi2))
@@ -894,11 +910,66 @@ pub fn diagnose_observed(
             }
         }
     }
+    conclude(Conclusion {
+        harmonics,
+        band_hz: options.band_hz,
+        baseline,
+        base_features,
+        reports,
+        failed,
+        chosen,
+        current,
+        data: &data,
+        predictor,
+        baseline_model: base.model,
+        response_sign: fit.response_sign,
+        expected,
+    })
+}
+
+/// What a diagnosis concludes from: its rounds' outcome and the model they
+/// ended with.
+struct Conclusion<'a> {
+    harmonics: Vec<usize>,
+    band_hz: Option<(f64, f64)>,
+    baseline: ModelFit,
+    base_features: ResidualFeatures,
+    reports: Vec<CandidateReport>,
+    failed: Vec<FailedCandidate>,
+    chosen: Vec<Effect>,
+    current: Refit,
+    data: &'a FitData,
+    predictor: &'a HbPredictor,
+    baseline_model: Model,
+    response_sign: f64,
+    /// The `χ²` noise alone gives.
+    expected: f64,
+}
+
+/// The diagnosis: the kept effects' intervals at the final model, its fit
+/// and the account in words.
+fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
+    let Conclusion {
+        harmonics,
+        band_hz,
+        baseline,
+        base_features,
+        reports,
+        failed,
+        chosen,
+        current,
+        data,
+        predictor,
+        baseline_model,
+        response_sign,
+        expected,
+    } = c;
+    let normalised = |chi2: f64| chi2 / expected.max(f64::MIN_POSITIVE);
     // intervals of the effects kept, at the final model
     let mut selected = Vec::new();
     if !chosen.is_empty() {
         let params = model_parameters(&current.model, data.band_hz());
-        let conf = confidence_at(&current.model, &params, &current.pred, &data, predictor)?;
+        let conf = confidence_at(&current.model, &params, &current.pred, data, predictor)?;
         let mut pairs: Vec<(crate::fit::params::Parameter, Estimate)> =
             params.parameters.into_iter().zip(conf.estimates).collect();
         // a mode above the band was fitted by its flexibility; its modal
@@ -909,7 +980,7 @@ pub fn diagnose_observed(
             .any(|(p, _)| matches!(p.target, crate::fit::params::Target::Flexibility { .. }))
         {
             let plain = model_parameters(&current.model, None);
-            if let Ok(c) = confidence_at(&current.model, &plain, &current.pred, &data, predictor) {
+            if let Ok(c) = confidence_at(&current.model, &plain, &current.pred, data, predictor) {
                 pairs.extend(
                     plain
                         .parameters
@@ -933,8 +1004,8 @@ pub fn diagnose_observed(
             selected.push(SelectedEffect { effect, parameters });
         }
     }
-    let final_fit = model_fit(&current.model, &data, &current.pred, current.chi2);
-    let final_features = features(&data, &current.pred);
+    let final_fit = model_fit(&current.model, data, &current.pred, current.chi2);
+    let final_features = features(data, &current.pred);
     let consistent = final_fit.chi2_per_dof < 2.0 && normalised(current.chi2) < 2.0;
     let explanation = explain(
         &baseline,
@@ -946,7 +1017,7 @@ pub fn diagnose_observed(
     );
     Ok(Diagnosis {
         harmonics,
-        band_hz: options.band_hz,
+        band_hz,
         baseline,
         features: base_features,
         candidates: reports,
@@ -956,9 +1027,62 @@ pub fn diagnose_observed(
         final_features,
         consistent_with_noise: consistent,
         explanation,
-        baseline_model: base.model,
+        baseline_model,
         model: current.model,
-        response_sign: fit.response_sign,
+        response_sign,
+    })
+}
+
+/// `d` with `effect` taken out of its final model: the rest refitted on the
+/// same FRFs, the effect's report marked [`Verdict::NotConfirmedInTime`]
+/// with `why`, the intervals, fit and account of the smaller model. For an
+/// effect the time domain does not confirm: the FRFs start every dwell from
+/// a virgin joint, so where a joint settles under a static load (which
+/// depends on the loads before) is a residual that an extra effect can
+/// absorb there and that a replay of the whole recording does not leave.
+pub fn without_effect(
+    d: &Diagnosis,
+    frf: &NonlinearFrf,
+    effect: Effect,
+    why: String,
+    patience: usize,
+    predictor: &HbPredictor,
+) -> Result<Diagnosis> {
+    let without = effect
+        .candidate()
+        .remove(&d.model)
+        .ok_or_else(|| Error::plan("effect", format!("{} is not in the model", effect.name())))?;
+    let data = FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?.with_sign(d.response_sign);
+    let current = refit(&without, &data, predictor, None, patience)?;
+    let mut reports = d.candidates.clone();
+    if let Some(rep) = reports
+        .iter_mut()
+        .rev()
+        .find(|r| r.effect == effect && r.accepted)
+    {
+        rep.accepted = false;
+        rep.verdict = Verdict::NotConfirmedInTime;
+        rep.note = Some(why);
+    }
+    conclude(Conclusion {
+        harmonics: d.harmonics.clone(),
+        band_hz: d.band_hz,
+        baseline: d.baseline.clone(),
+        base_features: d.features.clone(),
+        reports,
+        failed: d.failed.clone(),
+        chosen: d
+            .selected
+            .iter()
+            .map(|s| s.effect)
+            .filter(|&e| e != effect)
+            .collect(),
+        current,
+        data: &data,
+        predictor,
+        baseline_model: d.baseline_model.clone(),
+        response_sign: d.response_sign,
+        expected: crate::fit::problem::expected_chi_square(&data),
     })
 }
 
@@ -1025,6 +1149,17 @@ fn explain(
             capitalise(&why),
             sel.effect.name(),
             params.join(", ")
+        ));
+    }
+    for r in reports
+        .iter()
+        .filter(|r| r.verdict == Verdict::NotConfirmedInTime)
+    {
+        s.push_str(&format!(
+            "{} was kept on the FRFs but not confirmed in the time domain ({}), so it was \
+             dropped and the rest refitted. ",
+            capitalise(r.effect.name()),
+            r.note.as_deref().unwrap_or("no reason recorded")
         ));
     }
     let even_before: Vec<String> = baseline

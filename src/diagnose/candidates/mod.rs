@@ -34,7 +34,15 @@ pub(crate) struct Context<'a> {
     pub options: &'a DiagnoseOptions,
     /// The predictor.
     pub predictor: &'a HbPredictor,
+    /// Identifications afresh by their number of modes, shared by the
+    /// candidates of one diagnosis (see [`Context::identified_with_modes`]).
+    pub identified: &'a Identified,
 }
+
+/// Identifications afresh of a diagnosis's FRFs with the user's fit options,
+/// by number of modes: they depend on neither the model a candidate is added
+/// to nor the round, and one takes seconds.
+pub(crate) type Identified = std::sync::Mutex<BTreeMap<usize, Option<Model>>>;
 
 impl Context<'_> {
     /// The model the effect is added to.
@@ -88,6 +96,27 @@ impl Context<'_> {
             .into_iter()
             .map(|s| self.with_element(with(s)))
             .collect()
+    }
+
+    /// The recording identified afresh with `modes` modes and the user's
+    /// fit options (`None`: it failed), computed once per diagnosis.
+    pub fn identified_with_modes(&self, modes: usize) -> Option<Model> {
+        // held while identifying: a second caller waits for the result
+        // rather than computing it again
+        let mut cache = self.identified.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .entry(modes)
+            .or_insert_with(|| {
+                let opts = crate::fit::FitOptions {
+                    modes,
+                    band_hz: self.options.band_hz.or(self.options.fit.band_hz),
+                    ..self.options.fit.clone()
+                };
+                crate::fit::identify(self.frf, &opts, self.predictor, None)
+                    .ok()
+                    .map(|f| f.model)
+            })
+            .clone()
     }
 
     /// The model with `element` added as an effect.

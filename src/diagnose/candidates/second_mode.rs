@@ -84,15 +84,9 @@ impl Candidate for SecondMode {
             }
         }
         let mut starts: Vec<Model> = kept.into_iter().map(with).collect();
-        let opts = crate::fit::FitOptions {
-            modes: model.linear.modes.len() + 1,
-            band_hz: cx.options.band_hz.or(cx.options.fit.band_hz),
-            ..cx.options.fit.clone()
-        };
-        if let Ok(f) = crate::fit::identify(cx.frf, &opts, cx.predictor, None) {
+        if let Some(mut m) = cx.identified_with_modes(model.linear.modes.len() + 1) {
             // the new modes with the user's joint refitted, and the effects
             // found so far
-            let mut m = f.model;
             m.effects.extend(model.effects.iter().cloned());
             starts.push(m);
         }
@@ -298,6 +292,7 @@ seed = 3
             frf: &run.frf,
             options: &options,
             predictor: &predictor,
+            identified: &Default::default(),
         };
         let starts = SecondMode.starts(&cx).unwrap();
         // the residual's mode, and the identification afresh at least
