@@ -3,7 +3,7 @@
 //! and the residual figures.
 
 use super::write_json;
-use crate::diagnose::{DiagnoseOptions, Diagnosis, Verdict, diagnose_observed};
+use crate::diagnose::{DiagnoseOptions, Diagnosis, Effect, Verdict, diagnose_observed};
 use crate::error::Result;
 use crate::extract::NonlinearFrf;
 use crate::fit::time::{RecordError, TimeProblem, time_parameters};
@@ -40,6 +40,30 @@ pub struct TimeRefinement {
     /// The final model refitted in the time domain (`before`: the FRF
     /// diagnosis's final model).
     pub refit: TimeFitResult,
+    /// Each effect the FRF diagnosis kept, taken out and the rest refitted
+    /// in time: whether the recordings need it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub checks: Vec<EffectCheck>,
+}
+
+/// One kept effect put to the time domain: the model without it refitted on
+/// the recordings.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EffectCheck {
+    /// The effect.
+    pub effect: Effect,
+    /// Each recording's error with the model without it, refitted (empty
+    /// when that refit failed).
+    pub without: Vec<RecordError>,
+    /// How much the misfit rises without it: the dwells' relative e_RMS,
+    /// root mean square over the recordings, without over with, minus 1.
+    pub rise: f64,
+    /// Whether the recordings need it (`rise > CONFIRMATION_RISE`, or the
+    /// refit without it failed).
+    pub confirmed: bool,
+    /// Why the refit without it failed, when it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
 }
 
 /// What `diagnose --domain time` got: the refinement, or why there is
@@ -56,21 +80,57 @@ pub enum TimeOutcome {
     },
 }
 
+/// The rise of the time-domain misfit below which an effect is not
+/// confirmed: 2.5 times the 0.2 % by which the replay's own discretisation
+/// may move the misfit (see `TimeProblem::choose_replay_rates`), so that an
+/// effect is kept for what the recordings show, not for the simulator's
+/// step.
+pub const CONFIRMATION_RISE: f64 = 0.005;
+
+/// Levenberg–Marquardt's patience for a refit without one effect: it starts
+/// next to its optimum (the full refit's values), so a shorter budget than
+/// the full refit's finds it.
+const CHECK_PATIENCE: usize = 12;
+
+/// The misfit a confirmation compares: each recording's dwell-weighted
+/// relative e_RMS, root mean square over the recordings.
+fn misfit(errors: &[RecordError]) -> f64 {
+    let n = errors.len().max(1) as f64;
+    (errors
+        .iter()
+        .map(|e| e.segment_relative.powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt()
+}
+
 /// Refines `d`'s final model in the time domain on `records`: every
 /// parameter free (the linear part's as the diagnosis saw `band_hz`),
-/// started from the diagnosis. The effects stay those the FRF diagnosis
-/// selected; what the replay adds is the history the harmonic balance does
-/// not carry (where a joint settles under a static load) and no steady-state
-/// assumption.
+/// started from the diagnosis. What the replay adds is the history the
+/// harmonic balance does not carry (where a joint settles under a static
+/// load) and no steady-state assumption.
+///
+/// Then each effect the FRF diagnosis kept is confirmed: taken out, the rest
+/// refitted in time. An FRF residual the history explains can make the FRF
+/// diagnosis keep an effect that stands in for it (a broad mode beside a
+/// bilinear stiffness); where the misfit without an effect rises by no more
+/// than [`CONFIRMATION_RISE`], the effect is dropped from `d` (its FRF model
+/// refitted without it, see [`crate::diagnose::without_effect`]), the least
+/// needed first, and the rest are checked again. `patience` is the FRF
+/// refit's.
+#[allow(clippy::too_many_arguments)]
 pub fn refine_in_time(
-    d: &Diagnosis,
+    d: &mut Diagnosis,
+    frf: &NonlinearFrf,
     records: &[TimeRecord],
     options: &TimeFitOptions,
     band_hz: Option<(f64, f64)>,
+    patience: usize,
+    predictor: &HbPredictor,
     observer: &dyn Observer,
 ) -> Result<TimeRefinement> {
     let params = time_parameters(&d.model, options.refine_linear, band_hz);
-    let refit = identify_time(
+    let mut refit = identify_time(
         &d.model,
         params.clone(),
         d.response_sign,
@@ -78,16 +138,108 @@ pub fn refine_in_time(
         options,
         Some(observer),
     )?;
-    let baseline = TimeProblem::new(
-        d.baseline_model.clone(),
-        params,
-        records,
-        d.response_sign,
-        options.clone(),
-        None,
-    )?
-    .errors(&d.baseline_model)?;
-    Ok(TimeRefinement { baseline, refit })
+    let sign = d.response_sign;
+    let replay = |model: &crate::model::Model| -> Result<Vec<RecordError>> {
+        TimeProblem::new(
+            model.clone(),
+            params.clone(),
+            records,
+            sign,
+            options.clone(),
+            None,
+        )?
+        .errors(model)
+    };
+    let baseline = replay(&d.baseline_model)?;
+    let mut checks: Vec<EffectCheck> = Vec::new();
+    let check_options = TimeFitOptions {
+        patience: options.patience.min(CHECK_PATIENCE),
+        ..options.clone()
+    };
+    while !d.selected.is_empty() {
+        let with = misfit(&refit.after);
+        let mut round: Vec<(EffectCheck, Option<TimeFitResult>)> = Vec::new();
+        for effect in d.selected.iter().map(|s| s.effect) {
+            let Some(without) = effect.candidate().remove(&refit.model) else {
+                continue;
+            };
+            let p = time_parameters(&without, options.refine_linear, band_hz);
+            match identify_time(&without, p, d.response_sign, records, &check_options, None) {
+                Ok(r) => {
+                    let rise = misfit(&r.after) / with.max(f64::MIN_POSITIVE) - 1.0;
+                    round.push((
+                        EffectCheck {
+                            effect,
+                            without: r.after.clone(),
+                            rise,
+                            confirmed: rise > CONFIRMATION_RISE,
+                            failed: None,
+                        },
+                        Some(r),
+                    ));
+                }
+                // a refit that fails is no evidence against the effect
+                Err(e) => round.push((
+                    EffectCheck {
+                        effect,
+                        without: Vec::new(),
+                        rise: f64::NAN,
+                        confirmed: true,
+                        failed: Some(e.to_string()),
+                    },
+                    None,
+                )),
+            }
+        }
+        let least = round
+            .iter()
+            .enumerate()
+            .filter(|(_, (c, r))| !c.confirmed && r.is_some())
+            .min_by(|a, b| a.1.0.rise.total_cmp(&b.1.0.rise))
+            .map(|(i, _)| i);
+        let Some(i) = least else {
+            checks.extend(round.into_iter().map(|(c, _)| c));
+            break;
+        };
+        let (check, reduced) = round.swap_remove(i);
+        let why = format!(
+            "refitted on the recorded time histories without it, the dwells' relative e_RMS \
+             rose by only {:.2} % ({:.2} % -> {:.2} %; {:.1} % confirms an effect)",
+            100.0 * check.rise,
+            100.0 * with,
+            100.0 * misfit(&check.without),
+            100.0 * CONFIRMATION_RISE
+        );
+        match crate::diagnose::without_effect(d, frf, check.effect, why, patience, predictor) {
+            Ok(smaller) => {
+                *d = smaller;
+                let r = reduced.expect("only a refit that ran is dropped");
+                // finished with the full budget (it stops at once where the
+                // check's budget already converged); `before` as for the full
+                // refit: the FRF diagnosis's model
+                let p = time_parameters(&r.model, options.refine_linear, band_hz);
+                let mut r = identify_time(&r.model, p, sign, records, options, None).unwrap_or(r);
+                r.before = replay(&d.model)?;
+                refit = r;
+                checks.push(check);
+            }
+            // the FRF side could not be refitted without it: it stays
+            Err(e) => {
+                checks.push(EffectCheck {
+                    confirmed: true,
+                    failed: Some(format!("the FRF refit without it failed: {e}")),
+                    ..check
+                });
+                checks.extend(round.into_iter().map(|(c, _)| c));
+                break;
+            }
+        }
+    }
+    Ok(TimeRefinement {
+        baseline,
+        refit,
+        checks,
+    })
 }
 
 /// `diagnosis.json`: the diagnosis with the command and its wall time.
@@ -199,6 +351,32 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             100.0 * f.segment_relative,
             100.0 * a.segment_relative
         );
+    }
+    if !t.checks.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nEach effect the FRF diagnosis kept, taken out and the rest refitted in time \
+             (kept when the misfit rises by more than {:.1} %):\n\n\
+             | effect | misfit without it, refitted | rise | kept |\n|---|---|---|---|",
+            100.0 * CONFIRMATION_RISE
+        );
+        for c in &t.checks {
+            let _ = match &c.failed {
+                Some(why) => writeln!(s, "| {} | refit failed: {why} | | yes |", c.effect.name()),
+                None => writeln!(
+                    s,
+                    "| {} | {:.2} % | {:+.2} % | {} |",
+                    c.effect.name(),
+                    100.0 * misfit(&c.without),
+                    100.0 * c.rise,
+                    if c.confirmed {
+                        "yes"
+                    } else {
+                        "**no: dropped**"
+                    }
+                ),
+            };
+        }
     }
     let _ = writeln!(s, "\n| parameter | value | 95 % interval |\n|---|---|---|");
     for (name, e) in &t.refit.parameters {

@@ -72,7 +72,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         fit: fit_opts.clone(),
         ..options
     };
-    let (d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
+    let (mut d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
     let time = match args.domain {
         Domain::Frf => None,
         Domain::Time => {
@@ -81,10 +81,13 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             let t = hystid::analysis::time_records(&args.recordings, args.response.as_deref())
                 .and_then(|records| {
                     refine_in_time(
-                        &d,
+                        &mut d,
+                        &frf,
                         &records,
                         &hystid::fit::TimeFitOptions::default(),
                         options.band_hz,
+                        options.patience,
+                        &predictor,
                         &progress::Drawn(&pb),
                     )
                 });
@@ -132,6 +135,24 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                     100.0 * f.segment_relative,
                     100.0 * a.segment_relative
                 );
+            }
+            for c in &t.checks {
+                match &c.failed {
+                    Some(why) => say!(
+                        "  {} kept: the refit without it failed ({why})",
+                        c.effect.name()
+                    ),
+                    None => say!(
+                        "  {} {} in the time domain: without it, refitted, the misfit rises {:+.2} %",
+                        c.effect.name(),
+                        if c.confirmed {
+                            "confirmed"
+                        } else {
+                            "not confirmed (dropped)"
+                        },
+                        100.0 * c.rise
+                    ),
+                }
             }
         }
         for f in files {

@@ -1109,6 +1109,24 @@ fn explain(
         100.0 * baseline.error_relative,
         baseline.chi2_per_dof
     ));
+    let mut dropped = String::new();
+    for r in reports
+        .iter()
+        .filter(|r| r.verdict == Verdict::NotConfirmedInTime)
+    {
+        dropped.push_str(&format!(
+            "{} was kept on the FRFs but not confirmed in the time domain ({}), so it was \
+             dropped and the rest refitted. ",
+            capitalise(r.effect.name()),
+            r.note.as_deref().unwrap_or("no reason recorded")
+        ));
+    }
+    if selected.is_empty() && !dropped.is_empty() {
+        s.push_str(&dropped);
+        s.push_str("No missing effect is confirmed.");
+        return s;
+    }
+    s.push_str(&dropped);
     if selected.is_empty() {
         let best = reports
             .iter()
@@ -1149,17 +1167,6 @@ fn explain(
             capitalise(&why),
             sel.effect.name(),
             params.join(", ")
-        ));
-    }
-    for r in reports
-        .iter()
-        .filter(|r| r.verdict == Verdict::NotConfirmedInTime)
-    {
-        s.push_str(&format!(
-            "{} was kept on the FRFs but not confirmed in the time domain ({}), so it was \
-             dropped and the rest refitted. ",
-            capitalise(r.effect.name()),
-            r.note.as_deref().unwrap_or("no reason recorded")
         ));
     }
     let even_before: Vec<String> = baseline
