@@ -52,8 +52,9 @@ pub struct TimeRefinement {
 pub struct EffectCheck {
     /// The effect.
     pub effect: Effect,
-    /// Each recording's error with the model without it, refitted (empty
-    /// when that refit failed).
+    /// Each recording's error with the model without it, refitted (only
+    /// replayed where that already rose by no more than the threshold: a
+    /// refit could only lower it; empty when the refit failed).
     pub without: Vec<RecordError>,
     /// How much the misfit rises without it: the dwells' relative e_RMS,
     /// root mean square over the recordings, without over with, minus 1.
@@ -116,8 +117,9 @@ fn misfit(errors: &[RecordError]) -> f64 {
 /// bilinear stiffness); where the misfit without an effect rises by no more
 /// than [`CONFIRMATION_RISE`], the effect is dropped from `d` (its FRF model
 /// refitted without it, see [`crate::diagnose::without_effect`]), the least
-/// needed first, and the rest are checked again. `patience` is the FRF
-/// refit's.
+/// needed first, and the rest are checked again. Where a plain replay
+/// without the effect already stays within the threshold, no refit is run
+/// (a refit could only lower the misfit). `patience` is the FRF refit's.
 #[allow(clippy::too_many_arguments)]
 pub fn refine_in_time(
     d: &mut Diagnosis,
@@ -158,25 +160,44 @@ pub fn refine_in_time(
     };
     while !d.selected.is_empty() {
         let with = misfit(&refit.after);
-        let mut round: Vec<(EffectCheck, Option<TimeFitResult>)> = Vec::new();
+        // the same model replayed as a plain replay of a model without an
+        // effect is (at the sure rate), for the shortcut below
+        let with_sure = replay(&refit.model).map(|e| misfit(&e)).ok();
+        // each check, and the model a dropped effect's final refit starts from
+        let mut round: Vec<(EffectCheck, Option<crate::model::Model>)> = Vec::new();
         for effect in d.selected.iter().map(|s| s.effect) {
             let Some(without) = effect.candidate().remove(&refit.model) else {
                 continue;
             };
+            // a refit can only lower the misfit without it: where the plain
+            // replay already rises by no more than the threshold, no refit
+            // is needed to know
+            if let (Some(w), Ok(e)) = (with_sure, replay(&without)) {
+                let rise = misfit(&e) / w.max(f64::MIN_POSITIVE) - 1.0;
+                if rise <= CONFIRMATION_RISE {
+                    let check = EffectCheck {
+                        effect,
+                        without: e,
+                        rise,
+                        confirmed: false,
+                        failed: None,
+                    };
+                    round.push((check, Some(without)));
+                    continue;
+                }
+            }
             let p = time_parameters(&without, options.refine_linear, band_hz);
-            match identify_time(&without, p, d.response_sign, records, &check_options, None) {
+            match identify_time(&without, p, sign, records, &check_options, None) {
                 Ok(r) => {
                     let rise = misfit(&r.after) / with.max(f64::MIN_POSITIVE) - 1.0;
-                    round.push((
-                        EffectCheck {
-                            effect,
-                            without: r.after.clone(),
-                            rise,
-                            confirmed: rise > CONFIRMATION_RISE,
-                            failed: None,
-                        },
-                        Some(r),
-                    ));
+                    let check = EffectCheck {
+                        effect,
+                        without: r.after,
+                        rise,
+                        confirmed: rise > CONFIRMATION_RISE,
+                        failed: None,
+                    };
+                    round.push((check, Some(r.model)));
                 }
                 // a refit that fails is no evidence against the effect
                 Err(e) => round.push((
@@ -194,40 +215,46 @@ pub fn refine_in_time(
         let least = round
             .iter()
             .enumerate()
-            .filter(|(_, (c, r))| !c.confirmed && r.is_some())
+            .filter(|(_, (c, m))| !c.confirmed && m.is_some())
             .min_by(|a, b| a.1.0.rise.total_cmp(&b.1.0.rise))
             .map(|(i, _)| i);
         let Some(i) = least else {
             checks.extend(round.into_iter().map(|(c, _)| c));
             break;
         };
-        let (check, reduced) = round.swap_remove(i);
+        let (check, start) = round.swap_remove(i);
+        let start = start.expect("only a check with a model is dropped");
         let why = format!(
-            "refitted on the recorded time histories without it, the dwells' relative e_RMS \
+            "without it the recorded time histories' misfit (the dwells' relative e_RMS) \
              rose by only {:.2} % ({:.2} % -> {:.2} %; {:.1} % confirms an effect)",
             100.0 * check.rise,
             100.0 * with,
             100.0 * misfit(&check.without),
             100.0 * CONFIRMATION_RISE
         );
-        match crate::diagnose::without_effect(d, frf, check.effect, why, patience, predictor) {
-            Ok(smaller) => {
+        // the smaller model refitted with the full budget (it stops at once
+        // where the check's refit already converged), then its FRF side
+        let p = time_parameters(&start, options.refine_linear, band_hz);
+        let outcome = identify_time(&start, p, sign, records, options, None)
+            .map_err(|e| format!("the time refit without it failed: {e}"))
+            .and_then(|r| {
+                crate::diagnose::without_effect(d, frf, check.effect, why, patience, predictor)
+                    .map(|smaller| (r, smaller))
+                    .map_err(|e| format!("the FRF refit without it failed: {e}"))
+            });
+        match outcome {
+            Ok((mut r, smaller)) => {
                 *d = smaller;
-                let r = reduced.expect("only a refit that ran is dropped");
-                // finished with the full budget (it stops at once where the
-                // check's budget already converged); `before` as for the full
-                // refit: the FRF diagnosis's model
-                let p = time_parameters(&r.model, options.refine_linear, band_hz);
-                let mut r = identify_time(&r.model, p, sign, records, options, None).unwrap_or(r);
+                // `before` as for the full refit: the FRF diagnosis's model
                 r.before = replay(&d.model)?;
                 refit = r;
                 checks.push(check);
             }
-            // the FRF side could not be refitted without it: it stays
-            Err(e) => {
+            // it could not be taken out: it stays
+            Err(why) => {
                 checks.push(EffectCheck {
                     confirmed: true,
-                    failed: Some(format!("the FRF refit without it failed: {e}")),
+                    failed: Some(why),
                     ..check
                 });
                 checks.extend(round.into_iter().map(|(c, _)| c));
@@ -357,7 +384,7 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             s,
             "\nEach effect the FRF diagnosis kept, taken out and the rest refitted in time \
              (kept when the misfit rises by more than {:.1} %):\n\n\
-             | effect | misfit without it, refitted | rise | kept |\n|---|---|---|---|",
+             | effect | misfit without it | rise | kept |\n|---|---|---|---|",
             100.0 * CONFIRMATION_RISE
         );
         for c in &t.checks {
