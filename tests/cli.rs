@@ -462,6 +462,60 @@ fn run_reports_the_test_that_ran_and_flags_a_parameter_at_its_bound() {
     assert_eq!(bare_run["fit"]["model"], run["fit"]["model"]);
 }
 
+/// `identify` flags what `run` flags: a Masing law fitted to Jenkins data
+/// runs its curvature `n` to its bound (the law's Jenkins limit, N → ∞), so
+/// `n` is flagged at its bound and not identifiable, in the terminal and in
+/// fit.json, for the FRF fit and the time-domain refinement alike; the
+/// joint's `kd` and `fd`, recovered within 0.2 %, carry no flag.
+#[test]
+fn identify_flags_a_parameter_at_its_bound_in_the_terminal_and_fit_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    simulated(&test, &sim);
+    let out = dir.path().join("fit");
+    let o = hystid(&[
+        "identify",
+        sim.join("run.mcap").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--domain",
+        "time",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let terminal = text(&o);
+    let fit: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("fit.json")).unwrap()).unwrap();
+    let flagged = serde_json::json!({"n": ["at_bound", "not_identifiable"]});
+    assert_eq!(fit["flags"], flagged, "{}", fit["flags"]);
+    assert_eq!(fit["at_bound"], serde_json::json!(["n"]));
+    assert_eq!(
+        fit["time_domain_flags"], flagged,
+        "{}",
+        fit["time_domain_flags"]
+    );
+    assert_eq!(fit["time_domain"]["at_bound"], serde_json::json!(["n"]));
+    // one flagged line for each fit: the FRF's and the time domain's
+    let n_lines: Vec<&str> = terminal
+        .lines()
+        .filter(|l| l.trim_start().starts_with("n = "))
+        .collect();
+    assert_eq!(n_lines.len(), 2, "{terminal}");
+    for l in &n_lines {
+        assert!(
+            l.ends_with("FLAG: at a bound of its fit; not identifiable"),
+            "{l}"
+        );
+    }
+    for name in ["kd = ", "fd = "] {
+        let l = terminal
+            .lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .unwrap_or_else(|| panic!("no {name} in:\n{terminal}"));
+        assert!(!l.contains("FLAG"), "{l}");
+    }
+}
+
 /// `run` on a test with an undeclared cubic stiffness reports one model,
 /// the diagnosis's, everywhere: the terminal, report.md and run.json name
 /// it and give its parameters (the cubic's with the value it was simulated

@@ -203,9 +203,10 @@ fn frf_plot_draws_every_finite_point_and_breaks_lines_at_nan() {
             s.label
         );
     }
-    // Level 0: 41 − 2 skipped measured points in each panel, plus the legend marker.
+    // Level 0 (open circles): 41 − 2 skipped measured points in each panel,
+    // plus the legend marker.
     let c0 = lhex(0, 3);
-    assert_eq!(count(&svg, "circle", &[("fill", &c0)]), 2 * 39 + 1);
+    assert_eq!(count(&svg, "circle", &[("stroke", &c0)]), 2 * 39 + 1);
     // ... the model line broken once in each panel ...
     assert_eq!(
         count(&svg, "polyline", &[("stroke", &c0), ("opacity", "1")]),
@@ -218,8 +219,9 @@ fn frf_plot_draws_every_finite_point_and_breaks_lines_at_nan() {
     );
     for g in 1..3 {
         let c = lhex(g, 3);
+        // levels 1 and 2: open squares and triangles, polygons
         assert_eq!(
-            count(&svg, "circle", &[("fill", &c)]),
+            count(&svg, "polygon", &[("fill", &c)]),
             2 * 41 + 1,
             "group {g}"
         );
@@ -407,7 +409,7 @@ fn frf_series_from_groups_levels_and_picks_the_harmonic() {
     let svg = check_files(&files, &stem);
     // Two series (up and down) share group 0: 2 × 5 markers per panel + 1 legend marker each.
     assert_eq!(
-        count(&svg, "circle", &[("fill", &lhex(0, 2))]),
+        count(&svg, "circle", &[("stroke", &lhex(0, 2))]),
         2 * 2 * 5 + 2
     );
 }
@@ -588,7 +590,10 @@ fn residual_plot_compares_panels_against_the_noise_level() {
         ),
         3
     );
-    assert_eq!(count(&svg, "circle", &[("fill", &lhex(1, 3))]), 41 + 40 + 1);
+    assert_eq!(
+        count(&svg, "polygon", &[("fill", &lhex(1, 3))]),
+        41 + 40 + 1
+    );
     // The legend lists each level once although it appears in both panels.
     assert_eq!(svg.matches(">\n4 N\n<").count(), 1);
     assert!(

@@ -110,6 +110,129 @@ pub fn reached_amplitudes(data: &FitData) -> Vec<(f64, f64)> {
     out
 }
 
+/// Two solutions of one level at one frequency are two branches when their
+/// fundamentals differ by more than this share of the larger: the same
+/// branch solved twice agrees to the solver's tolerance (~1e-8), the
+/// branches of a fold differ by tens of per cent.
+pub const BRANCH_TOLERANCE: f64 = 0.01;
+
+/// A level's model curve as lines, `(frequency, H)` with NaN gaps: `own`,
+/// solved along the level's grid in its sweep's order, broken where it jumps
+/// off a branch; `other`, solved the opposite way, where it differs from
+/// `own` (a fold's other stable branch) joined to the shared curve on the
+/// side it continues from; empty without a fold.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LevelLines {
+    /// The continuation in the sweep's order.
+    pub own: Vec<(f64, Complex64)>,
+    /// The opposite continuation where it finds another branch.
+    pub other: Vec<(f64, Complex64)>,
+}
+
+/// The model's lines for each series of `fine` (see [`LevelLines`]): each
+/// series solved point by point from the previous point's solution, in its
+/// own order and in the reverse. A steady response with a fold (a hardening
+/// or softening effect driven hard) has two stable branches over a band of
+/// frequency; a sweep stays on one until it ends, so the two directions
+/// find both.
+pub fn model_lines(
+    model: &Model,
+    response_sign: f64,
+    fine: &FitData,
+    predictor: &HbPredictor,
+) -> Result<Vec<LevelLines>> {
+    let mut both = fine.clone();
+    both.series
+        .extend(fine.series.iter().map(|s| MeasuredSeries {
+            points: s.points.iter().rev().cloned().collect(),
+            ..s.clone()
+        }));
+    let pred = predictor.predict(model, &both)?;
+    let n = fine.series.len();
+    let fundamental = |h: &[Option<Vec<Complex64>>]| -> Vec<Complex64> {
+        h.iter()
+            .map(|m| {
+                m.as_ref()
+                    .map_or(Complex64::new(f64::NAN, f64::NAN), |m| m[0] * response_sign)
+            })
+            .collect()
+    };
+    Ok(fine
+        .series
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
+            let own = fundamental(&pred.h[i]);
+            let mut other = fundamental(&pred.h[n + i]);
+            other.reverse();
+            split_branches(&f, &own, &other)
+        })
+        .collect())
+}
+
+/// The lines of two continuations `a` (the sweep's) and `b` (the opposite)
+/// on the grid `f` (see [`LevelLines`]). Each is broken, in and next to
+/// the fold, where it jumps: a step that changes its magnitude by more than
+/// a tenth and by more than twice the other's change (so a steep but shared
+/// resonance is never broken). A continuation can near the tip of a branch
+/// a little apart from the other before it jumps, so `b` is drawn from
+/// where the two differ, whichever branch it is on.
+pub fn split_branches(f: &[f64], a: &[Complex64], b: &[Complex64]) -> LevelLines {
+    let nan = Complex64::new(f64::NAN, f64::NAN);
+    let finite = |z: Complex64| z.re.is_finite() && z.im.is_finite();
+    let n = f.len().min(a.len()).min(b.len());
+    let differ: Vec<bool> = (0..n)
+        .map(|i| {
+            finite(a[i])
+                && finite(b[i])
+                && (a[i] - b[i]).norm() > BRANCH_TOLERANCE * a[i].norm().max(b[i].norm())
+        })
+        .collect();
+    let mut lines = LevelLines::default();
+    if !differ.iter().any(|&d| d) {
+        lines.own = (0..n).map(|i| (f[i], a[i])).collect();
+        return lines;
+    }
+    // whether `x` jumps between i − 1 and i, `y` being the other: by the
+    // magnitude (near a branch's tip its phase turns fast while its
+    // magnitude barely changes)
+    let jumps = |x: &[Complex64], y: &[Complex64], i: usize| {
+        if i == 0 {
+            return false;
+        }
+        let step = |z: &[Complex64]| (z[i].norm() - z[i - 1].norm()).abs();
+        let (dx, dy) = (step(x), step(y));
+        (differ[i] || differ[i - 1])
+            && dx > 2.0 * dy
+            && dx > JUMP * x[i].norm().max(x[i - 1].norm())
+    };
+    for i in 0..n {
+        if i > 0 && jumps(a, b, i) {
+            lines.own.push((0.5 * (f[i - 1] + f[i]), nan));
+        }
+        lines.own.push((f[i], a[i]));
+    }
+    // `b` where it differs, and its neighbours it continues into
+    let drawn = |i: usize| {
+        differ[i]
+            || (i > 0 && differ[i - 1] && !jumps(b, a, i))
+            || (i + 1 < n && differ[i + 1] && !jumps(b, a, i + 1))
+    };
+    for i in 0..n {
+        if i > 0 && drawn(i) && drawn(i - 1) && jumps(b, a, i) {
+            lines.other.push((0.5 * (f[i - 1] + f[i]), nan));
+        }
+        lines.other.push((f[i], if drawn(i) { b[i] } else { nan }));
+    }
+    lines
+}
+
+/// A step changing a continuation by more than this share is a jump between
+/// branches (where the other continuation changes by less than half as
+/// much); a fold's branches differ by a factor of 2 or more.
+const JUMP: f64 = 0.1;
+
 /// One model drawn over the measurements.
 pub struct Drawn<'a> {
     /// The model.
@@ -131,15 +254,10 @@ pub fn write_frf_overlay(
 ) -> Result<Vec<PathBuf>> {
     let data = FitData::from_frf(frf, &[1], band_hz, None)?;
     let fine = fine_grid(&data, FINE_POINTS);
-    let pred = predictor.predict(model.model, &fine)?;
+    let lines = model_lines(model.model, model.response_sign, &fine, predictor)?;
     let unit = frf.reference.si_unit();
     let mut series = Vec::new();
-    for (g, (s, (f, p))) in data
-        .series
-        .iter()
-        .zip(fine.series.iter().zip(&pred.h))
-        .enumerate()
-    {
+    for (g, (s, l)) in data.series.iter().zip(lines).enumerate() {
         let label = plot::level_label(s.level, unit);
         series.push(FrfSeries {
             label,
@@ -149,21 +267,20 @@ pub fn write_frf_overlay(
             std_error: Some(s.points.iter().map(|p| p.std_error[0]).collect()),
             style: SeriesStyle::Measured,
         });
-        series.push(FrfSeries {
-            // one legend entry per level: the line shares the markers' colour
-            label: String::new(),
-            group: g,
-            frequency_hz: f.points.iter().map(|p| p.frequency_hz).collect(),
-            h: p.iter()
-                .map(|m| {
-                    m.as_ref().map_or(Complex64::new(f64::NAN, f64::NAN), |m| {
-                        m[0] * model.response_sign
-                    })
-                })
-                .collect(),
-            std_error: None,
-            style: SeriesStyle::Model,
-        });
+        // one legend entry per level: the lines share the markers' colour
+        for line in [l.own, l.other] {
+            if line.is_empty() {
+                continue;
+            }
+            series.push(FrfSeries {
+                label: String::new(),
+                group: g,
+                frequency_hz: line.iter().map(|p| p.0).collect(),
+                h: line.iter().map(|p| p.1).collect(),
+                std_error: None,
+                style: SeriesStyle::Model,
+            });
+        }
     }
     plot::write_frf_plot(stem, title, &plot::frf_magnitude_label(frf, 1), &series)
 }
@@ -289,6 +406,152 @@ pub fn engineering(v: f64, unit: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fundamental amplitude of the Duffing oscillator
+    /// `m x'' + c x' + k x + k3 x³ = F cos ωt` at `f_hz` on the branch
+    /// nearest `start` (m): harmonic balance written out here, apart from
+    /// `hb` (harmonics 1, 3, 5, 7, the cubic force sampled at 256 points a
+    /// period, Newton with a finite-difference Jacobian).
+    fn duffing_hb(p: [f64; 5], f_hz: f64, start: Complex64) -> f64 {
+        let [m, c, k, k3, force] = p;
+        let w = 2.0 * std::f64::consts::PI * f_hz;
+        let (n, harmonics) = (256, [1.0, 3.0, 5.0, 7.0]);
+        let residual = |q: &[f64]| -> Vec<f64> {
+            let mut out = vec![0.0; 8];
+            for i in 0..n {
+                let t = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+                let (mut x, mut v, mut acc) = (0.0, 0.0, 0.0);
+                for (j, h) in harmonics.iter().enumerate() {
+                    let (a, b) = (q[2 * j], q[2 * j + 1]);
+                    let (cs, sn) = ((h * t).cos(), (h * t).sin());
+                    x += a * cs + b * sn;
+                    v += w * h * (-a * sn + b * cs);
+                    acc -= (w * h).powi(2) * (a * cs + b * sn);
+                }
+                let r = m * acc + c * v + k * x + k3 * x.powi(3) - force * t.cos();
+                for (j, h) in harmonics.iter().enumerate() {
+                    out[2 * j] += 2.0 / n as f64 * r * (h * t).cos();
+                    out[2 * j + 1] += 2.0 / n as f64 * r * (h * t).sin();
+                }
+            }
+            out
+        };
+        // x = Re(X e^{iωt}) = a cos + b sin with X = a − i b
+        let mut q = vec![0.0; 8];
+        q[0] = start.re * force;
+        q[1] = -start.im * force;
+        for _ in 0..50 {
+            let r = residual(&q);
+            let jac = nalgebra::DMatrix::from_fn(8, 8, |i, j| {
+                let mut d = q.clone();
+                d[j] += 1e-10;
+                (residual(&d)[i] - r[i]) / 1e-10
+            });
+            let step = jac.lu().solve(&nalgebra::DVector::from_vec(r)).unwrap();
+            q.iter_mut().zip(step.iter()).for_each(|(x, s)| *x -= s);
+        }
+        q[0].hypot(q[1])
+    }
+
+    /// A hardening Duffing oscillator (m = 1 kg, f0 = 10 Hz, ζ = 1 %,
+    /// k3 = 2e7 N/m³) driven at 1 N has a fold: two stable branches from
+    /// above f0 to where the backbone `ω² = ω0² (1 + ¾ (k3/k) A²)` meets the
+    /// peak amplitude `A = F/(c ω)` (the single-harmonic estimate of where an
+    /// up sweep drops, here 11.9 Hz). Both continuations are drawn, a factor
+    /// > 2 apart inside the fold, each the oscillator's steady response by a
+    /// harmonic balance written out in this test, and the up sweep's line is
+    /// broken where it drops instead of joining the branches.
+    #[test]
+    fn a_fold_is_drawn_as_its_two_branches() {
+        use std::f64::consts::PI;
+        let (m, f0, zeta, k3, force) = (1.0, 10.0, 0.01, 2e7, 1.0);
+        let k = m * (2.0 * PI * f0).powi(2);
+        let c = 2.0 * zeta * (k * m).sqrt();
+        let model = Model::with_joint(
+            crate::model::ModalModel::sdof(m, c, k).unwrap(),
+            None,
+            vec![ElementSpec::CubicStiffness { k3 }],
+        )
+        .unwrap();
+        // the backbone at the peak amplitude, by fixed point
+        let mut w = 2.0 * PI * f0;
+        for _ in 0..200 {
+            let a = force / (c * w);
+            w = ((k + 0.75 * k3 * a * a) / m).sqrt();
+        }
+        let f_drop = w / (2.0 * PI);
+        let grid: Vec<MeasuredPoint> = (0..400)
+            .map(|i| MeasuredPoint {
+                frequency_hz: 5.0 + 15.0 * i as f64 / 399.0,
+                force_amplitude: force,
+                h: vec![Complex64::new(0.0, 0.0)],
+                std_error: vec![1.0],
+                blocks: 0,
+            })
+            .collect();
+        let fine = FitData {
+            response: crate::harmonics::Quantity::Displacement,
+            harmonics: vec![1],
+            series: vec![MeasuredSeries {
+                level: force,
+                direction: crate::extract::Direction::Up,
+                points: grid,
+            }],
+            response_sign: 1.0,
+            unusable_points: 0,
+        };
+        let lines = model_lines(&model, 1.0, &fine, &HbPredictor::default()).unwrap();
+        let l = &lines[0];
+        let finite = |z: &Complex64| z.re.is_finite();
+        let own_at = |f: f64| l.own.iter().find(|p| p.0 == f).unwrap().1;
+        // the fold's band: where the other branch is drawn apart from the
+        // sweep's
+        let band: Vec<(f64, Complex64)> = l
+            .other
+            .iter()
+            .copied()
+            .filter(|p| finite(&p.1) && (p.1 - own_at(p.0)).norm() > 0.5 * p.1.norm())
+            .collect();
+        assert!(band.len() > 10, "no second branch: {} points", band.len());
+        let (lo, hi) = (band[0].0, band[band.len() - 1].0);
+        // the up sweep drops within 3 % of the single-harmonic estimate (the
+        // higher harmonics, a grid step of 0.04 Hz, and a continuation
+        // without arclength losing the branch just before its tip)
+        assert!(
+            (hi / f_drop - 1.0).abs() < 0.03,
+            "drop at {hi} Hz, estimate {f_drop} Hz"
+        );
+        assert!(lo > f0 && lo < hi, "fold {lo}-{hi} Hz");
+        // inside the fold: two branches, a factor > 2 apart, each solving
+        // the single-harmonic equation within 2 % (the third harmonic is
+        // ~2 % of the response)
+        let (fm, lower) = band[band.len() / 2];
+        let upper = own_at(fm);
+        assert!(
+            upper.norm() > 2.0 * lower.norm(),
+            "{upper} vs {lower} at {fm} Hz"
+        );
+        // each a steady response: the independent balance, started from it,
+        // stays on it (its Newton converges to ~1e-15; the library's to its
+        // tolerance, so 1e-6)
+        for h in [upper, lower] {
+            let a = duffing_hb([m, c, k, k3, force], fm, h);
+            let drawn = h.norm() * force;
+            assert!(
+                (a / drawn - 1.0).abs() < 1e-6,
+                "{drawn} m drawn, {a} m by the balance at {fm} Hz"
+            );
+        }
+        // the up sweep's line: one break, at its drop
+        let gaps: Vec<f64> = l
+            .own
+            .iter()
+            .filter(|p| !finite(&p.1))
+            .map(|p| p.0)
+            .collect();
+        assert_eq!(gaps.len(), 1, "{gaps:?}");
+        assert!(gaps[0] > hi && gaps[0] < hi + 0.04, "{gaps:?} vs {hi}");
+    }
 
     #[test]
     fn engineering_notation_reads_as_a_person_writes_it() {

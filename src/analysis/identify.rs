@@ -2,12 +2,13 @@
 //! virtual test was simulated with, `fit.json` and the fit's figures
 //! (paper Figures 2.2, 3.3 and 3.4).
 
+use super::flags::{Flag, flag_estimates, flag_words};
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
 use crate::fit::time::time_parameters;
 use crate::fit::{
-    FitData, FitOptions, FitResult, HbPredictor, TimeFitOptions, TimeFitResult, TimeRecord,
-    identify, identify_time,
+    Estimate, FitData, FitOptions, FitResult, HbPredictor, TimeFitOptions, TimeFitResult,
+    TimeRecord, identify, identify_time,
 };
 use crate::model::{ElementSpec, Model};
 use crate::observe::{Event, Observer};
@@ -15,6 +16,7 @@ use crate::plot::{self, ConvergenceSeries};
 use crate::record::McapRecorder;
 use crate::testbench::TestDefinition;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -53,12 +55,20 @@ pub struct FitReport {
     /// Estimates against the reference.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub comparison: Vec<Comparison>,
+    /// The fit's flagged parameters with their flags (as `run.json` flags
+    /// its final model's); none: every estimate a plain result.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub flags: BTreeMap<String, Vec<Flag>>,
     /// Files written.
     pub files: Vec<PathBuf>,
     /// The fit refined in the time domain on the recordings themselves
     /// (`identify --domain time`): its model is the one `validate` uses.
+    /// Set with [`FitReport::set_time_domain`], which flags it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_domain: Option<TimeFitResult>,
+    /// The time-domain refinement's flagged parameters.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub time_domain_flags: BTreeMap<String, Vec<Flag>>,
 }
 
 /// The report's own fields, beside the flattened fit.
@@ -73,9 +83,13 @@ struct ReportHead {
     #[serde(default)]
     comparison: Vec<Comparison>,
     #[serde(default)]
+    flags: BTreeMap<String, Vec<Flag>>,
+    #[serde(default)]
     files: Vec<PathBuf>,
     #[serde(default)]
     time_domain: Option<TimeFitResult>,
+    #[serde(default)]
+    time_domain_flags: BTreeMap<String, Vec<Flag>>,
 }
 
 // By hand, through a JSON value: serde's derived `flatten` buffers the fit's
@@ -95,8 +109,10 @@ impl<'de> Deserialize<'de> for FitReport {
             fit,
             reference: head.reference,
             comparison: head.comparison,
+            flags: head.flags,
             files: head.files,
             time_domain: head.time_domain,
+            time_domain_flags: head.time_domain_flags,
         })
     }
 }
@@ -112,6 +128,7 @@ impl FitReport {
         files: Vec<PathBuf>,
     ) -> FitReport {
         let comparison = compare(&fit, reference.as_ref());
+        let flags = flag_estimates(&fit.parameters, &fit.model, &fit.at_bound);
         FitReport {
             command: "identify".into(),
             version: super::VERSION.into(),
@@ -120,9 +137,32 @@ impl FitReport {
             fit,
             reference,
             comparison,
+            flags,
             files,
             time_domain: None,
+            time_domain_flags: BTreeMap::new(),
         }
+    }
+
+    /// Sets the time-domain refinement (none: clears it) with its flags.
+    pub fn set_time_domain(&mut self, t: Option<TimeFitResult>) {
+        self.time_domain_flags = t.as_ref().map_or_else(BTreeMap::new, |t| {
+            flag_estimates(&t.parameters, &t.model, &t.at_bound)
+        });
+        self.time_domain = t;
+    }
+
+    /// The terminal's lines for the fit's parameters: value, interval, the
+    /// reference when known, flags; each estimate's note below it.
+    pub fn parameter_lines(&self) -> Vec<String> {
+        estimate_lines(&self.fit.parameters, &self.comparison, &self.flags)
+    }
+
+    /// [`FitReport::parameter_lines`] for the time-domain refinement.
+    pub fn time_domain_lines(&self) -> Vec<String> {
+        self.time_domain.as_ref().map_or_else(Vec::new, |t| {
+            estimate_lines(&t.parameters, &[], &self.time_domain_flags)
+        })
     }
 
     /// The model the report stands for: the time-domain refinement's when
@@ -153,6 +193,39 @@ impl FitReport {
             )
         })
     }
+}
+
+/// One line per estimate (see [`FitReport::parameter_lines`]).
+fn estimate_lines(
+    estimates: &BTreeMap<String, Estimate>,
+    comparison: &[Comparison],
+    flags: &BTreeMap<String, Vec<Flag>>,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    for (name, e) in estimates {
+        let cmp = comparison.iter().find(|c| &c.parameter == name);
+        let r = cmp.map_or(String::new(), |c| {
+            format!(
+                "  (reference {:.6e}: {:+.2} %{})",
+                c.reference,
+                100.0 * c.relative_error,
+                if c.covered {
+                    ", covered"
+                } else {
+                    ", NOT covered"
+                }
+            )
+        });
+        let f = flags.get(name).map_or(String::new(), |f| flag_words(f));
+        out.push(format!(
+            "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{r}{f}",
+            e.value, e.ci95[0], e.ci95[1],
+        ));
+        if let Some(n) = &e.note {
+            out.push(format!("             {n}"));
+        }
+    }
+    out
 }
 
 /// The reference joint of a virtual test.
@@ -360,5 +433,12 @@ mod tests {
         old.as_object_mut().unwrap().remove("status");
         let old: FitReport = serde_json::from_value(old).unwrap();
         assert_eq!(old.fit.status, crate::fit::FitStatus::Unknown);
+        // and one from before the flags: read without them
+        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for field in ["at_bound", "flags", "time_domain_flags"] {
+            old.as_object_mut().unwrap().remove(field);
+        }
+        let old: FitReport = serde_json::from_value(old).unwrap();
+        assert!(old.flags.is_empty() && old.fit.at_bound.is_empty());
     }
 }

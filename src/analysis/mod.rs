@@ -15,6 +15,7 @@
 
 pub mod diagnose;
 pub mod figures;
+pub mod flags;
 pub mod frf_uff;
 pub mod identify;
 pub mod recording;
@@ -22,6 +23,7 @@ pub mod run;
 pub mod simulate;
 pub mod validate;
 
+pub use flags::{Flag, flag_estimates, flag_words, flags_of};
 pub use identify::{
     Comparison, FitReport, compare, reference_joint, run_fit, run_time_fit, time_records,
     write_fit_plots,

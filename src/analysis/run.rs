@@ -14,6 +14,8 @@
 //! `run.json`. The paper's Table 3.1 is set beside the result only when
 //! the test is of the paper's system (the embedded default's structure).
 
+pub use super::flags::{Flag, flags_of};
+use super::flags::{describe, flag_words};
 use super::identify::FitReport;
 use super::simulate::SimulateSummary;
 use crate::diagnose::{Diagnosis, model_parameters};
@@ -23,7 +25,7 @@ use crate::fit::identify::{ErrorReport, confidence, error_report};
 use crate::fit::{
     Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, ParameterSet, Weighting,
 };
-use crate::model::{Domain, Model};
+use crate::model::Model;
 use crate::testbench::TestDefinition;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -79,35 +81,6 @@ impl DiagnosisSummary {
             final_error_relative: d.final_fit.error_relative,
             seconds,
             selected: d.selected.iter().map(|s| s.effect.name()).collect(),
-        }
-    }
-}
-
-/// Why a reported parameter is not a plain result.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Flag {
-    /// At (within 1 % of) a bound of its fit: the data pushed it there, and
-    /// its value is the bound's, not a measurement.
-    AtBound,
-    /// Outside what the quantity can physically be (a negative mass,
-    /// stiffness or modal mass at a driving point, a negative slip force).
-    NonPhysical,
-    /// The data do not determine it: an interval without an end, or the
-    /// fit said so.
-    NotIdentifiable,
-    /// Its 95 % interval includes zero or spans more than a factor of 10.
-    Unresolved,
-}
-
-impl Flag {
-    /// The flag in words.
-    pub fn words(self) -> &'static str {
-        match self {
-            Flag::AtBound => "at a bound of its fit",
-            Flag::NonPhysical => "non-physical",
-            Flag::NotIdentifiable => "not identifiable",
-            Flag::Unresolved => "not resolved (its interval includes zero or spans a factor > 10)",
         }
     }
 }
@@ -229,7 +202,7 @@ impl FinalModel {
                 .parameters
                 .iter()
                 .map(|(name, e)| {
-                    let r = reported(name, e.clone(), &fit.model, &set, &reference);
+                    let r = reported(name, e.clone(), &fit.model, &set, &fit.at_bound, &reference);
                     (name.clone(), r)
                 })
                 .collect();
@@ -277,7 +250,7 @@ impl FinalModel {
             if effect_prefixes.iter().any(|x| p.name.starts_with(x)) {
                 continue;
             }
-            let r = reported(&p.name, e, &d.model, &set, &reference);
+            let r = reported(&p.name, e, &d.model, &set, &[], &reference);
             parameters.insert(p.name.clone(), r);
         }
         // the effects as the diagnosis reported them (a further mode by its
@@ -285,7 +258,7 @@ impl FinalModel {
         for s in &d.selected {
             for (name, e) in &s.parameters {
                 let full = format!("{}.{name}", s.effect.name());
-                let r = reported(&full, e.clone(), &d.model, &set, &reference);
+                let r = reported(&full, e.clone(), &d.model, &set, &[], &reference);
                 parameters.insert(full, r);
             }
         }
@@ -357,10 +330,7 @@ impl FinalModel {
                     relative(e.value, v)
                 );
             }
-            if !r.flags.is_empty() {
-                let words: Vec<&str> = r.flags.iter().map(|f| f.words()).collect();
-                let _ = write!(line, "  FLAG: {}", words.join("; "));
-            }
+            line.push_str(&flag_words(&r.flags));
             out.push(line);
         }
         match &self.before {
@@ -423,25 +393,28 @@ pub fn write_final_figures(
 }
 
 /// The reported form of estimate `e` of parameter `name` of `model` (fitted
-/// as `set` says), with its reference and flags.
+/// as `set` says, or at a bound of its fit by `fit_at_bound`), with its
+/// reference and flags.
 fn reported(
     name: &str,
     e: Estimate,
     model: &Model,
     set: &ParameterSet,
+    fit_at_bound: &[String],
     reference: &BTreeMap<String, f64>,
 ) -> Reported {
     // the one test of a bound (the fit's own, within 1 %)
-    let at_bound = set
-        .parameters
-        .iter()
-        .find(|p| p.name == name)
-        .is_some_and(|p| {
-            ParameterSet {
-                parameters: vec![p.clone()],
-            }
-            .at_bounds(&[e.value])[0]
-        });
+    let at_bound = fit_at_bound.iter().any(|n| n == name)
+        || set
+            .parameters
+            .iter()
+            .find(|p| p.name == name)
+            .is_some_and(|p| {
+                ParameterSet {
+                    parameters: vec![p.clone()],
+                }
+                .at_bounds(&[e.value])[0]
+            });
     let (unit, domain) = describe(name, model);
     let flags = flags_of(name, &e, at_bound, domain);
     Reported {
@@ -449,66 +422,6 @@ fn reported(
         reference: reference.get(name).copied(),
         flags,
         estimate: e,
-    }
-}
-
-/// The flags of estimate `e` of `name`, `at_bound` of its fit, whose law
-/// says it lies in `domain`.
-pub fn flags_of(name: &str, e: &Estimate, at_bound: bool, domain: Option<Domain>) -> Vec<Flag> {
-    let v = e.value;
-    let mut flags = Vec::new();
-    if at_bound {
-        flags.push(Flag::AtBound);
-    }
-    let leaf = name.rsplit('.').next().unwrap_or(name);
-    let outside = match domain {
-        Some(Domain::Positive) => v.is_nan() || v <= 0.0,
-        Some(Domain::NonNegative) => v.is_nan() || v < 0.0,
-        Some(Domain::Range { min, max }) => !(v > min && v < max),
-        Some(Domain::Signed) | None => false,
-    };
-    // a driving point's modes have positive modal masses (a run's response
-    // is the drive's)
-    let negative_mode = matches!(leaf, "modal_mass" | "residue" | "flexibility") && v < 0.0;
-    if outside || negative_mode {
-        flags.push(Flag::NonPhysical);
-    }
-    let [lo, hi] = e.ci95;
-    if !(e.identifiable && lo.is_finite() && hi.is_finite()) {
-        flags.push(Flag::NotIdentifiable);
-    } else if (lo <= 0.0 && hi >= 0.0)
-        || (lo > 0.0 && hi / lo > 10.0)
-        || (hi < 0.0 && lo / hi > 10.0)
-    {
-        flags.push(Flag::Unresolved);
-    }
-    flags
-}
-
-/// The unit and domain of parameter `name` of `model`: an element's from
-/// its law's description, the linear part's by name.
-fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
-    let (prefix, leaf) = match name.split_once('.') {
-        Some((p, l)) => (Some(p), l),
-        None => (None, name),
-    };
-    let law = match prefix {
-        None => model.joint.as_ref(),
-        Some(p) => model.effects.iter().find(|e| e.kind().name() == p),
-    };
-    if let Some(info) = law.and_then(|l| l.description().parameters.iter().find(|q| q.name == leaf))
-    {
-        return (info.unit, Some(info.domain));
-    }
-    match leaf {
-        "mass" | "modal_mass" => ("kg", Some(Domain::Positive)),
-        "damping" => ("N s/m", Some(Domain::NonNegative)),
-        "stiffness" => ("N/m", Some(Domain::Positive)),
-        "frequency_hz" => ("Hz", Some(Domain::Positive)),
-        "damping_ratio" => ("", Some(Domain::Range { min: 0.0, max: 1.0 })),
-        "residue" => ("1/kg", None),
-        "flexibility" => ("m/N", None),
-        _ => ("", None),
     }
 }
 
@@ -923,83 +836,4 @@ fn paper_table(report: &FitReport, f: &FinalModel) -> String {
         "The paper's N = 22.55 most likely lies on a flat valley: eq. (10) tends to a Jenkins element (the simulated joint) as N → ∞ and the cost hardly changes once N is large, so bias and noise in a simulated measurement can settle the optimum at a finite N.\n"
     );
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn estimate(value: f64, ci95: [f64; 2]) -> Estimate {
-        Estimate {
-            value,
-            ci95,
-            identifiable: true,
-            note: None,
-            bootstrap_ci95: None,
-        }
-    }
-
-    fn at_bound(v: f64, bounds: [f64; 2]) -> bool {
-        ParameterSet {
-            parameters: vec![crate::fit::Parameter {
-                name: "p".into(),
-                target: crate::fit::Target::Mass { mode: 0 },
-                transform: crate::fit::Transform::Log,
-                bounds,
-            }],
-        }
-        .at_bounds(&[v])[0]
-    }
-
-    /// The complaints' cases: a damping ratio at its 1e-5 bound, a negative
-    /// modal mass, an interval through zero, an unbounded one.
-    #[test]
-    fn parameters_at_a_bound_non_physical_or_unresolved_are_flagged() {
-        let e = estimate(1e-5, [1e-5, 2e-5]);
-        assert_eq!(
-            flags_of(
-                "second_mode.damping_ratio",
-                &e,
-                at_bound(1e-5, [1e-5, 0.9]),
-                Some(Domain::Range { min: 0.0, max: 1.0 })
-            ),
-            vec![Flag::AtBound]
-        );
-        let e = estimate(-1.39e5, [-2e5, -1e5]);
-        assert_eq!(
-            flags_of("second_mode.modal_mass", &e, false, Some(Domain::Positive)),
-            vec![Flag::NonPhysical]
-        );
-        let e = estimate(0.2, [-0.1, 0.5]);
-        assert_eq!(
-            flags_of(
-                "quadratic_damping.c2",
-                &e,
-                at_bound(0.2, [0.0, 1e30]),
-                Some(Domain::NonNegative)
-            ),
-            vec![Flag::Unresolved]
-        );
-        let mut e = estimate(999.9997, [108.8, f64::INFINITY]);
-        e.identifiable = false;
-        assert_eq!(
-            flags_of(
-                "n",
-                &e,
-                at_bound(999.9997, [1.0, 1000.0]),
-                Some(Domain::Positive)
-            ),
-            vec![Flag::AtBound, Flag::NotIdentifiable]
-        );
-        let e = estimate(2.4e7, [2.39e7, 2.41e7]);
-        assert!(
-            flags_of(
-                "kd",
-                &e,
-                at_bound(2.4e7, [1.0, 1e30]),
-                Some(Domain::Positive)
-            )
-            .is_empty()
-        );
-    }
 }

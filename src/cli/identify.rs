@@ -5,8 +5,8 @@ use super::args::{Domain, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, Redu
 use super::{create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::{
-    Comparison, Compensation, Excitation, FitReport, Reduced, ReductionOptions, band_limited,
-    reference_joint, write_fit_plots,
+    Compensation, Excitation, FitReport, Reduced, ReductionOptions, band_limited, reference_joint,
+    write_fit_plots,
 };
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearRefinement, LinearStart, Weighting};
@@ -145,7 +145,8 @@ pub fn fit_options(a: &IdentifyOptionsArgs) -> Result<FitOptions> {
 }
 
 /// Prints the fit in a few lines.
-pub fn print_fit(fit: &FitResult, comparison: &[Comparison]) {
+pub fn print_fit(report: &FitReport) {
+    let fit = &report.fit;
     say!(
         "fitted {} element: relative error {:.4} (chi2/dof {:.3}), {} evaluations in {:.2} s",
         fit.element.name(),
@@ -154,34 +155,8 @@ pub fn print_fit(fit: &FitResult, comparison: &[Comparison]) {
         fit.effort.evaluations,
         fit.effort.seconds
     );
-    for (name, e) in &fit.parameters {
-        let cmp = comparison.iter().find(|c| &c.parameter == name);
-        let r = cmp.map_or(String::new(), |c| {
-            format!(
-                "  (reference {:.6e}: {:+.2} %{})",
-                c.reference,
-                100.0 * c.relative_error,
-                if c.covered {
-                    ", covered"
-                } else {
-                    ", NOT covered"
-                }
-            )
-        });
-        say!(
-            "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{}{r}",
-            e.value,
-            e.ci95[0],
-            e.ci95[1],
-            if e.identifiable {
-                ""
-            } else {
-                "  (not identifiable)"
-            }
-        );
-        if let Some(n) = &e.note {
-            say!("             {n}");
-        }
+    for line in report.parameter_lines() {
+        say!("{line}");
     }
     say!(
         "  linear: m = {:.5} kg, c = {:.4} N s/m, k = {:.6e} N/m; stick k_low = {:.6e} N/m",
@@ -295,12 +270,18 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         reference,
         files,
     );
-    report.time_domain = time_domain;
+    report.set_time_domain(time_domain);
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
-        print_fit(&report.fit, &report.comparison);
+        print_fit(&report);
         if let Some(t) = &report.time_domain {
             print_time_fit(t, &report.response);
+            for line in report.time_domain_lines() {
+                say!("{line}");
+            }
+            for n in &t.notes {
+                say!("  note: {n}");
+            }
         }
         for f in &report.files {
             say!("  wrote {}", f.display());
@@ -334,21 +315,5 @@ fn print_time_fit(t: &hystid::fit::TimeFitResult, response: &str) {
             100.0 * b.segment_relative,
             100.0 * a.segment_relative
         );
-    }
-    for (name, e) in &t.parameters {
-        say!(
-            "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{}",
-            e.value,
-            e.ci95[0],
-            e.ci95[1],
-            if e.identifiable {
-                ""
-            } else {
-                "  (not identifiable)"
-            }
-        );
-    }
-    for n in &t.notes {
-        say!("  note: {n}");
     }
 }

@@ -320,6 +320,11 @@ pub struct FitResult {
     /// The model predicts `response_sign × H_measured` (see
     /// [`FitData::response_sign`]).
     pub response_sign: f64,
+    /// The parameters (of `parameters`) that ended at (within 1 % of) a bound of the fit: the
+    /// optimiser's own (a slip force bounded by the levels tested, say) or
+    /// the interval's. Their value is the bound's, not a measurement.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub at_bound: Vec<String>,
 }
 
 /// Linear system estimates from the largest and smallest levels.
@@ -715,6 +720,18 @@ pub fn identify(
     for (j, p) in u_params.parameters.iter().enumerate() {
         parameters.insert(p.name.clone(), uncertainty.estimates[j].clone());
     }
+    // the optimiser's bounds are the data's (the slip force within the
+    // levels' range), the interval's are the law's: either one reached
+    // makes the value a bound's
+    let mut at_bound: Vec<String> = Vec::new();
+    for (set, theta) in [(&params, &run.theta), (&u_params, &u_theta)] {
+        for (p, hit) in set.parameters.iter().zip(set.at_bounds(&set.values(theta))) {
+            if hit && parameters.contains_key(&p.name) && !at_bound.contains(&p.name) {
+                at_bound.push(p.name.clone());
+            }
+        }
+    }
+    at_bound.sort();
     // a shape parameter fitted by its reciprocal (the Masing curvature) may
     // sit in its law's limit (a Jenkins element), which its interval cannot say
     let shape = u_params
@@ -798,6 +815,7 @@ pub fn identify(
             ms_per_evaluation: 1e3 * seconds / evaluations.max(1) as f64,
         },
         notes,
+        at_bound,
     })
 }
 

@@ -283,6 +283,9 @@ pub struct TimeFitResult {
     pub samples: usize,
     /// Notes for the user.
     pub notes: Vec<String>,
+    /// The parameters that ended at (within 1 % of) a bound of the fit.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub at_bound: Vec<String>,
 }
 
 /// The replay of recordings through a model whose free parameters are
@@ -593,6 +596,15 @@ pub fn identify_time(
     let mut notes = problem.replay_notes().to_vec();
     let after = problem.errors(&model)?;
     let parameters = time_confidence(&problem, &run.theta)?;
+    let set = &problem.parameters;
+    let mut at_bound: Vec<String> = set
+        .parameters
+        .iter()
+        .zip(set.at_bounds(&set.values(&run.theta)))
+        .filter(|(_, hit)| *hit)
+        .map(|(p, _)| p.name.clone())
+        .collect();
+    at_bound.sort();
     let samples = records
         .iter()
         .flat_map(|r| r.segments.iter().map(|s| s.len()))
@@ -618,6 +630,7 @@ pub fn identify_time(
         optimiser: run,
         samples,
         notes,
+        at_bound,
     })
 }
 

@@ -27,7 +27,10 @@
 //!   colour map ([`level_colour`], viridis from dark to light green, lowest
 //!   level darkest), so that 7 or more levels stay in order and readable;
 //!   the others (time overlays, convergence) from a 10-colour palette
-//!   ([`group_colour`]). Groups 10–19 are drawn with hollow markers. Series
+//!   ([`group_colour`]). Measured markers differ by group as well: open
+//!   circle, square, triangle, diamond, inverted triangle, then the same
+//!   five larger (see `marker_of`), so that levels measured
+//!   at the same frequencies stay visible where their points coincide. Series
 //!   with an empty label stay out of the legend.
 //! * **Fonts.** Text is rendered with the DejaVu Sans faces compiled into the
 //!   binary ([`ensure_fonts`]), so no system font library is needed (and
@@ -42,7 +45,7 @@ use crate::error::{Error, Result};
 use crate::extract::{Direction, NonlinearFrf};
 use num_complex::Complex64;
 use plotters::style::RGBColor;
-use render::{Figure, GREY, LegendEntry, Panel, Sample, Shape, axis_range};
+use render::{Figure, GREY, Glyph, LegendEntry, Marker, Panel, Sample, Shape, axis_range};
 use std::path::{Path, PathBuf};
 
 /// Width of every figure, px (the SVG uses the same user units).
@@ -154,9 +157,23 @@ impl Palette {
     }
 }
 
-/// Groups 10–19 (30–39, ...) repeat the palette with hollow markers.
-fn filled(group: usize) -> bool {
-    (group / 10).is_multiple_of(2)
+/// The marker of group `group`: five glyphs, then the same five larger
+/// (groups 5–9), repeated. Levels measured at the same frequencies put
+/// their markers on top of each other; colour alone would leave only the
+/// last one drawn, while open outlines of different shapes, and a normal
+/// one inside a large one, all stay visible.
+fn marker_of(group: usize) -> Marker {
+    const GLYPHS: [Glyph; 5] = [
+        Glyph::Circle,
+        Glyph::Square,
+        Glyph::TriangleUp,
+        Glyph::Diamond,
+        Glyph::TriangleDown,
+    ];
+    Marker {
+        glyph: GLYPHS[group % GLYPHS.len()],
+        large: !(group / GLYPHS.len()).is_multiple_of(2),
+    }
 }
 
 /// Whether a series is data or a model's prediction.
@@ -367,7 +384,7 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
     bottom.x_label = "frequency [Hz]".into();
     for pass in [SeriesStyle::Model, SeriesStyle::Measured] {
         for (s, magnitude, phase) in traces.iter().filter(|t| t.0.style == pass) {
-            let (c, full) = (palette.colour(s.group), filled(s.group));
+            let (c, mark) = (palette.colour(s.group), marker_of(s.group));
             if pass == SeriesStyle::Model {
                 top.shapes.push(line(c, 2, magnitude.clone()));
                 bottom.shapes.push(line(c, 2, phase.clone()));
@@ -384,8 +401,8 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
                     bars: p_bars,
                 });
             }
-            top.shapes.push(markers(c, full, magnitude.clone()));
-            bottom.shapes.push(markers(c, full, phase.clone()));
+            top.shapes.push(markers(c, mark, magnitude.clone()));
+            bottom.shapes.push(markers(c, mark, phase.clone()));
         }
     }
     let mut legend: Vec<LegendEntry> = series
@@ -403,7 +420,7 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
             legend.push(LegendEntry {
                 label: "measured".into(),
                 colour: GREY,
-                sample: Sample::Marker { filled: true },
+                sample: Sample::Marker(Marker::CIRCLE),
             });
         }
         legend.push(LegendEntry {
@@ -442,9 +459,7 @@ fn frf_error_bars(
 
 fn sample(style: SeriesStyle, group: usize) -> Sample {
     match style {
-        SeriesStyle::Measured => Sample::Marker {
-            filled: filled(group),
-        },
+        SeriesStyle::Measured => Sample::Marker(marker_of(group)),
         SeriesStyle::Model => Sample::Line,
     }
 }
@@ -471,10 +486,10 @@ fn line(colour: RGBColor, width: u32, points: Vec<(f64, f64)>) -> Shape {
     }
 }
 
-fn markers(colour: RGBColor, filled: bool, points: Vec<(f64, f64)>) -> Shape {
+fn markers(colour: RGBColor, marker: Marker, points: Vec<(f64, f64)>) -> Shape {
     Shape::Markers {
         colour,
-        filled,
+        marker,
         points,
     }
 }
@@ -821,7 +836,8 @@ pub fn write_residual_plot(
         for (s, points) in lines {
             let c = palette.colour(s.group);
             fp.shapes.push(line(c, 1, points.clone()));
-            fp.shapes.push(markers(c, filled(s.group), points.clone()));
+            fp.shapes
+                .push(markers(c, marker_of(s.group), points.clone()));
         }
         if let Some(level) = noise_y {
             fp.shapes.push(Shape::Level {
@@ -1031,6 +1047,46 @@ mod tests {
     /// (−180°, 0°].
     fn sdof_phase_deg(r: f64, zeta: f64) -> f64 {
         -(2.0 * zeta * r).atan2(1.0 - r * r).to_degrees()
+    }
+
+    /// Seven levels measured at the same three frequencies with the same H
+    /// (every marker on top of the others): each level's colour is still
+    /// drawn, exactly, in both panels. With one marker for all (a solid
+    /// circle), only the last level's would be.
+    #[test]
+    fn coincident_markers_of_every_level_stay_visible() {
+        let levels = 7;
+        let series: Vec<FrfSeries> = (0..levels)
+            .map(|g| FrfSeries {
+                // no labels: no legend, whose samples would show every colour
+                label: String::new(),
+                group: g,
+                frequency_hz: vec![10.0, 20.0, 30.0],
+                h: vec![Complex64::new(1e-6, -1e-6); 3],
+                std_error: None,
+                style: SeriesStyle::Measured,
+            })
+            .collect();
+        let figure = frf_figure("coincident", "|H1| [m/N]", &series).unwrap();
+        let pixels = render::bitmap(&figure).unwrap();
+        let palette = Palette::over(0..levels);
+        let mut shown = Vec::new();
+        for g in 0..levels {
+            let c = palette.colour(g);
+            let n = pixels
+                .chunks_exact(3)
+                .filter(|p| p[0] == c.0 && p[1] == c.1 && p[2] == c.2)
+                .count();
+            shown.push(n);
+        }
+        // 6 markers a level (3 points, 2 panels), seven outlines within
+        // 16 px: the crossings take most of a small one's pixels (and a
+        // circle's stroke is antialiased), but each keeps some of its own
+        // colour at every point (measured: 12 to 396 px a level)
+        assert!(
+            shown.iter().all(|&n| n >= 6 * 2),
+            "pixels per level {shown:?}"
+        );
     }
 
     #[test]

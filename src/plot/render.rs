@@ -38,10 +38,10 @@ pub(super) enum Shape {
         alpha: f64,
         points: Vec<(f64, f64)>,
     },
-    /// One circle per point.
+    /// One marker per point.
     Markers {
         colour: RGBColor,
-        filled: bool,
+        marker: Marker,
         points: Vec<(f64, f64)>,
     },
     /// Vertical error bars `(x, low, high)`, clipped to the panel.
@@ -58,9 +58,78 @@ pub(super) enum Shape {
 pub(super) enum Sample {
     Line,
     Band,
-    Marker { filled: bool },
+    Marker(Marker),
     Dashed,
 }
+
+/// A marker's shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Glyph {
+    Circle,
+    Square,
+    TriangleUp,
+    Diamond,
+    TriangleDown,
+}
+
+/// A marker: an open outline, normal or large (the
+/// normal one fits inside the large one of its glyph), so that markers at
+/// one point, of any two glyphs or of one glyph in both sizes, all stay
+/// visible: outlines of different shapes cross in a few pixels only, and
+/// none is filled to hide another.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Marker {
+    pub glyph: Glyph,
+    pub large: bool,
+}
+
+impl Marker {
+    /// An open circle.
+    pub const CIRCLE: Marker = Marker {
+        glyph: Glyph::Circle,
+        large: false,
+    };
+
+    fn scale(self) -> f64 {
+        if self.large { LARGE } else { 1.0 }
+    }
+
+    /// The polygon drawn (filled) for the marker, px about its centre (y
+    /// down); none for a circle, drawn as one. An outline's ring is the
+    /// outline and the outline shrunk by a line width (the hole), joined
+    /// along a cut of no width.
+    fn polygon(self) -> Vec<(i32, i32)> {
+        let s = self.scale();
+        let px = |(x, y): (f64, f64), k: f64| ((x * k).round() as i32, (y * k).round() as i32);
+        let (outline, inradius): (&[(f64, f64)], f64) = match self.glyph {
+            Glyph::Circle => return Vec::new(),
+            Glyph::Square => (&[(-4.0, -4.0), (4.0, -4.0), (4.0, 4.0), (-4.0, 4.0)], 4.0),
+            Glyph::TriangleUp => (&[(0.0, -6.0), (5.0, 3.0), (-5.0, 3.0)], 3.0),
+            Glyph::Diamond => (
+                &[(0.0, -6.0), (6.0, 0.0), (0.0, 6.0), (-6.0, 0.0)],
+                6.0 * std::f64::consts::FRAC_1_SQRT_2,
+            ),
+            Glyph::TriangleDown => (&[(0.0, 6.0), (-5.0, -3.0), (5.0, -3.0)], 3.0),
+        };
+        // the hole: the outline scaled to leave RING px at the sides
+        let hole = s * (1.0 - RING / (s * inradius));
+        let mut ring: Vec<(i32, i32)> = outline.iter().map(|&p| px(p, s)).collect();
+        ring.push(px(outline[0], s));
+        ring.push(px(outline[0], hole));
+        ring.extend(outline.iter().skip(1).rev().map(|&p| px(p, hole)));
+        ring.push(px(outline[0], hole));
+        ring
+    }
+}
+
+/// An outline's line width, px, as drawn: the rasteriser fills a polygon's
+/// edge pixels too, which adds about a pixel.
+const RING: f64 = 1.0;
+/// A large marker's size against a normal one's: its outline clears the
+/// normal one's by 2-3 px.
+const LARGE: f64 = 1.6;
+/// An open circle's line width, px (its stroke is drawn as wide as asked).
+const CIRCLE_LINE: u32 = 1;
 
 pub(super) struct LegendEntry {
     pub label: String,
@@ -87,8 +156,8 @@ pub(super) struct Figure {
     pub legend: Vec<LegendEntry>,
 }
 
-/// Marker radius, px.
-const MARKER: u32 = 4;
+/// An open circle's radius, px.
+const MARKER: u32 = 5;
 /// Width of a reference band (a measured loop drawn under the fitted one), px.
 pub(super) const BAND_WIDTH: u32 = 7;
 pub(super) const BAND_ALPHA: f64 = 0.35;
@@ -194,8 +263,8 @@ fn draw_legend<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Legend samples are rectangles and circles, never polylines, so a series'
-/// polylines in the SVG are exactly its line segments.
+/// Legend samples are rectangles, circles and polygons, never polylines, so
+/// a series' polylines in the SVG are exactly its line segments.
 fn draw_sample<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     e: &LegendEntry,
@@ -219,19 +288,26 @@ fn draw_sample<DB: DrawingBackend>(
                 .map_err(fail)?;
             area.draw(&bar(x + 20, x + 28, 1, c.filled()))
         }
-        Sample::Marker { filled } => {
-            area.draw(&Circle::new((x + 14, y), MARKER, marker_style(c, filled)))
-        }
+        Sample::Marker(m) => return draw_marker(area, (x + 14, y), m, c),
     }
     .map_err(fail)
 }
 
-fn marker_style(c: RGBColor, filled: bool) -> ShapeStyle {
-    if filled {
-        c.filled()
+/// Draws marker `m` centred on `at`.
+fn draw_marker<DB: DrawingBackend, CT: CoordTranslate>(
+    area: &DrawingArea<DB, CT>,
+    at: CT::From,
+    m: Marker,
+    c: RGBColor,
+) -> Draw<()> {
+    let element = EmptyElement::at(at);
+    if m.glyph == Glyph::Circle {
+        let r = (f64::from(MARKER) * m.scale()).round() as u32;
+        area.draw(&(element + Circle::new((0, 0), r, c.stroke_width(CIRCLE_LINE))))
     } else {
-        c.stroke_width(2)
+        area.draw(&(element + Polygon::new(m.polygon(), c.filled())))
     }
+    .map_err(fail)
 }
 
 fn draw_panel<DB: DrawingBackend>(
@@ -371,12 +447,11 @@ fn draw_shapes<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
             }
             Shape::Markers {
                 colour,
-                filled,
+                marker,
                 points,
             } => {
-                let style = marker_style(*colour, *filled);
                 for p in points.iter().filter(|p| finite(p)) {
-                    area.draw(&Circle::new(*p, MARKER, style)).map_err(fail)?;
+                    draw_marker(area, *p, *marker, *colour)?;
                 }
             }
             Shape::Bars { colour, bars } => {
@@ -576,10 +651,10 @@ impl Drop for TempFile {
 /// Draws `figure` into memory twice (bitmap, SVG), then writes both files
 /// under temporary names and renames them into place: a failure leaves
 /// neither a partial file nor a lone new PNG.
-pub(super) fn write_figure(stem: &Path, figure: &Figure) -> Result<Vec<PathBuf>> {
+/// `figure` drawn as RGB bytes, row by row, [`FIGURE_WIDTH`] ×
+/// [`FIGURE_HEIGHT`] px (the PNG's pixels).
+pub(super) fn bitmap(figure: &Figure) -> Result<Vec<u8>> {
     super::ensure_fonts()?;
-    let (png, svg) = paths(stem)?;
-    let what = || format!("figure `{}`", figure.title);
     let (w, h) = (FIGURE_WIDTH, FIGURE_HEIGHT);
     let mut pixels = vec![255u8; w as usize * h as usize * 3];
     draw_figure(
@@ -587,7 +662,19 @@ pub(super) fn write_figure(stem: &Path, figure: &Figure) -> Result<Vec<PathBuf>>
         figure,
         true,
     )
-    .map_err(|m| Error::input(what(), format!("drawing the bitmap failed: {m}")))?;
+    .map_err(|m| {
+        let what = format!("figure `{}`", figure.title);
+        Error::input(what, format!("drawing the bitmap failed: {m}"))
+    })?;
+    Ok(pixels)
+}
+
+pub(super) fn write_figure(stem: &Path, figure: &Figure) -> Result<Vec<PathBuf>> {
+    super::ensure_fonts()?;
+    let (png, svg) = paths(stem)?;
+    let what = || format!("figure `{}`", figure.title);
+    let (w, h) = (FIGURE_WIDTH, FIGURE_HEIGHT);
+    let pixels = bitmap(figure)?;
     let mut text = String::new();
     draw_figure(
         &SVGBackend::with_string(&mut text, (w, h)).into_drawing_area(),
