@@ -225,8 +225,8 @@ pub fn refine_in_time(
         let (check, start) = round.swap_remove(i);
         let start = start.expect("only a check with a model is dropped");
         let why = format!(
-            "without it the recorded time histories' misfit (the dwells' relative e_RMS) \
-             rose by only {:.2} % ({:.2} % -> {:.2} %; {:.1} % confirms an effect)",
+            "without it, the misfit to the recorded time histories rose by only {:.2} %, \
+             from {:.2} % to {:.2} % per-dwell relative e_RMS, where {:.1} % confirms an effect",
             100.0 * check.rise,
             100.0 * with,
             100.0 * misfit(&check.without),

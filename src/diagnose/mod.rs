@@ -1115,9 +1115,9 @@ fn explain(
         .filter(|r| r.verdict == Verdict::NotConfirmedInTime)
     {
         dropped.push_str(&format!(
-            "{} was kept on the FRFs but not confirmed in the time domain ({}), so it was \
-             dropped and the rest refitted. ",
-            capitalise(r.effect.name()),
+            "The candidate {} was kept on the FRFs but not confirmed in the time domain ({}), \
+             so it was dropped and the rest refitted. ",
+            r.effect.name(),
             r.note.as_deref().unwrap_or("no reason recorded")
         ));
     }
