@@ -895,19 +895,12 @@ pub fn diagnose_observed(
                 Err(_) => break,
             }
             chosen.retain(|&e| e != gone);
-            if let Some(rep) = reports
-                .iter_mut()
-                .rev()
-                .find(|r| r.effect == gone && r.accepted)
-            {
-                rep.accepted = false;
-                rep.verdict = Verdict::DroppedLater;
-                rep.note = Some(format!(
-                    "kept in round {}, dropped in round {round}: once {} was added, {why}",
-                    rep.round,
+            mark_dropped(&mut reports, gone, Verdict::DroppedLater, |kept_in| {
+                format!(
+                    "kept in round {kept_in}, dropped in round {round}: once {} was added, {why}",
                     added_now.name()
-                ));
-            }
+                )
+            });
         }
     }
     conclude(Conclusion {
@@ -1055,15 +1048,7 @@ pub fn without_effect(
     let data = FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?.with_sign(d.response_sign);
     let current = refit(&without, &data, predictor, None, patience)?;
     let mut reports = d.candidates.clone();
-    if let Some(rep) = reports
-        .iter_mut()
-        .rev()
-        .find(|r| r.effect == effect && r.accepted)
-    {
-        rep.accepted = false;
-        rep.verdict = Verdict::NotConfirmedInTime;
-        rep.note = Some(why);
-    }
+    mark_dropped(&mut reports, effect, Verdict::NotConfirmedInTime, |_| why);
     conclude(Conclusion {
         harmonics: d.harmonics.clone(),
         band_hz: d.band_hz,
@@ -1084,6 +1069,26 @@ pub fn without_effect(
         response_sign: d.response_sign,
         expected: crate::fit::problem::expected_chi_square(&data),
     })
+}
+
+/// Turns the latest accepted report of `effect` into a dropped one: the
+/// verdict says why it went, the note (given the round it was kept in) the
+/// figures.
+fn mark_dropped(
+    reports: &mut [CandidateReport],
+    effect: Effect,
+    verdict: Verdict,
+    note: impl FnOnce(usize) -> String,
+) {
+    if let Some(rep) = reports
+        .iter_mut()
+        .rev()
+        .find(|r| r.effect == effect && r.accepted)
+    {
+        rep.accepted = false;
+        rep.verdict = verdict;
+        rep.note = Some(note(rep.round));
+    }
 }
 
 pub(crate) fn fmt_value(v: f64) -> String {
