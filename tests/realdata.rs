@@ -792,3 +792,150 @@ fn boucwen_sweep_validation() {
     assert!(v.whole.e_rms > 1e-6);
     assert!(v.whole.relative < 1.0 / 3.0);
 }
+
+/// The Bouc-Wen benchmark's continuous equations, `m y'' + c y' + k y + z =
+/// u`, `z' = α y' − β (γ |y'| z + δ y' |z|)` (ν = 1), by classical RK4 at
+/// `sub` steps per sample, the force between samples by Catmull-Rom cubic
+/// interpolation, from rest: a slow reference that shares nothing with the
+/// digital-filter simulator.
+fn boucwen_rk4(u: &[f64], fs: f64, sub: usize) -> Vec<f64> {
+    let (m, c, k, alpha, beta, gamma, delta) = (2.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1);
+    let at = |i: isize| u[i.clamp(0, u.len() as isize - 1) as usize];
+    let force = |t: f64| {
+        let i = t.floor() as isize;
+        let s = t - i as f64;
+        let (p0, p1, p2, p3) = (at(i - 1), at(i), at(i + 1), at(i + 2));
+        p1 + 0.5
+            * s
+            * (p2 - p0
+                + s * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + s * (3.0 * (p1 - p2) + p3 - p0)))
+    };
+    let deriv = |x: [f64; 3], uu: f64| {
+        let [y, v, z] = x;
+        [
+            v,
+            (uu - c * v - k * y - z) / m,
+            alpha * v - beta * (gamma * v.abs() * z + delta * v * z.abs()),
+        ]
+    };
+    let h = 1.0 / (fs * sub as f64);
+    let add =
+        |x: [f64; 3], d: [f64; 3], s: f64| [x[0] + s * d[0], x[1] + s * d[1], x[2] + s * d[2]];
+    let mut x = [0.0; 3];
+    let mut out = Vec::with_capacity(u.len());
+    for n in 0..u.len() {
+        out.push(x[0]);
+        for j in 0..sub {
+            let t = n as f64 + j as f64 / sub as f64;
+            let dt = 1.0 / sub as f64;
+            let k1 = deriv(x, force(t));
+            let k2 = deriv(add(x, k1, 0.5 * h), force(t + 0.5 * dt));
+            let k3 = deriv(add(x, k2, 0.5 * h), force(t + 0.5 * dt));
+            let k4 = deriv(add(x, k3, h), force(t + dt));
+            for i in 0..3 {
+                x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+        }
+    }
+    out
+}
+
+/// The benchmark's published model (Noël & Schoukens 2016), written down as
+/// a structure with the `bouc_wen` joint and driven by the benchmark's
+/// test-set forces, reaches the floor of the data themselves. The multisine
+/// test set is one period of a periodic steady state: played twice, the
+/// second period compared (the benchmark's protocol). The floor is the RK4
+/// reference's distance from the data: on the sine sweep 2.5e-6 m (the data
+/// and an accurate simulation of the published model part near the
+/// resonance; the data set's README compared only the first 40 s), on the
+/// multisine 5.8e-7 m. Measured: e_RMS 2.57e-6 m on the sweep (hystid
+/// 1.2e-7 m from the reference), 4.1e-7 m on the multisine.
+#[test]
+fn boucwen_published_model_reaches_the_floor() {
+    let Some(dir) = common::dataset("boucwen_benchmark") else {
+        return;
+    };
+    let t0 = std::time::Instant::now();
+    let model = hystid::testbench::model_from_toml(
+        "[system]\nmass = 2.0\ndamping = 10.0\nstiffness = 5.0e4\n\
+         [joint]\nkind = \"bouc_wen\"\nalpha = 5.0e4\nbeta = 1.0e3\ngamma = 0.8\ndelta = -1.1\nnu = 1.0\n",
+        "bouc-wen.toml",
+    )
+    .unwrap();
+    let channels = |u: &str, y: &str| {
+        ImportSpec::new(
+            vec![
+                ChannelSpec::new(u, Quantity::Force).name("force"),
+                ChannelSpec::new(y, Quantity::Displacement).name("y"),
+            ],
+            SampleRateSource::Value(750.0),
+        )
+    };
+    let mat = dir.join("bouc-wen.mat");
+    let sweep = import_swept(&mat, channels("uval_sinesweep", "yval_sinesweep"));
+    let mut multisine = import(&mat, &channels("uval_multisine", "yval_multisine"))
+        .unwrap()
+        .recording;
+    let period = multisine.channels[0].len();
+    for c in &mut multisine.channels {
+        let once = c.clone();
+        c.extend_from_slice(&once);
+    }
+    let second = (period as f64 / 750.0, 2.0 * period as f64 / 750.0);
+    let rms_diff = |a: &[f64], b: &[f64], from: usize| {
+        (a[from..]
+            .iter()
+            .zip(&b[from..])
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            / (a.len() - from) as f64)
+            .sqrt()
+    };
+    for (name, rec, window, from) in [
+        ("sine sweep", &sweep, None, 0),
+        ("multisine", &multisine, Some(second), period),
+    ] {
+        let v = validate_recording(
+            &model,
+            1.0,
+            rec,
+            1,
+            &ValidateOptions {
+                min_samples_per_period: 400.0,
+                window_s: window,
+                ..ValidateOptions::default()
+            },
+        )
+        .unwrap();
+        let e = v.window.as_ref().unwrap_or(&v.whole);
+        let reference = boucwen_rk4(&rec.channels[0], 750.0, 40);
+        let data_vs_reference = rms_diff(&rec.channels[1], &reference, from);
+        let hystid_vs_reference = rms_diff(&v.simulated, &reference, from);
+        eprintln!(
+            "Bouc-Wen {name} (x{} upsampled): e_RMS {:.3e} m ({:.3} % of {:.3e} m); RK4 reference vs data {:.3e} m, vs hystid {:.3e} m",
+            v.upsampling,
+            e.e_rms,
+            100.0 * e.relative,
+            e.measured_rms,
+            data_vs_reference,
+            hystid_vs_reference
+        );
+        // within 10 % of the floor the data leave to an accurate simulation
+        assert!(
+            e.e_rms <= 1.1 * data_vs_reference.max(1e-6),
+            "{name}: e_RMS {:e} m",
+            e.e_rms
+        );
+        // where the reference's input interpolation is accurate (the sweep,
+        // at 14-42 samples per period; the multisine's lines reach fs/5,
+        // where the reference's cubic and hystid's pre-emphasis part by
+        // about 6e-7 m), hystid is closer to the reference than to the data
+        if window.is_none() {
+            assert!(
+                hystid_vs_reference <= 0.2 * data_vs_reference,
+                "{name}: {hystid_vs_reference:e} m from the reference"
+            );
+        }
+    }
+    eprintln!("{:?}", t0.elapsed());
+}

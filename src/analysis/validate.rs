@@ -12,7 +12,7 @@ use num_complex::Complex64;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// The model to validate, from a fit.json.
+/// The model to validate, from a fit.json or a model file.
 pub struct FitModel {
     /// The model.
     pub model: Model,
@@ -20,13 +20,36 @@ pub struct FitModel {
     pub response_sign: f64,
     /// The response channel the fit used.
     pub response: Option<String>,
-    /// `fitted`, `fitted in the time domain` or `linear`.
+    /// `fitted`, `fitted in the time domain`, `linear` or `declared`.
     pub kind: &'static str,
 }
 
-/// Reads the model of a fit.json: its `model` (or, with `linear`, the SDOF
-/// of `linear.stick` with no element) and `response_sign`.
+/// Reads the model to validate: a fit.json's `model` (or, with `linear`,
+/// the SDOF of `linear.stick` with no element) and `response_sign`; or a
+/// model written down (`*.toml`: a test definition or its structure alone,
+/// e.g. a benchmark's published model), which predicts the response as
+/// recorded.
 pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    {
+        if linear {
+            return Err(Error::format(
+                path,
+                "model",
+                "--linear takes a fit.json (its linear.stick); a declared model is validated as written",
+            ));
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let model = crate::testbench::model_from_toml(&text, &path.display().to_string())?;
+        return Ok(FitModel {
+            model,
+            response_sign: 1.0,
+            response: None,
+            kind: "declared",
+        });
+    }
     FitModel::of_report(FitReport::read(path)?, linear, path)
 }
 

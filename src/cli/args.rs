@@ -187,7 +187,9 @@ pub struct ImportArgs {
 /// `hystid validate`.
 #[derive(Debug, Args)]
 pub struct ValidateArgs {
-    /// The fit: a `fit.json` from `identify` or `run`.
+    /// The model: a `fit.json` from `identify` or `run`, or a model written
+    /// down as a test definition or structure (`*.toml`: `[system]` or
+    /// `[[modes]]`, `[joint]`, `[[effects]]`).
     pub fit: PathBuf,
     /// The recordings to validate on (NAME.wav / NAME.json or run.mcap).
     #[arg(required = true, num_args = 1..)]

@@ -83,9 +83,11 @@ pub fn print_reduced(path: &Path, r: &Reduced) {
 
 /// Fit options from the command line.
 pub fn fit_options(a: &IdentifyOptionsArgs) -> Result<FitOptions> {
-    let joints: Vec<&str> = ElementKind::joints().map(ElementKind::name).collect();
+    let joints: Vec<&str> = ElementKind::fitted_joints()
+        .map(ElementKind::name)
+        .collect();
     let element = match ElementKind::from_name(&a.element) {
-        Some(k) if k.description().is_joint() => k,
+        Some(k) if k.description().is_fitted_joint() => k,
         _ => bail!(
             "--element: expected a joint law ({}), got `{}`",
             joints.join(" or "),

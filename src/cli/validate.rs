@@ -95,7 +95,8 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
 }
 
 fn print_validation(path: &Path, response: &str, v: &Validation) {
-    let unit = hystid::harmonics::Quantity::from_name(response).map_or("", |q| q.si_unit());
+    // the unit of the quantity compared, whatever the channel is called
+    let unit = v.quantity.si_unit();
     say!(
         "{}: `{response}` simulated at {} Hz{}: e_RMS {:.4e} {unit} ({:.1} % of the measured RMS {:.4e} {unit})",
         path.display(),

@@ -83,8 +83,10 @@ impl FitOptions {
     /// Checks the options, naming the first bad one: a joint law to fit,
     /// at least one harmonic, at least one mode, a band `0 <= lo < hi`.
     pub fn validate(&self) -> Result<()> {
-        if !self.element.description().is_joint() {
-            let joints: Vec<&str> = ElementKind::joints().map(ElementKind::name).collect();
+        if !self.element.description().is_fitted_joint() {
+            let joints: Vec<&str> = ElementKind::fitted_joints()
+                .map(ElementKind::name)
+                .collect();
             return Err(Error::plan(
                 "element",
                 format!(

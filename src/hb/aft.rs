@@ -20,6 +20,10 @@
 
 use super::PeriodicLoop;
 use super::newton::EvalError;
+
+/// Largest change of the element force between two marched periods, relative
+/// to its peak, at which a gradually settling law's loop counts as periodic.
+const SETTLED: f64 = 1e-10;
 use crate::model::Element;
 use num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -375,7 +379,18 @@ impl Aft {
         // turning points between them
         let mut ramp_sample = None;
         let mut ramp_extremum = None;
-        let half = odd_law && self.odd_only && !(memory && method == PeriodicLoop::TwoPeriods);
+        // a law whose memory fades gradually is marched period after
+        // period until its force repeats: whole periods (the half-period
+        // mirror holds only once the loop is periodic)
+        let settle = if memory {
+            elements.periods_to_settle()
+        } else {
+            0
+        };
+        let half = odd_law
+            && self.odd_only
+            && settle == 0
+            && !(memory && method == PeriodicLoop::TwoPeriods);
         let period = if half { ns / 2 } else { ns };
         let (first, count) = if !memory {
             (0, period)
@@ -412,15 +427,43 @@ impl Aft {
         if let Some(e) = ramp_extremum {
             self.commit_extremum(elements, e, omega, velocity, want);
         }
-        for s in 0..count {
-            let j = (first + s) % ns;
-            self.commit_sample(elements, j, omega, velocity, want, true);
-            // a turning point after the last sample changes nothing stored
-            // (with the ramp, it is the ramp's own point closing the loop)
-            if memory && s + 1 < count {
-                let e = self.extremum_at[j];
-                if e != NONE {
-                    self.commit_extremum(elements, e, omega, velocity, want);
+        let mut previous: Vec<f64> = Vec::new();
+        for pass in 0..=settle {
+            if settle > 0 {
+                previous.clone_from(&self.g);
+                elements.open_period();
+            }
+            for s in 0..count {
+                let j = (first + s) % ns;
+                self.commit_sample(elements, j, omega, velocity, want, true);
+                // a turning point after the last sample changes nothing stored
+                // (with the ramp, it is the ramp's own point closing the loop);
+                // when periods follow, the one closing the period counts
+                if memory && (s + 1 < count || settle > 0) {
+                    let e = self.extremum_at[j];
+                    if e != NONE {
+                        self.commit_extremum(elements, e, omega, velocity, want);
+                    }
+                }
+            }
+            if settle > 0 {
+                elements.close_period();
+            }
+            if settle > 0 && pass > 0 {
+                let scale = self.g.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+                let change = self
+                    .g
+                    .iter()
+                    .zip(&previous)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                if change <= SETTLED * scale {
+                    break;
+                }
+                if pass == settle {
+                    return Err(EvalError::NotSettled {
+                        periods: settle,
+                        change: change / scale.max(f64::MIN_POSITIVE),
+                    });
                 }
             }
         }
@@ -601,18 +644,26 @@ mod tests {
                 *t = Some(value(0.5 * (lo + hi)));
             }
         }
-        // two periods from virgin, keep the second
+        // two periods from virgin, keep the second; a gradually settling
+        // law: periods until the force repeats to rounding (plain
+        // repetition, no Newton step)
         e.reset();
         let mut g = vec![0.0; ns];
-        for pass in 0..2 {
+        let passes = if e.periods_to_settle() > 0 { 5000 } else { 2 };
+        for pass in 0..passes {
+            let mut change = 0.0f64;
             for j in 0..ns {
                 let f = e.commit(x[j], v[j]).force;
-                if pass == 1 {
-                    g[j] = f;
+                if pass > 0 {
+                    change = change.max((g[j] - f).abs());
                 }
+                g[j] = f;
                 if let (true, Some(xt)) = (e.has_memory(), turning[j]) {
                     e.commit(xt, 0.0);
                 }
+            }
+            if pass > 0 && change <= 1e-14 * g.iter().fold(0.0f64, |m, x| m.max(x.abs())) {
+                break;
             }
         }
         let mut out = vec![0.0; lay.len];

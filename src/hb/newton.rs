@@ -47,6 +47,16 @@ pub(crate) enum EvalError {
         /// Velocity there, m/s.
         v: f64,
     },
+    /// A law whose memory fades gradually did not reach a periodic loop.
+    #[error(
+        "the element's loop did not repeat within {periods} periods (last change {change:.1e} of its peak)"
+    )]
+    NotSettled {
+        /// Periods marched.
+        periods: usize,
+        /// The last period's largest change of the force, relative to its peak.
+        change: f64,
+    },
     /// A residual component is not finite (an overflowing receptance or force).
     #[error("the residual is not finite (component {component})")]
     Residual {

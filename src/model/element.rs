@@ -108,6 +108,26 @@ pub trait Element {
         loop_fundamental(self, amplitude, omega, samples)
     }
 
+    /// How many periods harmonic balance may march before the force repeats
+    /// (it stops as soon as it does). 0: the loop closes within the first
+    /// period after a virgin ramp to the displacement maximum, as every
+    /// Masing-type loop does; a law whose memory fades only gradually (the
+    /// Bouc-Wen hysteresis) gives its cap.
+    fn periods_to_settle(&self) -> usize {
+        0
+    }
+
+    /// Harmonic balance starts marching a period (only for a law with
+    /// [`Element::periods_to_settle`] > 0): the element notes its memory.
+    fn open_period(&mut self) {}
+
+    /// Harmonic balance has marched a whole period since
+    /// [`Element::open_period`]: a law whose memory fades gradually may move
+    /// its memory (and the sensitivities it carries) to the periodic state
+    /// the period predicts, a Newton step on the period map; the next
+    /// period is then the periodic one. Default: nothing (plain repetition).
+    fn close_period(&mut self) {}
+
     /// The root `u` of the per-sample implicit equation in closed form, when
     /// the element has one (the Jenkins element does). `None`: the simulator
     /// solves it iteratively with [`Element::trial`].
@@ -188,6 +208,19 @@ impl<E: Element> Element for ElementSet<E> {
     }
     fn odd_law(&self) -> bool {
         self.elements.iter().all(Element::odd_law)
+    }
+    fn periods_to_settle(&self) -> usize {
+        self.elements
+            .iter()
+            .map(Element::periods_to_settle)
+            .max()
+            .unwrap_or(0)
+    }
+    fn open_period(&mut self) {
+        self.elements.iter_mut().for_each(Element::open_period);
+    }
+    fn close_period(&mut self) {
+        self.elements.iter_mut().for_each(Element::close_period);
     }
     fn describing_function(&mut self, amplitude: f64, omega: f64, samples: usize) -> Complex64 {
         self.elements
@@ -401,12 +434,16 @@ pub struct Description {
 }
 
 impl Description {
-    /// Whether this is a joint: a hysteresis law with a stick stiffness and a
-    /// slip force (what `identify` fits).
+    /// Whether this is a joint: a hysteresis law with a stick stiffness
+    /// (a model's `joint`).
     pub fn is_joint(&self) -> bool {
-        self.memory
-            && self.index_of(Role::StickStiffness).is_some()
-            && self.index_of(Role::SlipForce).is_some()
+        self.memory && self.index_of(Role::StickStiffness).is_some()
+    }
+
+    /// Whether `identify` fits it: a joint with a slip force too, so that
+    /// the fit starts it from the stiffness and force the data show.
+    pub fn is_fitted_joint(&self) -> bool {
+        self.is_joint() && self.index_of(Role::SlipForce).is_some()
     }
 
     /// The position of the parameter with `role`.

@@ -11,6 +11,7 @@
 //! state, dispatched without virtual calls in the simulator's loop.
 
 pub mod bilinear_stiffness;
+pub mod bouc_wen;
 pub mod clearance;
 pub mod cubic_stiffness;
 pub mod element;
@@ -22,6 +23,7 @@ pub mod quadratic_damping;
 pub mod viscous_damping;
 
 pub use bilinear_stiffness::BilinearStiffness;
+pub use bouc_wen::BoucWen;
 pub use clearance::Clearance;
 pub use cubic_stiffness::CubicStiffness;
 pub use element::{
@@ -146,6 +148,7 @@ registry! {
     Jenkins(Jenkins) { kd, fd },
     Masing(Masing) { kd, fd, n },
     Iwan4(Masing<Iwan4Backbone>) { fs, kt, chi, beta },
+    BoucWen(BoucWen) { alpha, beta, gamma, delta, nu },
     CubicStiffness(CubicStiffness) { k3 },
     QuadraticDamping(QuadraticDamping) { c2 },
     BilinearStiffness(BilinearStiffness) { kb },
@@ -171,6 +174,14 @@ impl ElementKind {
             .copied()
             .filter(|k| k.description().is_joint())
     }
+
+    /// The joint laws `identify` fits (see [`Description::is_fitted_joint`]).
+    pub fn fitted_joints() -> impl Iterator<Item = ElementKind> {
+        ElementKind::ALL
+            .iter()
+            .copied()
+            .filter(|k| k.description().is_fitted_joint())
+    }
 }
 
 impl ElementSpec {
@@ -193,8 +204,10 @@ impl ElementSpec {
     /// `field` if the kind is not a joint.
     pub fn joint(kind: ElementKind, kd: f64, fd: f64, field: &str) -> Result<ElementSpec> {
         let d = kind.description();
-        if !d.is_joint() {
-            let joints: Vec<&str> = ElementKind::joints().map(ElementKind::name).collect();
+        if !d.is_fitted_joint() {
+            let joints: Vec<&str> = ElementKind::fitted_joints()
+                .map(ElementKind::name)
+                .collect();
             return Err(Error::plan(
                 field,
                 format!(
@@ -297,6 +310,15 @@ impl Element for AnyElement {
     }
     fn odd_law(&self) -> bool {
         dispatch!(self, e => e.odd_law())
+    }
+    fn periods_to_settle(&self) -> usize {
+        dispatch!(self, e => e.periods_to_settle())
+    }
+    fn open_period(&mut self) {
+        dispatch!(self, e => e.open_period())
+    }
+    fn close_period(&mut self) {
+        dispatch!(self, e => e.close_period())
     }
     fn describing_function(
         &mut self,
@@ -749,7 +771,7 @@ mod tests {
                     d.name
                 );
             }
-            if d.is_joint() {
+            if d.is_fitted_joint() {
                 let j = ElementSpec::joint(kind, 1e7, 100.0, "element").unwrap();
                 assert_eq!(j.stick_stiffness(), 1e7);
                 assert_eq!(j.value_of(Role::SlipForce), Some(100.0));
@@ -760,6 +782,15 @@ mod tests {
         }
         assert_eq!(
             ElementKind::joints().collect::<Vec<_>>(),
+            [
+                ElementKind::Jenkins,
+                ElementKind::Masing,
+                ElementKind::Iwan4,
+                ElementKind::BoucWen
+            ]
+        );
+        assert_eq!(
+            ElementKind::fitted_joints().collect::<Vec<_>>(),
             [
                 ElementKind::Jenkins,
                 ElementKind::Masing,
