@@ -793,6 +793,33 @@ fn boucwen_sweep_validation() {
     assert!(v.whole.relative < 1.0 / 3.0);
 }
 
+/// The Bouc-Wen benchmark's channels `u`, `y` at 750 Hz.
+fn boucwen_channels(u: &str, y: &str) -> ImportSpec {
+    ImportSpec::new(
+        vec![
+            ChannelSpec::new(u, Quantity::Force).name("force"),
+            ChannelSpec::new(y, Quantity::Displacement).name("y"),
+        ],
+        SampleRateSource::Value(750.0),
+    )
+}
+
+/// The benchmark's test sets: the sine sweep, and the multisine's
+/// steady-state period played twice (with its length).
+fn boucwen_test_sets(dir: &Path) -> (Recording, Recording, usize) {
+    let mat = dir.join("bouc-wen.mat");
+    let sweep = import_swept(&mat, boucwen_channels("uval_sinesweep", "yval_sinesweep"));
+    let mut multisine = import(&mat, &boucwen_channels("uval_multisine", "yval_multisine"))
+        .unwrap()
+        .recording;
+    let period = multisine.channels[0].len();
+    for c in &mut multisine.channels {
+        let once = c.clone();
+        c.extend_from_slice(&once);
+    }
+    (sweep, multisine, period)
+}
+
 /// The Bouc-Wen benchmark's continuous equations, `m y'' + c y' + k y + z =
 /// u`, `z' = α y' − β (γ |y'| z + δ y' |z|)` (ν = 1), by classical RK4 at
 /// `sub` steps per sample, the force between samples by Catmull-Rom cubic
@@ -862,25 +889,7 @@ fn boucwen_published_model_reaches_the_floor() {
         "bouc-wen.toml",
     )
     .unwrap();
-    let channels = |u: &str, y: &str| {
-        ImportSpec::new(
-            vec![
-                ChannelSpec::new(u, Quantity::Force).name("force"),
-                ChannelSpec::new(y, Quantity::Displacement).name("y"),
-            ],
-            SampleRateSource::Value(750.0),
-        )
-    };
-    let mat = dir.join("bouc-wen.mat");
-    let sweep = import_swept(&mat, channels("uval_sinesweep", "yval_sinesweep"));
-    let mut multisine = import(&mat, &channels("uval_multisine", "yval_multisine"))
-        .unwrap()
-        .recording;
-    let period = multisine.channels[0].len();
-    for c in &mut multisine.channels {
-        let once = c.clone();
-        c.extend_from_slice(&once);
-    }
+    let (sweep, multisine, period) = boucwen_test_sets(&dir);
     let second = (period as f64 / 750.0, 2.0 * period as f64 / 750.0);
     let rms_diff = |a: &[f64], b: &[f64], from: usize| {
         (a[from..]
@@ -938,4 +947,172 @@ fn boucwen_published_model_reaches_the_floor() {
         }
     }
     eprintln!("{:?}", t0.elapsed());
+}
+
+/// Issue 13's protocol on the Bouc-Wen benchmark: fit in the time domain on
+/// the estimation multisine (5 periods of 8192 samples; periods 2-5 judged,
+/// the first holds the transient), validate on both test sets (e_RMS, the
+/// benchmark's metric), from a start the data give: the linear FRF at the
+/// excited lines, `1/H = k − m ω² + j c ω` by least squares, its stiffness
+/// split evenly between the structure and a Bouc-Wen joint of a nearly
+/// linear shape. With ν = 1 the law depends on β only through `βγ` and
+/// `βδ`, so β is held at its start and `γ`, `δ` fitted. Checked against the
+/// published parameters (m 2, c 10, k 5e4, α 5e4, βγ 800, βδ −1100) and
+/// the issue's target, e_RMS ≤ 3e-6 m on both test sets (published PNLSS:
+/// about 1.2e-5 m with 217 parameters).
+#[test]
+fn boucwen_fitted_on_the_estimation_multisine_validates_on_both_test_sets() {
+    use hystid::fit::params::ParameterSet;
+    use hystid::fit::time::{TimeFitOptions, TimeRecord, identify_time};
+    use hystid::model::ElementAt;
+    let Some(dir) = common::dataset("boucwen_benchmark") else {
+        return;
+    };
+    let t0 = std::time::Instant::now();
+    let fs = 750.0;
+    let est = import(&dir.join("bouc-wen.mat"), &boucwen_channels("u", "y"))
+        .unwrap()
+        .recording;
+    let (u, y) = (&est.channels[0], &est.channels[1]);
+    let p = 8192;
+    assert_eq!(u.len(), 5 * p);
+    let mut planner = rustfft::FftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(p);
+    let spectrum = |x: &[f64]| {
+        let mut acc = vec![Complex64::new(0.0, 0.0); p];
+        for k in 1..5 {
+            let mut b: Vec<Complex64> = x[k * p..(k + 1) * p]
+                .iter()
+                .map(|&v| Complex64::new(v, 0.0))
+                .collect();
+            fft.process(&mut b);
+            for (a, v) in acc.iter_mut().zip(b) {
+                *a += v;
+            }
+        }
+        acc
+    };
+    let (us, ys) = (spectrum(u), spectrum(y));
+    let umax = us[1..p / 2].iter().fold(0.0f64, |m, v| m.max(v.norm()));
+    // normal equations of [k, m, c]: Re(1/H) = k − m ω², Im(1/H) = c ω
+    let mut ata = [[0.0f64; 3]; 3];
+    let mut atb = [0.0f64; 3];
+    for l in 1..p / 2 {
+        if us[l].norm() < 0.1 * umax {
+            continue;
+        }
+        let w = 2.0 * PI * l as f64 * fs / p as f64;
+        let inv = us[l] / ys[l];
+        for (row, rhs) in [([1.0, -w * w, 0.0], inv.re), ([0.0, 0.0, w], inv.im)] {
+            for i in 0..3 {
+                atb[i] += row[i] * rhs;
+                for j in 0..3 {
+                    ata[i][j] += row[i] * row[j];
+                }
+            }
+        }
+    }
+    let det = |a: [[f64; 3]; 3]| {
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    };
+    let cramer = |i: usize| {
+        let mut a = ata;
+        for r in 0..3 {
+            a[r][i] = atb[r];
+        }
+        det(a) / det(ata)
+    };
+    let (k_lin, m_lin, c_lin) = (cramer(0), cramer(1), cramer(2));
+    let start = Model::new(
+        ModalModel::sdof(m_lin, c_lin, 0.5 * k_lin).unwrap(),
+        vec![ElementSpec::BoucWen {
+            alpha: 0.5 * k_lin,
+            beta: 0.1 / rms(&y[p..]),
+            gamma: 0.5,
+            delta: 0.1,
+            nu: 1.0,
+        }],
+    )
+    .unwrap();
+    let mut params = ParameterSet::for_element(&start, ElementAt::Joint, "");
+    params
+        .parameters
+        .retain(|q| q.name != "nu" && q.name != "beta");
+    params.extend(ParameterSet::for_sdof(0));
+    let record = TimeRecord {
+        name: "estimation".into(),
+        reference: u.clone(),
+        response: y.clone(),
+        sample_rate_hz: fs,
+        quantity: Quantity::Displacement,
+        window: p..5 * p,
+        segments: (1..5).map(|k| k * p..(k + 1) * p).collect(),
+    };
+    let options = TimeFitOptions {
+        min_samples_per_period: 200.0,
+        ..TimeFitOptions::default()
+    };
+    let fit = identify_time(&start, params, 1.0, &[record], &options, None).unwrap();
+    let (m, c, k) = fit.model.linear.as_mck().unwrap();
+    let Some(ElementSpec::BoucWen {
+        alpha,
+        beta,
+        gamma,
+        delta,
+        ..
+    }) = fit.model.joint
+    else {
+        panic!("{:?}", fit.model)
+    };
+    eprintln!(
+        "Bouc-Wen estimation: linear start m {m_lin:.4} c {c_lin:.3} k {k_lin:.4e}; fitted ({:?}, {} evaluations) \
+         m {m:.5} c {c:.4} k {k:.5e} alpha {alpha:.5e} beta*gamma {:.2} beta*delta {:.2}; \
+         e_RMS {:.3e} -> {:.3e} m; {:?}",
+        fit.status,
+        fit.optimiser.evaluations,
+        beta * gamma,
+        beta * delta,
+        fit.before[0].window.e_rms,
+        fit.after[0].window.e_rms,
+        t0.elapsed()
+    );
+    let (sweep, multisine, period) = boucwen_test_sets(&dir);
+    let second = (period as f64 / fs, 2.0 * period as f64 / fs);
+    for (name, rec, window) in [
+        ("sine sweep", &sweep, None),
+        ("multisine", &multisine, Some(second)),
+    ] {
+        let v = validate_recording(
+            &fit.model,
+            1.0,
+            rec,
+            1,
+            &ValidateOptions {
+                min_samples_per_period: 400.0,
+                window_s: window,
+                ..ValidateOptions::default()
+            },
+        )
+        .unwrap();
+        let e = v.window.as_ref().unwrap_or(&v.whole);
+        eprintln!(
+            "Bouc-Wen fitted model on the {name} test set: e_RMS {:.3e} m ({:.3} % of the RMS)",
+            e.e_rms,
+            100.0 * e.relative
+        );
+        assert!(e.e_rms <= 3e-6, "{name}: e_RMS {:e} m", e.e_rms);
+    }
+    let close = |got: f64, truth: f64, tol: f64| (got / truth - 1.0).abs() <= tol;
+    assert_eq!(fit.status, hystid::fit::FitStatus::Converged);
+    assert!(
+        close(m, 2.0, 0.01) && close(c, 10.0, 0.03) && close(k, 5e4, 0.01),
+        "{m} {c} {k}"
+    );
+    assert!(close(alpha, 5e4, 0.01), "alpha {alpha}");
+    assert!(
+        close(beta * gamma, 800.0, 0.02) && close(beta * delta, -1100.0, 0.02),
+        "{beta} {gamma} {delta}"
+    );
 }
