@@ -343,11 +343,25 @@ pub fn write_convergence(dir: &Path, fit: &FitResult) -> Result<Vec<PathBuf>> {
 /// and `response` channel (as [`super::load_recording`] chooses), the whole
 /// record judged.
 pub fn time_records(recordings: &[PathBuf], response: Option<&str>) -> Result<Vec<TimeRecord>> {
+    time_records_in(recordings, response, None)
+}
+
+/// [`time_records`] judged over `window_s` (seconds from each record's
+/// first sample; e.g. after a transient, or the steady periods of a
+/// multisine).
+pub fn time_records_in(
+    recordings: &[PathBuf],
+    response: Option<&str>,
+    window_s: Option<(f64, f64)>,
+) -> Result<Vec<TimeRecord>> {
     recordings
         .iter()
         .map(|p| {
             let l = super::load_recording(p, response)?;
-            TimeRecord::from_recording(&p.display().to_string(), &l.recording, l.response, None)
+            let fs = l.recording.meta.sample_rate_hz;
+            let window =
+                window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
+            TimeRecord::from_recording(&p.display().to_string(), &l.recording, l.response, window)
         })
         .collect()
 }
@@ -371,6 +385,87 @@ pub fn run_time_fit(
         options,
         Some(observer),
     )
+}
+
+/// `fit.json` of a time-domain fit from a model written down
+/// (`identify --domain time --start MODEL.toml`): no FRF fit, the start and
+/// the refinement. `validate` reads it as it reads an FRF fit's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeFitReport {
+    /// `identify`.
+    pub command: String,
+    /// Tool version.
+    pub version: String,
+    /// The recording (several: comma separated).
+    pub recording: String,
+    /// The response channel named by the user (empty: the first channel
+    /// that is not the reference).
+    pub response: String,
+    /// The model the fit started from, as written down.
+    pub start: Model,
+    /// The parameters held at the start's values.
+    pub fixed: Vec<String>,
+    /// The fit.
+    pub time_domain: TimeFitResult,
+    /// Its flagged parameters.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub time_domain_flags: BTreeMap<String, Vec<Flag>>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+impl TimeFitReport {
+    /// Whether a fit.json's text is this kind of report (it has a `start`
+    /// and no FRF fit).
+    pub fn is_one(value: &serde_json::Value) -> bool {
+        value.get("start").is_some() && value.get("time_domain").is_some()
+    }
+
+    /// The terminal's lines for the fitted parameters.
+    pub fn parameter_lines(&self) -> Vec<String> {
+        estimate_lines(&self.time_domain.parameters, &[], &self.time_domain_flags)
+    }
+}
+
+/// Fits `start`'s parameters, except those named in `fixed`, to `records`
+/// in the time domain (every element's, and the linear part's), the
+/// response taken as recorded (sign +1). Errors name an unknown `fixed`
+/// name with the free ones.
+pub fn run_time_fit_from_start(
+    recording: String,
+    response: String,
+    start: &Model,
+    fixed: &[String],
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+    observer: &dyn Observer,
+) -> Result<TimeFitReport> {
+    let mut params = time_parameters(start, true, None);
+    let names: Vec<String> = params.parameters.iter().map(|p| p.name.clone()).collect();
+    for f in fixed {
+        if !names.contains(f) {
+            return Err(Error::input(
+                "--fix",
+                format!(
+                    "`{f}` is not a parameter of the start (its parameters: {})",
+                    names.join(", ")
+                ),
+            ));
+        }
+    }
+    params.parameters.retain(|p| !fixed.contains(&p.name));
+    let t = identify_time(start, params, 1.0, records, options, Some(observer))?;
+    Ok(TimeFitReport {
+        command: "identify".into(),
+        version: super::VERSION.into(),
+        recording,
+        response,
+        start: start.clone(),
+        fixed: fixed.to_vec(),
+        time_domain_flags: flag_estimates(&t.parameters, &t.model, &t.at_bound),
+        time_domain: t,
+        files: Vec::new(),
+    })
 }
 
 /// Fits `frf`, telling `observer` of every cost evaluation and writing each

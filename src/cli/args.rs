@@ -96,6 +96,23 @@ pub struct IdentifyArgs {
     /// response matched sample by sample).
     #[arg(long, value_enum, default_value_t = Domain::Frf)]
     pub domain: Domain,
+    /// With `--domain time`: start from a model written down (`*.toml`, as
+    /// `validate` takes) instead of an FRF fit, for records an FRF fit
+    /// cannot read (multisines, transients).
+    #[arg(long)]
+    pub start: Option<PathBuf>,
+    /// With `--start`: parameters held at the start's values, comma
+    /// separated (e.g. `beta,nu`).
+    #[arg(long, value_delimiter = ',')]
+    pub fix: Vec<String>,
+    /// With `--start`: the time window T0:T1 in seconds judged in every
+    /// recording (e.g. after the transient).
+    #[arg(long)]
+    pub window: Option<String>,
+    /// With `--start`: fewest samples per period of the model's highest
+    /// linearised frequency before the replay is upsampled.
+    #[arg(long, default_value_t = 40.0)]
+    pub min_samples_per_period: f64,
 }
 
 /// What `identify` fits to.

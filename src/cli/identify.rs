@@ -213,8 +213,62 @@ pub fn reduce_recordings(
     )?)
 }
 
+/// `hystid identify --domain time --start MODEL.toml`.
+fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result<u8> {
+    if args.domain != Domain::Time {
+        bail!("--start: a start model is fitted in the time domain; add --domain time");
+    }
+    let text = std::fs::read_to_string(start)
+        .with_context(|| format!("--start: reading {}", start.display()))?;
+    let model = hystid::testbench::model_from_toml(&text, &start.display().to_string())?;
+    let window = args
+        .window
+        .as_deref()
+        .map(|w| super::validate::parse_range(w, "--window", "s"))
+        .transpose()?;
+    let records =
+        hystid::analysis::time_records_in(&args.recordings, args.response.as_deref(), window)?;
+    let names: Vec<String> = args
+        .recordings
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    let options = hystid::fit::TimeFitOptions {
+        min_samples_per_period: args.min_samples_per_period,
+        ..Default::default()
+    };
+    let pb = progress::spinner("fitting in the time domain", quiet);
+    let mut report = hystid::analysis::run_time_fit_from_start(
+        names.join(", "),
+        args.response.clone().unwrap_or_default(),
+        &model,
+        &args.fix,
+        &records,
+        &options,
+        &progress::Drawn(&pb),
+    )?;
+    pb.finish_and_clear();
+    let _out = create_out_dir(&args.out)?;
+    report.files = vec![args.out.join("fit.json")];
+    write_json(&args.out.join("fit.json"), &report)?;
+    if !quiet {
+        print_time_fit(&report.time_domain, records[0].quantity.si_unit());
+        for line in report.parameter_lines() {
+            say!("{line}");
+        }
+        for n in &report.time_domain.notes {
+            say!("  note: {n}");
+        }
+        say!("  wrote {}", args.out.join("fit.json").display());
+    }
+    Ok(super::fit_exit_code(report.time_domain.status))
+}
+
 /// `hystid identify`.
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
+    if let Some(start) = &args.start {
+        return identify_from_start(args, start, quiet);
+    }
     let options = fit_options(&args.fit)?;
     let (frf, first) = reduce_recordings(
         &args.recordings,
@@ -277,7 +331,9 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     if !quiet {
         print_fit(&report);
         if let Some(t) = &report.time_domain {
-            print_time_fit(t, &report.response);
+            let unit = hystid::harmonics::Quantity::from_name(&report.response)
+                .map_or("", |q| q.si_unit());
+            print_time_fit(t, unit);
             for line in report.time_domain_lines() {
                 say!("{line}");
             }
@@ -297,8 +353,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
 }
 
 /// Prints the time-domain refinement in a few lines.
-fn print_time_fit(t: &hystid::fit::TimeFitResult, response: &str) {
-    let unit = hystid::harmonics::Quantity::from_name(response).map_or("", |q| q.si_unit());
+fn print_time_fit(t: &hystid::fit::TimeFitResult, unit: &str) {
     say!(
         "refined in the time domain on {} samples ({} evaluations, {:?}):",
         t.samples,

@@ -12,7 +12,7 @@ use hystid::analysis::validate::{
 use hystid::validate::Validation;
 use std::path::Path;
 
-fn parse_range(text: &str, flag: &str, unit: &str) -> Result<(f64, f64)> {
+pub(super) fn parse_range(text: &str, flag: &str, unit: &str) -> Result<(f64, f64)> {
     let (a, b) = text
         .split_once(':')
         .with_context(|| format!("{flag}: expected LO:HI in {unit}, got `{text}`"))?;
