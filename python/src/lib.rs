@@ -480,6 +480,8 @@ struct SettingsJson {
     min_samples_per_period: f64,
     #[serde(default = "yes")]
     frf: bool,
+    #[serde(default)]
+    periodic: bool,
     reduction: ReductionJson,
 }
 
@@ -524,6 +526,7 @@ fn validate<'py>(
         min_samples_per_period: s.min_samples_per_period,
         frf: s.frf,
         reduction: s.reduction.options()?,
+        periodic: s.periodic,
     };
     let loaded = loaded(
         &reference,

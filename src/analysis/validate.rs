@@ -171,6 +171,9 @@ pub struct ValidationSettings {
     pub frf: bool,
     /// How both signals are reduced for the FRF comparison.
     pub reduction: ReductionOptions,
+    /// Each recording is one period of a periodic steady state (see
+    /// [`ValidateOptions::periodic`]); no FRF comparison then.
+    pub periodic: bool,
 }
 
 /// A file stem for `path`'s figures not yet in `used` (`name`, `name_2`, …).
@@ -200,7 +203,7 @@ pub fn validate_loaded(
     let reference = rec
         .reference_channel()
         .ok_or_else(|| Error::input("recording", "no reference channel"))?;
-    let reduction = if settings.frf {
+    let reduction = if settings.frf && !settings.periodic {
         Some(
             match excitation_of(&rec.meta, settings.reduction.excitation) {
                 Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
@@ -221,6 +224,7 @@ pub fn validate_loaded(
         window_s: settings.window_s,
         band_hz: band,
         reduction,
+        periodic: settings.periodic,
         ..ValidateOptions::default()
     };
     validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)

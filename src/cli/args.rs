@@ -234,6 +234,11 @@ pub struct ValidateArgs {
     /// frequency before the simulation is upsampled.
     #[arg(long, default_value_t = 20.0)]
     pub min_samples_per_period: f64,
+    /// Each recording is one period of a periodic steady state (a multisine
+    /// test set): the model is driven by it repeated until its slowest mode
+    /// has settled, and the last period is compared (no FRF comparison).
+    #[arg(long)]
+    pub periodic: bool,
     /// Skip the FRF comparison (time-domain figures only).
     #[arg(long)]
     pub no_frf: bool,

@@ -44,6 +44,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             .transpose()?,
         min_samples_per_period: args.min_samples_per_period,
         frf: !args.no_frf,
+        periodic: args.periodic,
         reduction: reduction_options(&args.reduction)?,
     };
     let _out = create_out_dir(&args.out)?;

@@ -70,6 +70,10 @@ pub struct ValidateOptions {
     pub reduction: Option<Reduction>,
     /// What the force is between its samples.
     pub input: DriveInput,
+    /// The recording is one period of a periodic steady state (a multisine
+    /// test set): the model is driven by it repeated until its slowest mode
+    /// has settled (at least twice) and the last period is compared.
+    pub periodic: bool,
 }
 
 /// What a sampled force is between its samples when it drives the
@@ -116,7 +120,26 @@ impl Default for ValidateOptions {
             band_hz: None,
             reduction: None,
             input: DriveInput::BandLimited,
+            periodic: false,
         }
+    }
+}
+
+/// Periods of `period_s` a periodic drive is repeated so that the
+/// linearised model's slowest mode has decayed by 1e-6 before the last
+/// (at least 2, at most 64).
+fn settling_periods(model: &Model, period_s: f64) -> usize {
+    let slowest = model
+        .linear
+        .modes
+        .iter()
+        .map(|m| m.damping_ratio * 2.0 * std::f64::consts::PI * m.frequency_hz)
+        .fold(f64::INFINITY, f64::min);
+    let periods = (1e6f64.ln() / (slowest * period_s)).ceil() + 1.0;
+    if periods.is_finite() {
+        (periods as usize).clamp(2, 64)
+    } else {
+        64
     }
 }
 
@@ -517,15 +540,33 @@ pub fn validate_recording(
     let fs = rec.meta.sample_rate_hz;
     let force = &rec.channels[reference];
     let measured = &rec.channels[response_channel];
-    let sim = simulate_response_with(
-        model,
-        force,
-        fs,
-        quantity,
-        response_sign,
-        options.min_samples_per_period,
-        options.input,
-    )?;
+    let mut sim = if options.periodic {
+        let n = force.len();
+        let repeats = settling_periods(model, n as f64 / fs);
+        let drive: Vec<f64> = force.iter().copied().cycle().take(repeats * n).collect();
+        let mut sim = simulate_response_with(
+            model,
+            &drive,
+            fs,
+            quantity,
+            response_sign,
+            options.min_samples_per_period,
+            options.input,
+        )?;
+        sim.values.drain(..(repeats - 1) * n);
+        sim
+    } else {
+        simulate_response_with(
+            model,
+            force,
+            fs,
+            quantity,
+            response_sign,
+            options.min_samples_per_period,
+            options.input,
+        )?
+    };
+    sim.values.truncate(measured.len());
     let whole = error_metrics(measured, &sim.values, fs, 0..measured.len())?;
     let frf = match &options.reduction {
         None => None,
