@@ -14,7 +14,9 @@
 //!   the practical ceiling) from the same run. `sim/masing_formula` is the
 //!   Masing element on the untabulated eq. (10) backbone, for comparison;
 //!   `sim/model_element_set` the type the virtual test bench simulates
-//!   (`ElementSet<AnyElement>` from a `Model`).
+//!   (`ElementSet<AnyElement>` from a `Model`). `sim/bouc_wen/1` and `/2`:
+//!   the Bouc-Wen joint at its example shape, exact flow and RK4 sub-steps
+//!   (target ≥ 10 M samples/s).
 //! * `hb/point_warm/*`: one converged, warm-started harmonic-balance point
 //!   (Masing, harmonics {1, 3, 5}, 256 samples per period) ≤ 30 µs. Every
 //!   point of the embedded default's 7 levels × 51 frequencies but the first
@@ -22,7 +24,9 @@
 //!   predictor does); the throughput is points per second.
 //!   `hb/describing_function/*` solves the single-harmonic balance of the
 //!   same points (the ratio asked for); `hb/point_warm/masing_formula` uses
-//!   the untabulated backbone.
+//!   the untabulated backbone; `hb/point_warm/bouc_wen` the Bouc-Wen joint
+//!   at its example shape (periods marched until its loop repeats; target
+//!   ≤ 40 µs).
 //! * `extract/*`: one coherent dwell of 4096 samples (4 blocks of 1024, 8
 //!   periods each), harmonics 0..=7; the non-coherent least-squares
 //!   reduction of the same samples for comparison.
@@ -35,12 +39,12 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{FD, KD, ThreadCpu, masing_model, sdof};
+use common::{FD, KD, ThreadCpu, bouc_wen_model, masing_model, sdof};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use hystid::extract::{HarmonicAnalyser, noncoherent};
 use hystid::hb::{HbOptions, HbSolver, describing};
 use hystid::model::{
-    AnyElement, ElementSet, Jenkins, Masing, Mode, Model, NoElement, PowerBackbone,
+    AnyElement, BoucWen, ElementSet, Jenkins, Masing, Mode, Model, NoElement, PowerBackbone,
 };
 use hystid::sim::{ModeFilter, Simulator};
 use hystid::testbench::TestDefinition;
@@ -106,6 +110,15 @@ fn simulator(c: &mut Criterion<ThreadCpu>) {
     g.bench_function("masing_formula/22.55", |b| {
         b.iter(|| mas.run_displacement(black_box(&f), &mut out).unwrap())
     });
+    // Bouc-Wen at its example shape (softening to 240 N, near the paper's
+    // slip force): the exact flow (ν = 1) and RK4 sub-steps (ν = 2)
+    for (nu, beta) in [(1.0, 1e5), (2.0, 2.4e7 / 240.0 / 240.0)] {
+        let bw = BoucWen::new(2.4e7, beta, 0.5, 0.5, nu).unwrap();
+        let mut sim = Simulator::new(&model, bw, FS).unwrap();
+        g.bench_with_input(BenchmarkId::new("bouc_wen", nu), &nu, |b, _| {
+            b.iter(|| sim.run_displacement(black_box(&f), &mut out).unwrap())
+        });
+    }
     let set: ElementSet<AnyElement> = masing_model(22.55).element_set().unwrap();
     let mut any = Simulator::new(&model, set, FS).unwrap();
     g.bench_function("model_element_set/masing/22.55", |b| {
@@ -144,8 +157,13 @@ fn harmonic_balance(c: &mut Criterion<ThreadCpu>) {
         ("masing", 22.55, false),
         ("masing", 3.0, false),
         ("masing_formula", 22.55, true),
+        ("bouc_wen", 1.0, false),
     ] {
-        let model = masing_model(n);
+        let model = if name == "bouc_wen" {
+            bouc_wen_model()
+        } else {
+            masing_model(n)
+        };
         let (levels, freqs, x) = converged_grid(&model, &opts);
         let points = levels.len() * (freqs.len() - 1);
         g.throughput(Throughput::Elements(points as u64));

@@ -35,6 +35,22 @@ pub fn masing_model(n: f64) -> Model {
     .unwrap()
 }
 
+/// The paper's SDOF with a Bouc-Wen joint at the law's example shape
+/// (`α = kd`, softening to 240 N).
+pub fn bouc_wen_model() -> Model {
+    Model::new(
+        sdof(),
+        vec![hystid::model::ElementSpec::BoucWen {
+            alpha: KD,
+            beta: 1e5,
+            gamma: 0.5,
+            delta: 0.5,
+            nu: 1.0,
+        }],
+    )
+    .unwrap()
+}
+
 /// The shared data sets folder (`$HYSTID_DATASETS`, else
 /// `../shared/datasets` beside the crate), or `None` after saying why the
 /// bench is skipped.
