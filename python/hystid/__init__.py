@@ -270,6 +270,7 @@ def validate(
     window_s=None,
     min_samples_per_period=20.0,
     frf=True,
+    periodic=False,
     max_harmonic=None,
     compensation="auto",
     hop_periods=1.0,
@@ -284,7 +285,10 @@ def validate(
 
     ``linear`` validates the fit's linear model instead (``--linear``);
     ``band_hz``, ``window_s``, ``min_samples_per_period``, ``frf=False``
-    (``--no-frf``) and the reduction options are the command's flags;
+    (``--no-frf``), ``periodic`` (``--periodic``: the recording is one period
+    of a steady state) and the reduction options are the command's flags;
+    ``fit`` is either kind of ``fit.json`` (an FRF fit's, or ``identify
+    --domain time --start``'s);
     ``steps``, ``sweep`` as in :func:`extract`.
     """
     settings = {
@@ -292,6 +296,7 @@ def validate(
         "window_s": None if window_s is None else list(window_s),
         "min_samples_per_period": float(min_samples_per_period),
         "frf": bool(frf),
+        "periodic": bool(periodic),
         "reduction": _reduction(excitation, max_harmonic, compensation, hop_periods, window_periods),
     }
     text, simulated = _hystid.validate(

@@ -512,13 +512,12 @@ fn validate<'py>(
     fit_name: String,
     recording_name: String,
 ) -> PyResult<(String, Bound<'py, PyArray1<f64>>)> {
-    let report: FitReport = from_json("fit", &fit)?;
     let origin = if fit_name.is_empty() {
         "fit"
     } else {
         &fit_name
     };
-    let fit = FitModel::of_report(report, linear, Path::new(origin)).map_err(err)?;
+    let fit = FitModel::of_json(fit.as_bytes(), linear, Path::new(origin)).map_err(err)?;
     let s: SettingsJson = from_json("settings", &settings)?;
     let settings = ValidationSettings {
         band_hz: s.band_hz,

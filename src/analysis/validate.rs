@@ -51,32 +51,41 @@ pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
         });
     }
     let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    if let Ok(value) = serde_json::from_slice::<serde_json::Value>(&text)
-        && super::identify::TimeFitReport::is_one(&value)
-    {
-        let report: super::identify::TimeFitReport = serde_json::from_value(value)
-            .map_err(|e| Error::format(path, "time_domain", e.to_string()))?;
-        if linear {
-            return Err(Error::format(
-                path,
-                "fit",
-                "--linear takes an FRF fit's fit.json (its linear.stick); this fit started from a model written down",
-            ));
+    FitModel::of_json(&text, linear, path)
+}
+
+impl FitModel {
+    /// The model of a fit.json's text, either kind: an FRF fit's
+    /// (optionally refined in the time domain) or a time-domain fit from a
+    /// model written down; `path` names it in errors.
+    pub fn of_json(text: &[u8], linear: bool, path: &Path) -> Result<FitModel> {
+        if let Ok(value) = serde_json::from_slice::<serde_json::Value>(text)
+            && super::identify::TimeFitReport::is_one(&value)
+        {
+            let report: super::identify::TimeFitReport = serde_json::from_value(value)
+                .map_err(|e| Error::format(path, "time_domain", e.to_string()))?;
+            if linear {
+                return Err(Error::format(
+                    path,
+                    "fit",
+                    "--linear takes an FRF fit's fit.json (its linear.stick); this fit started from a model written down",
+                ));
+            }
+            let t = report.time_domain;
+            t.model
+                .validate()
+                .map_err(|e| Error::format(path, "time_domain.model", e.to_string()))?;
+            return Ok(FitModel {
+                model: t.model,
+                response_sign: t.response_sign,
+                // none named: the first channel that is not the reference, as
+                // the fit took it
+                response: (!report.response.is_empty()).then_some(report.response),
+                kind: "fitted in the time domain",
+            });
         }
-        let t = report.time_domain;
-        t.model
-            .validate()
-            .map_err(|e| Error::format(path, "time_domain.model", e.to_string()))?;
-        return Ok(FitModel {
-            model: t.model,
-            response_sign: t.response_sign,
-            // none named: the first channel that is not the reference, as
-            // the fit took it
-            response: (!report.response.is_empty()).then_some(report.response),
-            kind: "fitted in the time domain",
-        });
+        FitModel::of_report(FitReport::parse(path, text)?, linear, path)
     }
-    FitModel::of_report(FitReport::parse(path, &text)?, linear, path)
 }
 
 impl FitModel {
