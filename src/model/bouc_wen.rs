@@ -108,7 +108,14 @@ impl BoucWen {
     #[inline]
     pub fn slope(&self, z: f64, s: f64) -> f64 {
         let az = z.abs();
-        let p = if self.nu == 1.0 { az } else { az.powf(self.nu) };
+        // whole exponents (the usual 1, 2, 3) by multiplication, not powf
+        let p = if self.nu == 1.0 {
+            az
+        } else if self.nu.fract() == 0.0 {
+            az.powi(self.nu as i32)
+        } else {
+            az.powf(self.nu)
+        };
         self.alpha - self.beta * p * (self.gamma * s * sign(z) + self.delta)
     }
 
@@ -134,13 +141,18 @@ impl BoucWen {
             let sigma = if z != 0.0 { sign(z) } else { s };
             let c = self.beta * (self.gamma * s + self.delta * sigma);
             let ch = c * h;
-            // (1 − e^{−ch}) / c, well-conditioned as ch → 0
-            let phi = if ch.abs() < 1e-8 {
-                h * (1.0 - 0.5 * ch)
+            // e^{−ch} and (1 − e^{−ch}) / c from one transcendental: expm1
+            // where the difference would cancel, exp elsewhere
+            let (decay, phi) = if ch.abs() < 1e-8 {
+                (1.0 - ch, h * (1.0 - 0.5 * ch))
+            } else if ch.abs() < 1e-2 {
+                let m = (-ch).exp_m1();
+                (1.0 + m, -m / c)
             } else {
-                -(-ch).exp_m1() / c
+                let e = (-ch).exp();
+                (e, (1.0 - e) / c)
             };
-            let z1 = z * (-ch).exp() + self.alpha * phi;
+            let z1 = z * decay + self.alpha * phi;
             if z1 == 0.0 || sign(z1) == sigma || z == 0.0 {
                 return z1;
             }
