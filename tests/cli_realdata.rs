@@ -810,8 +810,8 @@ fn bouc_wen_fitted_from_a_written_start_validates_on_the_sweep() {
     let start = dir.path().join("start.toml");
     std::fs::write(
         &start,
-        "[system]\nmass = 1.97\ndamping = 34.6\nstiffness = 5.74e4\n\
-         [joint]\nkind = \"bouc_wen\"\nalpha = 5.74e4\nbeta = 150.0\ngamma = 0.5\ndelta = 0.1\nnu = 1.0\n",
+        "[system]\nmass = 2.03\ndamping = 91.1\nstiffness = 6.28e4\n\
+         [joint]\nkind = \"bouc_wen\"\nalpha = 6.28e4\nbeta = 150.0\ngamma = 0.5\ndelta = 0.1\nnu = 1.0\n",
     )
     .unwrap();
     let est = dir.path().join("est.json");

@@ -15,7 +15,7 @@ use hystid::extract::{
     Direction, FrfPoint, NonlinearFrf, ReduceOptions, SweepOptions, choose_compensation,
     reduce_stepped_report, reduce_stepped_stream, reduce_sweep,
 };
-use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearStart, identify};
+use hystid::fit::{FitOptions, FitResult, FrfSample, HbPredictor, LinearStart, fit_sdof, identify};
 use hystid::harmonics::{Quantity, omega};
 use hystid::import::{ChannelSpec, ImportSpec, SampleRateSource, import};
 use hystid::model::{ElementSpec, ModalModel, Model};
@@ -953,9 +953,9 @@ fn boucwen_published_model_reaches_the_floor() {
 /// the estimation multisine (5 periods of 8192 samples; periods 2-5 judged,
 /// the first holds the transient), validate on both test sets (e_RMS, the
 /// benchmark's metric), from a start the data give: the linear FRF at the
-/// excited lines, `1/H = k − m ω² + j c ω` by least squares, its stiffness
-/// split evenly between the structure and a Bouc-Wen joint of a nearly
-/// linear shape. With ν = 1 the law depends on β only through `βγ` and
+/// excited lines fitted by `fit_sdof` (the FRF fit's linear estimate), its
+/// stiffness split evenly between the structure and a Bouc-Wen joint of a
+/// nearly linear shape. With ν = 1 the law depends on β only through `βγ` and
 /// `βδ`, so β is held at its start and `γ`, `δ` fitted. Checked against the
 /// published parameters (m 2, c 10, k 5e4, α 5e4, βγ 800, βδ −1100) and
 /// the target, e_RMS ≤ 3e-6 m on both test sets (published PNLSS:
@@ -993,38 +993,19 @@ fn boucwen_fitted_on_the_estimation_multisine_validates_on_both_test_sets() {
         acc
     };
     let (us, ys) = (spectrum(u), spectrum(y));
+    // the receptance at the excited lines (those within 20 dB of the
+    // strongest), fitted by the FRF fit's own linear estimate
     let umax = us[1..p / 2].iter().fold(0.0f64, |m, v| m.max(v.norm()));
-    // normal equations of [k, m, c]: Re(1/H) = k − m ω², Im(1/H) = c ω
-    let mut ata = [[0.0f64; 3]; 3];
-    let mut atb = [0.0f64; 3];
-    for l in 1..p / 2 {
-        if us[l].norm() < 0.1 * umax {
-            continue;
-        }
-        let w = 2.0 * PI * l as f64 * fs / p as f64;
-        let inv = us[l] / ys[l];
-        for (row, rhs) in [([1.0, -w * w, 0.0], inv.re), ([0.0, 0.0, w], inv.im)] {
-            for i in 0..3 {
-                atb[i] += row[i] * rhs;
-                for j in 0..3 {
-                    ata[i][j] += row[i] * row[j];
-                }
-            }
-        }
-    }
-    let det = |a: [[f64; 3]; 3]| {
-        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
-    };
-    let cramer = |i: usize| {
-        let mut a = ata;
-        for r in 0..3 {
-            a[r][i] = atb[r];
-        }
-        det(a) / det(ata)
-    };
-    let (k_lin, m_lin, c_lin) = (cramer(0), cramer(1), cramer(2));
+    let lines: Vec<FrfSample> = (1..p / 2)
+        .filter(|&l| us[l].norm() >= 0.1 * umax)
+        .map(|l| FrfSample {
+            frequency_hz: l as f64 * fs / p as f64,
+            h: ys[l] / us[l],
+            std_error: 0.0,
+        })
+        .collect();
+    let linear = fit_sdof(&lines, Quantity::Displacement, "estimation multisine").unwrap();
+    let (k_lin, m_lin, c_lin) = (linear.stiffness, linear.mass, linear.damping);
     let start = Model::new(
         ModalModel::sdof(m_lin, c_lin, 0.5 * k_lin).unwrap(),
         vec![ElementSpec::BoucWen {

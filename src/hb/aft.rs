@@ -107,6 +107,9 @@ pub(crate) struct Aft {
     pub x: Vec<f64>,
     pub v: Vec<f64>,
     pub g: Vec<f64>,
+    /// The force of the period marched before, for a law that settles
+    /// gradually (see [`Element::periods_to_settle`]).
+    previous_g: Vec<f64>,
     /// FFT input copy (realfft uses its input as scratch).
     buf: Vec<f64>,
     /// `∂x_j/∂p_k`, sample-major (`n` per sample).
@@ -194,6 +197,7 @@ impl Aft {
             x: vec![0.0; samples],
             v: vec![0.0; samples],
             g: vec![0.0; samples],
+            previous_g: Vec::new(),
             buf: vec![0.0; samples],
             basis_x,
             basis_v,
@@ -427,10 +431,9 @@ impl Aft {
         if let Some(e) = ramp_extremum {
             self.commit_extremum(elements, e, omega, velocity, want);
         }
-        let mut previous: Vec<f64> = Vec::new();
         for pass in 0..=settle {
             if settle > 0 {
-                previous.clone_from(&self.g);
+                self.previous_g.clone_from(&self.g);
                 elements.open_period();
             }
             for s in 0..count {
@@ -454,7 +457,7 @@ impl Aft {
                 let change = self
                     .g
                     .iter()
-                    .zip(&previous)
+                    .zip(&self.previous_g)
                     .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
                 if change <= SETTLED * scale {
                     break;

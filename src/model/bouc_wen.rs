@@ -53,8 +53,10 @@ pub struct BoucWen {
     /// `z` and `∂z/∂p` when harmonic balance opened the period.
     period_z: f64,
     period_z_sensitivity: Vec<f64>,
-    /// `∂z/∂z_open`: how the period's start still shows in `z`.
+    /// `∂z/∂z_open`: how the period's start still shows in `z`, tracked
+    /// only while harmonic balance marches periods (not in the simulator).
     memory_gain: f64,
+    period_open: bool,
 }
 
 /// Largest number of RK4 sub-steps per sample (`ν ≠ 1`).
@@ -96,6 +98,7 @@ impl BoucWen {
             period_z: 0.0,
             period_z_sensitivity: Vec::new(),
             memory_gain: 1.0,
+            period_open: false,
         })
     }
 
@@ -171,13 +174,18 @@ impl BoucWen {
 
     /// RK4 on `dz/dy = f_s(z)`, sub-steps sized by the law's local rate.
     fn flow_rk4(&self, z0: f64, h: f64) -> f64 {
-        let s = sign(h);
         let zmax = z0.abs() + self.alpha * h.abs();
         let rate = self.beta
             * self.nu
             * zmax.max(f64::MIN_POSITIVE).powf(self.nu - 1.0)
             * (self.gamma.abs() + self.delta.abs());
         let n = ((h.abs() * rate / SUBSTEP).ceil() as usize).clamp(1, MAX_SUBSTEPS);
+        self.rk4(z0, h, n)
+    }
+
+    /// `n` classical RK4 steps of `dz/dy = f_s(z)` over `h`.
+    fn rk4(&self, z0: f64, h: f64, n: usize) -> f64 {
+        let s = sign(h);
         let dh = h / n as f64;
         let mut z = z0;
         for _ in 0..n {
@@ -285,9 +293,14 @@ impl Element for BoucWen {
 
     #[inline]
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {
-        let f0 = self.slope(self.z, self.direction(x, v));
-        let f = self.evaluate(x, v);
-        self.memory_gain *= flow_ratio(f0, f.stiffness, self.alpha);
+        let f = if self.period_open {
+            let f0 = self.slope(self.z, self.direction(x, v));
+            let f = self.evaluate(x, v);
+            self.memory_gain *= flow_ratio(f0, f.stiffness, self.alpha);
+            f
+        } else {
+            self.evaluate(x, v)
+        };
         self.y = x;
         self.z = f.force;
         f
@@ -300,6 +313,7 @@ impl Element for BoucWen {
         self.y_sensitivity.clear();
         self.period_z_sensitivity.clear();
         self.memory_gain = 1.0;
+        self.period_open = false;
     }
 
     fn has_memory(&self) -> bool {
@@ -315,6 +329,7 @@ impl Element for BoucWen {
     }
 
     fn open_period(&mut self) {
+        self.period_open = true;
         self.period_z = self.z;
         self.period_z_sensitivity.clone_from(&self.z_sensitivity);
         self.memory_gain = 1.0;
@@ -435,18 +450,8 @@ mod tests {
                 for h in [-3.0, -0.2, -1e-4, 1e-4, 0.3, 2.5] {
                     let (z0, h) = (z0 * scale, h / e.beta);
                     let exact = e.flow_exact(z0, h);
-                    // RK4 at 20 000 sub-steps, by hand (flow_rk4 caps them)
-                    let s = sign(h);
-                    let n = 20_000;
-                    let dh = h / n as f64;
-                    let mut z = z0;
-                    for _ in 0..n {
-                        let k1 = e.slope(z, s);
-                        let k2 = e.slope(z + 0.5 * dh * k1, s);
-                        let k3 = e.slope(z + 0.5 * dh * k2, s);
-                        let k4 = e.slope(z + dh * k3, s);
-                        z += dh / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-                    }
+                    // RK4 at 20 000 sub-steps (flow_rk4 caps them at 256)
+                    let z = e.rk4(z0, h, 20_000);
                     assert!(
                         (exact - z).abs() <= 1e-9 * (scale + z.abs()),
                         "z0 {z0} h {h}: exact {exact} vs RK4 {z}"
