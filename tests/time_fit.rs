@@ -79,6 +79,12 @@ fn truth(case: &Case) -> Model {
             fd: case.fd,
             n,
         },
+        JointKind::Iwan4 { chi, beta } => ElementSpec::Iwan4 {
+            fs: case.fd,
+            kt: case.kd,
+            chi,
+            beta,
+        },
     };
     let mut effects = Vec::new();
     for e in &case.effects {

@@ -8,5 +8,6 @@
 
 pub mod kit;
 
+mod iwan;
 mod reference;
 mod sample;

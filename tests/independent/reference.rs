@@ -178,6 +178,64 @@ fn reference_masing_approaches_jenkins_for_large_n() {
     }
 }
 
+/// The Iwan slider bank against Segalman's closed forms (J. Appl. Mech.
+/// 72, 2005): the virgin backbone `K_T u − R u^(χ+2)/((χ+1)(χ+2))` up to
+/// `φ_max` and `F_S` beyond, and the microslip dissipation per cycle
+/// `4 R A^(χ+3)/((χ+2)(χ+3))`, whose log-log slope is `3 + χ`.
+#[test]
+fn reference_iwan_bank_follows_segalmans_closed_forms() {
+    let (fs, kt) = (120.0, 4.0e6);
+    for (chi, beta) in [(-0.5, 0.3), (-0.2, 1.5), (-0.8, 0.05)] {
+        let joint = RefJoint::Iwan4 { fs, kt, chi, beta };
+        // Segalman's φ_max and R from the four parameters
+        let phi_max = fs * (1.0 + beta) / (kt * (beta + (chi + 1.0) / (chi + 2.0)));
+        let r = kt * (chi + 1.0) / ((1.0 + beta) * phi_max.powf(chi + 1.0));
+        let backbone = |u: f64| {
+            if u < phi_max {
+                kt * u - r * u.powf(chi + 2.0) / ((chi + 1.0) * (chi + 2.0))
+            } else {
+                fs
+            }
+        };
+        let mut h = Hysteresis::new(joint);
+        let mut worst: f64 = 0.0;
+        for i in 1..=400 {
+            let u = 1.5 * phi_max * i as f64 / 400.0;
+            let f = h.update(u);
+            worst = worst.max((f - backbone(u)).abs() / fs);
+        }
+        eprintln!("chi {chi}, beta {beta}: backbone within {worst:.1e} F_S");
+        assert!(
+            worst < 2e-5,
+            "chi {chi}, beta {beta}: backbone off by {worst} of F_S"
+        );
+        let closed = |a: f64| 4.0 * r * a.powf(chi + 3.0) / ((chi + 2.0) * (chi + 3.0));
+        let mut last = None;
+        for frac in [0.02, 0.04, 0.08, 0.16, 0.32] {
+            let a = frac * phi_max;
+            let e = dissipation(joint, a);
+            eprintln!(
+                "  A/φmax {frac}: dissipation / closed form − 1 = {:.1e}",
+                e / closed(a) - 1.0
+            );
+            assert!(
+                (e / closed(a) - 1.0).abs() < 1e-3,
+                "chi {chi}, A/φmax {frac}: {e} J against {} J",
+                closed(a)
+            );
+            if let Some((a0, e0)) = last {
+                let slope = f64::ln(e / e0) / f64::ln(a / a0);
+                assert!(
+                    (slope / (3.0 + chi) - 1.0).abs() < 0.01,
+                    "chi {chi}, A/φmax {frac}: slope {slope} against {}",
+                    3.0 + chi
+                );
+            }
+            last = Some((a, e));
+        }
+    }
+}
+
 #[test]
 fn reference_masing_rules_and_wipe_out() {
     let (kd, fd, n) = (2.0e5, 10.0, 2.5);

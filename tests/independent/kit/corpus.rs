@@ -11,7 +11,15 @@ use std::f64::consts::PI;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum JointKind {
     Jenkins,
-    Masing { n: f64 },
+    Masing {
+        n: f64,
+    },
+    /// Segalman's four-parameter Iwan joint: `kd` is its `K_T`, `fd` its
+    /// `F_S`.
+    Iwan4 {
+        chi: f64,
+        beta: f64,
+    },
 }
 
 /// An effect name, as hystid's candidates are named.
@@ -210,6 +218,7 @@ impl Case {
         match self.joint {
             JointKind::Jenkins => "jenkins",
             JointKind::Masing { .. } => "masing",
+            JointKind::Iwan4 { .. } => "iwan4",
         }
     }
     pub fn system(&self) -> RefSystem {
@@ -237,6 +246,12 @@ impl Case {
                 kd: self.kd,
                 fd: self.fd,
                 n,
+            },
+            JointKind::Iwan4 { chi, beta } => RefJoint::Iwan4 {
+                fs: self.fd,
+                kt: self.kd,
+                chi,
+                beta,
             },
         };
         RefSystem {
@@ -280,6 +295,7 @@ impl Case {
         let joint = match self.joint {
             JointKind::Jenkins => "jenkins".to_string(),
             JointKind::Masing { n } => format!("masing N={n:.2}"),
+            JointKind::Iwan4 { chi, beta } => format!("iwan4 chi={chi:.3} beta={beta:.3}"),
         };
         let eff: Vec<_> = self.effect_kinds().iter().map(|e| e.name()).collect();
         format!(

@@ -28,6 +28,9 @@ pub fn truth_json(case: &Case) -> Value {
     let joint = match case.joint {
         JointKind::Jenkins => json!({"kind": "jenkins", "kd": case.kd, "fd": case.fd}),
         JointKind::Masing { n } => json!({"kind": "masing", "kd": case.kd, "fd": case.fd, "n": n}),
+        JointKind::Iwan4 { chi, beta } => {
+            json!({"kind": "iwan4", "kt": case.kd, "fs": case.fd, "chi": chi, "beta": beta})
+        }
     };
     let effects: Vec<Value> = case
         .effects

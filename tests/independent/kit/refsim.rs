@@ -34,8 +34,85 @@ impl RefMode {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RefJoint {
     None,
-    Jenkins { kd: f64, fd: f64 },
-    Masing { kd: f64, fd: f64, n: f64 },
+    Jenkins {
+        kd: f64,
+        fd: f64,
+    },
+    Masing {
+        kd: f64,
+        fd: f64,
+        n: f64,
+    },
+    /// Segalman's four-parameter Iwan joint, simulated as what it is: a
+    /// parallel bank of Jenkins sliders (see [`IwanBank`]).
+    Iwan4 {
+        fs: f64,
+        kt: f64,
+        chi: f64,
+        beta: f64,
+    },
+}
+
+/// Sliders in the bank's continuum (the spike is one more).
+pub const IWAN_SLIDERS: usize = 1000;
+
+/// A parallel bank of Jenkins sliders drawn from Segalman's density
+/// `ρ(φ) = R φ^χ (0 < φ < φ_max) + S δ(φ − φ_max)` over slip displacement
+/// `φ` (each slider a spring of stiffness `ρ dφ` that slips `φ` from its
+/// anchor). Written from the paper's definitions: the stiffness
+/// `K_T = ∫ρ`, the slip force `F_S = ∫ρ φ`, the spike's share
+/// `β = S / ∫R φ^χ`. The continuum is cut into slices of equal stiffness
+/// `(K_T − S)/n`, each slider at its slice's stiffness-weighted mean `φ`,
+/// so the bank's `K_T` and `F_S` are exact.
+#[derive(Clone, Debug)]
+pub struct IwanBank {
+    /// Each slider's stiffness, N/m.
+    pub stiffness: Vec<f64>,
+    /// Each slider's slip displacement, m.
+    pub slip: Vec<f64>,
+}
+
+impl IwanBank {
+    pub fn new(fs: f64, kt: f64, chi: f64, beta: f64, n: usize) -> IwanBank {
+        let (c1, c2) = (chi + 1.0, chi + 2.0);
+        // continuum stiffness A = K_T/(1+β), spike S = β A; F_S = A φ_max
+        // ((χ+1)/(χ+2) + β)
+        let a = kt / (1.0 + beta);
+        let phi_max = fs / (a * (c1 / c2 + beta));
+        let edge = |j: usize| phi_max * (j as f64 / n as f64).powf(1.0 / c1);
+        let mut stiffness = vec![a / n as f64; n];
+        let mut slip: Vec<f64> = (0..n)
+            .map(|j| {
+                let (lo, hi) = (edge(j), edge(j + 1));
+                c1 / c2 * (hi.powf(c2) - lo.powf(c2)) / (hi.powf(c1) - lo.powf(c1))
+            })
+            .collect();
+        if beta > 0.0 {
+            stiffness.push(beta * a);
+            slip.push(phi_max);
+        }
+        IwanBank { stiffness, slip }
+    }
+
+    /// The bank's force with its sliders' anchors at `anchor`.
+    #[inline]
+    pub fn force(&self, anchor: &[f64], x: f64) -> f64 {
+        self.stiffness
+            .iter()
+            .zip(&self.slip)
+            .zip(anchor)
+            .map(|((k, p), s)| k * (x - s).clamp(-p, *p))
+            .sum()
+    }
+
+    /// Moves the anchors with `x`: a slider slips where its spring would
+    /// carry more than its slip displacement.
+    #[inline]
+    pub fn slide(&self, anchor: &mut [f64], x: f64) {
+        for (s, p) in anchor.iter_mut().zip(&self.slip) {
+            *s = s.clamp(x - p, x + p);
+        }
+    }
 }
 
 /// A smooth (memoryless) effect, in the exact forms hystid uses.
@@ -103,11 +180,22 @@ pub struct Hysteresis {
     x: f64,
     f: f64,
     dir: f64,
+    /// Iwan: the bank and its sliders' anchors.
+    bank: Option<IwanBank>,
+    anchors: Vec<f64>,
 }
 
 impl Hysteresis {
     pub fn new(joint: RefJoint) -> Hysteresis {
+        let bank = match joint {
+            RefJoint::Iwan4 { fs, kt, chi, beta } => {
+                Some(IwanBank::new(fs, kt, chi, beta, IWAN_SLIDERS))
+            }
+            _ => None,
+        };
         Hysteresis {
+            anchors: vec![0.0; bank.as_ref().map_or(0, |b| b.slip.len())],
+            bank,
             joint,
             xs: 0.0,
             tps: Vec::with_capacity(16),
@@ -124,6 +212,7 @@ impl Hysteresis {
             RefJoint::None => 0.0,
             RefJoint::Jenkins { kd, fd } => (kd * (x - self.xs)).clamp(-fd, fd),
             RefJoint::Masing { kd, fd, n } => self.masing_eval(kd, fd, n, x).0,
+            RefJoint::Iwan4 { .. } => self.bank.as_ref().unwrap().force(&self.anchors, x),
         }
     }
 
@@ -131,7 +220,7 @@ impl Hysteresis {
     pub fn force(&self) -> f64 {
         match self.joint {
             RefJoint::None => 0.0,
-            RefJoint::Jenkins { .. } => self.force_at(self.x),
+            RefJoint::Jenkins { .. } | RefJoint::Iwan4 { .. } => self.force_at(self.x),
             RefJoint::Masing { .. } => self.f,
         }
     }
@@ -162,6 +251,12 @@ impl Hysteresis {
                     self.f = f;
                 }
                 self.f
+            }
+            RefJoint::Iwan4 { .. } => {
+                let bank = self.bank.as_ref().unwrap();
+                bank.slide(&mut self.anchors, x);
+                self.x = x;
+                bank.force(&self.anchors, x)
             }
         }
     }

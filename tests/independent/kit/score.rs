@@ -259,10 +259,7 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         .filter(|j| j.is_object())
         .chain(model["effects"].as_array().into_iter().flatten())
         .collect();
-    let joint_kind = match case.joint {
-        JointKind::Jenkins => "jenkins",
-        JointKind::Masing { .. } => "masing",
-    };
+    let joint_kind = case.element();
     // the joint: the element of the kind asked for, else any hysteretic
     // one (a Masing joint with N → ∞ is a Jenkins joint; noted)
     let joint = elements
@@ -281,7 +278,12 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
             j
         ));
     }
-    for (name, t) in [("kd", case.kd), ("fd", case.fd)] {
+    // the stick stiffness and slip force, by the law's names
+    let names = match case.joint {
+        JointKind::Iwan4 { .. } => ["kt", "fs"],
+        _ => ["kd", "fd"],
+    };
+    for (name, t) in names.into_iter().zip([case.kd, case.fd]) {
         s.joint.push(ParamError {
             effect: joint_kind.into(),
             name: name.into(),
@@ -296,6 +298,34 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
             name: "n".into(),
             truth: n,
             estimate: num(&j["n"]),
+            scored: false,
+        });
+    }
+    // Iwan's shape: χ within 0.05 and β within 20 % (issue 12)
+    if let (JointKind::Iwan4 { chi, beta }, Some(j)) = (case.joint, joint) {
+        let chi_hat = num(&j["chi"]);
+        if !chi_hat.is_some_and(|c| (c - chi).abs() <= 0.05) {
+            s.failures
+                .push(format!("joint chi {chi_hat:?} against {chi} (within 0.05)"));
+        }
+        s.joint.push(ParamError {
+            effect: "iwan4".into(),
+            name: "chi".into(),
+            truth: chi,
+            estimate: chi_hat,
+            scored: false,
+        });
+        let beta_hat = num(&j["beta"]);
+        if !beta_hat.is_some_and(|b| (b - beta).abs() <= 0.2 * beta) {
+            s.failures.push(format!(
+                "joint beta {beta_hat:?} against {beta} (within 20 %)"
+            ));
+        }
+        s.joint.push(ParamError {
+            effect: "iwan4".into(),
+            name: "beta".into(),
+            truth: beta,
+            estimate: beta_hat,
             scored: false,
         });
     }
