@@ -243,7 +243,8 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, **kwargs):
     to fit ``frf`` first with the fit options (keywords as in
     :func:`identify`). ``candidates``: effect names (default: all of
     ``second_mode``, ``cubic_stiffness``, ``bilinear_stiffness``,
-    ``quadratic_damping``, ``clearance``).
+    ``quadratic_damping``, ``clearance``, ``iwan4_joint``: an Iwan joint
+    in place of the fitted joint law).
     """
     text = _hystid.diagnose(
         json.dumps(frf),

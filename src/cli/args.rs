@@ -303,7 +303,8 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     pub response: Option<String>,
     /// Candidate effects (default: all): second_mode, cubic_stiffness,
-    /// bilinear_stiffness, quadratic_damping, clearance.
+    /// bilinear_stiffness, quadratic_damping, clearance, iwan4_joint (an
+    /// Iwan joint in place of the fitted joint law).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// How recordings are reduced.

@@ -108,6 +108,10 @@ pub struct CandidateReport {
     pub effect_parameters: BTreeMap<String, f64>,
     /// `χ²` drop against the model it was added to.
     pub delta_chi2: f64,
+    /// The parameters it added to the model it was tried on (a joint law
+    /// in place of another adds the difference).
+    #[serde(default)]
+    pub parameters_added: usize,
     /// The BIC threshold it had to beat.
     pub threshold: f64,
     /// `Δχ² − threshold` (the criterion value; > 0 passes).
@@ -414,9 +418,8 @@ fn unresolved(
     let params = model_parameters(&r.model, data.band_hz());
     let conf = confidence_at(&r.model, &params, &r.pred, data, predictor)?;
     let candidate = effect.candidate();
-    let prefix = format!("{}.", effect.name());
     for (p, e) in params.parameters.iter().zip(&conf.estimates) {
-        let Some(name) = p.name.strip_prefix(&prefix) else {
+        let Some(name) = candidate.own_parameter(effect.name(), &p.name) else {
             continue;
         };
         if let Some(why) = candidate.implausible(name, e, &r.model, data) {
@@ -801,8 +804,9 @@ pub fn diagnose_observed(
             // the chance that noise alone passes one of them near what it is
             // for one (on the independent corpus's controls, ln n alone let
             // a contact of 1e-3 of the stiffness through)
+            let added = effect.candidate().added_parameters(&current.model);
             let threshold =
-                (effect.size() as f64 * n_real.ln() + 2.0 * (ranked.len() as f64).ln()) * reduced;
+                (added as f64 * n_real.ln() + 2.0 * (ranked.len() as f64).ln()) * reduced;
             let criterion = delta - threshold;
             let report = CandidateReport {
                 effect,
@@ -811,6 +815,7 @@ pub fn diagnose_observed(
                 fit: model_fit(&r.model, &data, &r.pred, r.chi2),
                 effect_parameters: effect.candidate().parameters(&r.model, &data),
                 delta_chi2: delta,
+                parameters_added: added,
                 threshold,
                 criterion,
                 accepted: false,
@@ -988,8 +993,7 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         for &effect in &chosen {
             let mut parameters = BTreeMap::new();
             for (p, e) in &pairs {
-                let prefix = format!("{}.", effect.name());
-                if let Some(rest) = p.name.strip_prefix(&prefix) {
+                if let Some(rest) = effect.candidate().own_parameter(effect.name(), &p.name) {
                     let (name, e) = effect.candidate().reported(rest, e.clone());
                     parameters.insert(name, e);
                 }
@@ -1147,7 +1151,7 @@ fn explain(
                 b.effect.name(),
                 b.delta_chi2,
                 b.threshold,
-                b.effect.size()
+                b.parameters_added
             )),
             None => s.push_str("No significant missing effect."),
         }

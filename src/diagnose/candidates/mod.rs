@@ -10,6 +10,7 @@
 mod bilinear_stiffness;
 mod clearance;
 mod cubic_stiffness;
+mod iwan4_joint;
 mod quadratic_damping;
 mod second_mode;
 
@@ -135,6 +136,33 @@ pub(crate) trait Candidate: Sync {
         self.law().map_or(0, |k| k.description().parameters.len())
     }
 
+    /// Whether it replaces the model's joint law rather than adding an
+    /// effect (its parameters are then the joint's, named plainly).
+    fn replaces_joint(&self) -> bool {
+        false
+    }
+
+    /// How many parameters it adds to `before` (the information
+    /// criterion's `p`): its size, unless it replaces a part of `before`.
+    fn added_parameters(&self, _before: &Model) -> usize {
+        self.size()
+    }
+
+    /// Its own parameter's name within a fitted parameter's `name`, if the
+    /// parameter is its own (an effect's are prefixed with its name, a
+    /// replacing joint's are the joint's plain names).
+    fn own_parameter<'n>(&self, effect: &str, name: &'n str) -> Option<&'n str> {
+        if self.replaces_joint() {
+            let law = self.law()?.description();
+            law.parameters
+                .iter()
+                .any(|p| p.name == name)
+                .then_some(name)
+        } else {
+            name.strip_prefix(effect)?.strip_prefix('.')
+        }
+    }
+
     /// How strongly the residual's features point at it (higher first).
     fn score(&self, features: &ResidualFeatures) -> f64;
 
@@ -237,6 +265,7 @@ candidates! {
     BilinearStiffness("bilinear_stiffness", bilinear_stiffness::BilinearStiffness),
     QuadraticDamping("quadratic_damping", quadratic_damping::QuadraticDamping),
     Clearance("clearance", clearance::Clearance),
+    Iwan4Joint("iwan4_joint", iwan4_joint::Iwan4Joint),
 }
 
 impl Effect {

@@ -1,0 +1,104 @@
+//! Segalman's four-parameter Iwan joint in place of the joint law fitted:
+//! the joint itself is not the law the user declared. A bolted lap joint in
+//! microslip dissipates `∝ A^(3+χ)` per cycle with `χ` between −1 and 0, a
+//! power no eq. (10) Masing curve or Jenkins slider reproduces over a range
+//! of levels together with the full-slip force (see `model::iwan`). Its
+//! residual is the joint's: level-dependent, in every harmonic, with no
+//! effect of its own to point at, so every diagnosis tries it.
+
+use super::{Candidate, Context};
+use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
+use crate::error::Result;
+use crate::model::{ElementKind, ElementSpec, Model, Role};
+
+/// See the module docs.
+pub(crate) struct Iwan4Joint;
+
+/// The starting shapes: `χ` from a nearly uniform slider density to one
+/// crowded at small slips, with a small and a large spike.
+const SHAPES: [(f64, f64); 3] = [(-0.5, 0.3), (-0.2, 1.0), (-0.8, 0.1)];
+
+impl Candidate for Iwan4Joint {
+    fn law(&self) -> Option<ElementKind> {
+        Some(ElementKind::Iwan4)
+    }
+
+    fn replaces_joint(&self) -> bool {
+        true
+    }
+
+    /// Four parameters in place of the fitted joint's.
+    fn added_parameters(&self, before: &Model) -> usize {
+        let had = before
+            .joint
+            .as_ref()
+            .map_or(0, |j| j.kind().description().parameters.len());
+        4usize.saturating_sub(had).max(1)
+    }
+
+    /// A joint misfit grows with level from nothing at the lowest (where
+    /// every law sticks).
+    fn score(&self, f: &ResidualFeatures) -> f64 {
+        2.0 * (1.0 - f.level_independent_share) + f.growth_with_level.max(0.0)
+    }
+
+    /// The fitted joint's stick stiffness and slip force carried over (they
+    /// mean the same to every law: the initial slope and the force it
+    /// saturates at), at a few shapes; none when the joint already is one.
+    fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
+        let model = cx.model();
+        let Some(joint) = &model.joint else {
+            return Ok(Vec::new());
+        };
+        if joint.kind() == ElementKind::Iwan4 {
+            return Ok(Vec::new());
+        }
+        let law = joint.kind().description();
+        let values: Vec<f64> = joint.parameters().into_iter().map(|(_, v)| v).collect();
+        let (Some(ik), Some(ifs)) = (
+            law.index_of(Role::StickStiffness),
+            law.index_of(Role::SlipForce),
+        ) else {
+            return Ok(Vec::new());
+        };
+        let (kt, fs) = (values[ik], values[ifs]);
+        Ok(SHAPES
+            .iter()
+            .map(|&(chi, beta)| {
+                let mut m = model.clone();
+                m.joint = Some(ElementSpec::Iwan4 { fs, kt, chi, beta });
+                m
+            })
+            .collect())
+    }
+
+    /// `χ` decides whether the Iwan law is what the data show: it must be
+    /// resolved inside (−1, 0).
+    fn size_parameters(&self) -> &'static [&'static str] {
+        &["chi"]
+    }
+
+    /// A law swap cannot be taken out again: the model needs a joint.
+    fn remove(&self, _model: &Model) -> Option<Model> {
+        None
+    }
+
+    fn explain(&self, f: &ResidualFeatures, selected: &SelectedEffect) -> String {
+        let chi = selected
+            .parameters
+            .get("chi")
+            .map(|e| {
+                format!(
+                    " (χ = {}: dissipation per cycle ∝ A^{:.2} in microslip)",
+                    fmt_value(e.value),
+                    3.0 + e.value
+                )
+            })
+            .unwrap_or_default();
+        format!(
+            "the residual changed with level (slope {:.2}, {:.0} % of it level-dependent) in a way the fitted joint law cannot follow, and an Iwan joint does{chi}",
+            f.growth_with_level,
+            100.0 * (1.0 - f.level_independent_share)
+        )
+    }
+}
