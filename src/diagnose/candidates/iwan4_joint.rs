@@ -72,10 +72,12 @@ impl Candidate for Iwan4Joint {
             .collect())
     }
 
-    /// `χ` decides whether the Iwan law is what the data show: it must be
-    /// resolved inside (−1, 0).
+    /// The joint the law replaces must itself be determined: its stiffness,
+    /// its slip force and `χ`, which decides whether the Iwan law is what
+    /// the data show (resolved inside (−1, 0)). The spike's share `β` may
+    /// sit at 0.
     fn size_parameters(&self) -> &'static [&'static str] {
-        &["chi"]
+        &["kt", "fs", "chi"]
     }
 
     /// A law swap cannot be taken out again: the model needs a joint.
