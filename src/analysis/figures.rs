@@ -127,6 +127,9 @@ pub struct LevelLines {
     pub own: Vec<(f64, Complex64)>,
     /// The opposite continuation where it finds another branch.
     pub other: Vec<(f64, Complex64)>,
+    /// Between the two, where they differ: the unstable solution a fold's
+    /// branches are joined by (no sweep reaches it; drawn dashed).
+    pub unstable: Vec<(f64, Complex64)>,
 }
 
 /// The model's lines for each series of `fine` (see [`LevelLines`]): each
@@ -166,9 +169,77 @@ pub fn model_lines(
             let own = fundamental(&pred.h[i]);
             let mut other = fundamental(&pred.h[n + i]);
             other.reverse();
-            split_branches(&f, &own, &other)
+            let mut lines = split_branches(&f, &own, &other);
+            if !lines.other.is_empty() {
+                lines.unstable = unstable_branch(model, response_sign, fine, s, &own, &other, predictor);
+            }
+            lines
         })
         .collect())
+}
+
+/// The unstable solution of a fold at each point of `series` where the two
+/// continuations `own` and `other` differ, with NaN gaps elsewhere (empty
+/// where none is found). The single-harmonic balance has three amplitudes
+/// there ([`crate::hb::describing::solve`]); the middle one starts Newton on
+/// the full harmonic balance, which converges to the unstable solution as
+/// readily as to a stable one (it solves the balance, it does not march in
+/// time). A solution that lands on either stable branch is not drawn.
+fn unstable_branch(
+    model: &Model,
+    response_sign: f64,
+    fine: &FitData,
+    series: &MeasuredSeries,
+    own: &[Complex64],
+    other: &[Complex64],
+    predictor: &HbPredictor,
+) -> Vec<(f64, Complex64)> {
+    let nan = Complex64::new(f64::NAN, f64::NAN);
+    let (Ok(mut elements), opts) = (model.element_set(), predictor.options_for(model, fine)) else {
+        return Vec::new();
+    };
+    let Ok(mut solver) = crate::hb::HbSolver::new(&opts) else {
+        return Vec::new();
+    };
+    let Some(first) = opts.harmonics.iter().position(|&h| h == 1) else {
+        return Vec::new();
+    };
+    let apart = |x: Complex64, y: Complex64| {
+        (x - y).norm() > BRANCH_TOLERANCE * x.norm().max(y.norm())
+    };
+    let mut line = Vec::with_capacity(series.points.len());
+    let mut found = false;
+    for (j, p) in series.points.iter().enumerate() {
+        let (a, b) = (own[j], other[j]);
+        let solved = (a.re.is_finite() && b.re.is_finite() && apart(a, b))
+            .then(|| {
+                let w = omega(p.frequency_hz);
+                let h = crate::hb::LinearPart::receptance(&model.linear, w).ok()?;
+                let samples = opts.samples_per_period;
+                let roots = crate::hb::describing::solve(h, p.force_amplitude, |amp| {
+                    crate::hb::describing::of_elements(&mut elements, amp, w, samples)
+                });
+                let &middle = roots.get(1).filter(|_| roots.len() >= 3)?;
+                let mut guess = vec![Complex64::new(0.0, 0.0); opts.harmonics.len()];
+                guess[first] = middle;
+                let pt = solver
+                    .solve_point(
+                        &model.linear,
+                        &mut elements,
+                        p.frequency_hz,
+                        p.force_amplitude,
+                        Some(&guess),
+                    )
+                    .ok()
+                    .filter(|pt| pt.converged)?;
+                let z = pt.frf(1)? * fine.response.from_displacement(w) * response_sign;
+                (apart(z, a) && apart(z, b)).then_some(z)
+            })
+            .flatten();
+        found |= solved.is_some();
+        line.push((p.frequency_hz, solved.unwrap_or(nan)));
+    }
+    if found { line } else { Vec::new() }
 }
 
 /// The lines of two continuations `a` (the sweep's) and `b` (the opposite)
@@ -268,7 +339,11 @@ pub fn write_frf_overlay(
             style: SeriesStyle::Measured,
         });
         // one legend entry per level: the lines share the markers' colour
-        for line in [l.own, l.other] {
+        for (line, style) in [
+            (l.own, SeriesStyle::Model),
+            (l.other, SeriesStyle::Model),
+            (l.unstable, SeriesStyle::Unstable),
+        ] {
             if line.is_empty() {
                 continue;
             }
@@ -278,7 +353,7 @@ pub fn write_frf_overlay(
                 frequency_hz: line.iter().map(|p| p.0).collect(),
                 h: line.iter().map(|p| p.1).collect(),
                 std_error: None,
-                style: SeriesStyle::Model,
+                style,
             });
         }
     }
@@ -540,6 +615,36 @@ mod tests {
             assert!(
                 (a / drawn - 1.0).abs() < 1e-6,
                 "{drawn} m drawn, {a} m by the balance at {fm} Hz"
+            );
+        }
+        // between them, the unstable branch, at most points of the band:
+        // each between the two stable ones and a steady solution of the
+        // independent balance
+        let unstable: Vec<(f64, Complex64)> = l
+            .unstable
+            .iter()
+            .copied()
+            .filter(|p| finite(&p.1))
+            .collect();
+        assert!(
+            unstable.len() * 10 >= band.len() * 9,
+            "unstable branch at {} of {} points of the fold",
+            unstable.len(),
+            band.len()
+        );
+        let other_at = |f: f64| l.other.iter().find(|p| p.0 == f).unwrap().1;
+        for &(f, z) in &unstable {
+            let (hi_b, lo_b) = (own_at(f).norm(), other_at(f).norm());
+            assert!(
+                z.norm() > lo_b.min(hi_b) && z.norm() < lo_b.max(hi_b),
+                "{f} Hz: unstable |H| {} outside [{lo_b}, {hi_b}]",
+                z.norm()
+            );
+            let a = duffing_hb([m, c, k, k3, force], f, z);
+            assert!(
+                (a / (z.norm() * force) - 1.0).abs() < 1e-6,
+                "{f} Hz: unstable {} m drawn, {a} m by the balance",
+                z.norm() * force
             );
         }
         // the up sweep's line: one break, at its drop

@@ -185,6 +185,9 @@ pub enum SeriesStyle {
     Measured,
     /// A model's prediction: a solid line.
     Model,
+    /// A model's unstable solution (a fold's middle branch, which no test
+    /// reaches): a dashed line.
+    Unstable,
 }
 
 /// One FRF curve: `H` at each excitation frequency.
@@ -382,12 +385,21 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
     let mut bottom = panel("phase [°]", x, range_of(&phases, |p| p.1, false), false, 2);
     top.x_label = String::new();
     bottom.x_label = "frequency [Hz]".into();
-    for pass in [SeriesStyle::Model, SeriesStyle::Measured] {
+    for pass in [
+        SeriesStyle::Unstable,
+        SeriesStyle::Model,
+        SeriesStyle::Measured,
+    ] {
         for (s, magnitude, phase) in traces.iter().filter(|t| t.0.style == pass) {
             let (c, mark) = (palette.colour(s.group), marker_of(s.group));
             if pass == SeriesStyle::Model {
                 top.shapes.push(line(c, 2, magnitude.clone()));
                 bottom.shapes.push(line(c, 2, phase.clone()));
+                continue;
+            }
+            if pass == SeriesStyle::Unstable {
+                top.shapes.push(dashed(c, 2, magnitude.clone()));
+                bottom.shapes.push(dashed(c, 2, phase.clone()));
                 continue;
             }
             if let Some(sigma) = &s.std_error {
@@ -429,6 +441,13 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
             sample: Sample::Line,
         });
     }
+    if series.iter().any(|s| s.style == SeriesStyle::Unstable) {
+        legend.push(LegendEntry {
+            label: "unstable".into(),
+            colour: GREY,
+            sample: Sample::Dashed,
+        });
+    }
     Ok(Figure {
         title: title.into(),
         panels: vec![top, bottom],
@@ -461,6 +480,7 @@ fn sample(style: SeriesStyle, group: usize) -> Sample {
     match style {
         SeriesStyle::Measured => Sample::Marker(marker_of(group)),
         SeriesStyle::Model => Sample::Line,
+        SeriesStyle::Unstable => Sample::Dashed,
     }
 }
 
@@ -482,6 +502,14 @@ fn line(colour: RGBColor, width: u32, points: Vec<(f64, f64)>) -> Shape {
         colour,
         width,
         alpha: 1.0,
+        points,
+    }
+}
+
+fn dashed(colour: RGBColor, width: u32, points: Vec<(f64, f64)>) -> Shape {
+    Shape::Dashed {
+        colour,
+        width,
         points,
     }
 }
@@ -637,7 +665,11 @@ pub fn write_loop_plot(
     );
     p.x_label = x_label.into();
     let palette = Palette::over(series.iter().map(|s| s.group));
-    for pass in [SeriesStyle::Measured, SeriesStyle::Model] {
+    for pass in [
+        SeriesStyle::Measured,
+        SeriesStyle::Unstable,
+        SeriesStyle::Model,
+    ] {
         for (s, points) in traces.iter().filter(|t| t.0.style == pass) {
             let (c, points) = (palette.colour(s.group), points.clone());
             p.shapes.push(match pass {
@@ -648,6 +680,7 @@ pub fn write_loop_plot(
                     points,
                 },
                 SeriesStyle::Model => line(c, 2, points),
+                SeriesStyle::Unstable => dashed(c, 2, points),
             });
         }
     }
@@ -655,6 +688,7 @@ pub fn write_loop_plot(
         let sample = match s.style {
             SeriesStyle::Measured => Sample::Band,
             SeriesStyle::Model => Sample::Line,
+            SeriesStyle::Unstable => Sample::Dashed,
         };
         legend_entry(&s.label, palette.colour(s.group), sample)
     });

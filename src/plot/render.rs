@@ -38,6 +38,12 @@ pub(super) enum Shape {
         alpha: f64,
         points: Vec<(f64, f64)>,
     },
+    /// A dashed polyline; a NaN point leaves a gap.
+    Dashed {
+        colour: RGBColor,
+        width: u32,
+        points: Vec<(f64, f64)>,
+    },
     /// One marker per point.
     Markers {
         colour: RGBColor,
@@ -443,6 +449,22 @@ fn draw_shapes<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
                         area.draw(&PathElement::new(run.to_vec(), style))
                             .map_err(fail)?;
                     }
+                }
+            }
+            Shape::Dashed {
+                colour,
+                width,
+                points,
+            } => {
+                let style = colour.stroke_width(*width);
+                for run in points.split(|p| !finite(p)).filter(|r| r.len() > 1) {
+                    area.draw(&plotters::element::DashedPathElement::new(
+                        run.to_vec(),
+                        6,
+                        4,
+                        style,
+                    ))
+                    .map_err(fail)?;
                 }
             }
             Shape::Markers {
