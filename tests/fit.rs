@@ -53,6 +53,31 @@ fn the_paper_case_is_reproduced_within_one_percent() {
     let (rkd, rfd, ckd, cfd) = report("paper case", &f, 2.4e7, 246.048);
     assert!(rkd.abs() < 0.01 && rfd.abs() < 0.01);
     assert!(ckd && cfd);
+    // the README's Table 3.1 row and sentence are this fit (`run`'s first
+    // fit of the embedded default: the same FRFs, the same options)
+    let row = crate::common::readme_figures("| hystid, first fit |").expect("README row");
+    let (kd, fd) = (&f.parameters["kd"], &f.parameters["fd"]);
+    let pct = |e: &hystid::fit::Estimate, truth: f64| 100.0 * (e.value / truth - 1.0);
+    for (what, value, at) in [
+        ("Fd", fd.value, 0),
+        ("Fd's error [%]", pct(fd, 246.048), 1),
+        ("Fd's CI low", fd.ci95[0], 3),
+        ("Fd's CI high", fd.ci95[1], 4),
+        ("kd", kd.value, 5),
+        ("kd's error [%]", pct(kd, 2.4e7), 6),
+        ("kd's CI low", kd.ci95[0], 7),
+        ("kd's CI high", kd.ci95[1], 8),
+    ] {
+        crate::common::assert_readme_figure(what, value, row[at]);
+    }
+    let error = crate::common::readme_figures("The first fit's relative FRF error is")
+        .expect("README sentence");
+    crate::common::assert_readme_figure(
+        "the first fit's error [%]",
+        100.0 * f.error.relative,
+        error[0],
+    );
+    crate::common::assert_readme_figure("its chi2/dof", f.error.chi2_per_dof, error[1]);
     let n = &f.parameters["n"];
     assert!(
         !n.identifiable && n.ci95[1].is_infinite() && n.ci95[0] > 20.0,

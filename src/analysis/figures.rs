@@ -171,7 +171,8 @@ pub fn model_lines(
             other.reverse();
             let mut lines = split_branches(&f, &own, &other);
             if !lines.other.is_empty() {
-                lines.unstable = unstable_branch(model, response_sign, fine, s, &own, &other, predictor);
+                lines.unstable =
+                    unstable_branch(model, response_sign, fine, s, &own, &other, predictor);
             }
             lines
         })
@@ -204,9 +205,8 @@ fn unstable_branch(
     let Some(first) = opts.harmonics.iter().position(|&h| h == 1) else {
         return Vec::new();
     };
-    let apart = |x: Complex64, y: Complex64| {
-        (x - y).norm() > BRANCH_TOLERANCE * x.norm().max(y.norm())
-    };
+    let apart =
+        |x: Complex64, y: Complex64| (x - y).norm() > BRANCH_TOLERANCE * x.norm().max(y.norm());
     let mut line = Vec::with_capacity(series.points.len());
     let mut found = false;
     for (j, p) in series.points.iter().enumerate() {

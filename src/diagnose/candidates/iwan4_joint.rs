@@ -9,6 +9,7 @@
 use super::{Candidate, Context};
 use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
 use crate::error::Result;
+use crate::fit::FrfPredictor;
 use crate::model::{ElementKind, ElementSpec, Model, Role};
 
 /// See the module docs.
@@ -44,7 +45,11 @@ impl Candidate for Iwan4Joint {
 
     /// The fitted joint's stick stiffness and slip force carried over (they
     /// mean the same to every law: the initial slope and the force it
-    /// saturates at), at a few shapes; none when the joint already is one.
+    /// saturates at), at the shape of [`SHAPES`] whose model fits best as it
+    /// stands (one prediction each; a refit from each would cost a full
+    /// refit each, and the refit from the best one reached the same optimum
+    /// on the independent Iwan recordings); none when the joint already is
+    /// one.
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let model = cx.model();
         let Some(joint) = &model.joint else {
@@ -62,14 +67,20 @@ impl Candidate for Iwan4Joint {
             return Ok(Vec::new());
         };
         let (kt, fs) = (values[ik], values[ifs]);
-        Ok(SHAPES
+        let best = SHAPES
             .iter()
-            .map(|&(chi, beta)| {
+            .filter_map(|&(chi, beta)| {
                 let mut m = model.clone();
                 m.joint = Some(ElementSpec::Iwan4 { fs, kt, chi, beta });
-                m
+                let pred = cx
+                    .predictor
+                    .predict_from(&m, cx.data, Some(cx.pred()))
+                    .ok()?;
+                let chi2 = crate::fit::problem::chi_square(cx.data, &pred);
+                chi2.is_finite().then_some((chi2, m))
             })
-            .collect())
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        Ok(best.map(|(_, m)| m).into_iter().collect())
     }
 
     /// The joint the law replaces must itself be determined: its stiffness,
