@@ -49,50 +49,19 @@ pub fn readme_figures(start: &str) -> Option<Vec<(f64, f64)>> {
     let line = text
         .lines()
         .find_map(|l| l.trim_start().strip_prefix(start))?;
-    let b = line.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        let signed = (b[i] == b'+' || b[i] == b'-') && i + 1 < b.len() && b[i + 1].is_ascii_digit();
-        // a digit that continues a word (e.g. `H1`, `kd2`) is not a figure
-        let starts = (b[i].is_ascii_digit() || signed)
-            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.'));
-        if !starts {
-            i += 1;
-            continue;
-        }
-        let begin = i;
-        i += signed as usize;
-        while i < b.len() && b[i].is_ascii_digit() {
-            i += 1;
-        }
-        let mut decimals = 0i32;
-        if i + 1 < b.len() && b[i] == b'.' && b[i + 1].is_ascii_digit() {
-            i += 1;
-            while i < b.len() && b[i].is_ascii_digit() {
-                i += 1;
-                decimals += 1;
-            }
-        }
-        let mut exponent = 0i32;
-        let mantissa_end = i;
-        if i + 1 < b.len() && b[i] == b'e' {
-            let mut j = i + 1;
-            if j < b.len() && (b[j] == b'+' || b[j] == b'-') {
-                j += 1;
-            }
-            if j < b.len() && b[j].is_ascii_digit() {
-                while j < b.len() && b[j].is_ascii_digit() {
-                    j += 1;
-                }
-                exponent = line[mantissa_end + 1..j].parse().unwrap_or(0);
-                i = j;
-            }
-        }
-        if let Ok(v) = line[begin..i].parse::<f64>() {
-            out.push((v, 0.5 * 10f64.powi(exponent - decimals)));
-        }
-    }
+    // tokens of the characters a figure is written with; words leave
+    // tokens that do not parse (`-` of `->`, `e` of `degree`)
+    let out = line
+        .split(|c: char| !(c.is_ascii_digit() || "+-.e".contains(c)))
+        .map(|t| t.trim_end_matches('.'))
+        .filter_map(|t| {
+            let value: f64 = t.parse().ok()?;
+            let (mantissa, exponent) = t.split_once('e').unwrap_or((t, "0"));
+            let decimals = mantissa.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
+            let exponent: i32 = exponent.parse().ok()?;
+            Some((value, 0.5 * 10f64.powi(exponent - decimals)))
+        })
+        .collect();
     Some(out)
 }
 
