@@ -591,6 +591,50 @@ fn run_reports_the_model_after_the_diagnosis_with_the_first_fit_as_before() {
         &diagnosis["baseline"]["error_relative"],
     );
     assert!(fin["error"]["relative"].as_f64() < fin["before"]["error"]["relative"].as_f64());
+    // the README's figures of this run
+    let shown = crate::common::readme_figures("Figures of that run:")
+        .expect("README line of the cubic run");
+    let num = |v: &serde_json::Value| v.as_f64().unwrap();
+    let pct = |name: &str| {
+        let p = &fin["parameters"][name];
+        100.0 * (num(&p["value"]) / num(&p["reference"]) - 1.0)
+    };
+    for (what, value, at) in [
+        ("k3", v, 0),
+        ("k3's CI low", num(&k3["ci95"][0]), 1),
+        ("k3's CI high", num(&k3["ci95"][1]), 2),
+        ("k3's error [%]", pct("cubic_stiffness.k3"), 3),
+        ("kd's error [%]", pct("kd"), 4),
+        ("Fd's error [%]", pct("fd"), 5),
+        (
+            "the first fit's error [%]",
+            100.0 * num(&fin["before"]["error"]["relative"]),
+            6,
+        ),
+        (
+            "the baseline's error [%]",
+            100.0 * num(&fin["baseline"]["relative"]),
+            7,
+        ),
+        (
+            "the final error [%]",
+            100.0 * num(&fin["error"]["relative"]),
+            8,
+        ),
+        (
+            "the first fit's chi2/dof",
+            num(&fin["before"]["error"]["chi2_per_dof"]),
+            9,
+        ),
+        (
+            "the baseline's chi2/dof",
+            num(&fin["baseline"]["chi2_per_dof"]),
+            10,
+        ),
+        ("the final chi2/dof", num(&fin["error"]["chi2_per_dof"]), 11),
+    ] {
+        crate::common::assert_readme_figure(what, value, shown[at]);
+    }
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(
         report.contains("## The model: jenkins joint + cubic_stiffness"),

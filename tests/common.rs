@@ -50,9 +50,17 @@ pub fn readme_figures(start: &str) -> Option<Vec<(f64, f64)>> {
         .lines()
         .find_map(|l| l.trim_start().strip_prefix(start))?;
     // tokens of the characters a figure is written with; words leave
-    // tokens that do not parse (`-` of `->`, `e` of `degree`)
+    // tokens that do not parse (`-` of `->`, `e` of `degree`), and a token
+    // glued to a word is part of its name (`k3`, `H1`, `m^3`)
     let out = line
         .split(|c: char| !(c.is_ascii_digit() || "+-.e".contains(c)))
+        .filter(|t| {
+            let at = t.as_ptr() as usize - line.as_ptr() as usize;
+            !line[..at]
+                .chars()
+                .next_back()
+                .is_some_and(|c| c.is_alphabetic() || c == '^' || c == '_')
+        })
         .map(|t| t.trim_end_matches('.'))
         .filter_map(|t| {
             let value: f64 = t.parse().ok()?;
