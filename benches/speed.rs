@@ -16,7 +16,9 @@
 //!   `sim/model_element_set` the type the virtual test bench simulates
 //!   (`ElementSet<AnyElement>` from a `Model`). `sim/bouc_wen/1` and `/2`:
 //!   the Bouc-Wen joint at its example shape, exact flow and RK4 sub-steps
-//!   (target ≥ 10 M samples/s).
+//!   (target ≥ 10 M samples/s). `sim/iwan4`: Segalman's Iwan joint
+//!   (χ = −0.5, β = 0.5) through the model's element set (target ≥ 15 M
+//!   samples/s, as Masing).
 //! * `hb/point_warm/*`: one converged, warm-started harmonic-balance point
 //!   (Masing, harmonics {1, 3, 5}, 256 samples per period) ≤ 30 µs. Every
 //!   point of the embedded default's 7 levels × 51 frequencies but the first
@@ -26,7 +28,7 @@
 //!   same points (the ratio asked for); `hb/point_warm/masing_formula` uses
 //!   the untabulated backbone; `hb/point_warm/bouc_wen` the Bouc-Wen joint
 //!   at its example shape (periods marched until its loop repeats; target
-//!   ≤ 40 µs).
+//!   ≤ 40 µs); `hb/point_warm/iwan4/0.5` the Iwan joint (target ≤ 40 µs).
 //! * `extract/*`: one coherent dwell of 4096 samples (4 blocks of 1024, 8
 //!   periods each), harmonics 0..=7; the non-coherent least-squares
 //!   reduction of the same samples for comparison.
@@ -39,7 +41,7 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{FD, KD, ThreadCpu, bouc_wen_model, masing_model, sdof};
+use common::{FD, KD, ThreadCpu, bouc_wen_model, iwan4_model, masing_model, sdof};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use hystid::extract::{HarmonicAnalyser, noncoherent};
 use hystid::hb::{HbOptions, HbSolver, describing};
@@ -119,6 +121,12 @@ fn simulator(c: &mut Criterion<ThreadCpu>) {
             b.iter(|| sim.run_displacement(black_box(&f), &mut out).unwrap())
         });
     }
+    // Segalman's Iwan joint (the Masing element on its exact backbone)
+    let iwan: ElementSet<AnyElement> = iwan4_model().element_set().unwrap();
+    let mut sim = Simulator::new(&model, iwan, FS).unwrap();
+    g.bench_function("iwan4", |b| {
+        b.iter(|| sim.run_displacement(black_box(&f), &mut out).unwrap())
+    });
     let set: ElementSet<AnyElement> = masing_model(22.55).element_set().unwrap();
     let mut any = Simulator::new(&model, set, FS).unwrap();
     g.bench_function("model_element_set/masing/22.55", |b| {
@@ -158,11 +166,12 @@ fn harmonic_balance(c: &mut Criterion<ThreadCpu>) {
         ("masing", 3.0, false),
         ("masing_formula", 22.55, true),
         ("bouc_wen", 1.0, false),
+        ("iwan4", 0.5, false),
     ] {
-        let model = if name == "bouc_wen" {
-            bouc_wen_model()
-        } else {
-            masing_model(n)
+        let model = match name {
+            "bouc_wen" => bouc_wen_model(),
+            "iwan4" => iwan4_model(),
+            _ => masing_model(n),
         };
         let (levels, freqs, x) = converged_grid(&model, &opts);
         let points = levels.len() * (freqs.len() - 1);

@@ -51,6 +51,21 @@ pub fn bouc_wen_model() -> Model {
     .unwrap()
 }
 
+/// The paper's SDOF with Segalman's Iwan joint at the paper's stiffness and
+/// slip force (`χ = −0.5`, `β = 0.5`).
+pub fn iwan4_model() -> Model {
+    Model::new(
+        sdof(),
+        vec![hystid::model::ElementSpec::Iwan4 {
+            fs: FD,
+            kt: KD,
+            chi: -0.5,
+            beta: 0.5,
+        }],
+    )
+    .unwrap()
+}
+
 /// The shared data sets folder (`$HYSTID_DATASETS`, else
 /// `../shared/datasets` beside the crate), or `None` after saying why the
 /// bench is skipped.
