@@ -737,12 +737,21 @@ pub fn diagnose_observed(
     let mut failed: Vec<FailedCandidate> = Vec::new();
     let mut round = 0;
     while round < options.max_effects
-        && !remaining.is_empty()
+        && remaining
+            .iter()
+            .any(|e| e.candidate().applies_to(&current.model))
         && (round == 0 || normalised(current.chi2) > noise_band)
     {
         round += 1;
         let feats = features(&data, &current.pred);
-        let ranked = rank(&feats, &remaining);
+        // a candidate the model cannot take (a joint law it already has) is
+        // neither tried nor counted among the K compared
+        let applicable: Vec<Effect> = remaining
+            .iter()
+            .copied()
+            .filter(|e| e.candidate().applies_to(&current.model))
+            .collect();
+        let ranked = rank(&feats, &applicable);
         observer(DiagnoseEvent::Round {
             round,
             candidates: ranked.len(),
@@ -782,7 +791,7 @@ pub fn diagnose_observed(
                     failed.push(FailedCandidate {
                         effect,
                         round,
-                        reason: "no starting point: the residual shows no further mode".into(),
+                        reason: "no starting point: the residual offered none".into(),
                     });
                     continue;
                 }

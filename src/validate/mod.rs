@@ -540,32 +540,29 @@ pub fn validate_recording(
     let fs = rec.meta.sample_rate_hz;
     let force = &rec.channels[reference];
     let measured = &rec.channels[response_channel];
-    let mut sim = if options.periodic {
-        let n = force.len();
-        let repeats = settling_periods(model, n as f64 / fs);
-        let drive: Vec<f64> = force.iter().copied().cycle().take(repeats * n).collect();
-        let mut sim = simulate_response_with(
-            model,
-            &drive,
-            fs,
-            quantity,
-            response_sign,
-            options.min_samples_per_period,
-            options.input,
-        )?;
-        sim.values.drain(..(repeats - 1) * n);
-        sim
+    // a periodic recording drives the model repeated until it has settled;
+    // the last period is compared
+    let n = force.len();
+    let repeats = if options.periodic {
+        settling_periods(model, n as f64 / fs)
     } else {
-        simulate_response_with(
-            model,
-            force,
-            fs,
-            quantity,
-            response_sign,
-            options.min_samples_per_period,
-            options.input,
-        )?
+        1
     };
+    let drive: std::borrow::Cow<[f64]> = if repeats > 1 {
+        force.repeat(repeats).into()
+    } else {
+        force.as_slice().into()
+    };
+    let mut sim = simulate_response_with(
+        model,
+        &drive,
+        fs,
+        quantity,
+        response_sign,
+        options.min_samples_per_period,
+        options.input,
+    )?;
+    sim.values.drain(..(repeats - 1) * n);
     sim.values.truncate(measured.len());
     let whole = error_metrics(measured, &sim.values, fs, 0..measured.len())?;
     let frf = match &options.reduction {

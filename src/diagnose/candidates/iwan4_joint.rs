@@ -28,13 +28,21 @@ impl Candidate for Iwan4Joint {
         true
     }
 
-    /// Four parameters in place of the fitted joint's.
+    /// A joint that is not one already, with a stick stiffness and a slip
+    /// force to start from.
+    fn applies_to(&self, model: &Model) -> bool {
+        model.joint.as_ref().is_some_and(|j| {
+            j.kind() != ElementKind::Iwan4 && j.kind().description().is_fitted_joint()
+        })
+    }
+
+    /// Its four parameters in place of the fitted joint's.
     fn added_parameters(&self, before: &Model) -> usize {
         let had = before
             .joint
             .as_ref()
             .map_or(0, |j| j.kind().description().parameters.len());
-        4usize.saturating_sub(had).max(1)
+        self.size().saturating_sub(had).max(1)
     }
 
     /// A joint misfit grows with level from nothing at the lowest (where
@@ -49,15 +57,12 @@ impl Candidate for Iwan4Joint {
     /// stands (one prediction each; a refit from each would cost a full
     /// refit each, and the refit from the best one reached the same optimum
     /// on the independent Iwan recordings); none when the joint already is
-    /// one.
+    /// one (see [`Candidate::applies_to`]).
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let model = cx.model();
-        let Some(joint) = &model.joint else {
+        let Some(joint) = model.joint.as_ref().filter(|_| self.applies_to(model)) else {
             return Ok(Vec::new());
         };
-        if joint.kind() == ElementKind::Iwan4 {
-            return Ok(Vec::new());
-        }
         let law = joint.kind().description();
         let values: Vec<f64> = joint.parameters().into_iter().map(|(_, v)| v).collect();
         let (Some(ik), Some(ifs)) = (

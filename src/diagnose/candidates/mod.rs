@@ -142,6 +142,12 @@ pub(crate) trait Candidate: Sync {
         false
     }
 
+    /// Whether `model` can take it (a law the joint already follows cannot
+    /// replace it).
+    fn applies_to(&self, _model: &Model) -> bool {
+        true
+    }
+
     /// How many parameters it adds to `before` (the information
     /// criterion's `p`): its size, unless it replaces a part of `before`.
     fn added_parameters(&self, _before: &Model) -> usize {
