@@ -85,6 +85,13 @@ fn truth(case: &Case) -> Model {
             chi,
             beta,
         },
+        JointKind::BoucWen { gamma, delta, nu } => ElementSpec::BoucWen {
+            alpha: case.kd,
+            beta: JointKind::bouc_wen_beta(case.kd, case.fd, gamma, delta, nu),
+            gamma,
+            delta,
+            nu,
+        },
     };
     let mut effects = Vec::new();
     for e in &case.effects {

@@ -250,8 +250,10 @@ pub struct ValidateArgs {
 /// Fit settings shared by `identify` and `run`.
 #[derive(Debug, Args, Clone)]
 pub struct IdentifyOptionsArgs {
-    /// Joint law to fit: masing (kd, fd, n; paper eq. 10), jenkins (kd, fd) or
-    /// iwan4 (fs, kt, chi, beta; Segalman's four-parameter Iwan).
+    /// Joint law to fit: masing (kd, fd, n; paper eq. 10), jenkins (kd, fd),
+    /// iwan4 (fs, kt, chi, beta; Segalman's four-parameter Iwan) or
+    /// bouc_wen (alpha, gamma, delta, nu; beta held, as only its products
+    /// with gamma and delta count).
     #[arg(long, default_value = "masing")]
     pub element: String,
     /// Harmonics in the cost, e.g. 1 or 1,3,5.

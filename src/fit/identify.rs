@@ -118,6 +118,41 @@ fn one_mode() -> usize {
     1
 }
 
+/// `set` without the gauges of `model`'s joint (see [`Role::Gauge`]): a
+/// fit holds them, as the data cannot tell them from the parameters they
+/// trade with.
+pub(crate) fn without_gauges(mut set: ParameterSet, model: &Model) -> ParameterSet {
+    let Some(law) = model.joint.as_ref().map(ElementSpec::description) else {
+        return set;
+    };
+    set.parameters.retain(|p| match &p.target {
+        Target::Element {
+            at: ElementAt::Joint,
+            name,
+        } => !law
+            .parameters
+            .iter()
+            .any(|q| q.name == name && q.role == Role::Gauge),
+        _ => true,
+    });
+    set
+}
+
+/// Why a gauge of `law` is reported at its start.
+pub fn held_gauge_note(law: &crate::model::Description) -> String {
+    let gauges: Vec<&str> = law
+        .parameters
+        .iter()
+        .filter(|p| p.role == Role::Gauge)
+        .map(|p| p.name)
+        .collect();
+    format!(
+        "held at its start ({}): the {} law depends on it only through its products with the others, which carry its scale",
+        gauges.join(", "),
+        law.name
+    )
+}
+
 /// The joint mode's stiffness at the smallest level.
 fn stick_stiffness(linear: &LinearReport) -> f64 {
     linear
@@ -554,7 +589,7 @@ pub fn identify(
         role_name(Role::SlipForce).unwrap_or_default(),
     );
     let base = Model::with_joint(sdof, Some(element), Vec::new())?;
-    let mut element_params = ParameterSet::for_element(&base, ElementAt::Joint, "");
+    let mut element_params = without_gauges(ParameterSet::for_element(&base, ElementAt::Joint, ""), &base);
     // bounded by the data: a slip force far below the smallest level (always
     // slipping) or far above the largest (never slipping) is not identified
     // by the test, and neither is a stick stiffness decades away from the
@@ -610,7 +645,7 @@ pub fn identify(
     {
         stage1_params.extend(ParameterSet::for_sdof_damping(0));
     }
-    let stage1 = FitProblem::new(
+    let mut stage1 = FitProblem::new(
         base.clone(),
         stage1_params.clone(),
         &data,
@@ -618,51 +653,43 @@ pub fn identify(
         options.weighting,
         observer,
     );
-    // a coarse scan for the slip force, from well below the smallest level
-    // to the largest; from the smallest level's mode also for the split of
-    // its stiffness between structure and joint (a few multiples of the
-    // softening the largest level shows)
+    // a coarse scan of joint starts: the slip force from well below the
+    // smallest level to the largest; from the smallest level's mode also
+    // the split of its stiffness between structure and joint (a few
+    // multiples of the softening the largest level shows). Each start is
+    // the law's own `ElementSpec::joint`, so a law that holds a gauge
+    // (Bouc-Wen's β) starts it where the scanned slip force puts it.
     let (lmin, lmax) = data.series.iter().fold((f64::MAX, 0.0f64), |(a, b), s| {
         (a.min(s.level), b.max(s.level))
     });
-    let mut theta = stage1_params.theta_of(&base)?;
-    let index_of = |name: &str| {
-        stage1_params
-            .parameters
-            .iter()
-            .position(|p| p.name == name)
-            .expect("element parameter is free")
-    };
-    let (fd_index, kd_index) = (index_of(fd_name), index_of(kd_name));
     let kd_candidates: Vec<f64> = match options.linear_start {
-        LinearStart::Extremes => [0.7, 1.0, 1.4]
-            .iter()
-            .map(|f| theta[kd_index] + f64::ln(*f))
-            .collect(),
+        LinearStart::Extremes => [0.7, 1.0, 1.4].iter().map(|f| f * kd0).collect(),
         LinearStart::Lowest => {
             let total = stick_stiffness(&linear);
             let softening = (total - linear.underlying.stiffness).max(0.01 * total);
             [1.0, 1.4, 2.0, 3.0, 5.0]
                 .iter()
-                .map(|f| (f * softening).min(0.9 * total).ln())
+                .map(|f| (f * softening).min(0.9 * total))
                 .collect()
         }
     };
-    let mut best = (f64::INFINITY, theta[kd_index], theta[fd_index]);
+    let mut best: (f64, Option<Model>) = (f64::INFINITY, None);
     let scan = 16;
     for &kd in &kd_candidates {
-        theta[kd_index] = kd;
         for i in 0..=scan {
             let fd = (0.05 * lmin) * ((lmax / (0.05 * lmin)).powf(i as f64 / scan as f64));
-            theta[fd_index] = fd.ln();
-            let c = stage1.cost(&theta)?;
+            let mut candidate = base.clone();
+            candidate.joint = Some(ElementSpec::joint(options.element, kd, fd, "element")?);
+            stage1.base = candidate.clone();
+            let c = stage1.cost(&stage1_params.theta_of(&candidate)?)?;
             if c < best.0 {
-                best = (c, kd, theta[fd_index]);
+                best = (c, Some(candidate));
             }
         }
     }
-    theta[kd_index] = best.1;
-    theta[fd_index] = best.2;
+    let base = best.1.unwrap_or(base);
+    stage1.base = base.clone();
+    let theta = stage1_params.theta_of(&base)?;
     let start = theta.clone();
     let steps1: Vec<f64> = stage1_params.parameters.iter().map(initial_step).collect();
     let r1 = optimise::nelder_mead(&stage1, &theta, &steps1, options.max_iterations, 1e-5)?;
@@ -706,7 +733,7 @@ pub fn identify(
     // intervals with every linear parameter free as well: m, c and k are
     // estimated from the same data, so the element's intervals must carry
     // their uncertainty even when the optimiser held them fixed
-    let mut u_params = ParameterSet::for_element(&model, ElementAt::Joint, "");
+    let mut u_params = without_gauges(ParameterSet::for_element(&model, ElementAt::Joint, ""), &model);
     u_params.extend(ParameterSet::for_linear_in(&model, data.band_hz()));
     let u_problem = FitProblem::new(
         model.clone(),
@@ -721,6 +748,23 @@ pub fn identify(
     let mut parameters = BTreeMap::new();
     for (j, p) in u_params.parameters.iter().enumerate() {
         parameters.insert(p.name.clone(), uncertainty.estimates[j].clone());
+    }
+    // a gauge is reported where it was held, saying so
+    if let Some(joint) = &model.joint {
+        for ((name, value), info) in joint.parameters().into_iter().zip(law.parameters) {
+            if info.role == Role::Gauge {
+                parameters.insert(
+                    name.to_string(),
+                    Estimate {
+                        value,
+                        ci95: [value, value],
+                        identifiable: false,
+                        note: Some(held_gauge_note(law)),
+                        bootstrap_ci95: None,
+                    },
+                );
+            }
+        }
     }
     // the optimiser's bounds are the data's (the slip force within the
     // levels' range), the interval's are the law's: either one reached

@@ -491,9 +491,18 @@ fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [
         Domain::Positive | Domain::NonNegative => (0.0, 1e30),
         Domain::Range { min, max } => (min, max),
     };
+    // an excluded end of the domain is no bound a fit may stop at: a
+    // parameter at its bound must still make a valid model
+    let inside = |b: f64| match info.domain {
+        Domain::Range { min, max } => b.clamp(
+            min + 1e-9 * (max - min).abs(),
+            max - 1e-9 * (max - min).abs(),
+        ),
+        _ => b,
+    };
     match info.scale {
-        FitScale::Reciprocal { min, max } => (Transform::Reciprocal, [min, max]),
-        FitScale::Linear => (Transform::Scaled { scale }, [lower, upper]),
+        FitScale::Reciprocal { min, max } => (Transform::Reciprocal, [inside(min), inside(max)]),
+        FitScale::Linear => (Transform::Scaled { scale }, [inside(lower), inside(upper)]),
         // positive by nature: six decades either side of the start, which
         // no fit from a data-based start should need, and which keeps a
         // runaway (a slip force above every level, a stiffness of 1e30) from

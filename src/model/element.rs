@@ -361,6 +361,12 @@ pub enum Role {
     /// The force at which a joint slips (`Fd`): bounded by the force levels
     /// tested.
     SlipForce,
+    /// A gauge: a parameter the force determines only together with others
+    /// (Bouc-Wen's `β`, which trades with `γ` and `δ`: `(cβ, γ/c, δ/c)` is
+    /// the same law). A fit holds it at its start, the stick stiffness over
+    /// the slip force (the reciprocal of the displacement at which the joint
+    /// slips), and the others take its scale.
+    Gauge,
     /// Anything else (a shape, a size, a gap).
     Other,
 }
@@ -440,10 +446,12 @@ impl Description {
         self.memory && self.index_of(Role::StickStiffness).is_some()
     }
 
-    /// Whether `identify` fits it: a joint with a slip force too, so that
-    /// the fit starts it from the stiffness and force the data show.
+    /// Whether `identify` fits it: a joint with a slip force too, or a
+    /// gauge started from one, so that the fit starts it from the stiffness
+    /// and force the data show.
     pub fn is_fitted_joint(&self) -> bool {
-        self.is_joint() && self.index_of(Role::SlipForce).is_some()
+        self.is_joint()
+            && (self.index_of(Role::SlipForce).is_some() || self.index_of(Role::Gauge).is_some())
     }
 
     /// The position of the parameter with `role`.

@@ -200,8 +200,9 @@ impl ElementSpec {
     }
 
     /// A joint of `kind` started at stick stiffness `kd` and slip force
-    /// `fd`, its other parameters at their law's start; an error naming
-    /// `field` if the kind is not a joint.
+    /// `fd` (a gauge at `kd / fd`, see [`Role::Gauge`]), its other
+    /// parameters at their law's start; an error naming `field` if the kind
+    /// is not a joint.
     pub fn joint(kind: ElementKind, kd: f64, fd: f64, field: &str) -> Result<ElementSpec> {
         let d = kind.description();
         if !d.is_fitted_joint() {
@@ -223,6 +224,7 @@ impl ElementSpec {
             .map(|p| match p.role {
                 Role::StickStiffness => kd,
                 Role::SlipForce => fd,
+                Role::Gauge => kd / fd,
                 Role::Other => p.start,
             })
             .collect();
@@ -774,7 +776,19 @@ mod tests {
             if d.is_fitted_joint() {
                 let j = ElementSpec::joint(kind, 1e7, 100.0, "element").unwrap();
                 assert_eq!(j.stick_stiffness(), 1e7);
-                assert_eq!(j.value_of(Role::SlipForce), Some(100.0));
+                match j.value_of(Role::SlipForce) {
+                    Some(fd) => assert_eq!(fd, 100.0),
+                    None => {
+                        // a gauged law started at (kd, fd) saturates at fd:
+                        // loaded to ten slip displacements, within 1e-3
+                        let mut e = j.build().unwrap();
+                        let mut f = 0.0;
+                        for i in 1..=1000 {
+                            f = e.commit(1e-4 * i as f64 / 1000.0, 1.0).force;
+                        }
+                        assert!((f / 100.0 - 1.0).abs() < 1e-3, "{}: {f}", d.name);
+                    }
+                }
             } else {
                 let err = ElementSpec::joint(kind, 1e7, 100.0, "element").unwrap_err();
                 assert!(err.to_string().contains("not a joint"), "{err}");
@@ -794,7 +808,8 @@ mod tests {
             [
                 ElementKind::Jenkins,
                 ElementKind::Masing,
-                ElementKind::Iwan4
+                ElementKind::Iwan4,
+                ElementKind::BoucWen
             ]
         );
     }

@@ -8,6 +8,7 @@
 
 pub mod kit;
 
+mod bouc_wen;
 mod iwan;
 mod reference;
 mod sample;

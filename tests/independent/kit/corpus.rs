@@ -20,6 +20,20 @@ pub enum JointKind {
         chi: f64,
         beta: f64,
     },
+    /// A softening Bouc-Wen joint (`γ + δ > 0`): `kd` is its `α`, `fd` the
+    /// force it saturates at, `(α / (β (γ + δ)))^(1/ν)`, which sets `β`.
+    BoucWen {
+        gamma: f64,
+        delta: f64,
+        nu: f64,
+    },
+}
+
+impl JointKind {
+    /// Bouc-Wen's `β` for stiffness `kd` and saturation force `fd`.
+    pub fn bouc_wen_beta(kd: f64, fd: f64, gamma: f64, delta: f64, nu: f64) -> f64 {
+        kd / ((gamma + delta) * fd.powf(nu))
+    }
 }
 
 /// An effect name, as hystid's candidates are named.
@@ -219,6 +233,7 @@ impl Case {
             JointKind::Jenkins => "jenkins",
             JointKind::Masing { .. } => "masing",
             JointKind::Iwan4 { .. } => "iwan4",
+            JointKind::BoucWen { .. } => "bouc_wen",
         }
     }
     pub fn system(&self) -> RefSystem {
@@ -252,6 +267,13 @@ impl Case {
                 kt: self.kd,
                 chi,
                 beta,
+            },
+            JointKind::BoucWen { gamma, delta, nu } => RefJoint::BoucWen {
+                alpha: self.kd,
+                beta: JointKind::bouc_wen_beta(self.kd, self.fd, gamma, delta, nu),
+                gamma,
+                delta,
+                nu,
             },
         };
         RefSystem {
@@ -296,6 +318,9 @@ impl Case {
             JointKind::Jenkins => "jenkins".to_string(),
             JointKind::Masing { n } => format!("masing N={n:.2}"),
             JointKind::Iwan4 { chi, beta } => format!("iwan4 chi={chi:.3} beta={beta:.3}"),
+            JointKind::BoucWen { gamma, delta, nu } => {
+                format!("bouc_wen gamma={gamma:.3} delta={delta:.3} nu={nu:.2}")
+            }
         };
         let eff: Vec<_> = self.effect_kinds().iter().map(|e| e.name()).collect();
         format!(

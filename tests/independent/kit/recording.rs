@@ -31,6 +31,14 @@ pub fn truth_json(case: &Case) -> Value {
         JointKind::Iwan4 { chi, beta } => {
             json!({"kind": "iwan4", "kt": case.kd, "fs": case.fd, "chi": chi, "beta": beta})
         }
+        JointKind::BoucWen { gamma, delta, nu } => json!({
+            "kind": "bouc_wen",
+            "alpha": case.kd,
+            "beta": JointKind::bouc_wen_beta(case.kd, case.fd, gamma, delta, nu),
+            "gamma": gamma,
+            "delta": delta,
+            "nu": nu
+        }),
     };
     let effects: Vec<Value> = case
         .effects

@@ -1,6 +1,8 @@
 //! The reference simulator: classical RK4 on the continuous equation of
 //! motion of a modal structure seen at one point, with a hysteretic joint
-//! by operator splitting. Shares no code with hystid (no `use hystid`).
+//! by operator splitting (or, for Bouc-Wen, its differential equation in
+//! time integrated with the structure). Shares no code with hystid (no
+//! `use hystid`).
 
 /// A linear mode: `q'' + 2 ζ ω q' + ω² q = R (F − F_nl)`.
 #[derive(Clone, Copy, Debug)]
@@ -51,6 +53,59 @@ pub enum RefJoint {
         chi: f64,
         beta: f64,
     },
+    /// The Bouc-Wen hysteresis as the nonlinearbenchmark.org benchmark
+    /// writes it, a differential equation in time,
+    /// `z' = α y' − β (γ |y'| |z|^(ν−1) z + δ y' |z|^ν)`, integrated by the
+    /// same RK4 as the structure (one more state), not by splitting.
+    BoucWen {
+        alpha: f64,
+        beta: f64,
+        gamma: f64,
+        delta: f64,
+        nu: f64,
+    },
+}
+
+impl RefJoint {
+    /// `z'` of a Bouc-Wen joint at force `z` and velocity `v` (zero for
+    /// every other joint, whose state moves by splitting).
+    #[inline]
+    pub fn rate(&self, z: f64, v: f64) -> f64 {
+        match *self {
+            RefJoint::BoucWen {
+                alpha,
+                beta,
+                gamma,
+                delta,
+                nu,
+            } => {
+                let za = z.abs();
+                let zn = if nu == 1.0 { za } else { za.powf(nu) };
+                // |z|^(ν−1) z = |z|^ν sign(z)
+                alpha * v - beta * (gamma * v.abs() * zn * z.signum() + delta * v * zn)
+            }
+            _ => 0.0,
+        }
+    }
+
+    fn is_differential(&self) -> bool {
+        matches!(self, RefJoint::BoucWen { .. })
+    }
+
+    /// `|∂z'/∂z|` of a Bouc-Wen joint at `z` and `v` (an upper bound): the
+    /// rate at which `z` relaxes, which an explicit step must resolve.
+    fn stiffness_rate(&self, z: f64, v: f64) -> f64 {
+        match *self {
+            RefJoint::BoucWen {
+                beta,
+                gamma,
+                delta,
+                nu,
+                ..
+            } => beta * nu * z.abs().powf(nu - 1.0) * v.abs() * (gamma.abs() + delta.abs()),
+            _ => 0.0,
+        }
+    }
 }
 
 /// Sliders in the bank's continuum (the spike is one more).
@@ -213,6 +268,8 @@ impl Hysteresis {
             RefJoint::Jenkins { kd, fd } => (kd * (x - self.xs)).clamp(-fd, fd),
             RefJoint::Masing { kd, fd, n } => self.masing_eval(kd, fd, n, x).0,
             RefJoint::Iwan4 { .. } => self.bank.as_ref().unwrap().force(&self.anchors, x),
+            // its force is the simulator's state, not a function of x
+            RefJoint::BoucWen { .. } => self.f,
         }
     }
 
@@ -221,7 +278,7 @@ impl Hysteresis {
         match self.joint {
             RefJoint::None => 0.0,
             RefJoint::Jenkins { .. } | RefJoint::Iwan4 { .. } => self.force_at(self.x),
-            RefJoint::Masing { .. } => self.f,
+            RefJoint::Masing { .. } | RefJoint::BoucWen { .. } => self.f,
         }
     }
 
@@ -258,6 +315,8 @@ impl Hysteresis {
                 self.x = x;
                 bank.force(&self.anchors, x)
             }
+            // moved by the simulator's RK4 (see `RefJoint::rate`)
+            RefJoint::BoucWen { .. } => self.f,
         }
     }
 
@@ -433,7 +492,6 @@ impl RefSystem {
         let mut tq = [0.0; MAXM];
         let mut tp = [0.0; MAXM];
         let dt = 1.0 / fs;
-        let h = dt / substeps as f64;
         let mut hint = 0usize;
         let mut out = RefOutput {
             force: Vec::with_capacity(n),
@@ -444,6 +502,9 @@ impl RefSystem {
         };
         let sum = |a: &[f64; MAXM]| a[..nm].iter().sum::<f64>();
         let mut fh = 0.0;
+        // a differential joint's force, integrated with the structure
+        let differential = self.joint.is_differential();
+        let mut z = 0.0;
         for i in 0..n {
             // record the state at the sample instant
             let t = i as f64 * dt;
@@ -466,41 +527,58 @@ impl RefSystem {
                 break;
             }
             // advance to the next sample
-            for s in 0..substeps {
+            // a Bouc-Wen force relaxes at `β |y'|` per second: far faster
+            // than the structure moves at large amplitudes, so the step is
+            // shortened until it resolves that (λh <= 0.1, twice the rate
+            // the sample starts with: RK4's error then ~1e-7 per step)
+            let lambda = 2.0 * self.joint.stiffness_rate(fh, v);
+            let nsub = substeps.max(((lambda * dt / 0.1).ceil() as usize).min(1 << 16));
+            let h = dt / nsub as f64;
+            for s in 0..nsub {
                 let ts = t + s as f64 * h;
+                // one RK4 stage: (q', p') and the differential joint's z'
                 let stage = |q: &[f64; MAXM],
                              p: &[f64; MAXM],
+                             zz: f64,
                              tt: f64,
                              hint: &mut usize,
                              dq: &mut [f64; MAXM],
-                             dp: &mut [f64; MAXM]| {
+                             dp: &mut [f64; MAXM]|
+                 -> f64 {
                     let x = q[..nm].iter().sum::<f64>();
                     let v = p[..nm].iter().sum::<f64>();
-                    let fnet = force.force(tt, hint) - hyst.force_at(x) - self.smooth(x, v);
+                    let fj = if differential { zz } else { hyst.force_at(x) };
+                    let fnet = force.force(tt, hint) - fj - self.smooth(x, v);
                     self.deriv(q, p, fnet, dq, dp);
+                    self.joint.rate(zz, v)
                 };
-                stage(&q, &p, ts, &mut hint, &mut k1q, &mut k1p);
+                let k1z = stage(&q, &p, z, ts, &mut hint, &mut k1q, &mut k1p);
                 for r in 0..nm {
                     tq[r] = q[r] + 0.5 * h * k1q[r];
                     tp[r] = p[r] + 0.5 * h * k1p[r];
                 }
-                stage(&tq, &tp, ts + 0.5 * h, &mut hint, &mut k2q, &mut k2p);
+                let k2z = stage(&tq, &tp, z + 0.5 * h * k1z, ts + 0.5 * h, &mut hint, &mut k2q, &mut k2p);
                 for r in 0..nm {
                     tq[r] = q[r] + 0.5 * h * k2q[r];
                     tp[r] = p[r] + 0.5 * h * k2p[r];
                 }
-                stage(&tq, &tp, ts + 0.5 * h, &mut hint, &mut k3q, &mut k3p);
+                let k3z = stage(&tq, &tp, z + 0.5 * h * k2z, ts + 0.5 * h, &mut hint, &mut k3q, &mut k3p);
                 for r in 0..nm {
                     tq[r] = q[r] + h * k3q[r];
                     tp[r] = p[r] + h * k3p[r];
                 }
-                stage(&tq, &tp, ts + h, &mut hint, &mut k4q, &mut k4p);
+                let k4z = stage(&tq, &tp, z + h * k3z, ts + h, &mut hint, &mut k4q, &mut k4p);
                 for r in 0..nm {
                     q[r] += h / 6.0 * (k1q[r] + 2.0 * k2q[r] + 2.0 * k3q[r] + k4q[r]);
                     p[r] += h / 6.0 * (k1p[r] + 2.0 * k2p[r] + 2.0 * k3p[r] + k4p[r]);
                 }
-                // operator splitting: the hysteretic state moves with the new x
-                fh = hyst.update(sum(&q));
+                fh = if differential {
+                    z += h / 6.0 * (k1z + 2.0 * k2z + 2.0 * k3z + k4z);
+                    z
+                } else {
+                    // operator splitting: the hysteretic state moves with the new x
+                    hyst.update(sum(&q))
+                };
             }
         }
         out

@@ -279,11 +279,13 @@ pub fn score(case: &Case, run: &RunOutcome) -> Score {
         ));
     }
     // the stick stiffness and slip force, by the law's names
-    let names = match case.joint {
-        JointKind::Iwan4 { .. } => ["kt", "fs"],
-        _ => ["kd", "fd"],
+    let names: &[&str] = match case.joint {
+        JointKind::Iwan4 { .. } => &["kt", "fs"],
+        // its saturation force is no parameter of the law
+        JointKind::BoucWen { .. } => &["alpha"],
+        _ => &["kd", "fd"],
     };
-    for (name, t) in names.into_iter().zip([case.kd, case.fd]) {
+    for (&name, t) in names.iter().zip([case.kd, case.fd]) {
         s.joint.push(ParamError {
             effect: joint_kind.into(),
             name: name.into(),
