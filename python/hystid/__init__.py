@@ -220,7 +220,7 @@ def identify(frf, *, reference=None, recording="", response=None, options=None, 
 
     Fit options are the library's ``FitOptions`` fields, as keywords or an
     ``options`` dict: ``element`` (``"masing"``, ``"jenkins"``,
-    ``"iwan4"``), ``harmonics`` (``[1]``), ``weighting`` (``"none"`` or
+    ``"iwan4"``, ``"bouc_wen"``: its ``beta`` held), ``harmonics`` (``[1]``), ``weighting`` (``"none"`` or
     ``"standard_error"``: ``--weighted``), ``refine_linear``,
     ``linear_start``, ``modes``, ``second_optimiser`` (``--lm``),
     ``bootstrap``, ``seed`` (``--bootstrap-seed``), ``band_hz`` (``(lo,
