@@ -589,7 +589,10 @@ pub fn identify(
         role_name(Role::SlipForce).unwrap_or_default(),
     );
     let base = Model::with_joint(sdof, Some(element), Vec::new())?;
-    let mut element_params = without_gauges(ParameterSet::for_element(&base, ElementAt::Joint, ""), &base);
+    let mut element_params = without_gauges(
+        ParameterSet::for_element(&base, ElementAt::Joint, ""),
+        &base,
+    );
     // bounded by the data: a slip force far below the smallest level (always
     // slipping) or far above the largest (never slipping) is not identified
     // by the test, and neither is a stick stiffness decades away from the
@@ -733,7 +736,10 @@ pub fn identify(
     // intervals with every linear parameter free as well: m, c and k are
     // estimated from the same data, so the element's intervals must carry
     // their uncertainty even when the optimiser held them fixed
-    let mut u_params = without_gauges(ParameterSet::for_element(&model, ElementAt::Joint, ""), &model);
+    let mut u_params = without_gauges(
+        ParameterSet::for_element(&model, ElementAt::Joint, ""),
+        &model,
+    );
     u_params.extend(ParameterSet::for_linear_in(&model, data.band_hz()));
     let u_problem = FitProblem::new(
         model.clone(),

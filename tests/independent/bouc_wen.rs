@@ -27,7 +27,14 @@ fn hystid_bouc_wen_is_the_benchmark_equation() {
     for (alpha, beta, gamma, delta, nu, scale) in [
         // softening, saturating at α / (β (γ + δ)) = 250 N
         (2.0e7, 8.0e4, 0.6, 0.4, 1.0, 250.0 / 2.0e7),
-        (2.0e7, 2.0e7 / 250.0f64.powi(2), 0.3, 0.7, 2.0, 250.0 / 2.0e7),
+        (
+            2.0e7,
+            2.0e7 / 250.0f64.powi(2),
+            0.3,
+            0.7,
+            2.0,
+            250.0 / 2.0e7,
+        ),
         // the benchmark's published law, stiffening
         (5.0e4, 1.0e3, 0.8, -1.1, 1.0, 1.0e-3),
     ] {

@@ -557,12 +557,28 @@ impl RefSystem {
                     tq[r] = q[r] + 0.5 * h * k1q[r];
                     tp[r] = p[r] + 0.5 * h * k1p[r];
                 }
-                let k2z = stage(&tq, &tp, z + 0.5 * h * k1z, ts + 0.5 * h, &mut hint, &mut k2q, &mut k2p);
+                let k2z = stage(
+                    &tq,
+                    &tp,
+                    z + 0.5 * h * k1z,
+                    ts + 0.5 * h,
+                    &mut hint,
+                    &mut k2q,
+                    &mut k2p,
+                );
                 for r in 0..nm {
                     tq[r] = q[r] + 0.5 * h * k2q[r];
                     tp[r] = p[r] + 0.5 * h * k2p[r];
                 }
-                let k3z = stage(&tq, &tp, z + 0.5 * h * k2z, ts + 0.5 * h, &mut hint, &mut k3q, &mut k3p);
+                let k3z = stage(
+                    &tq,
+                    &tp,
+                    z + 0.5 * h * k2z,
+                    ts + 0.5 * h,
+                    &mut hint,
+                    &mut k3q,
+                    &mut k3p,
+                );
                 for r in 0..nm {
                     tq[r] = q[r] + h * k3q[r];
                     tp[r] = p[r] + h * k3p[r];
