@@ -8,12 +8,10 @@ use super::kit::corpus::{
 };
 use super::kit::recording::write_recording;
 use super::kit::refsim::RefJoint;
-use super::kit::score::hystid_bin;
+use super::kit::score::{hystid_bin, run_identify};
 use hystid::model::{Element, ElementSpec};
-use serde_json::Value;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// The element's force along a two-tone displacement history (inner loops,
 /// loops growing to saturation and shrinking) against the equation in time,
@@ -139,20 +137,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
     let js = write_recording(&dir.join("recordings"), case, &rec).unwrap();
     drop(rec);
     let out = dir.join("out").join(&case.name).join("identify");
-    let o = Command::new(hystid_bin())
-        .args([
-            "identify",
-            js.to_str().unwrap(),
-            "--element",
-            "bouc_wen",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let fit: Value = serde_json::from_slice(&std::fs::read(out.join("fit.json")).unwrap()).unwrap();
+    let fit = run_identify(&hystid_bin(), &js, &out, "bouc_wen");
     let p = |n: &str| fit["parameters"][n]["value"].as_f64().unwrap_or(f64::NAN);
     let (a, b) = (p("alpha"), p("beta"));
     let got = [a, b * p("gamma"), b * p("delta"), p("nu")];

@@ -8,11 +8,9 @@ use super::kit::corpus::{
 };
 use super::kit::recording::write_recording;
 use super::kit::refsim::{Hysteresis, IWAN_SLIDERS, RefJoint};
-use super::kit::score::{hystid_bin, run_diagnose};
+use super::kit::score::{hystid_bin, run_diagnose, run_identify};
 use hystid::model::{Element, ElementSpec};
-use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Duration;
 
 /// The element's force along a displacement history with inner loops,
@@ -171,20 +169,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
     };
     // declared
     let out = dir.join("out").join(&case.name).join("identify");
-    let o = Command::new(hystid_bin())
-        .args([
-            "identify",
-            js.to_str().unwrap(),
-            "--element",
-            "iwan4",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let fit: Value = serde_json::from_slice(&std::fs::read(out.join("fit.json")).unwrap()).unwrap();
+    let fit = run_identify(&hystid_bin(), &js, &out, "iwan4");
     let p = |n: &str| fit["parameters"][n]["value"].as_f64();
     judge(
         "`identify --element iwan4` (declared)",

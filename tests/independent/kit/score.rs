@@ -20,6 +20,20 @@ pub struct RunOutcome {
     pub command: String,
 }
 
+/// `hystid identify REC.json --element E --quiet --out DIR`: its fit.json
+/// (panics, with hystid's message, if the command fails).
+pub fn run_identify(bin: &Path, recording: &Path, out: &Path, element: &str) -> Value {
+    let o = Command::new(bin)
+        .arg("identify")
+        .arg(recording)
+        .args(["--element", element, "--quiet", "--out"])
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&std::fs::read(out.join("fit.json")).unwrap()).unwrap()
+}
+
 /// `hystid diagnose REC.json --out DIR --element E --quiet`, with a timeout.
 pub fn run_diagnose(
     bin: &Path,
