@@ -441,7 +441,20 @@ pub fn run_time_fit_from_start(
     observer: &dyn Observer,
 ) -> Result<TimeFitReport> {
     let mut params = time_parameters(start, true, None);
-    let names: Vec<String> = params.parameters.iter().map(|p| p.name.clone()).collect();
+    // the joint's gauges are held whether named or not
+    let gauges = start.joint.iter().flat_map(|j| {
+        j.description()
+            .parameters
+            .iter()
+            .filter(|q| q.role == crate::model::Role::Gauge)
+            .map(|q| q.name.to_string())
+    });
+    let names: Vec<String> = params
+        .parameters
+        .iter()
+        .map(|p| p.name.clone())
+        .chain(gauges)
+        .collect();
     for f in fixed {
         if !names.contains(f) {
             return Err(Error::input(

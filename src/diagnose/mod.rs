@@ -231,7 +231,7 @@ pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> Parameter
         p.extend(set);
     }
     p.extend(ParameterSet::for_linear_in(model, band_hz));
-    crate::fit::identify::without_gauges(p, model)
+    p.without_gauges(model)
 }
 
 /// A model refitted to the data judged, with its prediction and `χ²`.

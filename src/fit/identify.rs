@@ -118,26 +118,6 @@ fn one_mode() -> usize {
     1
 }
 
-/// `set` without the gauges of `model`'s joint (see [`Role::Gauge`]): a
-/// fit holds them, as the data cannot tell them from the parameters they
-/// trade with.
-pub(crate) fn without_gauges(mut set: ParameterSet, model: &Model) -> ParameterSet {
-    let Some(law) = model.joint.as_ref().map(ElementSpec::description) else {
-        return set;
-    };
-    set.parameters.retain(|p| match &p.target {
-        Target::Element {
-            at: ElementAt::Joint,
-            name,
-        } => !law
-            .parameters
-            .iter()
-            .any(|q| q.name == name && q.role == Role::Gauge),
-        _ => true,
-    });
-    set
-}
-
 /// Why a gauge of `law` is reported at its start.
 pub fn held_gauge_note(law: &crate::model::Description) -> String {
     let gauges: Vec<&str> = law
@@ -589,10 +569,8 @@ pub fn identify(
         role_name(Role::SlipForce).unwrap_or_default(),
     );
     let base = Model::with_joint(sdof, Some(element), Vec::new())?;
-    let mut element_params = without_gauges(
-        ParameterSet::for_element(&base, ElementAt::Joint, ""),
-        &base,
-    );
+    let mut element_params =
+        ParameterSet::for_element(&base, ElementAt::Joint, "").without_gauges(&base);
     // bounded by the data: a slip force far below the smallest level (always
     // slipping) or far above the largest (never slipping) is not identified
     // by the test, and neither is a stick stiffness decades away from the
@@ -736,10 +714,8 @@ pub fn identify(
     // intervals with every linear parameter free as well: m, c and k are
     // estimated from the same data, so the element's intervals must carry
     // their uncertainty even when the optimiser held them fixed
-    let mut u_params = without_gauges(
-        ParameterSet::for_element(&model, ElementAt::Joint, ""),
-        &model,
-    );
+    let mut u_params =
+        ParameterSet::for_element(&model, ElementAt::Joint, "").without_gauges(&model);
     u_params.extend(ParameterSet::for_linear_in(&model, data.band_hz()));
     let u_problem = FitProblem::new(
         model.clone(),

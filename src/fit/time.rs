@@ -545,7 +545,8 @@ impl Objective for TimeProblem<'_> {
 }
 
 /// The free parameters of a time-domain fit of `model`: every element's
-/// (the joint's under their plain names, an effect's prefixed with its law),
+/// (the joint's under their plain names, an effect's prefixed with its law;
+/// not the joint's gauges),
 /// and with `refine_linear` the linear part's (see
 /// [`ParameterSet::for_linear_in`]).
 pub fn time_parameters(
@@ -564,7 +565,8 @@ pub fn time_parameters(
     if refine_linear {
         p.extend(ParameterSet::for_linear_in(model, band_hz));
     }
-    p
+    // as in the FRF fit: a gauge is held (Bouc-Wen's β)
+    p.without_gauges(model)
 }
 
 /// Fits `parameters` of `start` to `records` in the time domain (see the

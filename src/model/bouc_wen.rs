@@ -196,13 +196,13 @@ impl BoucWen {
     fn flow_general(&self, z0: f64, h: f64) -> f64 {
         let s = sign(h);
         let (mut z, mut left) = (z0, h.abs());
+        // ν < 1: `|z|^ν` is steep at zero, shorter steps
+        let share = SUBSTEP * self.nu.min(1.0).powi(2);
         for i in 0..MAX_SUBSTEPS {
             let (rate, jac) = self.rate_along(z, s);
             let mut dl = if i + 1 == MAX_SUBSTEPS || rate == 0.0 {
                 left
             } else {
-                // ν < 1: `|z|^ν` is steep at zero, shorter steps
-                let share = SUBSTEP * self.nu.min(1.0).powi(2);
                 left.min(share * z.abs().max(self.z_scale) / rate.abs())
             };
             // where the linearised law reaches zero: exact for ν = 1

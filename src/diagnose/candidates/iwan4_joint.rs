@@ -29,10 +29,13 @@ impl Candidate for Iwan4Joint {
     }
 
     /// A joint that is not one already, with a stick stiffness and a slip
-    /// force to start from.
+    /// force to start from (not a Bouc-Wen joint, whose saturation force is
+    /// no parameter).
     fn applies_to(&self, model: &Model) -> bool {
         model.joint.as_ref().is_some_and(|j| {
-            j.kind() != ElementKind::Iwan4 && j.kind().description().is_fitted_joint()
+            j.kind() != ElementKind::Iwan4
+                && j.kind().description().is_joint()
+                && j.kind().description().index_of(Role::SlipForce).is_some()
         })
     }
 
