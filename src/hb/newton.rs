@@ -49,12 +49,13 @@ pub(crate) enum EvalError {
     },
     /// A law whose memory fades gradually did not reach a periodic loop.
     #[error(
-        "the element's loop did not repeat within {periods} periods (last change {change:.1e} of its peak)"
+        "the element's loop did not repeat within {periods} periods (last off by {change:.1e} of its peak)"
     )]
     NotSettled {
         /// Periods marched.
         periods: usize,
-        /// The last period's largest change of the force, relative to its peak.
+        /// How far the last period's memory was from periodic, relative to
+        /// the force's peak.
         change: f64,
     },
     /// A residual component is not finite (an overflowing receptance or force).

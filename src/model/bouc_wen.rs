@@ -52,6 +52,9 @@ pub struct BoucWen {
     y: f64,
     /// Last committed force `z`, N.
     z: f64,
+    /// `|z|^(ν−1)` of the committed `z` (the power a flow starts from and
+    /// the next step's first slope needs: one `powf` saved per sample).
+    z_power: f64,
     /// `∂z/∂p` carried by [`Element::commit_sensitivity`] (empty: zero).
     z_sensitivity: Vec<f64>,
     /// `∂y/∂p` of the last committed sample.
@@ -106,6 +109,7 @@ impl BoucWen {
             z_scale,
             y: 0.0,
             z: 0.0,
+            z_power: 0.0,
             z_sensitivity: Vec::new(),
             y_sensitivity: Vec::new(),
             period_z: 0.0,
@@ -123,27 +127,49 @@ impl BoucWen {
     /// `dz/dy` at `z` moving in direction `s` (±1).
     #[inline]
     pub fn slope(&self, z: f64, s: f64) -> f64 {
-        let az = z.abs();
-        // whole exponents (the usual 1, 2, 3) by multiplication, not powf
-        let p = if self.nu == 1.0 {
+        self.slope_with(z, self.power(z.abs()), s)
+    }
+
+    /// `|z|^(ν−1)`: whole exponents (the usual 1, 2, 3) by multiplication,
+    /// not `powf`; 0 at `z = 0` (where every use multiplies it by `|z|`).
+    #[inline]
+    fn power(&self, az: f64) -> f64 {
+        if az == 0.0 {
+            0.0
+        } else if self.nu == 1.0 {
+            1.0
+        } else if self.nu == 2.0 {
             az
         } else if self.nu.fract() == 0.0 {
-            az.powi(self.nu as i32)
+            az.powi(self.nu as i32 - 1)
         } else {
-            az.powf(self.nu)
-        };
-        self.alpha - self.beta * p * (self.gamma * s * sign(z) + self.delta)
+            az.powf(self.nu - 1.0)
+        }
+    }
+
+    /// `dz/dy` at `z` moving in direction `s`, given `p = |z|^(ν−1)`.
+    #[inline]
+    fn slope_with(&self, z: f64, p: f64, s: f64) -> f64 {
+        self.alpha - self.beta * p * z.abs() * (self.gamma * s * sign(z) + self.delta)
     }
 
     /// `z` carried from `z0` along a straight displacement step `h`.
     #[inline]
     pub fn flow(&self, z0: f64, h: f64) -> f64 {
+        self.flow_with(z0, self.power(z0.abs()), h).0
+    }
+
+    /// [`BoucWen::flow`] from `z0` with its power `p0 = |z0|^(ν−1)`: the
+    /// end `z` and its power.
+    #[inline]
+    fn flow_with(&self, z0: f64, p0: f64, h: f64) -> (f64, f64) {
         if h == 0.0 {
-            z0
+            (z0, p0)
         } else if self.nu == 1.0 {
-            self.flow_exact(z0, h)
+            let z = self.flow_exact(z0, h);
+            (z, self.power(z.abs()))
         } else {
-            self.flow_general(z0, h)
+            self.flow_general(z0, p0, h)
         }
     }
 
@@ -157,13 +183,11 @@ impl BoucWen {
             let sigma = if z != 0.0 { sign(z) } else { s };
             let c = self.beta * (self.gamma * s + self.delta * sigma);
             let ch = c * h;
-            // e^{−ch} and (1 − e^{−ch}) / c from one transcendental: expm1
-            // where the difference would cancel, exp elsewhere
-            let (decay, phi) = if ch.abs() < 1e-8 {
-                (1.0 - ch, h * (1.0 - 0.5 * ch))
-            } else if ch.abs() < 1e-2 {
-                let m = (-ch).exp_m1();
-                (1.0 + m, -m / c)
+            // e^{−ch} and (1 − e^{−ch}) / c: a short step (a sample of a
+            // simulation) by their series, to rounding; else from one exp
+            let (decay, phi) = if ch.abs() < 1e-2 {
+                let phi1 = phi1_series(-ch);
+                (1.0 - ch * phi1, h * phi1)
             } else {
                 let e = (-ch).exp();
                 (e, (1.0 - e) / c)
@@ -193,13 +217,13 @@ impl BoucWen {
     /// order). A sub-step moves `z` by at most [`SUBSTEP`] of
     /// `max(|z|, z_scale)` and stops at `z = 0`, where `|z|^ν` and `sign(z)`
     /// change.
-    fn flow_general(&self, z0: f64, h: f64) -> f64 {
+    fn flow_general(&self, z0: f64, p0: f64, h: f64) -> (f64, f64) {
         let s = sign(h);
-        let (mut z, mut left) = (z0, h.abs());
+        let (mut z, mut p, mut left) = (z0, p0, h.abs());
         // ν < 1: `|z|^ν` is steep at zero, shorter steps
         let share = SUBSTEP * self.nu.min(1.0).powi(2);
         for i in 0..MAX_SUBSTEPS {
-            let (rate, jac) = self.rate_along(z, s);
+            let (rate, jac) = self.rate_along(z, p, s);
             let mut dl = if i + 1 == MAX_SUBSTEPS || rate == 0.0 {
                 left
             } else {
@@ -224,7 +248,7 @@ impl BoucWen {
             } else {
                 let full = ere_step(z, rate, jac, dl);
                 let half = ere_step(z, rate, jac, 0.5 * dl);
-                let (rate_h, jac_h) = self.rate_along(half, s);
+                let (rate_h, jac_h) = self.rate_along(half, self.power(half.abs()), s);
                 let two = ere_step(half, rate_h, jac_h, 0.5 * dl);
                 let extrapolated = two + (two - full) / 3.0;
                 // no extrapolation across zero, where the law has a kink
@@ -235,30 +259,26 @@ impl BoucWen {
                 };
             }
             left -= dl;
+            p = self.power(z.abs());
             // a law run away (a stiffening shape driven far) is the model
             // point's failure, reported as such, not a reason to spin
             if left <= 0.0 || !z.is_finite() {
                 break;
             }
         }
-        z
+        (z, p)
     }
 
     /// `dz/dℓ = s f_s(z)` along the path length `ℓ` moving in direction
-    /// `s`, and its slope in `z`.
+    /// `s`, and its slope in `z`, given `p1 = |z|^(ν−1)`.
     #[inline]
-    fn rate_along(&self, z: f64, s: f64) -> (f64, f64) {
+    fn rate_along(&self, z: f64, p1: f64, s: f64) -> (f64, f64) {
         let az = z.abs();
         if az == 0.0 {
             return (s * self.alpha, 0.0);
         }
         let sigma = sign(z);
         let w = self.gamma * s * sigma + self.delta;
-        let p1 = if self.nu == 2.0 {
-            az
-        } else {
-            az.powf(self.nu - 1.0)
-        };
         (
             s * (self.alpha - self.beta * p1 * az * w),
             -s * self.beta * self.nu * p1 * sigma * w,
@@ -289,14 +309,17 @@ impl BoucWen {
         if h != 0.0 { sign(h) } else { sign(v) }
     }
 
+    /// The force at `x` (from the committed state) and the power of the
+    /// new `z`.
     #[inline]
-    fn evaluate(&self, x: f64, v: f64) -> ElementForce {
-        let z = self.flow(self.z, x - self.y);
-        ElementForce {
+    fn evaluate(&self, x: f64, v: f64) -> (ElementForce, f64) {
+        let (z, p) = self.flow_with(self.z, self.z_power, x - self.y);
+        let f = ElementForce {
             force: z,
-            stiffness: self.slope(z, self.direction(x, v)),
+            stiffness: self.slope_with(z, p, self.direction(x, v)),
             damping: 0.0,
-        }
+        };
+        (f, p)
     }
 }
 
@@ -372,27 +395,29 @@ impl Law for BoucWen {
 impl Element for BoucWen {
     #[inline]
     fn trial(&self, x: f64, v: f64) -> ElementForce {
-        self.evaluate(x, v)
+        self.evaluate(x, v).0
     }
 
     #[inline]
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {
-        let f = if self.period_open {
-            let f0 = self.slope(self.z, self.direction(x, v));
-            let f = self.evaluate(x, v);
+        let (f, p) = if self.period_open {
+            let f0 = self.slope_with(self.z, self.z_power, self.direction(x, v));
+            let (f, p) = self.evaluate(x, v);
             self.memory_gain *= flow_ratio(f0, f.stiffness, self.alpha);
-            f
+            (f, p)
         } else {
             self.evaluate(x, v)
         };
         self.y = x;
         self.z = f.force;
+        self.z_power = p;
         f
     }
 
     fn reset(&mut self) {
         self.y = 0.0;
         self.z = 0.0;
+        self.z_power = 0.0;
         self.z_sensitivity.clear();
         self.y_sensitivity.clear();
         self.period_z_sensitivity.clear();
@@ -422,15 +447,31 @@ impl Element for BoucWen {
     /// The period map `z_open → z_close` has slope `g` = `memory_gain`, so
     /// its fixed point is `z_open + (z_close − z_open)/(1 − g)`; the carried
     /// sensitivities obey `d = g d + b` with `b = d_close − g d_open`, fixed
-    /// at `b/(1 − g)`. Exact when the map is affine (a nearly linear loop:
+    /// at `b/(1 − g)`. Over half a period (`mirror`) the periodic state is
+    /// the one the half period carries into its own negative: `z_close =
+    /// −z_open`, fixed at `z* = z_open − (z_close + z_open)/(1 + g)` and
+    /// `d* = −b/(1 + g)`; the element, now at the mirrored point, takes
+    /// `−z*` and `−d*`. Exact when the map is affine (a nearly linear loop:
     /// where plain repetition is slowest), a Newton step otherwise.
-    fn close_period(&mut self) {
+    fn close_period(&mut self, mirror: bool) -> f64 {
         let g = self.memory_gain;
+        self.memory_gain = 1.0;
+        let (residual, k) = if mirror {
+            ((self.z + self.period_z).abs(), 1.0 / (1.0 + g))
+        } else {
+            ((self.z - self.period_z).abs(), 1.0 / (1.0 - g))
+        };
+        // outside a contraction (g ≥ 0 along a monotone flow; g < 1 for the
+        // whole period): plain repetition
         if !(g.is_finite() && (0.0..0.999_999).contains(&g)) {
-            return;
+            return residual;
         }
-        let k = 1.0 / (1.0 - g);
-        self.z = self.period_z + (self.z - self.period_z) * k;
+        self.z = if mirror {
+            (self.z + self.period_z) * k - self.period_z
+        } else {
+            self.period_z + (self.z - self.period_z) * k
+        };
+        self.z_power = self.power(self.z.abs());
         if self.period_z_sensitivity.len() == self.z_sensitivity.len() {
             for (d, &d0) in self
                 .z_sensitivity
@@ -440,7 +481,7 @@ impl Element for BoucWen {
                 *d = (*d - g * d0) * k;
             }
         }
-        self.memory_gain = 1.0;
+        residual
     }
 
     /// `∂z₁ = f_s(z₁) (∂y₁ − ∂y₀ + ∂z₀ / f_s(z₀))` (module docs), with the
@@ -461,8 +502,8 @@ impl Element for BoucWen {
             self.y_sensitivity.resize(n, 0.0);
         }
         let s = self.direction(x, v);
-        let f0 = self.slope(self.z, s);
-        let f = self.evaluate(x, v);
+        let f0 = self.slope_with(self.z, self.z_power, s);
+        let (f, p) = self.evaluate(x, v);
         let f1 = f.stiffness;
         let ratio = flow_ratio(f0, f1, self.alpha);
         self.memory_gain *= ratio;
@@ -474,6 +515,7 @@ impl Element for BoucWen {
         }
         self.y = x;
         self.z = f.force;
+        self.z_power = p;
         f
     }
 }
@@ -484,12 +526,20 @@ impl Element for BoucWen {
 #[inline]
 fn ere_step(z: f64, rate: f64, jac: f64, dl: f64) -> f64 {
     let x = jac * dl;
-    let phi = if x.abs() < 1e-8 {
-        1.0 + 0.5 * x
+    let phi = if x.abs() < 1e-2 {
+        phi1_series(x)
     } else {
         x.exp_m1() / x
     };
     z + dl * phi * rate
+}
+
+/// `φ₁(x) = (eˣ − 1)/x` for `|x| < 1e-2` by its series to `x⁵`: the
+/// remainder `x⁶/5040 < 2e-16`, below rounding, without a transcendental.
+#[inline]
+fn phi1_series(x: f64) -> f64 {
+    1.0 + x
+        * (1.0 / 2.0 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0 + x * (1.0 / 720.0)))))
 }
 
 /// `∂z₁/∂z₀ = f_s(z₁)/f_s(z₀)` of a step; an equilibrium of the flow
@@ -555,7 +605,7 @@ mod tests {
                         "z0 {z0} h {h}: exact {exact} vs RK4 {z}"
                     );
                     // the element's general flow (used for ν ≠ 1)
-                    let g = e.flow_general(z0, h);
+                    let g = e.flow_general(z0, e.power(z0.abs()), h).0;
                     assert!(
                         (g - z).abs() <= 1e-5 * (scale + z.abs()),
                         "z0 {z0} h {h}: flow_general {g} vs {z}"
@@ -580,7 +630,7 @@ mod tests {
                     for h in [-8.0, -0.3, -1e-3, 1e-3, 0.4, 5.0] {
                         let (z0, h) = (z0 * zc, h * zc / alpha);
                         let z = e.rk4(z0, h, 50_000);
-                        let g = e.flow_general(z0, h);
+                        let g = e.flow_general(z0, e.power(z0.abs()), h).0;
                         worst = worst.max((g - z).abs() / zc);
                         assert!(
                             (g - z).abs() <= 1e-4 * zc,

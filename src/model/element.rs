@@ -122,11 +122,18 @@ pub trait Element {
     fn open_period(&mut self) {}
 
     /// Harmonic balance has marched a whole period since
-    /// [`Element::open_period`]: a law whose memory fades gradually may move
-    /// its memory (and the sensitivities it carries) to the periodic state
-    /// the period predicts, a Newton step on the period map; the next
-    /// period is then the periodic one. Default: nothing (plain repetition).
-    fn close_period(&mut self) {}
+    /// [`Element::open_period`] (`mirror`: half a period of a displacement
+    /// with `x(θ + π) = −x(θ)`, whose periodic force then obeys `g(θ + π) =
+    /// −g(θ)`). Returns how far the memory is from periodic: `|z_close −
+    /// z_open|` (`|z_close + z_open|` for `mirror`), in the force's unit. A
+    /// law whose memory fades gradually then moves its memory (and the
+    /// sensitivities it carries) to the periodic state the period predicts,
+    /// a Newton step on the period map, so that the next period is the
+    /// periodic one. Default: 0, nothing to move (a Masing-type loop repeats
+    /// from its first period).
+    fn close_period(&mut self, _mirror: bool) -> f64 {
+        0.0
+    }
 
     /// The root `u` of the per-sample implicit equation in closed form, when
     /// the element has one (the Jenkins element does). `None`: the simulator
@@ -219,8 +226,12 @@ impl<E: Element> Element for ElementSet<E> {
     fn open_period(&mut self) {
         self.elements.iter_mut().for_each(Element::open_period);
     }
-    fn close_period(&mut self) {
-        self.elements.iter_mut().for_each(Element::close_period);
+    fn close_period(&mut self, mirror: bool) -> f64 {
+        self.elements
+            .iter_mut()
+            .map(|e| e.close_period(mirror))
+            // NaN (a law run away) propagates: never "settled"
+            .fold(0.0, |m: f64, r| if r.is_nan() { r } else { m.max(r) })
     }
     fn describing_function(&mut self, amplitude: f64, omega: f64, samples: usize) -> Complex64 {
         self.elements

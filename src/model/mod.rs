@@ -319,8 +319,8 @@ impl Element for AnyElement {
     fn open_period(&mut self) {
         dispatch!(self, e => e.open_period())
     }
-    fn close_period(&mut self) {
-        dispatch!(self, e => e.close_period())
+    fn close_period(&mut self, mirror: bool) -> f64 {
+        dispatch!(self, e => e.close_period(mirror))
     }
     fn describing_function(
         &mut self,
