@@ -153,8 +153,12 @@ pub struct FinalModel {
     pub source: Source,
     /// The joint law.
     pub joint: Option<&'static str>,
-    /// The effects the diagnosis added.
+    /// The effects the diagnosis added (not one that replaced the joint).
     pub added_effects: Vec<&'static str>,
+    /// The joint law the first fit assumed, when the diagnosis replaced it
+    /// (by `joint`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub replaced_joint: Option<&'static str>,
     /// The model.
     pub model: Model,
     /// The sign its `H` carry against the measured ones.
@@ -210,6 +214,7 @@ impl FinalModel {
                 source: Source::Fit,
                 joint: fit.model.joint.as_ref().map(|j| j.kind().name()),
                 added_effects: Vec::new(),
+                replaced_joint: None,
                 model: fit.model.clone(),
                 response_sign: fit.response_sign,
                 parameters,
@@ -254,8 +259,10 @@ impl FinalModel {
             parameters.insert(p.name.clone(), r);
         }
         // the effects as the diagnosis reported them (a further mode by its
-        // modal mass, say), so the numbers agree with `diagnosis.md`
-        for s in &d.selected {
+        // modal mass, say), so the numbers agree with `diagnosis.md`; a law
+        // that replaced the joint is the joint above
+        let replaces = |s: &&crate::diagnose::SelectedEffect| s.effect.candidate().replaces_joint();
+        for s in d.selected.iter().filter(|s| !replaces(s)) {
             for (name, e) in &s.parameters {
                 let full = format!("{}.{name}", s.effect.name());
                 let r = reported(&full, e.clone(), &d.model, &set, &[], &reference);
@@ -276,7 +283,15 @@ impl FinalModel {
         Ok(FinalModel {
             source: Source::Diagnosis,
             joint: d.model.joint.as_ref().map(|j| j.kind().name()),
-            added_effects: d.selected.iter().map(|s| s.effect.name()).collect(),
+            added_effects: (d.selected.iter())
+                .filter(|s| !replaces(s))
+                .map(|s| s.effect.name())
+                .collect(),
+            replaced_joint: if d.selected.iter().any(|s| replaces(&s)) {
+                fit.model.joint.as_ref().map(|j| j.kind().name())
+            } else {
+                None
+            },
             model: d.model.clone(),
             response_sign: d.response_sign,
             parameters,
@@ -293,7 +308,12 @@ impl FinalModel {
 
     /// The model in a few words: `masing joint + cubic_stiffness`.
     pub fn name(&self) -> String {
-        let mut parts: Vec<String> = self.joint.iter().map(|j| format!("{j} joint")).collect();
+        let mut parts: Vec<String> = (self.joint.iter())
+            .map(|j| match self.replaced_joint {
+                Some(r) => format!("{j} joint (in place of the {r} joint)"),
+                None => format!("{j} joint"),
+            })
+            .collect();
         parts.extend(self.added_effects.iter().map(|e| e.to_string()));
         if parts.is_empty() {
             "linear".into()
@@ -580,13 +600,22 @@ pub fn final_markdown(f: &FinalModel) -> String {
     let _ = writeln!(
         s,
         "{}\n",
-        match (f.source, f.added_effects.is_empty()) {
-            (Source::Fit, _) => "The fitted model (the diagnosis did not run).".to_string(),
-            (Source::Diagnosis, true) => "The model after the diagnosis, which added no effect: the fitted law, every parameter refitted with the measured standard errors on the harmonics judged.".to_string(),
-            (Source::Diagnosis, false) => format!(
-                "The model after the diagnosis, which added {}: every parameter refitted with the measured standard errors on the harmonics judged. The first fit (the joint alone) is the \"before\" below.",
-                f.added_effects.join(" and ")
-            ),
+        match (f.source, f.added_effects.is_empty(), f.replaced_joint) {
+            (Source::Fit, _, _) => "The fitted model (the diagnosis did not run).".to_string(),
+            (Source::Diagnosis, true, None) => "The model after the diagnosis, which added no effect: the fitted law, every parameter refitted with the measured standard errors on the harmonics judged.".to_string(),
+            (Source::Diagnosis, _, replaced) => {
+                let mut changes: Vec<String> = replaced
+                    .map(|r| format!("replaced the joint law {r} by {}", f.joint.unwrap_or("another")))
+                    .into_iter()
+                    .collect();
+                if !f.added_effects.is_empty() {
+                    changes.push(format!("added {}", f.added_effects.join(" and ")));
+                }
+                format!(
+                    "The model after the diagnosis, which {}: every parameter refitted with the measured standard errors on the harmonics judged. The first fit (the joint alone) is the \"before\" below.",
+                    changes.join(" and ")
+                )
+            }
         }
     );
     let has_reference = f.parameters.values().any(|r| r.reference.is_some());

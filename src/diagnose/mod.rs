@@ -1123,7 +1123,7 @@ fn explain(
 ) -> String {
     let mut s = String::new();
     s.push_str(&format!(
-        "The fitted joint left a residual of {:.2} % in H1 (χ²/dof = {:.2} over the harmonics judged). ",
+        "The baseline (the fitted joint law, refitted with the measured standard errors on the harmonics judged) left a residual of {:.2} % in H1 (χ²/dof = {:.2}). ",
         100.0 * baseline.error_relative,
         baseline.chi2_per_dof
     ));

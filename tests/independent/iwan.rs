@@ -234,6 +234,22 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
     if selected != ["iwan4_joint"] {
         failures.push(format!("{}: selected {selected:?}", case.name));
     }
+    // the final model states the swap once: the Iwan joint in place of the
+    // Masing law, its parameters under the joint's plain names only
+    let fm = &d["final_model"];
+    let names: Vec<&str> = (fm["parameters"].as_object().unwrap().keys())
+        .map(String::as_str)
+        .collect();
+    if fm["joint"] != "iwan4"
+        || fm["replaced_joint"] != "masing"
+        || fm["added_effects"] != serde_json::json!([])
+        || names.iter().any(|n| n.starts_with("iwan4_joint."))
+    {
+        failures.push(format!(
+            "{}: final model {} (replaced {}, added {}) with parameters {names:?}",
+            case.name, fm["joint"], fm["replaced_joint"], fm["added_effects"]
+        ));
+    }
     if !(before >= 3.0 * after) {
         failures.push(format!(
             "{}: the H1 error fell from {before} only to {after}",
