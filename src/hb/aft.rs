@@ -840,6 +840,53 @@ mod tests {
         }
     }
 
+    /// A Bouc-Wen loop far below its saturation force is nearly elastic:
+    /// a half period leaves almost all of its memory (`g` within 1e-6 of
+    /// 1, where a whole period's Newton step is not taken). The half-period
+    /// march still settles, and the force is `α x` to the loop's relative
+    /// size, ~`β (γ + δ) |z|/α` = 1e-7.
+    #[test]
+    fn a_nearly_elastic_bouc_wen_loop_settles_by_half_periods() {
+        let harmonics = [1, 3, 5];
+        let ns = 256;
+        let mut aft = Aft::new(&harmonics, ns);
+        let n = aft.layout.len;
+        let (alpha, beta) = (2.4e7, 1e5);
+        let mut e = ElementSpec::BoucWen {
+            alpha,
+            beta,
+            gamma: 0.5,
+            delta: 0.5,
+            nu: 1.0,
+        }
+        .build()
+        .unwrap();
+        // 1e-7 of the saturation force's displacement α/(β α) = 1e-5 m
+        let mut xs = vec![0.0; n];
+        xs[0] = 1e-12;
+        xs[2] = 2e-13;
+        let mut g = vec![0.0; n];
+        let mut dg = vec![0.0; n * n];
+        aft.evaluate(
+            &xs,
+            1000.0,
+            &mut e,
+            PeriodicLoop::MaxAmplitude,
+            true,
+            &mut g,
+            Some(&mut dg),
+        )
+        .unwrap();
+        for k in 0..n {
+            assert!(
+                (g[k] - alpha * xs[k]).abs() <= 1e-6 * alpha * xs[0],
+                "G[{k}] = {} vs α X = {}",
+                g[k],
+                alpha * xs[k]
+            );
+        }
+    }
+
     #[test]
     fn workspace_results_do_not_depend_on_dirty_buffers() {
         let harmonics = [1, 3, 5];

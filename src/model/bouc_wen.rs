@@ -461,9 +461,11 @@ impl Element for BoucWen {
         } else {
             ((self.z - self.period_z).abs(), 1.0 / (1.0 - g))
         };
-        // outside a contraction (g ≥ 0 along a monotone flow; g < 1 for the
-        // whole period): plain repetition
-        if !(g.is_finite() && (0.0..0.999_999).contains(&g)) {
+        // g ≥ 0 along a monotone flow; a whole period's step needs g < 1
+        // (its 1/(1 − g) blows up where the loop is nearly elastic), half a
+        // period's 1/(1 + g) does not: there plain repetition would swing
+        // between z and −z for ever
+        if !(g.is_finite() && g >= 0.0 && (mirror || g < 0.999_999)) {
             return residual;
         }
         self.z = if mirror {

@@ -231,7 +231,13 @@ impl<E: Element> Element for ElementSet<E> {
             .iter_mut()
             .map(|e| e.close_period(mirror))
             // NaN (a law run away) propagates: never "settled"
-            .fold(0.0, |m: f64, r| if r.is_nan() { r } else { m.max(r) })
+            .fold(0.0, |m: f64, r| {
+                if m.is_nan() || r.is_nan() {
+                    f64::NAN
+                } else {
+                    m.max(r)
+                }
+            })
     }
     fn describing_function(&mut self, amplitude: f64, omega: f64, samples: usize) -> Complex64 {
         self.elements
