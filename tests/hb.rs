@@ -993,3 +993,54 @@ fn every_point_converges_over_a_fit_like_parameter_range() {
         failures.join("\n")
     );
 }
+
+/// A derivative by differences of a converged point: the joint's slip force
+/// changed by 1e-11 of itself moves the balance's residual by less than the
+/// tolerance notices, so a solve warm-started at the old solution returns it
+/// unchanged (the derivative reads zero). With `step_at_least_once` the
+/// solve takes one Newton step, exact to second order in the change: its
+/// derivative equals a central difference of two cold solves at ±1e-5
+/// (solved to 1e-14) within 1e-4, the round-off of a 1e-11 difference.
+#[test]
+fn a_difference_step_below_the_tolerance_still_moves_the_solution() {
+    let linear = paper_linear();
+    let (f, level) = (200.0, 300.0);
+    let solve = |fd: f64, guess: Option<&[Complex64]>, once: bool, tolerance: f64| {
+        let mut e = ElementSpec::Masing {
+            kd: KD,
+            fd,
+            n: 22.55,
+        }
+        .build()
+        .unwrap();
+        let mut s = HbSolver::new(&HbOptions {
+            tolerance,
+            ..HbOptions::default()
+        })
+        .unwrap();
+        s.step_at_least_once(once);
+        let p = s.solve_point(&linear, &mut e, f, level, guess).unwrap();
+        assert!(p.converged);
+        p.x
+    };
+    let x0 = solve(FD, None, false, 1e-14);
+    let h = 1e-11;
+    let plain = solve(FD * (1.0 + h), Some(&x0), false, 1e-10);
+    let stepped = solve(FD * (1.0 + h), Some(&x0), true, 1e-10);
+    let (up, down) = (
+        solve(FD * (1.0 + 1e-5), None, false, 1e-14),
+        solve(FD * (1.0 - 1e-5), None, false, 1e-14),
+    );
+    let scale = x0[0].norm();
+    for k in 0..x0.len() {
+        let reference = (up[k] - down[k]) / (2e-5 * FD);
+        assert_eq!(plain[k], x0[k], "harmonic {k}: the plain solve moved");
+        let d = (stepped[k] - x0[k]) / (h * FD);
+        assert!(
+            (d - reference).norm() <= 1e-4 * reference.norm().max(1e-3 * scale / FD),
+            "harmonic {k}: {d} vs {reference}"
+        );
+    }
+    // the fundamental's sensitivity is what a fit sees: far from zero
+    assert!((up[0] - down[0]).norm() > 1e-6 * scale);
+}

@@ -24,6 +24,11 @@ pub trait Objective: Sync {
     fn cost(&self, theta: &[f64]) -> Result<f64>;
     /// Evaluations so far.
     fn evaluations(&self) -> usize;
+    /// The forward-difference Jacobian of the residuals at `theta` (whose
+    /// residuals are `r0`), penalty row excluded, columns in parallel.
+    fn jacobian(&self, theta: &[f64], r0: &[f64], step: f64) -> Result<DMatrix<f64>> {
+        forward_difference(theta, r0, step, |t| self.residuals(t))
+    }
 }
 
 impl Objective for FitProblem<'_> {
@@ -35,6 +40,9 @@ impl Objective for FitProblem<'_> {
     }
     fn evaluations(&self) -> usize {
         FitProblem::evaluations(self)
+    }
+    fn jacobian(&self, theta: &[f64], r0: &[f64], step: f64) -> Result<DMatrix<f64>> {
+        FitProblem::jacobian(self, theta, r0, step)
     }
 }
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
@@ -191,12 +199,24 @@ pub fn nelder_mead<P: Objective + ?Sized>(
 }
 
 /// Forward-difference Jacobian of the residuals (penalty row excluded),
-/// columns computed in parallel.
+/// columns computed in parallel: `problem`'s own (see
+/// [`Objective::jacobian`]).
 pub fn jacobian<P: Objective + ?Sized>(
     problem: &P,
     theta: &[f64],
     r0: &[f64],
     step: f64,
+) -> Result<DMatrix<f64>> {
+    problem.jacobian(theta, r0, step)
+}
+
+/// Forward differences of `residuals` at `theta` (whose residuals are
+/// `r0`), penalty row excluded, columns computed in parallel.
+pub fn forward_difference(
+    theta: &[f64],
+    r0: &[f64],
+    step: f64,
+    residuals: impl Fn(&[f64]) -> Result<Vec<f64>> + Sync,
 ) -> Result<DMatrix<f64>> {
     let m = r0.len() - 1;
     let cols: Vec<Result<Vec<f64>>> = (0..theta.len())
@@ -204,7 +224,7 @@ pub fn jacobian<P: Objective + ?Sized>(
         .map(|j| {
             let mut t = theta.to_vec();
             t[j] += step;
-            let r = problem.residuals(&t)?;
+            let r = residuals(&t)?;
             Ok(r[..m]
                 .iter()
                 .zip(&r0[..m])
@@ -262,7 +282,7 @@ impl<P: Objective + ?Sized> levenberg_marquardt::LeastSquaresProblem<f64, Dyn, D
     }
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let r = self.current()?;
-        match jacobian(self.problem, self.theta.as_slice(), &r, 1e-6) {
+        match self.problem.jacobian(self.theta.as_slice(), &r, 1e-6) {
             Ok(j) => {
                 // the penalty row's derivative: zero inside the bounds
                 let m = j.nrows();

@@ -65,6 +65,29 @@ impl FrfPredictor for HbPredictor {
         data: &FitData,
         start: Option<&Prediction>,
     ) -> Result<Prediction> {
+        self.predict(model, data, start, false)
+    }
+
+    fn predict_near(
+        &self,
+        model: &Model,
+        data: &FitData,
+        start: &Prediction,
+    ) -> Result<Prediction> {
+        self.predict(model, data, Some(start), true)
+    }
+}
+
+impl HbPredictor {
+    /// Every series' points in order; `near`: each point takes at least one
+    /// Newton step from its start.
+    fn predict(
+        &self,
+        model: &Model,
+        data: &FitData,
+        start: Option<&Prediction>,
+        near: bool,
+    ) -> Result<Prediction> {
         model.validate()?;
         let elements = model.element_set()?;
         let opts = self.options_for(model, data);
@@ -92,6 +115,7 @@ impl FrfPredictor for HbPredictor {
             .into_par_iter()
             .map(|(s, st, mut e)| {
                 let mut solver = HbSolver::new(&opts)?;
+                solver.step_at_least_once(near);
                 let mut previous: Option<(Vec<Complex64>, f64)> = None;
                 let mut out = Vec::with_capacity(s.points.len());
                 let mut states = Vec::with_capacity(s.points.len());

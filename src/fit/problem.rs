@@ -8,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::extract::{Direction, NonlinearFrf};
 use crate::harmonics::Quantity;
 use crate::model::Model;
+use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
@@ -239,6 +240,20 @@ pub trait FrfPredictor: Sync {
         data: &FitData,
         start: Option<&Prediction>,
     ) -> Result<Prediction>;
+
+    /// The prediction of a model a difference step away from the one
+    /// `start` was predicted for: as [`FrfPredictor::predict_from`], but a
+    /// point whose start already meets the solver's tolerance must still
+    /// move with the step (a harmonic-balance point takes one Newton step),
+    /// or a derivative by differences reads zero where the model changed.
+    fn predict_near(
+        &self,
+        model: &Model,
+        data: &FitData,
+        start: &Prediction,
+    ) -> Result<Prediction> {
+        self.predict_from(model, data, Some(start))
+    }
 }
 
 /// How residuals are scaled.
@@ -352,6 +367,14 @@ pub struct FitProblem<'a> {
     /// all start from the same state and the result does not depend on the
     /// thread count.
     warm: Mutex<Option<(f64, Prediction)>>,
+    /// The point whose residuals were evaluated last in sequence (an
+    /// optimiser's accepted or trial step, never a Jacobian column) and its
+    /// prediction: the Jacobian there starts its columns from it, a step
+    /// of 1e-6 away, instead of from the best point so far.
+    last: Mutex<Option<(Vec<f64>, Prediction)>>,
+    /// The prediction where the Jacobian was last taken (the optimiser's
+    /// current point): its trial steps start from it.
+    accepted: Mutex<Option<Prediction>>,
 }
 
 impl<'a> FitProblem<'a> {
@@ -375,6 +398,8 @@ impl<'a> FitProblem<'a> {
             trace: Mutex::new(Vec::new()),
             observer,
             warm: Mutex::new(None),
+            last: Mutex::new(None),
+            accepted: Mutex::new(None),
         }
     }
 
@@ -385,16 +410,37 @@ impl<'a> FitProblem<'a> {
     /// cannot solve it. Use [`FitProblem::evaluate_or_fail`] inside an
     /// optimiser, where such a point must be a bad point, not the end.
     pub fn evaluate(&self, theta: &[f64]) -> Result<(Model, Prediction, f64)> {
-        let (model, outside) = self.parameters.model_at(&self.base, theta)?;
-        let start = self
-            .warm
+        let start = self.start();
+        self.evaluate_from(theta, start.as_ref(), false)
+    }
+
+    /// Where an evaluation in sequence starts: the optimiser's current point
+    /// once it has one, else the best point so far.
+    fn start(&self) -> Option<Prediction> {
+        if let Some(p) = self.accepted.lock().expect("accepted lock").as_ref() {
+            return Some(p.clone());
+        }
+        self.warm
             .lock()
             .expect("warm lock")
             .as_ref()
-            .map(|w| w.1.clone());
-        let pred = self
-            .predictor
-            .predict_from(&model, self.data, start.as_ref())?;
+            .map(|w| w.1.clone())
+    }
+
+    /// The model and prediction at `theta` from `start`; `near`: `start` is
+    /// the prediction a difference step away (see
+    /// [`FrfPredictor::predict_near`]).
+    fn evaluate_from(
+        &self,
+        theta: &[f64],
+        start: Option<&Prediction>,
+        near: bool,
+    ) -> Result<(Model, Prediction, f64)> {
+        let (model, outside) = self.parameters.model_at(&self.base, theta)?;
+        let pred = match start {
+            Some(s) if near => self.predictor.predict_near(&model, self.data, s)?,
+            _ => self.predictor.predict_from(&model, self.data, start)?,
+        };
         self.solves.fetch_add(pred.solves, Ordering::Relaxed);
         Ok((model, pred, outside))
     }
@@ -405,7 +451,17 @@ impl<'a> FitProblem<'a> {
     /// [`residuals`]), so an optimiser steps back from it. Errors that are
     /// not the model's (an unusable parameter set) still propagate.
     pub fn evaluate_or_fail(&self, theta: &[f64]) -> Result<(Prediction, f64)> {
-        match self.evaluate(theta) {
+        let start = self.start();
+        self.evaluate_or_fail_from(theta, start.as_ref(), false)
+    }
+
+    fn evaluate_or_fail_from(
+        &self,
+        theta: &[f64],
+        start: Option<&Prediction>,
+        near: bool,
+    ) -> Result<(Prediction, f64)> {
+        match self.evaluate_from(theta, start, near) {
             Ok((_, pred, outside)) => Ok((pred, outside)),
             Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
                 let outside = self
@@ -422,10 +478,47 @@ impl<'a> FitProblem<'a> {
     }
 
     /// Residuals at `theta`, with a penalty row for any distance outside the
-    /// bounds (so a simplex is pushed back in).
+    /// bounds (so a simplex is pushed back in). Called in sequence (by an
+    /// optimiser), never for a Jacobian's columns.
     pub fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
         let (pred, outside) = self.evaluate_or_fail(theta)?;
-        Ok(self.residuals_of(&pred, outside))
+        let r = self.residuals_of(&pred, outside);
+        if pred.failures() == 0 {
+            *self.last.lock().expect("last lock") = Some((theta.to_vec(), pred));
+        }
+        Ok(r)
+    }
+
+    /// The forward-difference Jacobian at `theta` (whose residuals are
+    /// `r0`), penalty row excluded: every column's harmonic balance starts
+    /// from the prediction at `theta` itself (a step away), so each point
+    /// takes a Newton iteration or two and follows the branch `theta`'s
+    /// does. The columns run in parallel and change no state, so the result
+    /// does not depend on the thread count.
+    pub fn jacobian(&self, theta: &[f64], r0: &[f64], step: f64) -> Result<DMatrix<f64>> {
+        let here = {
+            let last = self.last.lock().expect("last lock");
+            last.as_ref()
+                .filter(|(t, _)| t.as_slice() == theta)
+                .map(|(_, p)| p.clone())
+        };
+        let here = match here {
+            Some(p) => Some(p),
+            None => {
+                let (pred, _) = self.evaluate_or_fail(theta)?;
+                (pred.failures() == 0).then_some(pred)
+            }
+        };
+        let near = here.is_some();
+        let start = here.clone().or_else(|| self.start());
+        let jac = crate::fit::optimise::forward_difference(theta, r0, step, |t| {
+            let (pred, outside) = self.evaluate_or_fail_from(t, start.as_ref(), near)?;
+            Ok(self.residuals_of(&pred, outside))
+        })?;
+        if let Some(p) = here {
+            *self.accepted.lock().expect("accepted lock") = Some(p);
+        }
+        Ok(jac)
     }
 
     fn residuals_of(&self, pred: &Prediction, outside: f64) -> Vec<f64> {

@@ -301,6 +301,14 @@ impl HbSolver {
         &self.core.opts
     }
 
+    /// Makes every solve take at least one Newton step, even from a guess
+    /// already within the tolerance: a point solved at parameters a
+    /// difference step away from its guess's then moves with the step
+    /// (see [`crate::fit::FrfPredictor::predict_near`]).
+    pub fn step_at_least_once(&mut self, yes: bool) {
+        self.core.step_at_least_once = yes;
+    }
+
     /// AFT residual evaluations so far.
     pub fn evaluations(&self) -> u64 {
         self.counters.residuals

@@ -137,6 +137,9 @@ pub(crate) struct Core {
     rfd: Vec<f64>,
     /// Whether `jac`, `g` and `r` are those of the last converged point.
     at_solution: bool,
+    /// Take one Newton step even from a start already within the
+    /// tolerance (see [`Core::newton`]).
+    pub step_at_least_once: bool,
 }
 
 /// Counts expensive evaluations (for reports and benches).
@@ -169,6 +172,7 @@ impl Core {
             xfd: vec![0.0; n],
             rfd: vec![0.0; n],
             at_solution: false,
+            step_at_least_once: false,
         }
     }
 
@@ -239,6 +243,7 @@ impl Core {
     ) -> Outcome {
         let n = self.n;
         self.at_solution = false;
+        let once = self.step_at_least_once;
         let Core {
             aft,
             opts,
@@ -293,14 +298,40 @@ impl Core {
         // ~60 % of one with them), refreshed otherwise
         let mut jac_fresh = true;
         let mut trial_jacobian = false;
+        let mut forced = false;
         loop {
             let rel = nr / norm(x).max(f64::MIN_POSITIVE);
             if !rel.is_finite() {
                 return fail(iteration, rel, SolveFailure::NonFiniteResidual);
             }
+            if rel <= opts.tolerance && once && iteration == 0 && !forced {
+                // a derivative by differences perturbs a converged point by
+                // less than the tolerance may notice: one plain Newton step
+                // (exact to second order in the perturbation) makes `x`
+                // follow it
+                forced = true;
+                lu.copy_from_slice(jac);
+                if lu_factor(lu, piv, n) {
+                    for (s, ri) in step.iter_mut().zip(r.iter()) {
+                        *s = -ri;
+                    }
+                    lu_solve(lu, piv, n, step);
+                    for i in 0..n {
+                        xt[i] = x[i] + step[i];
+                    }
+                    if eval(xt, rt, None, counters).is_ok() && norm(rt) <= opts.tolerance * norm(xt)
+                    {
+                        x.copy_from_slice(xt);
+                        r.copy_from_slice(rt);
+                        nr = norm(r);
+                    }
+                }
+                continue;
+            }
             if rel <= opts.tolerance {
-                // finite differences leave `g` and `r` at a perturbed point
-                *at_solution = !use_fd;
+                // finite differences leave `g` and `r` at a perturbed point,
+                // and so does a forced step (evaluated without sensitivities)
+                *at_solution = !use_fd && !forced;
                 return Outcome {
                     converged: true,
                     iterations: iteration,
