@@ -905,3 +905,150 @@ fn bouc_wen_fitted_from_a_written_start_validates_on_the_sweep() {
         assert!(e <= target, "{set}: e_RMS {e}");
     }
 }
+
+/// The README's diagnosis figures of a real data set, read from the
+/// `diagnosis.json` the README's commands write: the baseline's and the final
+/// model's H1 error and `χ²/dof`, then each kept effect's parameters with
+/// their 95 % intervals, in the order the README's line gives them (the line
+/// that starts with `start`). The kept effects must be `kept`, in order.
+fn assert_readme_diagnosis(start: &str, diagnosis: &Path, kept: &[(&str, &[&str])]) {
+    let d = json(diagnosis);
+    let selected: Vec<&str> = d["selected"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["effect"].as_str().unwrap())
+        .collect();
+    let names: Vec<&str> = kept.iter().map(|k| k.0).collect();
+    assert_eq!(selected, names, "{start}: the effects kept");
+    let mut figures = vec![
+        ("baseline H1 error (%)", 100.0 * d["baseline"]["error_relative"].as_f64().unwrap()),
+        ("final H1 error (%)", 100.0 * d["final"]["error_relative"].as_f64().unwrap()),
+        ("baseline chi2/dof", d["baseline"]["chi2_per_dof"].as_f64().unwrap()),
+        ("final chi2/dof", d["final"]["chi2_per_dof"].as_f64().unwrap()),
+    ];
+    for (effect, parameters) in kept {
+        let e = d["selected"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["effect"] == *effect)
+            .unwrap();
+        for p in *parameters {
+            let q = &e["parameters"][*p];
+            let ci = q["ci95"].as_array().unwrap();
+            figures.push((p, q["value"].as_f64().unwrap()));
+            figures.push(("its 95 % interval's low end", ci[0].as_f64().unwrap()));
+            figures.push(("its 95 % interval's high end", ci[1].as_f64().unwrap()));
+        }
+    }
+    eprintln!("{start} {figures:?}");
+    let shown = common::readme_figures(start).expect("README diagnosis line");
+    assert_eq!(shown.len(), figures.len(), "{start}: {shown:?}");
+    for ((what, value), shown) in figures.into_iter().zip(shown) {
+        common::assert_readme_figure(&format!("{start} {what}"), value, shown);
+    }
+}
+
+/// The README's F-16 walkthrough: the odd levels imported from the data set's
+/// MAT files and diagnosed on the torsion mode's band, as the README's
+/// commands do; its figures are pinned (a softening cubic stiffness kept, the
+/// residual still far above the noise).
+#[test]
+fn f16_diagnosis_is_the_readmes() {
+    let Some(data) = common::dataset("f16_gvt_benchmark") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut recs = Vec::new();
+    for l in ["1", "3", "5", "7"] {
+        let out = dir.path().join(format!("L{l}"));
+        run_ok(&[
+            "import",
+            s(&data.join(format!("BenchmarkData/F16Data_SineSw_Level{l}.mat"))),
+            "--out",
+            s(&out),
+            "-c",
+            "force=Force:force",
+            "-c",
+            "acc2=Acceleration(2):acceleration",
+            "--rate",
+            "variable:Fs",
+            "--excitation",
+            "swept",
+            "-q",
+        ]);
+        recs.push(out.with_extension("json"));
+    }
+    let out = dir.path().join("diag");
+    let mut args = vec!["diagnose"];
+    args.extend(recs.iter().map(|p| s(p)));
+    args.extend([
+        "--out",
+        s(&out),
+        "--band",
+        "6.9:7.6",
+        "--linear-start",
+        "lowest",
+        "--hop-periods",
+        "4",
+        "-q",
+    ]);
+    run_ok(&args);
+    assert_readme_diagnosis(
+        "Diagnosis figures (F-16):",
+        &out.join("diagnosis.json"),
+        &[("cubic_stiffness", &["k3"])],
+    );
+}
+
+/// The README's UNESP walkthrough: three chirps diagnosed on mode 2's band,
+/// as the README's commands do; its figures are pinned (a softening cubic
+/// stiffness and a clearance kept, the residual still far above the noise).
+#[test]
+fn unesp_diagnosis_is_the_readmes() {
+    let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut recs = Vec::new();
+    for l in ["0p05", "0p15", "0p25"] {
+        let out = dir.path().join(format!("c{l}"));
+        run_ok(&[
+            "import",
+            s(&data.join(format!("csv/chirp_70to110Hz_{l}V_time.csv"))),
+            "--out",
+            s(&out),
+            "-c",
+            "drive=shaker_amp_V:voltage",
+            "-c",
+            "laser=laser_velocity_m_per_s:velocity",
+            "--excitation",
+            "swept",
+            "-q",
+        ]);
+        recs.push(out.with_extension("json"));
+    }
+    let out = dir.path().join("diag");
+    let mut args = vec!["diagnose"];
+    args.extend(recs.iter().map(|p| s(p)));
+    args.extend([
+        "--out",
+        s(&out),
+        "--band",
+        "88:100",
+        "--linear-start",
+        "lowest",
+        "--hop-periods",
+        "8",
+        "--max-harmonic",
+        "3",
+        "-q",
+    ]);
+    run_ok(&args);
+    assert_readme_diagnosis(
+        "Diagnosis figures (UNESP):",
+        &out.join("diagnosis.json"),
+        &[("cubic_stiffness", &["k3"]), ("clearance", &["gap"])],
+    );
+}

@@ -619,6 +619,7 @@ fn f16_fit_on_odd_levels_validates_on_even_ones() {
     assert!((peak1.frequency_hz - 7.3).abs() <= 0.05);
     assert!((f1 - 7.3).abs() <= 0.05);
     let linear = linear_model(&fit);
+    let mut table = Vec::new();
     for l in ["2_Validation", "4_Validation", "6_Validation"] {
         let rec = import_swept(&file(l), spec.clone());
         let band = (6.4, 8.3);
@@ -629,7 +630,7 @@ fn f16_fit_on_odd_levels_validates_on_even_ones() {
         let (w, wl) = (v.window.unwrap(), vl.window.unwrap());
         eprintln!(
             "F-16 level {l} ({:.2} N): peak measured {:.4} Hz, simulated {:.4} Hz (linear model {:.4} Hz); \
-             e_RMS whole {:.4e} (linear {:.4e}) m/s², torsion window {:.1}-{:.1} s {:.4e} (linear {:.4e}); \
+             e_RMS whole {:.4e} ({:.1} % of the RMS; linear {:.4e}) m/s², torsion window {:.1}-{:.1} s {:.4e} (linear {:.4e}); \
              H1 error {:.1} % (linear {:.1} %)",
             c.level,
             pm.frequency_hz,
@@ -639,6 +640,7 @@ fn f16_fit_on_odd_levels_validates_on_even_ones() {
                 .unwrap()
                 .frequency_hz,
             v.whole.e_rms,
+            100.0 * v.whole.relative,
             vl.whole.e_rms,
             w.start_s,
             w.end_s,
@@ -653,17 +655,37 @@ fn f16_fit_on_odd_levels_validates_on_even_ones() {
         );
         assert!(v.whole.e_rms < vl.whole.e_rms, "level {l}");
         assert!(w.e_rms < wl.e_rms, "level {l}");
+        table.push((
+            l,
+            [
+                ("level (N)", c.level),
+                ("measured peak (Hz)", pm.frequency_hz),
+                ("simulated peak (Hz)", ps.frequency_hz),
+                ("e_RMS of the fitted model", v.whole.e_rms),
+                ("its share of the RMS (%)", 100.0 * v.whole.relative),
+                ("e_RMS of the linear model", vl.whole.e_rms),
+            ],
+        ));
+    }
+    // the README's validation table, as printed (after every row is printed)
+    for (l, figures) in table {
+        let row = common::readme_figures(&format!("| {} (", &l[..1])).expect("README F-16 row");
+        assert_eq!(row.len(), figures.len(), "README F-16 row {l}: {row:?}");
+        for ((what, value), shown) in figures.into_iter().zip(row) {
+            common::assert_readme_figure(&format!("F-16 level {l}: {what}"), value, shown);
+        }
     }
     eprintln!("F-16: reductions {t_reduce:?}, all {:?}", t0.elapsed());
 }
 
 /// The UNESP bolted beam's 70-110 Hz chirps (voltage drive, laser velocity,
 /// mode 2 near 91-96 Hz): fit a single mode plus Masing joint per volt on
-/// 0.05, 0.15 and 0.25 V, validate on 0.10, 0.20 and 0.30 V. The README's
-/// Test.Lab FRF peaks (95.5 Hz at 0.05 V down to 91.25 Hz at 0.30 V) must be
-/// matched by the reduced FRFs within 0.5 Hz (their resolution 0.0625 Hz,
-/// and the sweep distortion at 5 Hz/s), and the joint model's e_RMS must
-/// beat the linear (0.05 V) model's on every validation level.
+/// 0.05, 0.15 and 0.25 V, validate on 0.10, 0.20 and 0.30 V. The data set's
+/// own FRF peaks (Test.Lab's H1 at 0.0625 Hz resolution, in its
+/// `summary_chirp_frf_peaks.csv`) must be matched by the reduced FRFs
+/// within 0.5 Hz (the sweep distortion at 5 Hz/s moves a chirp's peak), and
+/// the joint model's e_RMS must beat the linear (0.05 V) model's on every
+/// validation level. The README's table of the chirps is pinned.
 #[test]
 fn unesp_chirps_fit_and_validate() {
     let Some(dir) = common::dataset("bolted_beam_unesp_bert") else {
@@ -678,22 +700,48 @@ fn unesp_chirps_fit_and_validate() {
         SampleRateSource::Comment,
     );
     let file = |l: &str| dir.join(format!("csv/chirp_70to110Hz_{l}V_time.csv"));
+    // the data set's peaks of mode 2 (sweep range 2), by level
+    let summary = std::fs::read_to_string(dir.join("csv/summary_chirp_frf_peaks.csv"))
+        .expect("summary_chirp_frf_peaks.csv");
+    let test_lab = |l: &str| -> f64 {
+        let volts: f64 = l.replace('p', ".").parse().unwrap();
+        summary
+            .lines()
+            .filter(|r| !r.starts_with('#'))
+            .filter_map(|r| {
+                let c: Vec<f64> = r.split(',').filter_map(|v| v.parse().ok()).collect();
+                (c.len() == 4 && c[0] == 2.0 && (c[1] - volts).abs() < 1e-9).then(|| c[2])
+            })
+            .next()
+            .unwrap_or_else(|| panic!("no Test.Lab peak for {l} V"))
+    };
+    let readme_row = |l: &str, role: &str| {
+        let volts = l.replace('p', ".");
+        common::readme_figures(&format!("| {volts} V | {role} |"))
+            .unwrap_or_else(|| panic!("README UNESP row {volts} V"))
+    };
     let sweep = SweepOptions {
         max_harmonic: 3,
         hop_periods: 8.0,
         ..SweepOptions::default()
     };
-    let readme = [("0p05", 95.5), ("0p15", 93.0), ("0p25", 91.875)];
     let mut sets = Vec::new();
-    for (l, f) in readme {
+    let mut table = Vec::new();
+    for l in ["0p05", "0p15", "0p25"] {
         let rec = import_swept(&file(l), spec.clone());
         let (frf, sigma) = reduce_swept(&rec, &sweep);
         let p = h1_peak(&frf.levels[0].points, Some((85.0, 102.0))).unwrap();
+        let reference = test_lab(l);
         eprintln!(
-            "UNESP chirp {l}: {:.4} V, compensation {sigma:.3} s, peak {:.3} Hz (README {f} Hz), |H1| {:.3}",
+            "UNESP chirp {l}: {:.4} V, compensation {sigma:.3} s, peak {:.3} Hz (Test.Lab {reference} Hz), |H1| {:.3}",
             frf.levels[0].level, p.frequency_hz, p.magnitude
         );
-        assert!((p.frequency_hz - f).abs() < 0.5, "{l}");
+        assert!((p.frequency_hz - reference).abs() < 0.5, "{l}");
+        table.push((
+            l,
+            "fit",
+            vec![("peak", p.frequency_hz), ("Test.Lab peak", reference)],
+        ));
         sets.push(frf);
     }
     let frf = levels_of(&sets);
@@ -717,19 +765,50 @@ fn unesp_chirps_fit_and_validate() {
         let v = swept_validation(&fit.model, fit.response_sign, &rec, &sweep, (88.0, 100.0));
         let vl = swept_validation(&linear, fit.linear.stick.sign, &rec, &sweep, (88.0, 100.0));
         let c = &v.frf.as_ref().unwrap().levels[0];
+        let (pm, ps) = (c.measured_peak.unwrap(), c.simulated_peak.unwrap());
+        let reference = test_lab(l);
         eprintln!(
-            "UNESP chirp {l}: x{} upsampled; e_RMS {:.4e} m/s ({:.1} %), linear {:.4e} ({:.1} %); peak measured {:.3} Hz, simulated {:.3} Hz",
+            "UNESP chirp {l}: x{} upsampled; e_RMS {:.4e} m/s ({:.1} %), linear {:.4e} ({:.1} %); peak measured {:.3} Hz (Test.Lab {reference} Hz), simulated {:.3} Hz",
             v.upsampling,
             v.whole.e_rms,
             100.0 * v.whole.relative,
             vl.whole.e_rms,
             100.0 * vl.whole.relative,
-            c.measured_peak.unwrap().frequency_hz,
-            c.simulated_peak.unwrap().frequency_hz
+            pm.frequency_hz,
+            ps.frequency_hz
         );
         assert!(v.whole.e_rms < vl.whole.e_rms, "{l}");
+        assert!((pm.frequency_hz - reference).abs() < 0.5, "{l}");
+        table.push((
+            l,
+            "validation",
+            vec![
+                ("peak", pm.frequency_hz),
+                ("Test.Lab peak", reference),
+                ("simulated peak", ps.frequency_hz),
+                (
+                    "e_RMS of the fitted model (% of the RMS)",
+                    100.0 * v.whole.relative,
+                ),
+                (
+                    "e_RMS of the linear model (% of the RMS)",
+                    100.0 * vl.whole.relative,
+                ),
+            ],
+        ));
     }
     eprintln!("UNESP: {:?}", t0.elapsed());
+    // the README's table of the chirps, as printed (after every row is printed)
+    let shown = common::readme_figures("The fit's relative FRF error on the fitted chirps is")
+        .expect("README UNESP fit error");
+    common::assert_readme_figure("UNESP fit error (%)", 100.0 * fit.error.relative, shown[0]);
+    for (l, role, figures) in table {
+        let row = readme_row(l, role);
+        assert_eq!(row.len(), figures.len(), "README UNESP row {l}: {row:?}");
+        for ((what, value), shown) in figures.into_iter().zip(row) {
+            common::assert_readme_figure(&format!("UNESP {l} V: {what}"), value, shown);
+        }
+    }
 }
 
 /// The Bouc-Wen benchmark's sine-sweep test set (40 N, 18-52 Hz,
