@@ -922,10 +922,22 @@ fn assert_readme_diagnosis(start: &str, diagnosis: &Path, kept: &[(&str, &[&str]
     let names: Vec<&str> = kept.iter().map(|k| k.0).collect();
     assert_eq!(selected, names, "{start}: the effects kept");
     let mut figures = vec![
-        ("baseline H1 error (%)", 100.0 * d["baseline"]["error_relative"].as_f64().unwrap()),
-        ("final H1 error (%)", 100.0 * d["final"]["error_relative"].as_f64().unwrap()),
-        ("baseline chi2/dof", d["baseline"]["chi2_per_dof"].as_f64().unwrap()),
-        ("final chi2/dof", d["final"]["chi2_per_dof"].as_f64().unwrap()),
+        (
+            "baseline H1 error (%)",
+            100.0 * d["baseline"]["error_relative"].as_f64().unwrap(),
+        ),
+        (
+            "final H1 error (%)",
+            100.0 * d["final"]["error_relative"].as_f64().unwrap(),
+        ),
+        (
+            "baseline chi2/dof",
+            d["baseline"]["chi2_per_dof"].as_f64().unwrap(),
+        ),
+        (
+            "final chi2/dof",
+            d["final"]["chi2_per_dof"].as_f64().unwrap(),
+        ),
     ];
     for (effect, parameters) in kept {
         let e = d["selected"]

@@ -9,6 +9,12 @@ use hystid::fit::{FitOptions, HbPredictor, identify};
 use hystid::testbench::{self, NoSink, TestDefinition};
 
 fn case(effects: &str, seed: u64) -> Diagnosis {
+    case_with_final(effects, seed).0
+}
+
+/// [`case`], with the final model `run` would report (the first fit as
+/// "before").
+fn case_with_final(effects: &str, seed: u64) -> (Diagnosis, hystid::analysis::run::FinalModel) {
     let text = format!(
         r#"
 [system]
@@ -31,8 +37,21 @@ measure_periods = 16
     let def = TestDefinition::from_toml(&text, "diagnose case").unwrap();
     let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     let p = HbPredictor::default();
-    let fit = identify(&run.frf, &FitOptions::default(), &p, None).unwrap();
-    diagnose(&run.frf, &fit, &DiagnoseOptions::default(), &p).unwrap()
+    let options = FitOptions::default();
+    let fit = identify(&run.frf, &options, &p, None).unwrap();
+    let d = diagnose(&run.frf, &fit, &DiagnoseOptions::default(), &p).unwrap();
+    let truth = def.model().unwrap();
+    let last = hystid::analysis::run::FinalModel::of(
+        &run.frf,
+        &fit,
+        &options.harmonics,
+        None,
+        Some(&d),
+        Some(&truth),
+        &p,
+    )
+    .unwrap();
+    (d, last)
 }
 
 /// The seeds a case runs: one per case in the suite (each case its own, so
@@ -95,6 +114,7 @@ fn check_single(
     truth: &[(&str, f64)],
     judged: usize,
     own: u64,
+    pin: Option<&dyn Fn(&Diagnosis, &hystid::analysis::run::FinalModel)>,
 ) {
     let chi2_max = if effect == Effect::BilinearStiffness {
         2.5
@@ -102,8 +122,11 @@ fn check_single(
         2.0
     };
     for seed in seeds(own) {
-        let d = case(effects, seed);
+        let (d, last) = case_with_final(effects, seed);
         summary(tag, seed, &d);
+        if let (Some(pin), true) = (pin, seed == own) {
+            pin(&d, &last);
+        }
         assert_eq!(
             selected(&d),
             vec![effect],
@@ -145,7 +168,42 @@ fn an_undeclared_cubic_stiffness_is_found() {
         &[("k3", 1.0e7)],
         1,
         1,
+        Some(&pin_the_readmes_cubic_run),
     );
+}
+
+/// The README's larger cubic example is this case at seed 1 (`run` on it
+/// reports the same final model): its figures, as printed there.
+fn pin_the_readmes_cubic_run(d: &Diagnosis, last: &hystid::analysis::run::FinalModel) {
+    let k3 = &last.parameters["cubic_stiffness.k3"].estimate;
+    let pct = |name: &str, truth: f64| 100.0 * (last.parameters[name].estimate.value / truth - 1.0);
+    let before = last.before.as_ref().expect("the first fit as before");
+    let figures = [
+        ("k3", k3.value),
+        ("k3's CI low", k3.ci95[0]),
+        ("k3's CI high", k3.ci95[1]),
+        ("k3's error [%]", 100.0 * (k3.value / 1e7 - 1.0)),
+        ("kd's error [%]", pct("kd", 2.4e7)),
+        ("Fd's error [%]", pct("fd", 246.048)),
+        (
+            "the first fit's H1 error [%]",
+            100.0 * before.error.relative,
+        ),
+        (
+            "the baseline's H1 error [%]",
+            100.0 * d.baseline.error_relative,
+        ),
+        ("the final H1 error [%]", 100.0 * last.error.relative),
+        ("the first fit's chi2/dof", before.error.chi2_per_dof),
+        ("the baseline's chi2/dof", d.baseline.chi2_per_dof),
+        ("the final chi2/dof", last.error.chi2_per_dof),
+    ];
+    eprintln!("README cubic run: {figures:?}");
+    let shown = crate::common::readme_figures("Figures of the larger run:").expect("README line");
+    assert_eq!(shown.len(), figures.len(), "README cubic run: {shown:?}");
+    for ((what, value), shown) in figures.into_iter().zip(shown) {
+        crate::common::assert_readme_figure(what, value, shown);
+    }
 }
 
 #[test]
@@ -157,6 +215,7 @@ fn an_undeclared_quadratic_damping_is_found() {
         &[("c2", 0.2)],
         1,
         2,
+        None,
     );
 }
 
@@ -169,6 +228,7 @@ fn an_undeclared_one_sided_contact_is_found_in_the_even_harmonics() {
         &[("kb", 2.0e6)],
         2,
         3,
+        None,
     );
 }
 
@@ -185,6 +245,7 @@ fn an_undeclared_second_mode_is_found() {
         ],
         1,
         2,
+        None,
     );
 }
 

@@ -87,6 +87,79 @@ fn the_paper_case_is_reproduced_within_one_percent() {
     let (lm, agrees) = f.second_optimiser.as_ref().unwrap();
     eprintln!("LM: {} ({} evaluations)", lm.termination, lm.evaluations);
     assert!(agrees);
+    // the final model's row: `run`'s diagnosis of the same fit (its default
+    // options) adds nothing, and the model refitted on H1-H3 with the
+    // measured standard errors is reported with its intervals
+    let predictor = HbPredictor::default();
+    let options = FitOptions::default();
+    let d = hystid::diagnose::diagnose(
+        &run.frf,
+        &f,
+        &hystid::diagnose::DiagnoseOptions {
+            fit: options.clone(),
+            ..Default::default()
+        },
+        &predictor,
+    )
+    .unwrap();
+    assert!(d.selected.is_empty(), "{}", d.explanation);
+    let truth = def.model().unwrap();
+    let last = hystid::analysis::run::FinalModel::of(
+        &run.frf,
+        &f,
+        &options.harmonics,
+        None,
+        Some(&d),
+        Some(&truth),
+        &predictor,
+    )
+    .unwrap();
+    let (kd, fd, n) = (
+        &last.parameters["kd"].estimate,
+        &last.parameters["fd"].estimate,
+        &last.parameters["n"],
+    );
+    eprintln!(
+        "final model: kd {kd:?}, fd {fd:?}, n {n:?}, error {:?}, before {:?}",
+        last.error,
+        last.before.as_ref().map(|b| &b.error)
+    );
+    assert!(!n.flags.is_empty(), "N at its bound is flagged");
+    let row = crate::common::readme_figures(
+        "| hystid, final model (the diagnosis added nothing; refitted with the standard errors on H1-H3) |",
+    )
+    .expect("README final row");
+    for (what, value, at) in [
+        ("final Fd", fd.value, 0),
+        ("final Fd's error [%]", pct(fd, 246.048), 1),
+        ("final Fd's CI low", fd.ci95[0], 2),
+        ("final Fd's CI high", fd.ci95[1], 3),
+        ("final kd", kd.value, 4),
+        ("final kd's error [%]", pct(kd, 2.4e7), 5),
+        ("final kd's CI low", kd.ci95[0], 6),
+        ("final kd's CI high", kd.ci95[1], 7),
+        ("N's lower bound", n.estimate.ci95[0], 8),
+    ] {
+        crate::common::assert_readme_figure(what, value, row[at]);
+    }
+    let error = crate::common::readme_figures("The final model's relative FRF error is")
+        .expect("README sentence");
+    let before = last.before.as_ref().expect("the first fit as before");
+    for (what, value, at) in [
+        (
+            "the final model's error [%]",
+            100.0 * last.error.relative,
+            0,
+        ),
+        (
+            "the first fit's chi2/dof over H1-H3",
+            before.error.chi2_per_dof,
+            1,
+        ),
+        ("the final model's chi2/dof", last.error.chi2_per_dof, 2),
+    ] {
+        crate::common::assert_readme_figure(what, value, error[at]);
+    }
 }
 
 /// Over 10 seeds the intervals cover the reference at least 8 times.

@@ -868,6 +868,21 @@ fn boucwen_sweep_validation() {
         100.0 * v.frf.as_ref().unwrap().levels[0].relative_h1_error,
         t0.elapsed()
     );
+    let shown = common::readme_figures("Masing joint on the Bouc-Wen sweep:").expect("README line");
+    for ((what, value), shown) in [
+        ("e_RMS", v.whole.e_rms),
+        ("its share of the RMS (%)", 100.0 * v.whole.relative),
+        (
+            "H1 error (%)",
+            100.0 * v.frf.as_ref().unwrap().levels[0].relative_h1_error,
+        ),
+        ("the linear model's e_RMS", vl.whole.e_rms),
+    ]
+    .into_iter()
+    .zip(shown)
+    {
+        common::assert_readme_figure(&format!("Bouc-Wen sweep, Masing: {what}"), value, shown);
+    }
     assert!(v.whole.e_rms > 1e-6);
     assert!(v.whole.relative < 1.0 / 3.0);
 }
@@ -1008,6 +1023,22 @@ fn boucwen_published_model_reaches_the_floor() {
             data_vs_reference,
             hystid_vs_reference
         );
+        let row = common::readme_figures(match name {
+            "sine sweep" => "| sine sweep (204 s, 40 N) |",
+            _ => "| multisine (the steady-state period, played twice, the second compared) |",
+        })
+        .expect("README Bouc-Wen row");
+        for ((what, value), shown) in [
+            ("hystid's e_RMS", e.e_rms),
+            ("its share of the RMS (%)", 100.0 * e.relative),
+            ("the RK4 reference vs the data", data_vs_reference),
+            ("hystid vs the reference", hystid_vs_reference),
+        ]
+        .into_iter()
+        .zip(row)
+        {
+            common::assert_readme_figure(&format!("Bouc-Wen {name}: {what}"), value, shown);
+        }
         // within 10 % of the floor the data leave to an accurate simulation
         assert!(
             e.e_rms <= 1.1 * data_vs_reference.max(1e-6),
@@ -1162,7 +1193,31 @@ fn boucwen_fitted_on_the_estimation_multisine_validates_on_both_test_sets() {
             e.e_rms,
             100.0 * e.relative
         );
+        let row = common::readme_figures(&format!("| {name} test set |")).expect("README row");
+        for ((what, value), shown) in [
+            ("the fit's e_RMS", e.e_rms),
+            ("its share of the RMS (%)", 100.0 * e.relative),
+        ]
+        .into_iter()
+        .zip(row)
+        {
+            common::assert_readme_figure(&format!("Bouc-Wen fit, {name}: {what}"), value, shown);
+        }
         assert!(e.e_rms <= 3e-6, "{name}: e_RMS {:e} m", e.e_rms);
+    }
+    let shown = common::readme_figures("Fitted Bouc-Wen parameters:").expect("README line");
+    for ((what, value), shown) in [
+        ("m", m),
+        ("c", c),
+        ("k", k),
+        ("alpha", alpha),
+        ("beta gamma", beta * gamma),
+        ("beta delta", beta * delta),
+    ]
+    .into_iter()
+    .zip(shown)
+    {
+        common::assert_readme_figure(&format!("Bouc-Wen fit: {what}"), value, shown);
     }
     let close = |got: f64, truth: f64, tol: f64| (got / truth - 1.0).abs() <= tol;
     assert_eq!(fit.status, hystid::fit::FitStatus::Converged);
