@@ -487,18 +487,14 @@ fn confidence_at(
     crate::fit::identify::confidence(&problem, &theta, pred)
 }
 
-/// The joint identified on the lower levels only (the lowest half of those
-/// with points to fit, at least three, of at least four), with the
-/// baseline's linear part, when the baseline explains those levels far worse
-/// than it does; `None` when there are too few levels, the fit fails, or the
-/// two agree.
-fn lower_levels_joint(
+/// The lower levels only (the lowest half of those with points to fit, at
+/// least three, of at least four) and the joint law identified on them;
+/// `None` when there are too few levels or the fit fails.
+fn lower_levels_fit(
     frf: &NonlinearFrf,
     options: &crate::fit::FitOptions,
     predictor: &HbPredictor,
-    base: &Model,
-    sign: f64,
-) -> Option<Model> {
+) -> Option<(NonlinearFrf, FitResult)> {
     // the levels with something to fit (a PCM16 file's lowest may have
     // nothing above the converter's resolution)
     let usable: Vec<usize> = (0..frf.levels.len())
@@ -524,6 +520,20 @@ fn lower_levels_joint(
         .map(|&i| frf.levels[i].clone())
         .collect();
     let fit = crate::fit::identify(&lower, options, predictor, None).ok()?;
+    Some((lower, fit))
+}
+
+/// The joint of [`lower_levels_fit`] with the baseline's linear part, when
+/// the baseline explains those levels far worse than it does; `None` when
+/// the two agree.
+fn lower_levels_joint(
+    lower: &NonlinearFrf,
+    fit: &FitResult,
+    options: &crate::fit::FitOptions,
+    predictor: &HbPredictor,
+    base: &Model,
+    sign: f64,
+) -> Option<Model> {
     let joint = fit.model.joint.clone()?;
     let base_joint = base.joint.as_ref()?;
     if joint.kind() != base_joint.kind() {
@@ -531,7 +541,7 @@ fn lower_levels_joint(
     }
     // pulled away when the baseline explains the lower levels far worse
     // (twice the χ²) than a joint fitted to them alone does
-    let lower_data = FitData::from_frf(&lower, &options.harmonics, options.band_hz, None)
+    let lower_data = FitData::from_frf(lower, &options.harmonics, options.band_hz, None)
         .ok()?
         .with_sign(sign);
     let chi2_on = |m: &Model| {
@@ -567,16 +577,24 @@ fn try_candidate(
         identified,
     };
     let starts = effect.candidate().starts(&cx)?;
+    // the starts are independent refits (a further mode has up to eight):
+    // side by side, the best kept as in order
+    let refits: Vec<Result<Refit>> = starts
+        .par_iter()
+        .map(|start| {
+            refit(
+                start,
+                data,
+                predictor,
+                Some(&current.pred),
+                options.patience,
+            )
+        })
+        .collect();
     let mut best: Option<Refit> = None;
     let mut last_error = None;
-    for start in &starts {
-        match refit(
-            start,
-            data,
-            predictor,
-            Some(&current.pred),
-            options.patience,
-        ) {
+    for r in refits {
+        match r {
             Ok(r) => {
                 if best.as_ref().is_none_or(|b| r.chi2 < b.chi2) {
                     best = Some(r);
@@ -697,10 +715,24 @@ pub fn diagnose_observed(
         band_hz: options.band_hz.or(options.fit.band_hz),
         ..options.fit.clone()
     };
-    if (weighted.harmonics != options.fit.harmonics || weighted.weighting != options.fit.weighting)
-        && let Ok(f) = crate::fit::identify(frf, &weighted, predictor, None)
-        && f.response_sign == fit.response_sign
-        && let Ok(b) = refit(&f.model, &data, predictor, None, options.patience)
+    // the weighted identification and the lower levels' (below) are
+    // independent: side by side, each on its own thread
+    let (again, lower_fit) = rayon::join(
+        || {
+            if weighted.harmonics == options.fit.harmonics
+                && weighted.weighting == options.fit.weighting
+            {
+                return None;
+            }
+            let f = crate::fit::identify(frf, &weighted, predictor, None).ok()?;
+            if f.response_sign != fit.response_sign {
+                return None;
+            }
+            refit(&f.model, &data, predictor, None, options.patience).ok()
+        },
+        || lower_levels_fit(frf, &weighted, predictor),
+    );
+    if let Some(b) = again
         && b.chi2 < base.chi2
     {
         base = b;
@@ -710,7 +742,17 @@ pub fn diagnose_observed(
     // another basin (N at its bound, kd tenfold), and an effect refitted
     // from there keeps that basin; where the two joints disagree, every
     // candidate of the first round is also started from this one
-    let lower = lower_levels_joint(frf, &weighted, predictor, &base.model, fit.response_sign)
+    let lower = lower_fit
+        .and_then(|(lower, f)| {
+            lower_levels_joint(
+                &lower,
+                &f,
+                &weighted,
+                predictor,
+                &base.model,
+                fit.response_sign,
+            )
+        })
         .and_then(|m| {
             let pred = predictor.predict_from(&m, &data, None).ok()?;
             let chi2 = crate::fit::problem::chi_square(&data, &pred);
