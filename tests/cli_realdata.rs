@@ -962,6 +962,34 @@ fn assert_readme_diagnosis(start: &str, diagnosis: &Path, kept: &[(&str, &[&str]
     }
 }
 
+/// A README walkthrough through the binary: each source file imported with
+/// `import_args` (the channel flags), then all diagnosed with
+/// `diagnose_args`; the folder holding `diagnosis.json` and its path.
+fn diagnose_walkthrough(
+    sources: &[PathBuf],
+    import_args: &[&str],
+    diagnose_args: &[&str],
+) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut recs = Vec::new();
+    for (i, source) in sources.iter().enumerate() {
+        let out = dir.path().join(format!("rec{i}"));
+        let mut args = vec!["import", s(source), "--out", s(&out)];
+        args.extend(import_args);
+        args.push("-q");
+        run_ok(&args);
+        recs.push(out.with_extension("json"));
+    }
+    let out = dir.path().join("diag");
+    let mut args = vec!["diagnose"];
+    args.extend(recs.iter().map(|p| s(p)));
+    args.extend(["--out", s(&out), "-q"]);
+    args.extend(diagnose_args);
+    run_ok(&args);
+    let json = out.join("diagnosis.json");
+    (dir, json)
+}
+
 /// The README's F-16 walkthrough: the odd levels imported from the data set's
 /// MAT files and diagnosed on the torsion mode's band, as the README's
 /// commands do; its figures are pinned (a softening cubic stiffness kept, the
@@ -971,15 +999,13 @@ fn f16_diagnosis_is_the_readmes() {
     let Some(data) = common::dataset("f16_gvt_benchmark") else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let mut recs = Vec::new();
-    for l in ["1", "3", "5", "7"] {
-        let out = dir.path().join(format!("L{l}"));
-        run_ok(&[
-            "import",
-            s(&data.join(format!("BenchmarkData/F16Data_SineSw_Level{l}.mat"))),
-            "--out",
-            s(&out),
+    let sources: Vec<PathBuf> = ["1", "3", "5", "7"]
+        .iter()
+        .map(|l| data.join(format!("BenchmarkData/F16Data_SineSw_Level{l}.mat")))
+        .collect();
+    let (_dir, diagnosis) = diagnose_walkthrough(
+        &sources,
+        &[
             "-c",
             "force=Force:force",
             "-c",
@@ -988,28 +1014,19 @@ fn f16_diagnosis_is_the_readmes() {
             "variable:Fs",
             "--excitation",
             "swept",
-            "-q",
-        ]);
-        recs.push(out.with_extension("json"));
-    }
-    let out = dir.path().join("diag");
-    let mut args = vec!["diagnose"];
-    args.extend(recs.iter().map(|p| s(p)));
-    args.extend([
-        "--out",
-        s(&out),
-        "--band",
-        "6.9:7.6",
-        "--linear-start",
-        "lowest",
-        "--hop-periods",
-        "4",
-        "-q",
-    ]);
-    run_ok(&args);
+        ],
+        &[
+            "--band",
+            "6.9:7.6",
+            "--linear-start",
+            "lowest",
+            "--hop-periods",
+            "4",
+        ],
+    );
     assert_readme_diagnosis(
         "Diagnosis figures (F-16):",
-        &out.join("diagnosis.json"),
+        &diagnosis,
         &[("cubic_stiffness", &["k3"])],
     );
 }
@@ -1022,45 +1039,34 @@ fn unesp_diagnosis_is_the_readmes() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let mut recs = Vec::new();
-    for l in ["0p05", "0p15", "0p25"] {
-        let out = dir.path().join(format!("c{l}"));
-        run_ok(&[
-            "import",
-            s(&data.join(format!("csv/chirp_70to110Hz_{l}V_time.csv"))),
-            "--out",
-            s(&out),
+    let sources: Vec<PathBuf> = ["0p05", "0p15", "0p25"]
+        .iter()
+        .map(|l| data.join(format!("csv/chirp_70to110Hz_{l}V_time.csv")))
+        .collect();
+    let (_dir, diagnosis) = diagnose_walkthrough(
+        &sources,
+        &[
             "-c",
             "drive=shaker_amp_V:voltage",
             "-c",
             "laser=laser_velocity_m_per_s:velocity",
             "--excitation",
             "swept",
-            "-q",
-        ]);
-        recs.push(out.with_extension("json"));
-    }
-    let out = dir.path().join("diag");
-    let mut args = vec!["diagnose"];
-    args.extend(recs.iter().map(|p| s(p)));
-    args.extend([
-        "--out",
-        s(&out),
-        "--band",
-        "88:100",
-        "--linear-start",
-        "lowest",
-        "--hop-periods",
-        "8",
-        "--max-harmonic",
-        "3",
-        "-q",
-    ]);
-    run_ok(&args);
+        ],
+        &[
+            "--band",
+            "88:100",
+            "--linear-start",
+            "lowest",
+            "--hop-periods",
+            "8",
+            "--max-harmonic",
+            "3",
+        ],
+    );
     assert_readme_diagnosis(
         "Diagnosis figures (UNESP):",
-        &out.join("diagnosis.json"),
+        &diagnosis,
         &[("cubic_stiffness", &["k3"]), ("clearance", &["gap"])],
     );
 }
