@@ -9,12 +9,18 @@ use hystid::fit::{FitOptions, HbPredictor, identify};
 use hystid::testbench::{self, NoSink, TestDefinition};
 
 fn case(effects: &str, seed: u64) -> Diagnosis {
-    case_with_final(effects, seed).0
+    case_run(effects, seed).diagnosis
 }
 
-/// [`case`], with the final model `run` would report (the first fit as
-/// "before").
-fn case_with_final(effects: &str, seed: u64) -> (Diagnosis, hystid::analysis::run::FinalModel) {
+/// A case's test, fit and diagnosis.
+struct CaseRun {
+    def: TestDefinition,
+    frf: hystid::extract::NonlinearFrf,
+    fit: hystid::fit::FitResult,
+    diagnosis: Diagnosis,
+}
+
+fn case_run(effects: &str, seed: u64) -> CaseRun {
     let text = format!(
         r#"
 [system]
@@ -37,21 +43,29 @@ measure_periods = 16
     let def = TestDefinition::from_toml(&text, "diagnose case").unwrap();
     let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     let p = HbPredictor::default();
-    let options = FitOptions::default();
-    let fit = identify(&run.frf, &options, &p, None).unwrap();
-    let d = diagnose(&run.frf, &fit, &DiagnoseOptions::default(), &p).unwrap();
-    let truth = def.model().unwrap();
-    let last = hystid::analysis::run::FinalModel::of(
-        &run.frf,
-        &fit,
-        &options.harmonics,
+    let fit = identify(&run.frf, &FitOptions::default(), &p, None).unwrap();
+    let diagnosis = diagnose(&run.frf, &fit, &DiagnoseOptions::default(), &p).unwrap();
+    CaseRun {
+        def,
+        frf: run.frf,
+        fit,
+        diagnosis,
+    }
+}
+
+/// The final model `run` would report of a case (the first fit as "before").
+fn final_model(c: &CaseRun) -> hystid::analysis::run::FinalModel {
+    let truth = c.def.model().unwrap();
+    hystid::analysis::run::FinalModel::of(
+        &c.frf,
+        &c.fit,
+        &FitOptions::default().harmonics,
         None,
-        Some(&d),
+        Some(&c.diagnosis),
         Some(&truth),
-        &p,
+        &HbPredictor::default(),
     )
-    .unwrap();
-    (d, last)
+    .unwrap()
 }
 
 /// The seeds a case runs: one per case in the suite (each case its own, so
@@ -100,6 +114,10 @@ fn summary(tag: &str, seed: u64, d: &Diagnosis) {
     );
 }
 
+/// A check of a case's final model against the README (see
+/// [`pin_the_readmes_cubic_run`]).
+type Pin<'a> = &'a dyn Fn(&Diagnosis, &hystid::analysis::run::FinalModel);
+
 /// One undeclared effect, at seed `own` (see [`seeds`]): exactly it is selected, its
 /// parameter is within 10 %, the error on the harmonic `judged` falls at
 /// least 3 times, and the final fit is consistent with the noise (χ²/dof
@@ -114,7 +132,7 @@ fn check_single(
     truth: &[(&str, f64)],
     judged: usize,
     own: u64,
-    pin: Option<&dyn Fn(&Diagnosis, &hystid::analysis::run::FinalModel)>,
+    pin: Option<Pin<'_>>,
 ) {
     let chi2_max = if effect == Effect::BilinearStiffness {
         2.5
@@ -122,19 +140,20 @@ fn check_single(
         2.0
     };
     for seed in seeds(own) {
-        let (d, last) = case_with_final(effects, seed);
-        summary(tag, seed, &d);
+        let c = case_run(effects, seed);
+        let d = &c.diagnosis;
+        summary(tag, seed, d);
         if let (Some(pin), true) = (pin, seed == own) {
-            pin(&d, &last);
+            pin(d, &final_model(&c));
         }
         assert_eq!(
-            selected(&d),
+            selected(d),
             vec![effect],
             "{tag} seed {seed}: {}",
             d.explanation
         );
         for (name, value) in truth {
-            let got = param(&d, effect, name);
+            let got = param(d, effect, name);
             eprintln!(
                 "  {name} = {got:.6e} (true {value:e}, {:+.2} %)",
                 100.0 * (got / value - 1.0)

@@ -509,10 +509,10 @@ impl<'a> FitProblem<'a> {
                 (pred.failures() == 0).then_some(pred)
             }
         };
-        let near = here.is_some();
-        let start = here.clone().or_else(|| self.start());
+        let fallback = if here.is_none() { self.start() } else { None };
+        let start = here.as_ref().or(fallback.as_ref());
         let jac = crate::fit::optimise::forward_difference(theta, r0, step, |t| {
-            let (pred, outside) = self.evaluate_or_fail_from(t, start.as_ref(), near)?;
+            let (pred, outside) = self.evaluate_or_fail_from(t, start, here.is_some())?;
             Ok(self.residuals_of(&pred, outside))
         })?;
         if let Some(p) = here {
