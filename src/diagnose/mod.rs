@@ -250,6 +250,29 @@ fn refit(
     warm: Option<&Prediction>,
     patience: usize,
 ) -> Result<Refit> {
+    refit_within(model, data, predictor, warm, patience, 3)
+}
+
+/// [`refit`] with one Levenberg–Marquardt budget only: a brief refit.
+fn refit_once(
+    model: &Model,
+    data: &FitData,
+    predictor: &HbPredictor,
+    warm: Option<&Prediction>,
+    patience: usize,
+) -> Result<Refit> {
+    refit_within(model, data, predictor, warm, patience, 1)
+}
+
+/// [`refit`] with at most `budgets` Levenberg–Marquardt runs of `patience`.
+fn refit_within(
+    model: &Model,
+    data: &FitData,
+    predictor: &HbPredictor,
+    warm: Option<&Prediction>,
+    patience: usize,
+    budgets: usize,
+) -> Result<Refit> {
     let mut params = model_parameters(model, data.band_hz());
     // a parameter at its bound (the joint's N → ∞ for Jenkins-like data) is
     // held there: its penalty row would mislead a derivative-based step
@@ -276,8 +299,13 @@ fn refit(
     // tolerance: restart it from where it ended while that still pays (a
     // start far from the optimum, as a scanned effect size can be, needs
     // more than one budget)
-    for _ in 0..3 {
-        match crate::fit::optimise::levenberg_marquardt(&problem, &theta, patience) {
+    for _ in 0..budgets {
+        match crate::fit::optimise::levenberg_marquardt_to(
+            &problem,
+            &theta,
+            patience,
+            REFIT_TOLERANCE,
+        ) {
             Ok(r) if r.cost < cost => {
                 let gain = (cost - r.cost) / cost.max(f64::MIN_POSITIVE);
                 (theta, cost) = (r.theta, r.cost);
@@ -557,42 +585,92 @@ fn lower_levels_joint(
     Some(m)
 }
 
-/// One candidate's refit on the current model: its start(s) from the
-/// residual, each refitted, the best kept (`None` when no start exists).
+/// A refit stops where a step changes χ² or the parameters by less than
+/// this, relative (MINPACK's default): χ² is then known far better than the
+/// information criterion's threshold needs (a few units in thousands), and
+/// each parameter far inside its interval, where the optimiser's own
+/// default (30 machine epsilons) ran every refit to its evaluation budget.
+const REFIT_TOLERANCE: f64 = 1.49012e-8;
+
+/// A baseline refit whose χ² is above this many times what the noise alone
+/// gives is suspected to have gone astray, and is also started afresh (the
+/// weighted identification, the lower levels' joint): the bound the
+/// controls of the independent corpus are held to.
+const ASTRAY_CHI2_PER_DOF: f64 = 2.0;
+
+/// A candidate with more starts than this has them screened first: each
+/// refitted briefly, only the best this many refitted in full.
+const POLISHED_STARTS: usize = 2;
+
+/// Levenberg–Marquardt's patience while screening starts: enough to let a
+/// start settle into its basin, a fraction of a full refit.
+const SCREEN_PATIENCE: usize = 1;
+
+/// One candidate's refit: its start(s) from the residual of each current
+/// model (the baseline, and in the first round the lower levels' joint),
+/// each refitted, the best kept (`None` when no start exists).
+///
+/// Starts are many where the residual is ambiguous (a further mode has up
+/// to eight per current model, most of them far from the optimum): each is
+/// refitted briefly, and only the best [`POLISHED_STARTS`] are refitted in
+/// full, so that the candidate costs a few refits, not one per start.
 fn try_candidate(
     effect: Effect,
-    current: &Refit,
+    currents: &[&Refit],
     frf: &NonlinearFrf,
     data: &FitData,
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
     identified: &candidates::Identified,
 ) -> Result<Option<Refit>> {
-    let cx = Context {
-        current,
-        data,
-        frf,
-        options,
-        predictor,
-        identified,
-    };
-    let starts = effect.candidate().starts(&cx)?;
-    // the starts are independent refits (a further mode has up to eight):
-    // side by side, the best kept as in order
-    let refits: Vec<Result<Refit>> = starts
-        .par_iter()
-        .map(|start| {
-            refit(
-                start,
-                data,
-                predictor,
-                Some(&current.pred),
-                options.patience,
-            )
-        })
-        .collect();
-    let mut best: Option<Refit> = None;
+    let mut starts: Vec<(Model, &Prediction)> = Vec::new();
     let mut last_error = None;
+    for &current in currents {
+        let cx = Context {
+            current,
+            data,
+            frf,
+            options,
+            predictor,
+            identified,
+        };
+        match effect.candidate().starts(&cx) {
+            Ok(s) => starts.extend(s.into_iter().map(|m| (m, &current.pred))),
+            Err(e) => last_error = Some(e),
+        }
+    }
+    let patience = options.patience;
+    let full = |(m, warm): &(Model, &Prediction)| refit(m, data, predictor, Some(warm), patience);
+    // independent refits: side by side, collected in order (the result does
+    // not depend on the thread count)
+    let refits: Vec<Result<Refit>> = if starts.len() <= POLISHED_STARTS {
+        starts.par_iter().map(full).collect()
+    } else {
+        let screened: Vec<Result<Refit>> = starts
+            .par_iter()
+            .map(|(m, warm)| refit_once(m, data, predictor, Some(warm), SCREEN_PATIENCE))
+            .collect();
+        let mut order: Vec<usize> = (0..screened.len())
+            .filter(|&i| screened[i].as_ref().is_ok_and(|r| r.chi2.is_finite()))
+            .collect();
+        order.sort_by(|&a, &b| {
+            let chi2 = |i: usize| screened[i].as_ref().map_or(f64::INFINITY, |r| r.chi2);
+            chi2(a).total_cmp(&chi2(b)).then(a.cmp(&b))
+        });
+        order.truncate(POLISHED_STARTS);
+        if order.is_empty() {
+            screened
+        } else {
+            order
+                .par_iter()
+                .map(|&i| {
+                    let r = screened[i].as_ref().expect("screened start kept");
+                    refit(&r.model, data, predictor, Some(&r.pred), patience)
+                })
+                .collect()
+        }
+    };
+    let mut best: Option<Refit> = None;
     for r in refits {
         match r {
             Ok(r) => {
@@ -715,12 +793,18 @@ pub fn diagnose_observed(
         band_hz: options.band_hz.or(options.fit.band_hz),
         ..options.fit.clone()
     };
+    // both are guards against a baseline gone astray: where the refit
+    // already explains the data to within twice the noise, neither could
+    // lower χ² by much, and they are not computed (they cost as much as
+    // the refit itself)
+    let astray = normalised(base.chi2) > ASTRAY_CHI2_PER_DOF;
     // the weighted identification and the lower levels' (below) are
     // independent: side by side, each on its own thread
     let (again, lower_fit) = rayon::join(
         || {
-            if weighted.harmonics == options.fit.harmonics
-                && weighted.weighting == options.fit.weighting
+            if !astray
+                || weighted.harmonics == options.fit.harmonics
+                    && weighted.weighting == options.fit.weighting
             {
                 return None;
             }
@@ -730,7 +814,13 @@ pub fn diagnose_observed(
             }
             refit(&f.model, &data, predictor, None, options.patience).ok()
         },
-        || lower_levels_fit(frf, &weighted, predictor),
+        || {
+            if astray {
+                lower_levels_fit(frf, &weighted, predictor)
+            } else {
+                None
+            }
+        },
     );
     if let Some(b) = again
         && b.chi2 < base.chi2
@@ -798,33 +888,46 @@ pub fn diagnose_observed(
             round,
             candidates: ranked.len(),
         });
-        let tried: Vec<(Effect, usize, Result<Option<Refit>>)> = ranked
-            .par_iter()
+        // the largest candidates (most parameters, most starts) are started
+        // first, in that order, so that no thread is left with one of them
+        // at the end; the results are taken back in rank order
+        let mut by_size: Vec<(usize, Effect)> = ranked
+            .iter()
             .enumerate()
-            .map(|(i, &(effect, _))| {
-                let mut r = try_candidate(
-                    effect,
-                    &current,
-                    frf,
-                    &data,
-                    options,
-                    predictor,
-                    &identified,
-                );
-                if round == 1
-                    && let Some(low) = &lower
-                    && let Ok(Some(b)) =
-                        try_candidate(effect, low, frf, &data, options, predictor, &identified)
-                    && r.as_ref()
-                        .ok()
-                        .is_none_or(|a| a.as_ref().is_none_or(|a| b.chi2 < a.chi2))
-                {
-                    r = Ok(Some(b));
-                }
-                observer(DiagnoseEvent::Candidate { round, effect });
-                (effect, i + 1, r)
-            })
+            .map(|(i, &(effect, _))| (i, effect))
             .collect();
+        by_size.sort_by_key(|&(i, e)| (std::cmp::Reverse(e.candidate().size()), i));
+        let slots: Vec<std::sync::Mutex<Option<Result<Option<Refit>>>>> =
+            ranked.iter().map(|_| Default::default()).collect();
+        rayon::scope_fifo(|s| {
+            for &(i, effect) in &by_size {
+                let (slots, current, lower, data, identified) =
+                    (&slots, &current, &lower, &data, &identified);
+                s.spawn_fifo(move |_| {
+                    let mut currents = vec![current];
+                    if round == 1
+                        && let Some(low) = lower
+                    {
+                        currents.push(low);
+                    }
+                    let r =
+                        try_candidate(effect, &currents, frf, data, options, predictor, identified);
+                    observer(DiagnoseEvent::Candidate { round, effect });
+                    *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+                });
+            }
+        });
+        let tried = ranked
+            .iter()
+            .zip(slots)
+            .enumerate()
+            .map(|(i, (&(effect, _), slot))| {
+                let r = slot
+                    .into_inner()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .expect("every candidate was tried");
+                (effect, i + 1, r)
+            });
         let mut round_results = Vec::new();
         for (effect, rank_pos, t) in tried {
             let r = match t {

@@ -299,11 +299,24 @@ impl<P: Objective + ?Sized> levenberg_marquardt::LeastSquaresProblem<f64, Dyn, D
 }
 
 /// Levenberg–Marquardt from `theta0`, at most `patience·(n+1)` residual
-/// evaluations.
+/// evaluations, to the crate's tolerance (30 machine epsilons: it mostly
+/// stops on its patience).
 pub fn levenberg_marquardt<P: Objective + ?Sized>(
     problem: &P,
     theta0: &[f64],
     patience: usize,
+) -> Result<OptimiserRun> {
+    levenberg_marquardt_to(problem, theta0, patience, 30.0 * f64::EPSILON)
+}
+
+/// [`levenberg_marquardt`] stopping where a step changes the sum of squares
+/// or the (scaled) parameters by less than `tolerance`, relative (MINPACK's
+/// `ftol` and `xtol`; MINPACK's default is 1.49e-8).
+pub fn levenberg_marquardt_to<P: Objective + ?Sized>(
+    problem: &P,
+    theta0: &[f64],
+    patience: usize,
+    tolerance: f64,
 ) -> Result<OptimiserRun> {
     let start = problem.evaluations();
     let lm = Lm {
@@ -314,6 +327,8 @@ pub fn levenberg_marquardt<P: Objective + ?Sized>(
     };
     let (lm, report) = levenberg_marquardt::LevenbergMarquardt::new()
         .with_patience(patience)
+        .with_ftol(tolerance)
+        .with_xtol(tolerance)
         .minimize(lm);
     if let Some(e) = lm.error.into_inner() {
         return Err(e);

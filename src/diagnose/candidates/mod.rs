@@ -108,9 +108,14 @@ impl Context<'_> {
         cache
             .entry(modes)
             .or_insert_with(|| {
+                // only a start, polished by the refit: no bootstrap, no
+                // second optimiser, and a third of the simplex's iterations
                 let opts = crate::fit::FitOptions {
                     modes,
                     band_hz: self.options.band_hz.or(self.options.fit.band_hz),
+                    bootstrap: 0,
+                    second_optimiser: false,
+                    max_iterations: self.options.fit.max_iterations.div_ceil(3),
                     ..self.options.fit.clone()
                 };
                 crate::fit::identify(self.frf, &opts, self.predictor, None)
