@@ -253,18 +253,8 @@ fn refit(
     refit_within(model, data, predictor, warm, patience, 3)
 }
 
-/// [`refit`] with one Levenberg–Marquardt budget only: a brief refit.
-fn refit_once(
-    model: &Model,
-    data: &FitData,
-    predictor: &HbPredictor,
-    warm: Option<&Prediction>,
-    patience: usize,
-) -> Result<Refit> {
-    refit_within(model, data, predictor, warm, patience, 1)
-}
-
-/// [`refit`] with at most `budgets` Levenberg–Marquardt runs of `patience`.
+/// [`refit`] with at most `budgets` Levenberg–Marquardt runs of `patience`
+/// (one: a brief refit, as a start's screening).
 fn refit_within(
     model: &Model,
     data: &FitData,
@@ -648,7 +638,7 @@ fn try_candidate(
     } else {
         let screened: Vec<Result<Refit>> = starts
             .par_iter()
-            .map(|(m, warm)| refit_once(m, data, predictor, Some(warm), SCREEN_PATIENCE))
+            .map(|(m, warm)| refit_within(m, data, predictor, Some(warm), SCREEN_PATIENCE, 1))
             .collect();
         let mut order: Vec<usize> = (0..screened.len())
             .filter(|&i| screened[i].as_ref().is_ok_and(|r| r.chi2.is_finite()))
