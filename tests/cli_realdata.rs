@@ -777,6 +777,9 @@ fn unesp_single_sines_are_one_level() {
 /// sets (the multisine's with `--periodic`: it is one steady-state period). Checked against the benchmark's published parameters (m 2, k
 /// 5e4, α 5e4, βγ 800, βδ −1100) and issue 13's e_RMS target (≤ 3e-6 m;
 /// measured 2.38e-6 m on the sweep, 3.8e-7 m on the multisine).
+/// The same without a start (`identify --domain time --element bouc_wen`):
+/// the multisine's period and linear estimate found by `identify`, to the
+/// same parameters and targets.
 /// A name `--fix` does not know, and `--start` without `--domain time`, are
 /// clear errors (exit 2) that leave no output.
 #[test]
@@ -879,13 +882,56 @@ fn bouc_wen_fitted_from_a_written_start_validates_on_the_sweep() {
         "delta {}",
         p("delta")
     );
+    // without a start: the multisine's period and linear estimate found
+    // by identify, the joint nearly linear (beta its gauge, held)
+    let found_dir = dir.path().join("fit_found");
+    let out = run_ok(&[
+        "identify",
+        s(&est),
+        "--out",
+        s(&found_dir),
+        "--domain",
+        "time",
+        "--element",
+        "bouc_wen",
+        "--fix",
+        "nu",
+        "--min-samples-per-period",
+        "200",
+    ]);
+    eprintln!("{out}");
+    assert!(
+        out.contains("5 periods of 8192 samples"),
+        "the period is reported: {out}"
+    );
+    let found = json(&found_dir.join("fit.json"));
+    let t = &found["time_domain"];
+    assert_eq!(t["status"], "converged");
+    let p = |n: &str| t["parameters"][n]["value"].as_f64().unwrap();
+    let beta = found["start"]["joint"]["beta"].as_f64().unwrap();
+    assert!(close(p("mass"), 2.0, 0.01), "mass {}", p("mass"));
+    assert!(close(p("alpha"), 5e4, 0.01), "alpha {}", p("alpha"));
+    assert!(close(beta * p("gamma"), 800.0, 0.02), "beta gamma");
+    assert!(close(beta * p("delta"), -1100.0, 0.02), "beta delta");
     // the multisine test set is one steady-state period: --periodic
-    let fit_json = fit_dir.join("fit.json");
-    for (set, extra, target) in [
-        ("sweep", None, 3e-6),
-        ("multisine", Some("--periodic"), 1e-6),
+    for (fit_json, set, extra, target) in [
+        (fit_dir.join("fit.json"), "sweep", None, 3e-6),
+        (
+            fit_dir.join("fit.json"),
+            "multisine",
+            Some("--periodic"),
+            1e-6,
+        ),
+        (found_dir.join("fit.json"), "sweep", None, 3e-6),
+        (
+            found_dir.join("fit.json"),
+            "multisine",
+            Some("--periodic"),
+            1e-6,
+        ),
     ] {
         let val_dir = dir.path().join(format!("val_{set}"));
+        let _ = std::fs::remove_dir_all(&val_dir);
         let rec = dir.path().join(format!("{set}.json"));
         let mut a = vec![
             "validate",

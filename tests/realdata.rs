@@ -15,7 +15,7 @@ use hystid::extract::{
     Direction, FrfPoint, NonlinearFrf, ReduceOptions, SweepOptions, choose_compensation,
     reduce_stepped_report, reduce_stepped_stream, reduce_sweep,
 };
-use hystid::fit::{FitOptions, FitResult, FrfSample, HbPredictor, LinearStart, fit_sdof, identify};
+use hystid::fit::{FitOptions, FitResult, FrfSample, HbPredictor, LinearStart, identify};
 use hystid::harmonics::{Quantity, omega};
 use hystid::import::{ChannelSpec, ImportSpec, SampleRateSource, import};
 use hystid::model::{ElementSpec, ModalModel, Model};
@@ -1062,10 +1062,12 @@ fn boucwen_published_model_reaches_the_floor() {
 /// Issue 13's protocol on the Bouc-Wen benchmark: fit in the time domain on
 /// the estimation multisine (5 periods of 8192 samples; periods 2-5 judged,
 /// the first holds the transient), validate on both test sets (e_RMS, the
-/// benchmark's metric), from a start the data give: the linear FRF at the
-/// excited lines fitted by `fit_sdof` (the FRF fit's linear estimate), its
-/// stiffness split evenly between the structure and a Bouc-Wen joint of a
-/// nearly linear shape. With ν = 1 the law depends on β only through `βγ` and
+/// benchmark's metric), from a start the data give: the period found in the
+/// force (`extract::find_period`), the linear FRF at the excited lines
+/// (`extract::periodic_frf`) fitted by the FRF fit's linear estimate, its
+/// stiffness split evenly between the structure and a Bouc-Wen joint that
+/// sticks over the response (`fit::time::periodic_start`, the start
+/// `identify --domain time` makes of a multisine). With ν = 1 the law depends on β only through `βγ` and
 /// `βδ`, so β is held at its start and `γ`, `δ` fitted. Checked against the
 /// published parameters (m 2, c 10, k 5e4, α 5e4, βγ 800, βδ −1100) and
 /// the issue's target, e_RMS ≤ 3e-6 m on both test sets (published PNLSS:
@@ -1086,47 +1088,28 @@ fn boucwen_fitted_on_the_estimation_multisine_validates_on_both_test_sets() {
     let (u, y) = (&est.channels[0], &est.channels[1]);
     let p = 8192;
     assert_eq!(u.len(), 5 * p);
-    let mut planner = rustfft::FftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(p);
-    let spectrum = |x: &[f64]| {
-        let mut acc = vec![Complex64::new(0.0, 0.0); p];
-        for k in 1..5 {
-            let mut b: Vec<Complex64> = x[k * p..(k + 1) * p]
-                .iter()
-                .map(|&v| Complex64::new(v, 0.0))
-                .collect();
-            fft.process(&mut b);
-            for (a, v) in acc.iter_mut().zip(b) {
-                *a += v;
-            }
-        }
-        acc
-    };
-    let (us, ys) = (spectrum(u), spectrum(y));
+    assert_eq!(hystid::extract::find_period(u), Some(p));
     // the receptance at the excited lines (those within 20 dB of the
-    // strongest), fitted by the FRF fit's own linear estimate
-    let umax = us[1..p / 2].iter().fold(0.0f64, |m, v| m.max(v.norm()));
-    let lines: Vec<FrfSample> = (1..p / 2)
-        .filter(|&l| us[l].norm() >= 0.1 * umax)
+    // strongest), fitted by the FRF fit's own linear estimate; the joint
+    // sticks over 10 RMS of the response (the start `identify --domain time`
+    // makes of a multisine)
+    let lines: Vec<FrfSample> = hystid::extract::periodic_frf(u, y, fs, p)
+        .into_iter()
         .map(|l| FrfSample {
-            frequency_hz: l as f64 * fs / p as f64,
-            h: ys[l] / us[l],
-            std_error: 0.0,
+            frequency_hz: l.frequency_hz,
+            h: l.h,
+            std_error: l.std_error,
         })
         .collect();
-    let linear = fit_sdof(&lines, Quantity::Displacement, "estimation multisine").unwrap();
-    let (k_lin, m_lin, c_lin) = (linear.stiffness, linear.mass, linear.damping);
-    let start = Model::new(
-        ModalModel::sdof(m_lin, c_lin, 0.5 * k_lin).unwrap(),
-        vec![ElementSpec::BoucWen {
-            alpha: 0.5 * k_lin,
-            beta: 0.1 / rms(&y[p..]),
-            gamma: 0.5,
-            delta: 0.1,
-            nu: 1.0,
-        }],
+    let y_rms = rms(&y[p..]);
+    let (start, linear) = hystid::fit::time::periodic_start(
+        &lines,
+        Quantity::Displacement,
+        hystid::model::ElementKind::BoucWen,
+        |_| y_rms,
     )
     .unwrap();
+    let (k_lin, m_lin, c_lin) = (linear.stiffness, linear.mass, linear.damping);
     let mut params = ParameterSet::for_element(&start, ElementAt::Joint, "");
     params
         .parameters

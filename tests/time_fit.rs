@@ -477,7 +477,7 @@ fn an_effect_the_time_history_does_not_need_is_dropped() {
         .expect("the control's first round tried every candidate");
     report.accepted = true;
     report.verdict = Verdict::Kept;
-    let records = hystid::analysis::time_records(&[path], None).unwrap();
+    let records = hystid::analysis::time_records(&[path], None, None).unwrap();
     let t = refine_in_time(
         &mut d,
         &reduced.frf,

@@ -341,9 +341,14 @@ pub fn write_convergence(dir: &Path, fit: &FitResult) -> Result<Vec<PathBuf>> {
 
 /// The recordings as the time-domain fit reads them: each one's reference
 /// and `response` channel (as [`super::load_recording`] chooses), the whole
-/// record judged.
-pub fn time_records(recordings: &[PathBuf], response: Option<&str>) -> Result<Vec<TimeRecord>> {
-    time_records_in(recordings, response, None)
+/// record judged, or only what `band_hz` holds (see
+/// [`TimeRecord::from_recording`]).
+pub fn time_records(
+    recordings: &[PathBuf],
+    response: Option<&str>,
+    band_hz: Option<(f64, f64)>,
+) -> Result<Vec<TimeRecord>> {
+    time_records_in(recordings, response, None, band_hz)
 }
 
 /// [`time_records`] judged over `window_s` (seconds from each record's
@@ -353,6 +358,7 @@ pub fn time_records_in(
     recordings: &[PathBuf],
     response: Option<&str>,
     window_s: Option<(f64, f64)>,
+    band_hz: Option<(f64, f64)>,
 ) -> Result<Vec<TimeRecord>> {
     recordings
         .iter()
@@ -361,9 +367,149 @@ pub fn time_records_in(
             let fs = l.recording.meta.sample_rate_hz;
             let window =
                 window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
-            TimeRecord::from_recording(&p.display().to_string(), &l.recording, l.response, window)
+            TimeRecord::from_recording(
+                &p.display().to_string(),
+                &l.recording,
+                l.response,
+                window,
+                band_hz,
+            )
         })
         .collect()
+}
+
+/// A time-domain fit's start from periodic recordings (multisines played
+/// several times): see [`periodic_start`].
+#[derive(Clone, Debug)]
+pub struct PeriodicStart {
+    /// The recordings, each judged over its whole periods after the first,
+    /// one segment per period.
+    pub records: Vec<TimeRecord>,
+    /// The start: the linear estimate with a nearly linear joint.
+    pub start: Model,
+    /// What the start was made of, for the report.
+    pub note: String,
+}
+
+/// Fewest excited lines for a periodic record to count as a multisine (the
+/// linear estimate's `m, c, k` need them; a single sine is periodic too).
+pub const MULTISINE_LINES: usize = 3;
+
+/// The start of a time-domain fit when no model is written down and the
+/// recordings are periodic multisines, which an FRF fit cannot read: each
+/// recording's period ([`crate::extract::find_period`]), the linear FRF at
+/// the excited lines over the periods after the first
+/// ([`crate::extract::periodic_frf`]), an SDOF fitted to it and a joint of
+/// `kind` that sticks over the whole response
+/// ([`crate::fit::time::periodic_start`]).
+///
+/// `None` when a recording states a stepped or swept excitation, or is not
+/// a multisine (no period, or fewer than [`MULTISINE_LINES`] lines): the
+/// FRF fit's path.
+pub fn periodic_start(
+    recordings: &[PathBuf],
+    response: Option<&str>,
+    kind: crate::model::ElementKind,
+) -> Result<Option<PeriodicStart>> {
+    let mut records = Vec::new();
+    let mut lines = Vec::new();
+    let mut spectra = Vec::new();
+    let mut quantity = None;
+    let mut notes = Vec::new();
+    for p in recordings {
+        let l = super::load_recording(p, response)?;
+        let rec = &l.recording;
+        if rec.meta.excitation.kind != crate::signals::ExcitationKind::Unknown {
+            return Ok(None);
+        }
+        let Some(reference) = rec.reference_channel() else {
+            return Ok(None);
+        };
+        let u = &rec.channels[reference];
+        let Some(period) = crate::extract::find_period(u) else {
+            return Ok(None);
+        };
+        let fs = rec.meta.sample_rate_hz;
+        let found = crate::extract::periodic_frf(u, &rec.channels[l.response], fs, period);
+        if found.len() < MULTISINE_LINES {
+            return Ok(None);
+        }
+        let q = rec.meta.channels[l.response].quantity;
+        if quantity.is_some_and(|was| was != q) {
+            return Err(Error::input(
+                format!("{}: response", p.display()),
+                "the recordings' responses are different quantities".to_string(),
+            ));
+        }
+        quantity = Some(q);
+        let periods = rec.frames() / period;
+        let name = p.display().to_string();
+        let mut r = TimeRecord::from_recording(
+            &name,
+            rec,
+            l.response,
+            Some(period..periods * period),
+            None,
+        )?;
+        r.segments = (1..periods).map(|k| k * period..(k + 1) * period).collect();
+        r.check()?;
+        notes.push(format!(
+            "{name}: {periods} periods of {period} samples, {} lines excited ({:.4}-{:.4} Hz)",
+            found.len(),
+            found[0].frequency_hz,
+            found[found.len() - 1].frequency_hz
+        ));
+        spectra.push((period, found.clone()));
+        lines.extend(found.into_iter().map(|l| crate::fit::FrfSample {
+            frequency_hz: l.frequency_hz,
+            h: l.h,
+            std_error: l.std_error,
+        }));
+        records.push(r);
+    }
+    let Some(quantity) = quantity else {
+        return Ok(None);
+    };
+    lines.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
+    // the displacement the linear estimate predicts (Parseval over the
+    // lines of one period), the loudest recording's
+    let displacement_rms = |e: &crate::fit::SdofEstimate| {
+        spectra
+            .iter()
+            .map(|(period, ls)| {
+                let sum: f64 = ls
+                    .iter()
+                    .map(|l| {
+                        let w = 2.0 * std::f64::consts::PI * l.frequency_hz;
+                        let d = num_complex::Complex64::new(
+                            e.stiffness - e.mass * w * w,
+                            e.damping * w,
+                        );
+                        (l.reference / d.norm()).powi(2)
+                    })
+                    .sum();
+                (2.0 * sum).sqrt() / *period as f64
+            })
+            .fold(0.0, f64::max)
+    };
+    let (start, linear) =
+        crate::fit::time::periodic_start(&lines, quantity, kind, displacement_rms)?;
+    notes.push(format!(
+        "started from the linear estimate at the excited lines (m {:.5e} kg, c {:.5e} N s/m, k {:.5e} N/m), \
+         its stiffness split evenly between the structure and a {} joint that sticks over the response",
+        linear.mass,
+        linear.damping,
+        linear.stiffness,
+        kind.name()
+    ));
+    if linear.sign < 0.0 {
+        notes.push("the linear estimate's modal constant is negative (a transfer); the response is fitted as recorded".into());
+    }
+    Ok(Some(PeriodicStart {
+        records,
+        start,
+        note: notes.join("; "),
+    }))
 }
 
 /// Refines `fit` in the time domain on `records`: every parameter of its

@@ -25,8 +25,9 @@ pub mod validate;
 
 pub use flags::{Flag, flag_estimates, flag_words, flags_of};
 pub use identify::{
-    Comparison, FitReport, TimeFitReport, compare, reference_joint, run_fit, run_time_fit,
-    run_time_fit_from_start, time_records, time_records_in, write_fit_plots,
+    Comparison, FitReport, MULTISINE_LINES, PeriodicStart, TimeFitReport, compare, periodic_start,
+    reference_joint, run_fit, run_time_fit, run_time_fit_from_start, time_records, time_records_in,
+    write_fit_plots,
 };
 pub use recording::{
     Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited, combine_recordings,

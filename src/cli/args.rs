@@ -93,7 +93,11 @@ pub struct IdentifyArgs {
     /// What the model is fitted to: `frf` (the nonlinear FRFs by harmonic
     /// balance) or `time` (that fit, then refined on the recorded time
     /// histories themselves: the model driven by the measured force, its
-    /// response matched sample by sample).
+    /// response matched sample by sample). Recordings of a multisine played
+    /// several times (excitation not stated, a repeated reference with at
+    /// least 3 excited lines), which no FRF reduction reads, start instead
+    /// from their linear FRF at the excited lines, each judged over its
+    /// periods after the first.
     #[arg(long, value_enum, default_value_t = Domain::Frf)]
     pub domain: Domain,
     /// With `--domain time`: start from a model written down (`*.toml`, as
@@ -101,16 +105,17 @@ pub struct IdentifyArgs {
     /// cannot read (multisines, transients).
     #[arg(long)]
     pub start: Option<PathBuf>,
-    /// With `--start`: parameters held at the start's values, comma
-    /// separated (e.g. `beta,nu`).
+    /// With `--start` or a multisine's start: parameters held at the
+    /// start's values, comma separated (e.g. `beta,nu`).
     #[arg(long, value_delimiter = ',')]
     pub fix: Vec<String>,
     /// With `--start`: the time window T0:T1 in seconds judged in every
     /// recording (e.g. after the transient).
     #[arg(long)]
     pub window: Option<String>,
-    /// With `--start`: fewest samples per period of the model's highest
-    /// linearised frequency before the replay is upsampled.
+    /// With `--start` or a multisine's start: fewest samples per period of
+    /// the model's highest linearised frequency before the replay is
+    /// upsampled.
     #[arg(long, default_value_t = 40.0)]
     pub min_samples_per_period: f64,
 }

@@ -78,19 +78,23 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         Domain::Time => {
             // a refit that fails leaves the FRF diagnosis standing, with why
             let pb = progress::spinner("refitting in the time domain", quiet);
-            let t = hystid::analysis::time_records(&args.recordings, args.response.as_deref())
-                .and_then(|records| {
-                    refine_in_time(
-                        &mut d,
-                        &frf,
-                        &records,
-                        &hystid::fit::TimeFitOptions::default(),
-                        options.band_hz,
-                        options.patience,
-                        &predictor,
-                        &progress::Drawn(&pb),
-                    )
-                });
+            let t = hystid::analysis::time_records(
+                &args.recordings,
+                args.response.as_deref(),
+                options.band_hz,
+            )
+            .and_then(|records| {
+                refine_in_time(
+                    &mut d,
+                    &frf,
+                    &records,
+                    &hystid::fit::TimeFitOptions::default(),
+                    options.band_hz,
+                    options.patience,
+                    &predictor,
+                    &progress::Drawn(&pb),
+                )
+            });
             pb.finish_and_clear();
             Some(match t {
                 Ok(t) => TimeOutcome::Refined(Box::new(t)),

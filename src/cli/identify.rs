@@ -226,8 +226,25 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
         .as_deref()
         .map(|w| super::validate::parse_range(w, "--window", "s"))
         .transpose()?;
-    let records =
-        hystid::analysis::time_records_in(&args.recordings, args.response.as_deref(), window)?;
+    let band = fit_options(&args.fit)?.band_hz;
+    let records = hystid::analysis::time_records_in(
+        &args.recordings,
+        args.response.as_deref(),
+        window,
+        band,
+    )?;
+    fit_in_time(args, &model, &records, None, quiet)
+}
+
+/// Fits `model` to `records` in the time domain and writes fit.json: a
+/// start written down, or `origin` (how the start was found, a note).
+fn fit_in_time(
+    args: &IdentifyArgs,
+    model: &hystid::model::Model,
+    records: &[hystid::fit::TimeRecord],
+    origin: Option<String>,
+    quiet: bool,
+) -> Result<u8> {
     let names: Vec<String> = args
         .recordings
         .iter()
@@ -241,13 +258,16 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
     let mut report = hystid::analysis::run_time_fit_from_start(
         names.join(", "),
         args.response.clone().unwrap_or_default(),
-        &model,
+        model,
         &args.fix,
-        &records,
+        records,
         &options,
         &progress::Drawn(&pb),
     )?;
     pb.finish_and_clear();
+    if let Some(o) = origin {
+        report.time_domain.notes.insert(0, o);
+    }
     let _out = create_out_dir(&args.out)?;
     report.files = vec![args.out.join("fit.json")];
     write_json(&args.out.join("fit.json"), &report)?;
@@ -268,6 +288,16 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     if let Some(start) = &args.start {
         return identify_from_start(args, start, quiet);
+    }
+    // multisines, which no FRF reduction reads: the start from their
+    // linear estimate
+    if args.domain == Domain::Time && args.reduction.excitation == ExcitationArg::Auto {
+        let kind = fit_options(&args.fit)?.element;
+        if let Some(p) =
+            hystid::analysis::periodic_start(&args.recordings, args.response.as_deref(), kind)?
+        {
+            return fit_in_time(args, &p.start, &p.records, Some(p.note), quiet);
+        }
     }
     let options = fit_options(&args.fit)?;
     let (frf, first) = reduce_recordings(
@@ -305,8 +335,11 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     let time_domain = match args.domain {
         Domain::Frf => None,
         Domain::Time => {
-            let records =
-                hystid::analysis::time_records(&args.recordings, args.response.as_deref())?;
+            let records = hystid::analysis::time_records(
+                &args.recordings,
+                args.response.as_deref(),
+                options.band_hz,
+            )?;
             let pb = progress::spinner("fitting in the time domain", quiet);
             let t = hystid::analysis::run_time_fit(
                 &fit,

@@ -19,6 +19,8 @@
 //! [`crate::record`]'s, which provides the readers.
 //! * [`reduce_sweep`]: a swept sine, following the reference's phase;
 //!   [`choose_compensation`] picks its sweep-distortion compensation.
+//! * [`find_period`] and [`periodic_frf`]: a periodic excitation (a
+//!   multisine played several times), its period and the FRF at its lines.
 //! * [`naive`]: direct-sum references for tests and benchmarks.
 //!
 //! All dwell estimates use the H1 estimator over blocks,
@@ -34,6 +36,7 @@ mod estimator;
 mod lsq;
 pub mod naive;
 mod noncoherent;
+mod periodic;
 mod stepped;
 mod streaming;
 mod sweep;
@@ -41,13 +44,15 @@ mod sweep;
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
 pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
 pub use noncoherent::{estimate_frequency, noncoherent};
+pub use periodic::{EXCITED_LINE, Line, PERIODIC_CORRELATION, find_period, periodic_frf};
 pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, below_resolution,
     combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_report, settling,
 };
 pub use streaming::reduce_stepped_stream;
 pub use sweep::{
-    SweepFit, SweepLaw, SweepOptions, SweepReduction, reduce_sweep, reduce_sweep_recording,
+    SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep, reduce_sweep,
+    reduce_sweep_recording,
 };
 
 use crate::harmonics::Quantity;

@@ -474,6 +474,51 @@ fn fit_sweep(
     ))
 }
 
+/// The sweep in `reference` (its active stretch and fitted frequency law),
+/// without reducing a response: what a time-domain fit needs to judge a
+/// swept record inside a band.
+pub fn find_sweep(
+    reference: &[f64],
+    sample_rate_hz: f64,
+    options: &SweepOptions,
+) -> Result<SweepFit> {
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(Error::input(
+            "sample rate",
+            format!("must be finite and > 0, got {sample_rate_hz}"),
+        ));
+    }
+    if let Some(i) = reference.iter().position(|v| !v.is_finite()) {
+        return Err(Error::input(
+            "reference",
+            format!("sample {i} is not finite"),
+        ));
+    }
+    fit_sweep(reference, sample_rate_hz, options).map(|(_, s)| s)
+}
+
+impl SweepFit {
+    /// Samples `a..b` where the fitted law's frequency lies inside `band`
+    /// (clamped to the active sweep; empty when the sweep does not move).
+    pub fn samples_in(&self, band: (f64, f64)) -> std::ops::Range<usize> {
+        let (n0, n1) = (self.start as f64, self.end as f64);
+        let (f0, f1) = (self.f_start_hz, self.f_end_hz);
+        if n1 <= n0 || f0 == f1 {
+            return 0..0;
+        }
+        // sample at which the law reaches frequency f
+        let at = |f: f64| -> f64 {
+            let u = match self.law {
+                SweepLaw::Linear => (f - f0) / (f1 - f0),
+                SweepLaw::Logarithmic => (f / f0).ln() / (f1 / f0).ln(),
+            };
+            n0 + u.clamp(0.0, 1.0) * (n1 - n0)
+        };
+        let (x, y) = (at(band.0), at(band.1));
+        x.min(y).floor() as usize..x.max(y).ceil() as usize
+    }
+}
+
 /// One plain window's result.
 struct WindowFit {
     center: f64,

@@ -153,11 +153,18 @@ impl TimeRecord {
     /// channel, judged over samples `window` (the whole record if `None`),
     /// cut at its dwells: the stated `steps`, else for a stepped or unknown
     /// excitation the dwells found in the reference (none: one segment).
+    ///
+    /// With `band_hz`, only what the band holds is judged: a stepped record's
+    /// dwells at frequencies inside it, a swept record's stretch where the
+    /// sweep (its law fitted to the reference's phase) is inside it. The
+    /// model is still driven from the record's first sample, so the joint
+    /// reaches the band with the history the structure had.
     pub fn from_recording(
         name: &str,
         rec: &crate::signals::Recording,
         response: usize,
         window: Option<Range<usize>>,
+        band_hz: Option<(f64, f64)>,
     ) -> Result<TimeRecord> {
         let reference = rec.reference_channel().ok_or_else(|| {
             Error::input(
@@ -172,12 +179,33 @@ impl TimeRecord {
             )
         })?;
         let n = rec.frames();
-        let window = window.unwrap_or(0..n);
+        let mut window = window.unwrap_or(0..n);
         let fs = rec.meta.sample_rate_hz;
         let stated = &rec.meta.excitation.steps;
+        let swept = rec.meta.excitation.kind == crate::signals::ExcitationKind::SweptSine;
+        if let (Some(band), true, true) = (band_hz, swept, stated.is_empty()) {
+            let sweep = crate::extract::find_sweep(
+                &rec.channels[reference],
+                fs,
+                &crate::extract::SweepOptions::default(),
+            )
+            .map_err(|e| Error::context(format!("{name}: the sweep"), e))?;
+            let inside = sweep.samples_in(band);
+            let (a, b) = (inside.start.max(window.start), inside.end.min(window.end));
+            if b <= a {
+                return Err(Error::input(
+                    format!("{name}: band"),
+                    format!(
+                        "the sweep ({:.4}-{:.4} Hz) is never inside {}-{} Hz within the window",
+                        sweep.f_start_hz, sweep.f_end_hz, band.0, band.1
+                    ),
+                ));
+            }
+            window = a..b;
+        }
         let steps = if !stated.is_empty() {
             stated.clone()
-        } else if rec.meta.excitation.kind == crate::signals::ExcitationKind::SweptSine {
+        } else if swept {
             Vec::new()
         } else {
             crate::extract::find_dwells(
@@ -196,6 +224,22 @@ impl TimeRecord {
             segments: TimeRecord::segments_at(window.clone(), &steps),
             window,
         };
+        if let (Some((lo, hi)), false) = (band_hz, steps.is_empty()) {
+            // each segment is judged as the dwell it starts in
+            let mut by_start: Vec<&crate::signals::Step> = steps.iter().collect();
+            by_start.sort_by_key(|s| s.start);
+            r.segments.retain(|seg| {
+                let k = by_start.partition_point(|s| s.start <= seg.start);
+                let f = by_start[k.saturating_sub(1)].frequency_hz;
+                (lo..=hi).contains(&f)
+            });
+            if r.segments.is_empty() {
+                return Err(Error::input(
+                    format!("{name}: band"),
+                    format!("no dwell of the record is inside {lo}-{hi} Hz"),
+                ));
+            }
+        }
         // a dwell whose response the converter resolved to a few steps (a
         // quiet level in a 16-bit file) has no scale to be judged on: left
         // out, as the FRF reduction leaves it out
@@ -542,6 +586,43 @@ impl Objective for TimeProblem<'_> {
     fn evaluations(&self) -> usize {
         self.evaluations.load(Ordering::Relaxed)
     }
+}
+
+/// How far beyond the response the start's joint slips: its slip force is
+/// the stick stiffness times this many RMS displacements, so the start is
+/// nearly linear and the fit finds the hysteresis from there.
+pub const START_SLIP_RMS: f64 = 10.0;
+
+/// The start of a time-domain fit of a periodic excitation without a model
+/// written down: `linear` an SDOF fitted to the linear FRF at the excited
+/// lines (`1/(k − mω² + jcω)`, the FRF fit's own linear estimate; `lines`
+/// of `quantity` per force), its stiffness split evenly between the
+/// structure and a joint of `kind` that sticks over the whole response
+/// (its slip force at [`START_SLIP_RMS`] times the displacement's RMS,
+/// `displacement_rms`, as the linear FRF predicts it). Returns the model and
+/// the SDOF.
+pub fn periodic_start(
+    lines: &[super::FrfSample],
+    quantity: Quantity,
+    kind: crate::model::ElementKind,
+    displacement_rms: impl Fn(&super::SdofEstimate) -> f64,
+) -> Result<(Model, super::SdofEstimate)> {
+    let linear = super::fit_sdof(lines, quantity, "the excited lines")?;
+    let k = 0.5 * linear.stiffness;
+    let x = displacement_rms(&linear);
+    if !(x.is_finite() && x > 0.0) {
+        return Err(Error::input(
+            "response",
+            format!("the linear estimate predicts no displacement (RMS {x:e} m)"),
+        ));
+    }
+    let joint = crate::model::ElementSpec::joint(kind, k, k * START_SLIP_RMS * x, "--element")?;
+    let model = Model::with_joint(
+        crate::model::ModalModel::sdof(linear.mass, linear.damping, k)?,
+        Some(joint),
+        Vec::new(),
+    )?;
+    Ok((model, linear))
 }
 
 /// The free parameters of a time-domain fit of `model`: every element's

@@ -31,7 +31,7 @@ pub mod resample;
 
 use crate::error::{Error, Result};
 use crate::extract::{
-    FrfPoint, NonlinearFrf, ReduceOptions, SweepFit, SweepLaw, SweepOptions, reduce_stepped_report,
+    FrfPoint, NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, reduce_stepped_report,
     reduce_sweep,
 };
 use crate::harmonics::Quantity;
@@ -610,21 +610,8 @@ pub fn validate_recording(
 
 /// Samples `a..b` where the fitted sweep's frequency lies inside `band`.
 pub fn sweep_window(sweep: &SweepFit, band: (f64, f64)) -> (usize, usize) {
-    let (n0, n1) = (sweep.start as f64, sweep.end as f64);
-    let (f0, f1) = (sweep.f_start_hz, sweep.f_end_hz);
-    if n1 <= n0 || f0 == f1 {
-        return (0, 0);
-    }
-    // sample at which the law reaches frequency f
-    let at = |f: f64| -> f64 {
-        let u = match sweep.law {
-            SweepLaw::Linear => (f - f0) / (f1 - f0),
-            SweepLaw::Logarithmic => (f / f0).ln() / (f1 / f0).ln(),
-        };
-        n0 + u.clamp(0.0, 1.0) * (n1 - n0)
-    };
-    let (x, y) = (at(band.0), at(band.1));
-    (x.min(y).floor() as usize, x.max(y).ceil() as usize)
+    let r = sweep.samples_in(band);
+    (r.start, r.end)
 }
 
 fn compare_frfs(
