@@ -780,3 +780,112 @@ fn time_confidence(problem: &TimeProblem, theta: &[f64]) -> Result<BTreeMap<Stri
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signals::{Channel, Excitation, ExcitationKind, Recording, RecordingMeta, Step};
+    use std::f64::consts::PI;
+
+    fn recording(fs: f64, force: Vec<f64>, excitation: Excitation) -> Recording {
+        let channel = |name: &str, quantity: Quantity| Channel {
+            name: name.into(),
+            quantity,
+            unit: quantity.si_unit().into(),
+            scale: 1.0,
+        };
+        // any response that is not silent: the band only picks samples
+        let response: Vec<f64> = force.iter().map(|f| 1e-3 * f).collect();
+        Recording {
+            meta: RecordingMeta {
+                format: crate::record::FORMAT_V1.into(),
+                sample_rate_hz: fs,
+                channels: vec![
+                    channel("force", Quantity::Force),
+                    channel("x", Quantity::Displacement),
+                ],
+                excitation,
+                description: String::new(),
+                metadata: Default::default(),
+                extra: Default::default(),
+            },
+            channels: vec![force, response],
+        }
+    }
+
+    /// A linear sweep 2 -> 20 Hz over 100 s at 200 Hz: the band 5-10 Hz is
+    /// reached at t = 50/3 s and left at 400/9 s, by the closed form
+    /// `f(t) = 2 + 0.18 t`, so the window is samples 3333..8889 (within the
+    /// phase fit's rounding, a sample).
+    #[test]
+    fn a_swept_record_is_judged_where_the_sweep_is_in_the_band() {
+        let fs = 200.0;
+        let force: Vec<f64> = (0..20_000)
+            .map(|i| {
+                let t = i as f64 / fs;
+                (2.0 * PI * (2.0 * t + 0.09 * t * t)).sin()
+            })
+            .collect();
+        let kind = |kind| Excitation {
+            kind,
+            ..Excitation::default()
+        };
+        let rec = recording(fs, force, kind(ExcitationKind::SweptSine));
+        let r = TimeRecord::from_recording("sweep", &rec, 1, None, Some((5.0, 10.0))).unwrap();
+        let want = (50.0 / 3.0 * fs, 400.0 / 9.0 * fs);
+        assert!(
+            (r.window.start as f64 - want.0).abs() <= 2.0
+                && (r.window.end as f64 - want.1).abs() <= 2.0,
+            "{:?} against {want:?}",
+            r.window
+        );
+        assert_eq!(r.segments, vec![r.window.clone()]);
+        let all = TimeRecord::from_recording("sweep", &rec, 1, None, None).unwrap();
+        assert_eq!(all.window, 0..20_000);
+        let e = TimeRecord::from_recording("sweep", &rec, 1, None, Some((30.0, 40.0)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("sweep: band") && e.contains("never inside"),
+            "{e}"
+        );
+    }
+
+    /// Three stated dwells at 4, 6 and 8 Hz: the band 5-7 Hz keeps the
+    /// middle one's segment only; a band holding none is an error.
+    #[test]
+    fn a_stepped_record_is_judged_on_its_dwells_in_the_band() {
+        let fs = 200.0;
+        let steps: Vec<Step> = [4.0, 6.0, 8.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &f)| Step {
+                frequency_hz: f,
+                level: 1.0,
+                start: 1000 * k,
+                settle: 0,
+                length: 1000,
+            })
+            .collect();
+        let force: Vec<f64> = (0..3000)
+            .map(|i| (2.0 * PI * steps[i / 1000].frequency_hz * i as f64 / fs).sin())
+            .collect();
+        let rec = recording(
+            fs,
+            force,
+            Excitation {
+                kind: ExcitationKind::SteppedSine,
+                steps,
+                sweep: None,
+            },
+        );
+        let r = TimeRecord::from_recording("dwells", &rec, 1, None, Some((5.0, 7.0))).unwrap();
+        assert_eq!(r.segments, vec![1000..2000]);
+        let all = TimeRecord::from_recording("dwells", &rec, 1, None, None).unwrap();
+        assert_eq!(all.segments.len(), 3);
+        let e = TimeRecord::from_recording("dwells", &rec, 1, None, Some((9.0, 10.0)))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no dwell"), "{e}");
+    }
+}
