@@ -1065,9 +1065,10 @@ fn boucwen_published_model_reaches_the_floor() {
 /// benchmark's metric), from a start the data give: the period found in the
 /// force (`extract::find_period`), the linear FRF at the excited lines
 /// (`extract::periodic_frf`) fitted by the FRF fit's linear estimate, its
-/// stiffness split evenly between the structure and a Bouc-Wen joint that
-/// sticks over the response (`fit::time::periodic_start`, the start
-/// `identify --domain time` makes of a multisine). With ν = 1 the law depends on β only through `βγ` and
+/// stiffness shared between the structure and a Bouc-Wen joint, the closest
+/// of a grid of shares and slip forces (`fit::time::periodic_starts`,
+/// `fit::time::closest_start`: the start `identify --domain time` makes of
+/// a multisine). With ν = 1 the law depends on β only through `βγ` and
 /// `βδ`, so β is held at its start and `γ`, `δ` fitted. Checked against the
 /// published parameters (m 2, c 10, k 5e4, α 5e4, βγ 800, βδ −1100) and
 /// the target, e_RMS ≤ 3e-6 m on both test sets (published PNLSS:
@@ -1102,7 +1103,7 @@ fn boucwen_fitted_on_the_estimation_multisine_validates_on_both_test_sets() {
         })
         .collect();
     let y_rms = rms(&y[p..]);
-    let (start, linear) = hystid::fit::time::periodic_start(
+    let (starts, linear) = hystid::fit::time::periodic_starts(
         &lines,
         Quantity::Displacement,
         hystid::model::ElementKind::BoucWen,
@@ -1110,11 +1111,6 @@ fn boucwen_fitted_on_the_estimation_multisine_validates_on_both_test_sets() {
     )
     .unwrap();
     let (k_lin, m_lin, c_lin) = (linear.stiffness, linear.mass, linear.damping);
-    let mut params = ParameterSet::for_element(&start, ElementAt::Joint, "");
-    params
-        .parameters
-        .retain(|q| q.name != "nu" && q.name != "beta");
-    params.extend(ParameterSet::for_sdof(0));
     let record = TimeRecord {
         name: "estimation".into(),
         reference: u.clone(),
@@ -1128,7 +1124,18 @@ fn boucwen_fitted_on_the_estimation_multisine_validates_on_both_test_sets() {
         min_samples_per_period: 200.0,
         ..TimeFitOptions::default()
     };
-    let fit = identify_time(&start, params, 1.0, &[record], &options, None).unwrap();
+    let records = [record];
+    let models: Vec<Model> = starts.into_iter().map(|(m, _)| m).collect();
+    let (best, _) = hystid::fit::time::closest_start(&models, &records, &TimeFitOptions::default())
+        .unwrap()
+        .unwrap();
+    let start = models[best].clone();
+    let mut params = ParameterSet::for_element(&start, ElementAt::Joint, "");
+    params
+        .parameters
+        .retain(|q| q.name != "nu" && q.name != "beta");
+    params.extend(ParameterSet::for_sdof(0));
+    let fit = identify_time(&start, params, 1.0, &records, &options, None).unwrap();
     let (m, c, k) = fit.model.linear.as_mck().unwrap();
     let Some(ElementSpec::BoucWen {
         alpha,

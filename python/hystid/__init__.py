@@ -40,6 +40,7 @@ __all__ = [
     "diagnose",
     "extract",
     "identify",
+    "identify_time",
     "model",
     "simulate",
     "validate",
@@ -214,7 +215,17 @@ def _options(options, kwargs):
     return json.dumps(o)
 
 
-def identify(frf, *, reference=None, recording="", response=None, options=None, **kwargs):
+def identify(
+    frf,
+    *,
+    reference=None,
+    recording="",
+    response=None,
+    options=None,
+    domain="frf",
+    recordings=None,
+    **kwargs,
+):
     """Fits a joint model to nonlinear FRFs (a dict as :func:`extract`,
     :func:`virtual_test` or ``frf.json`` give): the ``fit.json`` dict.
 
@@ -227,10 +238,91 @@ def identify(frf, *, reference=None, recording="", response=None, options=None, 
     hi)``: ``--band``), ``max_iterations``. ``reference``: the structure the
     data came from (anything :func:`model` takes), for the ``comparison``.
     ``recording`` and ``response`` name the data in the report.
+
+    ``domain="time"`` (``--domain time``) then refines the fit on the time
+    histories ``recordings`` (a list as :func:`identify_time` takes): the
+    ``fit.json`` dict with its ``time_domain``.
     """
+    if domain not in ("frf", "time"):
+        raise HystidError(f"domain: `{domain}` is not frf or time")
+    if domain == "time" and not recordings:
+        raise HystidError("domain='time': give the time histories as recordings=[...]")
     ref = None if reference is None else _as_model(reference)
-    text = _hystid.identify(
-        json.dumps(frf), _options(options, kwargs), ref, recording, response
+    opts = _options(options, kwargs)
+    text = _hystid.identify(json.dumps(frf), opts, ref, recording, response)
+    fit = json.loads(text)
+    if domain == "frf":
+        return fit
+    return identify_time(recordings, fit=fit, options=json.loads(opts))
+
+
+def _time_record(r, i):
+    """One recording of :func:`identify_time` as the library's arguments."""
+    if not isinstance(r, dict) or "force" not in r or "response" not in r or "sample_rate_hz" not in r:
+        raise HystidError(
+            f"recordings[{i}]: a dict with force, response and sample_rate_hz "
+            "(and steps, sweep, excitation, response_quantity, reference_quantity, name)"
+        )
+    e = json.loads(_excitation(r.get("steps"), r.get("sweep")))
+    kind = r.get("excitation")
+    if kind is not None:
+        kinds = {"stepped": "stepped-sine", "swept": "swept-sine", "unknown": "unknown"}
+        if kind not in kinds:
+            raise HystidError(f"recordings[{i}].excitation: `{kind}` is not stepped, swept or unknown")
+        e["kind"] = kinds[kind]
+    return (
+        _f64(r["force"], f"recordings[{i}].force"),
+        r.get("reference_quantity", "force"),
+        _f64(r["response"], f"recordings[{i}].response"),
+        r.get("response_quantity", "displacement"),
+        float(r["sample_rate_hz"]),
+        json.dumps(e),
+        str(r.get("name", f"recording {i + 1}")),
+    )
+
+
+def identify_time(
+    recordings,
+    *,
+    fit=None,
+    start=None,
+    fix=(),
+    window_s=None,
+    min_samples_per_period=40.0,
+    options=None,
+    **kwargs,
+):
+    """Fits a model to recorded time histories, as ``hystid identify
+    --domain time`` does: the model driven by each measured force, its
+    response matched sample by sample (the ``fit.json`` dict).
+
+    ``recordings``: a list of dicts with ``force``, ``response`` (numpy or
+    sequences), ``sample_rate_hz``, and optionally ``steps`` / ``sweep`` (as
+    in :func:`extract`), ``excitation`` (``"stepped"``, ``"swept"`` or
+    ``"unknown"``), ``response_quantity`` (``"displacement"``),
+    ``reference_quantity`` (``"force"``) and ``name``.
+
+    The start: ``fit`` (a ``fit.json`` dict of an FRF fit, refined as
+    ``--domain time`` refines it), ``start`` (a model, anything
+    :func:`model` takes: ``--start``, with ``fix``, ``window_s`` and
+    ``min_samples_per_period`` as ``--fix``, ``--window`` and
+    ``--min-samples-per-period``), or neither for multisines (a force that
+    repeats: the linear estimate at the excited lines, the joint of
+    ``element`` nearly linear). Fit options as in :func:`identify`
+    (``element``, ``band_hz``: what is judged).
+    """
+    if isinstance(recordings, dict):
+        recordings = [recordings]
+    parts = list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
+    model_start = None if start is None else _as_model(start)
+    text = _hystid.identify_time(
+        *[list(p) for p in parts],
+        _options(options, kwargs),
+        None if fit is None else json.dumps(fit),
+        model_start,
+        [str(f) for f in fix],
+        None if window_s is None else (float(window_s[0]), float(window_s[1])),
+        float(min_samples_per_period),
     )
     return json.loads(text)
 

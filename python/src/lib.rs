@@ -18,7 +18,7 @@ use hystid::analysis::{
     Compensation, Excitation as Reduction, FitReport, Loaded, ReductionOptions, reduce,
 };
 use hystid::diagnose::{DiagnoseOptions, Effect};
-use hystid::fit::FitOptions;
+use hystid::fit::{FitOptions, TimeFitOptions, TimeRecord};
 use hystid::harmonics::Quantity;
 use hystid::model::Model;
 use hystid::observe::Silent;
@@ -557,6 +557,149 @@ fn validate<'py>(
     Ok((to_json(&report)?, simulated.into_pyarray(py)))
 }
 
+/// A time-domain fit (fit.json, as `hystid identify --domain time`): of
+/// an FRF fit's model (`fit`, fit.json, refined as the command refines it),
+/// of a model written down (`start`, as `--start`), or with neither of
+/// multisine recordings from their linear estimate. One entry per recording
+/// in each list.
+#[pyfunction]
+#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0))]
+#[allow(clippy::too_many_arguments)]
+fn identify_time<'py>(
+    py: Python<'py>,
+    references: Vec<PyReadonlyArray1<'py, f64>>,
+    reference_quantities: Vec<String>,
+    responses: Vec<PyReadonlyArray1<'py, f64>>,
+    response_quantities: Vec<String>,
+    sample_rates: Vec<f64>,
+    excitations: Vec<String>,
+    names: Vec<String>,
+    options: String,
+    fit: Option<String>,
+    start: Option<PyRef<'py, PyModel>>,
+    fix: Vec<String>,
+    window_s: Option<(f64, f64)>,
+    min_samples_per_period: f64,
+) -> PyResult<String> {
+    let n = references.len();
+    if [
+        reference_quantities.len(),
+        responses.len(),
+        response_quantities.len(),
+        sample_rates.len(),
+        excitations.len(),
+        names.len(),
+    ]
+    .iter()
+    .any(|&m| m != n)
+        || n == 0
+    {
+        return Err(fail("recordings: give at least one, each with its force and response"));
+    }
+    let loaded = (0..n)
+        .map(|i| {
+            loaded(
+                &references[i],
+                &reference_quantities[i],
+                &responses[i],
+                &response_quantities[i],
+                sample_rates[i],
+                &excitations[i],
+            )
+        })
+        .collect::<PyResult<Vec<Loaded>>>()?;
+    let fit_opts = fit_options(&options)?;
+    let band = fit_opts.band_hz;
+    let records = |window_s: Option<(f64, f64)>| {
+        loaded
+            .iter()
+            .zip(&names)
+            .map(|(l, name)| {
+                let fs = l.recording.meta.sample_rate_hz;
+                let window =
+                    window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
+                TimeRecord::from_recording(name, &l.recording, l.response, window, band)
+            })
+            .collect::<hystid::Result<Vec<TimeRecord>>>()
+    };
+    let time_options = TimeFitOptions {
+        min_samples_per_period,
+        ..TimeFitOptions::default()
+    };
+    let recording = names.join(", ");
+    let text = match (fit, start) {
+        (Some(_), Some(_)) => return Err(fail("give fit= or start=, not both")),
+        (Some(text), None) => {
+            if window_s.is_some() {
+                return Err(fail(
+                    "window_s: applies to a start written down or a multisine's start, not to an FRF fit's refinement",
+                ));
+            }
+            let mut report = from_json::<FitReport>("fit", &text)?;
+            let t = py
+                .detach(|| {
+                    let records = records(None)?;
+                    hystid::analysis::run_time_fit(
+                        &report.fit,
+                        &records,
+                        &TimeFitOptions::default(),
+                        band,
+                        &Silent,
+                    )
+                })
+                .map_err(err)?;
+            report.set_time_domain(Some(t));
+            to_json(&report)?
+        }
+        (None, Some(start)) => {
+            let start = start.inner.clone();
+            let report = py
+                .detach(|| {
+                    let records = records(window_s)?;
+                    hystid::analysis::run_time_fit_from_start(
+                        recording,
+                        String::new(),
+                        &start,
+                        &fix,
+                        &records,
+                        &time_options,
+                        &Silent,
+                    )
+                })
+                .map_err(err)?;
+            to_json(&report)?
+        }
+        (None, None) => {
+            let report = py
+                .detach(|| {
+                    let named: Vec<(&str, &Loaded)> =
+                        names.iter().map(String::as_str).zip(&loaded).collect();
+                    let Some(p) = hystid::analysis::periodic_start_of(&named, fit_opts.element)?
+                    else {
+                        return Err(hystid::Error::input(
+                            "recordings",
+                            "not multisines (a force that repeats, with at least 3 lines excited): give fit= (an FRF fit to refine) or start= (a model)",
+                        ));
+                    };
+                    let mut report = hystid::analysis::run_time_fit_from_start(
+                        recording,
+                        String::new(),
+                        &p.start,
+                        &fix,
+                        &p.records,
+                        &time_options,
+                        &Silent,
+                    )?;
+                    report.time_domain.notes.insert(0, p.note);
+                    Ok(report)
+                })
+                .map_err(err)?;
+            to_json(&report)?
+        }
+    };
+    Ok(text)
+}
+
 #[pymodule]
 fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HystidError", m.py().get_type::<HystidError>())?;
@@ -572,5 +715,6 @@ fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(validate, m)?)?;
+    m.add_function(wrap_pyfunction!(identify_time, m)?)?;
     Ok(())
 }

@@ -400,8 +400,9 @@ pub const MULTISINE_LINES: usize = 3;
 /// recording's period ([`crate::extract::find_period`]), the linear FRF at
 /// the excited lines over the periods after the first
 /// ([`crate::extract::periodic_frf`]), an SDOF fitted to it and a joint of
-/// `kind` that sticks over the whole response
-/// ([`crate::fit::time::periodic_start`]).
+/// `kind` ([`crate::fit::time::periodic_starts`]), the closest to the
+/// recordings of a grid of stiffness shares and slip forces
+/// ([`crate::fit::time::closest_start`]).
 ///
 /// `None` when a recording states a stepped or swept excitation, or is not
 /// a multisine (no period, or fewer than [`MULTISINE_LINES`] lines): the
@@ -411,13 +412,25 @@ pub fn periodic_start(
     response: Option<&str>,
     kind: crate::model::ElementKind,
 ) -> Result<Option<PeriodicStart>> {
+    let loaded = recordings
+        .iter()
+        .map(|p| Ok((p.display().to_string(), super::load_recording(p, response)?)))
+        .collect::<Result<Vec<_>>>()?;
+    let named: Vec<(&str, &super::Loaded)> = loaded.iter().map(|(n, l)| (n.as_str(), l)).collect();
+    periodic_start_of(&named, kind)
+}
+
+/// [`periodic_start`] of recordings in memory, each with its name.
+pub fn periodic_start_of(
+    recordings: &[(&str, &super::Loaded)],
+    kind: crate::model::ElementKind,
+) -> Result<Option<PeriodicStart>> {
     let mut records = Vec::new();
     let mut lines = Vec::new();
     let mut spectra = Vec::new();
     let mut quantity = None;
     let mut notes = Vec::new();
-    for p in recordings {
-        let l = super::load_recording(p, response)?;
+    for (name, l) in recordings {
         let rec = &l.recording;
         if rec.meta.excitation.kind != crate::signals::ExcitationKind::Unknown {
             return Ok(None);
@@ -437,15 +450,14 @@ pub fn periodic_start(
         let q = rec.meta.channels[l.response].quantity;
         if quantity.is_some_and(|was| was != q) {
             return Err(Error::input(
-                format!("{}: response", p.display()),
+                format!("{name}: response"),
                 "the recordings' responses are different quantities".to_string(),
             ));
         }
         quantity = Some(q);
         let periods = rec.frames() / period;
-        let name = p.display().to_string();
         let mut r = TimeRecord::from_recording(
-            &name,
+            name,
             rec,
             l.response,
             Some(period..periods * period),
@@ -492,16 +504,34 @@ pub fn periodic_start(
             })
             .fold(0.0, f64::max)
     };
-    let (start, linear) =
-        crate::fit::time::periodic_start(&lines, quantity, kind, displacement_rms)?;
+    let (starts, linear) =
+        crate::fit::time::periodic_starts(&lines, quantity, kind, displacement_rms)?;
+    let options = TimeFitOptions::default();
+    let models: Vec<Model> = starts.iter().map(|(m, _)| m.clone()).collect();
+    let Some((best, misfit)) = crate::fit::time::closest_start(&models, &records, &options)? else {
+        return Err(Error::input(
+            "recordings",
+            "the simulator rejects every start made from the linear estimate",
+        ));
+    };
+    let shape = starts[best].1;
     notes.push(format!(
-        "started from the linear estimate at the excited lines (m {:.5e} kg, c {:.5e} N s/m, k {:.5e} N/m), \
-         its stiffness split evenly between the structure and a {} joint that sticks over the response",
+        "started from the linear estimate at the excited lines (m {:.5e} kg, c {:.5e} N s/m, k {:.5e} N/m): \
+         the structure {:.0} % of its stiffness and {:.0} % of its damping, a {} joint {} times as stiff \
+         slipping at {} RMS of the displacement it predicts (the closest of {} such starts: a per-segment \
+         relative misfit of {:.2} %)",
         linear.mass,
         linear.damping,
         linear.stiffness,
-        kind.name()
+        100.0 * shape.structure,
+        100.0 * shape.damping,
+        kind.name(),
+        shape.joint,
+        shape.slip_rms,
+        starts.len(),
+        100.0 * (misfit / records.len() as f64).sqrt(),
     ));
+    let start = models[best].clone();
     if linear.sign < 0.0 {
         notes.push("the linear estimate's modal constant is negative (a transfer); the response is fitted as recorded".into());
     }

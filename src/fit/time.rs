@@ -588,27 +588,56 @@ impl Objective for TimeProblem<'_> {
     }
 }
 
-/// How far beyond the response the start's joint slips: its slip force is
-/// the stick stiffness times this many RMS displacements, so the start is
-/// nearly linear and the fit finds the hysteresis from there.
-pub const START_SLIP_RMS: f64 = 10.0;
+/// The starts' joint slips at these multiples of the displacement's RMS
+/// (from slipping over most of every cycle to sticking throughout). A start
+/// that sticks throughout has no gradient in the slip force and one that
+/// slips throughout none in the stick stiffness, so the fit starts from the
+/// best of a grid over this, [`START_STRUCTURE`], [`START_JOINT`] and
+/// [`START_DAMPING`].
+pub const START_SLIP_RMS: [f64; 5] = [0.1, 0.3, 1.0, 3.0, 10.0];
 
-/// The start of a time-domain fit of a periodic excitation without a model
+/// The structure's stiffness in the starts, as fractions of the linear
+/// estimate's: the linear estimate is the structure and the joint together,
+/// at the response's amplitude, and how much of it a slipping joint carries
+/// is not known.
+pub const START_STRUCTURE: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
+
+/// The joint's stick stiffness in the starts, as multiples of the linear
+/// estimate's stiffness.
+pub const START_JOINT: [f64; 3] = [0.25, 1.0, 4.0];
+
+/// The structure's damping in the starts, as fractions of the linear
+/// estimate's: that holds the joint's dissipation too.
+pub const START_DAMPING: [f64; 3] = [0.25, 0.5, 1.0];
+
+/// One start of the grid of [`periodic_starts`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartShape {
+    /// The joint's slip, multiples of the displacement's RMS.
+    pub slip_rms: f64,
+    /// The structure's stiffness, a fraction of the linear estimate's.
+    pub structure: f64,
+    /// The joint's stick stiffness, a multiple of the linear estimate's.
+    pub joint: f64,
+    /// The structure's damping, a fraction of the linear estimate's.
+    pub damping: f64,
+}
+
+/// The starts of a time-domain fit of a periodic excitation without a model
 /// written down: `linear` an SDOF fitted to the linear FRF at the excited
 /// lines (`1/(k − mω² + jcω)`, the FRF fit's own linear estimate; `lines`
-/// of `quantity` per force), its stiffness split evenly between the
-/// structure and a joint of `kind` that sticks over the whole response
-/// (its slip force at [`START_SLIP_RMS`] times the displacement's RMS,
-/// `displacement_rms`, as the linear FRF predicts it). Returns the model and
-/// the SDOF.
-pub fn periodic_start(
+/// of `quantity` per force), and a joint of `kind` beside a structure of
+/// its mass, over the grid of [`START_SLIP_RMS`] (from
+/// `displacement_rms`, the displacement's RMS as the linear estimate
+/// predicts it), [`START_STRUCTURE`], [`START_JOINT`] and
+/// [`START_DAMPING`]. Returns the starts with their shapes, and the SDOF.
+pub fn periodic_starts(
     lines: &[super::FrfSample],
     quantity: Quantity,
     kind: crate::model::ElementKind,
     displacement_rms: impl Fn(&super::SdofEstimate) -> f64,
-) -> Result<(Model, super::SdofEstimate)> {
+) -> Result<(Vec<(Model, StartShape)>, super::SdofEstimate)> {
     let linear = super::fit_sdof(lines, quantity, "the excited lines")?;
-    let k = 0.5 * linear.stiffness;
     let x = displacement_rms(&linear);
     if !(x.is_finite() && x > 0.0) {
         return Err(Error::input(
@@ -616,13 +645,72 @@ pub fn periodic_start(
             format!("the linear estimate predicts no displacement (RMS {x:e} m)"),
         ));
     }
-    let joint = crate::model::ElementSpec::joint(kind, k, k * START_SLIP_RMS * x, "--element")?;
-    let model = Model::with_joint(
-        crate::model::ModalModel::sdof(linear.mass, linear.damping, k)?,
-        Some(joint),
-        Vec::new(),
-    )?;
-    Ok((model, linear))
+    let mut starts = Vec::new();
+    for slip_rms in START_SLIP_RMS {
+        for structure in START_STRUCTURE {
+            for joint in START_JOINT {
+                for damping in START_DAMPING {
+                    let kd = joint * linear.stiffness;
+                    let spec =
+                        crate::model::ElementSpec::joint(kind, kd, kd * slip_rms * x, "--element")?;
+                    let model = Model::with_joint(
+                        crate::model::ModalModel::sdof(
+                            linear.mass,
+                            damping * linear.damping,
+                            structure * linear.stiffness,
+                        )?,
+                        Some(spec),
+                        Vec::new(),
+                    )?;
+                    let shape = StartShape {
+                        slip_rms,
+                        structure,
+                        joint,
+                        damping,
+                    };
+                    starts.push((model, shape));
+                }
+            }
+        }
+    }
+    Ok((starts, linear))
+}
+
+/// The index of the start whose replay is closest to `records` (the fit's
+/// own misfit: each segment's squared relative e_RMS, summed), replayed at
+/// the options' rate; a start the simulator rejects is passed over, ties go
+/// to the first. `None` when the simulator rejects every one.
+pub fn closest_start(
+    starts: &[Model],
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+) -> Result<Option<(usize, f64)>> {
+    use rayon::prelude::*;
+    let misfits = starts
+        .par_iter()
+        .map(|m| {
+            let problem = TimeProblem::new(
+                m.clone(),
+                ParameterSet::default(),
+                records,
+                1.0,
+                options.clone(),
+                None,
+            )?;
+            match problem.errors(m) {
+                Ok(e) => Ok(Some(
+                    e.iter().map(|r| r.segment_relative.powi(2)).sum::<f64>(),
+                )),
+                Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => Ok(None),
+                Err(e) => Err(e),
+            }
+        })
+        .collect::<Result<Vec<Option<f64>>>>()?;
+    Ok(misfits
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, m)| m.filter(|v| v.is_finite()).map(|v| (i, v)))
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0))))
 }
 
 /// The free parameters of a time-domain fit of `model`: every element's
