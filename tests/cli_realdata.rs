@@ -1116,3 +1116,65 @@ fn unesp_diagnosis_is_the_readmes() {
         &[("cubic_stiffness", &["k3"]), ("clearance", &["gap"])],
     );
 }
+
+/// Issue 13's F-16 and UNESP protocols in the time domain, run as `cargo
+/// bench --bench datasets` runs them (`tests/protocols`): each validation
+/// recording's row of the README's table (e_RMS, its share of the RMS over
+/// the band's window, the linearised model's share, the target). The
+/// targets themselves (15 %, 5 %) are not met and not asserted; the
+/// issue's other criterion is: the joint model at least 3 times closer
+/// than the linearised one on every validation recording.
+#[test]
+fn datasets_time_protocols_are_the_readmes() {
+    let work = tempfile::tempdir().unwrap();
+    for (name, protocol, rows) in [
+        (
+            "f16_gvt_benchmark",
+            super::protocols::f16 as fn(&Path, &Path) -> Vec<serde_json::Value>,
+            [
+                "| F-16 | level 2 |",
+                "| F-16 | level 4 |",
+                "| F-16 | level 6 |",
+            ],
+        ),
+        (
+            "bolted_beam_unesp_bert",
+            super::protocols::unesp,
+            [
+                "| UNESP | 0.10 V |",
+                "| UNESP | 0.20 V |",
+                "| UNESP | 0.30 V |",
+            ],
+        ),
+    ] {
+        let Some(dir) = common::dataset(name) else {
+            continue;
+        };
+        let got = protocol(&dir, work.path());
+        assert_eq!(got.len(), rows.len(), "{name}: {got:?}");
+        for (r, row) in got.iter().zip(rows) {
+            eprintln!("{row} {r}");
+            let f = |k: &str| r[k].as_f64().unwrap();
+            let shown = common::readme_figures(row).expect("README row");
+            assert_eq!(shown.len(), 4, "{row}: {shown:?}");
+            for ((what, value), shown) in [
+                ("e_RMS", f("e_rms")),
+                ("its share of the RMS (%)", 100.0 * f("e_rms_relative")),
+                (
+                    "the linearised model's (%)",
+                    100.0 * f("linear_e_rms_relative"),
+                ),
+                ("the target (%)", 100.0 * f("target_relative")),
+            ]
+            .into_iter()
+            .zip(shown)
+            {
+                common::assert_readme_figure(&format!("{row} {what}"), value, shown);
+            }
+            assert!(
+                f("linear_e_rms_relative") >= 3.0 * f("e_rms_relative"),
+                "{row}: not 3 times closer than the linearised model"
+            );
+        }
+    }
+}

@@ -17,6 +17,7 @@ mod hb;
 mod import;
 mod independent;
 mod plot;
+mod protocols;
 mod realdata;
 mod record;
 mod reliability;
