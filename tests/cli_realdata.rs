@@ -885,20 +885,9 @@ fn bouc_wen_fitted_from_a_written_start_validates_on_the_sweep() {
     // without a start: the multisine's period and linear estimate found
     // by identify, the joint nearly linear (beta its gauge, held)
     let found_dir = dir.path().join("fit_found");
-    let out = run_ok(&[
-        "identify",
-        s(&est),
-        "--out",
-        s(&found_dir),
-        "--domain",
-        "time",
-        "--element",
-        "bouc_wen",
-        "--fix",
-        "nu",
-        "--min-samples-per-period",
-        "200",
-    ]);
+    let mut a = vec!["identify", s(&est), "--out", s(&found_dir)];
+    a.extend(super::protocols::BOUC_WEN_FIT);
+    let out = run_ok(&a);
     eprintln!("{out}");
     assert!(
         out.contains("5 periods of 8192 samples"),
@@ -1051,16 +1040,7 @@ fn f16_diagnosis_is_the_readmes() {
         .collect();
     let (_dir, diagnosis) = diagnose_walkthrough(
         &sources,
-        &[
-            "-c",
-            "force=Force:force",
-            "-c",
-            "acc2=Acceleration(2):acceleration",
-            "--rate",
-            "variable:Fs",
-            "--excitation",
-            "swept",
-        ],
+        &super::protocols::F16_IMPORT,
         &[
             "--band",
             "6.9:7.6",
@@ -1091,24 +1071,8 @@ fn unesp_diagnosis_is_the_readmes() {
         .collect();
     let (_dir, diagnosis) = diagnose_walkthrough(
         &sources,
-        &[
-            "-c",
-            "drive=shaker_amp_V:voltage",
-            "-c",
-            "laser=laser_velocity_m_per_s:velocity",
-            "--excitation",
-            "swept",
-        ],
-        &[
-            "--band",
-            "88:100",
-            "--linear-start",
-            "lowest",
-            "--hop-periods",
-            "8",
-            "--max-harmonic",
-            "3",
-        ],
+        &super::protocols::UNESP_IMPORT,
+        &super::protocols::UNESP_REDUCTION,
     );
     assert_readme_diagnosis(
         "Diagnosis figures (UNESP):",

@@ -196,24 +196,98 @@ pub fn bouc_wen(d: &Path, work: &Path) -> Vec<Value> {
     run_protocol(
         &Protocol {
             dataset: "bouc_wen",
-            fit: [
-                s(&est),
-                "--domain",
-                "time",
-                "--element",
-                "bouc_wen",
-                "--fix",
-                "nu",
-                "--min-samples-per-period",
-                "200",
-            ]
-            .map(String::from)
-            .to_vec(),
+            fit: std::iter::once(s(&est))
+                .chain(BOUC_WEN_FIT)
+                .map(String::from)
+                .collect(),
             validation: vec![(sweep, vec![]), (multisine, vec!["--periodic"])],
             window_hz: None,
             compare_linear: false,
             target_relative: None,
             target_e_rms: Some(3e-6),
+        },
+        work,
+    )
+}
+
+/// `import`'s arguments for an F-16 level (the README's).
+pub const F16_IMPORT: [&str; 8] = [
+    "-c",
+    "force=Force:force",
+    "-c",
+    "acc2=Acceleration(2):acceleration",
+    "--rate",
+    "variable:Fs",
+    "--excitation",
+    "swept",
+];
+
+/// `import`'s arguments for a UNESP chirp (the README's).
+pub const UNESP_IMPORT: [&str; 6] = [
+    "-c",
+    "drive=shaker_amp_V:voltage",
+    "-c",
+    "laser=laser_velocity_m_per_s:velocity",
+    "--excitation",
+    "swept",
+];
+
+/// The UNESP walkthroughs' band and reduction (`identify`, `diagnose`):
+/// mode 2's band, the smallest level's mode as the linear start.
+pub const UNESP_REDUCTION: [&str; 8] = [
+    "--band",
+    "88:100",
+    "--linear-start",
+    "lowest",
+    "--hop-periods",
+    "8",
+    "--max-harmonic",
+    "3",
+];
+
+/// `identify`'s arguments after the recordings for the Bouc-Wen estimation
+/// multisine (no start written down).
+pub const BOUC_WEN_FIT: [&str; 8] = [
+    "--domain",
+    "time",
+    "--element",
+    "bouc_wen",
+    "--fix",
+    "nu",
+    "--min-samples-per-period",
+    "200",
+];
+
+/// A protocol of swept records: `records` imported, those at `fit` fitted
+/// with `options`, those at `held_out` judged inside `band`, against the
+/// linearised model too.
+fn swept_protocol(
+    dataset: &'static str,
+    records: &[PathBuf],
+    (fit, held_out): (&[usize], &[usize]),
+    options: &[&str],
+    band: (f64, f64),
+    target_relative: f64,
+    work: &Path,
+) -> Vec<Value> {
+    let fit = fit
+        .iter()
+        .map(|&i| s(&records[i]))
+        .chain(options.iter().copied())
+        .map(String::from)
+        .collect();
+    run_protocol(
+        &Protocol {
+            dataset,
+            fit,
+            validation: held_out
+                .iter()
+                .map(|&i| (records[i].clone(), vec![]))
+                .collect(),
+            window_hz: Some(band),
+            compare_linear: true,
+            target_relative: Some(target_relative),
+            target_e_rms: None,
         },
         work,
     )
@@ -236,51 +310,29 @@ pub fn f16(d: &Path, work: &Path) -> Vec<Value> {
             work,
             &d.join(format!("BenchmarkData/F16Data_SineSw_Level{l}.mat")),
             &format!("f16_L{}", &l[..1]),
-            &[
-                "-c",
-                "force=Force:force",
-                "-c",
-                "acc2=Acceleration(2):acceleration",
-                "--rate",
-                "variable:Fs",
-                "--excitation",
-                "swept",
-            ],
+            &F16_IMPORT,
         )
     })
     .collect();
-    let mut fit: Vec<String> = [0, 2, 4, 6]
-        .iter()
-        .map(|&i| s(&levels[i]).to_string())
-        .collect();
-    fit.extend(
-        [
-            "--band",
-            "4.5:9",
-            "--linear-start",
-            "lowest",
-            "--hop-periods",
-            "4",
-            "--modes",
-            "3",
-            "--domain",
-            "time",
-        ]
-        .map(String::from),
-    );
-    run_protocol(
-        &Protocol {
-            dataset: "f16",
-            fit,
-            validation: [1, 3, 5]
-                .iter()
-                .map(|&i| (levels[i].clone(), vec![]))
-                .collect(),
-            window_hz: Some((4.5, 9.0)),
-            compare_linear: true,
-            target_relative: Some(0.15),
-            target_e_rms: None,
-        },
+    let options = [
+        "--band",
+        "4.5:9",
+        "--linear-start",
+        "lowest",
+        "--hop-periods",
+        "4",
+        "--modes",
+        "3",
+        "--domain",
+        "time",
+    ];
+    swept_protocol(
+        "f16",
+        &levels,
+        (&[0, 2, 4, 6], &[1, 3, 5]),
+        &options,
+        (4.5, 9.0),
+        0.15,
         work,
     )
 }
@@ -294,49 +346,21 @@ pub fn unesp(d: &Path, work: &Path) -> Vec<Value> {
                 work,
                 &d.join(format!("csv/chirp_70to110Hz_{l}V_time.csv")),
                 &format!("unesp_c{l}"),
-                &[
-                    "-c",
-                    "drive=shaker_amp_V:voltage",
-                    "-c",
-                    "laser=laser_velocity_m_per_s:velocity",
-                    "--excitation",
-                    "swept",
-                ],
+                &UNESP_IMPORT,
             )
         })
         .collect();
-    let mut fit: Vec<String> = [0, 2, 4]
-        .iter()
-        .map(|&i| s(&chirps[i]).to_string())
+    let options: Vec<&str> = UNESP_REDUCTION
+        .into_iter()
+        .chain(["--domain", "time"])
         .collect();
-    fit.extend(
-        [
-            "--band",
-            "88:100",
-            "--linear-start",
-            "lowest",
-            "--hop-periods",
-            "8",
-            "--max-harmonic",
-            "3",
-            "--domain",
-            "time",
-        ]
-        .map(String::from),
-    );
-    run_protocol(
-        &Protocol {
-            dataset: "unesp",
-            fit,
-            validation: [1, 3, 5]
-                .iter()
-                .map(|&i| (chirps[i].clone(), vec![]))
-                .collect(),
-            window_hz: Some((88.0, 100.0)),
-            compare_linear: true,
-            target_relative: Some(0.05),
-            target_e_rms: None,
-        },
+    swept_protocol(
+        "unesp",
+        &chirps,
+        (&[0, 2, 4], &[1, 3, 5]),
+        &options,
+        (88.0, 100.0),
+        0.05,
         work,
     )
 }
