@@ -385,7 +385,7 @@ pub struct PeriodicStart {
     /// The recordings, each judged over its whole periods after the first,
     /// one segment per period.
     pub records: Vec<TimeRecord>,
-    /// The start: the linear estimate with a nearly linear joint.
+    /// The start: the linear estimate and a joint, the closest of a grid.
     pub start: Model,
     /// What the start was made of, for the report.
     pub note: String,

@@ -686,24 +686,26 @@ pub fn closest_start(
     options: &TimeFitOptions,
 ) -> Result<Option<(usize, f64)>> {
     use rayon::prelude::*;
+    let Some(first) = starts.first() else {
+        return Ok(None);
+    };
+    // one problem: the drives are prepared (resampled) once for every start
+    let problem = TimeProblem::new(
+        first.clone(),
+        ParameterSet::default(),
+        records,
+        1.0,
+        options.clone(),
+        None,
+    )?;
     let misfits = starts
         .par_iter()
-        .map(|m| {
-            let problem = TimeProblem::new(
-                m.clone(),
-                ParameterSet::default(),
-                records,
-                1.0,
-                options.clone(),
-                None,
-            )?;
-            match problem.errors(m) {
-                Ok(e) => Ok(Some(
-                    e.iter().map(|r| r.segment_relative.powi(2)).sum::<f64>(),
-                )),
-                Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => Ok(None),
-                Err(e) => Err(e),
-            }
+        .map(|m| match problem.errors(m) {
+            Ok(e) => Ok(Some(
+                e.iter().map(|r| r.segment_relative.powi(2)).sum::<f64>(),
+            )),
+            Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => Ok(None),
+            Err(e) => Err(e),
         })
         .collect::<Result<Vec<Option<f64>>>>()?;
     Ok(misfits
