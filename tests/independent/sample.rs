@@ -2,7 +2,7 @@
 //! by issue 10's criteria.
 
 use super::kit::corpus::{
-    Case, CaseOptions, EffectKind, JointKind, Quantity, SampleFormat, Sweep, case_with, generate,
+    Case, CaseOptions, EffectKind, JointKind, Quantity, SampleFormat, Sweep, case_with,
 };
 use super::kit::runner::{describe, run_cases};
 use std::path::PathBuf;
@@ -130,26 +130,6 @@ fn independent_corpus_sample() {
         scores.len(),
         failed.join("\n")
     );
-}
-
-/// The sample's recordings are generated quickly (the reference is not
-/// the bottleneck) and carry the truth.
-#[test]
-fn independent_sample_generates() {
-    for case in sample_cases() {
-        let t = std::time::Instant::now();
-        let rec = generate(&case);
-        let secs = t.elapsed().as_secs_f64();
-        eprintln!(
-            "{}: {} samples ({:.1} s of signal) in {:.2} s",
-            case.summary(),
-            rec.force.len(),
-            rec.force.len() as f64 / case.sample_rate as f64,
-            secs
-        );
-        assert!(rec.response.iter().all(|x| x.is_finite()));
-        assert_eq!(rec.steps.len(), case.levels.len() * case.frequencies.len());
-    }
 }
 
 /// One case from the environment, for reproducing a report line:

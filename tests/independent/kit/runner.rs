@@ -29,6 +29,19 @@ pub fn run_cases(
                     let t = Instant::now();
                     let rec = generate(case);
                     let gen_seconds = t.elapsed().as_secs_f64();
+                    // the reference's own checks: a finite response, every
+                    // dwell it was asked for
+                    assert!(
+                        rec.response.iter().all(|x| x.is_finite()),
+                        "{}: the reference diverged",
+                        case.name
+                    );
+                    assert_eq!(
+                        rec.steps.len(),
+                        case.levels.len() * case.frequencies.len(),
+                        "{}: dwells generated",
+                        case.name
+                    );
                     let js = match write_recording(&dir.join("recordings"), case, &rec) {
                         Ok(js) => js,
                         Err(e) => panic!("cannot write {}: {e}", case.name),
