@@ -336,7 +336,8 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, **kwargs):
     :func:`identify`). ``candidates``: effect names (default: all of
     ``second_mode``, ``cubic_stiffness``, ``bilinear_stiffness``,
     ``quadratic_damping``, ``clearance``, ``iwan4_joint``: an Iwan joint
-    in place of the fitted joint law).
+    in place of the fitted joint law, ``bouc_wen_joint``: a Bouc-Wen joint
+    in its place).
     """
     text = _hystid.diagnose(
         json.dumps(frf),

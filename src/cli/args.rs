@@ -311,7 +311,8 @@ pub struct DiagnoseArgs {
     pub response: Option<String>,
     /// Candidate effects (default: all): second_mode, cubic_stiffness,
     /// bilinear_stiffness, quadratic_damping, clearance, iwan4_joint (an
-    /// Iwan joint in place of the fitted joint law).
+    /// Iwan joint in place of the fitted joint law), bouc_wen_joint (a
+    /// Bouc-Wen joint in its place).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// How recordings are reduced.

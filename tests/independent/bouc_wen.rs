@@ -8,7 +8,8 @@ use super::kit::corpus::{
 };
 use super::kit::recording::write_recording;
 use super::kit::refsim::RefJoint;
-use super::kit::score::{hystid_bin, run_identify};
+use super::kit::score::{hystid_bin, run_diagnose, run_identify};
+use std::time::Duration;
 use hystid::model::{Element, ElementSpec};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -184,6 +185,90 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
     }
     if fit["parameters"]["beta"]["identifiable"] != false {
         failures.push(format!("{}: beta not reported as held", case.name));
+    }
+    // undeclared: the paper's Masing law fitted, the diagnosis swaps it
+    let run = run_diagnose(
+        &hystid_bin(),
+        &js,
+        &dir.join("out").join(&case.name).join("diagnose"),
+        "masing",
+        Duration::from_secs(900),
+    );
+    let Some(d) = run.diagnosis else {
+        failures.push(format!(
+            "{}: diagnose failed: {}",
+            case.name, run.stderr_tail
+        ));
+        return failures;
+    };
+    let selected: Vec<&str> = d["selected"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|s| s["effect"].as_str())
+        .collect();
+    let j = &d["model"]["joint"];
+    let q = |n: &str| j[n].as_f64().unwrap_or(f64::NAN);
+    let got = [q("alpha"), q("beta") * q("gamma"), q("beta") * q("delta"), q("nu")];
+    let errors: Vec<f64> = got
+        .iter()
+        .zip(truth)
+        .map(|(g, t)| 100.0 * (g / t - 1.0))
+        .collect();
+    let (before, after) = (
+        d["baseline"]["error_relative"].as_f64().unwrap(),
+        d["final"]["error_relative"].as_f64().unwrap(),
+    );
+    let chi2 = |at: &str| d[at]["chi2_per_dof"].as_f64().unwrap();
+    eprintln!(
+        "{}: selected {selected:?}; alpha {:+.2} %, beta*gamma {:+.2} %, beta*delta {:+.2} %, nu {:+.2} %; H1 error {:.2} % -> {:.2} % ({:.1}x), chi2/dof {:.2} -> {:.2}, {:.0} s",
+        case.name,
+        errors[0],
+        errors[1],
+        errors[2],
+        errors[3],
+        100.0 * before,
+        100.0 * after,
+        before / after,
+        chi2("baseline"),
+        chi2("final"),
+        run.seconds
+    );
+    let shown = crate::common::readme_figures(&format!(
+        "| {} (gamma {gamma}, delta {delta}, nu {nu}) | `diagnose --element masing` (undeclared): selects `bouc_wen_joint` alone |",
+        case.name
+    ))
+    .unwrap_or_else(|| panic!("no README row for {}'s diagnosis", case.name));
+    for (what, value, at) in [
+        ("alpha's error [%]", errors[0], 0),
+        ("beta*gamma's error [%]", errors[1], 1),
+        ("beta*delta's error [%]", errors[2], 2),
+        ("nu's error [%]", errors[3], 3),
+        ("the H1 error before [%]", 100.0 * before, 4),
+        ("the H1 error after [%]", 100.0 * after, 5),
+        ("chi2/dof before", chi2("baseline"), 6),
+        ("chi2/dof after", chi2("final"), 7),
+    ] {
+        crate::common::assert_readme_figure(
+            &format!("{} diagnosed: {what}", case.name),
+            value,
+            shown[at],
+        );
+    }
+    if selected != ["bouc_wen_joint"] {
+        failures.push(format!("{}: selected {selected:?}", case.name));
+    }
+    if !errors.iter().all(|e| e.abs() <= 5.0) {
+        failures.push(format!(
+            "{} diagnosed: alpha, beta*gamma, beta*delta, nu off by {errors:?} % (within 5 %)",
+            case.name
+        ));
+    }
+    if !(before >= 3.0 * after) {
+        failures.push(format!(
+            "{}: the H1 error fell from {before} only to {after}",
+            case.name
+        ));
     }
     failures
 }

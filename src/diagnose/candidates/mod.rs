@@ -8,6 +8,7 @@
 //! loop itself knows no candidate by name.
 
 mod bilinear_stiffness;
+mod bouc_wen_joint;
 mod clearance;
 mod cubic_stiffness;
 mod iwan4_joint;
@@ -277,6 +278,7 @@ candidates! {
     QuadraticDamping("quadratic_damping", quadratic_damping::QuadraticDamping),
     Clearance("clearance", clearance::Clearance),
     Iwan4Joint("iwan4_joint", iwan4_joint::Iwan4Joint),
+    BoucWenJoint("bouc_wen_joint", bouc_wen_joint::BoucWenJoint),
 }
 
 impl Effect {
