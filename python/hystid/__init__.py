@@ -333,11 +333,11 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, **kwargs):
 
     ``fit``: a ``fit.json`` dict (as :func:`identify` returns), or ``None``
     to fit ``frf`` first with the fit options (keywords as in
-    :func:`identify`). ``candidates``: effect names (default: all of
+    :func:`identify`). ``candidates``: effect names (default:
     ``second_mode``, ``cubic_stiffness``, ``bilinear_stiffness``,
     ``quadratic_damping``, ``clearance``, ``iwan4_joint``: an Iwan joint
-    in place of the fitted joint law, ``bouc_wen_joint``: a Bouc-Wen joint
-    in its place).
+    in place of the fitted joint law; ``bouc_wen_joint``, a Bouc-Wen joint
+    in its place, is tried when named; ``"all"`` names every one).
     """
     text = _hystid.diagnose(
         json.dumps(frf),

@@ -413,21 +413,7 @@ fn diagnose<'py>(
     let fit_opts = fit_options(&options)?;
     let mut d = DiagnoseOptions::default();
     if let Some(c) = candidates {
-        d.candidates = c
-            .iter()
-            .map(|c| {
-                Effect::from_name(c).ok_or_else(|| {
-                    let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
-                    fail(format!(
-                        "candidates: unknown effect `{c}` (known: {})",
-                        known.join(", ")
-                    ))
-                })
-            })
-            .collect::<PyResult<_>>()?;
-        if d.candidates.is_empty() {
-            return Err(fail("candidates: give at least one effect"));
-        }
+        d.candidates = Effect::parse_list(&c).map_err(|e| fail(format!("candidates: {e}")))?;
     }
     let fit = match fit {
         Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),

@@ -4,7 +4,7 @@
 use super::args::{DiagnoseArgs, Domain};
 use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
-use anyhow::{Result, bail};
+use anyhow::Result;
 use hystid::analysis::diagnose::{TimeOutcome, refine_in_time, write_diagnosis_with};
 use hystid::analysis::run::FinalModel;
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
@@ -15,21 +15,8 @@ use hystid::fit::{FitResult, HbPredictor};
 pub fn diagnose_options(candidates: &[String]) -> Result<DiagnoseOptions> {
     let mut o = DiagnoseOptions::default();
     if !candidates.is_empty() {
-        o.candidates = candidates
-            .iter()
-            .map(|c| {
-                Effect::from_name(c).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--candidates: unknown effect `{c}` (known: {})",
-                        Effect::ALL
-                            .iter()
-                            .map(|e| e.name())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                })
-            })
-            .collect::<Result<_>>()?;
+        o.candidates =
+            Effect::parse_list(candidates).map_err(|e| anyhow::anyhow!("--candidates: {e}"))?;
     }
     Ok(o)
 }
@@ -52,9 +39,6 @@ pub fn run_diagnosis(
 /// `hystid diagnose`.
 pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     let options = diagnose_options(&args.candidates)?;
-    if options.candidates.is_empty() {
-        bail!("--candidates: give at least one effect");
-    }
     let fit_opts = fit_options(&args.fit)?;
     let (frf, _) = reduce_recordings(
         &args.recordings,

@@ -67,7 +67,7 @@ pub struct DiagnoseOptions {
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
-            candidates: Effect::ALL.to_vec(),
+            candidates: Effect::defaults(),
             max_effects: 3,
             harmonics: None,
             band_hz: None,

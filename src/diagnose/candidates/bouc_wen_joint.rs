@@ -44,6 +44,16 @@ impl Candidate for BoucWenJoint {
             .count()
     }
 
+    /// Tried when named (`--candidates bouc_wen_joint`, or `all`): its
+    /// refit costs many times another candidate's (harmonic balance marches
+    /// periods until the loop's memory settles), and the start's gate
+    /// ([`START_GATE`]) lets it through wherever the baseline misses by as
+    /// much for another reason (a missing mode: 2x the diagnosis's time;
+    /// the F-16: 9x).
+    fn by_default(&self) -> bool {
+        false
+    }
+
     fn replaces_joint(&self) -> bool {
         true
     }
@@ -54,7 +64,10 @@ impl Candidate for BoucWenJoint {
         model.joint.as_ref().is_some_and(|j| {
             j.kind() != ElementKind::BoucWen
                 && j.kind().description().is_joint()
-                && j.kind().description().index_of(Role::StickStiffness).is_some()
+                && j.kind()
+                    .description()
+                    .index_of(Role::StickStiffness)
+                    .is_some()
                 && j.kind().description().index_of(Role::SlipForce).is_some()
         })
     }

@@ -142,6 +142,12 @@ pub(crate) trait Candidate: Sync {
         self.law().map_or(0, |k| k.description().parameters.len())
     }
 
+    /// Whether a diagnosis tries it unless told which candidates to try
+    /// (one whose refit costs many times the others' is tried when named).
+    fn by_default(&self) -> bool {
+        true
+    }
+
     /// Whether it replaces the model's joint law rather than adding an
     /// effect (its parameters are then the joint's, named plainly).
     fn replaces_joint(&self) -> bool {
@@ -290,5 +296,78 @@ impl Effect {
     /// How many parameters it adds.
     pub fn size(self) -> usize {
         self.candidate().size()
+    }
+
+    /// The candidates a diagnosis tries unless told which: every one but
+    /// those tried only when named (`bouc_wen_joint`).
+    pub fn defaults() -> Vec<Effect> {
+        Effect::ALL
+            .iter()
+            .copied()
+            .filter(|e| e.candidate().by_default())
+            .collect()
+    }
+
+    /// Whether a diagnosis tries it unless told which candidates to try.
+    pub fn by_default(self) -> bool {
+        self.candidate().by_default()
+    }
+
+    /// Candidates by name, `all` for every one and `default` for
+    /// [`Effect::defaults`]; the message names the unknown one and the
+    /// names known.
+    pub fn parse_list(names: &[String]) -> std::result::Result<Vec<Effect>, String> {
+        let mut out: Vec<Effect> = Vec::new();
+        for name in names {
+            let add: Vec<Effect> = match name.as_str() {
+                "all" => Effect::ALL.to_vec(),
+                "default" => Effect::defaults(),
+                n => vec![Effect::from_name(n).ok_or_else(|| {
+                    let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+                    format!(
+                        "unknown effect `{n}` (known: {}; or all, default)",
+                        known.join(", ")
+                    )
+                })?],
+            };
+            for e in add {
+                if !out.contains(&e) {
+                    out.push(e);
+                }
+            }
+        }
+        if out.is_empty() {
+            return Err("give at least one effect".into());
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
+    }
+
+    /// `all` is every candidate, `default` every one but those tried when
+    /// named, names repeat once, and an unknown one is named in the error.
+    #[test]
+    fn candidate_lists_parse() {
+        assert_eq!(Effect::parse_list(&names(&["all"])).unwrap(), Effect::ALL);
+        let defaults = Effect::parse_list(&names(&["default"])).unwrap();
+        assert_eq!(defaults.len(), Effect::ALL.len() - 1);
+        assert!(!defaults.contains(&Effect::BoucWenJoint));
+        assert_eq!(
+            Effect::parse_list(&names(&["bouc_wen_joint", "default", "clearance"])).unwrap(),
+            [&[Effect::BoucWenJoint][..], &Effect::defaults()].concat()
+        );
+        let e = Effect::parse_list(&names(&["clearance", "friction"])).unwrap_err();
+        assert!(
+            e.contains("`friction`") && e.contains("bouc_wen_joint"),
+            "{e}"
+        );
+        assert!(Effect::parse_list(&[]).is_err());
     }
 }

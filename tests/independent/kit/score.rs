@@ -42,6 +42,18 @@ pub fn run_diagnose(
     element: &str,
     timeout: Duration,
 ) -> RunOutcome {
+    run_diagnose_with(bin, recording, out_dir, element, &[], timeout)
+}
+
+/// [`run_diagnose`] with further arguments (`--candidates all`).
+pub fn run_diagnose_with(
+    bin: &Path,
+    recording: &Path,
+    out_dir: &Path,
+    element: &str,
+    extra: &[&str],
+    timeout: Duration,
+) -> RunOutcome {
     let _ = std::fs::remove_dir_all(out_dir);
     std::fs::create_dir_all(out_dir).expect("out dir");
     let mut args = vec![
@@ -53,6 +65,7 @@ pub fn run_diagnose(
         element.into(),
         "--quiet".into(),
     ];
+    args.extend(extra.iter().map(|a| a.to_string()));
     // HYSTID_DIAGNOSE_DOMAIN=time: the final model refitted on the time
     // history too (scored from that model)
     if let Ok(domain) = std::env::var("HYSTID_DIAGNOSE_DOMAIN") {
