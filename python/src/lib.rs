@@ -413,7 +413,12 @@ fn diagnose<'py>(
     let fit_opts = fit_options(&options)?;
     let mut d = DiagnoseOptions::default();
     if let Some(c) = candidates {
-        d.candidates = Effect::parse_list(&c).map_err(|e| fail(format!("candidates: {e}")))?;
+        d.candidates = Effect::parse_list(&c).map_err(|e| match e {
+            hystid::error::Error::InvalidPlan { message, .. } => {
+                fail(format!("candidates: {message}"))
+            }
+            e => fail(e.to_string()),
+        })?;
     }
     let fit = match fit {
         Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),

@@ -15,8 +15,12 @@ use hystid::fit::{FitResult, HbPredictor};
 pub fn diagnose_options(candidates: &[String]) -> Result<DiagnoseOptions> {
     let mut o = DiagnoseOptions::default();
     if !candidates.is_empty() {
-        o.candidates =
-            Effect::parse_list(candidates).map_err(|e| anyhow::anyhow!("--candidates: {e}"))?;
+        o.candidates = Effect::parse_list(candidates).map_err(|e| match e {
+            hystid::error::Error::InvalidPlan { message, .. } => {
+                anyhow::anyhow!("--candidates: {message}")
+            }
+            e => e.into(),
+        })?;
     }
     Ok(o)
 }

@@ -314,9 +314,9 @@ impl Effect {
     }
 
     /// Candidates by name, `all` for every one and `default` for
-    /// [`Effect::defaults`]; the message names the unknown one and the
-    /// names known.
-    pub fn parse_list(names: &[String]) -> std::result::Result<Vec<Effect>, String> {
+    /// [`Effect::defaults`]; the error's message (field `candidates`) names
+    /// the unknown one and the names known.
+    pub fn parse_list(names: &[String]) -> Result<Vec<Effect>> {
         let mut out: Vec<Effect> = Vec::new();
         for name in names {
             let add: Vec<Effect> = match name.as_str() {
@@ -324,9 +324,12 @@ impl Effect {
                 "default" => Effect::defaults(),
                 n => vec![Effect::from_name(n).ok_or_else(|| {
                     let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
-                    format!(
-                        "unknown effect `{n}` (known: {}; or all, default)",
-                        known.join(", ")
+                    crate::error::Error::plan(
+                        "candidates",
+                        format!(
+                            "unknown effect `{n}` (known: {}; or all, default)",
+                            known.join(", ")
+                        ),
                     )
                 })?],
             };
@@ -337,7 +340,10 @@ impl Effect {
             }
         }
         if out.is_empty() {
-            return Err("give at least one effect".into());
+            return Err(crate::error::Error::plan(
+                "candidates",
+                "give at least one effect",
+            ));
         }
         Ok(out)
     }
@@ -363,7 +369,9 @@ mod tests {
             Effect::parse_list(&names(&["bouc_wen_joint", "default", "clearance"])).unwrap(),
             [&[Effect::BoucWenJoint][..], &Effect::defaults()].concat()
         );
-        let e = Effect::parse_list(&names(&["clearance", "friction"])).unwrap_err();
+        let e = Effect::parse_list(&names(&["clearance", "friction"]))
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("`friction`") && e.contains("bouc_wen_joint"),
             "{e}"
