@@ -8,10 +8,12 @@
 //! level-dependent, in every harmonic, with no effect of its own to point
 //! at, so every diagnosis of a joint with a slip force tries it.
 
-use super::{Candidate, Context};
+use super::{
+    Candidate, Context, best_as_it_stands, joint_misfit_score, replaceable_joint,
+    replacing_parameters,
+};
 use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
 use crate::error::Result;
-use crate::fit::FrfPredictor;
 use crate::model::{ElementKind, ElementSpec, Model, Role};
 
 /// See the module docs.
@@ -61,30 +63,16 @@ impl Candidate for BoucWenJoint {
     /// A joint with a stick stiffness and a slip force to start from (not a
     /// Bouc-Wen joint already).
     fn applies_to(&self, model: &Model) -> bool {
-        model.joint.as_ref().is_some_and(|j| {
-            j.kind() != ElementKind::BoucWen
-                && j.kind().description().is_joint()
-                && j.kind()
-                    .description()
-                    .index_of(Role::StickStiffness)
-                    .is_some()
-                && j.kind().description().index_of(Role::SlipForce).is_some()
-        })
+        replaceable_joint(model, ElementKind::BoucWen).is_some()
     }
 
     /// Its free parameters in place of the fitted joint's.
     fn added_parameters(&self, before: &Model) -> usize {
-        let had = before
-            .joint
-            .as_ref()
-            .map_or(0, |j| j.kind().description().parameters.len());
-        self.size().saturating_sub(had).max(1)
+        replacing_parameters(self.size(), before)
     }
 
-    /// A joint misfit grows with level from nothing at the lowest (where
-    /// every law sticks).
     fn score(&self, f: &ResidualFeatures) -> f64 {
-        2.0 * (1.0 - f.level_independent_share) + f.growth_with_level.max(0.0)
+        joint_misfit_score(f)
     }
 
     /// The fitted joint's stick stiffness as `α` and its slip force as the
@@ -96,40 +84,29 @@ impl Candidate for BoucWenJoint {
     /// model.
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let model = cx.model();
-        let Some(joint) = model.joint.as_ref().filter(|_| self.applies_to(model)) else {
-            return Ok(Vec::new());
-        };
-        let (Some(kt), Some(fs)) = (
-            joint.value_of(Role::StickStiffness),
-            joint.value_of(Role::SlipForce),
-        ) else {
+        let Some((kt, fs)) = replaceable_joint(model, ElementKind::BoucWen) else {
             return Ok(Vec::new());
         };
         let beta = kt / fs;
-        let best = SHAPES
-            .iter()
-            .filter_map(|&(share, nu)| {
-                // saturation at fs: β (γ + δ) fs^ν = α, with β = α / fs
-                let sum = fs.powf(1.0 - nu);
-                let mut m = model.clone();
-                m.joint = Some(ElementSpec::BoucWen {
-                    alpha: kt,
-                    beta,
-                    gamma: share * sum,
-                    delta: (1.0 - share) * sum,
-                    nu,
-                });
-                m.joint.as_ref()?.validate("joint").ok()?;
-                let pred = cx
-                    .predictor
-                    .predict_from(&m, cx.data, Some(cx.pred()))
-                    .ok()?;
-                let chi2 = crate::fit::problem::chi_square(cx.data, &pred);
-                chi2.is_finite().then_some((chi2, m))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .filter(|(chi2, _)| *chi2 <= START_GATE * cx.current.chi2);
-        Ok(best.map(|(_, m)| m).into_iter().collect())
+        let shapes = SHAPES.iter().filter_map(|&(share, nu)| {
+            // saturation at fs: β (γ + δ) fs^ν = α, with β = α / fs
+            let sum = fs.powf(1.0 - nu);
+            let mut m = model.clone();
+            m.joint = Some(ElementSpec::BoucWen {
+                alpha: kt,
+                beta,
+                gamma: share * sum,
+                delta: (1.0 - share) * sum,
+                nu,
+            });
+            m.joint.as_ref()?.validate("joint").ok()?;
+            Some(m)
+        });
+        Ok(best_as_it_stands(cx, shapes)
+            .filter(|(chi2, _)| *chi2 <= START_GATE * cx.current.chi2)
+            .map(|(_, m)| m)
+            .into_iter()
+            .collect())
     }
 
     /// The law's stiffness and its sharpness: a `ν` run to its bound is a

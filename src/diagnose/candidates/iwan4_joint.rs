@@ -6,11 +6,13 @@
 //! residual is the joint's: level-dependent, in every harmonic, with no
 //! effect of its own to point at, so every diagnosis tries it.
 
-use super::{Candidate, Context};
+use super::{
+    Candidate, Context, best_as_it_stands, joint_misfit_score, replaceable_joint,
+    replacing_parameters,
+};
 use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
 use crate::error::Result;
-use crate::fit::FrfPredictor;
-use crate::model::{ElementKind, ElementSpec, Model, Role};
+use crate::model::{ElementKind, ElementSpec, Model};
 
 /// See the module docs.
 pub(crate) struct Iwan4Joint;
@@ -32,26 +34,16 @@ impl Candidate for Iwan4Joint {
     /// force to start from (not a Bouc-Wen joint, whose saturation force is
     /// no parameter).
     fn applies_to(&self, model: &Model) -> bool {
-        model.joint.as_ref().is_some_and(|j| {
-            j.kind() != ElementKind::Iwan4
-                && j.kind().description().is_joint()
-                && j.kind().description().index_of(Role::SlipForce).is_some()
-        })
+        replaceable_joint(model, ElementKind::Iwan4).is_some()
     }
 
     /// Its four parameters in place of the fitted joint's.
     fn added_parameters(&self, before: &Model) -> usize {
-        let had = before
-            .joint
-            .as_ref()
-            .map_or(0, |j| j.kind().description().parameters.len());
-        self.size().saturating_sub(had).max(1)
+        replacing_parameters(self.size(), before)
     }
 
-    /// A joint misfit grows with level from nothing at the lowest (where
-    /// every law sticks).
     fn score(&self, f: &ResidualFeatures) -> f64 {
-        2.0 * (1.0 - f.level_independent_share) + f.growth_with_level.max(0.0)
+        joint_misfit_score(f)
     }
 
     /// The fitted joint's stick stiffness and slip force carried over (they
@@ -63,32 +55,18 @@ impl Candidate for Iwan4Joint {
     /// one (see [`Candidate::applies_to`]).
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let model = cx.model();
-        let Some(joint) = model.joint.as_ref().filter(|_| self.applies_to(model)) else {
+        let Some((kt, fs)) = replaceable_joint(model, ElementKind::Iwan4) else {
             return Ok(Vec::new());
         };
-        let law = joint.kind().description();
-        let values: Vec<f64> = joint.parameters().into_iter().map(|(_, v)| v).collect();
-        let (Some(ik), Some(ifs)) = (
-            law.index_of(Role::StickStiffness),
-            law.index_of(Role::SlipForce),
-        ) else {
-            return Ok(Vec::new());
-        };
-        let (kt, fs) = (values[ik], values[ifs]);
-        let best = SHAPES
-            .iter()
-            .filter_map(|&(chi, beta)| {
-                let mut m = model.clone();
-                m.joint = Some(ElementSpec::Iwan4 { fs, kt, chi, beta });
-                let pred = cx
-                    .predictor
-                    .predict_from(&m, cx.data, Some(cx.pred()))
-                    .ok()?;
-                let chi2 = crate::fit::problem::chi_square(cx.data, &pred);
-                chi2.is_finite().then_some((chi2, m))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        Ok(best.map(|(_, m)| m).into_iter().collect())
+        let shapes = SHAPES.iter().map(|&(chi, beta)| {
+            let mut m = model.clone();
+            m.joint = Some(ElementSpec::Iwan4 { fs, kt, chi, beta });
+            m
+        });
+        Ok(best_as_it_stands(cx, shapes)
+            .map(|(_, m)| m)
+            .into_iter()
+            .collect())
     }
 
     /// The joint the law replaces must itself be determined: its stiffness,

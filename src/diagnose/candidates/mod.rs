@@ -132,6 +132,56 @@ impl Context<'_> {
     }
 }
 
+/// For a candidate that replaces the joint law by `law`: the current joint's
+/// stick stiffness and slip force (what every law's start is read from),
+/// when it has both and is not of `law` already.
+pub(super) fn replaceable_joint(model: &Model, law: ElementKind) -> Option<(f64, f64)> {
+    let joint = model.joint.as_ref()?;
+    let d = joint.kind().description();
+    if joint.kind() == law || !d.is_joint() {
+        return None;
+    }
+    Some((
+        joint.value_of(crate::model::Role::StickStiffness)?,
+        joint.value_of(crate::model::Role::SlipForce)?,
+    ))
+}
+
+/// The parameters a joint law of `size` free parameters adds in place of
+/// `before`'s joint (at least one: a swap must earn something).
+pub(super) fn replacing_parameters(size: usize, before: &Model) -> usize {
+    let had = before
+        .joint
+        .as_ref()
+        .map_or(0, |j| j.kind().description().parameters.len());
+    size.saturating_sub(had).max(1)
+}
+
+/// How strongly a residual points at the joint law itself: it grows with
+/// level from nothing at the lowest, where every law sticks.
+pub(super) fn joint_misfit_score(f: &ResidualFeatures) -> f64 {
+    2.0 * (1.0 - f.level_independent_share) + f.growth_with_level.max(0.0)
+}
+
+/// Of `models`, the one that fits best as it stands (one prediction each,
+/// warm-started from the current model's), with its `χ²`.
+pub(super) fn best_as_it_stands(
+    cx: &Context<'_>,
+    models: impl Iterator<Item = Model>,
+) -> Option<(f64, Model)> {
+    use crate::fit::FrfPredictor;
+    models
+        .filter_map(|m| {
+            let pred = cx
+                .predictor
+                .predict_from(&m, cx.data, Some(cx.pred()))
+                .ok()?;
+            let chi2 = crate::fit::problem::chi_square(cx.data, &pred);
+            chi2.is_finite().then_some((chi2, m))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
 /// Everything the diagnosis knows about one candidate effect.
 pub(crate) trait Candidate: Sync {
     /// The element law it adds (`None`: it is not an element, e.g. a mode).
