@@ -11,7 +11,11 @@
 //!   same with N 3, 22.55, 1000), driven at 250 Hz, 500 N, 51.2 kHz:
 //!   linear ≥ 150 M samples/s, Jenkins ≥ 50 M/s, Masing ≥ 15 M/s, each also
 //!   read as a ratio to `sim/bare_iir_loop` (a bare second-order IIR loop,
-//!   the practical ceiling) from the same run. `sim/masing_formula` is the
+//!   the practical ceiling) from the same run; Jenkins also to
+//!   `sim/bare_iir_jenkins_loop` (the loop with the joint's closed-form
+//!   implicit step written in, without placing transitions inside the
+//!   sample), and `sim/jenkins_located` (transitions placed inside their
+//!   samples, `Simulator::with_transitions_located`) to it: >= 0.6x. `sim/masing_formula` is the
 //!   Masing element on the untabulated eq. (10) backbone, for comparison;
 //!   `sim/model_element_set` the type the virtual test bench simulates
 //!   (`ElementSet<AnyElement>` from a `Model`). `sim/bouc_wen/1` and `/2`:
@@ -93,6 +97,33 @@ fn simulator(c: &mut Criterion<ThreadCpu>) {
         })
     });
 
+    // the same section with the Jenkins joint's closed-form implicit step
+    // written in (stick, else slip; the slider at the sampled extremum): the
+    // practical ceiling of `sim/jenkins`, which also places each slip
+    // transition inside its sample (issue 16: >= 0.6x this loop)
+    g.bench_function("bare_iir_jenkins_loop", |b| {
+        b.iter(|| {
+            let (mut y1, mut y2, mut u1, mut u2, mut slider) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            let gain = 1.0 / (1.0 + sec.b[0] * KD);
+            for (f, y) in black_box(&f).iter().zip(out.iter_mut()) {
+                let pred = sec.b[1] * u1 + sec.b[2] * u2 - sec.a[0] * y1 - sec.a[1] * y2;
+                let x = (pred + sec.b[0] * (f + KD * slider)) * gain;
+                let stick = KD * (x - slider);
+                let u = if stick.abs() <= FD {
+                    f - stick
+                } else {
+                    let s = stick.signum();
+                    let x = pred + sec.b[0] * (f - s * FD);
+                    slider = x - s * FD / KD;
+                    f - s * FD
+                };
+                let x = pred + sec.b[0] * u;
+                (y2, y1, u2, u1) = (y1, x, u1, u);
+                *y = x;
+            }
+        })
+    });
+
     let mut lin = Simulator::new(&model, NoElement, FS).unwrap();
     g.bench_function("linear", |b| {
         b.iter(|| lin.run_displacement(black_box(&f), &mut out).unwrap())
@@ -100,6 +131,12 @@ fn simulator(c: &mut Criterion<ThreadCpu>) {
     let mut jen = Simulator::new(&model, Jenkins::new(KD, FD).unwrap(), FS).unwrap();
     g.bench_function("jenkins", |b| {
         b.iter(|| jen.run_displacement(black_box(&f), &mut out).unwrap())
+    });
+    let mut located = Simulator::new(&model, Jenkins::new(KD, FD).unwrap(), FS)
+        .unwrap()
+        .with_transitions_located();
+    g.bench_function("jenkins_located", |b| {
+        b.iter(|| located.run_displacement(black_box(&f), &mut out).unwrap())
     });
     for n in [3.0, 22.55, 1000.0] {
         let mut mas = Simulator::new(&model, Masing::new(KD, FD, n).unwrap(), FS).unwrap();

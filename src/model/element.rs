@@ -142,6 +142,24 @@ pub trait Element {
         None
     }
 
+    /// The simulator's sample interval `h` (s), given once before the first
+    /// sample. A law with a slip transition uses it to place the transition
+    /// inside the sample (see [`Element::kink_impulse`]); 0 (the default
+    /// state, and harmonic balance's) leaves the law sampled as is.
+    fn set_sample_interval(&mut self, _h: f64) {}
+
+    /// The impulse (N s) by which the element force's path inside the sample
+    /// just committed exceeds the straight line between its two samples,
+    /// which is what the ramp-invariant filters assume: a kink inside the
+    /// sample (stick turning to slip at `τ`) leaves a triangle of area
+    /// `h Δg (1 − τ)/2`. The simulator feeds it to the filters as a hat of the
+    /// same area, so that the transition's error is `O(h³)` per event and the
+    /// run's error falls as `h²` whatever the events' phase in the sample.
+    /// Default: 0 (no kink, or [`Element::set_sample_interval`] not given).
+    fn kink_impulse(&self) -> f64 {
+        0.0
+    }
+
     /// Commits like [`Element::commit`] and carries first-order sensitivities
     /// through the element's memory: when the committed samples depend on
     /// parameters `p` (harmonic balance's unknowns), `dx[k] = ∂x/∂p_k` and
@@ -259,6 +277,15 @@ impl<E: Element> Element for ElementSet<E> {
             .fold(ElementForce::default(), |acc, e| {
                 acc + e.commit_sensitivity(x, v, dx, dv, df)
             })
+    }
+    fn set_sample_interval(&mut self, h: f64) {
+        self.elements
+            .iter_mut()
+            .for_each(|e| e.set_sample_interval(h));
+    }
+    #[inline]
+    fn kink_impulse(&self) -> f64 {
+        self.elements.iter().map(Element::kink_impulse).sum()
     }
     #[inline]
     fn solve_implicit(&self, step: &ImplicitStep) -> Option<f64> {

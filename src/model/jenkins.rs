@@ -30,6 +30,16 @@ pub struct Jenkins {
     stick_gain: Cell<(f64, f64)>,
     /// `∂slider/∂p` carried by [`Element::commit_sensitivity`] (empty: zero).
     slider_sensitivity: Vec<f64>,
+    /// The simulator's sample interval (0: the law sampled as is, see
+    /// [`Element::set_sample_interval`]).
+    h: f64,
+    /// The last committed sample: velocity, force, and the direction it
+    /// slipped in (0: stuck).
+    last_v: f64,
+    last_force: f64,
+    slip_dir: f64,
+    /// See [`Element::kink_impulse`].
+    impulse: f64,
 }
 
 impl Jenkins {
@@ -44,6 +54,11 @@ impl Jenkins {
             xc: fd / kd,
             stick_gain: Cell::new((f64::NAN, f64::NAN)),
             slider_sensitivity: Vec::new(),
+            h: 0.0,
+            last_v: 0.0,
+            last_force: 0.0,
+            slip_dir: 0.0,
+            impulse: 0.0,
         })
     }
 
@@ -62,17 +77,43 @@ impl Jenkins {
         self.slider
     }
 
+    /// Where the slider stands for a sample ending with velocity `v`, and
+    /// its derivative in `v`: the committed position, unless the last sample
+    /// slipped and the velocity reversed inside this one. The slider then
+    /// slipped on to the displacement's extremum inside the sample, not to
+    /// the last sample (an error of up to `|x''| h²/8`, held through the
+    /// whole stick phase, whose size depends on where the reversal falls in
+    /// the sample). The velocity taken linear over the sample vanishes at
+    /// `τ = h v₀/(v₀ − v)`, where the displacement has gone `v₀ τ/2` further
+    /// (exact to `O(h³)`).
     #[inline]
-    fn evaluate(&self, x: f64) -> (ElementForce, f64) {
-        let stick = self.kd * (x - self.slider);
+    fn slider_for(&self, v: f64) -> (f64, f64) {
+        let v0 = self.last_v;
+        if self.h > 0.0 && self.slip_dir * v0 > 0.0 && self.slip_dir * v < 0.0 {
+            let dv = v0 - v;
+            let tau = self.h * v0 / dv;
+            (
+                self.slider + 0.5 * v0 * tau,
+                0.5 * self.h * v0 * v0 / (dv * dv),
+            )
+        } else {
+            (self.slider, 0.0)
+        }
+    }
+
+    /// The force at `(x, v)` and the slider position after it.
+    #[inline]
+    fn evaluate(&self, x: f64, v: f64) -> (ElementForce, f64) {
+        let (slider, dslider_dv) = self.slider_for(v);
+        let stick = self.kd * (x - slider);
         if stick.abs() <= self.fd {
             (
                 ElementForce {
                     force: stick,
                     stiffness: self.kd,
-                    damping: 0.0,
+                    damping: -self.kd * dslider_dv,
                 },
-                self.slider,
+                slider,
             )
         } else {
             let s = sign(stick);
@@ -132,13 +173,30 @@ pub fn describing_function(kd: f64, fd: f64, amplitude: f64) -> Complex64 {
 
 impl Element for Jenkins {
     #[inline]
-    fn trial(&self, x: f64, _v: f64) -> ElementForce {
-        self.evaluate(x).0
+    fn trial(&self, x: f64, v: f64) -> ElementForce {
+        self.evaluate(x, v).0
     }
 
     #[inline]
-    fn commit(&mut self, x: f64, _v: f64) -> ElementForce {
-        let (f, slider) = self.evaluate(x);
+    fn commit(&mut self, x: f64, v: f64) -> ElementForce {
+        let (f, slider) = self.evaluate(x, v);
+        if self.h > 0.0 {
+            let dir = if f.stiffness == 0.0 { sign(f.force) } else { 0.0 };
+            // stick turned to slip inside the sample: the stick force,
+            // linear in the sample's displacement, met ±Fd at τ and stayed
+            // there, a kink the straight line from the last force cuts
+            self.impulse = if dir != 0.0 && self.slip_dir == 0.0 {
+                let rise = dir * self.fd - self.last_force;
+                let trial = self.kd * (x - self.slider) - self.last_force;
+                let tau = (rise / trial).clamp(0.0, 1.0);
+                0.5 * self.h * rise * (1.0 - tau)
+            } else {
+                0.0
+            };
+            self.last_v = v;
+            self.last_force = f.force;
+            self.slip_dir = dir;
+        }
         self.slider = slider;
         f
     }
@@ -146,6 +204,19 @@ impl Element for Jenkins {
     fn reset(&mut self) {
         self.slider = 0.0;
         self.slider_sensitivity.clear();
+        self.last_v = 0.0;
+        self.last_force = 0.0;
+        self.slip_dir = 0.0;
+        self.impulse = 0.0;
+    }
+
+    fn set_sample_interval(&mut self, h: f64) {
+        self.h = if h.is_finite() && h > 0.0 { h } else { 0.0 };
+    }
+
+    #[inline]
+    fn kink_impulse(&self) -> f64 {
+        self.impulse
     }
 
     /// Stick: `g = kd (x − x_s)`, so `∂g = kd (∂x − ∂x_s)`; slip: `g = ±Fd`
@@ -164,7 +235,8 @@ impl Element for Jenkins {
             self.slider_sensitivity.clear();
             self.slider_sensitivity.resize(dx.len(), 0.0);
         }
-        let (f, slider) = self.evaluate(x);
+        // harmonic balance's sampled law (no sample interval given)
+        let (f, slider) = self.evaluate(x, 0.0);
         if f.stiffness != 0.0 {
             for ((d, &a), &s) in df.iter_mut().zip(dx).zip(&self.slider_sensitivity) {
                 *d += self.kd * (a - s);
@@ -201,11 +273,21 @@ impl Element for Jenkins {
         }
         let x = (s.x_pred + s.bx * (s.force + self.kd * self.slider)) * gain;
         let g = self.kd * (x - self.slider);
-        if g.abs() <= self.fd {
-            Some(s.force - g)
+        let u = if g.abs() <= self.fd {
+            s.force - g
         } else {
-            Some(s.force - sign(g) * self.fd)
+            s.force - sign(g) * self.fd
+        };
+        // a velocity reversed inside a sample that started slipping moves
+        // the slider with the velocity (see `slider_for`): the simulator
+        // iterates on `trial` for that sample
+        if self.h > 0.0
+            && self.slip_dir * self.last_v > 0.0
+            && self.slip_dir * (s.v_pred + s.bv * u) < 0.0
+        {
+            return None;
         }
+        Some(u)
     }
 }
 
@@ -246,6 +328,42 @@ mod tests {
         let exact = 4.0 * fd * (a - fd / kd);
         assert!((w.abs() / exact - 1.0).abs() < 1e-3, "{w} vs {exact}");
         assert!(fs.iter().all(|f| f.abs() <= fd * (1.0 + 1e-12)));
+    }
+
+    /// Stick turning to slip halfway through a sample of a straight
+    /// displacement path: the force rises to Fd at τ = 1/2 and stays, a
+    /// triangle of `h (Fd − g₀)(1 − τ)/2` above the chord; a reversal after
+    /// slipping puts the slider at the extremum of the sample's path.
+    #[test]
+    fn transitions_inside_a_sample_are_placed() {
+        let (kd, fd, h) = (2.0e7, 200.0, 1e-5);
+        let mut e = Jenkins::new(kd, fd).unwrap();
+        e.set_sample_interval(h);
+        let x0 = 9.0 * fd / kd / 10.0; // 180 N, stuck
+        e.commit(x0, 1.0);
+        assert_eq!(e.kink_impulse(), 0.0);
+        // the stick trial would reach 220 N: Fd is met halfway
+        let f = e.commit(x0 + 2.0 * fd / kd / 10.0, 1.0);
+        assert_eq!(f.force, fd);
+        let area = 0.5 * h * 20.0 * 0.5;
+        assert!((e.kink_impulse() / area - 1.0).abs() < 1e-12, "{}", e.kink_impulse());
+        // slipping on: no kink
+        let x2 = x0 + 4.0 * fd / kd / 10.0;
+        e.commit(x2, 1.0);
+        assert_eq!(e.kink_impulse(), 0.0);
+        // the velocity reverses from 1 to -1 m/s: it vanished at h/2, where
+        // the displacement had gone h/4 further, and the slider with it
+        let x3 = x2 - 0.1 * h;
+        let g = e.commit(x3, -1.0).force;
+        let expected = kd * (x3 - (x2 + 0.25 * h - fd / kd));
+        assert!((g / expected - 1.0).abs() < 1e-9, "{g} vs {expected}");
+        // without a sample interval, the sampled law: the slider at x2
+        let mut plain = Jenkins::new(kd, fd).unwrap();
+        for (x, v) in [(x0, 1.0), (x0 + 2.0 * fd / kd / 10.0, 1.0), (x2, 1.0)] {
+            plain.commit(x, v);
+        }
+        assert!((plain.commit(x3, -1.0).force - kd * (x3 - x2 + fd / kd)).abs() < 1e-9);
+        assert_eq!(plain.kink_impulse(), 0.0);
     }
 
     #[test]

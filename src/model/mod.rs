@@ -334,6 +334,13 @@ impl Element for AnyElement {
     fn solve_implicit(&self, step: &ImplicitStep) -> Option<f64> {
         dispatch!(self, e => e.solve_implicit(step))
     }
+    fn set_sample_interval(&mut self, h: f64) {
+        dispatch!(self, e => e.set_sample_interval(h))
+    }
+    #[inline]
+    fn kink_impulse(&self) -> f64 {
+        dispatch!(self, e => e.kink_impulse())
+    }
     #[inline]
     fn commit_sensitivity(
         &mut self,
