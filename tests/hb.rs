@@ -1044,3 +1044,79 @@ fn a_difference_step_below_the_tolerance_still_moves_the_solution() {
     // the fundamental's sensitivity is what a fit sees: far from zero
     assert!((up[0] - down[0]).norm() > 1e-6 * scale);
 }
+
+/// A hysteretic mode (a mode with a Jenkins joint of its own) beside the
+/// paper's jointed SDOF: `simulate --check-hb` balances the point structure
+/// and the mode apart and adds their harmonics, against the simulator's
+/// steady state, which runs them as two uncoupled systems under one force.
+/// Issue 12 asks 0.2 % in H1; the README's figures are pinned here.
+#[test]
+fn a_hysteretic_mode_is_balanced_as_the_simulator_runs_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = dir.path().join("hysteretic_mode.toml");
+    std::fs::write(
+        &def,
+        r#"
+[[modes]]
+frequency_hz = 159.1549430918953
+damping_ratio = 0.01
+modal_mass = 10.0
+[[modes]]
+frequency_hz = 240.0
+damping_ratio = 0.01
+modal_mass = 50.0
+joint = { kind = "jenkins", kd = 1.137e8, fd = 300.0 }
+[joint]
+kind = "jenkins"
+kd = 2.4e7
+fd = 246.048
+[test]
+frequencies_hz = { start = 100.0, stop = 350.0, count = 21 }
+levels_n = [5.0, 200.0, 1000.0, 30000.0]
+noise = 0.10
+seed = 1
+measure_periods = 16
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hystid"))
+        .arg("simulate")
+        .arg(&def)
+        .args(["--check-hb", "--no-recording", "--quiet", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let checks: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("hb_check.json")).unwrap()).unwrap();
+    let mut h1: Vec<f64> = checks
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            assert_eq!(c["converged"], true, "{c}");
+            c["h1_relative_difference"].as_f64().unwrap()
+        })
+        .collect();
+    h1.sort_by(f64::total_cmp);
+    let (median, max) = (h1[h1.len() / 2], h1[h1.len() - 1]);
+    let h3 = {
+        let mut v: Vec<f64> = (checks.as_array().unwrap().iter())
+            .filter_map(|c| c["higher"][0][1].as_f64())
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    eprintln!("{} dwells: H1 {median:.1e} (median) / {max:.1e} (max), H3 {h3:.1e}", h1.len());
+    assert_eq!(h1.len(), 84);
+    assert!(max < 2e-3, "{max}");
+    let shown = crate::common::readme_figures(
+        "- `simulate --check-hb` on the paper's system plus a hysteretic mode:",
+    )
+    .expect("the README's line");
+    crate::common::assert_readme_figure("H1 median", median, shown[0]);
+    crate::common::assert_readme_figure("H1 max", max, shown[1]);
+    crate::common::assert_readme_figure("dwells", h1.len() as f64, shown[2]);
+    crate::common::assert_readme_figure("H3 median", h3, shown[3]);
+}

@@ -130,6 +130,7 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
         frequency_hz: 0.5 * fs,
         damping_ratio: 0.05,
         residue: 0.01 / case.stiffness * w * w,
+        joint: None,
     });
     let sure = TimeFitOptions::default().min_samples_per_period;
     let mut problem = TimeProblem::new(

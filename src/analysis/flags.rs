@@ -73,18 +73,23 @@ pub fn flags_of(name: &str, e: &Estimate, at_bound: bool, domain: Option<Domain>
 /// The unit and domain of parameter `name` of `model`: an element's from
 /// its law's description, the linear part's by name.
 pub fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
-    let (prefix, leaf) = match name.split_once('.') {
-        Some((p, l)) => (Some(p), l),
-        None => (None, name),
-    };
-    let law = match prefix {
-        None => model.joint.as_ref(),
-        Some(p) => model.effects.iter().find(|e| e.kind().name() == p),
-    };
-    if let Some(info) = law.and_then(|l| l.description().parameters.iter().find(|q| q.name == leaf))
-    {
-        return (info.unit, Some(info.domain));
+    // an element's parameter: the name its fit gives it (the joint's plain,
+    // an effect's or a hysteretic mode's joint's after a prefix)
+    for (at, e) in model.placed_all() {
+        let prefix = model.parameter_prefix(at);
+        let leaf = if prefix.is_empty() {
+            Some(name)
+        } else {
+            name.strip_prefix(prefix.as_str())
+                .and_then(|r| r.strip_prefix('.'))
+        };
+        if let Some(info) =
+            leaf.and_then(|l| e.description().parameters.iter().find(|q| q.name == l))
+        {
+            return (info.unit, Some(info.domain));
+        }
     }
+    let leaf = name.rsplit_once('.').map_or(name, |(_, l)| l);
     match leaf {
         "mass" | "modal_mass" => ("kg", Some(Domain::Positive)),
         "damping" => ("N s/m", Some(Domain::NonNegative)),

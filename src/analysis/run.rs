@@ -548,15 +548,19 @@ pub fn test_markdown(def: &TestDefinition, sim: &SimulateSummary) -> String {
     };
     let laws = |model: &Model| -> String {
         let mut parts = Vec::new();
-        for (at, e) in model.placed() {
+        for (at, e) in model.placed_all() {
             let params: Vec<String> = e
                 .parameters()
                 .iter()
                 .map(|(n, v)| format!("{n} = {}", short(*v)))
                 .collect();
             let place = match at {
-                crate::model::ElementAt::Joint => "joint",
-                crate::model::ElementAt::Effect(_) => "effect",
+                crate::model::ElementAt::Joint => "joint".to_string(),
+                crate::model::ElementAt::Effect(_) => "effect".to_string(),
+                crate::model::ElementAt::ModeJoint(i) => format!(
+                    "mode {} Hz's own joint",
+                    short(model.linear.modes[i].frequency_hz)
+                ),
             };
             parts.push(format!(
                 "{place} `{}` ({})",

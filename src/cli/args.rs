@@ -309,12 +309,14 @@ pub struct DiagnoseArgs {
     /// Response channel name.
     #[arg(long)]
     pub response: Option<String>,
-    /// Candidate effects (default: all but bouc_wen_joint): second_mode,
-    /// cubic_stiffness, bilinear_stiffness, quadratic_damping, clearance,
-    /// iwan4_joint (an Iwan joint in place of the fitted joint law),
-    /// bouc_wen_joint (a Bouc-Wen joint in its place; tried when named: its
-    /// refit costs many times the others'); `all` for every one, `default`
-    /// for the default set.
+    /// Candidate effects (default: all but bouc_wen_joint and
+    /// hysteretic_mode): second_mode, cubic_stiffness, bilinear_stiffness,
+    /// quadratic_damping, clearance, iwan4_joint (an Iwan joint in place of
+    /// the fitted joint law), bouc_wen_joint (a Bouc-Wen joint in its place)
+    /// and hysteretic_mode (a further mode with a joint of its own), the last
+    /// two tried when named: their refits cost many times the others'; `all`
+    /// for every one, `default` for the default set (e.g.
+    /// `default,hysteretic_mode`).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// How recordings are reduced.

@@ -41,7 +41,7 @@ use crate::fit::{
     Transform, Weighting,
 };
 use crate::harmonics::omega;
-use crate::model::{ElementAt, ElementSpec, Model};
+use crate::model::{ElementSpec, Model};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -213,12 +213,9 @@ pub struct Diagnosis {
 /// [`ParameterSet::for_linear_in`]).
 pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> ParameterSet {
     let mut p = ParameterSet::default();
-    for (at, e) in model.placed() {
+    for (at, _) in model.placed_all() {
         // the joint's parameters keep their plain names (kd, fd, …)
-        let prefix = match at {
-            ElementAt::Joint => String::new(),
-            ElementAt::Effect(_) => e.kind().name().to_string(),
-        };
+        let prefix = model.parameter_prefix(at);
         let mut set = ParameterSet::for_element(model, at, &prefix);
         for q in &mut set.parameters {
             // a parameter that starts at zero still needs a sensible scale

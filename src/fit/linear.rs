@@ -519,6 +519,7 @@ pub fn locate_mode_against(
                         frequency_hz: f2,
                         damping_ratio: zeta,
                         residue: res,
+                        joint: None,
                     },
                 ));
             }
@@ -651,6 +652,7 @@ pub fn fit_modes(
             frequency_hz: wr / (2.0 * std::f64::consts::PI),
             damping_ratio: z.min(0.99),
             residue: res,
+            joint: None,
         })
         .collect();
     let model = ModalModel::new(modes)
@@ -718,6 +720,7 @@ mod tests {
                 frequency_hz: 159.0,
                 damping_ratio: 0.01,
                 residue: 0.5,
+                joint: None,
             }],
         };
         let (fitted, _) = fit_modes(&data, Quantity::Displacement, &start, "test").unwrap();

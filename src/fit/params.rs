@@ -198,12 +198,14 @@ impl Parameter {
                 }
                 // keep the residue's sign (a transfer FRF may have R < 0)
                 let s = m0.residue.signum();
+                let joint = m0.joint;
                 let (m, c, k) = (m * s, c * s, k * s);
                 let wn = (k / m).sqrt();
                 model.linear.modes[*mode] = Mode {
                     frequency_hz: wn / (2.0 * std::f64::consts::PI),
                     damping_ratio: c / (2.0 * (k * m).sqrt()),
                     residue: 1.0 / m,
+                    joint,
                 };
             }
             Target::Frequency { mode } => model.linear.modes[*mode].frequency_hz = value,
@@ -408,13 +410,8 @@ impl ParameterSet {
         let mut p = ParameterSet::for_sdof(0);
         for m in 1..model.linear.modes.len() {
             let mode = model.linear.modes[m];
-            let name = |f: &str| {
-                if m == 1 {
-                    format!("second_mode.{f}")
-                } else {
-                    format!("mode_{m}.{f}")
-                }
-            };
+            let label = model.linear.label(m);
+            let name = |f: &str| format!("{label}.{f}");
             let side = band_side(mode.frequency_hz, band_hz);
             p.parameters.push(Parameter {
                 name: name("frequency_hz"),
@@ -576,11 +573,13 @@ mod tests {
             frequency_hz: 900.0,
             damping_ratio: 0.02,
             residue: 0.5,
+            joint: None,
         };
         let below = Mode {
             frequency_hz: 40.0,
             damping_ratio: 0.03,
             residue: 0.2,
+            joint: None,
         };
         linear.modes.push(above);
         linear.modes.push(below);

@@ -89,8 +89,16 @@ impl HbPredictor {
         near: bool,
     ) -> Result<Prediction> {
         model.validate()?;
-        let elements = model.element_set()?;
+        // uncoupled parts (the point structure, each hysteretic mode) are
+        // balanced apart and their harmonics added; a point's state is the
+        // parts' solutions end to end
+        let parts = model.parts();
+        let sets = parts
+            .iter()
+            .map(|(_, m)| m.element_set())
+            .collect::<Result<Vec<_>>>()?;
         let opts = self.options_for(model, data);
+        let nh = opts.harmonics.len();
         // each series gets its own element state (the elements are Send, not Sync)
         let starts: Vec<Option<&Vec<Option<Vec<Complex64>>>>> = (0..data.series.len())
             .map(|i| {
@@ -103,7 +111,7 @@ impl HbPredictor {
             .series
             .iter()
             .zip(starts)
-            .map(|(s, st)| (s, st, elements.clone()))
+            .map(|(s, st)| (s, st, sets.clone()))
             .collect();
         let series: Vec<
             Result<(
@@ -113,9 +121,15 @@ impl HbPredictor {
             )>,
         > = jobs
             .into_par_iter()
-            .map(|(s, st, mut e)| {
-                let mut solver = HbSolver::new(&opts)?;
-                solver.step_at_least_once(near);
+            .map(|(s, st, mut elements)| {
+                let mut solvers = parts
+                    .iter()
+                    .map(|_| {
+                        let mut solver = HbSolver::new(&opts)?;
+                        solver.step_at_least_once(near);
+                        Ok(solver)
+                    })
+                    .collect::<Result<Vec<_>>>()?;
                 let mut previous: Option<(Vec<Complex64>, f64)> = None;
                 let mut out = Vec::with_capacity(s.points.len());
                 let mut states = Vec::with_capacity(s.points.len());
@@ -124,31 +138,47 @@ impl HbPredictor {
                     // continued from the previous point
                     let warm = st
                         .and_then(|st| st[states.len()].clone())
-                        .filter(|g| g.len() == opts.harmonics.len());
+                        .filter(|g| g.len() == nh * parts.len());
                     let guess: Option<Vec<Complex64>> = warm.or_else(|| {
                         previous
                             .as_ref()
                             .map(|(x, f)| x.iter().map(|z| z * (p.force_amplitude / f)).collect())
                     });
-                    let pt = solver.solve_point(
-                        &model.linear,
-                        &mut e,
-                        p.frequency_hz,
-                        p.force_amplitude,
-                        guess.as_deref(),
-                    )?;
-                    if pt.converged {
-                        let w = omega(p.frequency_hz);
-                        let h = data
-                            .harmonics
-                            .iter()
-                            .map(|&k| {
-                                pt.frf(k).unwrap_or_default()
-                                    * data.response.from_displacement(k as f64 * w)
-                            })
-                            .collect();
-                        previous = Some((pt.x.clone(), p.force_amplitude));
-                        states.push(Some(pt.x.clone()));
+                    let w = omega(p.frequency_hz);
+                    let mut state = Vec::with_capacity(nh * parts.len());
+                    let mut h = Vec::new();
+                    let mut converged = true;
+                    for (j, ((sign, part), (solver, e))) in parts
+                        .iter()
+                        .zip(solvers.iter_mut().zip(elements.iter_mut()))
+                        .enumerate()
+                    {
+                        let pt = solver.solve_point(
+                            &part.linear,
+                            e,
+                            p.frequency_hz,
+                            p.force_amplitude,
+                            guess.as_deref().map(|g| &g[j * nh..(j + 1) * nh]),
+                        )?;
+                        if !pt.converged {
+                            converged = false;
+                            break;
+                        }
+                        let part_h = data.harmonics.iter().map(|&k| {
+                            *sign
+                                * pt.frf(k).unwrap_or_default()
+                                * data.response.from_displacement(k as f64 * w)
+                        });
+                        if j == 0 {
+                            h = part_h.collect();
+                        } else {
+                            h.iter_mut().zip(part_h).for_each(|(a, b)| *a += b);
+                        }
+                        state.extend_from_slice(&pt.x);
+                    }
+                    if converged {
+                        previous = Some((state.clone(), p.force_amplitude));
+                        states.push(Some(state));
                         out.push(Some(h));
                     } else {
                         previous = None;

@@ -726,12 +726,8 @@ pub fn time_parameters(
     band_hz: Option<(f64, f64)>,
 ) -> ParameterSet {
     let mut p = ParameterSet::default();
-    for (at, e) in model.placed() {
-        let prefix = match at {
-            crate::model::ElementAt::Joint => String::new(),
-            crate::model::ElementAt::Effect(_) => e.kind().name().to_string(),
-        };
-        p.extend(ParameterSet::for_element(model, at, &prefix));
+    for (at, _) in model.placed_all() {
+        p.extend(ParameterSet::for_element(model, at, &model.parameter_prefix(at)));
     }
     if refine_linear {
         p.extend(ParameterSet::for_linear_in(model, band_hz));

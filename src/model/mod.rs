@@ -72,7 +72,7 @@ macro_rules! registry {
 
         /// An element's kind and parameters (see each law's
         /// [`Description::parameters`] for their units and meaning).
-        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
         #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
         pub enum ElementSpec {
             $(
@@ -362,6 +362,9 @@ pub enum ElementAt {
     Joint,
     /// Effect `i` (in `Model::effects`).
     Effect(usize),
+    /// The own joint of mode `i` (in `Model::linear.modes`): a hysteretic
+    /// mode's.
+    ModeJoint(usize),
 }
 
 impl std::fmt::Display for ElementAt {
@@ -369,6 +372,7 @@ impl std::fmt::Display for ElementAt {
         match self {
             ElementAt::Joint => f.write_str("joint"),
             ElementAt::Effect(i) => write!(f, "effects[{i}]"),
+            ElementAt::ModeJoint(i) => write!(f, "modes[{i}].joint"),
         }
     }
 }
@@ -507,6 +511,15 @@ impl Model {
     pub fn validate(&self) -> Result<()> {
         self.linear.validate()?;
         self.check_places()?;
+        if (self.joint.is_some() || !self.effects.is_empty())
+            && self.linear.modes.iter().all(|m| m.is_hysteretic())
+        {
+            return Err(Error::model(
+                "modes",
+                "every mode carries its own joint, so nothing is left for the model's joint \
+                 and effects to act on: give a mode without a joint",
+            ));
+        }
         for (at, e) in self.placed() {
             e.validate(&at.to_string())?;
         }
@@ -523,6 +536,33 @@ impl Model {
         )
     }
 
+    /// [`Model::placed`], then each hysteretic mode's own joint: every law
+    /// a fit may free.
+    pub fn placed_all(&self) -> impl Iterator<Item = (ElementAt, &ElementSpec)> {
+        self.placed().chain(
+            self.linear
+                .modes
+                .iter()
+                .enumerate()
+                .filter_map(|(i, m)| m.joint.as_ref().map(|j| (ElementAt::ModeJoint(i), j))),
+        )
+    }
+
+    /// How a fit names the parameters of the element at `at`: the joint's
+    /// plainly (`kd`), an effect's after its law (`cubic_stiffness.k3`), a
+    /// hysteretic mode's joint after its mode as the linear part names it
+    /// (`hysteretic_mode.joint.kd`, see [`ModalModel::label`]).
+    pub fn parameter_prefix(&self, at: ElementAt) -> String {
+        match at {
+            ElementAt::Joint => String::new(),
+            ElementAt::Effect(i) => self
+                .effects
+                .get(i)
+                .map_or_else(String::new, |e| e.kind().name().to_string()),
+            ElementAt::ModeJoint(i) => format!("{}.joint", self.linear.label(i)),
+        }
+    }
+
     /// Every element: the joint first, then the effects.
     pub fn elements(&self) -> impl Iterator<Item = &ElementSpec> {
         self.placed().map(|(_, e)| e)
@@ -533,6 +573,7 @@ impl Model {
         match at {
             ElementAt::Joint => self.joint.as_ref(),
             ElementAt::Effect(i) => self.effects.get(i),
+            ElementAt::ModeJoint(i) => self.linear.modes.get(i).and_then(|m| m.joint.as_ref()),
         }
         .ok_or_else(|| Error::model(at.to_string(), "no such element"))
     }
@@ -542,6 +583,11 @@ impl Model {
         match at {
             ElementAt::Joint => self.joint.as_mut(),
             ElementAt::Effect(i) => self.effects.get_mut(i),
+            ElementAt::ModeJoint(i) => self
+                .linear
+                .modes
+                .get_mut(i)
+                .and_then(|m| m.joint.as_mut()),
         }
         .ok_or_else(|| Error::model(at.to_string(), "no such element"))
     }
@@ -577,29 +623,74 @@ impl Model {
             .modes
             .iter()
             .map(|m| {
-                let w2 = m.omega().powi(2) + kd * m.residue.abs();
+                // a hysteretic mode is stiffened by its own joint alone
+                let k = m.joint.as_ref().map_or(kd, ElementSpec::stick_stiffness);
+                let w2 = m.omega().powi(2) + k * m.residue.abs();
                 w2.sqrt() / (2.0 * std::f64::consts::PI)
             })
             .fold(0.0, f64::max)
     }
 
+    /// Every law in the model: the joint, the effects, and the hysteretic
+    /// modes' joints.
+    pub fn laws(&self) -> impl Iterator<Item = &ElementSpec> {
+        self.elements()
+            .chain(self.linear.modes.iter().filter_map(|m| m.joint.as_ref()))
+    }
+
     /// Whether any element has memory.
     pub fn has_memory(&self) -> bool {
-        self.elements().any(|e| e.description().memory)
+        self.laws().any(|e| e.description().memory)
     }
 
     /// Whether any element breaks the half-wave symmetry (makes even
     /// harmonics and DC under symmetric forcing).
     pub fn is_asymmetric(&self) -> bool {
-        self.elements().any(|e| !e.description().odd)
+        self.laws().any(|e| !e.description().odd)
     }
 
     /// The most samples per period any element's law needs (0: none).
     pub fn samples_per_period(&self) -> usize {
-        self.elements()
+        self.laws()
             .map(|e| e.description().samples_per_period)
             .max()
             .unwrap_or(0)
+    }
+
+    /// The model as uncoupled parts whose responses add (see
+    /// [`modal`](crate::model::modal)): the point structure with the joint
+    /// and effects (sign 1), then each hysteretic mode as its own SDOF with
+    /// its joint, with the sign its contribution takes at the point. A model
+    /// without hysteretic modes is one part, itself. The point structure may
+    /// have no mode (every mode hysteretic): it is then left out.
+    pub fn parts(&self) -> Vec<(f64, Model)> {
+        if !self.linear.has_hysteretic_modes() {
+            return vec![(1.0, self.clone())];
+        }
+        let point = self.linear.point_part();
+        let mut parts = Vec::new();
+        if !point.modes.is_empty() {
+            parts.push((
+                1.0,
+                Model {
+                    linear: point,
+                    joint: self.joint,
+                    effects: self.effects.clone(),
+                },
+            ));
+        }
+        for m in self.linear.modes.iter().filter(|m| m.is_hysteretic()) {
+            let (sign, linear) = m.own_sdof();
+            parts.push((
+                sign,
+                Model {
+                    linear,
+                    joint: m.joint,
+                    effects: Vec::new(),
+                },
+            ));
+        }
+        parts
     }
 
     /// The position of parameter `name` in the element at `at` (an error

@@ -11,6 +11,16 @@
 //! with `R_r = 1/m_r` the modal constant (residue) of mode `r`. A single mode
 //! with `R = 1/m`, `ω_r = √(k/m)`, `ζ = c/(2√(km))` is exactly the paper's SDOF
 //! `1/(k − mω² + jcω)` (eq. 1). Damping is viscous per mode and below critical.
+//!
+//! A mode may carry a joint of its own, a **hysteretic mode** (the modal
+//! joint of modal Iwan models: Segalman 2006; Deaner, Allen et al. 2015): its
+//! contribution `x_r` at the point is then an SDOF of its own, mass `1/|R|`,
+//! stiffness `ω_r²/|R|`, damping `2ζω_r/|R|`, driven by the force and held
+//! by its joint acting on `|x_r|`'s coordinate (a negative modal constant
+//! turns the contribution over). It is uncoupled from the other modes: the
+//! model's own joint and effects act on the sum of the other modes, the
+//! **point structure** ([`ModalModel::point_part`]); the response is the
+//! point structure's plus every hysteretic mode's.
 
 use crate::error::{Error, Result, require_positive};
 use crate::harmonics::{Quantity, omega};
@@ -28,6 +38,10 @@ pub struct Mode {
     /// Modal constant `R = 1/m_r`, in 1/kg (m/N per (rad/s)²). May be negative
     /// for a transfer (non-point) response.
     pub residue: f64,
+    /// The mode's own joint (a hysteretic mode, see the module docs); `None`:
+    /// a linear mode of the point structure.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint: Option<crate::model::ElementSpec>,
 }
 
 impl Mode {
@@ -47,6 +61,7 @@ impl Mode {
             frequency_hz: wn / (2.0 * PI),
             damping_ratio: zeta,
             residue: 1.0 / mass,
+            joint: None,
         };
         mode.validate("system")?;
         Ok(mode)
@@ -64,6 +79,7 @@ impl Mode {
             frequency_hz,
             damping_ratio,
             residue: 1.0 / modal_mass,
+            joint: None,
         };
         mode.validate("mode")?;
         Ok(mode)
@@ -87,7 +103,40 @@ impl Mode {
                 format!("must be finite and non-zero, got {}", self.residue),
             ));
         }
+        if let Some(j) = &self.joint {
+            if !j.description().is_joint() {
+                return Err(Error::model(
+                    format!("{at}.joint"),
+                    format!(
+                        "`{}` is not a joint law (a hysteretic mode carries a joint)",
+                        j.kind().name()
+                    ),
+                ));
+            }
+            j.validate(&format!("{at}.joint"))?;
+        }
         Ok(())
+    }
+
+    /// The mode without its joint.
+    pub fn bare(&self) -> Mode {
+        Mode { joint: None, ..*self }
+    }
+
+    /// A hysteretic mode's own SDOF: the bare mode with `|R|`, and the sign
+    /// its contribution takes at the point.
+    pub fn own_sdof(&self) -> (f64, ModalModel) {
+        let m = Mode {
+            residue: self.residue.abs(),
+            joint: None,
+            ..*self
+        };
+        (self.residue.signum(), ModalModel { modes: vec![m] })
+    }
+
+    /// Whether the mode carries its own joint.
+    pub fn is_hysteretic(&self) -> bool {
+        self.joint.is_some()
     }
 
     /// Undamped natural angular frequency ω_r, rad/s.
@@ -157,7 +206,45 @@ impl ModalModel {
         Ok(())
     }
 
-    /// Receptance `X/F` at angular frequency `w` (rad/s).
+    /// The modes the joint and effects act on: every mode without a joint
+    /// of its own (see the module docs; may be none).
+    pub fn point_part(&self) -> ModalModel {
+        ModalModel {
+            modes: self
+                .modes
+                .iter()
+                .filter(|m| !m.is_hysteretic())
+                .copied()
+                .collect(),
+        }
+    }
+
+    /// How fits and reports name mode `i` (`i ≥ 1`; the first mode is the
+    /// SDOF, `mass`, `damping`, `stiffness`): `second_mode`, `mode_2`, ...,
+    /// and a hysteretic mode `hysteretic_mode` (then `hysteretic_mode_2`,
+    /// ... in order).
+    pub fn label(&self, i: usize) -> String {
+        if self.modes.get(i).is_some_and(Mode::is_hysteretic) {
+            let k = self.modes[..i].iter().filter(|m| m.is_hysteretic()).count();
+            if k == 0 {
+                "hysteretic_mode".into()
+            } else {
+                format!("hysteretic_mode_{}", k + 1)
+            }
+        } else if i == 1 {
+            "second_mode".into()
+        } else {
+            format!("mode_{i}")
+        }
+    }
+
+    /// Whether any mode carries a joint of its own.
+    pub fn has_hysteretic_modes(&self) -> bool {
+        self.modes.iter().any(Mode::is_hysteretic)
+    }
+
+    /// Receptance `X/F` at angular frequency `w` (rad/s), every mode taken
+    /// as linear (a hysteretic mode without its joint: fully slipped).
     pub fn receptance(&self, w: f64) -> Complex64 {
         self.modes.iter().map(|m| m.receptance(w)).sum()
     }

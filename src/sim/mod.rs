@@ -26,7 +26,7 @@ pub use filter::{ModeFilter, Section};
 
 use crate::error::{Error, Result};
 use crate::model::element::SOLVE_TOLERANCE;
-use crate::model::{Element, ImplicitStep, ModalModel, Model};
+use crate::model::{AnyElement, Element, ImplicitStep, ModalModel, Model};
 
 /// One output sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -132,6 +132,10 @@ pub struct Simulator<E: Element> {
     elements: E,
     sample_rate: f64,
     stats: SolveStats,
+    /// The hysteretic modes, each its own SDOF with its joint, driven by the
+    /// same force, and the sign its contribution takes at the point (see
+    /// [`crate::model::modal`]).
+    hysteretic: Vec<(f64, Simulator<AnyElement>)>,
 }
 
 const MAX_NEWTON: usize = 8;
@@ -156,7 +160,24 @@ impl<E: Element> Simulator<E> {
             ));
         }
         let t = 1.0 / sample_rate_hz;
-        let filters: Vec<ModeFilter> = linear.modes.iter().map(|m| ModeFilter::new(m, t)).collect();
+        // `elements` act on the point structure; each hysteretic mode is
+        // simulated apart with its own joint
+        let mut hysteretic = Vec::new();
+        for (i, m) in linear.modes.iter().enumerate() {
+            if let Some(joint) = &m.joint {
+                let (sign, own) = m.own_sdof();
+                let element = joint
+                    .build()
+                    .map_err(|e| Error::model(format!("modes[{i}].joint"), e.to_string()))?;
+                hysteretic.push((sign, Simulator::new(&own, element, sample_rate_hz)?));
+            }
+        }
+        let filters: Vec<ModeFilter> = linear
+            .modes
+            .iter()
+            .filter(|m| !m.is_hysteretic())
+            .map(|m| ModeFilter::new(m, t))
+            .collect();
         let b0 = filters.iter().fold([0.0; 3], |acc, f| {
             [
                 acc[0] + f.displacement.b[0],
@@ -172,6 +193,7 @@ impl<E: Element> Simulator<E> {
             elements,
             sample_rate: sample_rate_hz,
             stats: SolveStats::default(),
+            hysteretic,
         })
     }
 
@@ -186,6 +208,10 @@ impl<E: Element> Simulator<E> {
     /// the continuous model and the virtual tests keep their figures.
     pub fn with_transitions_located(mut self) -> Self {
         self.elements.set_sample_interval(1.0 / self.sample_rate);
+        self.hysteretic = std::mem::take(&mut self.hysteretic)
+            .into_iter()
+            .map(|(sign, s)| (sign, s.with_transitions_located()))
+            .collect();
         self
     }
 
@@ -211,6 +237,7 @@ impl<E: Element> Simulator<E> {
             .for_each(|s| *s = ModeState::default());
         self.u = [0.0; 2];
         self.elements.reset();
+        self.hysteretic.iter_mut().for_each(|(_, s)| s.reset());
     }
 
     /// Advances one sample under external force `force` (N).
@@ -286,6 +313,23 @@ impl<E: Element> Simulator<E> {
         mut input: impl FnMut(usize) -> f64,
         mut sink: impl FnMut(usize, Sample),
     ) -> Result<()> {
+        if !self.hysteretic.is_empty() {
+            // the point structure and every hysteretic mode, sample by
+            // sample: their motions add, and so do their joints' forces
+            for i in 0..n {
+                let force = input(i);
+                let mut s = self.step_modal(force)?;
+                for (sign, mode) in &mut self.hysteretic {
+                    let m = mode.step(force)?;
+                    s.displacement += *sign * m.displacement;
+                    s.velocity += *sign * m.velocity;
+                    s.acceleration += *sign * m.acceleration;
+                    s.element_force += m.element_force;
+                }
+                sink(i, s);
+            }
+            return Ok(());
+        }
         if self.filters.len() != 1 {
             for i in 0..n {
                 let s = self.step_modal(input(i))?;

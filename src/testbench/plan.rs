@@ -93,6 +93,9 @@ pub struct ModeSpec {
     /// Modal constant `1/m_r`, 1/kg.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residue: Option<f64>,
+    /// The mode's own joint: a hysteretic mode (see [`crate::model::modal`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint: Option<ElementSpec>,
 }
 
 /// The joint: a registered joint law (see
@@ -539,6 +542,7 @@ impl StructureDefinition {
                         frequency_hz: m.frequency_hz,
                         damping_ratio: m.damping_ratio,
                         residue,
+                        joint: m.joint,
                     };
                     mode.validate(&at)?;
                     Ok(mode)

@@ -9,6 +9,7 @@
 pub mod kit;
 
 mod bouc_wen;
+mod hysteretic_mode;
 mod iwan;
 mod reference;
 mod sample;

@@ -11,6 +11,7 @@ mod bilinear_stiffness;
 mod bouc_wen_joint;
 mod clearance;
 mod cubic_stiffness;
+mod hysteretic_mode;
 mod iwan4_joint;
 mod quadratic_damping;
 mod second_mode;
@@ -335,6 +336,7 @@ candidates! {
     Clearance("clearance", clearance::Clearance),
     Iwan4Joint("iwan4_joint", iwan4_joint::Iwan4Joint),
     BoucWenJoint("bouc_wen_joint", bouc_wen_joint::BoucWenJoint),
+    HystereticMode("hysteretic_mode", hysteretic_mode::HystereticMode),
 }
 
 impl Effect {
@@ -349,7 +351,7 @@ impl Effect {
     }
 
     /// The candidates a diagnosis tries unless told which: every one but
-    /// those tried only when named (`bouc_wen_joint`).
+    /// those tried only when named (`bouc_wen_joint`, `hysteretic_mode`).
     pub fn defaults() -> Vec<Effect> {
         Effect::ALL
             .iter()
@@ -413,8 +415,9 @@ mod tests {
     fn candidate_lists_parse() {
         assert_eq!(Effect::parse_list(&names(&["all"])).unwrap(), Effect::ALL);
         let defaults = Effect::parse_list(&names(&["default"])).unwrap();
-        assert_eq!(defaults.len(), Effect::ALL.len() - 1);
+        assert_eq!(defaults.len(), Effect::ALL.len() - 2);
         assert!(!defaults.contains(&Effect::BoucWenJoint));
+        assert!(!defaults.contains(&Effect::HystereticMode));
         assert_eq!(
             Effect::parse_list(&names(&["bouc_wen_joint", "default", "clearance"])).unwrap(),
             [&[Effect::BoucWenJoint][..], &Effect::defaults()].concat()

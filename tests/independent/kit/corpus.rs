@@ -571,6 +571,14 @@ pub struct Recording {
 
 /// Simulates the case and adds the seeded noise.
 pub fn generate(case: &Case) -> Recording {
+    generate_with(case, &[])
+}
+
+/// [`generate`], with further systems `parts` driven by the same force and
+/// their motions added to the case's: a mode with a joint of its own is an
+/// SDOF of its own, uncoupled from the rest (the sidecar does not describe
+/// them).
+pub fn generate_with(case: &Case, parts: &[RefSystem]) -> Recording {
     let fs = case.sample_rate as f64;
     let tau = case.slowest_tau();
     let mut spec = Vec::new();
@@ -588,7 +596,17 @@ pub fn generate(case: &Case) -> Recording {
     let sine = SteppedSine::new(t_start, &spec);
     let n = (sine.t_end() * fs).floor() as usize + 1;
     let sys = case.system();
-    let out = sys.simulate(&sine, fs, n, case.substeps);
+    let mut out = sys.simulate(&sine, fs, n, case.substeps);
+    for part in parts {
+        let o = part.simulate(&sine, fs, n, case.substeps);
+        for (a, b) in [
+            (&mut out.displacement, &o.displacement),
+            (&mut out.velocity, &o.velocity),
+            (&mut out.acceleration, &o.acceleration),
+        ] {
+            a.iter_mut().zip(b).for_each(|(a, b)| *a += b);
+        }
+    }
     let clean_response = match case.quantity {
         Quantity::Displacement => out.displacement,
         Quantity::Velocity => out.velocity,

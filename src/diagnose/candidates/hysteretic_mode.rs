@@ -1,0 +1,168 @@
+//! A further mode that carries a joint of its own (a hysteretic mode, see
+//! [`crate::model::modal`]): a resonance the model lacks that softens and
+//! gains damping with level, as a second jointed mode of a built-up
+//! structure does (the F-16's 6.6 Hz mode beside its torsion, a lap-joint
+//! beam's modes, each with its own share of the interface). A linear
+//! further mode (`second_mode`) explains such a resonance at one level;
+//! this one follows it through every level.
+//!
+//! Started from the further linear modes `second_mode` locates in the
+//! residual: each given a Jenkins joint as stiff as the mode itself, with the
+//! located frequency read as the bare mode's or as the stuck one's, and a
+//! slip force on a grid over the measured force levels; the best of these as
+//! it stands is each located mode's start.
+
+use super::second_mode::SecondMode;
+use super::{Candidate, Context, best_as_it_stands};
+use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
+use crate::error::Result;
+use crate::fit::{Estimate, FitData};
+use crate::model::{ElementKind, ElementSpec, Mode, Model};
+use std::collections::BTreeMap;
+
+/// See the module docs.
+pub(crate) struct HystereticMode;
+
+/// The slip forces tried, as multiples of the smallest measured force
+/// level up to this many times the largest.
+const SLIP_REACH: f64 = 10.0;
+const SLIP_STEPS: usize = 6;
+
+impl Candidate for HystereticMode {
+    fn law(&self) -> Option<ElementKind> {
+        None
+    }
+
+    /// The mode's frequency, damping ratio and modal constant, and its
+    /// joint's stick stiffness and slip force.
+    fn size(&self) -> usize {
+        5
+    }
+
+    /// Tried when named: its refit (a mode and a joint, a harmonic-balance
+    /// solve per part and point) costs about as much as the rest of a
+    /// diagnosis.
+    fn by_default(&self) -> bool {
+        false
+    }
+
+    fn score(&self, f: &ResidualFeatures) -> f64 {
+        // a resonance of its own (as a further mode's) that changes with
+        // level (as a joint's)
+        5.0 * f.level_independent_share.max(0.2) + f.growth_with_level.max(0.0)
+    }
+
+    fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
+        let levels: Vec<f64> = cx
+            .data
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.force_amplitude))
+            .filter(|f| f.is_finite() && *f > 0.0)
+            .collect();
+        let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = levels.iter().copied().fold(0.0, f64::max);
+        if !(lo.is_finite() && hi > 0.0) {
+            return Ok(Vec::new());
+        }
+        let top = SLIP_REACH * hi;
+        let slips: Vec<f64> = (0..SLIP_STEPS)
+            .map(|i| lo * (top / lo).powf(i as f64 / (SLIP_STEPS - 1) as f64))
+            .collect();
+        let n = cx.model().linear.modes.len();
+        let mut starts = Vec::new();
+        for located in SecondMode.starts(cx)? {
+            // the further mode the linear candidate added (the last)
+            let Some(&mode) = located.linear.modes.get(n).filter(|_| located.linear.modes.len() == n + 1)
+            else {
+                continue;
+            };
+            let shapes = [1.0, std::f64::consts::FRAC_1_SQRT_2]
+                .into_iter()
+                .flat_map(|bare| slips.iter().map(move |&fd| (bare, fd)))
+                .map(|(bare, fd)| {
+                    let mut m = located.clone();
+                    let mut hm = Mode {
+                        frequency_hz: mode.frequency_hz * bare,
+                        ..mode
+                    };
+                    // a joint as stiff as the bare mode: stuck, the mode rings
+                    // √2 above its bare frequency
+                    let kd = hm.modal_stiffness().abs();
+                    hm.joint = Some(ElementSpec::Jenkins { kd, fd });
+                    m.linear.modes[n] = hm;
+                    m
+                });
+            if let Some((_, m)) = best_as_it_stands(cx, shapes) {
+                starts.push(m);
+            }
+        }
+        Ok(starts)
+    }
+
+    fn own_parameter<'n>(&self, effect: &str, name: &'n str) -> Option<&'n str> {
+        name.strip_prefix(effect)?.strip_prefix('.')
+    }
+
+    fn size_parameters(&self) -> &'static [&'static str] {
+        &["residue", "joint.fd"]
+    }
+
+    fn implausible(
+        &self,
+        name: &str,
+        e: &Estimate,
+        model: &Model,
+        data: &FitData,
+    ) -> Option<String> {
+        SecondMode.implausible(name, e, model, data)
+    }
+
+    fn parameters(&self, model: &Model, _data: &FitData) -> BTreeMap<String, f64> {
+        let mut out = BTreeMap::new();
+        if let Some(m) = model.linear.modes.iter().rev().find(|m| m.is_hysteretic()) {
+            out.insert("frequency_hz".into(), m.frequency_hz);
+            out.insert("damping_ratio".into(), m.damping_ratio);
+            out.insert("modal_mass".into(), 1.0 / m.residue);
+            for (n, v) in m.joint.iter().flat_map(ElementSpec::parameters) {
+                out.insert(format!("joint.{n}"), v);
+            }
+        }
+        out
+    }
+
+    fn reported(&self, name: &str, e: Estimate) -> (String, Estimate) {
+        SecondMode.reported(name, e)
+    }
+
+    fn remove(&self, model: &Model) -> Option<Model> {
+        let i = model.linear.modes.iter().rposition(|m| m.is_hysteretic())?;
+        let mut m = model.clone();
+        m.linear.modes.remove(i);
+        (!m.linear.modes.is_empty()).then_some(m)
+    }
+
+    fn explain(&self, f: &ResidualFeatures, sel: &SelectedEffect) -> String {
+        let get = |n: &str| sel.parameters.get(n).map(|e| e.value);
+        let at = match (get("frequency_hz"), get("joint.kd"), get("joint.fd")) {
+            (Some(fr), Some(kd), Some(fd)) => {
+                let stuck = get("modal_mass")
+                    .map(|m| {
+                        let k = m.abs() * (2.0 * std::f64::consts::PI * fr).powi(2);
+                        fr * ((k + kd) / k).sqrt()
+                    })
+                    .unwrap_or(f64::NAN);
+                format!(
+                    ": a mode of its own joint, {fr:.4} Hz slipping and {stuck:.4} Hz stuck, slip force {} N",
+                    fmt_value(fd)
+                )
+            }
+            _ => String::new(),
+        };
+        format!(
+            "the residual showed a resonance the model lacks that changed with level ({:.0} % of it level-dependent, slope {:.2}){at}",
+            100.0 * (1.0 - f.level_independent_share),
+            f.growth_with_level
+        )
+    }
+}
