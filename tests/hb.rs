@@ -1080,13 +1080,15 @@ measure_periods = 16
     )
     .unwrap();
     let out = dir.path().join("out");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hystid"))
-        .arg("simulate")
-        .arg(&def)
-        .args(["--check-hb", "--no-recording", "--quiet", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = crate::cli::hystid(&[
+        "simulate",
+        def.to_str().unwrap(),
+        "--check-hb",
+        "--no-recording",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let checks: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("hb_check.json")).unwrap()).unwrap();
@@ -1108,7 +1110,10 @@ measure_periods = 16
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    eprintln!("{} dwells: H1 {median:.1e} (median) / {max:.1e} (max), H3 {h3:.1e}", h1.len());
+    eprintln!(
+        "{} dwells: H1 {median:.1e} (median) / {max:.1e} (max), H3 {h3:.1e}",
+        h1.len()
+    );
     assert_eq!(h1.len(), 84);
     assert!(max < 2e-3, "{max}");
     let shown = crate::common::readme_figures(

@@ -124,7 +124,13 @@ fn jenkins_run(f0: f64, f: f64, p: usize, seconds: f64) -> hystid::sim::Response
 
 /// [`jenkins_run`], with the slip transitions `located` inside their samples
 /// or not.
-fn jenkins_run_with(f0: f64, f: f64, p: usize, seconds: f64, located: bool) -> hystid::sim::Response {
+fn jenkins_run_with(
+    f0: f64,
+    f: f64,
+    p: usize,
+    seconds: f64,
+    located: bool,
+) -> hystid::sim::Response {
     let fs = p as f64 * f;
     let model = ModalModel::sdof(M, C, K).unwrap();
     let mut sim = Simulator::new(&model, Jenkins::new(KD, FD).unwrap(), fs).unwrap();
@@ -267,34 +273,10 @@ impl Rk4Jenkins {
     }
 }
 
-/// The reference fundamental of x at steady state.
+/// The reference fundamental of x at steady state (400 instants a period,
+/// 20 RK4 steps each: h = 1/(8000 f) = 0.5 µs at 250 Hz).
 fn rk4_fundamental(f0: f64, f: f64, seconds: f64) -> Complex64 {
-    let p = 400usize; // output instants per period
-    let sub = 20; // RK4 steps per output instant: h = 1/(8000 f) = 0.5 µs at 250 Hz
-    let mut s = Rk4Jenkins {
-        f0,
-        w: omega(f),
-        t: 0.0,
-        x: 0.0,
-        v: 0.0,
-        stick: true,
-        slider: 0.0,
-        slip_sign: 1.0,
-    };
-    let h = 1.0 / (f * (p * sub) as f64);
-    let periods = (seconds * f) as usize;
-    let mut xs = Vec::with_capacity(4 * p);
-    for period in 0..periods + 4 {
-        for _ in 0..p {
-            if period >= periods {
-                xs.push(s.x);
-            }
-            for _ in 0..sub {
-                s.advance(h);
-            }
-        }
-    }
-    fundamental(&xs, p, 4)
+    fundamental(&rk4_history(f0, f, seconds, 400, 20, 4), 400, 4)
 }
 
 #[test]
@@ -431,7 +413,14 @@ fn bad_input_is_an_error_not_a_panic() {
 /// The reference displacement at `p_out` instants a period over the last
 /// `periods` periods after `seconds` (event-located RK4, `sub` steps per
 /// instant).
-fn rk4_history(f0: f64, f: f64, seconds: f64, p_out: usize, sub: usize, periods: usize) -> Vec<f64> {
+fn rk4_history(
+    f0: f64,
+    f: f64,
+    seconds: f64,
+    p_out: usize,
+    sub: usize,
+    periods: usize,
+) -> Vec<f64> {
     let mut s = Rk4Jenkins {
         f0,
         w: omega(f),
@@ -488,7 +477,9 @@ fn jenkins_error_converges_at_second_order_through_slip_transitions() {
                 / peak
         };
         let plain = jenkins_run_with(f0, f, p, 2.0, false);
-        sampled.push(error(&plain.displacement[plain.displacement.len() - 4 * p..]));
+        sampled.push(error(
+            &plain.displacement[plain.displacement.len() - 4 * p..],
+        ));
         let x = &r.displacement[r.displacement.len() - 4 * p..];
         let e = error(x);
         eprintln!(

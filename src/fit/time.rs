@@ -727,7 +727,11 @@ pub fn time_parameters(
 ) -> ParameterSet {
     let mut p = ParameterSet::default();
     for (at, _) in model.placed_all() {
-        p.extend(ParameterSet::for_element(model, at, &model.parameter_prefix(at)));
+        p.extend(ParameterSet::for_element(
+            model,
+            at,
+            &model.parameter_prefix(at),
+        ));
     }
     if refine_linear {
         p.extend(ParameterSet::for_linear_in(model, band_hz));

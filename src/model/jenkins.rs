@@ -181,7 +181,11 @@ impl Element for Jenkins {
     fn commit(&mut self, x: f64, v: f64) -> ElementForce {
         let (f, slider) = self.evaluate(x, v);
         if self.h > 0.0 {
-            let dir = if f.stiffness == 0.0 { sign(f.force) } else { 0.0 };
+            let dir = if f.stiffness == 0.0 {
+                sign(f.force)
+            } else {
+                0.0
+            };
             // stick turned to slip inside the sample: the stick force,
             // linear in the sample's displacement, met ±Fd at τ and stayed
             // there, a kink the straight line from the last force cuts
@@ -346,7 +350,11 @@ mod tests {
         let f = e.commit(x0 + 2.0 * fd / kd / 10.0, 1.0);
         assert_eq!(f.force, fd);
         let area = 0.5 * h * 20.0 * 0.5;
-        assert!((e.kink_impulse() / area - 1.0).abs() < 1e-12, "{}", e.kink_impulse());
+        assert!(
+            (e.kink_impulse() / area - 1.0).abs() < 1e-12,
+            "{}",
+            e.kink_impulse()
+        );
         // slipping on: no kink
         let x2 = x0 + 4.0 * fd / kd / 10.0;
         e.commit(x2, 1.0);

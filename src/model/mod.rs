@@ -583,11 +583,7 @@ impl Model {
         match at {
             ElementAt::Joint => self.joint.as_mut(),
             ElementAt::Effect(i) => self.effects.get_mut(i),
-            ElementAt::ModeJoint(i) => self
-                .linear
-                .modes
-                .get_mut(i)
-                .and_then(|m| m.joint.as_mut()),
+            ElementAt::ModeJoint(i) => self.linear.modes.get_mut(i).and_then(|m| m.joint.as_mut()),
         }
         .ok_or_else(|| Error::model(at.to_string(), "no such element"))
     }

@@ -120,7 +120,10 @@ impl Mode {
 
     /// The mode without its joint.
     pub fn bare(&self) -> Mode {
-        Mode { joint: None, ..*self }
+        Mode {
+            joint: None,
+            ..*self
+        }
     }
 
     /// A hysteretic mode's own SDOF: the bare mode with `|R|`, and the sign

@@ -8,7 +8,7 @@ use super::kit::corpus::{
 };
 use super::kit::recording::write_recording;
 use super::kit::refsim::RefJoint;
-use super::kit::score::{hystid_bin, run_diagnose_with, run_identify};
+use super::kit::score::{hystid_bin, run_diagnose_with, run_identify, selected_effects};
 use hystid::model::{Element, ElementSpec};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -204,12 +204,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
         ));
         return failures;
     };
-    let selected: Vec<&str> = d["selected"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|s| s["effect"].as_str())
-        .collect();
+    let selected = selected_effects(&d);
     let j = &d["model"]["joint"];
     let q = |n: &str| j[n].as_f64().unwrap_or(f64::NAN);
     let got = [

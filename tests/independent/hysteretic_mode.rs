@@ -4,10 +4,12 @@
 //! Jenkins joint of its own, each integrated by RK4 under the same force and
 //! their motions added. Undeclared, `diagnose` must find it by name.
 
-use super::kit::corpus::{CaseOptions, JointKind, Quantity, SampleFormat, Sweep, case_with, generate_with};
+use super::kit::corpus::{
+    CaseOptions, JointKind, Quantity, SampleFormat, Sweep, case_with, generate_with,
+};
 use super::kit::recording::write_recording;
 use super::kit::refsim::{RefJoint, RefMode, RefSystem};
-use super::kit::score::{hystid_bin, run_diagnose_with};
+use super::kit::score::{hystid_bin, run_diagnose_with, selected_effects};
 use std::f64::consts::PI;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -46,7 +48,10 @@ fn a_hysteretic_mode_from_the_independent_simulator_is_found() {
     while (case.sample_rate as f64) < 40.0 * hi {
         case.sample_rate *= 2;
     }
-    eprintln!("{} + mode {f_bare:.2} Hz (stuck {f_stuck:.2}), {mass:.3} kg, kd {kd:.4e}, fd {fd:.4e}", case.summary());
+    eprintln!(
+        "{} + mode {f_bare:.2} Hz (stuck {f_stuck:.2}), {mass:.3} kg, kd {kd:.4e}, fd {fd:.4e}",
+        case.summary()
+    );
     let mode = RefSystem {
         modes: vec![RefMode::from_hz(f_bare, zeta, mass)],
         joint: RefJoint::Jenkins { kd, fd },
@@ -67,12 +72,7 @@ fn a_hysteretic_mode_from_the_independent_simulator_is_found() {
     let d = run
         .diagnosis
         .unwrap_or_else(|| panic!("diagnose failed: {}", run.stderr_tail));
-    let selected: Vec<&str> = d["selected"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|s| s["effect"].as_str())
-        .collect();
+    let selected = selected_effects(&d);
     let (before, after) = (
         d["baseline"]["error_relative"].as_f64().unwrap(),
         d["final"]["error_relative"].as_f64().unwrap(),
@@ -117,7 +117,11 @@ fn a_hysteretic_mode_from_the_independent_simulator_is_found() {
         ("joint.fd", fd, 0.05),
     ] {
         let e = got(name) / truth - 1.0;
-        eprintln!("  {name} = {:.6e} (true {truth:.6e}, {:+.2} %)", got(name), 100.0 * e);
+        eprintln!(
+            "  {name} = {:.6e} (true {truth:.6e}, {:+.2} %)",
+            got(name),
+            100.0 * e
+        );
         assert!(e.abs() < tolerance, "{name}: {} vs {truth}", got(name));
     }
     assert!(before >= 3.0 * after, "H1 error {before} -> {after}");

@@ -8,7 +8,7 @@ use super::kit::corpus::{
 };
 use super::kit::recording::write_recording;
 use super::kit::refsim::{Hysteresis, IWAN_SLIDERS, RefJoint};
-use super::kit::score::{hystid_bin, run_diagnose, run_identify};
+use super::kit::score::{hystid_bin, run_diagnose, run_identify, selected_effects};
 use hystid::model::{Element, ElementSpec};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -190,12 +190,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
         ));
         return failures;
     };
-    let selected: Vec<&str> = d["selected"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|s| s["effect"].as_str())
-        .collect();
+    let selected = selected_effects(&d);
     let j = &d["model"]["joint"];
     let how = "`diagnose --element masing` (undeclared): selects `iwan4_joint` alone";
     judge(

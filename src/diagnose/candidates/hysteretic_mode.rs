@@ -73,7 +73,11 @@ impl Candidate for HystereticMode {
         let mut starts = Vec::new();
         for located in SecondMode.starts(cx)? {
             // the further mode the linear candidate added (the last)
-            let Some(&mode) = located.linear.modes.get(n).filter(|_| located.linear.modes.len() == n + 1)
+            let Some(&mode) = located
+                .linear
+                .modes
+                .get(n)
+                .filter(|_| located.linear.modes.len() == n + 1)
             else {
                 continue;
             };

@@ -510,3 +510,11 @@ pub fn hystid_bin() -> PathBuf {
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_hystid")))
 }
+
+/// The effects a `diagnosis.json` selected, in order.
+pub fn selected_effects(diagnosis: &Value) -> Vec<&str> {
+    diagnosis["selected"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|s| s["effect"].as_str()).collect())
+        .unwrap_or_default()
+}
