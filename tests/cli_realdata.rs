@@ -1156,11 +1156,22 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         .iter()
         .map(|l| level(l))
         .collect();
-    let start = Path::new(env!("CARGO_MANIFEST_DIR")).join("signals/f16_hysteretic_mode_start.toml");
+    let start =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("signals/f16_hysteretic_mode_start.toml");
     let out = work.path().join("fit");
     let mut args: Vec<&str> = vec!["identify"];
     args.extend(fit.iter().map(|p| s(p)));
-    args.extend(["--domain", "time", "--start", s(&start), "--band", "4.5:9", "-q", "--out", s(&out)]);
+    args.extend([
+        "--domain",
+        "time",
+        "--start",
+        s(&start),
+        "--band",
+        "4.5:9",
+        "-q",
+        "--out",
+        s(&out),
+    ]);
     run_ok(&args);
     let val = work.path().join("val");
     let fit_json = out.join("fit.json");
@@ -1178,6 +1189,10 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         common::assert_readme_figure(&format!("level {l} e_RMS"), e_rms, shown[0]);
         common::assert_readme_figure(&format!("level {l} share (%)"), relative, shown[1]);
         let without = common::readme_figures(&format!("| F-16 | level {l} |")).expect("README row");
-        assert!(relative < without[1].0, "level {l}: {relative} % vs {} % without", without[1].0);
+        assert!(
+            relative < without[1].0,
+            "level {l}: {relative} % vs {} % without",
+            without[1].0
+        );
     }
 }

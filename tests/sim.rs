@@ -503,3 +503,54 @@ fn jenkins_error_converges_at_second_order_through_slip_transitions() {
     // 32 kHz, near resonance: no more than twice it
     assert!(errors[0] < 2.0 * (PI / 128.0).powi(2) / 3.0, "{errors:?}");
 }
+
+/// A hysteretic mode whose joint never slips is its bare mode held by the
+/// stiffness `kd` (fed back sample by sample, so the filter's `sinc²` acts
+/// inside the loop: `s²H/(1 + kd s²H)` with `H = |R|/(ω_r² − ω² + 2jζω_rω)`),
+/// and one whose joint always slips is the bare mode (`s²H`); beside the
+/// paper's SDOF (`s²H_point`) the contributions add, a transfer mode's
+/// (`R < 0`) turned over. The simulator's steady state is that closed form.
+#[test]
+fn a_hysteretic_mode_stuck_or_slipping_is_the_closed_form_receptance() {
+    use hystid::model::Model;
+    let fs = 51200.0;
+    let point = Mode::from_mck(M, C, K).unwrap();
+    let (kd, r2) = (4.0e7, 0.02);
+    for (sign, stuck) in [(1.0, true), (-1.0, true), (1.0, false)] {
+        let mode = Mode {
+            joint: Some(ElementSpec::Jenkins {
+                kd,
+                fd: if stuck { 1e12 } else { 1e-9 },
+            }),
+            ..Mode::from_modal_mass(230.0, 0.02, sign / r2).unwrap()
+        };
+        let model =
+            Model::with_joint(ModalModel::new(vec![point, mode]).unwrap(), None, vec![]).unwrap();
+        let own = mode.own_sdof().1;
+        for p in [400usize, 256, 160] {
+            let f = fs / p as f64;
+            let (w, s2) = (omega(f), sinc(f / fs).powi(2));
+            let n = (3 * fs as usize) / p * p + 4 * p;
+            let force: Vec<f64> = (0..n)
+                .map(|i| (2.0 * PI * (i % p) as f64 / p as f64).cos())
+                .collect();
+            let x = hystid::sim::simulate(&model, &force, fs, hystid::sim::Output::Displacement)
+                .unwrap();
+            let got = fundamental(&x, p, 4);
+            let h = s2 * own.receptance(w);
+            let held = if stuck { h / (1.0 + kd * h) } else { h };
+            let expected = s2 * point.receptance(w) + sign * held;
+            let rel = (got / expected - 1.0).norm();
+            eprintln!(
+                "R {:+}, stuck {stuck}, {f:.1} Hz: rel. error {rel:.1e}",
+                sign * r2
+            );
+            // what is left is the aliases, H(f + k fs) sinc²(f/fs + k)
+            assert!(
+                rel < 1e-7,
+                "R {}, stuck {stuck}, {f} Hz: {got} vs {expected}",
+                sign * r2
+            );
+        }
+    }
+}
