@@ -1145,7 +1145,7 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
     let final_fit = model_fit(&current.model, data, &current.pred, current.chi2);
     let final_features = features(data, &current.pred);
     let consistent = final_fit.chi2_per_dof < 2.0 && normalised(current.chi2) < 2.0;
-    let explanation = explain(
+    let mut explanation = explain(
         &baseline,
         &base_features,
         &reports,
@@ -1153,6 +1153,21 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         &final_fit,
         consistent,
     );
+    // where the residual stays above the noise, the candidates left out
+    // are the user's next step
+    let untried: Vec<&str> = Effect::ALL
+        .iter()
+        .filter(|e| !e.by_default())
+        .filter(|e| !reports.iter().any(|r| r.effect == **e) && !failed.iter().any(|f| f.effect == **e))
+        .map(|e| e.name())
+        .collect();
+    if !consistent && !untried.is_empty() {
+        explanation.push_str(&format!(
+            " Not tried, as they are tried only when named: {} (`diagnose --candidates default,{}`).",
+            untried.join(", "),
+            untried[0]
+        ));
+    }
     Ok(Diagnosis {
         harmonics,
         band_hz,
