@@ -1045,11 +1045,14 @@ fn f16_diagnosis_is_the_readmes() {
     );
     // still above the noise: the candidates tried only when named are the
     // next step, and the explanation says so
-    let explanation = json(&diagnosis)["explanation"].as_str().unwrap().to_string();
+    let explanation = json(&diagnosis)["explanation"]
+        .as_str()
+        .unwrap()
+        .to_string();
     assert!(
         explanation.ends_with(
             "Not tried, as they are tried only when named: bouc_wen_joint, hysteretic_mode \
-             (`diagnose --candidates default,bouc_wen_joint`)."
+             (`--candidates default,bouc_wen_joint`)."
         ),
         "{explanation}"
     );

@@ -1054,31 +1054,7 @@ fn a_difference_step_below_the_tolerance_still_moves_the_solution() {
 fn a_hysteretic_mode_is_balanced_as_the_simulator_runs_it() {
     let dir = tempfile::tempdir().unwrap();
     let def = dir.path().join("hysteretic_mode.toml");
-    std::fs::write(
-        &def,
-        r#"
-[[modes]]
-frequency_hz = 159.1549430918953
-damping_ratio = 0.01
-modal_mass = 10.0
-[[modes]]
-frequency_hz = 240.0
-damping_ratio = 0.01
-modal_mass = 50.0
-joint = { kind = "jenkins", kd = 1.137e8, fd = 300.0 }
-[joint]
-kind = "jenkins"
-kd = 2.4e7
-fd = 246.048
-[test]
-frequencies_hz = { start = 100.0, stop = 350.0, count = 21 }
-levels_n = [5.0, 200.0, 1000.0, 30000.0]
-noise = 0.10
-seed = 1
-measure_periods = 16
-"#,
-    )
-    .unwrap();
+    std::fs::write(&def, crate::common::HYSTERETIC_MODE_TEST).unwrap();
     let out = dir.path().join("out");
     let o = crate::cli::hystid(&[
         "simulate",

@@ -345,6 +345,10 @@ pub struct RunArgs {
     /// Skip the diagnosis stage.
     #[arg(long)]
     pub no_diagnose: bool,
+    /// The diagnosis's candidate effects, as `diagnose --candidates` takes
+    /// them (e.g. `default,hysteretic_mode`; default: the default set).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Vec<String>,
     /// Write no time histories (run.mcap, recording.wav/.json: about 250 MB
     /// for the default test); the FRFs, fit, diagnosis and report are the same.
     #[arg(long)]

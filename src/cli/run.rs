@@ -65,7 +65,7 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
             &hystid::diagnose::DiagnoseOptions {
                 band_hz: options.band_hz,
                 fit: options.clone(),
-                ..Default::default()
+                ..super::diagnose::diagnose_options(&args.candidates)?
             },
             quiet,
         )?;

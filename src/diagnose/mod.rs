@@ -1158,12 +1158,14 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
     let untried: Vec<&str> = Effect::ALL
         .iter()
         .filter(|e| !e.by_default())
-        .filter(|e| !reports.iter().any(|r| r.effect == **e) && !failed.iter().any(|f| f.effect == **e))
+        .filter(|e| {
+            !reports.iter().any(|r| r.effect == **e) && !failed.iter().any(|f| f.effect == **e)
+        })
         .map(|e| e.name())
         .collect();
     if !consistent && !untried.is_empty() {
         explanation.push_str(&format!(
-            " Not tried, as they are tried only when named: {} (`diagnose --candidates default,{}`).",
+            " Not tried, as they are tried only when named: {} (`--candidates default,{}`).",
             untried.join(", "),
             untried[0]
         ));
