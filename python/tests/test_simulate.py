@@ -133,3 +133,41 @@ def test_the_same_seed_gives_byte_identical_results():
     other = hystid.virtual_test(SMALL.read_text().replace("seed = 3", "seed = 4"))
     assert other["signals"]["force"].tobytes() == a["signals"]["force"].tobytes()  # no force noise
     assert other["signals"]["displacement"].tobytes() != a["signals"]["displacement"].tobytes()
+
+
+def test_a_hysteretic_mode_that_never_slips_is_the_closed_form():
+    """A mode with a joint of its own (a hysteretic mode), given as a dict
+    like any model: beside the paper's SDOF, a 230 Hz mode held by a Jenkins
+    joint that never slips (kd 4e7 N/m, slip force 1e12 N) on its own
+    coordinate. The steady state is the closed form of the filters: the
+    SDOF's s^2 H plus the mode's s^2 H_r / (1 + kd s^2 H_r), with s^2 =
+    sinc^2(f/fs) (the joint's force is fed back sample by sample, so the
+    filter's sinc^2 acts inside the loop); a transfer mode (negative modal
+    mass) turns its part over. Tolerance 1e-7: the aliases left out
+    (measured 2e-9 in the Rust test of the same closed form)."""
+    fs, p, kd = 51200.0, 256, 4.0e7
+    f = fs / p
+    w = 2 * np.pi * f
+    s2 = np.sinc(f / fs) ** 2
+    for sign in (1.0, -1.0):
+        mass = sign * 50.0
+        wr, zeta = 2 * np.pi * 230.0, 0.02
+        definition = {
+            "modes": [
+                {"frequency_hz": np.sqrt(K / M) / (2 * np.pi), "damping_ratio": C / (2 * np.sqrt(K * M)), "modal_mass": M},
+                {
+                    "frequency_hz": 230.0,
+                    "damping_ratio": zeta,
+                    "modal_mass": mass,
+                    "joint": {"kind": "jenkins", "kd": kd, "fd": 1e12},
+                },
+            ]
+        }
+        n = int(3 * fs) // p * p + 4 * p
+        i = np.arange(n)
+        x = hystid.simulate(definition, np.cos(2 * np.pi * (i % p) / p), fs)
+        last = x[-4 * p :]
+        got = 2 * np.mean(last * np.exp(-2j * np.pi * (np.arange(4 * p) % p) / p))
+        hr = s2 / abs(mass) / (wr**2 - w**2 + 2j * zeta * wr * w)
+        expected = s2 * receptance(f) + sign * hr / (1 + kd * hr)
+        assert abs(got / expected - 1) < 1e-7, (sign, got, expected)
