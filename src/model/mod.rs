@@ -630,8 +630,7 @@ impl Model {
     /// Every law in the model: the joint, the effects, and the hysteretic
     /// modes' joints.
     pub fn laws(&self) -> impl Iterator<Item = &ElementSpec> {
-        self.elements()
-            .chain(self.linear.modes.iter().filter_map(|m| m.joint.as_ref()))
+        self.placed_all().map(|(_, e)| e)
     }
 
     /// Whether any element has memory.

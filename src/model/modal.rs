@@ -118,14 +118,6 @@ impl Mode {
         Ok(())
     }
 
-    /// The mode without its joint.
-    pub fn bare(&self) -> Mode {
-        Mode {
-            joint: None,
-            ..*self
-        }
-    }
-
     /// A hysteretic mode's own SDOF: the bare mode with `|R|`, and the sign
     /// its contribution takes at the point.
     pub fn own_sdof(&self) -> (f64, ModalModel) {

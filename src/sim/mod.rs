@@ -225,7 +225,8 @@ impl<E: Element> Simulator<E> {
         &self.elements
     }
 
-    /// Solve statistics so far.
+    /// Solve statistics so far (the point structure's; a hysteretic mode's
+    /// own solves are its sub-simulator's).
     pub fn stats(&self) -> SolveStats {
         self.stats
     }

@@ -104,10 +104,6 @@ impl Candidate for HystereticMode {
         Ok(starts)
     }
 
-    fn own_parameter<'n>(&self, effect: &str, name: &'n str) -> Option<&'n str> {
-        name.strip_prefix(effect)?.strip_prefix('.')
-    }
-
     fn size_parameters(&self) -> &'static [&'static str] {
         &["residue", "joint.fd"]
     }
