@@ -489,6 +489,8 @@ fn identify_flags_a_parameter_at_its_bound_in_the_terminal_and_fit_json() {
     ]);
     assert!(o.status.success(), "{}", text(&o));
     let terminal = text(&o);
+    // the run file's dwells are reduced one at a time, not read whole
+    assert!(terminal.contains("(streamed)"), "{terminal}");
     let fit: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("fit.json")).unwrap()).unwrap();
     let flagged = serde_json::json!({"n": ["at_bound", "not_identifiable"]});

@@ -2,8 +2,8 @@
 
 use hystid::harmonics::Quantity;
 use hystid::record::{
-    Channel, Excitation, ExcitationKind, FORMAT_V1, McapRecorder, Recording, RecordingMeta,
-    RecordingReader, RunInfo, SampleFormat, Step, read_recording, read_run, write_recording,
+    Channel, Excitation, ExcitationKind, FORMAT_V1, FrameSource, McapRecorder, McapRunReader,
+    Recording, RecordingMeta, RecordingReader, RunInfo, SampleFormat, Step, read_recording, read_run, write_recording,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -643,6 +643,39 @@ fn messages(bytes: &[u8]) -> Vec<(String, u64, Vec<u8>)> {
         .collect()
 }
 
+/// [`McapRunReader`] on `path` serves every window of `rec` (the run read
+/// whole) as it is: across block and step boundaries, behind its scan (which
+/// restarts), and cut at the end; its description is the recording's.
+fn assert_reader_matches(path: &Path, rec: &Recording) {
+    let mut reader = McapRunReader::open(path).unwrap();
+    assert_eq!(reader.meta(), &rec.meta);
+    let n = rec.frames();
+    assert_eq!(reader.frames(), n);
+    let mut out = vec![Vec::new(); rec.channels.len()];
+    // forward with gaps, a window inside the last one, one behind it, and
+    // one running past the end
+    let windows = [
+        (0, 10),
+        (4090, 20),
+        (5000, 4097),
+        (5001, 3),
+        (n / 2, 1),
+        (100, 8192),
+        (n.saturating_sub(7), 50),
+        (n, 5),
+    ];
+    for (start, count) in windows.into_iter().filter(|w| w.0 <= n) {
+        let got = reader.read_at(start, count, &mut out).unwrap();
+        let end = (start + count).min(n);
+        assert_eq!(got, end - start, "window {start}+{count}");
+        for (c, o) in out.iter().enumerate() {
+            assert_eq!(o[..], rec.channels[c][start..end], "channel {c}, {start}+{count}");
+        }
+    }
+    let e = error_of(reader.read_at(n + 1, 1, &mut out));
+    assert!(e.contains("beyond the recording"), "{e}");
+}
+
 #[test]
 fn mcap_run_round_trip() {
     let dir = tempfile::tempdir().unwrap();
@@ -762,6 +795,30 @@ fn mcap_run_round_trip() {
         }
     );
     assert_eq!(rec.meta.metadata["seed"], json!(42));
+    assert_reader_matches(&path, &rec);
+    // reduced one dwell at a time from the file: the FRFs of the whole read
+    let options = hystid::analysis::ReductionOptions::default();
+    let streamed = hystid::analysis::reduce_path(&path, Some("x"), &options).unwrap();
+    let loaded = hystid::analysis::load_recording(&path, Some("x")).unwrap();
+    let whole = hystid::analysis::reduce(&loaded, &options).unwrap();
+    assert!(streamed.streamed && !whole.streamed);
+    assert_eq!(streamed.frf.levels.len(), 2);
+    assert_eq!(streamed.frf, whole.frf);
+    // a reference that is all zero is refused, naming the file and channel,
+    // streamed or whole
+    let mut flat = virtual_run(fs, vec![(40.0, 10.0, 5000)], 5);
+    flat.force.iter_mut().for_each(|f| *f = 0.0);
+    let flat_path = dir.path().join("flat.mcap");
+    record_run(&flat_path, &info, &flat, 0);
+    for e in [
+        error_of(hystid::analysis::reduce_path(&flat_path, Some("x"), &options).map(|_| ())),
+        error_of(hystid::analysis::load_recording(&flat_path, Some("x")).map(|_| ())),
+    ] {
+        assert!(
+            e.contains("flat.mcap") && e.contains("drive") && e.contains("flat (all zero)"),
+            "{e}"
+        );
+    }
     let wav = dir.path().join("from_run");
     write_recording(&wav, &rec, SampleFormat::Float32).unwrap();
     assert_eq!(read_recording(&wav).unwrap(), rec);
@@ -887,6 +944,14 @@ fn mcap_truncated_file_recovers_a_prefix() {
             expect_blocks,
             "cut {cut}"
         );
+        // read frame by frame: the same frames, or the same error
+        match got.to_recording() {
+            Ok(rec) => assert_reader_matches(&p, &rec),
+            Err(e) => {
+                let r = error_of(McapRunReader::open(&p));
+                assert!(r.contains(&e.to_string()), "cut {cut}: {r} against {e}");
+            }
+        }
         assert!(
             force.len() >= previous,
             "cut {cut}: fewer frames than a shorter cut"

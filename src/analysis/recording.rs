@@ -8,7 +8,7 @@ use crate::extract::{
     reduce_stepped_stream, reduce_sweep_recording,
 };
 use crate::harmonics::Quantity;
-use crate::record::{ExcitationKind, Recording, RecordingMeta};
+use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
 use crate::testbench::TestDefinition;
 use std::path::{Path, PathBuf};
 
@@ -393,32 +393,92 @@ pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionOptions) ->
             "this is the data-quality report `hystid import` writes beside a recording, not a recording (a glob such as `*.json` picks it up: name the recordings)",
         ));
     }
-    if !is_mcap(path) {
+    // stepped sines whose steps are stated are reduced one dwell at a time
+    // from disk (memory bounded whatever the file's size)
+    let streamed = if is_mcap(path) {
+        let reader = crate::record::McapRunReader::open(path)?;
+        let truth =
+            TestDefinition::from_toml(&reader.run().info.test_definition, "recorded test definition")
+                .ok();
+        let truncated = reader.run().truncated;
+        reduce_streamed(path, reader, truth, truncated, response, r)?
+    } else {
         let reader = crate::record::RecordingReader::open(path)?;
-        let meta = reader.meta().clone();
-        drop(reader);
-        if excitation_of(&meta, r.excitation) == Excitation::Stepped
-            && !meta.excitation.steps.is_empty()
-        {
-            let truth = recorded_truth(&meta)
-                .and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
-            let ch = response_channel(path, &meta, response, truth.as_ref())?;
-            let mut source = crate::record::RecordingReader::open(path)?;
-            let red = reduce_stepped_stream(&mut source, ch, &stepped_options(r))?;
-            return Ok(Reduced {
-                frf: red.frf,
-                response_name: meta.channels[ch].name.clone(),
-                sample_rate_hz: meta.sample_rate_hz,
-                excitation: Excitation::Stepped,
-                sweep: None,
-                truth,
-                streamed: true,
-                truncated: false,
-            });
-        }
+        let truth = recorded_truth(reader.meta())
+            .and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
+        reduce_streamed(path, reader, truth, false, response, r)?
+    };
+    if let Some(reduced) = streamed {
+        return Ok(reduced);
     }
     let loaded = load_recording(path, response)?;
     reduce(&loaded, r)
+}
+
+/// [`reduce_path`]'s streamed reduction of `source`, when its excitation is
+/// stepped and its steps are stated; `None` otherwise.
+fn reduce_streamed(
+    path: &Path,
+    mut source: impl FrameSource,
+    truth: Option<TestDefinition>,
+    truncated: bool,
+    response: Option<&str>,
+    r: &ReductionOptions,
+) -> Result<Option<Reduced>> {
+    let meta = source.meta().clone();
+    if excitation_of(&meta, r.excitation) != Excitation::Stepped || meta.excitation.steps.is_empty()
+    {
+        return Ok(None);
+    }
+    let ch = response_channel(path, &meta, response, truth.as_ref())?;
+    let reference = Recording {
+        meta: meta.clone(),
+        channels: Vec::new(),
+    }
+    .reference_channel()
+    .expect("checked by response_channel");
+    let flat = || {
+        Error::format(
+            path,
+            &meta.channels[reference].name,
+            "the reference channel is flat (all zero): nothing drove the structure",
+        )
+    };
+    let red = match reduce_stepped_stream(&mut source, ch, &stepped_options(r)) {
+        Ok(red) => red,
+        // a reference that is all zero fails the first dwell: say why, as
+        // `load_recording` does (read through once more, only on failure)
+        Err(e) => return Err(if is_flat(&mut source, reference)? { flat() } else { e }),
+    };
+    Ok(Some(Reduced {
+        frf: red.frf,
+        response_name: meta.channels[ch].name.clone(),
+        sample_rate_hz: meta.sample_rate_hz,
+        excitation: Excitation::Stepped,
+        sweep: None,
+        truth,
+        streamed: true,
+        truncated,
+    }))
+}
+
+/// True when channel `c` of `source` is zero throughout (read a block at a
+/// time).
+fn is_flat(source: &mut impl FrameSource, c: usize) -> Result<bool> {
+    const BLOCK: usize = 1 << 16;
+    let mut buffers = vec![Vec::new(); source.meta().channels.len()];
+    let mut start = 0;
+    while start < source.frames() {
+        let got = source.read_at(start, BLOCK, &mut buffers)?;
+        if got == 0 {
+            break;
+        }
+        if buffers[c].iter().any(|&v| v != 0.0) {
+            return Ok(false);
+        }
+        start += got;
+    }
+    Ok(true)
 }
 
 /// Several recordings' FRFs as one set: single-dwell recordings (one point

@@ -13,7 +13,8 @@
 //!   (signal blocks in ROS 2 CDR, a decimated preview, dwell and fit messages,
 //!   the test definition), viewable in Foxglove and readable by the official
 //!   MCAP libraries; [`McapRun::to_recording`] turns it back into a
-//!   [`Recording`].
+//!   [`Recording`]; [`McapRunReader`] reads it frame by frame without
+//!   holding its samples.
 //!
 //! This module only serialises: it knows nothing of benches or analysis.
 //! The in-memory types ([`Recording`], [`RecordingMeta`], …) are defined in
@@ -23,6 +24,7 @@
 
 mod cdr;
 mod run;
+mod run_reader;
 mod sidecar;
 mod wav;
 mod zstd_window;
@@ -32,6 +34,7 @@ pub use run::{
     TEST_ATTACHMENT, TOPIC_DWELL, TOPIC_FIT, TOPIC_PREVIEW, TOPIC_SIGNALS, read_run,
     read_run_bytes,
 };
+pub use run_reader::McapRunReader;
 pub use wav::{
     RecordingReader, RecordingWriter, SampleFormat, read_recording, read_recording_bytes,
     write_recording,

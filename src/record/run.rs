@@ -191,7 +191,7 @@ fn mcap_error(path: &Path, e: McapError) -> Error {
 }
 
 /// Index of a recordable quantity in a signal block.
-fn slot(q: Quantity) -> Option<usize> {
+pub(super) fn slot(q: Quantity) -> Option<usize> {
     QUANTITIES.iter().position(|&x| x == q)
 }
 
@@ -634,59 +634,125 @@ pub fn read_run_bytes(path: &Path, bytes: &[u8]) -> Result<McapRun> {
 }
 
 /// Reads a run of `len` bytes from `file`.
-fn read_run_from(path: &Path, mut file: impl Read, len: u64) -> Result<McapRun> {
-    let limit = len.saturating_mul(RECORD_PER_FILE_BYTE).min(RECORD_LIMIT);
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_prevalidate_chunk_crcs(true)
-            .with_validate_data_section_crc(true)
-            .with_validate_summary_section_crc(true)
-            .with_record_length_limit(limit as usize),
-    );
-    // a zstd frame's declared window is allocated on its header alone: bound
-    // it by what a chunk of this file may decompress to
-    reader
-        .add_decompressor(super::zstd_window::BoundedZstd::new(
-            super::zstd_window::window_log_for(limit),
-        ))
-        .map_err(|e| mcap_error(path, e))?;
-    let too_large = |what: &str, n: u64| {
-        Error::format(
-            path,
-            "MCAP",
-            format!(
-                "{what} declares {n} bytes, more than {RECORD_PER_FILE_BYTE} times the file's \
-                 {len} (or 1 GiB): corrupted"
-            ),
-        )
+fn read_run_from(path: &Path, file: impl Read, len: u64) -> Result<McapRun> {
+    let mut scanner = RunScanner::new(path, file, len)?;
+    let mut scan = Scan {
+        keep_samples: true,
+        ..Scan::default()
     };
+    let truncated = loop {
+        match scanner.next(|record| scan.record(path, record))? {
+            Scanned::Record => {}
+            Scanned::End => break false,
+            Scanned::Truncated => break true,
+        }
+    };
+    Ok(scan.finish(path, truncated)?.0)
+}
+
+/// A run file's description and the layout of its signals, without the
+/// samples (memory independent of the run's length).
+pub(super) fn read_run_layout(path: &Path) -> Result<(McapRun, Vec<Stretch>)> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let mut scanner = RunScanner::new(path, file, len)?;
     let mut scan = Scan::default();
-    let mut truncated = false;
-    loop {
-        let request = match reader.next_event() {
-            None => break,
-            Some(Ok(LinearReadEvent::ReadRequest(n))) => n,
-            Some(Ok(LinearReadEvent::Record { opcode, data })) => {
-                check_lengths(path, opcode, data)?;
-                let record = mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))?;
-                scan.record(path, record)?;
-                continue;
-            }
-            Some(Err(McapError::UnexpectedEof)) => {
-                truncated = true;
-                break;
-            }
-            Some(Err(McapError::RecordTooLarge { opcode, len })) => {
-                return Err(too_large(&format!("a record (opcode {opcode:#04x})"), len));
-            }
-            Some(Err(McapError::ChunkTooLarge(n))) => return Err(too_large("a chunk", n)),
-            Some(Err(e)) => return Err(mcap_error(path, e)),
-        };
-        let buf = reader.insert(request);
-        let got = read_some(&mut file, buf).map_err(|e| Error::io(path, e))?;
-        reader.notify_read(got);
-    }
+    let truncated = loop {
+        match scanner.next(|record| scan.record(path, record))? {
+            Scanned::Record => {}
+            Scanned::End => break false,
+            Scanned::Truncated => break true,
+        }
+    };
     scan.finish(path, truncated)
+}
+
+/// What [`RunScanner::next`] found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Scanned {
+    /// A record, handed to the visitor.
+    Record,
+    /// The end of a complete file.
+    End,
+    /// The end of a file cut short.
+    Truncated,
+}
+
+/// A linear pass over a run file, one record at a time, every chunk's CRC
+/// checked before its records are used and every declared length bounded
+/// by the file's size before anything is allocated for it.
+pub(super) struct RunScanner<R> {
+    path: std::path::PathBuf,
+    file: R,
+    len: u64,
+    reader: LinearReader,
+}
+
+impl<R: Read> RunScanner<R> {
+    pub(super) fn new(path: &Path, file: R, len: u64) -> Result<Self> {
+        let limit = len.saturating_mul(RECORD_PER_FILE_BYTE).min(RECORD_LIMIT);
+        let mut reader = LinearReader::new_with_options(
+            LinearReaderOptions::default()
+                .with_prevalidate_chunk_crcs(true)
+                .with_validate_data_section_crc(true)
+                .with_validate_summary_section_crc(true)
+                .with_record_length_limit(limit as usize),
+        );
+        // a zstd frame's declared window is allocated on its header alone:
+        // bound it by what a chunk of this file may decompress to
+        reader
+            .add_decompressor(super::zstd_window::BoundedZstd::new(
+                super::zstd_window::window_log_for(limit),
+            ))
+            .map_err(|e| mcap_error(path, e))?;
+        Ok(RunScanner {
+            path: path.to_path_buf(),
+            file,
+            len,
+            reader,
+        })
+    }
+
+    /// Reads on to the next record and hands it to `visit`.
+    pub(super) fn next(
+        &mut self,
+        visit: impl FnOnce(mcap::records::Record<'_>) -> Result<()>,
+    ) -> Result<Scanned> {
+        let path = self.path.as_path();
+        let len = self.len;
+        let too_large = |what: &str, n: u64| {
+            Error::format(
+                path,
+                "MCAP",
+                format!(
+                    "{what} declares {n} bytes, more than {RECORD_PER_FILE_BYTE} times the file's \
+                     {len} (or 1 GiB): corrupted"
+                ),
+            )
+        };
+        loop {
+            let request = match self.reader.next_event() {
+                None => return Ok(Scanned::End),
+                Some(Ok(LinearReadEvent::ReadRequest(n))) => n,
+                Some(Ok(LinearReadEvent::Record { opcode, data })) => {
+                    check_lengths(path, opcode, data)?;
+                    let record =
+                        mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))?;
+                    visit(record)?;
+                    return Ok(Scanned::Record);
+                }
+                Some(Err(McapError::UnexpectedEof)) => return Ok(Scanned::Truncated),
+                Some(Err(McapError::RecordTooLarge { opcode, len })) => {
+                    return Err(too_large(&format!("a record (opcode {opcode:#04x})"), len));
+                }
+                Some(Err(McapError::ChunkTooLarge(n))) => return Err(too_large("a chunk", n)),
+                Some(Err(e)) => return Err(mcap_error(path, e)),
+            };
+            let buf = self.reader.insert(request);
+            let got = read_some(&mut self.file, buf).map_err(|e| Error::io(path, e))?;
+            self.reader.notify_read(got);
+        }
+    }
 }
 
 /// Checks that every length-prefixed string and map of a record fits in the
@@ -802,6 +868,16 @@ fn read_some(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     Ok(n)
 }
 
+/// Where a stretch of consecutive frames of one step lies in a run, and
+/// which arrays it carries (force, displacement, velocity, acceleration).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Stretch {
+    pub step: u32,
+    pub first_frame: u64,
+    pub frames: u64,
+    pub recorded: [bool; 4],
+}
+
 /// What a linear scan has collected.
 #[derive(Default)]
 struct Scan {
@@ -812,7 +888,10 @@ struct Scan {
     statistics: Option<BTreeMap<u16, u64>>,
     run: Option<BTreeMap<String, String>>,
     test_definition: Option<String>,
+    /// Samples are kept in `signals` (else only `stretches` is).
+    keep_samples: bool,
     signals: Vec<StepSignals>,
+    stretches: Vec<Stretch>,
     /// The `fs` field of the signal blocks (all equal).
     block_fs: Option<f64>,
     dwells: Vec<Value>,
@@ -893,34 +972,48 @@ impl Scan {
                 b.len(3)
             ));
         }
-        let cont = self.signals.last().is_some_and(|l| {
-            l.step == b.step && l.first_frame + l.frames() as u64 == b.first_frame
-        });
-        if !cont {
-            self.signals.push(StepSignals {
-                step: b.step,
-                first_frame: b.first_frame,
-                force: Vec::new(),
-                displacement: Vec::new(),
-                velocity: Vec::new(),
-                acceleration: Vec::new(),
-            });
-        }
-        let last = self.signals.last_mut().expect("just ensured");
-        let had = last.frames();
-        for (s, q) in QUANTITIES.iter().enumerate() {
-            if s > 0 && had > 0 && (last.array(s).is_empty() != (b.len(s) == 0)) {
+        let recorded = std::array::from_fn(|s| b.len(s) != 0);
+        let cont = self
+            .stretches
+            .last()
+            .is_some_and(|l| l.step == b.step && l.first_frame + l.frames == b.first_frame);
+        if cont {
+            let last = self.stretches.last_mut().expect("just checked");
+            if let Some(s) = (1..4).find(|&s| last.frames > 0 && last.recorded[s] != recorded[s]) {
                 return bad(format!(
-                    "{q} recorded in some blocks of step {} but not in others",
-                    b.step
+                    "{} recorded in some blocks of step {} but not in others",
+                    QUANTITIES[s], b.step
                 ));
             }
-            b.extend(s, last.array_mut(s));
+            last.frames += n as u64;
+        } else {
+            self.stretches.push(Stretch {
+                step: b.step,
+                first_frame: b.first_frame,
+                frames: n as u64,
+                recorded,
+            });
+            if self.keep_samples {
+                self.signals.push(StepSignals {
+                    step: b.step,
+                    first_frame: b.first_frame,
+                    force: Vec::new(),
+                    displacement: Vec::new(),
+                    velocity: Vec::new(),
+                    acceleration: Vec::new(),
+                });
+            }
+        }
+        if self.keep_samples {
+            let last = self.signals.last_mut().expect("pushed with its stretch");
+            for s in 0..4 {
+                b.extend(s, last.array_mut(s));
+            }
         }
         Ok(())
     }
 
-    fn finish(self, path: &Path, truncated: bool) -> Result<McapRun> {
+    fn finish(self, path: &Path, truncated: bool) -> Result<(McapRun, Vec<Stretch>)> {
         if !self.header {
             return Err(Error::format(
                 path,
@@ -967,9 +1060,9 @@ impl Scan {
             .iter()
             .filter_map(|c| slot(c.quantity))
             .collect();
-        for st in &self.signals {
+        for st in &self.stretches {
             for (s, q) in QUANTITIES.iter().enumerate() {
-                let has = !st.array(s).is_empty();
+                let has = st.recorded[s];
                 if has != recorded.contains(&s) {
                     return Err(Error::format(
                         path,
@@ -986,14 +1079,15 @@ impl Scan {
                 }
             }
         }
-        Ok(McapRun {
+        let run = McapRun {
             info,
             signals: self.signals,
             dwells: self.dwells,
             fit_iterations: self.fit,
             message_counts: self.counts,
             truncated,
-        })
+        };
+        Ok((run, self.stretches))
     }
 }
 
@@ -1058,20 +1152,18 @@ impl McapRun {
     /// counted like `first_frame`). Tool version, seed, test definition and
     /// the run's metadata go to the recording's metadata.
     pub fn to_recording(&self) -> Result<Recording> {
-        let origin = self.signals.first().map_or(0, |s| s.first_frame);
-        let mut end = origin;
-        for s in &self.signals {
-            if s.first_frame != end {
-                return Err(Error::input(
-                    format!("run signals of step {} at frame {}", s.step, s.first_frame),
-                    format!("not contiguous with the previous signals, which end at frame {end}"),
-                ));
-            }
-            end += s.frames() as u64;
-        }
-        let frames = (end - origin) as usize;
+        let stretches: Vec<Stretch> = self
+            .signals
+            .iter()
+            .map(|s| Stretch {
+                step: s.step,
+                first_frame: s.first_frame,
+                frames: s.frames() as u64,
+                recorded: std::array::from_fn(|k| !s.array(k).is_empty()),
+            })
+            .collect();
+        let (meta, frames) = self.recording_meta(&stretches)?;
         let mut channels = Vec::with_capacity(self.info.channels.len());
-        let mut meta_channels = Vec::with_capacity(self.info.channels.len());
         for ch in &self.info.channels {
             let s = slot(ch.quantity).expect("checked when read");
             let mut x = Vec::with_capacity(frames);
@@ -1079,11 +1171,34 @@ impl McapRun {
                 x.extend_from_slice(st.array(s));
             }
             channels.push(x);
-            meta_channels.push(Channel {
+        }
+        Ok(Recording { meta, channels })
+    }
+
+    /// The recording's description and its frame count, for signals laid
+    /// out as `stretches`, which must be contiguous (see [`Self::to_recording`]).
+    pub(super) fn recording_meta(&self, stretches: &[Stretch]) -> Result<(RecordingMeta, usize)> {
+        let origin = stretches.first().map_or(0, |s| s.first_frame);
+        let mut end = origin;
+        for s in stretches {
+            if s.first_frame != end {
+                return Err(Error::input(
+                    format!("run signals of step {} at frame {}", s.step, s.first_frame),
+                    format!("not contiguous with the previous signals, which end at frame {end}"),
+                ));
+            }
+            end += s.frames;
+        }
+        let frames = (end - origin) as usize;
+        let meta_channels: Vec<Channel> = self
+            .info
+            .channels
+            .iter()
+            .map(|ch| Channel {
                 scale: 1.0,
                 ..ch.clone()
-            });
-        }
+            })
+            .collect();
 
         let mut steps = Vec::with_capacity(self.dwells.len());
         for (i, d) in self.dwells.iter().enumerate() {
@@ -1151,6 +1266,6 @@ impl McapRun {
             extra: serde_json::Map::new(),
         };
         super::sidecar::check(Path::new("MCAP run"), &meta, Some(frames as u64))?;
-        Ok(Recording { meta, channels })
+        Ok((meta, frames))
     }
 }
