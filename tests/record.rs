@@ -3,7 +3,8 @@
 use hystid::harmonics::Quantity;
 use hystid::record::{
     Channel, Excitation, ExcitationKind, FORMAT_V1, FrameSource, McapRecorder, McapRunReader,
-    Recording, RecordingMeta, RecordingReader, RunInfo, SampleFormat, Step, read_recording, read_run, write_recording,
+    Recording, RecordingMeta, RecordingReader, RunInfo, SampleFormat, Step, read_recording,
+    read_run, write_recording,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -669,7 +670,11 @@ fn assert_reader_matches(path: &Path, rec: &Recording) {
         let end = (start + count).min(n);
         assert_eq!(got, end - start, "window {start}+{count}");
         for (c, o) in out.iter().enumerate() {
-            assert_eq!(o[..], rec.channels[c][start..end], "channel {c}, {start}+{count}");
+            assert_eq!(
+                o[..],
+                rec.channels[c][start..end],
+                "channel {c}, {start}+{count}"
+            );
         }
     }
     let e = error_of(reader.read_at(n + 1, 1, &mut out));

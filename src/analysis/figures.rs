@@ -573,6 +573,7 @@ mod tests {
                 points: grid,
             }],
             response_sign: 1.0,
+            transfer: false,
             unusable_points: 0,
         };
         let lines = model_lines(&model, 1.0, &fine, &HbPredictor::default()).unwrap();
@@ -683,6 +684,7 @@ mod tests {
                 points: vec![p(300.0, 12.0), p(100.0, 10.0)],
             }],
             response_sign: 1.0,
+            transfer: false,
             unusable_points: 0,
         };
         let fine = fine_grid(&data, 5);

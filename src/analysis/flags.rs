@@ -38,23 +38,32 @@ impl Flag {
 }
 
 /// The flags of estimate `e` of `name`, `at_bound` of its fit, whose law
-/// says it lies in `domain`.
-pub fn flags_of(name: &str, e: &Estimate, at_bound: bool, domain: Option<Domain>) -> Vec<Flag> {
+/// says it lies in `domain`; `transfer`: the response is not at the
+/// driving point (a mode may have a negative modal constant there).
+pub fn flags_of(
+    name: &str,
+    e: &Estimate,
+    at_bound: bool,
+    domain: Option<Domain>,
+    transfer: bool,
+) -> Vec<Flag> {
     let v = e.value;
     let mut flags = Vec::new();
     if at_bound {
         flags.push(Flag::AtBound);
     }
     let leaf = name.rsplit('.').next().unwrap_or(name);
-    let outside = match domain {
-        Some(Domain::Positive) => v.is_nan() || v <= 0.0,
-        Some(Domain::NonNegative) => v.is_nan() || v < 0.0,
-        Some(Domain::Range { min, max }) => !(v > min && v < max),
-        Some(Domain::Signed) | None => false,
-    };
+    let modal_constant = matches!(leaf, "modal_mass" | "residue" | "flexibility");
     // a driving point's modes have positive modal masses (a run's response
-    // is the drive's)
-    let negative_mode = matches!(leaf, "modal_mass" | "residue" | "flexibility") && v < 0.0;
+    // is the drive's); a transfer's take either sign
+    let outside = !(transfer && modal_constant)
+        && match domain {
+            Some(Domain::Positive) => v.is_nan() || v <= 0.0,
+            Some(Domain::NonNegative) => v.is_nan() || v < 0.0,
+            Some(Domain::Range { min, max }) => !(v > min && v < max),
+            Some(Domain::Signed) | None => false,
+        };
+    let negative_mode = !transfer && modal_constant && v < 0.0;
     if outside || negative_mode {
         flags.push(Flag::NonPhysical);
     }
@@ -105,16 +114,18 @@ pub fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
 /// The flagged ones of `estimates` of `model`'s parameters with their
 /// flags, `at_bound` naming those that ended at a bound of their fit (as
 /// [`crate::fit::FitResult::at_bound`] does); a parameter without a flag is
-/// left out.
+/// left out. `transfer` as [`flags_of`] takes it.
 pub fn flag_estimates(
     estimates: &BTreeMap<String, Estimate>,
     model: &Model,
     at_bound: &[String],
+    transfer: bool,
 ) -> BTreeMap<String, Vec<Flag>> {
     estimates
         .iter()
         .filter_map(|(name, e)| {
-            let flags = flags_of(name, e, at_bound.contains(name), describe(name, model).1);
+            let domain = describe(name, model).1;
+            let flags = flags_of(name, e, at_bound.contains(name), domain, transfer);
             (!flags.is_empty()).then(|| (name.clone(), flags))
         })
         .collect()
@@ -167,14 +178,32 @@ mod tests {
                 "second_mode.damping_ratio",
                 &e,
                 at_bound(1e-5, [1e-5, 0.9]),
-                Some(Domain::Range { min: 0.0, max: 1.0 })
+                Some(Domain::Range { min: 0.0, max: 1.0 }),
+                false
             ),
             vec![Flag::AtBound]
         );
         let e = estimate(-1.39e5, [-2e5, -1e5]);
         assert_eq!(
-            flags_of("second_mode.modal_mass", &e, false, Some(Domain::Positive)),
+            flags_of(
+                "second_mode.modal_mass",
+                &e,
+                false,
+                Some(Domain::Positive),
+                false
+            ),
             vec![Flag::NonPhysical]
+        );
+        // in a transfer, a mode may have a negative modal constant
+        assert_eq!(
+            flags_of(
+                "second_mode.modal_mass",
+                &e,
+                false,
+                Some(Domain::Positive),
+                true
+            ),
+            vec![]
         );
         let e = estimate(0.2, [-0.1, 0.5]);
         assert_eq!(
@@ -182,7 +211,8 @@ mod tests {
                 "quadratic_damping.c2",
                 &e,
                 at_bound(0.2, [0.0, 1e30]),
-                Some(Domain::NonNegative)
+                Some(Domain::NonNegative),
+                false
             ),
             vec![Flag::Unresolved]
         );
@@ -193,7 +223,8 @@ mod tests {
                 "n",
                 &e,
                 at_bound(999.9997, [1.0, 1000.0]),
-                Some(Domain::Positive)
+                Some(Domain::Positive),
+                false
             ),
             vec![Flag::AtBound, Flag::NotIdentifiable]
         );
@@ -203,7 +234,8 @@ mod tests {
                 "kd",
                 &e,
                 at_bound(2.4e7, [1.0, 1e30]),
-                Some(Domain::Positive)
+                Some(Domain::Positive),
+                false
             )
             .is_empty()
         );

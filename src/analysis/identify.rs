@@ -128,7 +128,7 @@ impl FitReport {
         files: Vec<PathBuf>,
     ) -> FitReport {
         let comparison = compare(&fit, reference.as_ref());
-        let flags = flag_estimates(&fit.parameters, &fit.model, &fit.at_bound);
+        let flags = flag_estimates(&fit.parameters, &fit.model, &fit.at_bound, fit.transfer);
         FitReport {
             command: "identify".into(),
             version: super::VERSION.into(),
@@ -147,7 +147,8 @@ impl FitReport {
     /// Sets the time-domain refinement (none: clears it) with its flags.
     pub fn set_time_domain(&mut self, t: Option<TimeFitResult>) {
         self.time_domain_flags = t.as_ref().map_or_else(BTreeMap::new, |t| {
-            flag_estimates(&t.parameters, &t.model, &t.at_bound)
+            let transfer = self.fit.transfer || t.response_sign < 0.0;
+            flag_estimates(&t.parameters, &t.model, &t.at_bound, transfer)
         });
         self.time_domain = t;
     }
@@ -651,7 +652,12 @@ pub fn run_time_fit_from_start(
         response,
         start: start.clone(),
         fixed: fixed.to_vec(),
-        time_domain_flags: flag_estimates(&t.parameters, &t.model, &t.at_bound),
+        time_domain_flags: flag_estimates(
+            &t.parameters,
+            &t.model,
+            &t.at_bound,
+            t.response_sign < 0.0,
+        ),
         time_domain: t,
         files: Vec::new(),
     })

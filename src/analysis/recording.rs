@@ -397,9 +397,11 @@ pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionOptions) ->
     // from disk (memory bounded whatever the file's size)
     let streamed = if is_mcap(path) {
         let reader = crate::record::McapRunReader::open(path)?;
-        let truth =
-            TestDefinition::from_toml(&reader.run().info.test_definition, "recorded test definition")
-                .ok();
+        let truth = TestDefinition::from_toml(
+            &reader.run().info.test_definition,
+            "recorded test definition",
+        )
+        .ok();
         let truncated = reader.run().truncated;
         reduce_streamed(path, reader, truth, truncated, response, r)?
     } else {
@@ -448,7 +450,13 @@ fn reduce_streamed(
         Ok(red) => red,
         // a reference that is all zero fails the first dwell: say why, as
         // `load_recording` does (read through once more, only on failure)
-        Err(e) => return Err(if is_flat(&mut source, reference)? { flat() } else { e }),
+        Err(e) => {
+            return Err(if is_flat(&mut source, reference)? {
+                flat()
+            } else {
+                e
+            });
+        }
     };
     Ok(Some(Reduced {
         frf: red.frf,

@@ -206,7 +206,15 @@ impl FinalModel {
                 .parameters
                 .iter()
                 .map(|(name, e)| {
-                    let r = reported(name, e.clone(), &fit.model, &set, &fit.at_bound, &reference);
+                    let r = reported(
+                        name,
+                        e.clone(),
+                        &fit.model,
+                        &set,
+                        &fit.at_bound,
+                        &reference,
+                        fit.transfer,
+                    );
                     (name.clone(), r)
                 })
                 .collect();
@@ -255,7 +263,7 @@ impl FinalModel {
             if effect_prefixes.iter().any(|x| p.name.starts_with(x)) {
                 continue;
             }
-            let r = reported(&p.name, e, &d.model, &set, &[], &reference);
+            let r = reported(&p.name, e, &d.model, &set, &[], &reference, fit.transfer);
             parameters.insert(p.name.clone(), r);
         }
         // the effects as the diagnosis reported them (a further mode by its
@@ -265,7 +273,15 @@ impl FinalModel {
         for s in d.selected.iter().filter(|s| !replaces(s)) {
             for (name, e) in &s.parameters {
                 let full = format!("{}.{name}", s.effect.name());
-                let r = reported(&full, e.clone(), &d.model, &set, &[], &reference);
+                let r = reported(
+                    &full,
+                    e.clone(),
+                    &d.model,
+                    &set,
+                    &[],
+                    &reference,
+                    fit.transfer,
+                );
                 parameters.insert(full, r);
             }
         }
@@ -422,6 +438,7 @@ fn reported(
     set: &ParameterSet,
     fit_at_bound: &[String],
     reference: &BTreeMap<String, f64>,
+    transfer: bool,
 ) -> Reported {
     // the one test of a bound (the fit's own, within 1 %)
     let at_bound = fit_at_bound.iter().any(|n| n == name)
@@ -436,7 +453,7 @@ fn reported(
                 .at_bounds(&[e.value])[0]
             });
     let (unit, domain) = describe(name, model);
-    let flags = flags_of(name, &e, at_bound, domain);
+    let flags = flags_of(name, &e, at_bound, domain, transfer);
     Reported {
         unit,
         reference: reference.get(name).copied(),

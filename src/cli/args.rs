@@ -294,6 +294,12 @@ pub struct IdentifyOptionsArgs {
     /// the residual of the SDOF fits of the largest and smallest levels.
     #[arg(long, default_value_t = 1)]
     pub modes: usize,
+    /// The response is not at the driving point (a transfer FRF): a mode's
+    /// modal constant may take either sign, so a further mode of negative
+    /// modal constant is not rejected or flagged as non-physical. Implied
+    /// when the first mode's modal constant is negative.
+    #[arg(long)]
+    pub transfer: bool,
 }
 
 /// `hystid diagnose`.

@@ -142,6 +142,7 @@ pub fn fit_options(a: &IdentifyOptionsArgs) -> Result<FitOptions> {
         bootstrap: a.bootstrap,
         seed: a.seed,
         band_hz,
+        transfer: a.transfer,
         ..FitOptions::default()
     })
 }

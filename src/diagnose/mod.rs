@@ -583,7 +583,7 @@ const REFIT_TOLERANCE: f64 = 1.49012e-8;
 /// gives is suspected to have gone astray, and is also started afresh (the
 /// weighted identification, the lower levels' joint): the bound the
 /// controls of the independent corpus are held to.
-const ASTRAY_CHI2_PER_DOF: f64 = 2.0;
+pub(crate) const ASTRAY_CHI2_PER_DOF: f64 = 2.0;
 
 /// A candidate with more starts than this has them screened first: each
 /// refitted briefly, only the best this many refitted in full.
@@ -609,6 +609,7 @@ fn try_candidate(
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
     identified: &candidates::Identified,
+    expected_chi2: f64,
 ) -> Result<Option<Refit>> {
     let mut starts: Vec<(Model, &Prediction)> = Vec::new();
     let mut last_error = None;
@@ -620,6 +621,7 @@ fn try_candidate(
             options,
             predictor,
             identified,
+            expected_chi2,
         };
         match effect.candidate().starts(&cx) {
             Ok(s) => starts.extend(s.into_iter().map(|m| (m, &current.pred))),
@@ -757,8 +759,9 @@ pub fn diagnose_observed(
             "the diagnosis needs the fundamental",
         ));
     }
-    let data =
-        FitData::from_frf(frf, &harmonics, options.band_hz, None)?.with_sign(fit.response_sign);
+    let data = FitData::from_frf(frf, &harmonics, options.band_hz, None)?
+        .with_sign(fit.response_sign)
+        .with_transfer(options.fit.transfer || fit.transfer);
     let n_real = (2 * data.observations()) as f64;
     // χ² against what noise alone gives with block-estimated standard errors
     let expected = crate::fit::problem::expected_chi_square(&data);
@@ -897,8 +900,9 @@ pub fn diagnose_observed(
                     {
                         currents.push(low);
                     }
-                    let r =
-                        try_candidate(effect, &currents, frf, data, options, predictor, identified);
+                    let r = try_candidate(
+                        effect, &currents, frf, data, options, predictor, identified, expected,
+                    );
                     observer(DiagnoseEvent::Candidate { round, effect });
                     *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
                 });

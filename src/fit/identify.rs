@@ -58,6 +58,10 @@ pub struct FitOptions {
     pub seed: u64,
     /// Frequency band, Hz.
     pub band_hz: Option<(f64, f64)>,
+    /// The response is not at the driving point: a mode's modal constant
+    /// may take either sign (implied by a negative first modal constant).
+    #[serde(default)]
+    pub transfer: bool,
 }
 
 impl Default for FitOptions {
@@ -75,6 +79,7 @@ impl Default for FitOptions {
             bootstrap: 0,
             seed: 1,
             band_hz: None,
+            transfer: false,
         }
     }
 }
@@ -337,6 +342,9 @@ pub struct FitResult {
     /// The model predicts `response_sign × H_measured` (see
     /// [`FitData::response_sign`]).
     pub response_sign: f64,
+    /// The response is not at the driving point ([`FitData::transfer`]).
+    #[serde(default)]
+    pub transfer: bool,
     /// The parameters (of `parameters`) that ended at (within 1 % of) a bound of the fit: the
     /// optimiser's own (a slip force bounded by the levels tested, say) or
     /// the interval's. Their value is the bound's, not a measurement.
@@ -506,7 +514,9 @@ pub fn identify(
     if sign < 0.0 {
         notes.push("the response moves against the drive below resonance (a transfer FRF with a negative modal constant): the model is fitted to −H".into());
     }
-    let data = FitData::from_frf(frf, &options.harmonics, options.band_hz, None)?.with_sign(sign);
+    let data = FitData::from_frf(frf, &options.harmonics, options.band_hz, None)?
+        .with_sign(sign)
+        .with_transfer(options.transfer);
     if data.unusable_points > 0 {
         notes.push(format!(
             "{} measured point(s) left out: a zero fundamental or a zero standard error (a response below the recording's resolution)",
@@ -836,6 +846,7 @@ pub fn identify(
         second_optimiser: second,
         trace,
         response_sign: sign,
+        transfer: data.transfer,
         effort: EffortReport {
             evaluations,
             hb_points: stage1.solves() + problem.solves(),

@@ -54,6 +54,11 @@ pub struct FitData {
     /// negative modal constant, so the model's modal constant is positive).
     #[serde(default = "plus_one")]
     pub response_sign: f64,
+    /// The response is not at the driving point, so a mode's modal constant
+    /// may take either sign: stated by the user, or implied by a negative
+    /// first modal constant (which no driving point has).
+    #[serde(default)]
+    pub transfer: bool,
     /// Measured points left out because they carry no usable information:
     /// a fundamental of exactly zero or a zero or non-finite standard error
     /// (a response below the recording's resolution, e.g. a PCM16 file whose
@@ -149,6 +154,7 @@ impl FitData {
             harmonics: harmonics.to_vec(),
             series,
             response_sign: 1.0,
+            transfer: false,
             unusable_points,
         })
     }
@@ -163,6 +169,14 @@ impl FitData {
             }
         }
         self.response_sign *= sign;
+        self.transfer |= sign < 0.0;
+        self
+    }
+
+    /// States that the response is not at the driving point (`true`; see
+    /// [`FitData::transfer`]).
+    pub fn with_transfer(mut self, transfer: bool) -> FitData {
+        self.transfer |= transfer;
         self
     }
 

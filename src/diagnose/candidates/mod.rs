@@ -40,6 +40,8 @@ pub(crate) struct Context<'a> {
     /// Identifications afresh by their number of modes, shared by the
     /// candidates of one diagnosis (see [`Context::identified_with_modes`]).
     pub identified: &'a Identified,
+    /// The `χ²` the noise alone gives on `data`.
+    pub expected_chi2: f64,
 }
 
 /// Identifications afresh of a diagnosis's FRFs with the user's fit options,
@@ -99,6 +101,16 @@ impl Context<'_> {
             .into_iter()
             .map(|s| self.with_element(with(s)))
             .collect()
+    }
+
+    /// True when the model the effect is added to leaves more than
+    /// [`super::ASTRAY_CHI2_PER_DOF`] times the noise's `χ²`: it may have
+    /// gone astray (a joint bent to stand in for what is missing), and a
+    /// start afresh is worth its cost. Within it, the residual's own
+    /// features locate what is missing as well as an identification afresh
+    /// would, which costs seconds.
+    pub fn astray(&self) -> bool {
+        self.current.chi2 > super::ASTRAY_CHI2_PER_DOF * self.expected_chi2
     }
 
     /// The recording identified afresh with `modes` modes and the user's

@@ -84,7 +84,9 @@ impl Candidate for SecondMode {
             }
         }
         let mut starts: Vec<Model> = kept.into_iter().map(with).collect();
-        if let Some(mut m) = cx.identified_with_modes(model.linear.modes.len() + 1) {
+        if cx.astray()
+            && let Some(mut m) = cx.identified_with_modes(model.linear.modes.len() + 1)
+        {
             // the new modes with the user's joint refitted, and the effects
             // found so far
             m.effects.extend(model.effects.iter().cloned());
@@ -106,8 +108,9 @@ impl Candidate for SecondMode {
     ) -> Option<String> {
         // at the driving point every mode's modal constant has the sign of
         // the first: a "mode" of negative modal mass is a curve fit, not a
-        // mode of the structure
+        // mode of the structure (in a transfer, modes take either sign)
         if matches!(name, "residue" | "flexibility")
+            && !data.transfer
             && let Some(first) = model.linear.modes.first()
             && e.value * first.residue < 0.0
         {
@@ -241,6 +244,51 @@ mod tests {
     use crate::fit::{FitOptions, FrfPredictor, HbPredictor, identify};
     use crate::testbench::{self, NoSink, TestDefinition};
 
+    /// A further mode whose modal constant has the other sign than the
+    /// first's is a curve fit at a driving point, and a mode like any other
+    /// in a transfer: stated (`--transfer`) or implied by a negative first
+    /// modal constant.
+    #[test]
+    fn a_mode_of_the_other_sign_is_implausible_only_at_a_driving_point() {
+        let mode = |f: f64, residue: f64| crate::model::Mode {
+            frequency_hz: f,
+            damping_ratio: 0.01,
+            residue,
+            joint: None,
+        };
+        let model = crate::model::Model::new(
+            crate::model::ModalModel::new(vec![mode(100.0, 0.1), mode(300.0, -0.05)]).unwrap(),
+            Vec::new(),
+        )
+        .unwrap();
+        let point: FitData = serde_json::from_value(serde_json::json!({
+            "response": "displacement", "harmonics": [1], "series": []
+        }))
+        .unwrap();
+        assert!(!point.transfer);
+        let e = Estimate {
+            value: -0.05,
+            ci95: [-0.06, -0.04],
+            identifiable: true,
+            note: None,
+            bootstrap_ci95: None,
+        };
+        let why = SecondMode.implausible("residue", &e, &model, &point);
+        assert!(
+            why.as_deref()
+                .is_some_and(|w| w.contains("negative modal mass")),
+            "{why:?}"
+        );
+        let stated = point.clone().with_transfer(true);
+        assert_eq!(SecondMode.implausible("residue", &e, &model, &stated), None);
+        let implied = point.with_sign(-1.0);
+        assert!(implied.transfer);
+        assert_eq!(
+            SecondMode.implausible("residue", &e, &model, &implied),
+            None
+        );
+    }
+
     /// Every start keeps the joint law the user fitted (the re-identification
     /// with one more mode once used the default options: a Masing joint).
     #[test]
@@ -293,6 +341,8 @@ seed = 3
             options: &options,
             predictor: &predictor,
             identified: &Default::default(),
+            // taken as astray: the identification afresh is among the starts
+            expected_chi2: 0.0,
         };
         let starts = SecondMode.starts(&cx).unwrap();
         // the residual's mode, and the identification afresh at least
