@@ -1036,6 +1036,8 @@ fn f16_diagnosis_is_the_readmes() {
             "lowest",
             "--hop-periods",
             "4",
+            // acc2 is on the wing, not at the drive
+            "--transfer",
         ],
     );
     assert_readme_diagnosis(
@@ -1080,6 +1082,27 @@ fn unesp_diagnosis_is_the_readmes() {
         &diagnosis,
         &[("cubic_stiffness", &["k3"]), ("clearance", &["gap"])],
     );
+    // voltage to laser velocity, first modal constant negative: a transfer,
+    // so the in-band mode of negative modal constant is judged by its size
+    // (unresolved in every round), not refused for its sign
+    let d = json(&diagnosis);
+    assert_eq!(d["response_sign"], -1.0);
+    let modes: Vec<&serde_json::Value> = d["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["effect"] == "second_mode")
+        .collect();
+    assert_eq!(modes.len(), 3, "{modes:?}");
+    for c in modes {
+        let note = c["note"].as_str().unwrap_or_default();
+        assert!(
+            c["verdict"] == "size_not_resolved"
+                && note.contains("its residue = -")
+                && note.contains("not resolved from the noise"),
+            "{c}"
+        );
+    }
 }
 
 /// Issue 13's F-16 and UNESP protocols in the time domain, run as `cargo
