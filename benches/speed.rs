@@ -33,6 +33,15 @@
 //!   the untabulated backbone; `hb/point_warm/bouc_wen` the Bouc-Wen joint
 //!   at its example shape (periods marched until its loop repeats; target
 //!   ≤ 40 µs); `hb/point_warm/iwan4/0.5` the Iwan joint (target ≤ 40 µs).
+//! * `hb/curve/jenkins/*` (issue 16's curve): the paper system with its
+//!   Jenkins joint, harmonics 0..=7, 512 samples per period, 121 points
+//!   150-350 Hz at 1 kN, each warm-started from its neighbour: `hystid`
+//!   point by point (`HbSolver::solve_point`, as the fits call it),
+//!   `hystid_sweep` through `HbSolver::sweep` (a tangent predictor along the
+//!   branch), `naive` the textbook balance of `common/naive_hb.rs` (direct
+//!   sums, the slider marched two periods, a Jacobian by differences) as the
+//!   yardstick the ratio is read against. Both are checked to converge at
+//!   every point and to agree on `H1` within 1e-3 before timing.
 //! * `extract/*`: one coherent dwell of 4096 samples (4 blocks of 1024, 8
 //!   periods each), harmonics 0..=7; the non-coherent least-squares
 //!   reduction of the same samples for comparison.
@@ -44,8 +53,10 @@
 
 #[path = "common/mod.rs"]
 mod common;
+#[path = "common/naive_hb.rs"]
+mod naive_hb;
 
-use common::{FD, KD, ThreadCpu, bouc_wen_model, iwan4_model, masing_model, sdof};
+use common::{C, FD, K, KD, M, ThreadCpu, bouc_wen_model, iwan4_model, masing_model, sdof};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use hystid::extract::{HarmonicAnalyser, noncoherent};
 use hystid::hb::{HbOptions, HbSolver, describing};
@@ -269,6 +280,104 @@ fn harmonic_balance(c: &mut Criterion<ThreadCpu>) {
     g.finish();
 }
 
+/// Issue 16's curve: the paper system with its Jenkins joint, harmonics
+/// 0..=7, 512 samples per period, 121 points from 150 to 350 Hz at 1 kN,
+/// each point warm-started from its neighbour's solution (a sweep), the
+/// first from none; solved by hystid and by the naive harmonic balance of
+/// `common/naive_hb.rs`. Both must converge at every point and agree on
+/// `H1`.
+fn hb_curve(c: &mut Criterion<ThreadCpu>) {
+    const POINTS: usize = 121;
+    const LEVEL: f64 = 1000.0;
+    let freqs: Vec<f64> = (0..POINTS)
+        .map(|i| 150.0 + 200.0 * i as f64 / (POINTS - 1) as f64)
+        .collect();
+    let opts = HbOptions {
+        harmonics: (0..=7).collect(),
+        samples_per_period: 512,
+        ..HbOptions::default()
+    };
+    let model = Model::new(
+        sdof(),
+        vec![hystid::model::ElementSpec::Jenkins { kd: KD, fd: FD }],
+    )
+    .unwrap();
+    let mut elements = model.element_set().unwrap();
+    let mut solver = HbSolver::new(&opts).unwrap();
+    let mut hystid_sweep = |solver: &mut HbSolver| -> Vec<Complex64> {
+        let mut last: Option<Vec<Complex64>> = None;
+        let mut h1 = Vec::with_capacity(POINTS);
+        for &f in &freqs {
+            let p = solver
+                .solve_point(&model.linear, &mut elements, f, LEVEL, last.as_deref())
+                .unwrap();
+            assert!(p.converged, "hystid at {f} Hz: {:?}", p.failure);
+            h1.push(p.h[1]);
+            last = Some(p.x);
+        }
+        h1
+    };
+    let mut naive = naive_hb::NaiveHb::new(M, C, K, KD, FD, 7, 512);
+    let naive_sweep = |naive: &mut naive_hb::NaiveHb| -> Vec<Complex64> {
+        let mut x = vec![0.0; naive.unknowns()];
+        let mut h1 = Vec::with_capacity(POINTS);
+        for (i, &f) in freqs.iter().enumerate() {
+            if i == 0 {
+                // the linear response with the joint stuck
+                let w = 2.0 * PI * f;
+                let z = LEVEL / Complex64::new(K + KD - M * w * w, C * w);
+                x[1] = z.re;
+                x[2] = z.im;
+            }
+            let it = naive.solve(f, LEVEL, &mut x, opts.tolerance);
+            assert!(it.is_some(), "naive at {f} Hz did not converge");
+            h1.push(naive_hb::NaiveHb::harmonic(&x, 1) / LEVEL);
+        }
+        h1
+    };
+    let (a, b) = (hystid_sweep(&mut solver), naive_sweep(&mut naive));
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(a, b)| (a - b).norm() / a.norm())
+        .fold(0.0, f64::max);
+    println!(
+        "hb/curve: hystid and the naive balance agree on H1 within {worst:.1e}; hystid: {:.1} \
+         AFT evaluations per point",
+        solver.evaluations() as f64 / POINTS as f64
+    );
+    assert!(worst < 1e-3, "H1 differs by {worst:.1e}");
+    let mut g = c.benchmark_group("hb");
+    g.throughput(Throughput::Elements(POINTS as u64));
+    g.bench_function("curve/jenkins/hystid", |b| {
+        b.iter(|| black_box(hystid_sweep(&mut solver)))
+    });
+    // the same curve through the solver's sweep (a tangent predictor
+    // along the branch, folds watched)
+    let mut elements = model.element_set().unwrap();
+    let swept = solver
+        .sweep(&model.linear, &mut elements, &freqs, LEVEL)
+        .unwrap();
+    assert!(swept.points.iter().all(|p| p.converged));
+    println!(
+        "hb/curve: the sweep takes {:.1} AFT evaluations per point",
+        swept.evaluations as f64 / POINTS as f64
+    );
+    g.bench_function("curve/jenkins/hystid_sweep", |b| {
+        b.iter(|| {
+            black_box(
+                solver
+                    .sweep(&model.linear, &mut elements, &freqs, LEVEL)
+                    .unwrap(),
+            )
+        })
+    });
+    g.bench_function("curve/jenkins/naive", |b| {
+        b.iter(|| black_box(naive_sweep(&mut naive)))
+    });
+    g.finish();
+}
+
 fn extraction(c: &mut Criterion<ThreadCpu>) {
     // 30 kHz (the default test's rate), 8 periods in 1024 samples
     let fs = 30000.0;
@@ -322,6 +431,6 @@ fn recording(c: &mut Criterion<ThreadCpu>) {
 criterion_group! {
     name = benches;
     config = config();
-    targets = simulator, harmonic_balance, extraction, recording
+    targets = simulator, harmonic_balance, hb_curve, extraction, recording
 }
 criterion_main!(benches);

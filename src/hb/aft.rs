@@ -121,8 +121,11 @@ pub(crate) struct Aft {
     /// Per-sample scratch: `∂v/∂p` at the current ω, `∂g/∂p`.
     dv: Vec<f64>,
     dg_sample: Vec<f64>,
-    /// `∂g_j/∂p_k`, column-major (`N` per unknown).
-    dg_columns: Vec<f64>,
+    /// `∂g_j/∂p_k`, sample-major (`n` per sample): each sample's
+    /// sensitivities are written where they are computed, one contiguous
+    /// row (column-major rows `N` apart put every write of a sample in the
+    /// same cache set at `N` = 512).
+    dg_rows: Vec<f64>,
     /// `dx/dθ` at the samples.
     xp: Vec<f64>,
     /// Turning points between samples, in sample order.
@@ -204,7 +207,7 @@ impl Aft {
             basis_v,
             dv: vec![0.0; n],
             dg_sample: vec![0.0; n],
-            dg_columns: vec![0.0; samples * n],
+            dg_rows: vec![0.0; samples * n],
             xp: vec![0.0; samples],
             extrema: Vec::with_capacity(samples),
             extremum_at: vec![NONE; samples],
@@ -484,8 +487,15 @@ impl Aft {
                 let jm = (j + period) % ns;
                 self.g[jm] = -self.g[j];
                 if want {
-                    for k in 0..n {
-                        self.dg_columns[k * ns + jm] = -self.dg_columns[k * ns + j];
+                    let (a, b) = (j.min(jm) * n, j.max(jm) * n);
+                    let (lo, hi) = self.dg_rows.split_at_mut(b);
+                    let (src, dst) = if j < jm {
+                        (&lo[a..a + n], &mut hi[..n])
+                    } else {
+                        (&hi[..n], &mut lo[a..a + n])
+                    };
+                    for (d, s) in dst.iter_mut().zip(src) {
+                        *d = -s;
                     }
                 }
             }
@@ -502,8 +512,9 @@ impl Aft {
         self.analyse_buf(g_out, 1, 0);
         if let Some(dg) = dg {
             for k in 0..n {
-                self.buf
-                    .copy_from_slice(&self.dg_columns[k * ns..(k + 1) * ns]);
+                for (b, row) in self.buf.iter_mut().zip(self.dg_rows.chunks_exact(n)) {
+                    *b = row[k];
+                }
                 self.analyse_buf(dg, n, k);
             }
         }
@@ -534,20 +545,21 @@ impl Aft {
                 *d = omega * b;
             }
         }
-        self.dg_sample.fill(0.0);
+        let dg = if store {
+            &mut self.dg_rows[j * n..(j + 1) * n]
+        } else {
+            &mut self.dg_sample[..]
+        };
+        dg.fill(0.0);
         let f = elements.commit_sensitivity(
             self.x[j],
             self.v[j],
             &self.basis_x[j * n..(j + 1) * n],
             &self.dv,
-            &mut self.dg_sample,
+            dg,
         );
         if store {
-            let ns = self.samples;
             self.g[j] = f.force;
-            for k in 0..n {
-                self.dg_columns[k * ns + j] = self.dg_sample[k];
-            }
         }
     }
 
@@ -916,7 +928,7 @@ mod tests {
             &mut aft.v,
             &mut aft.g,
             &mut aft.buf,
-            &mut aft.dg_columns,
+            &mut aft.dg_rows,
             &mut aft.dv,
         ] {
             b.fill(f64::NAN);
