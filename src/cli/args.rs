@@ -315,14 +315,15 @@ pub struct DiagnoseArgs {
     /// Response channel name.
     #[arg(long)]
     pub response: Option<String>,
-    /// Candidate effects (default: all but bouc_wen_joint and
-    /// hysteretic_mode): second_mode, cubic_stiffness, bilinear_stiffness,
-    /// quadratic_damping, clearance, iwan4_joint (an Iwan joint in place of
-    /// the fitted joint law), bouc_wen_joint (a Bouc-Wen joint in its place)
-    /// and hysteretic_mode (a further mode with a joint of its own), the last
-    /// two tried when named: their refits cost many times the others'; `all`
-    /// for every one, `default` for the default set (e.g.
-    /// `default,hysteretic_mode`).
+    /// Candidate effects (default: all but bouc_wen_joint): second_mode,
+    /// cubic_stiffness, bilinear_stiffness, quadratic_damping, clearance,
+    /// iwan4_joint (an Iwan joint in place of the fitted joint law),
+    /// hysteretic_mode (a further mode with a joint of its own; tried where
+    /// the model leaves more than twice the noise, its refit costing as much
+    /// as the rest of a diagnosis) and bouc_wen_joint (a Bouc-Wen joint in
+    /// its place; tried when named, its refit costing many times the
+    /// others'); `all` for every one, `default` for the default set (e.g.
+    /// `default,bouc_wen_joint`).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// How recordings are reduced.
@@ -352,7 +353,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub no_diagnose: bool,
     /// The diagnosis's candidate effects, as `diagnose --candidates` takes
-    /// them (e.g. `default,hysteretic_mode`; default: the default set).
+    /// them (e.g. `default,bouc_wen_joint`; default: the default set).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// Write no time histories (run.mcap, recording.wav/.json: about 250 MB

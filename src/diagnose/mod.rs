@@ -434,7 +434,7 @@ fn unresolved(
     let conf = confidence_at(&r.model, &params, &r.pred, data, predictor)?;
     let candidate = effect.candidate();
     for (p, e) in params.parameters.iter().zip(&conf.estimates) {
-        let Some(name) = candidate.own_parameter(effect.name(), &p.name) else {
+        let Some(name) = candidate.own_parameter(effect.name(), &r.model, &p.name) else {
             continue;
         };
         if let Some(why) = candidate.implausible(name, e, &r.model, data) {
@@ -868,10 +868,12 @@ pub fn diagnose_observed(
         let feats = features(&data, &current.pred);
         // a candidate the model cannot take (a joint law it already has) is
         // neither tried nor counted among the K compared
+        let far = normalised(current.chi2) > ASTRAY_CHI2_PER_DOF;
         let applicable: Vec<Effect> = remaining
             .iter()
             .copied()
             .filter(|e| e.candidate().applies_to(&current.model))
+            .filter(|e| far || !e.candidate().only_far_from_noise())
             .collect();
         let ranked = rank(&feats, &applicable);
         observer(DiagnoseEvent::Round {
@@ -1138,7 +1140,11 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         for &effect in &chosen {
             let mut parameters = BTreeMap::new();
             for (p, e) in &pairs {
-                if let Some(rest) = effect.candidate().own_parameter(effect.name(), &p.name) {
+                if let Some(rest) =
+                    effect
+                        .candidate()
+                        .own_parameter(effect.name(), &current.model, &p.name)
+                {
                     let (name, e) = effect.candidate().reported(rest, e.clone());
                     parameters.insert(name, e);
                 }

@@ -39,11 +39,11 @@ impl Candidate for HystereticMode {
         5
     }
 
-    /// Tried when named: its refit (a mode and a joint, a harmonic-balance
-    /// solve per part and point) costs about as much as the rest of a
-    /// diagnosis.
-    fn by_default(&self) -> bool {
-        false
+    /// Its refit (a mode and a joint, a harmonic-balance solve per part and
+    /// point) costs about as much as the rest of a diagnosis: tried where
+    /// the model leaves more than twice the noise.
+    fn only_far_from_noise(&self) -> bool {
+        true
     }
 
     fn score(&self, f: &ResidualFeatures) -> f64 {
@@ -133,6 +133,12 @@ impl Candidate for HystereticMode {
 
     fn reported(&self, name: &str, e: Estimate) -> (String, Estimate) {
         SecondMode.reported(name, e)
+    }
+
+    fn own_parameter<'n>(&self, _effect: &str, model: &Model, name: &'n str) -> Option<&'n str> {
+        let i = model.linear.modes.iter().rposition(|m| m.is_hysteretic())?;
+        let label = model.linear.label(i);
+        name.strip_prefix(label.as_str())?.strip_prefix('.')
     }
 
     fn remove(&self, model: &Model) -> Option<Model> {

@@ -211,6 +211,14 @@ pub(crate) trait Candidate: Sync {
         true
     }
 
+    /// Whether it is tried only on a model left above
+    /// [`super::ASTRAY_CHI2_PER_DOF`] times the noise's `χ²` (one whose
+    /// refit costs as much as the rest of a diagnosis is not spent on a
+    /// residual that is nearly noise).
+    fn only_far_from_noise(&self) -> bool {
+        false
+    }
+
     /// Whether it replaces the model's joint law rather than adding an
     /// effect (its parameters are then the joint's, named plainly).
     fn replaces_joint(&self) -> bool {
@@ -229,10 +237,11 @@ pub(crate) trait Candidate: Sync {
         self.size()
     }
 
-    /// Its own parameter's name within a fitted parameter's `name`, if the
-    /// parameter is its own (an effect's are prefixed with its name, a
-    /// replacing joint's are the joint's plain names).
-    fn own_parameter<'n>(&self, effect: &str, name: &'n str) -> Option<&'n str> {
+    /// Its own parameter's name within a fitted parameter's `name` of
+    /// `model`, if the parameter is its own (an effect's are prefixed with
+    /// its name, a replacing joint's are the joint's plain names; a mode's
+    /// with the label `model` gives the mode it added).
+    fn own_parameter<'n>(&self, effect: &str, _model: &Model, name: &'n str) -> Option<&'n str> {
         if self.replaces_joint() {
             let law = self.law()?.description();
             law.parameters
@@ -363,7 +372,7 @@ impl Effect {
     }
 
     /// The candidates a diagnosis tries unless told which: every one but
-    /// those tried only when named (`bouc_wen_joint`, `hysteretic_mode`).
+    /// those tried only when named (`bouc_wen_joint`).
     pub fn defaults() -> Vec<Effect> {
         Effect::ALL
             .iter()
@@ -427,9 +436,11 @@ mod tests {
     fn candidate_lists_parse() {
         assert_eq!(Effect::parse_list(&names(&["all"])).unwrap(), Effect::ALL);
         let defaults = Effect::parse_list(&names(&["default"])).unwrap();
-        assert_eq!(defaults.len(), Effect::ALL.len() - 2);
+        assert_eq!(defaults.len(), Effect::ALL.len() - 1);
         assert!(!defaults.contains(&Effect::BoucWenJoint));
-        assert!(!defaults.contains(&Effect::HystereticMode));
+        // tried by default, where the model leaves more than twice the noise
+        assert!(defaults.contains(&Effect::HystereticMode));
+        assert!(Effect::HystereticMode.candidate().only_far_from_noise());
         assert_eq!(
             Effect::parse_list(&names(&["bouc_wen_joint", "default", "clearance"])).unwrap(),
             [&[Effect::BoucWenJoint][..], &Effect::defaults()].concat()

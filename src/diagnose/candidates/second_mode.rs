@@ -14,6 +14,18 @@ use std::collections::BTreeMap;
 /// See the module docs.
 pub(crate) struct SecondMode;
 
+/// The further linear mode this candidate adds to a model: the last mode
+/// without a joint of its own after the first (the candidate appends it;
+/// a hysteretic mode added later does not take its place).
+pub(crate) fn further_mode(model: &Model) -> Option<usize> {
+    let i = model
+        .linear
+        .modes
+        .iter()
+        .rposition(|m| !m.is_hysteretic())?;
+    (i >= 1).then_some(i)
+}
+
 impl Candidate for SecondMode {
     fn law(&self) -> Option<ElementKind> {
         None
@@ -84,12 +96,15 @@ impl Candidate for SecondMode {
             }
         }
         let mut starts: Vec<Model> = kept.into_iter().map(with).collect();
+        let linear = model.linear.modes.iter().filter(|m| !m.is_hysteretic());
         if cx.astray()
-            && let Some(mut m) = cx.identified_with_modes(model.linear.modes.len() + 1)
+            && let Some(mut m) = cx.identified_with_modes(linear.count() + 1)
         {
             // the new modes with the user's joint refitted, and the effects
-            // found so far
+            // and hysteretic modes found so far
             m.effects.extend(model.effects.iter().cloned());
+            let hysteretic = model.linear.modes.iter().filter(|m| m.is_hysteretic());
+            m.linear.modes.extend(hysteretic.copied());
             starts.push(m);
         }
         Ok(starts)
@@ -139,14 +154,14 @@ impl Candidate for SecondMode {
         None
     }
 
+    fn own_parameter<'n>(&self, _effect: &str, model: &Model, name: &'n str) -> Option<&'n str> {
+        let label = model.linear.label(further_mode(model)?);
+        name.strip_prefix(label.as_str())?.strip_prefix('.')
+    }
+
     fn parameters(&self, model: &Model, data: &FitData) -> BTreeMap<String, f64> {
         let mut out = BTreeMap::new();
-        if let Some(m) = model
-            .linear
-            .modes
-            .last()
-            .filter(|_| model.linear.modes.len() > 1)
-        {
+        if let Some(m) = further_mode(model).map(|i| &model.linear.modes[i]) {
             out.insert("frequency_hz".into(), m.frequency_hz);
             out.insert("modal_mass".into(), 1.0 / m.residue);
             // a mode above the band is seen there as a flexibility; outside
@@ -196,10 +211,7 @@ impl Candidate for SecondMode {
 
     fn remove(&self, model: &Model) -> Option<Model> {
         let mut m = model.clone();
-        if m.linear.modes.len() < 2 {
-            return None;
-        }
-        m.linear.modes.pop();
+        m.linear.modes.remove(further_mode(model)?);
         Some(m)
     }
 
