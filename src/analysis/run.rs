@@ -253,14 +253,18 @@ impl FinalModel {
         let theta = set.theta_of(&d.model)?;
         let conf = confidence(&problem, &theta, &pred)?;
         let mut parameters = BTreeMap::new();
-        // the joint and the linear part: intervals at the final model
-        let effect_prefixes: Vec<String> = d
-            .selected
-            .iter()
-            .map(|s| format!("{}.", s.effect.name()))
-            .collect();
+        // the joint and the linear part: intervals at the final model (an
+        // added effect's own parameters are reported below; a further mode
+        // the diagnosis added is told from the user's by the mode it added)
+        let replaces = |s: &&crate::diagnose::SelectedEffect| s.effect.candidate().replaces_joint();
         for (p, e) in set.parameters.iter().zip(conf.estimates) {
-            if effect_prefixes.iter().any(|x| p.name.starts_with(x)) {
+            let own = d.selected.iter().filter(|s| !replaces(s)).any(|s| {
+                s.effect
+                    .candidate()
+                    .own_parameter(s.effect.name(), &d.model, &p.name)
+                    .is_some()
+            });
+            if own {
                 continue;
             }
             let r = reported(&p.name, e, &d.model, &set, &[], &reference, fit.transfer);
@@ -269,10 +273,10 @@ impl FinalModel {
         // the effects as the diagnosis reported them (a further mode by its
         // modal mass, say), so the numbers agree with `diagnosis.md`; a law
         // that replaced the joint is the joint above
-        let replaces = |s: &&crate::diagnose::SelectedEffect| s.effect.candidate().replaces_joint();
         for s in d.selected.iter().filter(|s| !replaces(s)) {
+            let label = s.effect.candidate().label(s.effect.name(), &d.model);
             for (name, e) in &s.parameters {
-                let full = format!("{}.{name}", s.effect.name());
+                let full = format!("{label}.{name}");
                 let r = reported(
                     &full,
                     e.clone(),

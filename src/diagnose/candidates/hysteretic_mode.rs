@@ -135,6 +135,11 @@ impl Candidate for HystereticMode {
         SecondMode.reported(name, e)
     }
 
+    fn label(&self, effect: &str, model: &Model) -> String {
+        let i = model.linear.modes.iter().rposition(|m| m.is_hysteretic());
+        i.map_or_else(|| effect.to_string(), |i| model.linear.label(i))
+    }
+
     fn own_parameter<'n>(&self, _effect: &str, model: &Model, name: &'n str) -> Option<&'n str> {
         let i = model.linear.modes.iter().rposition(|m| m.is_hysteretic())?;
         let label = model.linear.label(i);

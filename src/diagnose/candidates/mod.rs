@@ -241,6 +241,13 @@ pub(crate) trait Candidate: Sync {
     /// `model`, if the parameter is its own (an effect's are prefixed with
     /// its name, a replacing joint's are the joint's plain names; a mode's
     /// with the label `model` gives the mode it added).
+    /// The name its parameters are reported under in `model`: its own
+    /// (a mode's: the label of the mode it added, `second_mode` unless the
+    /// model has further modes of its own).
+    fn label(&self, effect: &str, _model: &Model) -> String {
+        effect.to_string()
+    }
+
     fn own_parameter<'n>(&self, effect: &str, _model: &Model, name: &'n str) -> Option<&'n str> {
         if self.replaces_joint() {
             let law = self.law()?.description();

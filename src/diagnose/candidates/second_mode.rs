@@ -154,6 +154,10 @@ impl Candidate for SecondMode {
         None
     }
 
+    fn label(&self, effect: &str, model: &Model) -> String {
+        further_mode(model).map_or_else(|| effect.to_string(), |i| model.linear.label(i))
+    }
+
     fn own_parameter<'n>(&self, _effect: &str, model: &Model, name: &'n str) -> Option<&'n str> {
         let label = model.linear.label(further_mode(model)?);
         name.strip_prefix(label.as_str())?.strip_prefix('.')
@@ -299,6 +303,66 @@ mod tests {
             SecondMode.implausible("residue", &e, &model, &implied),
             None
         );
+    }
+
+    /// The further mode's parameters are those of the mode it added, the
+    /// last linear one: beside a mode of the user's fit or a hysteretic
+    /// mode added later, not the one the name `second_mode` labels; and
+    /// removing it removes that mode.
+    #[test]
+    fn its_parameters_are_the_mode_it_added() {
+        let mode = |f: f64, joint: bool| crate::model::Mode {
+            frequency_hz: f,
+            damping_ratio: 0.01,
+            residue: 0.1,
+            joint: joint.then_some(crate::model::ElementSpec::Jenkins { kd: 1e6, fd: 10.0 }),
+        };
+        let model = |modes| {
+            crate::model::Model::new(crate::model::ModalModel::new(modes).unwrap(), Vec::new())
+                .unwrap()
+        };
+        // the user's two modes, then the one added
+        let two = model(vec![mode(5.0, false), mode(6.4, false), mode(1.5, false)]);
+        assert_eq!(SecondMode.label("second_mode", &two), "mode_2");
+        assert_eq!(
+            SecondMode.own_parameter("second_mode", &two, "mode_2.residue"),
+            Some("residue")
+        );
+        assert_eq!(
+            SecondMode.own_parameter("second_mode", &two, "second_mode.residue"),
+            None
+        );
+        // added, then a hysteretic mode
+        let hyst = model(vec![mode(87.0, false), mode(95.0, true), mode(89.6, false)]);
+        assert_eq!(SecondMode.label("second_mode", &hyst), "mode_2");
+        assert_eq!(
+            SecondMode.own_parameter("second_mode", &hyst, "mode_2.frequency_hz"),
+            Some("frequency_hz")
+        );
+        let without = SecondMode.remove(&hyst).unwrap();
+        let left: Vec<f64> = without
+            .linear
+            .modes
+            .iter()
+            .map(|m| m.frequency_hz)
+            .collect();
+        assert_eq!(left, [87.0, 95.0]);
+        assert_eq!(
+            SecondMode.parameters(&hyst, &point_data())["frequency_hz"],
+            89.6
+        );
+        // the first mode alone is no further mode
+        assert_eq!(
+            SecondMode.remove(&model(vec![mode(87.0, false), mode(95.0, true)])),
+            None
+        );
+    }
+
+    fn point_data() -> FitData {
+        serde_json::from_value(serde_json::json!({
+            "response": "displacement", "harmonics": [1], "series": []
+        }))
+        .unwrap()
     }
 
     /// Every start keeps the joint law the user fitted (the re-identification
