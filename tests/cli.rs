@@ -363,6 +363,70 @@ fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
     );
     let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
     assert!(md.contains("## The model: jenkins joint"), "{md}");
+
+    // diagnosis.json is a model as validate and the time fit's --start take
+    // one: its final model (with the mode it kept), not its baseline
+    assert_eq!(added, [&serde_json::json!("second_mode")]);
+    let rec = sim.join("recording.json");
+    let validated = |model: &Path, tag: &str| -> f64 {
+        let v = dir.path().join(tag);
+        let o = hystid(&[
+            "validate",
+            model.to_str().unwrap(),
+            rec.to_str().unwrap(),
+            "--out",
+            v.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{tag}: {}", text(&o));
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(v.join("validate.json")).unwrap()).unwrap();
+        r["recordings"][0]["whole"]["relative"].as_f64().unwrap()
+    };
+    let diagnosed = validated(&out.join("diagnosis.json"), "val_final");
+    let mut baseline = d.clone();
+    baseline["model"] = d["baseline_model"].clone();
+    let base_path = dir.path().join("baseline_diagnosis.json");
+    std::fs::write(&base_path, serde_json::to_vec(&baseline).unwrap()).unwrap();
+    let base = validated(&base_path, "val_base");
+    eprintln!("e_RMS / RMS: final {diagnosed:.4}, baseline {base:.4}");
+    // the test's 10 % response noise is the floor: the final model sits on
+    // it, the baseline (without the mode) 7 % above it
+    assert!(
+        (0.09..0.103).contains(&diagnosed) && diagnosed < 0.95 * base,
+        "final {diagnosed} against baseline {base}"
+    );
+    let o = hystid(&[
+        "validate",
+        out.join("diagnosis.json").to_str().unwrap(),
+        rec.to_str().unwrap(),
+        "--linear",
+        "--out",
+        dir.path().join("val_linear").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("not a diagnosis"), "{}", text(&o));
+    let tf = dir.path().join("time_fit");
+    let o = hystid(&[
+        "identify",
+        rec.to_str().unwrap(),
+        "--domain",
+        "time",
+        "--start",
+        out.join("diagnosis.json").to_str().unwrap(),
+        "--out",
+        tf.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let f: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(tf.join("fit.json")).unwrap()).unwrap();
+    let p = f["time_domain"]["parameters"].as_object().unwrap();
+    assert!(
+        p.contains_key("second_mode.frequency_hz") && p.contains_key("kd"),
+        "{:?}",
+        p.keys()
+    );
 }
 
 /// `run` chains simulate and identify into one folder, and its report

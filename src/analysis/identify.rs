@@ -617,6 +617,25 @@ pub fn run_time_fit_from_start(
     options: &TimeFitOptions,
     observer: &dyn Observer,
 ) -> Result<TimeFitReport> {
+    run_time_fit_from_start_signed(
+        recording, response, start, 1.0, fixed, records, options, observer,
+    )
+}
+
+/// [`run_time_fit_from_start`] for a start that predicts `response_sign`
+/// times the recorded response (a fit's or a diagnosis's model of a
+/// transfer with a negative modal constant).
+#[allow(clippy::too_many_arguments)]
+pub fn run_time_fit_from_start_signed(
+    recording: String,
+    response: String,
+    start: &Model,
+    response_sign: f64,
+    fixed: &[String],
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+    observer: &dyn Observer,
+) -> Result<TimeFitReport> {
     let mut params = time_parameters(start, true, None);
     // the joint's gauges are held whether named or not
     let gauges = start.joint.iter().flat_map(|j| {
@@ -644,7 +663,14 @@ pub fn run_time_fit_from_start(
         }
     }
     params.parameters.retain(|p| !fixed.contains(&p.name));
-    let t = identify_time(start, params, 1.0, records, options, Some(observer))?;
+    let t = identify_time(
+        start,
+        params,
+        response_sign,
+        records,
+        options,
+        Some(observer),
+    )?;
     Ok(TimeFitReport {
         command: "identify".into(),
         version: super::VERSION.into(),

@@ -27,7 +27,7 @@ pub use flags::{Flag, flag_estimates, flag_words, flags_of};
 pub use identify::{
     Comparison, FitReport, MULTISINE_LINES, PeriodicStart, TimeFitReport, compare, periodic_start,
     periodic_start_of, reference_joint, run_fit, run_time_fit, run_time_fit_from_start,
-    time_records, time_records_in, write_fit_plots,
+    run_time_fit_from_start_signed, time_records, time_records_in, write_fit_plots,
 };
 pub use recording::{
     Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited, combine_recordings,

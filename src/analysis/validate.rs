@@ -20,12 +20,14 @@ pub struct FitModel {
     pub response_sign: f64,
     /// The response channel the fit used.
     pub response: Option<String>,
-    /// `fitted`, `fitted in the time domain`, `linear` or `declared`.
+    /// `fitted`, `fitted in the time domain`, `diagnosed`, `linear` or
+    /// `declared`.
     pub kind: &'static str,
 }
 
 /// Reads the model to validate: a fit.json's `model` (or, with `linear`,
-/// the SDOF of `linear.stick` with no element) and `response_sign`; or a
+/// the SDOF of `linear.stick` with no element) and `response_sign`; a
+/// diagnosis.json's final `model` and `response_sign`; or a
 /// model written down (`*.toml`: a test definition or its structure alone,
 /// e.g. a benchmark's published model), which predicts the response as
 /// recorded.
@@ -59,9 +61,33 @@ impl FitModel {
     /// (optionally refined in the time domain) or a time-domain fit from a
     /// model written down; `path` names it in errors.
     pub fn of_json(text: &[u8], linear: bool, path: &Path) -> Result<FitModel> {
-        if let Ok(value) = serde_json::from_slice::<serde_json::Value>(text)
-            && super::identify::TimeFitReport::is_one(&value)
-        {
+        let value = serde_json::from_slice::<serde_json::Value>(text).ok();
+        if let Some(value) = value.as_ref().filter(|v| v["command"] == "diagnose") {
+            // the diagnosis's final model: the fit with the effects it kept
+            if linear {
+                return Err(Error::format(
+                    path,
+                    "model",
+                    "--linear takes an FRF fit's fit.json (its linear.stick), not a diagnosis",
+                ));
+            }
+            let model: Model = serde_json::from_value(value["model"].clone())
+                .map_err(|e| Error::format(path, "model", e.to_string()))?;
+            model
+                .validate()
+                .map_err(|e| Error::format(path, "model", e.to_string()))?;
+            let response_sign = value["response_sign"]
+                .as_f64()
+                .filter(|s| *s == 1.0 || *s == -1.0)
+                .ok_or_else(|| Error::format(path, "response_sign", "expected 1 or -1"))?;
+            return Ok(FitModel {
+                model,
+                response_sign,
+                response: None,
+                kind: "diagnosed",
+            });
+        }
+        if let Some(value) = value.filter(super::identify::TimeFitReport::is_one) {
             let report: super::identify::TimeFitReport = serde_json::from_value(value)
                 .map_err(|e| Error::format(path, "time_domain", e.to_string()))?;
             if linear {

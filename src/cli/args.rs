@@ -100,9 +100,10 @@ pub struct IdentifyArgs {
     /// periods after the first.
     #[arg(long, value_enum, default_value_t = Domain::Frf)]
     pub domain: Domain,
-    /// With `--domain time`: start from a model written down (`*.toml`, as
-    /// `validate` takes) instead of an FRF fit, for records an FRF fit
-    /// cannot read (multisines, transients).
+    /// With `--domain time`: start from a model instead of an FRF fit, as
+    /// `validate` takes one: written down (`*.toml`, for records an FRF fit
+    /// cannot read: multisines, transients), a fit.json, or a
+    /// diagnosis.json (the diagnosis's final model, with its effects).
     #[arg(long)]
     pub start: Option<PathBuf>,
     /// With `--start` or a multisine's start: parameters held at the

@@ -214,14 +214,14 @@ pub fn reduce_recordings(
     )?)
 }
 
-/// `hystid identify --domain time --start MODEL.toml`.
+/// `hystid identify --domain time --start MODEL` (a model written down, a
+/// fit.json or a diagnosis.json).
 fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result<u8> {
     if args.domain != Domain::Time {
         bail!("--start: a start model is fitted in the time domain; add --domain time");
     }
-    let text = std::fs::read_to_string(start)
+    let start = hystid::analysis::validate::read_fit(start, false)
         .with_context(|| format!("--start: reading {}", start.display()))?;
-    let model = hystid::testbench::model_from_toml(&text, &start.display().to_string())?;
     let window = args
         .window
         .as_deref()
@@ -234,7 +234,14 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
         window,
         band,
     )?;
-    fit_in_time(args, &model, &records, None, quiet)
+    fit_in_time(
+        args,
+        &start.model,
+        start.response_sign,
+        &records,
+        None,
+        quiet,
+    )
 }
 
 /// Fits `model` to `records` in the time domain and writes fit.json: a
@@ -242,6 +249,7 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
 fn fit_in_time(
     args: &IdentifyArgs,
     model: &hystid::model::Model,
+    response_sign: f64,
     records: &[hystid::fit::TimeRecord],
     origin: Option<String>,
     quiet: bool,
@@ -256,10 +264,11 @@ fn fit_in_time(
         ..Default::default()
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
-    let mut report = hystid::analysis::run_time_fit_from_start(
+    let mut report = hystid::analysis::run_time_fit_from_start_signed(
         names.join(", "),
         args.response.clone().unwrap_or_default(),
         model,
+        response_sign,
         &args.fix,
         records,
         &options,
@@ -297,7 +306,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         if let Some(p) =
             hystid::analysis::periodic_start(&args.recordings, args.response.as_deref(), kind)?
         {
-            return fit_in_time(args, &p.start, &p.records, Some(p.note), quiet);
+            return fit_in_time(args, &p.start, 1.0, &p.records, Some(p.note), quiet);
         }
     }
     let options = fit_options(&args.fit)?;
