@@ -111,6 +111,28 @@ pub fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
     }
 }
 
+/// `unit` (a model parameter's, in newtons) for a model driven by a
+/// reference of quantity `drive`: with a voltage reference (an amplifier's
+/// drive, the structure's force not measured) the model's "forces" are in
+/// volts, so a slip force is in V, a stiffness in V/m and a mass in V s²/m.
+pub fn in_drive_units(unit: &'static str, drive: crate::harmonics::Quantity) -> &'static str {
+    if drive != crate::harmonics::Quantity::Voltage {
+        return unit;
+    }
+    match unit {
+        "N" => "V",
+        "N/m" => "V/m",
+        "N s/m" => "V s/m",
+        "N/m³" => "V/m³",
+        "N s²/m²" => "V s²/m²",
+        "N^(1-nu)/m" => "V^(1-nu)/m",
+        "kg" => "V s²/m",
+        "1/kg" => "m/(V s²)",
+        "m/N" => "m/V",
+        other => other,
+    }
+}
+
 /// The flagged ones of `estimates` of `model`'s parameters with their
 /// flags, `at_bound` naming those that ended at a bound of their fit (as
 /// [`crate::fit::FitResult::at_bound`] does); a parameter without a flag is
@@ -166,6 +188,42 @@ mod tests {
             }],
         }
         .at_bounds(&[v])[0]
+    }
+
+    /// With a voltage drive every parameter's unit is stated in volts where
+    /// it was in newtons: no unit of any element law or of the linear part
+    /// keeps an N; with a force drive they are left as they are.
+    #[test]
+    fn units_follow_the_drive() {
+        use crate::harmonics::Quantity::{Force, Voltage};
+        let mut units: Vec<&'static str> = crate::model::ElementKind::ALL
+            .iter()
+            .flat_map(|k| k.description().parameters.iter().map(|p| p.unit))
+            .collect();
+        let model = Model::new(
+            crate::model::ModalModel::sdof(1.0, 1.0, 1.0).unwrap(),
+            vec![],
+        )
+        .unwrap();
+        for name in [
+            "mass",
+            "damping",
+            "stiffness",
+            "mode_2.residue",
+            "second_mode.flexibility",
+        ] {
+            units.push(describe(name, &model).0);
+        }
+        for u in units {
+            assert_eq!(in_drive_units(u, Force), u);
+            let v = in_drive_units(u, Voltage);
+            assert!(
+                !v.split(|c: char| !c.is_alphanumeric()).any(|t| t == "N"),
+                "{u} -> {v}"
+            );
+        }
+        assert_eq!(in_drive_units("kg", Voltage), "V s²/m");
+        assert_eq!(in_drive_units("N/m³", Voltage), "V/m³");
     }
 
     /// The complaints' cases: a damping ratio at its 1e-5 bound, a negative

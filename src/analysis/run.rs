@@ -15,7 +15,7 @@
 //! the test is of the paper's system (the embedded default's structure).
 
 pub use super::flags::{Flag, flags_of};
-use super::flags::{describe, flag_words};
+use super::flags::{describe, flag_words, in_drive_units};
 use super::identify::FitReport;
 use super::simulate::SimulateSummary;
 use crate::diagnose::{Diagnosis, model_parameters};
@@ -200,21 +200,18 @@ impl FinalModel {
         predictor: &HbPredictor,
     ) -> Result<FinalModel> {
         let reference = truth.map(reference_values).unwrap_or_default();
+        let judged = Judged {
+            truth: &reference,
+            transfer: fit.transfer,
+            drive: frf.reference,
+        };
         let Some(d) = diagnosis else {
             let set = model_parameters(&fit.model, band_hz);
             let parameters = fit
                 .parameters
                 .iter()
                 .map(|(name, e)| {
-                    let r = reported(
-                        name,
-                        e.clone(),
-                        &fit.model,
-                        &set,
-                        &fit.at_bound,
-                        &reference,
-                        fit.transfer,
-                    );
+                    let r = reported(name, e.clone(), &fit.model, &set, &fit.at_bound, &judged);
                     (name.clone(), r)
                 })
                 .collect();
@@ -267,7 +264,7 @@ impl FinalModel {
             if own {
                 continue;
             }
-            let r = reported(&p.name, e, &d.model, &set, &[], &reference, fit.transfer);
+            let r = reported(&p.name, e, &d.model, &set, &[], &judged);
             parameters.insert(p.name.clone(), r);
         }
         // the effects as the diagnosis reported them (a further mode by its
@@ -277,15 +274,7 @@ impl FinalModel {
             let label = s.effect.candidate().label(s.effect.name(), &d.model);
             for (name, e) in &s.parameters {
                 let full = format!("{label}.{name}");
-                let r = reported(
-                    &full,
-                    e.clone(),
-                    &d.model,
-                    &set,
-                    &[],
-                    &reference,
-                    fit.transfer,
-                );
+                let r = reported(&full, e.clone(), &d.model, &set, &[], &judged);
                 parameters.insert(full, r);
             }
         }
@@ -441,8 +430,7 @@ fn reported(
     model: &Model,
     set: &ParameterSet,
     fit_at_bound: &[String],
-    reference: &BTreeMap<String, f64>,
-    transfer: bool,
+    judged: &Judged<'_>,
 ) -> Reported {
     // the one test of a bound (the fit's own, within 1 %)
     let at_bound = fit_at_bound.iter().any(|n| n == name)
@@ -457,13 +445,22 @@ fn reported(
                 .at_bounds(&[e.value])[0]
             });
     let (unit, domain) = describe(name, model);
-    let flags = flags_of(name, &e, at_bound, domain, transfer);
+    let flags = flags_of(name, &e, at_bound, domain, judged.transfer);
     Reported {
-        unit,
-        reference: reference.get(name).copied(),
+        unit: in_drive_units(unit, judged.drive),
+        reference: judged.truth.get(name).copied(),
         flags,
         estimate: e,
     }
+}
+
+/// What a reported parameter is judged against: the values the data were
+/// simulated with (by name), whether the response is a transfer, and the
+/// drive's quantity (the model's forces are in its unit).
+struct Judged<'a> {
+    truth: &'a BTreeMap<String, f64>,
+    transfer: bool,
+    drive: crate::harmonics::Quantity,
 }
 
 /// The parameters of `truth` by the names a fit gives them: the joint's and

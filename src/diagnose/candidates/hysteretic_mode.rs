@@ -164,7 +164,7 @@ impl Candidate for HystereticMode {
                     })
                     .unwrap_or(f64::NAN);
                 format!(
-                    ": a mode of its own joint, {fr:.4} Hz slipping and {stuck:.4} Hz stuck, slip force {} N",
+                    ": a mode of its own joint, {fr:.4} Hz slipping and {stuck:.4} Hz stuck, slip force {} (in the drive's unit)",
                     fmt_value(fd)
                 )
             }
