@@ -105,6 +105,23 @@ def test_diagnose_is_hystid_diagnose(cli, py):
     assert py["diagnosis"]["command"] == "diagnose"
 
 
+def test_validate_takes_a_diagnosis(py):
+    """A diagnosis is a model validate takes, as `hystid validate
+    diagnosis.json` does: its final model and response sign."""
+    s, meta = py["test"]["signals"], py["test"]["recording"]
+    d = py["diagnosis"]
+    val = hystid.validate(
+        d, s["force"], s["displacement"], meta["sample_rate_hz"],
+        steps=meta["excitation"]["steps"],
+    )
+    assert val["model_kind"] == "diagnosed"
+    assert val["model"] == d["model"]
+    assert val["response_sign"] == d["response_sign"]
+    # at the 10 % response noise, as the fit's model is
+    fitted = py["validate"]["recordings"][0]["whole"]["relative"]
+    assert val["recordings"][0]["whole"]["relative"] == pytest.approx(fitted, rel=0.02)
+
+
 def test_validate_periodic_is_hystid_validate_periodic(cli, tmp_path):
     """`periodic=True` is `validate --periodic`: one period of a steady state
     (20 cycles of 200 Hz at 300 N, 0.1 s at 10 kHz, with a made-up
