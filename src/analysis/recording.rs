@@ -210,10 +210,9 @@ pub fn load_recording(path: &Path, response: Option<&str>) -> Result<Loaded> {
         .expect("checked by response_channel");
     let force = &recording.channels[reference];
     if force.iter().all(|&v| v == 0.0) {
-        return Err(Error::format(
+        return Err(flat_reference(
             path,
             &recording.meta.channels[reference].name,
-            "the reference channel is flat (all zero): nothing drove the structure",
         ));
     }
     Ok(Loaded {
@@ -439,20 +438,13 @@ fn reduce_streamed(
     }
     .reference_channel()
     .expect("checked by response_channel");
-    let flat = || {
-        Error::format(
-            path,
-            &meta.channels[reference].name,
-            "the reference channel is flat (all zero): nothing drove the structure",
-        )
-    };
     let red = match reduce_stepped_stream(&mut source, ch, &stepped_options(r)) {
         Ok(red) => red,
         // a reference that is all zero fails the first dwell: say why, as
         // `load_recording` does (read through once more, only on failure)
         Err(e) => {
             return Err(if is_flat(&mut source, reference)? {
-                flat()
+                flat_reference(path, &meta.channels[reference].name)
             } else {
                 e
             });
@@ -468,6 +460,15 @@ fn reduce_streamed(
         streamed: true,
         truncated,
     }))
+}
+
+/// The error for a reference channel `name` of `path` that is all zero.
+fn flat_reference(path: &Path, name: &str) -> Error {
+    Error::format(
+        path,
+        name,
+        "the reference channel is flat (all zero): nothing drove the structure",
+    )
 }
 
 /// True when channel `c` of `source` is zero throughout (read a block at a

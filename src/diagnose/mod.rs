@@ -549,7 +549,7 @@ fn lower_levels_joint(
     base: &Model,
     sign: f64,
 ) -> Option<Model> {
-    let joint = fit.model.joint.clone()?;
+    let joint = fit.model.joint?;
     let base_joint = base.joint.as_ref()?;
     if joint.kind() != base_joint.kind() {
         return None;
@@ -585,6 +585,13 @@ const REFIT_TOLERANCE: f64 = 1.49012e-8;
 /// controls of the independent corpus are held to.
 pub(crate) const ASTRAY_CHI2_PER_DOF: f64 = 2.0;
 
+/// True when a model's `chi2` is more than [`ASTRAY_CHI2_PER_DOF`] times
+/// `expected`, what the noise alone gives: the one test of "far from the
+/// noise" behind every start or candidate spent only there.
+pub(crate) fn far_from_noise(chi2: f64, expected: f64) -> bool {
+    chi2 > ASTRAY_CHI2_PER_DOF * expected
+}
+
 /// A candidate with more starts than this has them screened first: each
 /// refitted briefly, only the best this many refitted in full.
 const POLISHED_STARTS: usize = 2;
@@ -601,6 +608,7 @@ const SCREEN_PATIENCE: usize = 1;
 /// to eight per current model, most of them far from the optimum): each is
 /// refitted briefly, and only the best [`POLISHED_STARTS`] are refitted in
 /// full, so that the candidate costs a few refits, not one per start.
+#[allow(clippy::too_many_arguments)]
 fn try_candidate(
     effect: Effect,
     currents: &[&Refit],
@@ -787,7 +795,7 @@ pub fn diagnose_observed(
     // already explains the data to within twice the noise, neither could
     // lower χ² by much, and they are not computed (they cost as much as
     // the refit itself)
-    let astray = normalised(base.chi2) > ASTRAY_CHI2_PER_DOF;
+    let astray = far_from_noise(base.chi2, expected);
     // the weighted identification and the lower levels' (below) are
     // independent: side by side, each on its own thread
     let (again, lower_fit) = rayon::join(
@@ -868,7 +876,7 @@ pub fn diagnose_observed(
         let feats = features(&data, &current.pred);
         // a candidate the model cannot take (a joint law it already has) is
         // neither tried nor counted among the K compared
-        let far = normalised(current.chi2) > ASTRAY_CHI2_PER_DOF;
+        let far = far_from_noise(current.chi2, expected);
         let applicable: Vec<Effect> = remaining
             .iter()
             .copied()

@@ -487,16 +487,10 @@ impl Aft {
                 let jm = (j + period) % ns;
                 self.g[jm] = -self.g[j];
                 if want {
-                    let (a, b) = (j.min(jm) * n, j.max(jm) * n);
-                    let (lo, hi) = self.dg_rows.split_at_mut(b);
-                    let (src, dst) = if j < jm {
-                        (&lo[a..a + n], &mut hi[..n])
-                    } else {
-                        (&hi[..n], &mut lo[a..a + n])
-                    };
-                    for (d, s) in dst.iter_mut().zip(src) {
-                        *d = -s;
-                    }
+                    self.dg_rows.copy_within(j * n..(j + 1) * n, jm * n);
+                    self.dg_rows[jm * n..(jm + 1) * n]
+                        .iter_mut()
+                        .for_each(|d| *d = -*d);
                 }
             }
         }

@@ -635,9 +635,20 @@ pub fn read_run_bytes(path: &Path, bytes: &[u8]) -> Result<McapRun> {
 
 /// Reads a run of `len` bytes from `file`.
 fn read_run_from(path: &Path, file: impl Read, len: u64) -> Result<McapRun> {
+    Ok(scan_run(path, file, len, true)?.0)
+}
+
+/// One linear pass over a run of `len` bytes: its description and the
+/// layout of its signals, with their samples when `keep_samples`.
+fn scan_run(
+    path: &Path,
+    file: impl Read,
+    len: u64,
+    keep_samples: bool,
+) -> Result<(McapRun, Vec<Stretch>)> {
     let mut scanner = RunScanner::new(path, file, len)?;
     let mut scan = Scan {
-        keep_samples: true,
+        keep_samples,
         ..Scan::default()
     };
     let truncated = loop {
@@ -647,7 +658,7 @@ fn read_run_from(path: &Path, file: impl Read, len: u64) -> Result<McapRun> {
             Scanned::Truncated => break true,
         }
     };
-    Ok(scan.finish(path, truncated)?.0)
+    scan.finish(path, truncated)
 }
 
 /// A run file's description and the layout of its signals, without the
@@ -655,16 +666,7 @@ fn read_run_from(path: &Path, file: impl Read, len: u64) -> Result<McapRun> {
 pub(super) fn read_run_layout(path: &Path) -> Result<(McapRun, Vec<Stretch>)> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
-    let mut scanner = RunScanner::new(path, file, len)?;
-    let mut scan = Scan::default();
-    let truncated = loop {
-        match scanner.next(|record| scan.record(path, record))? {
-            Scanned::Record => {}
-            Scanned::End => break false,
-            Scanned::Truncated => break true,
-        }
-    };
-    scan.finish(path, truncated)
+    scan_run(path, file, len, false)
 }
 
 /// What [`RunScanner::next`] found.

@@ -201,11 +201,10 @@ impl FrameSource for McapRunReader {
         if self.scan.as_ref().is_none_or(|s| s.start > want) {
             self.restart()?;
         }
-        let path = self.path.clone();
         let scan = self.scan.as_mut().expect("just ensured");
         loop {
             scan.skip_to(want);
-            if scan.end() >= until || !scan.pull_block(&path, &self.slots)? {
+            if scan.end() >= until || !scan.pull_block(&self.path, &self.slots)? {
                 break;
             }
         }

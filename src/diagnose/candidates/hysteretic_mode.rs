@@ -120,7 +120,7 @@ impl Candidate for HystereticMode {
 
     fn parameters(&self, model: &Model, _data: &FitData) -> BTreeMap<String, f64> {
         let mut out = BTreeMap::new();
-        if let Some(m) = model.linear.modes.iter().rev().find(|m| m.is_hysteretic()) {
+        if let Some(m) = self.added_mode(model).map(|i| &model.linear.modes[i]) {
             out.insert("frequency_hz".into(), m.frequency_hz);
             out.insert("damping_ratio".into(), m.damping_ratio);
             out.insert("modal_mass".into(), 1.0 / m.residue);
@@ -135,19 +135,13 @@ impl Candidate for HystereticMode {
         SecondMode.reported(name, e)
     }
 
-    fn label(&self, effect: &str, model: &Model) -> String {
-        let i = model.linear.modes.iter().rposition(|m| m.is_hysteretic());
-        i.map_or_else(|| effect.to_string(), |i| model.linear.label(i))
-    }
-
-    fn own_parameter<'n>(&self, _effect: &str, model: &Model, name: &'n str) -> Option<&'n str> {
-        let i = model.linear.modes.iter().rposition(|m| m.is_hysteretic())?;
-        let label = model.linear.label(i);
-        name.strip_prefix(label.as_str())?.strip_prefix('.')
+    /// The last hysteretic mode (the candidate appends it).
+    fn added_mode(&self, model: &Model) -> Option<usize> {
+        model.linear.modes.iter().rposition(|m| m.is_hysteretic())
     }
 
     fn remove(&self, model: &Model) -> Option<Model> {
-        let i = model.linear.modes.iter().rposition(|m| m.is_hysteretic())?;
+        let i = self.added_mode(model)?;
         let mut m = model.clone();
         m.linear.modes.remove(i);
         (!m.linear.modes.is_empty()).then_some(m)

@@ -110,7 +110,7 @@ impl Context<'_> {
     /// features locate what is missing as well as an identification afresh
     /// would, which costs seconds.
     pub fn astray(&self) -> bool {
-        self.current.chi2 > super::ASTRAY_CHI2_PER_DOF * self.expected_chi2
+        super::far_from_noise(self.current.chi2, self.expected_chi2)
     }
 
     /// The recording identified afresh with `modes` modes and the user's
@@ -237,18 +237,27 @@ pub(crate) trait Candidate: Sync {
         self.size()
     }
 
-    /// Its own parameter's name within a fitted parameter's `name` of
-    /// `model`, if the parameter is its own (an effect's are prefixed with
-    /// its name, a replacing joint's are the joint's plain names; a mode's
-    /// with the label `model` gives the mode it added).
-    /// The name its parameters are reported under in `model`: its own
-    /// (a mode's: the label of the mode it added, `second_mode` unless the
-    /// model has further modes of its own).
-    fn label(&self, effect: &str, _model: &Model) -> String {
-        effect.to_string()
+    /// For a candidate that adds a mode: which mode of `model` it added
+    /// (`None`: it adds no mode, or `model` does not hold it). A fit names a
+    /// mode by its place among the modes, so its parameters are found by
+    /// this, not by the candidate's name.
+    fn added_mode(&self, _model: &Model) -> Option<usize> {
+        None
     }
 
-    fn own_parameter<'n>(&self, effect: &str, _model: &Model, name: &'n str) -> Option<&'n str> {
+    /// The name its parameters are reported under in `model`: its own, or
+    /// the label of the mode it added (`second_mode` unless the model holds
+    /// further modes of the user's or hysteretic ones).
+    fn label(&self, effect: &str, model: &Model) -> String {
+        self.added_mode(model)
+            .map_or_else(|| effect.to_string(), |i| model.linear.label(i))
+    }
+
+    /// Its own parameter's name within a fitted parameter's `name` of
+    /// `model`, if the parameter is its own (an effect's are prefixed with
+    /// its [`Candidate::label`], a replacing joint's are the joint's plain
+    /// names).
+    fn own_parameter<'n>(&self, effect: &str, model: &Model, name: &'n str) -> Option<&'n str> {
         if self.replaces_joint() {
             let law = self.law()?.description();
             law.parameters
@@ -256,7 +265,8 @@ pub(crate) trait Candidate: Sync {
                 .any(|p| p.name == name)
                 .then_some(name)
         } else {
-            name.strip_prefix(effect)?.strip_prefix('.')
+            let label = self.label(effect, model);
+            name.strip_prefix(label.as_str())?.strip_prefix('.')
         }
     }
 

@@ -14,18 +14,6 @@ use std::collections::BTreeMap;
 /// See the module docs.
 pub(crate) struct SecondMode;
 
-/// The further linear mode this candidate adds to a model: the last mode
-/// without a joint of its own after the first (the candidate appends it;
-/// a hysteretic mode added later does not take its place).
-pub(crate) fn further_mode(model: &Model) -> Option<usize> {
-    let i = model
-        .linear
-        .modes
-        .iter()
-        .rposition(|m| !m.is_hysteretic())?;
-    (i >= 1).then_some(i)
-}
-
 impl Candidate for SecondMode {
     fn law(&self) -> Option<ElementKind> {
         None
@@ -154,18 +142,21 @@ impl Candidate for SecondMode {
         None
     }
 
-    fn label(&self, effect: &str, model: &Model) -> String {
-        further_mode(model).map_or_else(|| effect.to_string(), |i| model.linear.label(i))
-    }
-
-    fn own_parameter<'n>(&self, _effect: &str, model: &Model, name: &'n str) -> Option<&'n str> {
-        let label = model.linear.label(further_mode(model)?);
-        name.strip_prefix(label.as_str())?.strip_prefix('.')
+    /// The last mode without a joint of its own after the first (the
+    /// candidate appends it; a hysteretic mode added later does not take
+    /// its place).
+    fn added_mode(&self, model: &Model) -> Option<usize> {
+        let i = model
+            .linear
+            .modes
+            .iter()
+            .rposition(|m| !m.is_hysteretic())?;
+        (i >= 1).then_some(i)
     }
 
     fn parameters(&self, model: &Model, data: &FitData) -> BTreeMap<String, f64> {
         let mut out = BTreeMap::new();
-        if let Some(m) = further_mode(model).map(|i| &model.linear.modes[i]) {
+        if let Some(m) = self.added_mode(model).map(|i| &model.linear.modes[i]) {
             out.insert("frequency_hz".into(), m.frequency_hz);
             out.insert("modal_mass".into(), 1.0 / m.residue);
             // a mode above the band is seen there as a flexibility; outside
@@ -215,7 +206,7 @@ impl Candidate for SecondMode {
 
     fn remove(&self, model: &Model) -> Option<Model> {
         let mut m = model.clone();
-        m.linear.modes.remove(further_mode(model)?);
+        m.linear.modes.remove(self.added_mode(model)?);
         Some(m)
     }
 
