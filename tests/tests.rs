@@ -21,6 +21,7 @@ mod protocols;
 mod realdata;
 mod record;
 mod reliability;
+mod shaker;
 mod sim;
 mod time_fit;
 mod uff;

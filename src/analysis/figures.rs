@@ -214,11 +214,21 @@ fn unstable_branch(
         let solved = (a.re.is_finite() && b.re.is_finite() && apart(a, b))
             .then(|| {
                 let w = omega(p.frequency_hz);
-                let h = crate::hb::LinearPart::receptance(&model.linear, w).ok()?;
+                // through the drive model, if any (a shaker), as the solver
+                let driven = crate::hb::Driven {
+                    linear: &model.linear,
+                    load: crate::model::Element::drive_load(&elements),
+                };
+                let h = crate::hb::LinearPart::receptance(&driven, w).ok()?;
+                let d = crate::hb::LinearPart::drive(&driven, w);
                 let samples = opts.samples_per_period;
-                let roots = crate::hb::describing::solve(h, p.force_amplitude, |amp| {
-                    crate::hb::describing::of_elements(&mut elements, amp, w, samples)
-                });
+                let roots: Vec<Complex64> =
+                    crate::hb::describing::solve(h, p.force_amplitude * d.norm(), |amp| {
+                        crate::hb::describing::of_elements(&mut elements, amp, w, samples)
+                    })
+                    .into_iter()
+                    .map(|x| x * (d / d.norm()))
+                    .collect();
                 let &middle = roots.get(1).filter(|_| roots.len() >= 3)?;
                 let mut guess = vec![Complex64::new(0.0, 0.0); opts.harmonics.len()];
                 guess[first] = middle;

@@ -11,7 +11,7 @@
 //!   system), interpolated, and an error outside its range.
 
 use crate::error::{Error, Result};
-use crate::model::ModalModel;
+use crate::model::{DriveLoad, ModalModel};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
@@ -21,6 +21,44 @@ pub trait LinearPart {
     ///
     /// An `Err` where the receptance is not known (outside a table's range).
     fn receptance(&self, omega: f64) -> Result<Complex64>;
+
+    /// How the reference reaches the structure at `omega`: the force at the
+    /// drive point is `D(ω)` times the reference's (1: the reference is the
+    /// force; see [`Driven`]).
+    fn drive(&self, _omega: f64) -> Complex64 {
+        Complex64::new(1.0, 0.0)
+    }
+}
+
+/// A linear part driven through a drive model (a shaker, [`DriveLoad`]):
+/// the receptance with the drive's dynamic stiffness `Z` attached,
+/// `H/(1 + H Z)`, and the drive `D(ω)`. Exact, harmonic by harmonic, since
+/// the drive is linear: with a voltage reference `e` the drive point obeys
+/// `X = H (D E − Z X − G)`, which is `X = H/(1 + HZ) · (D E − G)`.
+#[derive(Clone, Copy, Debug)]
+pub struct Driven<'a, L> {
+    /// The structure.
+    pub linear: &'a L,
+    /// The drive model; `None` passes the structure through.
+    pub load: Option<DriveLoad>,
+}
+
+impl<L: LinearPart> LinearPart for Driven<'_, L> {
+    #[inline]
+    fn receptance(&self, omega: f64) -> Result<Complex64> {
+        let h = self.linear.receptance(omega)?;
+        Ok(match self.load {
+            Some(load) => h / (1.0 + h * load.impedance(omega)),
+            None => h,
+        })
+    }
+    #[inline]
+    fn drive(&self, omega: f64) -> Complex64 {
+        match self.load {
+            Some(load) => load.drive(omega) * self.linear.drive(omega),
+            None => self.linear.drive(omega),
+        }
+    }
 }
 
 impl LinearPart for ModalModel {
@@ -47,6 +85,9 @@ impl<L: LinearPart> LinearPart for SampledReceptance<'_, L> {
     fn receptance(&self, omega: f64) -> Result<Complex64> {
         let u = omega / (2.0 * PI * self.sample_rate_hz);
         Ok(self.linear.receptance(omega)? * crate::harmonics::sinc(u).powi(2))
+    }
+    fn drive(&self, omega: f64) -> Complex64 {
+        self.linear.drive(omega)
     }
 }
 

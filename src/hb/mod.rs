@@ -65,7 +65,7 @@ pub mod linear;
 mod newton;
 
 pub use check::{HbCheck, SteadyDwell, check_hb};
-pub use linear::{LinearPart, SampledReceptance, TabulatedFrf};
+pub use linear::{Driven, LinearPart, SampledReceptance, TabulatedFrf};
 
 use crate::error::{Error, Result};
 #[cfg(doc)]
@@ -331,6 +331,12 @@ impl HbSolver {
     ) -> Result<HbPoint> {
         check_force(force_amplitude)?;
         check_frequency(0, frequency_hz)?;
+        // a drive model among the elements (a shaker) is balanced exactly
+        // through the linear part
+        let linear = &Driven {
+            linear,
+            load: elements.drive_load(),
+        };
         let omega = 2.0 * std::f64::consts::PI * frequency_hz;
         self.core.set_frequency(linear, omega)?;
         let n = self.core.n;
@@ -377,6 +383,10 @@ impl HbSolver {
         force_amplitude: f64,
     ) -> Result<HbSweep> {
         check_force(force_amplitude)?;
+        let linear = &Driven {
+            linear,
+            load: elements.drive_load(),
+        };
         for (i, &f) in frequencies_hz.iter().enumerate() {
             check_frequency(i, f)?;
             // the linear part must cover every harmonic of every point

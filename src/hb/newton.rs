@@ -122,6 +122,9 @@ pub(crate) struct Core {
     pub n: usize,
     /// `H(hω)` for each harmonic at `omega`.
     hs: Vec<Complex64>,
+    /// `D(ω)`: how the drive reaches the structure (1 without a drive model,
+    /// see [`LinearPart::drive`]).
+    drive: Complex64,
     omega: f64,
     g: Vec<f64>,
     dg: Vec<f64>,
@@ -158,6 +161,7 @@ impl Core {
             opts: opts.clone(),
             n,
             hs: vec![Complex64::new(0.0, 0.0); opts.harmonics.len()],
+            drive: Complex64::new(1.0, 0.0),
             omega: f64::NAN,
             g: vec![0.0; n],
             dg: vec![0.0; n * n],
@@ -178,10 +182,12 @@ impl Core {
 
     /// Sets the frequency: evaluates `H(hω)` for every harmonic.
     pub fn set_frequency<L: LinearPart>(&mut self, linear: &L, omega: f64) -> crate::Result<()> {
-        if omega == self.omega {
+        let drive = linear.drive(omega);
+        if omega == self.omega && drive == self.drive {
             return Ok(());
         }
         self.at_solution = false;
+        self.drive = drive;
         for (i, &h) in self.aft.layout.harmonics.iter().enumerate() {
             let z = linear.receptance(h as f64 * omega).map_err(|e| match e {
                 crate::Error::InvalidInput { what, message } => crate::Error::input(
@@ -226,7 +232,7 @@ impl Core {
             self.opts.periodic_loop,
             odd,
             elements,
-            force,
+            force * self.drive,
             x,
             r,
             jac,
@@ -267,6 +273,7 @@ impl Core {
         let omega = *omega;
         let method = opts.periodic_loop;
         let odd = opts.half_wave_symmetry && elements.odd_law();
+        let force = force * self.drive;
         let mut eval = |x: &[f64], r: &mut [f64], j: Option<&mut [f64]>, c: &mut Counters| {
             c.residuals += 1;
             if j.is_some() {
@@ -474,7 +481,11 @@ impl Core {
                     self.lu[s * n + k] = a * dg0[s * n + k];
                 }
             } else {
-                let f = if h == 1 { force } else { 0.0 };
+                let f = if h == 1 {
+                    force * linear.drive(omega)
+                } else {
+                    Complex64::new(0.0, 0.0)
+                };
                 let v =
                     Complex64::new(x0[s], x0[s + 1]) - hh * (f - Complex64::new(g0[s], g0[s + 1]));
                 self.rfd[s] = v.re;
@@ -531,6 +542,7 @@ impl Core {
         let w2 = omega * (1.0 + eps);
         if elements.uses_velocity() {
             let saved_hs = self.hs.clone();
+            let saved_drive = self.drive;
             if self.set_frequency(linear, w2).is_err() {
                 return false;
             }
@@ -546,12 +558,13 @@ impl Core {
                 self.opts.periodic_loop,
                 odd,
                 elements,
-                force,
+                force * self.drive,
                 x,
                 &mut rfd,
                 None,
             );
             self.hs = saved_hs;
+            self.drive = saved_drive;
             self.omega = omega;
             self.at_solution = false;
             if ok.is_err() {
@@ -573,8 +586,14 @@ impl Core {
                     return false;
                 };
                 let dh = (h2 - self.hs[i]) / (w2 - omega);
-                let f = if h == 1 { force } else { 0.0 };
-                let rw = -dh * (f - Complex64::new(self.g[s], self.g[s + 1]));
+                let g = Complex64::new(self.g[s], self.g[s + 1]);
+                // ∂/∂ω of H(hω)(F D(ω) δ_{h1} − G_h)
+                let rw = if h == 1 {
+                    let dhd = (h2 * linear.drive(w2) - self.hs[i] * self.drive) / (w2 - omega);
+                    -(dhd * force - dh * g)
+                } else {
+                    dh * g
+                };
                 t[s] = -rw.re;
                 t[s + 1] = -rw.im;
             }
@@ -631,7 +650,7 @@ fn residual<E: Element>(
     method: super::PeriodicLoop,
     odd_law: bool,
     elements: &mut E,
-    force: f64,
+    force: Complex64,
     x: &[f64],
     r: &mut [f64],
     jac: Option<&mut [f64]>,
@@ -655,7 +674,11 @@ fn residual<E: Element>(
             // H(0) is real for a physical structure
             r[s] = x[s] + hh.re * g[s];
         } else {
-            let f = if h == 1 { force } else { 0.0 };
+            let f = if h == 1 {
+                force
+            } else {
+                Complex64::new(0.0, 0.0)
+            };
             let v = Complex64::new(x[s], x[s + 1]) - hh * (f - Complex64::new(g[s], g[s + 1]));
             r[s] = v.re;
             r[s + 1] = v.im;

@@ -59,6 +59,30 @@ pub struct ImplicitStep {
     pub force: f64,
 }
 
+/// How a drive model between the reference and the structure (a shaker)
+/// loads the structure, per harmonic: the reference reaches the drive point
+/// as `D(ω) F`, `D = 1/(1 + jωτ)`, and the drive adds the dynamic stiffness
+/// `Z(ω) = jω c/(1 + jωτ)` there (see [`crate::model::Shaker`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveLoad {
+    /// Back-EMF damping `c`, N s/m (in the model's force unit).
+    pub back_emf: f64,
+    /// Lag time constant `τ`, s.
+    pub time_constant: f64,
+}
+
+impl DriveLoad {
+    /// `D(ω) = 1/(1 + jωτ)`: the drive as it reaches the structure.
+    pub fn drive(&self, omega: f64) -> Complex64 {
+        1.0 / Complex64::new(1.0, omega * self.time_constant)
+    }
+
+    /// `Z(ω) = jω c/(1 + jωτ)`: the dynamic stiffness the drive adds.
+    pub fn impedance(&self, omega: f64) -> Complex64 {
+        Complex64::new(0.0, omega * self.back_emf) * self.drive(omega)
+    }
+}
+
 /// Relative tolerance of the per-sample implicit equation's root `u` (see
 /// [`ImplicitStep`]), whoever solves it: an element's own
 /// [`Element::solve_implicit`] or the simulator's safeguarded solve. Far
@@ -147,6 +171,19 @@ pub trait Element {
     /// inside the sample (see [`Element::kink_impulse`]); 0 (the default
     /// state, and harmonic balance's) leaves the law sampled as is.
     fn set_sample_interval(&mut self, _h: f64) {}
+
+    /// The time between the samples the simulator commits (s), given once
+    /// before the first. A law with dynamics of its own (a lag) needs it;
+    /// harmonic balance never gives one, so such a law must be linear and
+    /// give its effect there through [`Element::drive_load`].
+    fn set_time_step(&mut self, _h: f64) {}
+
+    /// The drive model the element stands for, if it is one (a shaker):
+    /// harmonic balance applies it to the drive and the receptance, the
+    /// simulator lags its drive by it.
+    fn drive_load(&self) -> Option<DriveLoad> {
+        None
+    }
 
     /// The impulse (N s) by which the element force's path inside the sample
     /// just committed exceeds the straight line between its two samples,
@@ -286,6 +323,13 @@ impl<E: Element> Element for ElementSet<E> {
     #[inline]
     fn kink_impulse(&self) -> f64 {
         self.elements.iter().map(Element::kink_impulse).sum()
+    }
+    fn set_time_step(&mut self, h: f64) {
+        self.elements.iter_mut().for_each(|e| e.set_time_step(h));
+    }
+    /// The first member's (a model has at most one drive).
+    fn drive_load(&self) -> Option<DriveLoad> {
+        self.elements.iter().find_map(Element::drive_load)
     }
     #[inline]
     fn solve_implicit(&self, step: &ImplicitStep) -> Option<f64> {

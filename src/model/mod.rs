@@ -20,6 +20,7 @@ pub mod jenkins;
 pub mod masing;
 pub mod modal;
 pub mod quadratic_damping;
+pub mod shaker;
 pub mod viscous_damping;
 
 pub use bilinear_stiffness::BilinearStiffness;
@@ -27,7 +28,8 @@ pub use bouc_wen::BoucWen;
 pub use clearance::Clearance;
 pub use cubic_stiffness::CubicStiffness;
 pub use element::{
-    Description, Domain, Element, ElementForce, ElementSet, FitScale, ImplicitStep, Law, NoElement,
+    Description, Domain, DriveLoad, Element, ElementForce, ElementSet, FitScale, ImplicitStep, Law,
+    NoElement,
     ParameterInfo, Role,
 };
 pub use iwan::Iwan4Backbone;
@@ -35,6 +37,7 @@ pub use jenkins::Jenkins;
 pub use masing::{Backbone, Masing, PiecewiseLinearBackbone, PowerBackbone};
 pub use modal::{ModalModel, Mode};
 pub use quadratic_damping::QuadraticDamping;
+pub use shaker::Shaker;
 pub use viscous_damping::ViscousDamping;
 
 use crate::error::{Error, Result, require_finite, require_non_negative, require_positive};
@@ -154,6 +157,7 @@ registry! {
     BilinearStiffness(BilinearStiffness) { kb },
     Clearance(Clearance) { k, gap },
     ViscousDamping(ViscousDamping) { cj },
+    Shaker(Shaker) { ce, te },
 }
 
 impl ElementKind {
@@ -341,6 +345,12 @@ impl Element for AnyElement {
     fn kink_impulse(&self) -> f64 {
         dispatch!(self, e => e.kink_impulse())
     }
+    fn set_time_step(&mut self, h: f64) {
+        dispatch!(self, e => e.set_time_step(h))
+    }
+    fn drive_load(&self) -> Option<element::DriveLoad> {
+        dispatch!(self, e => e.drive_load())
+    }
     #[inline]
     fn commit_sensitivity(
         &mut self,
@@ -522,6 +532,28 @@ impl Model {
         }
         for (at, e) in self.placed() {
             e.validate(&at.to_string())?;
+        }
+        let drives: Vec<ElementAt> = self
+            .placed()
+            .filter(|(_, e)| e.kind() == ElementKind::Shaker)
+            .map(|(at, _)| at)
+            .collect();
+        if drives.len() > 1 {
+            return Err(Error::model(
+                drives[1].to_string(),
+                "a model has one shaker (the drive of its one reference)",
+            ));
+        }
+        if let Some(at) = drives.first()
+            && self.linear.has_hysteretic_modes()
+        {
+            // the back-EMF answers the drive point's whole velocity, which
+            // would couple the parts that the solvers balance apart
+            return Err(Error::model(
+                at.to_string(),
+                "a shaker with a hysteretic mode is not supported: the back-EMF couples the \
+                 mode with the rest of the structure; give the mode as a linear one",
+            ));
         }
         Ok(())
     }

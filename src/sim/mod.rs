@@ -26,6 +26,7 @@ pub use filter::{ModeFilter, Section};
 
 use crate::error::{Error, Result};
 use crate::model::element::SOLVE_TOLERANCE;
+use crate::model::shaker::Lag;
 use crate::model::{AnyElement, Element, ImplicitStep, ModalModel, Model};
 
 /// One output sample.
@@ -136,6 +137,9 @@ pub struct Simulator<E: Element> {
     /// same force, and the sign its contribution takes at the point (see
     /// [`crate::model::modal`]).
     hysteretic: Vec<(f64, Simulator<AnyElement>)>,
+    /// The drive's lag between the reference and the structure (a shaker's
+    /// coil, [`Element::drive_load`]); off without one.
+    drive_lag: Lag,
 }
 
 const MAX_NEWTON: usize = 8;
@@ -146,7 +150,7 @@ impl<E: Element> Simulator<E> {
     ///
     /// Errors if the sample rate is not finite and above twice the highest
     /// mode (the filters would alias the modes themselves).
-    pub fn new(linear: &ModalModel, elements: E, sample_rate_hz: f64) -> Result<Self> {
+    pub fn new(linear: &ModalModel, mut elements: E, sample_rate_hz: f64) -> Result<Self> {
         linear.validate()?;
         let top = linear.highest_frequency_hz();
         if !(sample_rate_hz.is_finite() && sample_rate_hz > 2.0 * top) {
@@ -160,6 +164,11 @@ impl<E: Element> Simulator<E> {
             ));
         }
         let t = 1.0 / sample_rate_hz;
+        elements.set_time_step(t);
+        let drive_lag = match elements.drive_load() {
+            Some(load) => Lag::new(load.time_constant, t),
+            None => Lag::default(),
+        };
         // `elements` act on the point structure; each hysteretic mode is
         // simulated apart with its own joint
         let mut hysteretic = Vec::new();
@@ -194,6 +203,7 @@ impl<E: Element> Simulator<E> {
             sample_rate: sample_rate_hz,
             stats: SolveStats::default(),
             hysteretic,
+            drive_lag,
         })
     }
 
@@ -238,6 +248,7 @@ impl<E: Element> Simulator<E> {
             .for_each(|s| *s = ModeState::default());
         self.u = [0.0; 2];
         self.elements.reset();
+        self.drive_lag.reset();
         self.hysteretic.iter_mut().for_each(|(_, s)| s.reset());
     }
 
@@ -314,6 +325,20 @@ impl<E: Element> Simulator<E> {
         mut input: impl FnMut(usize) -> f64,
         mut sink: impl FnMut(usize, Sample),
     ) -> Result<()> {
+        if self.drive_lag.is_on() {
+            // the structure is driven through the drive's lag (a model with
+            // a shaker has no hysteretic mode: `Model::validate`)
+            for i in 0..n {
+                let reference = input(i);
+                if !reference.is_finite() {
+                    return Err(self.bad_force(reference));
+                }
+                let force = self.drive_lag.commit(reference);
+                let s = self.step_modal(force)?;
+                sink(i, s);
+            }
+            return Ok(());
+        }
         if !self.hysteretic.is_empty() {
             // the point structure and every hysteretic mode, sample by
             // sample: their motions add, and so do their joints' forces
