@@ -175,3 +175,60 @@ fn a_cubic_spring_through_a_shaker_is_the_coils_rk4() {
         );
     }
 }
+
+/// Beside a hysteretic mode (an SDOF of its own with a Jenkins joint) the
+/// coil's lag drives every part and the back-EMF answers the point
+/// structure: harmonic balance of the parts (`Model::parts`, as the fit's
+/// predictor balances them) against the simulator of the whole model, which
+/// realise that one model by different means, in H1 at a level where the
+/// mode's joint slips.
+#[test]
+fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
+    use hystid::model::Mode;
+    let mut hysteretic = Mode::from_modal_mass(130.0, 0.02, 2.0).unwrap();
+    hysteretic.joint = Some(ElementSpec::Jenkins { kd: 1.3e6, fd: 20.0 });
+    let linear = ModalModel::new(vec![Mode::from_mck(M, C, K).unwrap(), hysteretic]).unwrap();
+    let m = Model::new(
+        linear,
+        vec![ElementSpec::Shaker {
+            ce: BL * BL / R,
+            te: L / R,
+        }],
+    )
+    .unwrap();
+    let opts = HbOptions {
+        harmonics: vec![1, 3, 5, 7, 9],
+        samples_per_period: 1024,
+        ..HbOptions::default()
+    };
+    let force = 60.0;
+    for f in [100.0, 130.0] {
+        let mut hb = Complex64::new(0.0, 0.0);
+        for (sign, part) in m.parts() {
+            let pt = solve_point(&part.linear, &mut part.element_set().unwrap(), f, force, None, &opts)
+                .unwrap();
+            assert!(pt.converged);
+            hb += sign * pt.x[0];
+        }
+        let p = 2000;
+        let mut sim = Simulator::new(&m.linear, m.element_set().unwrap(), f * p as f64).unwrap();
+        let periods = (2.0 * f) as usize;
+        let drive: Vec<f64> = (0..periods * p)
+            .map(|n| force * (2.0 * PI * (n % p) as f64 / p as f64).cos())
+            .collect();
+        let x = sim.run(&drive).unwrap().displacement;
+        let s = harmonic(&x, p, 20, 1);
+        assert!((s / hb - 1.0).norm() < 2e-3, "at {f} Hz: simulated {s} vs HB {hb}");
+        // the mode's joint slips: held stuck, the response differs by more
+        let mut stuck = m.clone();
+        stuck.linear.modes[1].joint = Some(ElementSpec::Jenkins { kd: 1.3e6, fd: 1e6 });
+        let mut held = Complex64::new(0.0, 0.0);
+        for (sign, part) in stuck.parts() {
+            held += sign
+                * solve_point(&part.linear, &mut part.element_set().unwrap(), f, force, None, &opts)
+                    .unwrap()
+                    .x[0];
+        }
+        assert!((held / hb - 1.0).norm() > 0.01, "at {f} Hz the joint sticks: {held} vs {hb}");
+    }
+}

@@ -321,7 +321,9 @@ pub struct DiagnoseArgs {
     /// iwan4_joint (an Iwan joint in place of the fitted joint law),
     /// hysteretic_mode (a further mode with a joint of its own; tried where
     /// the model leaves more than twice the noise, its refit costing as much
-    /// as the rest of a diagnosis) and bouc_wen_joint (a Bouc-Wen joint in
+    /// as the rest of a diagnosis), shaker (the coil's lag and back-EMF
+    /// between a voltage reference and the structure; for a voltage
+    /// reference only) and bouc_wen_joint (a Bouc-Wen joint in
     /// its place; tried when named, its refit costing many times the
     /// others'); `all` for every one, `default` for the default set (e.g.
     /// `default,bouc_wen_joint`).

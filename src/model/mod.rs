@@ -289,6 +289,14 @@ impl ElementSpec {
         Ok((xs, fs))
     }
 
+    /// The drive model it stands for, if it is one (a shaker).
+    pub fn drive_load(&self) -> Option<DriveLoad> {
+        match *self {
+            ElementSpec::Shaker { ce, te } => Shaker::new(ce, te).drive_load(),
+            _ => None,
+        }
+    }
+
     /// The stick stiffness a hysteresis element adds at small amplitude
     /// (0 for the others).
     pub fn stick_stiffness(&self) -> f64 {
@@ -533,26 +541,14 @@ impl Model {
         for (at, e) in self.placed() {
             e.validate(&at.to_string())?;
         }
-        let drives: Vec<ElementAt> = self
+        let drives: Vec<(ElementAt, &ElementSpec)> = self
             .placed()
-            .filter(|(_, e)| e.kind() == ElementKind::Shaker)
-            .map(|(at, _)| at)
+            .filter(|(_, e)| e.drive_load().is_some())
             .collect();
         if drives.len() > 1 {
             return Err(Error::model(
-                drives[1].to_string(),
+                drives[1].0.to_string(),
                 "a model has one shaker (the drive of its one reference)",
-            ));
-        }
-        if let Some(at) = drives.first()
-            && self.linear.has_hysteretic_modes()
-        {
-            // the back-EMF answers the drive point's whole velocity, which
-            // would couple the parts that the solvers balance apart
-            return Err(Error::model(
-                at.to_string(),
-                "a shaker with a hysteretic mode is not supported: the back-EMF couples the \
-                 mode with the rest of the structure; give the mode as a linear one",
             ));
         }
         Ok(())
@@ -706,6 +702,17 @@ impl Model {
                 },
             ));
         }
+        // the drive's lag (a shaker's coil) reaches every part alike; its
+        // back-EMF answers the point structure's motion alone (see
+        // `Shaker`), so a hysteretic mode gets the lag without it
+        let drive: Vec<ElementSpec> = self
+            .effects
+            .iter()
+            .filter_map(|e| match *e {
+                ElementSpec::Shaker { te, .. } => Some(ElementSpec::Shaker { ce: 0.0, te }),
+                _ => None,
+            })
+            .collect();
         for m in self.linear.modes.iter().filter(|m| m.is_hysteretic()) {
             let (sign, linear) = m.own_sdof();
             parts.push((
@@ -713,7 +720,7 @@ impl Model {
                 Model {
                     linear,
                     joint: m.joint,
-                    effects: Vec::new(),
+                    effects: drive.clone(),
                 },
             ));
         }

@@ -31,6 +31,18 @@
 //! structure's own sections are: exact for a drive and a velocity linear
 //! between samples.
 //!
+//! **With hysteretic modes** (each an SDOF of its own, balanced and
+//! simulated apart: `Model::parts`) the lag drives every part alike, exactly,
+//! but the back-EMF answers the point structure's motion only, an
+//! approximation: coupling it to the hysteretic modes' motion would couple
+//! the parts. Harmonic balance and the simulator make the same one.
+//!
+//! **What a voltage alone tells.** At one frequency the back-EMF damping is
+//! the modes' own viscous damping; only its lag's frequency dependence tells
+//! them apart, so over a band around one mode `ce` is poorly determined
+//! while `te` (a phase the modes' real modal constants cannot make) is well
+//! determined.
+//!
 //! Reference: the lumped electrodynamic shaker of McConnell & Varoto,
 //! *Vibration Testing*, 2nd ed., ch. 6 (force drop at resonance), and Olsen,
 //! "Using and understanding electrodynamic shakers in modal applications",

@@ -325,25 +325,19 @@ impl<E: Element> Simulator<E> {
         mut input: impl FnMut(usize) -> f64,
         mut sink: impl FnMut(usize, Sample),
     ) -> Result<()> {
-        if self.drive_lag.is_on() {
-            // the structure is driven through the drive's lag (a model with
-            // a shaker has no hysteretic mode: `Model::validate`)
-            for i in 0..n {
-                let reference = input(i);
-                if !reference.is_finite() {
-                    return Err(self.bad_force(reference));
-                }
-                let force = self.drive_lag.commit(reference);
-                let s = self.step_modal(force)?;
-                sink(i, s);
-            }
-            return Ok(());
-        }
-        if !self.hysteretic.is_empty() {
+        if self.drive_lag.is_on() || !self.hysteretic.is_empty() {
             // the point structure and every hysteretic mode, sample by
-            // sample: their motions add, and so do their joints' forces
+            // sample: their motions add, and so do their joints' forces;
+            // all are driven through the drive's lag, if any (a shaker's,
+            // whose back-EMF is the point structure's element: `Shaker`)
             for i in 0..n {
-                let force = input(i);
+                let mut force = input(i);
+                if self.drive_lag.is_on() {
+                    if !force.is_finite() {
+                        return Err(self.bad_force(force));
+                    }
+                    force = self.drive_lag.commit(force);
+                }
                 let mut s = self.step_modal(force)?;
                 for (sign, mode) in &mut self.hysteretic {
                     let m = mode.step(force)?;

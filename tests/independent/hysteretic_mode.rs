@@ -56,6 +56,7 @@ fn a_hysteretic_mode_from_the_independent_simulator_is_found() {
         modes: vec![RefMode::from_hz(f_bare, zeta, mass)],
         joint: RefJoint::Jenkins { kd, fd },
         effects: vec![],
+        coil: None,
     };
     let rec = generate_with(&case, &[mode]);
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("independent-hysteretic-mode");

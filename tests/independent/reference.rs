@@ -62,6 +62,7 @@ fn check_linear(modes: Vec<RefMode>, fs: f64, freqs: &[f64]) {
         modes: modes.clone(),
         joint: RefJoint::None,
         effects: vec![],
+        coil: None,
     };
     for &f in freqs {
         // 12 time constants of transient (e^-12 ≈ 6e-6), then 40 periods

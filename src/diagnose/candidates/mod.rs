@@ -15,6 +15,7 @@ mod hysteretic_mode;
 mod iwan4_joint;
 mod quadratic_damping;
 mod second_mode;
+mod shaker;
 
 use super::{DiagnoseOptions, Refit, ResidualFeatures, SelectedEffect};
 use crate::error::Result;
@@ -375,6 +376,7 @@ candidates! {
     Iwan4Joint("iwan4_joint", iwan4_joint::Iwan4Joint),
     BoucWenJoint("bouc_wen_joint", bouc_wen_joint::BoucWenJoint),
     HystereticMode("hysteretic_mode", hysteretic_mode::HystereticMode),
+    Shaker("shaker", shaker::Shaker),
 }
 
 impl Effect {

@@ -1,7 +1,7 @@
 //! The seeded corpus: cases drawn over what users have, turned into
 //! recordings by the reference simulator.
 
-use super::refsim::{RefEffect, RefJoint, RefMode, RefSystem, SteppedSine};
+use super::refsim::{RefCoil, RefEffect, RefJoint, RefMode, RefSystem, SteppedSine};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -210,6 +210,9 @@ pub struct Case {
     pub analysis_periods: u64,
     /// Sub-steps of RK4 per sample.
     pub substeps: usize,
+    /// A shaker's coil between the drive and the structure: the levels are
+    /// then volts and the reference is the voltage.
+    pub coil: Option<RefCoil>,
 }
 
 impl Case {
@@ -280,6 +283,7 @@ impl Case {
             modes,
             joint,
             effects,
+            coil: self.coil,
         }
     }
     /// The modes' slowest decay time 1/(ζω), s.
@@ -458,6 +462,7 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         force_noise: 0.005,
         analysis_periods: rng.random_range(16..=32u64),
         substeps: 16,
+        coil: None,
     };
     let x_top = case.top_amplitude();
     let mut kinds = effects.to_vec();

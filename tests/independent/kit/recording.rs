@@ -67,6 +67,7 @@ pub fn truth_json(case: &Case) -> Value {
         "response_noise": case.response_noise,
         "force_noise": case.force_noise,
         "substeps": case.substeps,
+        "coil": case.coil.map(|c| json!({"resistance": c.r, "inductance": c.l, "force_factor": c.bl})),
     })
 }
 
@@ -118,7 +119,11 @@ pub fn write_recording(dir: &Path, case: &Case, rec: &Recording) -> std::io::Res
         "format": "hystid.recording.v1",
         "sample_rate_hz": rec.sample_rate,
         "channels": [
-            {"name": "force", "quantity": "force", "unit": "N", "scale": scales[0]},
+            match case.coil {
+                // through a shaker's coil the reference is the voltage
+                Some(_) => json!({"name": "drive", "quantity": "voltage", "unit": "V", "scale": scales[0]}),
+                None => json!({"name": "force", "quantity": "force", "unit": "N", "scale": scales[0]}),
+            },
             {"name": "response", "quantity": case.quantity.name(), "unit": case.quantity.unit(), "scale": scales[1]},
         ],
         "excitation": excitation,

@@ -433,12 +433,27 @@ impl SteppedSine {
     }
 }
 
-/// The system: modes, joint and smooth effects at one point.
+/// An electrodynamic shaker's coil between the drive and the structure:
+/// `L i' + R i + Bl x' = e`, the structure pushed by `Bl i`. The drive `e`
+/// (V) is then what the recording's reference holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefCoil {
+    /// Resistance, ohm.
+    pub r: f64,
+    /// Inductance, H.
+    pub l: f64,
+    /// Force factor, N/A.
+    pub bl: f64,
+}
+
+/// The system: modes, joint and smooth effects at one point, driven by a
+/// force or, through a coil, by a voltage.
 #[derive(Clone, Debug)]
 pub struct RefSystem {
     pub modes: Vec<RefMode>,
     pub joint: RefJoint,
     pub effects: Vec<RefEffect>,
+    pub coil: Option<RefCoil>,
 }
 
 /// What the simulation records per sample.
@@ -505,6 +520,12 @@ impl RefSystem {
         // a differential joint's force, integrated with the structure
         let differential = self.joint.is_differential();
         let mut z = 0.0;
+        // the coil's current (a further state, integrated with the rest)
+        let mut current = 0.0;
+        let coil = self.coil;
+        // the force on the structure from the drive `e` and the current
+        let pushed = |e: f64, ii: f64| coil.map_or(e, |c| c.bl * ii);
+        let current_rate = |e: f64, ii: f64, v: f64| coil.map_or(0.0, |c| (e - c.r * ii - c.bl * v) / c.l);
         for i in 0..n {
             // record the state at the sample instant
             let t = i as f64 * dt;
@@ -514,7 +535,7 @@ impl RefSystem {
             let fnl = fh + self.smooth(x, v);
             let mut a = 0.0;
             for (r, m) in self.modes.iter().enumerate() {
-                a += m.residue * (f - fnl)
+                a += m.residue * (pushed(f, current) - fnl)
                     - 2.0 * m.zeta * m.omega * p[r]
                     - m.omega * m.omega * q[r];
             }
@@ -531,7 +552,8 @@ impl RefSystem {
             // than the structure moves at large amplitudes, so the step is
             // shortened until it resolves that (λh <= 0.1, twice the rate
             // the sample starts with: RK4's error then ~1e-7 per step)
-            let lambda = 2.0 * self.joint.stiffness_rate(fh, v);
+            // the coil's own rate R/L too
+            let lambda = (2.0 * self.joint.stiffness_rate(fh, v)).max(coil.map_or(0.0, |c| c.r / c.l));
             let nsub = substeps.max(((lambda * dt / 0.1).ceil() as usize).min(1 << 16));
             let h = dt / nsub as f64;
             for s in 0..nsub {
@@ -540,27 +562,30 @@ impl RefSystem {
                 let stage = |q: &[f64; MAXM],
                              p: &[f64; MAXM],
                              zz: f64,
+                             ii: f64,
                              tt: f64,
                              hint: &mut usize,
                              dq: &mut [f64; MAXM],
                              dp: &mut [f64; MAXM]|
-                 -> f64 {
+                 -> (f64, f64) {
                     let x = q[..nm].iter().sum::<f64>();
                     let v = p[..nm].iter().sum::<f64>();
                     let fj = if differential { zz } else { hyst.force_at(x) };
-                    let fnet = force.force(tt, hint) - fj - self.smooth(x, v);
+                    let e = force.force(tt, hint);
+                    let fnet = pushed(e, ii) - fj - self.smooth(x, v);
                     self.deriv(q, p, fnet, dq, dp);
-                    self.joint.rate(zz, v)
+                    (self.joint.rate(zz, v), current_rate(e, ii, v))
                 };
-                let k1z = stage(&q, &p, z, ts, &mut hint, &mut k1q, &mut k1p);
+                let (k1z, k1i) = stage(&q, &p, z, current, ts, &mut hint, &mut k1q, &mut k1p);
                 for r in 0..nm {
                     tq[r] = q[r] + 0.5 * h * k1q[r];
                     tp[r] = p[r] + 0.5 * h * k1p[r];
                 }
-                let k2z = stage(
+                let (k2z, k2i) = stage(
                     &tq,
                     &tp,
                     z + 0.5 * h * k1z,
+                    current + 0.5 * h * k1i,
                     ts + 0.5 * h,
                     &mut hint,
                     &mut k2q,
@@ -570,10 +595,11 @@ impl RefSystem {
                     tq[r] = q[r] + 0.5 * h * k2q[r];
                     tp[r] = p[r] + 0.5 * h * k2p[r];
                 }
-                let k3z = stage(
+                let (k3z, k3i) = stage(
                     &tq,
                     &tp,
                     z + 0.5 * h * k2z,
+                    current + 0.5 * h * k2i,
                     ts + 0.5 * h,
                     &mut hint,
                     &mut k3q,
@@ -583,7 +609,17 @@ impl RefSystem {
                     tq[r] = q[r] + h * k3q[r];
                     tp[r] = p[r] + h * k3p[r];
                 }
-                let k4z = stage(&tq, &tp, z + h * k3z, ts + h, &mut hint, &mut k4q, &mut k4p);
+                let (k4z, k4i) = stage(
+                    &tq,
+                    &tp,
+                    z + h * k3z,
+                    current + h * k3i,
+                    ts + h,
+                    &mut hint,
+                    &mut k4q,
+                    &mut k4p,
+                );
+                current += h / 6.0 * (k1i + 2.0 * k2i + 2.0 * k3i + k4i);
                 for r in 0..nm {
                     q[r] += h / 6.0 * (k1q[r] + 2.0 * k2q[r] + 2.0 * k3q[r] + k4q[r]);
                     p[r] += h / 6.0 * (k1p[r] + 2.0 * k2p[r] + 2.0 * k3p[r] + k4p[r]);
