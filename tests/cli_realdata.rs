@@ -1246,3 +1246,77 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         );
     }
 }
+
+/// Issue 13's UNESP protocol with the shaker (issue 12): the time-domain fit
+/// of the 0.05 / 0.15 / 0.25 V chirps started from the FRF fit's mode and
+/// Masing joint plus the diagnosis's shaker lag
+/// (`signals/unesp_shaker_start.toml`, a transfer: `response_sign = -1`),
+/// validated on the 0.10 / 0.20 / 0.30 V chirps over 88-100 Hz. The README's
+/// rows are pinned, and each is below the protocol's own (no shaker).
+#[test]
+fn unesp_time_fit_with_the_shaker_is_the_readmes() {
+    let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
+        return;
+    };
+    let work = tempfile::tempdir().unwrap();
+    let chirp = |l: &str| {
+        super::protocols::import(
+            work.path(),
+            &data.join(format!("csv/chirp_70to110Hz_{l}V_time.csv")),
+            &format!("c{l}"),
+            &super::protocols::UNESP_IMPORT,
+        )
+    };
+    let fit: Vec<PathBuf> = ["0p05", "0p15", "0p25"].iter().map(|l| chirp(l)).collect();
+    let held: Vec<PathBuf> = ["0p10", "0p20", "0p30"].iter().map(|l| chirp(l)).collect();
+    let start = Path::new(env!("CARGO_MANIFEST_DIR")).join("signals/unesp_shaker_start.toml");
+    let out = work.path().join("fit");
+    let mut args: Vec<&str> = vec!["identify"];
+    args.extend(fit.iter().map(|p| s(p)));
+    args.extend([
+        "--domain",
+        "time",
+        "--start",
+        s(&start),
+        "--band",
+        "88:100",
+        "-q",
+        "--out",
+        s(&out),
+    ]);
+    run_ok(&args);
+    let fitted = json(&out.join("fit.json"));
+    assert_eq!(fitted["time_domain"]["response_sign"], -1.0);
+    let te = fitted["time_domain"]["parameters"]["shaker.te"]["value"]
+        .as_f64()
+        .unwrap();
+    let val = work.path().join("val");
+    let fit_json = out.join("fit.json");
+    let mut args: Vec<&str> = vec!["validate", s(&fit_json)];
+    args.extend(held.iter().map(|p| s(p)));
+    args.extend(["--band", "88:100", "-q", "--out", s(&val)]);
+    run_ok(&args);
+    let v = json(&val.join("validate.json"));
+    let first = common::readme_figures("UNESP with the shaker, fitted lag:").expect("README line");
+    common::assert_readme_figure("the fitted lag te (s)", te, first[0]);
+    for (r, l) in v["recordings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(["0.10", "0.20", "0.30"])
+    {
+        let relative = 100.0 * r["window"]["relative"].as_f64().unwrap();
+        let e_rms = r["window"]["e_rms"].as_f64().unwrap();
+        eprintln!("{l} V: e_RMS {e_rms:.4} m/s, {relative:.1} % of the RMS");
+        let shown = common::readme_figures(&format!("| UNESP with the shaker | {l} V |"))
+            .expect("README row");
+        common::assert_readme_figure(&format!("{l} V e_RMS"), e_rms, shown[0]);
+        common::assert_readme_figure(&format!("{l} V share (%)"), relative, shown[1]);
+        let without = common::readme_figures(&format!("| UNESP | {l} V |")).expect("README row");
+        assert!(
+            relative < without[1].0,
+            "{l} V: {relative} % vs {} % without",
+            without[1].0
+        );
+    }
+}

@@ -336,8 +336,12 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, **kwargs):
     :func:`identify`). ``candidates``: effect names (default:
     ``second_mode``, ``cubic_stiffness``, ``bilinear_stiffness``,
     ``quadratic_damping``, ``clearance``, ``iwan4_joint``: an Iwan joint
-    in place of the fitted joint law; ``bouc_wen_joint``, a Bouc-Wen joint
-    in its place, is tried when named; ``"all"`` names every one).
+    in place of the fitted joint law; ``hysteretic_mode``, a further mode
+    with a joint of its own, where the model leaves more than twice the
+    noise; ``shaker``, the coil's lag and back-EMF between a voltage
+    reference and the structure, for a voltage reference only;
+    ``bouc_wen_joint``, a Bouc-Wen joint in its place, is tried when named;
+    ``"all"`` names every one).
     """
     text = _hystid.diagnose(
         json.dumps(frf),

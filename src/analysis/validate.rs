@@ -30,7 +30,8 @@ pub struct FitModel {
 /// diagnosis.json's final `model` and `response_sign`; or a
 /// model written down (`*.toml`: a test definition or its structure alone,
 /// e.g. a benchmark's published model), which predicts the response as
-/// recorded.
+/// recorded, or its opposite with a top-level `response_sign = -1` (a
+/// transfer whose first modal constant is negative, as fit.json says).
 pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
     if path
         .extension()
@@ -44,16 +45,37 @@ pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
             ));
         }
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let (text, response_sign) = toml_response_sign(text, path)?;
         let model = crate::testbench::model_from_toml(&text, &path.display().to_string())?;
         return Ok(FitModel {
             model,
-            response_sign: 1.0,
+            response_sign,
             response: None,
             kind: "declared",
         });
     }
     let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     FitModel::of_json(&text, linear, path)
+}
+
+/// A model file's top-level `response_sign` (1 when absent) and its text
+/// without it (the structure's own schema has no such key).
+fn toml_response_sign(text: String, path: &Path) -> Result<(String, f64)> {
+    let Ok(mut table) = text.parse::<toml::Table>() else {
+        // the structure's parser names what is wrong
+        return Ok((text, 1.0));
+    };
+    let Some(value) = table.remove("response_sign") else {
+        return Ok((text, 1.0));
+    };
+    let sign = value
+        .as_float()
+        .or_else(|| value.as_integer().map(|i| i as f64))
+        .filter(|s| *s == 1.0 || *s == -1.0)
+        .ok_or_else(|| Error::format(path, "response_sign", format!("expected 1 or -1, got {value}")))?;
+    let text = toml::to_string(&table)
+        .map_err(|e| Error::format(path, "response_sign", e.to_string()))?;
+    Ok((text, sign))
 }
 
 impl FitModel {
