@@ -395,3 +395,35 @@ pub fn validate_on(
     };
     Ok((entry, files))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MODEL: &str = "[system]\nmass = 1.0\ndamping = 2.0\nstiffness = 4.0e5\n";
+
+    /// A model written down predicts the response as recorded unless it
+    /// says `response_sign = -1`; any other sign names the file and field.
+    #[test]
+    fn a_model_file_may_carry_its_response_sign() {
+        let dir = tempfile::tempdir().unwrap();
+        let read = |name: &str, head: &str| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, format!("{head}{MODEL}")).unwrap();
+            read_fit(&p, false)
+        };
+        let plain = read("plain.toml", "").unwrap();
+        assert_eq!(plain.response_sign, 1.0);
+        let flipped = read("flipped.toml", "response_sign = -1\n").unwrap();
+        assert_eq!(flipped.response_sign, -1.0);
+        assert_eq!(flipped.model, plain.model);
+        let Err(err) = read("bad.toml", "response_sign = 2\n") else {
+            panic!("a sign of 2 was taken");
+        };
+        let err = err.to_string();
+        assert!(
+            err.contains("bad.toml") && err.contains("response_sign") && err.contains("1 or -1"),
+            "{err}"
+        );
+    }
+}
