@@ -157,16 +157,35 @@ fn a_cubic_spring_through_a_shaker_is_the_coils_rk4() {
             x1.norm() > 1e-4 && (x3 / x1).norm() > 3e-3,
             "the level should be nonlinear: {x1}, {x3}"
         );
-        let pt = solve_point(&m.linear, &mut m.element_set().unwrap(), f, BL / R * e, None, &opts)
-            .unwrap();
+        let pt = solve_point(
+            &m.linear,
+            &mut m.element_set().unwrap(),
+            f,
+            BL / R * e,
+            None,
+            &opts,
+        )
+        .unwrap();
         assert!(pt.converged);
         let (h1, h3) = (pt.x[0], pt.x[1]);
-        assert!((h1 / x1 - 1.0).norm() < 1e-8, "HB X1 at {f} Hz: {h1} vs {x1}");
-        assert!((h3 / x3 - 1.0).norm() < 1e-7, "HB X3 at {f} Hz: {h3} vs {x3}");
+        assert!(
+            (h1 / x1 - 1.0).norm() < 1e-8,
+            "HB X1 at {f} Hz: {h1} vs {x1}"
+        );
+        assert!(
+            (h3 / x3 - 1.0).norm() < 1e-7,
+            "HB X3 at {f} Hz: {h3} vs {x3}"
+        );
         let s = simulated(k3, e, f, 400, 1.2);
         let (s1, s3) = (harmonic(&s, 400, 20, 1), harmonic(&s, 400, 20, 3));
-        assert!((s1 / x1 - 1.0).norm() < 5e-5, "simulated X1 at {f} Hz: {s1} vs {x1}");
-        assert!((s3 / x3 - 1.0).norm() < 5e-4, "simulated X3 at {f} Hz: {s3} vs {x3}");
+        assert!(
+            (s1 / x1 - 1.0).norm() < 5e-5,
+            "simulated X1 at {f} Hz: {s1} vs {x1}"
+        );
+        assert!(
+            (s3 / x3 - 1.0).norm() < 5e-4,
+            "simulated X3 at {f} Hz: {s3} vs {x3}"
+        );
         let fine = simulated(k3, e, f, 4000, 1.2);
         let f1 = harmonic(&fine, 4000, 20, 1);
         assert!(
@@ -186,7 +205,10 @@ fn a_cubic_spring_through_a_shaker_is_the_coils_rk4() {
 fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
     use hystid::model::Mode;
     let mut hysteretic = Mode::from_modal_mass(130.0, 0.02, 2.0).unwrap();
-    hysteretic.joint = Some(ElementSpec::Jenkins { kd: 1.3e6, fd: 20.0 });
+    hysteretic.joint = Some(ElementSpec::Jenkins {
+        kd: 1.3e6,
+        fd: 20.0,
+    });
     let linear = ModalModel::new(vec![Mode::from_mck(M, C, K).unwrap(), hysteretic]).unwrap();
     let m = Model::new(
         linear,
@@ -205,8 +227,15 @@ fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
     for f in [100.0, 130.0] {
         let mut hb = Complex64::new(0.0, 0.0);
         for (sign, part) in m.parts() {
-            let pt = solve_point(&part.linear, &mut part.element_set().unwrap(), f, force, None, &opts)
-                .unwrap();
+            let pt = solve_point(
+                &part.linear,
+                &mut part.element_set().unwrap(),
+                f,
+                force,
+                None,
+                &opts,
+            )
+            .unwrap();
             assert!(pt.converged);
             hb += sign * pt.x[0];
         }
@@ -218,18 +247,31 @@ fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
             .collect();
         let x = sim.run(&drive).unwrap().displacement;
         let s = harmonic(&x, p, 20, 1);
-        assert!((s / hb - 1.0).norm() < 2e-3, "at {f} Hz: simulated {s} vs HB {hb}");
+        assert!(
+            (s / hb - 1.0).norm() < 2e-3,
+            "at {f} Hz: simulated {s} vs HB {hb}"
+        );
         // the mode's joint slips: held stuck, the response differs by more
         let mut stuck = m.clone();
         stuck.linear.modes[1].joint = Some(ElementSpec::Jenkins { kd: 1.3e6, fd: 1e6 });
         let mut held = Complex64::new(0.0, 0.0);
         for (sign, part) in stuck.parts() {
             held += sign
-                * solve_point(&part.linear, &mut part.element_set().unwrap(), f, force, None, &opts)
-                    .unwrap()
-                    .x[0];
+                * solve_point(
+                    &part.linear,
+                    &mut part.element_set().unwrap(),
+                    f,
+                    force,
+                    None,
+                    &opts,
+                )
+                .unwrap()
+                .x[0];
         }
-        assert!((held / hb - 1.0).norm() > 0.01, "at {f} Hz the joint sticks: {held} vs {hb}");
+        assert!(
+            (held / hb - 1.0).norm() > 0.01,
+            "at {f} Hz the joint sticks: {held} vs {hb}"
+        );
     }
 }
 
@@ -269,7 +311,13 @@ response = "displacement"
     .unwrap();
     let out = dir.path().join("out");
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_hystid"))
-        .args(["simulate", toml.to_str().unwrap(), "--check-hb", "-q", "--out"])
+        .args([
+            "simulate",
+            toml.to_str().unwrap(),
+            "--check-hb",
+            "-q",
+            "--out",
+        ])
         .arg(&out)
         .status()
         .unwrap();

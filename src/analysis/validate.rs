@@ -72,9 +72,15 @@ fn toml_response_sign(text: String, path: &Path) -> Result<(String, f64)> {
         .as_float()
         .or_else(|| value.as_integer().map(|i| i as f64))
         .filter(|s| *s == 1.0 || *s == -1.0)
-        .ok_or_else(|| Error::format(path, "response_sign", format!("expected 1 or -1, got {value}")))?;
-    let text = toml::to_string(&table)
-        .map_err(|e| Error::format(path, "response_sign", e.to_string()))?;
+        .ok_or_else(|| {
+            Error::format(
+                path,
+                "response_sign",
+                format!("expected 1 or -1, got {value}"),
+            )
+        })?;
+    let text =
+        toml::to_string(&table).map_err(|e| Error::format(path, "response_sign", e.to_string()))?;
     Ok((text, sign))
 }
 

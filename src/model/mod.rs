@@ -29,8 +29,7 @@ pub use clearance::Clearance;
 pub use cubic_stiffness::CubicStiffness;
 pub use element::{
     Description, Domain, DriveLoad, Element, ElementForce, ElementSet, FitScale, ImplicitStep, Law,
-    NoElement,
-    ParameterInfo, Role,
+    NoElement, ParameterInfo, Role,
 };
 pub use iwan::Iwan4Backbone;
 pub use jenkins::Jenkins;

@@ -12,5 +12,5 @@ mod bouc_wen;
 mod hysteretic_mode;
 mod iwan;
 mod reference;
-mod shaker;
 mod sample;
+mod shaker;

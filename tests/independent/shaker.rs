@@ -4,7 +4,9 @@
 //! no code with). The reference is the voltage. Undeclared, `diagnose` must
 //! find the shaker by name and its coil's time constant `L/R`.
 
-use super::kit::corpus::{CaseOptions, JointKind, Quantity, SampleFormat, Sweep, case_with, generate};
+use super::kit::corpus::{
+    CaseOptions, JointKind, Quantity, SampleFormat, Sweep, case_with, generate,
+};
 use super::kit::recording::write_recording;
 use super::kit::refsim::RefCoil;
 use super::kit::score::{hystid_bin, run_diagnose_with, selected_effects};

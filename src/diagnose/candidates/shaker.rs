@@ -56,7 +56,10 @@ impl Candidate for Shaker {
                 te: wt / w,
             })
         });
-        Ok(best_as_it_stands(cx, starts).map(|(_, m)| m).into_iter().collect())
+        Ok(best_as_it_stands(cx, starts)
+            .map(|(_, m)| m)
+            .into_iter()
+            .collect())
     }
 
     fn size_parameters(&self) -> &'static [&'static str] {

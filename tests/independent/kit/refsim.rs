@@ -525,7 +525,8 @@ impl RefSystem {
         let coil = self.coil;
         // the force on the structure from the drive `e` and the current
         let pushed = |e: f64, ii: f64| coil.map_or(e, |c| c.bl * ii);
-        let current_rate = |e: f64, ii: f64, v: f64| coil.map_or(0.0, |c| (e - c.r * ii - c.bl * v) / c.l);
+        let current_rate =
+            |e: f64, ii: f64, v: f64| coil.map_or(0.0, |c| (e - c.r * ii - c.bl * v) / c.l);
         for i in 0..n {
             // record the state at the sample instant
             let t = i as f64 * dt;
@@ -553,7 +554,8 @@ impl RefSystem {
             // shortened until it resolves that (λh <= 0.1, twice the rate
             // the sample starts with: RK4's error then ~1e-7 per step)
             // the coil's own rate R/L too
-            let lambda = (2.0 * self.joint.stiffness_rate(fh, v)).max(coil.map_or(0.0, |c| c.r / c.l));
+            let lambda =
+                (2.0 * self.joint.stiffness_rate(fh, v)).max(coil.map_or(0.0, |c| c.r / c.l));
             let nsub = substeps.max(((lambda * dt / 0.1).ceil() as usize).min(1 << 16));
             let h = dt / nsub as f64;
             for s in 0..nsub {
