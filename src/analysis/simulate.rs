@@ -74,7 +74,11 @@ pub fn recording_meta(def: &TestDefinition, toml_text: &str, fs: f64) -> Recordi
     RecordingMeta {
         format: FORMAT_V1.into(),
         sample_rate_hz: fs,
-        channels: crate::testbench::recorded_channels(),
+        channels: crate::testbench::recorded_channels(
+            def.model().map_or(crate::harmonics::Quantity::Force, |m| {
+                crate::testbench::reference_quantity(&m)
+            }),
+        ),
         excitation: Excitation {
             kind: ExcitationKind::SteppedSine,
             steps: Vec::new(),

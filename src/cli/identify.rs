@@ -327,7 +327,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         test_definition: String::new(),
         seed: options.seed,
         sample_rate_hz: first.sample_rate_hz,
-        channels: hystid::testbench::recorded_channels(),
+        channels: hystid::testbench::recorded_channels(frf.reference),
         metadata: [("recording".to_string(), recording_names.join(", "))].into(),
     };
     let mut mcap = hystid::record::McapRecorder::create(&args.out.join("fit.mcap"), &info)?;

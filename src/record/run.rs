@@ -192,7 +192,11 @@ fn mcap_error(path: &Path, e: McapError) -> Error {
 
 /// Index of a recordable quantity in a signal block.
 pub(super) fn slot(q: Quantity) -> Option<usize> {
-    QUANTITIES.iter().position(|&x| x == q)
+    match q {
+        // the reference's slot: a force, or the voltage driving a shaker
+        Quantity::Voltage => Some(0),
+        q => QUANTITIES.iter().position(|&x| x == q),
+    }
 }
 
 fn check_info(info: &RunInfo) -> Result<[Option<usize>; 4]> {
@@ -211,7 +215,7 @@ fn check_info(info: &RunInfo) -> Result<[Option<usize>; 4]> {
             Error::input(
                 &what,
                 format!(
-                    "quantity {} cannot be recorded (force, displacement, velocity, acceleration)",
+                    "quantity {} cannot be recorded (force or voltage, displacement, velocity, acceleration)",
                     ch.quantity
                 ),
             )
@@ -219,7 +223,10 @@ fn check_info(info: &RunInfo) -> Result<[Option<usize>; 4]> {
         if by_slot[s].replace(i).is_some() {
             return Err(Error::input(
                 &what,
-                format!("a second {} channel; at most one of each", ch.quantity),
+                format!(
+                    "a second {} channel; at most one of each (and one reference, force or voltage)",
+                    ch.quantity
+                ),
             ));
         }
         if ch.unit != ch.quantity.si_unit() {
@@ -243,7 +250,7 @@ fn check_info(info: &RunInfo) -> Result<[Option<usize>; 4]> {
     if by_slot[0].is_none() {
         return Err(Error::input(
             "run channels",
-            "a force channel is required (the reference)",
+            "a force or voltage channel is required (the reference)",
         ));
     }
     if let Some(k) = info

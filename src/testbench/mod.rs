@@ -35,11 +35,17 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-/// The four channels a virtual test records, in recording order: force,
-/// displacement, velocity, acceleration (SI units, unit scale).
-pub fn recorded_channels() -> Vec<crate::record::Channel> {
+/// The four channels a virtual test records, in recording order: the
+/// reference, displacement, velocity, acceleration (SI units, unit scale).
+/// The reference is the force, or with a shaker in the model
+/// ([`reference_quantity`]) the voltage driving it.
+pub fn recorded_channels(reference: Quantity) -> Vec<crate::record::Channel> {
+    let name = match reference {
+        Quantity::Voltage => "drive",
+        _ => "force",
+    };
     [
-        ("force", Quantity::Force),
+        (name, reference),
         ("displacement", Quantity::Displacement),
         ("velocity", Quantity::Velocity),
         ("acceleration", Quantity::Acceleration),
@@ -52,6 +58,18 @@ pub fn recorded_channels() -> Vec<crate::record::Channel> {
         scale: 1.0,
     })
     .collect()
+}
+
+/// What a virtual test of `model` records as its reference: the force, or,
+/// when a shaker stands between the drive and the structure, its voltage
+/// (at 1 N/V: the model's forces are then in the drive's unit, as a model
+/// identified from a voltage has them).
+pub fn reference_quantity(model: &Model) -> Quantity {
+    if model.laws().any(|e| e.drive_load().is_some()) {
+        Quantity::Voltage
+    } else {
+        Quantity::Force
+    }
 }
 
 /// Fewest measured blocks per dwell.
@@ -251,7 +269,7 @@ pub fn run(
         sample_rate_hz: fs,
         frf: NonlinearFrf {
             response: def.test.response.quantity(),
-            reference: Quantity::Force,
+            reference: reference_quantity(&model),
             max_harmonic: def.test.max_harmonic,
             levels: frf_levels,
         },
