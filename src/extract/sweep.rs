@@ -384,7 +384,7 @@ fn fit_sweep(
     let median = env.get(env.len() / 2).copied().unwrap_or(0.0);
     let threshold = options.amplitude_threshold * median;
     let active = |v: &f64| *v > threshold;
-    let Some((start, end)) = driven_stretch(&a.amplitude, threshold) else {
+    let Some((mut start, mut end)) = driven_stretch(&a.amplitude, threshold) else {
         return Err(Error::input("reference", "is zero: no sweep to follow"));
     };
     // a first fit over the active part gives the period for the edge margins
@@ -396,7 +396,21 @@ fn fit_sweep(
     let edge = |n: usize| {
         (options.edge_periods * 2.0 * PI / rough.rate(n as f64).abs().max(1e-12)).ceil() as usize
     };
-    let (fit_start, fit_end) = (start + edge(start), end.saturating_sub(edge(end - 1)));
+    let (mut fit_start, mut fit_end) = (start + edge(start), end.saturating_sub(edge(end - 1)));
+    if fit_end <= fit_start + 16 {
+        // a sweep from (nearly) 0 Hz has no period at its start: leave its
+        // first and last `edge_periods` cycles of phase instead
+        let cycles = options.edge_periods * 2.0 * PI;
+        let turned =
+            |n: usize, from: usize| (rough.phase(n as f64) - rough.phase(from as f64)).abs();
+        fit_start = (start..end)
+            .find(|&n| turned(n, start) >= cycles)
+            .unwrap_or(end);
+        fit_end = (start..end)
+            .rev()
+            .find(|&n| turned(end - 1, n) >= cycles)
+            .map_or(start, |n| n + 1);
+    }
     if fit_end <= fit_start + 16 {
         return Err(Error::input(
             "reference",
@@ -437,7 +451,23 @@ fn fit_sweep(
         },
     };
     let f_at = |n: f64| fitted.rate(n) * sample_rate_hz / (2.0 * PI);
-    let (f_start, f_end) = (f_at(start as f64), f_at((end - 1) as f64));
+    let (mut f_start, mut f_end) = (f_at(start as f64), f_at((end - 1) as f64));
+    // a sweep from or to 0 Hz: its fitted law may cross zero by a hair at
+    // that end; the sweep is taken from (to) where it passes 1 % of its top
+    let top = f_start.abs().max(f_end.abs());
+    let low = 0.01 * top;
+    if f_start <= 0.0 && f_start > -low && f_end > low {
+        start = (start..end)
+            .find(|&n| f_at(n as f64) >= low)
+            .unwrap_or(start);
+        f_start = f_at(start as f64);
+    } else if f_end <= 0.0 && f_end > -low && f_start > low {
+        end = (start..end)
+            .rev()
+            .find(|&n| f_at(n as f64) >= low)
+            .map_or(end, |n| n + 1);
+        f_end = f_at((end - 1) as f64);
+    }
     if !(f_start > 0.0 && f_end > 0.0) {
         return Err(Error::input(
             "reference",
