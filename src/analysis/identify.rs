@@ -591,6 +591,40 @@ pub struct TimeFitReport {
     pub files: Vec<PathBuf>,
 }
 
+/// The fit.json of a model written down fitted to the nonlinear FRFs
+/// (`identify --start MODEL`, see [`crate::diagnose::fit_declared`]).
+/// `validate` and `identify --domain time --start` read it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DeclaredFitReport {
+    /// `identify`.
+    pub command: String,
+    /// Tool version.
+    pub version: String,
+    /// The recording (several: comma separated).
+    pub recording: String,
+    /// The response channel named by the user (empty: the first channel
+    /// that is not the reference).
+    pub response: String,
+    /// The model the fit started from, as written down.
+    pub start: Model,
+    /// The fit.
+    pub frequency_domain: crate::diagnose::DeclaredFit,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+impl DeclaredFitReport {
+    /// Whether a fit.json's text is this kind of report.
+    pub fn is_one(value: &serde_json::Value) -> bool {
+        value.get("start").is_some() && value.get("frequency_domain").is_some()
+    }
+
+    /// The terminal's lines for the fitted parameters.
+    pub fn parameter_lines(&self) -> Vec<String> {
+        estimate_lines(&self.frequency_domain.parameters, &[], &BTreeMap::new())
+    }
+}
+
 impl TimeFitReport {
     /// Whether a fit.json's text is this kind of report (it has a `start`
     /// and no FRF fit).

@@ -115,6 +115,27 @@ impl FitModel {
                 kind: "diagnosed",
             });
         }
+        if let Some(value) = value
+            .as_ref()
+            .filter(|v| super::identify::DeclaredFitReport::is_one(v))
+        {
+            let report: super::identify::DeclaredFitReport = serde_json::from_value(value.clone())
+                .map_err(|e| Error::format(path, "frequency_domain", e.to_string()))?;
+            if linear {
+                return Err(Error::format(
+                    path,
+                    "fit",
+                    "--linear takes an FRF fit's fit.json (its linear.stick); this fit started from a model written down",
+                ));
+            }
+            let f = report.frequency_domain;
+            return Ok(FitModel {
+                model: f.model,
+                response_sign: f.response_sign,
+                response: None,
+                kind: "fitted to the FRFs from a start",
+            });
+        }
         if let Some(value) = value.filter(super::identify::TimeFitReport::is_one) {
             let report: super::identify::TimeFitReport = serde_json::from_value(value)
                 .map_err(|e| Error::format(path, "time_domain", e.to_string()))?;

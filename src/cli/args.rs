@@ -100,10 +100,12 @@ pub struct IdentifyArgs {
     /// periods after the first.
     #[arg(long, value_enum, default_value_t = Domain::Frf)]
     pub domain: Domain,
-    /// With `--domain time`: start from a model instead of an FRF fit, as
-    /// `validate` takes one: written down (`*.toml`, for records an FRF fit
-    /// cannot read: multisines, transients), a fit.json, or a
-    /// diagnosis.json (the diagnosis's final model, with its effects).
+    /// Fit a model given instead of identifying the joint law: written down
+    /// (`*.toml`: modes, joint and effects, e.g. a shaker or a hysteretic
+    /// mode; `response_sign = -1` for a transfer), a fit.json, or a
+    /// diagnosis.json (its final model). Every parameter of it is fitted to
+    /// the nonlinear FRFs, or with `--domain time` to the time histories
+    /// (for records an FRF fit cannot read: multisines, transients).
     #[arg(long)]
     pub start: Option<PathBuf>,
     /// With `--start` or a multisine's start: parameters held at the

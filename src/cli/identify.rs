@@ -214,14 +214,15 @@ pub fn reduce_recordings(
     )?)
 }
 
-/// `hystid identify --domain time --start MODEL` (a model written down, a
-/// fit.json or a diagnosis.json).
+/// `hystid identify --start MODEL` (a model written down, a fit.json or a
+/// diagnosis.json): fitted to the nonlinear FRFs, or with `--domain time`
+/// to the time histories.
 fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result<u8> {
-    if args.domain != Domain::Time {
-        bail!("--start: a start model is fitted in the time domain; add --domain time");
-    }
     let start = hystid::analysis::validate::read_fit(start, false)
         .with_context(|| format!("--start: reading {}", start.display()))?;
+    if args.domain != Domain::Time {
+        return identify_declared(args, &start.model, start.response_sign, quiet);
+    }
     let window = args
         .window
         .as_deref()
@@ -242,6 +243,72 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
         None,
         quiet,
     )
+}
+
+/// Fits the model written down to the recordings' nonlinear FRFs and
+/// writes fit.json (see [`hystid::diagnose::fit_declared`]).
+fn identify_declared(
+    args: &IdentifyArgs,
+    model: &hystid::model::Model,
+    response_sign: f64,
+    quiet: bool,
+) -> Result<u8> {
+    if !args.fix.is_empty() {
+        bail!(
+            "--fix: parameters are held only by the time-domain fit from a start; add --domain time"
+        );
+    }
+    let options = fit_options(&args.fit)?;
+    let (frf, _) = reduce_recordings(
+        &args.recordings,
+        args.response.as_deref(),
+        &args.reduction,
+        quiet,
+    )?;
+    let names: Vec<String> = args
+        .recordings
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    let pb = progress::spinner("fitting the model written down to the FRFs", quiet);
+    let predictor = HbPredictor::default();
+    let fit = hystid::diagnose::fit_declared(
+        &frf,
+        model,
+        response_sign,
+        options.transfer || response_sign < 0.0,
+        &options.harmonics,
+        options.band_hz,
+        &predictor,
+        hystid::diagnose::DiagnoseOptions::default().patience,
+    )?;
+    pb.finish_and_clear();
+    let _out = create_out_dir(&args.out)?;
+    let report = hystid::analysis::identify::DeclaredFitReport {
+        command: "identify".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        recording: names.join(", "),
+        response: args.response.clone().unwrap_or_default(),
+        start: model.clone(),
+        frequency_domain: fit,
+        files: vec![args.out.join("fit.json")],
+    };
+    write_json(&args.out.join("fit.json"), &report)?;
+    if !quiet {
+        let f = &report.frequency_domain;
+        say!(
+            "hystid identify: the model written down, fitted to the FRFs: H1 error {:.2} % -> {:.2} %, chi2/dof {:.2} -> {:.2}",
+            100.0 * f.start_error.relative,
+            100.0 * f.error.relative,
+            f.start_error.chi2_per_dof,
+            f.error.chi2_per_dof
+        );
+        for line in report.parameter_lines() {
+            say!("{line}");
+        }
+        say!("  wrote {}", args.out.join("fit.json").display());
+    }
+    Ok(super::EXIT_OK)
 }
 
 /// Fits `model` to `records` in the time domain and writes fit.json: a

@@ -231,6 +231,74 @@ pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> Parameter
     p.without_gauges(model)
 }
 
+/// A model written down (a declared shaker, a hysteretic mode, an effect
+/// the user knows is there), fitted to the nonlinear FRFs: every parameter
+/// of its elements and of its linear part, by the refit the diagnosis gives
+/// its candidates (Levenberg–Marquardt on the residuals weighted by their
+/// standard errors, from the model as written), with 95 % intervals.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DeclaredFit {
+    /// The fitted model.
+    pub model: Model,
+    /// The sign its `H` carry against the measured ones.
+    pub response_sign: f64,
+    /// The harmonics judged.
+    pub harmonics: Vec<usize>,
+    /// Its parameters with 95 % intervals.
+    pub parameters: BTreeMap<String, Estimate>,
+    /// Its error on the data judged.
+    pub error: crate::fit::identify::ErrorReport,
+    /// The error of the model as written, on the same data.
+    pub start_error: crate::fit::identify::ErrorReport,
+}
+
+/// Fits the model `start`, which predicts `response_sign` times the
+/// measured response (`transfer`: not at the drive point), to `frf`'s
+/// `harmonics` within `band_hz` (see [`DeclaredFit`]).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_declared(
+    frf: &NonlinearFrf,
+    start: &Model,
+    response_sign: f64,
+    transfer: bool,
+    harmonics: &[usize],
+    band_hz: Option<(f64, f64)>,
+    predictor: &HbPredictor,
+    patience: usize,
+) -> Result<DeclaredFit> {
+    start.validate()?;
+    let data = FitData::from_frf(frf, harmonics, band_hz, None)?
+        .with_sign(response_sign)
+        .with_transfer(transfer);
+    let params = model_parameters(start, data.band_hz());
+    let before = predictor.predict_from(start, &data, None)?;
+    // the refit's cost is χ² (residuals weighted by their standard errors)
+    let start_error = crate::fit::identify::error_report(
+        &data,
+        &before,
+        crate::fit::problem::chi_square(&data, &before),
+        params.len(),
+    );
+    let r = refit(start, &data, predictor, Some(&before), patience)?;
+    let params = model_parameters(&r.model, data.band_hz());
+    let conf = confidence_at(&r.model, &params, &r.pred, &data, predictor)?;
+    let parameters = params
+        .parameters
+        .iter()
+        .map(|p| p.name.clone())
+        .zip(conf.estimates)
+        .collect();
+    let error = crate::fit::identify::error_report(&data, &r.pred, r.chi2, params.len());
+    Ok(DeclaredFit {
+        model: r.model,
+        response_sign,
+        harmonics: harmonics.to_vec(),
+        parameters,
+        error,
+        start_error,
+    })
+}
+
 /// A model refitted to the data judged, with its prediction and `χ²`.
 pub(crate) struct Refit {
     pub(crate) model: Model,
