@@ -224,10 +224,18 @@ def identify(
     options=None,
     domain="frf",
     recordings=None,
+    start=None,
+    response_sign=1,
     **kwargs,
 ):
     """Fits a joint model to nonlinear FRFs (a dict as :func:`extract`,
     :func:`virtual_test` or ``frf.json`` give): the ``fit.json`` dict.
+
+    ``start`` (anything :func:`model` takes): fit that model as written
+    down instead, every parameter of its modes, joint and effects (a
+    shaker, a hysteretic mode), as ``hystid identify --start MODEL`` does;
+    ``response_sign=-1`` for a transfer whose modal constant is negative.
+    The dict then has ``frequency_domain``.
 
     Fit options are the library's ``FitOptions`` fields, as keywords or an
     ``options`` dict: ``element`` (``"masing"``, ``"jenkins"``,
@@ -247,8 +255,15 @@ def identify(
         raise HystidError(f"domain: `{domain}` is not frf or time")
     if domain == "time" and not recordings:
         raise HystidError("domain='time': give the time histories as recordings=[...]")
-    ref = None if reference is None else _as_model(reference)
     opts = _options(options, kwargs)
+    if start is not None:
+        if domain != "frf":
+            raise HystidError("start: a model written down is fitted here to the FRFs; use identify_time(start=...) for the time domain")
+        text = _hystid.identify_declared(
+            json.dumps(frf), _as_model(start), opts, float(response_sign), recording, response
+        )
+        return json.loads(text)
+    ref = None if reference is None else _as_model(reference)
     text = _hystid.identify(json.dumps(frf), opts, ref, recording, response)
     fit = json.loads(text)
     if domain == "frf":

@@ -398,6 +398,52 @@ fn identify<'py>(
     to_json(&report)
 }
 
+/// A model written down fitted to nonlinear FRFs as it stands (`hystid
+/// identify --start MODEL`): fit.json with its `frequency_domain`.
+#[pyfunction]
+#[pyo3(signature = (frf, start, options, response_sign = 1.0, recording = String::new(), response = None))]
+fn identify_declared<'py>(
+    py: Python<'py>,
+    frf: String,
+    start: PyRef<'py, PyModel>,
+    options: String,
+    response_sign: f64,
+    recording: String,
+    response: Option<String>,
+) -> PyResult<String> {
+    if response_sign != 1.0 && response_sign != -1.0 {
+        return Err(fail(format!("response_sign: expected 1 or -1, got {response_sign}")));
+    }
+    let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
+    let options = fit_options(&options)?;
+    let model = start.inner.clone();
+    let predictor = hystid::fit::HbPredictor::default();
+    let fit = py
+        .detach(|| {
+            hystid::diagnose::fit_declared(
+                &frf,
+                &model,
+                response_sign,
+                options.transfer || response_sign < 0.0,
+                &options.harmonics,
+                options.band_hz,
+                &predictor,
+                hystid::diagnose::DiagnoseOptions::default().patience,
+            )
+        })
+        .map_err(err)?;
+    let report = hystid::analysis::identify::DeclaredFitReport {
+        command: "identify".into(),
+        version: hystid::analysis::VERSION.into(),
+        recording,
+        response: response.unwrap_or_default(),
+        start: model,
+        frequency_domain: fit,
+        files: Vec::new(),
+    };
+    to_json(&report)
+}
+
 /// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
 /// `options`, as `hystid diagnose` does): diagnosis.json.
 #[pyfunction]
@@ -704,6 +750,7 @@ fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(virtual_test, m)?)?;
     m.add_function(wrap_pyfunction!(extract, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(identify_declared, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(identify_time, m)?)?;

@@ -233,9 +233,11 @@ pub fn model_parameters(model: &Model, band_hz: Option<(f64, f64)>) -> Parameter
 
 /// A model written down (a declared shaker, a hysteretic mode, an effect
 /// the user knows is there), fitted to the nonlinear FRFs: every parameter
-/// of its elements and of its linear part, by the refit the diagnosis gives
-/// its candidates (Levenberg–Marquardt on the residuals weighted by their
-/// standard errors, from the model as written), with 95 % intervals.
+/// of its elements and of its linear part, on the residuals weighted by their
+/// standard errors: a Nelder–Mead simplex from the model as written, then
+/// the refit the diagnosis gives its candidates (Levenberg–Marquardt), with
+/// 95 % intervals. A local fit: a start far from the data can end in
+/// another basin, which its `χ²` then shows.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DeclaredFit {
     /// The fitted model.
@@ -251,6 +253,12 @@ pub struct DeclaredFit {
     /// The error of the model as written, on the same data.
     pub start_error: crate::fit::identify::ErrorReport,
 }
+
+/// The simplex's first step in each fit coordinate of a declared model's
+/// fit: 10 % of a positive parameter, a tenth of a signed one's scale.
+const DECLARED_SIMPLEX_STEP: f64 = 0.1;
+/// Its iterations per free parameter.
+const DECLARED_SIMPLEX_ITERATIONS_PER_PARAMETER: u64 = 60;
 
 /// Fits the model `start`, which predicts `response_sign` times the
 /// measured response (`transfer`: not at the drive point), to `frf`'s
@@ -279,7 +287,33 @@ pub fn fit_declared(
         crate::fit::problem::chi_square(&data, &before),
         params.len(),
     );
-    let r = refit(start, &data, predictor, Some(&before), patience)?;
+    // a start written down may sit some way off: a simplex first (one
+    // failed model is a penalised point, not an error), then the refit's
+    // Levenberg–Marquardt from the better of the two
+    let problem = FitProblem::new(
+        start.clone(),
+        params.clone(),
+        &data,
+        predictor,
+        Weighting::StandardError,
+        None,
+    )
+    .with_warm_start(before.clone());
+    let theta0 = params.theta_of(start)?;
+    let cost0 = problem.cost(&theta0)?;
+    let n = theta0.len();
+    let simplex = crate::fit::optimise::nelder_mead(
+        &problem,
+        &theta0,
+        &vec![DECLARED_SIMPLEX_STEP; n],
+        DECLARED_SIMPLEX_ITERATIONS_PER_PARAMETER * n as u64,
+        1e-8,
+    );
+    let from = match simplex {
+        Ok(s) if s.cost < cost0 => problem.evaluate(&s.theta)?.0,
+        _ => start.clone(),
+    };
+    let r = refit(&from, &data, predictor, None, patience)?;
     let params = model_parameters(&r.model, data.band_hz());
     let conf = confidence_at(&r.model, &params, &r.pred, &data, predictor)?;
     let parameters = params
