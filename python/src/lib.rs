@@ -412,7 +412,9 @@ fn identify_declared<'py>(
     response: Option<String>,
 ) -> PyResult<String> {
     if response_sign != 1.0 && response_sign != -1.0 {
-        return Err(fail(format!("response_sign: expected 1 or -1, got {response_sign}")));
+        return Err(fail(format!(
+            "response_sign: expected 1 or -1, got {response_sign}"
+        )));
     }
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
@@ -631,7 +633,9 @@ fn identify_time<'py>(
     .any(|&m| m != n)
         || n == 0
     {
-        return Err(fail("recordings: give at least one, each with its force and response"));
+        return Err(fail(
+            "recordings: give at least one, each with its force and response",
+        ));
     }
     let loaded = (0..n)
         .map(|i| {
