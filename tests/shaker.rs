@@ -299,21 +299,27 @@ seed = 1
 response = "displacement"
 "#;
 
-/// `hystid ARGS...`, which must succeed.
-fn hystid(args: &[&std::ffi::OsStr]) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hystid"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+/// `hystid ARGS...` (the CLI tests' runner), which must succeed.
+fn run_ok(args: &[&std::path::Path]) {
+    let args: Vec<&str> = args.iter().map(|a| a.to_str().unwrap()).collect();
+    let o = crate::cli::hystid(&args);
+    assert!(o.status.success(), "{}", crate::cli::text(&o));
 }
 
 fn read_json(p: &std::path::Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+}
+
+/// The shaker's virtual test simulated into `dir/sim` (its folder).
+fn simulated_shaker_test(dir: &std::path::Path) -> std::path::PathBuf {
+    let toml = crate::cli::write_test(dir, "shaker.toml", SHAKER_TEST);
+    let sim = dir.join("sim");
+    crate::cli::simulated(&toml, &sim);
+    sim
+}
+
+fn readme_line(start: &str) -> Vec<(f64, f64)> {
+    crate::common::readme_figures(start).expect("README line")
 }
 
 /// A virtual test declares the shaker as an effect beside the paper's
@@ -325,16 +331,16 @@ fn read_json(p: &std::path::Path) -> serde_json::Value {
 #[test]
 fn a_declared_shaker_is_simulated_by_the_bench_as_harmonic_balance_predicts() {
     let dir = tempfile::tempdir().unwrap();
-    let toml = dir.path().join("shaker.toml");
-    std::fs::write(&toml, SHAKER_TEST).unwrap();
+    let toml = crate::cli::write_test(dir.path(), "shaker.toml", SHAKER_TEST);
     let out = dir.path().join("out");
-    hystid(&[
-        "simulate".as_ref(),
-        toml.as_os_str(),
-        "--check-hb".as_ref(),
-        "-q".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
+    let p = std::path::Path::new;
+    run_ok(&[
+        p("simulate"),
+        &toml,
+        p("--check-hb"),
+        p("-q"),
+        p("--out"),
+        &out,
     ]);
     let summary = read_json(&out.join("summary.json"));
     let check = &summary["hb_check"];
@@ -354,25 +360,17 @@ fn a_declared_shaker_is_simulated_by_the_bench_as_harmonic_balance_predicts() {
 #[test]
 fn an_undeclared_shaker_on_a_virtual_test_is_found() {
     let dir = tempfile::tempdir().unwrap();
-    let toml = dir.path().join("shaker.toml");
-    std::fs::write(&toml, SHAKER_TEST).unwrap();
-    let sim = dir.path().join("sim");
-    hystid(&[
-        "simulate".as_ref(),
-        toml.as_os_str(),
-        "-q".as_ref(),
-        "--out".as_ref(),
-        sim.as_os_str(),
-    ]);
+    let sim = simulated_shaker_test(dir.path());
     let out = dir.path().join("diag");
-    hystid(&[
-        "diagnose".as_ref(),
-        sim.join("run.mcap").as_os_str(),
-        "--element".as_ref(),
-        "jenkins".as_ref(),
-        "-q".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
+    let p = std::path::Path::new;
+    run_ok(&[
+        p("diagnose"),
+        &sim.join("run.mcap"),
+        p("--element"),
+        p("jenkins"),
+        p("-q"),
+        p("--out"),
+        &out,
     ]);
     let d = read_json(&out.join("diagnosis.json"));
     let selected: Vec<&str> = d["selected"]
@@ -397,7 +395,7 @@ fn an_undeclared_shaker_on_a_virtual_test_is_found() {
         ("chi2/dof after", chi2("final")),
     ];
     eprintln!("{figures:?}");
-    let shown = common_figures("Shaker on a virtual test:");
+    let shown = readme_line("Shaker on a virtual test:");
     for ((what, value), shown) in figures.iter().zip(shown) {
         crate::common::assert_readme_figure(what, *value, shown);
     }
@@ -408,10 +406,6 @@ fn an_undeclared_shaker_on_a_virtual_test_is_found() {
     assert!(before >= 3.0 * after, "H1 error {before} -> {after}");
 }
 
-fn common_figures(start: &str) -> Vec<(f64, f64)> {
-    crate::common::readme_figures(start).expect("README line")
-}
-
 /// Declared, the shaker is identified from the nonlinear FRFs: `identify
 /// --start` with the structure, the joint and a shaker written down 15-25 %
 /// off (ce 300, te 0.3 ms; kd 2e7, fd 200) fits every parameter of the model;
@@ -420,16 +414,8 @@ fn common_figures(start: &str) -> Vec<(f64, f64)> {
 #[test]
 fn a_declared_shaker_is_identified_from_the_frfs() {
     let dir = tempfile::tempdir().unwrap();
-    let toml = dir.path().join("shaker.toml");
-    std::fs::write(&toml, SHAKER_TEST).unwrap();
-    let sim = dir.path().join("sim");
-    hystid(&[
-        "simulate".as_ref(),
-        toml.as_os_str(),
-        "-q".as_ref(),
-        "--out".as_ref(),
-        sim.as_os_str(),
-    ]);
+    let sim = simulated_shaker_test(dir.path());
+    let p = std::path::Path::new;
     let start = dir.path().join("start.toml");
     std::fs::write(
         &start,
@@ -439,26 +425,26 @@ fn a_declared_shaker_is_identified_from_the_frfs() {
     )
     .unwrap();
     let fit = dir.path().join("fit");
-    hystid(&[
-        "identify".as_ref(),
-        sim.join("run.mcap").as_os_str(),
-        "--start".as_ref(),
-        start.as_os_str(),
-        "-q".as_ref(),
-        "--out".as_ref(),
-        fit.as_os_str(),
+    run_ok(&[
+        p("identify"),
+        &sim.join("run.mcap"),
+        p("--start"),
+        &start,
+        p("-q"),
+        p("--out"),
+        &fit,
     ]);
     let f = read_json(&fit.join("fit.json"));
-    let p = &f["frequency_domain"]["parameters"];
-    let got = |n: &str| p[n]["value"].as_f64().unwrap();
+    let params = &f["frequency_domain"]["parameters"];
+    let got = |n: &str| params[n]["value"].as_f64().unwrap();
     let val = dir.path().join("val");
-    hystid(&[
-        "validate".as_ref(),
-        fit.join("fit.json").as_os_str(),
-        sim.join("recording.json").as_os_str(),
-        "-q".as_ref(),
-        "--out".as_ref(),
-        val.as_os_str(),
+    run_ok(&[
+        p("validate"),
+        &fit.join("fit.json"),
+        &sim.join("recording.json"),
+        p("-q"),
+        p("--out"),
+        &val,
     ]);
     let v = read_json(&val.join("validate.json"));
     let figures = [
@@ -478,7 +464,7 @@ fn a_declared_shaker_is_identified_from_the_frfs() {
         ),
     ];
     eprintln!("{figures:?}");
-    let shown = common_figures("A declared shaker fitted to the FRFs:");
+    let shown = readme_line("A declared shaker fitted to the FRFs:");
     for ((what, value), shown) in figures.iter().zip(shown) {
         crate::common::assert_readme_figure(what, *value, shown);
     }

@@ -219,16 +219,14 @@ fn unstable_branch(
                     linear: &model.linear,
                     load: crate::model::Element::drive_load(&elements),
                 };
-                let h = crate::hb::LinearPart::receptance(&driven, w).ok()?;
-                let d = crate::hb::LinearPart::drive(&driven, w);
-                let samples = opts.samples_per_period;
-                let roots: Vec<Complex64> =
-                    crate::hb::describing::solve(h, p.force_amplitude * d.norm(), |amp| {
-                        crate::hb::describing::of_elements(&mut elements, amp, w, samples)
-                    })
-                    .into_iter()
-                    .map(|x| x * (d / d.norm()))
-                    .collect();
+                let roots = crate::hb::describing::solve_on(
+                    &driven,
+                    &mut elements,
+                    w,
+                    p.force_amplitude,
+                    opts.samples_per_period,
+                )
+                .ok()?;
                 let &middle = roots.get(1).filter(|_| roots.len() >= 3)?;
                 let mut guess = vec![Complex64::new(0.0, 0.0); opts.harmonics.len()];
                 guess[first] = middle;

@@ -322,15 +322,13 @@ impl HbSolver {
         omega: f64,
         force: f64,
     ) -> Result<Vec<Complex64>> {
-        let h1 = linear.receptance(omega)?;
-        let ns = self.core.opts.samples_per_period;
-        // a drive model turns the force reaching the structure by D(ω)
-        let d = linear.drive(omega);
-        let roots = describing::solve(h1, force * d.norm(), |a| {
-            describing::of_elements(elements, a, omega, ns)
-        });
-        let turn = d / d.norm();
-        Ok(roots.into_iter().map(|x| x * turn).collect())
+        describing::solve_on(
+            linear,
+            elements,
+            omega,
+            force,
+            self.core.opts.samples_per_period,
+        )
     }
 
     /// The first point of a branch: describing-function start(s), then

@@ -18,6 +18,7 @@
 //! method) and returns `X_1 = F H/(1 + H N(a))`. Harmonic balance starts its
 //! sweeps there.
 
+use super::LinearPart;
 use crate::model::masing::loop_describing_function;
 use crate::model::{Element, PowerBackbone};
 use num_complex::Complex64;
@@ -124,6 +125,28 @@ pub fn solve(h: Complex64, force: f64, mut n_of: impl FnMut(f64) -> Complex64) -
         .into_iter()
         .map(|a| force * h / (1.0 + h * n_of(a)))
         .collect()
+}
+
+/// [`solve`] on a [`LinearPart`] at `omega` with `elements`' describing
+/// function over loops of `samples` points: the drive model's `D(ω)` (a
+/// shaker's, [`LinearPart::drive`]) scales the force reaching the structure
+/// and turns the solutions by its phase.
+pub fn solve_on<L: LinearPart, E: Element>(
+    linear: &L,
+    elements: &mut E,
+    omega: f64,
+    force: f64,
+    samples: usize,
+) -> crate::Result<Vec<Complex64>> {
+    let h = linear.receptance(omega)?;
+    let d = linear.drive(omega);
+    let turn = d / d.norm();
+    Ok(solve(h, force * d.norm(), |a| {
+        of_elements(elements, a, omega, samples)
+    })
+    .into_iter()
+    .map(|x| x * turn)
+    .collect())
 }
 
 /// Golden-section minimum of `f` on `[lo, hi]` (60 steps: ~1e-12 of the

@@ -289,6 +289,8 @@ impl ElementSpec {
     }
 
     /// The drive model it stands for, if it is one (a shaker).
+    /// (Read from the parameters, not a built element: `Model::validate`
+    /// asks it of every element on each prediction.)
     pub fn drive_load(&self) -> Option<DriveLoad> {
         match *self {
             ElementSpec::Shaker { ce, te } => Shaker::new(ce, te).drive_load(),
