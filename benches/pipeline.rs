@@ -83,7 +83,7 @@ fn bench_record(c: &mut Criterion) {
     let meta = RecordingMeta {
         format: FORMAT_V1.into(),
         sample_rate_hz: fs,
-        channels: hystid::testbench::recorded_channels(),
+        channels: hystid::testbench::recorded_channels(hystid::harmonics::Quantity::Force),
         excitation: Excitation {
             kind: ExcitationKind::SteppedSine,
             steps: Vec::new(),

@@ -186,7 +186,7 @@ pub fn write_mcap(path: &Path, fs: f64, dwells: &[(u64, [Vec<f64>; 4])]) {
         test_definition: testbench::DEFAULT_TEST.into(),
         seed: 1,
         sample_rate_hz: fs,
-        channels: testbench::recorded_channels(),
+        channels: testbench::recorded_channels(hystid::harmonics::Quantity::Force),
         metadata: BTreeMap::new(),
     };
     let mut m = McapRecorder::create(path, &info).unwrap();
