@@ -159,6 +159,17 @@ pub trait Element {
         0.0
     }
 
+    /// Harmonic balance is about to march half periods of a half-wave
+    /// symmetric displacement (`x(θ + π) = −x(θ)`) from its turning point
+    /// `x`, which the element has just reached by the virgin ramp: the
+    /// element may take the memory (and its sensitivities) of the periodic
+    /// loop between `±x` whose half cycles are monotone, exact when they are
+    /// and otherwise a start for the period map's fixed point, which the
+    /// march still finds. A gradually settling law then repeats from its
+    /// first half period instead of its third. Default: nothing (a
+    /// Masing-type loop repeats from its first period anyway).
+    fn start_symmetric_loop(&mut self, _x: f64) {}
+
     /// The root `u` of the per-sample implicit equation in closed form, when
     /// the element has one (the Jenkins element does). `None`: the simulator
     /// solves it iteratively with [`Element::trial`].
@@ -280,6 +291,11 @@ impl<E: Element> Element for ElementSet<E> {
     }
     fn open_period(&mut self) {
         self.elements.iter_mut().for_each(Element::open_period);
+    }
+    fn start_symmetric_loop(&mut self, x: f64) {
+        self.elements
+            .iter_mut()
+            .for_each(|e| e.start_symmetric_loop(x));
     }
     fn close_period(&mut self, mirror: bool) -> f64 {
         self.elements

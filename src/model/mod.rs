@@ -332,6 +332,9 @@ impl Element for AnyElement {
     fn open_period(&mut self) {
         dispatch!(self, e => e.open_period())
     }
+    fn start_symmetric_loop(&mut self, x: f64) {
+        dispatch!(self, e => e.start_symmetric_loop(x))
+    }
     fn close_period(&mut self, mirror: bool) -> f64 {
         dispatch!(self, e => e.close_period(mirror))
     }
