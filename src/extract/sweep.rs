@@ -861,58 +861,53 @@ fn compensated(
     let fwd = planner.plan_fft_forward(nfft);
     let inv = planner.plan_fft_inverse(nfft);
     let scale = 1.0 / nfft as f64;
-    // unit phasors e^{jθ(n)} and the plain envelopes, interpolated linearly
-    // between window centres (held beyond the first and the last)
-    let unit: Vec<Complex64> = (start..end)
-        .map(|n| {
-            let (s, c) = law.phase(n as f64).sin_cos();
-            Complex64::new(c, s)
-        })
-        .collect();
-    let mut plain = [
-        vec![Complex64::default(); len * width],
-        vec![Complex64::default(); len * width],
-    ];
-    let mut full = [vec![0.0; len], vec![0.0; len]];
-    let mut j = 0;
-    for i in 0..len {
+    // Nothing of the record's length is kept but the FFT buffers (three of
+    // them at a time): the unit phasors `e^{jθ(n)}`, their powers and the
+    // plain envelopes are recomputed per pass, in the same order of
+    // operations as a stored copy would have been, so the same bits.
+    let unit = |i: usize| {
+        let (s, c) = law.phase((start + i) as f64).sin_cos();
+        Complex64::new(c, s)
+    };
+    // the plain envelope interpolated linearly between window centres (held
+    // beyond the first and the last): `(a, b, t)` at sample `i`, from a
+    // cursor `j` that only moves forward within a pass
+    let between = |i: usize, j: &mut usize| {
         let n = (start + i) as f64;
-        while j < windows.len() && windows[j].center <= n {
-            j += 1;
+        while *j < windows.len() && windows[*j].center <= n {
+            *j += 1;
         }
-        let (a, b, t) = if j == 0 {
+        if *j == 0 {
             (0, 0, 0.0)
-        } else if j == windows.len() {
-            (j - 1, j - 1, 0.0)
+        } else if *j == windows.len() {
+            (*j - 1, *j - 1, 0.0)
         } else {
-            let (a, b) = (&windows[j - 1], &windows[j]);
-            (j - 1, j, (n - a.center) / (b.center - a.center))
-        };
-        let mut pw = Complex64::new(1.0, 0.0);
-        for h in 0..width {
-            for ch in 0..2 {
-                let get = |w: &WindowFit| if ch == 0 { w.force[h] } else { w.response[h] };
-                let v = get(&windows[a]) * (1.0 - t) + get(&windows[b]) * t;
-                plain[ch][i * width + h] = v;
-                full[ch][i] += if h == 0 { v.re } else { (v * pw).re };
-            }
-            pw *= unit[i];
+            let (a, b) = (&windows[*j - 1], &windows[*j]);
+            (*j - 1, *j, (n - a.center) / (b.center - a.center))
         }
-    }
-    // the record's support, for the normalisation, and Σ|c|² over it
+    };
+    let plain = |ch: usize, h: usize, (a, b, t): (usize, usize, f64)| {
+        let get = |w: &WindowFit| if ch == 0 { w.force[h] } else { w.response[h] };
+        get(&windows[a]) * (1.0 - t) + get(&windows[b]) * t
+    };
+    // the record's support, for the normalisation, and Σ|c|² over it, both
+    // kept at the window centres only
     let mut support = vec![Complex64::default(); nfft];
     support[reach..reach + len]
         .iter_mut()
         .for_each(|v| *v = Complex64::new(1.0, 0.0));
     fwd.process(&mut support);
     let s2 = sigma_samples * sigma_samples;
-    let mut g2 = kernel(nfft, reach, |m| Complex64::new((-(m * m) / s2).exp(), 0.0));
-    fwd.process(&mut g2);
-    let energy = convolve(&*inv, &support, g2, scale);
     let centers: Vec<usize> = windows
         .iter()
         .map(|w| reach + (w.center.round() as usize).clamp(start, end - 1) - start)
         .collect();
+    let energy: Vec<f64> = {
+        let mut g2 = kernel(nfft, reach, |m| Complex64::new((-(m * m) / s2).exp(), 0.0));
+        fwd.process(&mut g2);
+        let energy = convolve(&*inv, &support, g2, scale);
+        centers.iter().map(|&c| energy[c].re).collect()
+    };
     let mut out: Vec<Compensated> = windows
         .iter()
         .map(|_| Compensated {
@@ -922,35 +917,51 @@ fn compensated(
             response_var: vec![0.0; width],
         })
         .collect();
-    // e^{jhθ(n)}, advanced one harmonic per pass
-    let mut pw = vec![Complex64::new(1.0, 0.0); len];
     let signals = [force, response];
+    let pw0 = Complex64::new(1.0, 0.0);
     for h in 0..width {
         let hf = h as f64;
         let mut ker = kernel(nfft, reach, |m| {
             Complex64::from_polar((-(m * m) / (2.0 * s2)).exp(), 0.5 * hf * alpha * m * m)
         });
         fwd.process(&mut ker);
-        let norm = convolve(&*inv, &ker, support.clone(), scale);
+        let norm: Vec<Complex64> = {
+            let norm = convolve(&*inv, &ker, support.clone(), scale);
+            centers.iter().map(|&c| norm[c]).collect()
+        };
         let factor = if h == 0 { 1.0 } else { 2.0 };
         for ch in 0..2 {
             // this harmonic alone: the signal minus the other harmonics' model
             let mut d = vec![Complex64::default(); nfft];
+            let mut j = 0;
             for i in 0..len {
-                let v = plain[ch][i * width + h];
-                let own = if h == 0 { v.re } else { (v * pw[i]).re };
-                let cleaned = signals[ch][start + i] - full[ch][i] + own;
-                d[reach + i] = pw[i].conj() * cleaned;
+                let u = unit(i);
+                let at = between(i, &mut j);
+                // the other harmonics' model, and `e^{jhθ}` as `h` successive
+                // products on the way
+                let (mut full, mut pw, mut pw_h) = (0.0, Complex64::new(1.0, 0.0), pw0);
+                for hh in 0..width {
+                    let v = plain(ch, hh, at);
+                    full += if hh == 0 { v.re } else { (v * pw).re };
+                    if hh == h {
+                        pw_h = pw;
+                    }
+                    pw *= u;
+                }
+                let v = plain(ch, h, at);
+                let own = if h == 0 { v.re } else { (v * pw_h).re };
+                let cleaned = signals[ch][start + i] - full + own;
+                d[reach + i] = pw_h.conj() * cleaned;
             }
             fwd.process(&mut d);
             let conv = convolve(&*inv, &ker, d, scale);
             for (w, &c) in centers.iter().enumerate() {
-                let nrm = norm[c];
+                let nrm = norm[w];
                 let value = conv[c] / nrm * factor;
                 // white noise of the plain window's residual variance σ²,
                 // propagated: E|ΔA|² = factor² σ² Σ|c|² / |N|²
                 let var =
-                    windows[w].residual_var[ch] * factor * factor * energy[c].re / nrm.norm_sqr();
+                    windows[w].residual_var[ch] * factor * factor * energy[w] / nrm.norm_sqr();
                 let slot = &mut out[w];
                 if ch == 0 {
                     slot.force[h] = value;
@@ -960,9 +971,6 @@ fn compensated(
                     slot.response_var[h] = var;
                 }
             }
-        }
-        for (p, u) in pw.iter_mut().zip(&unit) {
-            *p *= u;
         }
     }
     out
