@@ -715,7 +715,7 @@ fn identify_time<'py>(
                 .detach(|| {
                     let named: Vec<(&str, &Loaded)> =
                         names.iter().map(String::as_str).zip(&loaded).collect();
-                    let Some(p) = hystid::analysis::periodic_start_of(&named, fit_opts.element)?
+                    let Some(p) = hystid::analysis::periodic_start_of(&named, fit_opts.element, fit_opts.modes)?
                     else {
                         return Err(hystid::Error::input(
                             "recordings",

@@ -412,19 +412,21 @@ pub fn periodic_start(
     recordings: &[PathBuf],
     response: Option<&str>,
     kind: crate::model::ElementKind,
+    modes: usize,
 ) -> Result<Option<PeriodicStart>> {
     let loaded = recordings
         .iter()
         .map(|p| Ok((p.display().to_string(), super::load_recording(p, response)?)))
         .collect::<Result<Vec<_>>>()?;
     let named: Vec<(&str, &super::Loaded)> = loaded.iter().map(|(n, l)| (n.as_str(), l)).collect();
-    periodic_start_of(&named, kind)
+    periodic_start_of(&named, kind, modes)
 }
 
 /// [`periodic_start`] of recordings in memory, each with its name.
 pub fn periodic_start_of(
     recordings: &[(&str, &super::Loaded)],
     kind: crate::model::ElementKind,
+    modes: usize,
 ) -> Result<Option<PeriodicStart>> {
     let mut records = Vec::new();
     let mut lines = Vec::new();
@@ -505,6 +507,10 @@ pub fn periodic_start_of(
             })
             .fold(0.0, f64::max)
     };
+    if modes > 1 {
+        return periodic_start_modal(records, &lines, &spectra, quantity, kind, modes, notes)
+            .map(Some);
+    }
     let (starts, linear) =
         crate::fit::time::periodic_starts(&lines, quantity, kind, displacement_rms)?;
     let options = TimeFitOptions::default();
@@ -541,6 +547,77 @@ pub fn periodic_start_of(
         start,
         note: notes.join("; "),
     }))
+}
+
+/// [`periodic_start_of`] with a structure of `modes` modes
+/// ([`crate::fit::time::periodic_starts_modal`]).
+fn periodic_start_modal(
+    records: Vec<TimeRecord>,
+    lines: &[crate::fit::FrfSample],
+    spectra: &[(usize, Vec<crate::extract::Line>)],
+    quantity: crate::harmonics::Quantity,
+    kind: crate::model::ElementKind,
+    modes: usize,
+    mut notes: Vec<String>,
+) -> Result<PeriodicStart> {
+    // the displacement the modes predict (Parseval over the lines of one
+    // period), the loudest recording's
+    let displacement_rms = |m: &crate::model::ModalModel| {
+        spectra
+            .iter()
+            .map(|(period, ls)| {
+                let sum: f64 = ls
+                    .iter()
+                    .map(|l| {
+                        (l.reference * m.receptance(crate::harmonics::omega(l.frequency_hz)).norm())
+                            .powi(2)
+                    })
+                    .sum();
+                (2.0 * sum).sqrt() / *period as f64
+            })
+            .fold(0.0, f64::max)
+    };
+    let (starts, linear) =
+        crate::fit::time::periodic_starts_modal(lines, quantity, kind, modes, displacement_rms)?;
+    let options = TimeFitOptions::default();
+    let models: Vec<Model> = starts.iter().map(|(m, _)| m.clone()).collect();
+    let Some((best, misfit)) = crate::fit::time::closest_start(&models, &records, &options)? else {
+        return Err(Error::input(
+            "recordings",
+            "the simulator rejects every start made from the linear estimate",
+        ));
+    };
+    let shape = starts[best].1;
+    let listed: Vec<String> = linear
+        .modes
+        .iter()
+        .map(|m| {
+            format!(
+                "{:.4} Hz ({:.2} %)",
+                m.frequency_hz,
+                100.0 * m.damping_ratio
+            )
+        })
+        .collect();
+    notes.push(format!(
+        "started from the linear estimate at the excited lines with {modes} modes ({}): the first \
+         mode {:.0} % of its stiffness and {:.0} % of its damping, a {} joint {} times as stiff \
+         slipping at {} RMS of the displacement they predict (the closest of {} such starts: a \
+         per-segment relative misfit of {:.2} %)",
+        listed.join(", "),
+        100.0 * shape.structure,
+        100.0 * shape.damping,
+        kind.name(),
+        shape.joint,
+        shape.slip_rms,
+        starts.len(),
+        100.0 * (misfit / records.len() as f64).sqrt(),
+    ));
+    Ok(PeriodicStart {
+        records,
+        start: models[best].clone(),
+        note: notes.join("; "),
+    })
 }
 
 /// Refines `fit` in the time domain on `records`: every parameter of its

@@ -294,7 +294,8 @@ pub struct IdentifyOptionsArgs {
     #[arg(long, default_value = "extremes")]
     pub linear_start: String,
     /// Modes of the linear part: 1 (the paper's SDOF) or more, located in
-    /// the residual of the SDOF fits of the largest and smallest levels.
+    /// the residual of the SDOF fits of the largest and smallest levels (of
+    /// the multisine's excited lines, for a time-domain fit of multisines).
     #[arg(long, default_value_t = 1)]
     pub modes: usize,
     /// The response is not at the driving point (a transfer FRF): a mode's

@@ -370,9 +370,12 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     // linear estimate
     if args.domain == Domain::Time && args.reduction.excitation == ExcitationArg::Auto {
         let kind = fit_options(&args.fit)?.element;
-        if let Some(p) =
-            hystid::analysis::periodic_start(&args.recordings, args.response.as_deref(), kind)?
-        {
+        if let Some(p) = hystid::analysis::periodic_start(
+            &args.recordings,
+            args.response.as_deref(),
+            kind,
+            args.fit.modes,
+        )? {
             return fit_in_time(args, &p.start, 1.0, &p.records, Some(p.note), quiet);
         }
     }

@@ -676,6 +676,104 @@ pub fn periodic_starts(
     Ok((starts, linear))
 }
 
+/// The linear estimate at a multisine's excited lines with `modes` modes:
+/// the SDOF fit ([`super::fit_sdof`]) is the dominant mode, `modes − 1`
+/// more are located in its residual and all are refitted together
+/// ([`super::linear::locate_extra_mode`], [`super::linear::fit_modes`]), as
+/// the FRF fit's linear start does for a level. The modal constants carry
+/// the SDOF's sign (a transfer's are negative). Returns the modes and the
+/// SDOF.
+pub fn linear_modes_at_lines(
+    lines: &[super::FrfSample],
+    quantity: Quantity,
+    modes: usize,
+) -> Result<(crate::model::ModalModel, super::SdofEstimate)> {
+    use crate::model::{ModalModel, Mode};
+    let what = "the excited lines";
+    let sdof = super::fit_sdof(lines, quantity, what)?;
+    // fitted to H × sign, so that every modal constant starts positive
+    let signed: Vec<super::FrfSample> = lines
+        .iter()
+        .map(|l| super::FrfSample {
+            h: l.h * sdof.sign,
+            ..*l
+        })
+        .collect();
+    let mut m = ModalModel::new(vec![Mode::from_mck(
+        sdof.mass,
+        sdof.damping,
+        sdof.stiffness,
+    )?])?;
+    for _ in 1..modes {
+        let guess = super::linear::locate_extra_mode(&signed, quantity, &m)
+            .ok_or_else(|| Error::input(what, "too few lines to locate another mode"))?;
+        m.modes.push(guess);
+        m = super::linear::fit_modes(&signed, quantity, &m, what)?.0;
+    }
+    for mode in &mut m.modes {
+        mode.residue *= sdof.sign;
+    }
+    Ok((m, sdof))
+}
+
+/// [`periodic_starts`] for a structure of several modes
+/// ([`linear_modes_at_lines`]): the grid's shares of stiffness and damping
+/// are the dominant mode's (the one the joint softens: the SDOF fit's), the
+/// joint's stick stiffness a multiple of that mode's modal stiffness, and
+/// its slip force from `displacement_rms` of the modes' receptance. The
+/// other modes are kept as estimated. Returns the starts with their shapes,
+/// and the modes.
+pub fn periodic_starts_modal(
+    lines: &[super::FrfSample],
+    quantity: Quantity,
+    kind: crate::model::ElementKind,
+    modes: usize,
+    displacement_rms: impl Fn(&crate::model::ModalModel) -> f64,
+) -> Result<(Vec<(Model, StartShape)>, crate::model::ModalModel)> {
+    let (linear, _) = linear_modes_at_lines(lines, quantity, modes)?;
+    let x = displacement_rms(&linear);
+    if !(x.is_finite() && x > 0.0) {
+        return Err(Error::input(
+            "response",
+            format!("the linear estimate predicts no displacement (RMS {x:e} m)"),
+        ));
+    }
+    // the dominant mode: the SDOF fit's, refitted among the others
+    let main = &linear.modes[0];
+    let sign = main.residue.signum();
+    let (mass, damping, stiffness) = (
+        main.modal_mass().abs(),
+        main.modal_damping().abs(),
+        main.modal_stiffness().abs(),
+    );
+    let mut starts = Vec::new();
+    for slip_rms in START_SLIP_RMS {
+        for structure in START_STRUCTURE {
+            for joint in START_JOINT {
+                for share in START_DAMPING {
+                    let kd = joint * stiffness;
+                    let spec =
+                        crate::model::ElementSpec::joint(kind, kd, kd * slip_rms * x, "--element")?;
+                    let mut structure_modes = linear.clone();
+                    let mut dominant =
+                        crate::model::Mode::from_mck(mass, share * damping, structure * stiffness)?;
+                    dominant.residue *= sign;
+                    structure_modes.modes[0] = dominant;
+                    let model = Model::with_joint(structure_modes, Some(spec), Vec::new())?;
+                    let shape = StartShape {
+                        slip_rms,
+                        structure,
+                        joint,
+                        damping: share,
+                    };
+                    starts.push((model, shape));
+                }
+            }
+        }
+    }
+    Ok((starts, linear))
+}
+
 /// The index of the start whose replay is closest to `records` (the fit's
 /// own misfit: each segment's squared relative e_RMS, summed), replayed at
 /// the options' rate; a start the simulator rejects is passed over, ties go

@@ -11,6 +11,7 @@ pub mod kit;
 mod bouc_wen;
 mod hysteretic_mode;
 mod iwan;
+mod multisine;
 mod reference;
 mod sample;
 mod shaker;

@@ -409,10 +409,36 @@ impl SteppedSine {
     pub fn t_end(&self) -> f64 {
         self.dwells.last().map_or(0.0, |d| d.t_end())
     }
+}
 
+/// What drives the reference simulator: the force (or voltage) at any
+/// time, for RK4's intermediate stages.
+pub trait Drive {
+    /// The drive at `t`; `hint` is the caller's cursor for a drive of
+    /// pieces.
+    fn force(&self, t: f64, hint: &mut usize) -> f64;
+}
+
+/// A multisine: `Σ a_l sin(2π f_l t + φ_l)` from `t = 0`, for ever.
+#[derive(Clone, Debug)]
+pub struct Multisine {
+    /// `(f_l` Hz, `a_l`, `φ_l` rad`)`.
+    pub lines: Vec<(f64, f64, f64)>,
+}
+
+impl Drive for Multisine {
+    fn force(&self, t: f64, _hint: &mut usize) -> f64 {
+        self.lines
+            .iter()
+            .map(|&(f, a, p)| a * (2.0 * std::f64::consts::PI * f * t + p).sin())
+            .sum()
+    }
+}
+
+impl Drive for SteppedSine {
     /// The dwell index at `t` (hint-accelerated).
     #[inline]
-    pub fn force(&self, t: f64, hint: &mut usize) -> f64 {
+    fn force(&self, t: f64, hint: &mut usize) -> f64 {
         let ds = &self.dwells;
         if ds.is_empty() || t < ds[0].t0 {
             return 0.0;
@@ -494,7 +520,7 @@ impl RefSystem {
 
     /// Point-sampled response to `force` over `n` samples at `fs`, with
     /// `substeps` RK4 steps per sample, from rest.
-    pub fn simulate(&self, force: &SteppedSine, fs: f64, n: usize, substeps: usize) -> RefOutput {
+    pub fn simulate(&self, force: &impl Drive, fs: f64, n: usize, substeps: usize) -> RefOutput {
         let nm = self.modes.len();
         assert!(nm >= 1 && nm <= MAXM);
         let mut hyst = Hysteresis::new(self.joint);
