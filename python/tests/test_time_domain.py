@@ -84,6 +84,47 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     assert p["fd"]["value"] == pytest.approx(8.0, rel=0.005)
 
 
+def test_a_multisine_over_two_modes_takes_modes(tmp_path):
+    """Two modes (30 Hz and 95 Hz) and a Jenkins joint at the point, driven
+    by 4 periods of a multisine over 10-150 Hz: `modes=2` gives the fit of
+    `identify --domain time --modes 2`, which finds the joint and the second
+    mode (kd, fd within 1 %, its frequency within 0.1 %; measured within
+    0.05 %)."""
+    fs, period = 1024, 2048
+    rng = np.random.default_rng(5)
+    t = np.arange(period) / fs
+    lines = np.arange(20, 301) * fs / period
+    one = sum(np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) for f in lines)
+    force = 20.0 * np.tile(one, 4) / np.std(one)
+    kd = 2.0 * (2 * np.pi * 30.0) ** 2
+    truth = hystid.model({
+        "modes": [
+            {"frequency_hz": 30.0, "damping_ratio": 0.015, "modal_mass": 2.0},
+            {"frequency_hz": 95.0, "damping_ratio": 0.01, "modal_mass": 3.0},
+        ],
+        "joint": {"kind": "jenkins", "kd": kd, "fd": 15.0},
+    })
+    y = hystid.simulate(truth, force, fs)
+    text = ["# fs = 1024 Hz", "force,y"] + [f"{a:.17g},{b:.17g}" for a, b in zip(force, y)]
+    (tmp_path / "m.csv").write_text("\n".join(text) + "\n")
+    run_cli("import", "m.csv", "--out", "m", "-c", "force:force", "-c", "y:displacement",
+            "--excitation", "unknown", cwd=tmp_path)
+    run_cli("identify", "m.json", "--out", "fit", "--domain", "time", "--element", "jenkins",
+            "--modes", "2", cwd=tmp_path, expect=None)
+    ref = json.loads((tmp_path / "fit" / "fit.json").read_text())
+    samples = read_wav_f32(tmp_path / "m.wav").astype(np.float64)
+    fit = hystid.identify_time(
+        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
+        element="jenkins", modes=2,
+    )
+    same_fit(fit, ref)
+    assert "with 2 modes" in fit["time_domain"]["notes"][0]
+    p = fit["time_domain"]["parameters"]
+    assert p["kd"]["value"] == pytest.approx(kd, rel=0.01)
+    assert p["fd"]["value"] == pytest.approx(15.0, rel=0.01)
+    assert p["second_mode.frequency_hz"]["value"] == pytest.approx(95.0, rel=0.001)
+
+
 def test_without_a_start_a_record_that_is_no_multisine_is_an_error():
     force = np.sin(2 * np.pi * 0.013 * np.arange(3000) ** 1.5)
     with pytest.raises(hystid.HystidError, match="not multisines"):
