@@ -487,32 +487,51 @@ pub fn periodic_start_of(
     };
     lines.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
     // the displacement the linear estimate predicts (Parseval over the
-    // lines of one period), the loudest recording's
-    let displacement_rms = |e: &crate::fit::SdofEstimate| {
+    // lines of one period, `amplitude` each), the loudest recording's
+    let displacement_rms = |amplitude: &dyn Fn(&crate::extract::Line) -> f64| {
         spectra
             .iter()
             .map(|(period, ls)| {
-                let sum: f64 = ls
-                    .iter()
-                    .map(|l| {
-                        let w = 2.0 * std::f64::consts::PI * l.frequency_hz;
-                        let d = num_complex::Complex64::new(
-                            e.stiffness - e.mass * w * w,
-                            e.damping * w,
-                        );
-                        (l.reference / d.norm()).powi(2)
-                    })
-                    .sum();
+                let sum: f64 = ls.iter().map(|l| amplitude(l).powi(2)).sum();
                 (2.0 * sum).sqrt() / *period as f64
             })
             .fold(0.0, f64::max)
     };
-    if modes > 1 {
-        return periodic_start_modal(records, &lines, &spectra, quantity, kind, modes, notes)
-            .map(Some);
-    }
-    let (starts, linear) =
-        crate::fit::time::periodic_starts(&lines, quantity, kind, displacement_rms)?;
+    // the starts, what the linear estimate is, and its sign
+    let (starts, estimate, sign) = if modes > 1 {
+        let (starts, linear) =
+            crate::fit::time::periodic_starts_modal(&lines, quantity, kind, modes, |m| {
+                displacement_rms(&|l| {
+                    l.reference * m.receptance(crate::harmonics::omega(l.frequency_hz)).norm()
+                })
+            })?;
+        let listed: Vec<String> = linear
+            .modes
+            .iter()
+            .map(|m| {
+                format!(
+                    "{:.4} Hz ({:.2} %)",
+                    m.frequency_hz,
+                    100.0 * m.damping_ratio
+                )
+            })
+            .collect();
+        let estimate = format!("with {modes} modes ({})", listed.join(", "));
+        (starts, estimate, linear.modes[0].residue.signum())
+    } else {
+        let (starts, linear) = crate::fit::time::periodic_starts(&lines, quantity, kind, |e| {
+            displacement_rms(&|l| {
+                let w = 2.0 * std::f64::consts::PI * l.frequency_hz;
+                let d = num_complex::Complex64::new(e.stiffness - e.mass * w * w, e.damping * w);
+                l.reference / d.norm()
+            })
+        })?;
+        let estimate = format!(
+            "(m {:.5e} kg, c {:.5e} N s/m, k {:.5e} N/m)",
+            linear.mass, linear.damping, linear.stiffness
+        );
+        (starts, estimate, linear.sign)
+    };
     let options = TimeFitOptions::default();
     let models: Vec<Model> = starts.iter().map(|(m, _)| m.clone()).collect();
     let Some((best, misfit)) = crate::fit::time::closest_start(&models, &records, &options)? else {
@@ -522,14 +541,17 @@ pub fn periodic_start_of(
         ));
     };
     let shape = starts[best].1;
+    // the structure's shares are of its (first) mode's
+    let part = if modes > 1 {
+        "the first mode"
+    } else {
+        "the structure"
+    };
     notes.push(format!(
-        "started from the linear estimate at the excited lines (m {:.5e} kg, c {:.5e} N s/m, k {:.5e} N/m): \
-         the structure {:.0} % of its stiffness and {:.0} % of its damping, a {} joint {} times as stiff \
+        "started from the linear estimate at the excited lines {estimate}: \
+         {part} {:.0} % of its stiffness and {:.0} % of its damping, a {} joint {} times as stiff \
          slipping at {} RMS of the displacement it predicts (the closest of {} such starts: a per-segment \
          relative misfit of {:.2} %)",
-        linear.mass,
-        linear.damping,
-        linear.stiffness,
         100.0 * shape.structure,
         100.0 * shape.damping,
         kind.name(),
@@ -539,7 +561,7 @@ pub fn periodic_start_of(
         100.0 * (misfit / records.len() as f64).sqrt(),
     ));
     let start = models[best].clone();
-    if linear.sign < 0.0 {
+    if sign < 0.0 {
         notes.push("the linear estimate's modal constant is negative (a transfer); the response is fitted as recorded".into());
     }
     Ok(Some(PeriodicStart {
@@ -547,77 +569,6 @@ pub fn periodic_start_of(
         start,
         note: notes.join("; "),
     }))
-}
-
-/// [`periodic_start_of`] with a structure of `modes` modes
-/// ([`crate::fit::time::periodic_starts_modal`]).
-fn periodic_start_modal(
-    records: Vec<TimeRecord>,
-    lines: &[crate::fit::FrfSample],
-    spectra: &[(usize, Vec<crate::extract::Line>)],
-    quantity: crate::harmonics::Quantity,
-    kind: crate::model::ElementKind,
-    modes: usize,
-    mut notes: Vec<String>,
-) -> Result<PeriodicStart> {
-    // the displacement the modes predict (Parseval over the lines of one
-    // period), the loudest recording's
-    let displacement_rms = |m: &crate::model::ModalModel| {
-        spectra
-            .iter()
-            .map(|(period, ls)| {
-                let sum: f64 = ls
-                    .iter()
-                    .map(|l| {
-                        (l.reference * m.receptance(crate::harmonics::omega(l.frequency_hz)).norm())
-                            .powi(2)
-                    })
-                    .sum();
-                (2.0 * sum).sqrt() / *period as f64
-            })
-            .fold(0.0, f64::max)
-    };
-    let (starts, linear) =
-        crate::fit::time::periodic_starts_modal(lines, quantity, kind, modes, displacement_rms)?;
-    let options = TimeFitOptions::default();
-    let models: Vec<Model> = starts.iter().map(|(m, _)| m.clone()).collect();
-    let Some((best, misfit)) = crate::fit::time::closest_start(&models, &records, &options)? else {
-        return Err(Error::input(
-            "recordings",
-            "the simulator rejects every start made from the linear estimate",
-        ));
-    };
-    let shape = starts[best].1;
-    let listed: Vec<String> = linear
-        .modes
-        .iter()
-        .map(|m| {
-            format!(
-                "{:.4} Hz ({:.2} %)",
-                m.frequency_hz,
-                100.0 * m.damping_ratio
-            )
-        })
-        .collect();
-    notes.push(format!(
-        "started from the linear estimate at the excited lines with {modes} modes ({}): the first \
-         mode {:.0} % of its stiffness and {:.0} % of its damping, a {} joint {} times as stiff \
-         slipping at {} RMS of the displacement they predict (the closest of {} such starts: a \
-         per-segment relative misfit of {:.2} %)",
-        listed.join(", "),
-        100.0 * shape.structure,
-        100.0 * shape.damping,
-        kind.name(),
-        shape.joint,
-        shape.slip_rms,
-        starts.len(),
-        100.0 * (misfit / records.len() as f64).sqrt(),
-    ));
-    Ok(PeriodicStart {
-        records,
-        start: models[best].clone(),
-        note: notes.join("; "),
-    })
 }
 
 /// Refines `fit` in the time domain on `records`: every parameter of its

@@ -638,7 +638,32 @@ pub fn periodic_starts(
     displacement_rms: impl Fn(&super::SdofEstimate) -> f64,
 ) -> Result<(Vec<(Model, StartShape)>, super::SdofEstimate)> {
     let linear = super::fit_sdof(lines, quantity, "the excited lines")?;
-    let x = displacement_rms(&linear);
+    let starts = start_grid(
+        kind,
+        displacement_rms(&linear),
+        linear.stiffness,
+        |structure, damping| {
+            crate::model::ModalModel::sdof(
+                linear.mass,
+                damping * linear.damping,
+                structure * linear.stiffness,
+            )
+        },
+    )?;
+    Ok((starts, linear))
+}
+
+/// The grid of [`periodic_starts`]: a joint of `kind` whose stick stiffness
+/// is [`START_JOINT`] times `stiffness` and whose slip is [`START_SLIP_RMS`]
+/// times `x`, the displacement's RMS the linear estimate predicts, beside
+/// `structure(stiffness share, damping share)` over [`START_STRUCTURE`] and
+/// [`START_DAMPING`].
+fn start_grid(
+    kind: crate::model::ElementKind,
+    x: f64,
+    stiffness: f64,
+    structure: impl Fn(f64, f64) -> Result<crate::model::ModalModel>,
+) -> Result<Vec<(Model, StartShape)>> {
     if !(x.is_finite() && x > 0.0) {
         return Err(Error::input(
             "response",
@@ -647,24 +672,17 @@ pub fn periodic_starts(
     }
     let mut starts = Vec::new();
     for slip_rms in START_SLIP_RMS {
-        for structure in START_STRUCTURE {
+        for share in START_STRUCTURE {
             for joint in START_JOINT {
                 for damping in START_DAMPING {
-                    let kd = joint * linear.stiffness;
+                    let kd = joint * stiffness;
                     let spec =
                         crate::model::ElementSpec::joint(kind, kd, kd * slip_rms * x, "--element")?;
-                    let model = Model::with_joint(
-                        crate::model::ModalModel::sdof(
-                            linear.mass,
-                            damping * linear.damping,
-                            structure * linear.stiffness,
-                        )?,
-                        Some(spec),
-                        Vec::new(),
-                    )?;
+                    let model =
+                        Model::with_joint(structure(share, damping)?, Some(spec), Vec::new())?;
                     let shape = StartShape {
                         slip_rms,
-                        structure,
+                        structure: share,
                         joint,
                         damping,
                     };
@@ -673,7 +691,7 @@ pub fn periodic_starts(
             }
         }
     }
-    Ok((starts, linear))
+    Ok(starts)
 }
 
 /// The linear estimate at a multisine's excited lines with `modes` modes:
@@ -731,46 +749,27 @@ pub fn periodic_starts_modal(
     displacement_rms: impl Fn(&crate::model::ModalModel) -> f64,
 ) -> Result<(Vec<(Model, StartShape)>, crate::model::ModalModel)> {
     let (linear, _) = linear_modes_at_lines(lines, quantity, modes)?;
-    let x = displacement_rms(&linear);
-    if !(x.is_finite() && x > 0.0) {
-        return Err(Error::input(
-            "response",
-            format!("the linear estimate predicts no displacement (RMS {x:e} m)"),
-        ));
-    }
     // the dominant mode: the SDOF fit's, refitted among the others
     let main = &linear.modes[0];
-    let sign = main.residue.signum();
-    let (mass, damping, stiffness) = (
+    let (sign, mass, damping, stiffness) = (
+        main.residue.signum(),
         main.modal_mass().abs(),
         main.modal_damping().abs(),
         main.modal_stiffness().abs(),
     );
-    let mut starts = Vec::new();
-    for slip_rms in START_SLIP_RMS {
-        for structure in START_STRUCTURE {
-            for joint in START_JOINT {
-                for share in START_DAMPING {
-                    let kd = joint * stiffness;
-                    let spec =
-                        crate::model::ElementSpec::joint(kind, kd, kd * slip_rms * x, "--element")?;
-                    let mut structure_modes = linear.clone();
-                    let mut dominant =
-                        crate::model::Mode::from_mck(mass, share * damping, structure * stiffness)?;
-                    dominant.residue *= sign;
-                    structure_modes.modes[0] = dominant;
-                    let model = Model::with_joint(structure_modes, Some(spec), Vec::new())?;
-                    let shape = StartShape {
-                        slip_rms,
-                        structure,
-                        joint,
-                        damping: share,
-                    };
-                    starts.push((model, shape));
-                }
-            }
-        }
-    }
+    let starts = start_grid(
+        kind,
+        displacement_rms(&linear),
+        stiffness,
+        |structure, share| {
+            let mut dominant =
+                crate::model::Mode::from_mck(mass, share * damping, structure * stiffness)?;
+            dominant.residue *= sign;
+            let mut m = linear.clone();
+            m.modes[0] = dominant;
+            Ok(m)
+        },
+    )?;
     Ok((starts, linear))
 }
 
