@@ -7,6 +7,7 @@
 mod common;
 
 mod architecture;
+mod armature;
 mod bench;
 mod cli;
 mod cli_realdata;

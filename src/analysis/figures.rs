@@ -215,10 +215,7 @@ fn unstable_branch(
             .then(|| {
                 let w = omega(p.frequency_hz);
                 // through the drive model, if any (a shaker), as the solver
-                let driven = crate::hb::Driven {
-                    linear: &model.linear,
-                    load: crate::model::Element::drive_load(&elements),
-                };
+                let driven = crate::hb::Driven::of(&model.linear, &elements);
                 let roots = crate::hb::describing::solve_on(
                     &driven,
                     &mut elements,

@@ -11,7 +11,7 @@
 //!   system), interpolated, and an error outside its range.
 
 use crate::error::{Error, Result};
-use crate::model::{DriveLoad, ModalModel};
+use crate::model::{Attachment, DriveLoad, Element, ModalModel};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
@@ -30,26 +30,46 @@ pub trait LinearPart {
     }
 }
 
-/// A linear part driven through a drive model (a shaker, [`DriveLoad`]):
-/// the receptance with the drive's dynamic stiffness `Z` attached,
-/// `H/(1 + H Z)`, and the drive `D(ω)`. Exact, harmonic by harmonic, since
-/// the drive is linear: with a voltage reference `e` the drive point obeys
-/// `X = H (D E − Z X − G)`, which is `X = H/(1 + HZ) · (D E − G)`.
+/// A linear part driven through a drive model (a shaker, [`DriveLoad`]) and
+/// loaded by what is attached at the drive point (an armature,
+/// [`Attachment`]): the receptance with their dynamic stiffnesses `Z`
+/// attached, `H/(1 + H Z)`, and the drive `D(ω)`. Exact, harmonic by
+/// harmonic, since both are linear: with a voltage reference `e` the drive
+/// point obeys `X = H (D E − Z X − G)`, which is `X = H/(1 + HZ) · (D E − G)`.
 #[derive(Clone, Copy, Debug)]
 pub struct Driven<'a, L> {
     /// The structure.
     pub linear: &'a L,
     /// The drive model; `None` passes the structure through.
     pub load: Option<DriveLoad>,
+    /// What is attached at the drive point; `None`: nothing.
+    pub attachment: Option<Attachment>,
+}
+
+impl<'a, L> Driven<'a, L> {
+    /// `linear` driven as `elements` say (their shaker and armature, if any).
+    pub fn of<E: Element>(linear: &'a L, elements: &E) -> Driven<'a, L> {
+        Driven {
+            linear,
+            load: elements.drive_load(),
+            attachment: elements.attachment(),
+        }
+    }
 }
 
 impl<L: LinearPart> LinearPart for Driven<'_, L> {
     #[inline]
     fn receptance(&self, omega: f64) -> Result<Complex64> {
         let h = self.linear.receptance(omega)?;
-        Ok(match self.load {
-            Some(load) => h / (1.0 + h * load.impedance(omega)),
-            None => h,
+        let z = self.load.map(|l| l.impedance(omega)).unwrap_or_default()
+            + self
+                .attachment
+                .map(|a| a.impedance(omega))
+                .unwrap_or_default();
+        Ok(if self.load.is_some() || self.attachment.is_some() {
+            h / (1.0 + h * z)
+        } else {
+            h
         })
     }
     #[inline]

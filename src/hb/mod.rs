@@ -333,10 +333,7 @@ impl HbSolver {
         check_frequency(0, frequency_hz)?;
         // a drive model among the elements (a shaker) is balanced exactly
         // through the linear part
-        let linear = &Driven {
-            linear,
-            load: elements.drive_load(),
-        };
+        let linear = &Driven::of(linear, elements);
         let omega = 2.0 * std::f64::consts::PI * frequency_hz;
         self.core.set_frequency(linear, omega)?;
         let n = self.core.n;
@@ -383,10 +380,7 @@ impl HbSolver {
         force_amplitude: f64,
     ) -> Result<HbSweep> {
         check_force(force_amplitude)?;
-        let linear = &Driven {
-            linear,
-            load: elements.drive_load(),
-        };
+        let linear = &Driven::of(linear, elements);
         for (i, &f) in frequencies_hz.iter().enumerate() {
             check_frequency(i, f)?;
             // the linear part must cover every harmonic of every point

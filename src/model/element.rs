@@ -59,6 +59,38 @@ pub struct ImplicitStep {
     pub force: f64,
 }
 
+/// A mass, spring and damper moving with the drive point (an armature,
+/// [`crate::model::Armature`]): the dynamic stiffness
+/// `Z_a(ω) = stiffness − mass ω² + jω damping` it adds there.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Attachment {
+    /// Mass, kg (in the model's force unit per m/s²).
+    pub mass: f64,
+    /// Stiffness to the ground, N/m.
+    pub stiffness: f64,
+    /// Damping to the ground, N s/m.
+    pub damping: f64,
+}
+
+impl Attachment {
+    /// `Z_a(ω)`.
+    pub fn impedance(&self, omega: f64) -> Complex64 {
+        Complex64::new(
+            self.stiffness - self.mass * omega * omega,
+            omega * self.damping,
+        )
+    }
+
+    /// Two attachments at the same point: their parameters add.
+    pub fn plus(self, o: Attachment) -> Attachment {
+        Attachment {
+            mass: self.mass + o.mass,
+            stiffness: self.stiffness + o.stiffness,
+            damping: self.damping + o.damping,
+        }
+    }
+}
+
 /// How a drive model between the reference and the structure (a shaker)
 /// loads the structure, per harmonic: the reference reaches the drive point
 /// as `D(ω) F`, `D = 1/(1 + jωτ)`, and the drive adds the dynamic stiffness
@@ -193,6 +225,13 @@ pub trait Element {
     /// harmonic balance applies it to the drive and the receptance, the
     /// simulator lags its drive by it.
     fn drive_load(&self) -> Option<DriveLoad> {
+        None
+    }
+
+    /// The mass, spring and damper the element stands for, if it is one (an
+    /// armature): harmonic balance adds its dynamic stiffness to the
+    /// receptance, the simulator solves it inside each sample.
+    fn attachment(&self) -> Option<Attachment> {
         None
     }
 
@@ -342,6 +381,13 @@ impl<E: Element> Element for ElementSet<E> {
     }
     fn set_time_step(&mut self, h: f64) {
         self.elements.iter_mut().for_each(|e| e.set_time_step(h));
+    }
+    /// The members' together (attached at one point, they add).
+    fn attachment(&self) -> Option<Attachment> {
+        self.elements
+            .iter()
+            .filter_map(Element::attachment)
+            .reduce(Attachment::plus)
     }
     /// The first member's (a model has at most one drive).
     fn drive_load(&self) -> Option<DriveLoad> {

@@ -10,6 +10,7 @@
 //! fits and reports handle); [`AnyElement`] is the element built from it, with
 //! state, dispatched without virtual calls in the simulator's loop.
 
+pub mod armature;
 pub mod bilinear_stiffness;
 pub mod bouc_wen;
 pub mod clearance;
@@ -23,13 +24,14 @@ pub mod quadratic_damping;
 pub mod shaker;
 pub mod viscous_damping;
 
+pub use armature::Armature;
 pub use bilinear_stiffness::BilinearStiffness;
 pub use bouc_wen::BoucWen;
 pub use clearance::Clearance;
 pub use cubic_stiffness::CubicStiffness;
 pub use element::{
-    Description, Domain, DriveLoad, Element, ElementForce, ElementSet, FitScale, ImplicitStep, Law,
-    NoElement, ParameterInfo, Role,
+    Attachment, Description, Domain, DriveLoad, Element, ElementForce, ElementSet, FitScale,
+    ImplicitStep, Law, NoElement, ParameterInfo, Role,
 };
 pub use iwan::Iwan4Backbone;
 pub use jenkins::Jenkins;
@@ -157,6 +159,7 @@ registry! {
     Clearance(Clearance) { k, gap },
     ViscousDamping(ViscousDamping) { cj },
     Shaker(Shaker) { ce, te },
+    Armature(Armature) { ma, ks, cs },
 }
 
 impl ElementKind {
@@ -298,6 +301,18 @@ impl ElementSpec {
         }
     }
 
+    /// The attachment it stands for, if it is one (an armature).
+    pub fn attachment(&self) -> Option<Attachment> {
+        match *self {
+            ElementSpec::Armature { ma, ks, cs } => Some(Attachment {
+                mass: ma,
+                stiffness: ks,
+                damping: cs,
+            }),
+            _ => None,
+        }
+    }
+
     /// The stick stiffness a hysteresis element adds at small amplitude
     /// (0 for the others).
     pub fn stick_stiffness(&self) -> f64 {
@@ -362,6 +377,9 @@ impl Element for AnyElement {
     }
     fn drive_load(&self) -> Option<element::DriveLoad> {
         dispatch!(self, e => e.drive_load())
+    }
+    fn attachment(&self) -> Option<Attachment> {
+        dispatch!(self, e => e.attachment())
     }
     #[inline]
     fn commit_sensitivity(
@@ -553,6 +571,16 @@ impl Model {
             return Err(Error::model(
                 drives[1].0.to_string(),
                 "a model has one shaker (the drive of its one reference)",
+            ));
+        }
+        if let Some((at, _)) = self.placed().find(|(_, e)| e.attachment().is_some())
+            && self.linear.modes.iter().any(|m| m.is_hysteretic())
+        {
+            return Err(Error::model(
+                at.to_string(),
+                "an armature beside a hysteretic mode would couple the mode to the point \
+                 structure, which is not modelled: put the mode's joint on the point structure \
+                 or leave the armature out",
             ));
         }
         Ok(())

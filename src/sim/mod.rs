@@ -27,7 +27,7 @@ pub use filter::{ModeFilter, Section};
 use crate::error::{Error, Result};
 use crate::model::element::SOLVE_TOLERANCE;
 use crate::model::shaker::Lag;
-use crate::model::{AnyElement, Element, ImplicitStep, ModalModel, Model};
+use crate::model::{AnyElement, Attachment, Element, ImplicitStep, ModalModel, Model};
 
 /// One output sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -140,6 +140,9 @@ pub struct Simulator<E: Element> {
     /// The drive's lag between the reference and the structure (a shaker's
     /// coil, [`Element::drive_load`]); off without one.
     drive_lag: Lag,
+    /// What is attached at the drive point (an armature,
+    /// [`Element::attachment`]), solved inside each sample; `None`: nothing.
+    attached: Option<Attachment>,
 }
 
 const MAX_NEWTON: usize = 8;
@@ -169,6 +172,14 @@ impl<E: Element> Simulator<E> {
             Some(load) => Lag::new(load.time_constant, t),
             None => Lag::default(),
         };
+        let attached = elements.attachment();
+        if attached.is_some() && linear.modes.iter().any(|m| m.is_hysteretic()) {
+            return Err(Error::model(
+                "armature",
+                "an armature beside a hysteretic mode would couple the mode to the point \
+                 structure, which is not modelled",
+            ));
+        }
         // `elements` act on the point structure; each hysteretic mode is
         // simulated apart with its own joint
         let mut hysteretic = Vec::new();
@@ -204,6 +215,7 @@ impl<E: Element> Simulator<E> {
             stats: SolveStats::default(),
             hysteretic,
             drive_lag,
+            attached,
         })
     }
 
@@ -281,24 +293,42 @@ impl<E: Element> Simulator<E> {
             pred[1] += s.pred[1];
             pred[2] += s.pred[2];
         }
+        // An attachment's force `ma a + cs v + ks x` is affine in the net
+        // input `u` as the filters' outputs are: with `s = 1 + ma ba + cs bv
+        // + ks bx`, `u' = s u` solves the joint's own implicit equation with
+        // the direct terms divided by `s` and the attachment's predicted
+        // force taken from the drive.
+        let (scale, force) = match self.attached {
+            Some(at) => (
+                1.0 + at.mass * self.b0[2] + at.damping * self.b0[1] + at.stiffness * self.b0[0],
+                force - (at.mass * pred[2] + at.damping * pred[1] + at.stiffness * pred[0]),
+            ),
+            None => (1.0, force),
+        };
         let step = ImplicitStep {
             x_pred: pred[0],
             v_pred: pred[1],
-            bx: self.b0[0],
-            bv: self.b0[1],
+            bx: self.b0[0] / scale,
+            bv: self.b0[1] / scale,
             force,
         };
-        let u = match self.elements.solve_implicit(&step) {
+        let u_scaled = match self.elements.solve_implicit(&step) {
             Some(u) => u,
-            None => solve_iteratively(&self.elements, &mut self.stats, &step, 2.0 * u1 - u2)?,
+            None => solve_iteratively(
+                &self.elements,
+                &mut self.stats,
+                &step,
+                scale * (2.0 * u1 - u2),
+            )?,
         };
-        let x = step.x_pred + step.bx * u;
-        let v = step.v_pred + step.bv * u;
+        let x = step.x_pred + step.bx * u_scaled;
+        let v = step.v_pred + step.bv * u_scaled;
         let g = self.elements.commit(x, v).force;
+        let u = u_scaled / scale;
         let a = pred[2] + self.b0[2] * u;
         // the filters carry a kink inside the sample as a hat of its area
         // (the outputs at the sample are those of the sampled input)
-        let uf = u - self.elements.kink_impulse() * self.sample_rate;
+        let uf = u - self.elements.kink_impulse() * self.sample_rate / scale;
         for (f, s) in self.filters.iter().zip(self.state.iter_mut()) {
             s.x = [s.pred[0] + f.displacement.b[0] * uf, s.x[0]];
             s.v = [s.pred[1] + f.velocity.b[0] * uf, s.v[0]];
@@ -326,6 +356,7 @@ impl<E: Element> Simulator<E> {
         mut sink: impl FnMut(usize, Sample),
     ) -> Result<()> {
         if self.drive_lag.is_on() || !self.hysteretic.is_empty() {
+            // (an attachment is solved in `step_modal`, the path below)
             // the point structure and every hysteretic mode, sample by
             // sample: their motions add, and so do their joints' forces;
             // all are driven through the drive's lag, if any (a shaker's,
@@ -350,7 +381,7 @@ impl<E: Element> Simulator<E> {
             }
             return Ok(());
         }
-        if self.filters.len() != 1 {
+        if self.filters.len() != 1 || self.attached.is_some() {
             for i in 0..n {
                 let s = self.step_modal(input(i))?;
                 sink(i, s);
