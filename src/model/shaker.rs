@@ -15,9 +15,9 @@
 //! a resonance the structure's velocity is largest, so the force drops there
 //! (the classic force drop of a voltage-driven test). A model identified from
 //! the voltage has its forces in the drive's unit, `F·R/Bl`, in which the
-//! gain is 1 and `ce` is `Bl` (V s/m). The armature's mass and suspension sit
-//! at the drive point like any attached mass and spring: the structure's
-//! modes as tested with the shaker fixed to it include them.
+//! gain is 1 and `ce` is `Bl` (V s/m). The armature's mass and suspension
+//! move with the drive point: an effect of their own,
+//! [`crate::model::Armature`].
 //!
 //! **How the stages see it.** The shaker is linear, so harmonic balance takes
 //! it exactly, harmonic by harmonic, as [`DriveLoad`]: the drive reaches the
