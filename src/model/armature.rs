@@ -36,6 +36,12 @@ use super::element::{
 use crate::error::Result;
 use num_complex::Complex64;
 
+/// Why a model with an armature beside a hysteretic mode is refused (by
+/// `Model::validate` and the simulator alike).
+pub(crate) const BESIDE_A_HYSTERETIC_MODE: &str = "an armature beside a hysteretic mode would \
+     couple the mode to the point structure, which is not modelled: put the mode's joint on the \
+     point structure or leave the armature out";
+
 /// A mass on a spring and damper at the drive point (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Armature {

@@ -578,9 +578,7 @@ impl Model {
         {
             return Err(Error::model(
                 at.to_string(),
-                "an armature beside a hysteretic mode would couple the mode to the point \
-                 structure, which is not modelled: put the mode's joint on the point structure \
-                 or leave the armature out",
+                armature::BESIDE_A_HYSTERETIC_MODE,
             ));
         }
         Ok(())

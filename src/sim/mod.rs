@@ -142,7 +142,44 @@ pub struct Simulator<E: Element> {
     drive_lag: Lag,
     /// What is attached at the drive point (an armature,
     /// [`Element::attachment`]), solved inside each sample; `None`: nothing.
-    attached: Option<Attachment>,
+    attached: Option<AttachedSolve>,
+}
+
+/// An attachment's force `ma a + cs v + ks x` is affine in the sample's net
+/// input `u`, as the filters' outputs are: with `s = 1 + ma ba + cs bv +
+/// ks bx` (the summed direct terms), `u' = s u` solves the joint's own
+/// implicit equation with the direct terms divided by `s` and the
+/// attachment's predicted force taken from the drive. `s` and the divided
+/// terms are the filters' constants, computed once.
+#[derive(Clone, Copy, Debug)]
+struct AttachedSolve {
+    attachment: Attachment,
+    /// `s`.
+    scale: f64,
+    /// `bx/s`, `bv/s`.
+    bx: f64,
+    bv: f64,
+}
+
+impl AttachedSolve {
+    fn new(attachment: Attachment, b0: [f64; 3]) -> AttachedSolve {
+        let scale = 1.0
+            + attachment.mass * b0[2]
+            + attachment.damping * b0[1]
+            + attachment.stiffness * b0[0];
+        AttachedSolve {
+            attachment,
+            scale,
+            bx: b0[0] / scale,
+            bv: b0[1] / scale,
+        }
+    }
+
+    /// The attachment's force from the filters' past `[x, v, a]`.
+    fn predicted_force(&self, pred: [f64; 3]) -> f64 {
+        let at = self.attachment;
+        at.mass * pred[2] + at.damping * pred[1] + at.stiffness * pred[0]
+    }
 }
 
 const MAX_NEWTON: usize = 8;
@@ -176,8 +213,7 @@ impl<E: Element> Simulator<E> {
         if attached.is_some() && linear.modes.iter().any(|m| m.is_hysteretic()) {
             return Err(Error::model(
                 "armature",
-                "an armature beside a hysteretic mode would couple the mode to the point \
-                 structure, which is not modelled",
+                crate::model::armature::BESIDE_A_HYSTERETIC_MODE,
             ));
         }
         // `elements` act on the point structure; each hysteretic mode is
@@ -215,7 +251,7 @@ impl<E: Element> Simulator<E> {
             stats: SolveStats::default(),
             hysteretic,
             drive_lag,
-            attached,
+            attached: attached.map(|a| AttachedSolve::new(a, b0)),
         })
     }
 
@@ -293,23 +329,16 @@ impl<E: Element> Simulator<E> {
             pred[1] += s.pred[1];
             pred[2] += s.pred[2];
         }
-        // An attachment's force `ma a + cs v + ks x` is affine in the net
-        // input `u` as the filters' outputs are: with `s = 1 + ma ba + cs bv
-        // + ks bx`, `u' = s u` solves the joint's own implicit equation with
-        // the direct terms divided by `s` and the attachment's predicted
-        // force taken from the drive.
-        let (scale, force) = match self.attached {
-            Some(at) => (
-                1.0 + at.mass * self.b0[2] + at.damping * self.b0[1] + at.stiffness * self.b0[0],
-                force - (at.mass * pred[2] + at.damping * pred[1] + at.stiffness * pred[0]),
-            ),
-            None => (1.0, force),
+        // an attachment is solved with the joint (see `AttachedSolve`)
+        let (force, bx, bv, scale) = match &self.attached {
+            Some(at) => (force - at.predicted_force(pred), at.bx, at.bv, at.scale),
+            None => (force, self.b0[0], self.b0[1], 1.0),
         };
         let step = ImplicitStep {
             x_pred: pred[0],
             v_pred: pred[1],
-            bx: self.b0[0] / scale,
-            bv: self.b0[1] / scale,
+            bx,
+            bv,
             force,
         };
         let u_scaled = match self.elements.solve_implicit(&step) {
@@ -324,11 +353,14 @@ impl<E: Element> Simulator<E> {
         let x = step.x_pred + step.bx * u_scaled;
         let v = step.v_pred + step.bv * u_scaled;
         let g = self.elements.commit(x, v).force;
-        let u = u_scaled / scale;
-        let a = pred[2] + self.b0[2] * u;
         // the filters carry a kink inside the sample as a hat of its area
         // (the outputs at the sample are those of the sampled input)
-        let uf = u - self.elements.kink_impulse() * self.sample_rate / scale;
+        let kink = self.elements.kink_impulse() * self.sample_rate;
+        let (u, uf) = match self.attached {
+            Some(_) => (u_scaled / scale, (u_scaled - kink) / scale),
+            None => (u_scaled, u_scaled - kink),
+        };
+        let a = pred[2] + self.b0[2] * u;
         for (f, s) in self.filters.iter().zip(self.state.iter_mut()) {
             s.x = [s.pred[0] + f.displacement.b[0] * uf, s.x[0]];
             s.v = [s.pred[1] + f.velocity.b[0] * uf, s.v[0]];
