@@ -10,7 +10,7 @@
 //! `Z = ks − ma ω² + jω cs` to the point receptance (harmonic balance) or
 //! solves the armature inside each sample (the simulator).
 
-use crate::shaker::{SHAKER_TEST, checked_against_hb, driven, harmonic, read_json};
+use crate::shaker::{SHAKER_TEST, checked_against_hb, driven, harmonic, march_rk4, read_json};
 use hystid::hb::{HbOptions, solve_point};
 use hystid::model::{ElementSpec, ModalModel, Mode, Model};
 use num_complex::Complex64;
@@ -108,21 +108,7 @@ fn rk4(k3: f64, e: f64, f: f64, p: usize, seconds: f64) -> Vec<f64> {
         ]
     };
     let periods = (seconds * f).ceil() as usize;
-    let mut s = [0.0; 5];
-    let mut xs = Vec::with_capacity(periods * p);
-    for n in 0..periods * p {
-        let t = n as f64 * dt;
-        xs.push(phi[0] * s[0] + phi[1] * s[1]);
-        let k1 = rate(t, s);
-        let at = |k: [f64; 5], c: f64| std::array::from_fn(|q| s[q] + c * k[q]);
-        let k2 = rate(t + dt / 2.0, at(k1, dt / 2.0));
-        let k3r = rate(t + dt / 2.0, at(k2, dt / 2.0));
-        let k4 = rate(t + dt, at(k3r, dt));
-        for q in 0..5 {
-            s[q] += dt / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3r[q] + k4[q]);
-        }
-    }
-    xs
+    march_rk4(rate, dt, periods * p, |s| phi[0] * s[0] + phi[1] * s[1])
 }
 
 /// The digital-filter simulator's response to `e = E cos ωt`, the model

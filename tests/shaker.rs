@@ -67,21 +67,32 @@ fn rk4(k3: f64, e: f64, f: f64, p: usize, seconds: f64) -> Vec<f64> {
         ]
     };
     let periods = (seconds * f).ceil() as usize;
-    let mut s = [0.0; 3];
-    let mut xs = Vec::with_capacity(periods * p);
-    for n in 0..periods * p {
+    march_rk4(rate, dt, periods * p, |s| s[0])
+}
+
+/// The classical RK4 of `s' = rate(t, s)` from rest, `steps` steps of `dt`;
+/// `output(s)` before each step.
+pub(crate) fn march_rk4<const N: usize>(
+    rate: impl Fn(f64, [f64; N]) -> [f64; N],
+    dt: f64,
+    steps: usize,
+    output: impl Fn(&[f64; N]) -> f64,
+) -> Vec<f64> {
+    let mut s = [0.0; N];
+    let mut out = Vec::with_capacity(steps);
+    for n in 0..steps {
         let t = n as f64 * dt;
-        xs.push(s[0]);
+        out.push(output(&s));
         let k1 = rate(t, s);
-        let a = |k: [f64; 3], c: f64| [s[0] + c * k[0], s[1] + c * k[1], s[2] + c * k[2]];
-        let k2 = rate(t + dt / 2.0, a(k1, dt / 2.0));
-        let k3r = rate(t + dt / 2.0, a(k2, dt / 2.0));
-        let k4 = rate(t + dt, a(k3r, dt));
-        for q in 0..3 {
-            s[q] += dt / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3r[q] + k4[q]);
+        let at = |k: [f64; N], c: f64| std::array::from_fn(|q| s[q] + c * k[q]);
+        let k2 = rate(t + dt / 2.0, at(k1, dt / 2.0));
+        let k3 = rate(t + dt / 2.0, at(k2, dt / 2.0));
+        let k4 = rate(t + dt, at(k3, dt));
+        for q in 0..N {
+            s[q] += dt / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3[q] + k4[q]);
         }
     }
-    xs
+    out
 }
 
 /// The digital-filter simulator's response to `e = E cos ωt`, the model
