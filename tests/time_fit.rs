@@ -142,10 +142,12 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
         None,
     )
     .unwrap();
-    assert_eq!(problem.replay_samples_per_period()[0], sure);
+    assert_eq!(problem.replay_factors()[0], None);
+    let sure_factor = hystid::validate::upsampling_factor(&model, fs, sure).unwrap();
+    assert!(sure_factor >= 20, "{sure_factor}");
     problem.choose_replay_rates();
-    let chosen = problem.replay_samples_per_period()[0];
-    assert!(chosen < sure, "replayed at {chosen} samples per period");
+    let chosen = problem.replay_factors()[0].unwrap();
+    assert!(chosen < sure_factor, "replayed at {chosen} times the rate");
     assert_eq!(
         problem.replay_notes().len(),
         1,
@@ -175,8 +177,71 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
     let at_sure = (sum / record.segments.len() as f64).sqrt();
     assert!(
         (judged / at_sure - 1.0).abs() < 0.0025,
-        "judged {judged} at {chosen} samples per period, {at_sure} at {sure}"
+        "judged {judged} at {chosen} times the rate, {at_sure} at {sure_factor}"
     );
+}
+
+/// The replay grid is the fit's, not the trial model's: fixed on the start,
+/// a trial model that is far stiffer (a further mode near the Nyquist
+/// frequency, 20 times the recording's rate at the sure 40 samples per
+/// period) is replayed on the start's grid, and only a check of the optimum
+/// makes it finer (never coarser again).
+#[test]
+fn the_replay_grid_is_fixed_until_the_optimum_asks_for_a_finer_one() {
+    let (case, rec) = jenkins_case();
+    let record = record(case, rec);
+    let fs = case.sample_rate as f64;
+    let start = truth(case);
+    let mut stiff = start.clone();
+    let w = 2.0 * std::f64::consts::PI * 0.5 * fs;
+    stiff.linear.modes.push(hystid::model::Mode {
+        frequency_hz: 0.5 * fs,
+        damping_ratio: 0.05,
+        residue: 0.01 / case.stiffness * w * w,
+        joint: None,
+    });
+    let mut problem = TimeProblem::new(
+        start.clone(),
+        time_parameters(&start, false, None),
+        std::slice::from_ref(&record),
+        1.0,
+        TimeFitOptions::default(),
+        None,
+    )
+    .unwrap();
+    problem.choose_replay_rates();
+    let on_start = problem.replay_factors()[0].unwrap();
+    let sure = TimeFitOptions::default().min_samples_per_period;
+    assert_eq!(
+        on_start,
+        hystid::validate::upsampling_factor(&start, fs, sure).unwrap(),
+        "the start needs no coarser grid than its sure one"
+    );
+    // the stiff model on the start's grid is the validation replay at that
+    // factor, sample for sample
+    let drive =
+        hystid::validate::PreparedDrive::new(&record.reference, TimeFitOptions::default().input);
+    let on_grid =
+        hystid::validate::simulate_prepared_at(&stiff, &drive, fs, record.quantity, 1.0, on_start)
+            .unwrap()
+            .values;
+    let judged = problem.errors(&stiff).unwrap()[0].window.e_rms;
+    let direct =
+        hystid::validate::error_metrics(&record.response, &on_grid, fs, record.window.clone())
+            .unwrap()
+            .e_rms;
+    assert_eq!(judged, direct);
+    assert!(
+        problem.fix_replay_grid(&stiff, "fitted"),
+        "the stiff optimum needs a finer grid"
+    );
+    let refined = problem.replay_factors()[0].unwrap();
+    assert!(refined > on_start, "{refined} after {on_start}");
+    assert!(
+        !problem.fix_replay_grid(&start, "fitted"),
+        "kept: a finer grid is never coarsened"
+    );
+    assert_eq!(problem.replay_factors()[0], Some(refined));
 }
 
 /// A Jenkins joint from a start 10 % off in kd and Fd (20 % in damping,

@@ -37,7 +37,10 @@ use super::params::{ParameterSet, Transform};
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use crate::model::Model;
-use crate::validate::{DriveInput, ErrorMetrics, PreparedDrive, error_metrics, simulate_prepared};
+use crate::validate::resample::MAX_FACTOR;
+use crate::validate::{
+    DriveInput, ErrorMetrics, PreparedDrive, error_metrics, simulate_prepared_at, upsampling_factor,
+};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -344,12 +347,14 @@ pub struct TimeProblem<'a> {
     scale: Vec<Vec<f64>>,
     /// Each recording's force, prepared once per upsampling factor.
     drives: Vec<PreparedDrive<'a>>,
-    /// Each recording's replay rate, as samples per period of the model's
-    /// stiffest linearised mode (see [`TimeProblem::choose_replay_rates`]).
-    samples_per_period: Vec<f64>,
+    /// Each recording's replay grid, as its upsampling factor; `None`: the
+    /// sure rate of each model replayed (see [`TimeProblem::fix_replay_grid`]).
+    replay_factor: Vec<Option<usize>>,
     /// What choosing those rates found, for the fit's notes.
     rate_notes: Vec<String>,
     evaluations: AtomicUsize,
+    /// Residual vectors computed (each a replay of every recording).
+    replays: AtomicUsize,
     observer: Option<&'a dyn crate::observe::Observer>,
 }
 
@@ -383,7 +388,7 @@ impl<'a> TimeProblem<'a> {
             .map(|r| PreparedDrive::new(&r.reference, options.input))
             .collect();
         Ok(TimeProblem {
-            samples_per_period: vec![options.min_samples_per_period; records.len()],
+            replay_factor: vec![None; records.len()],
             rate_notes: Vec::new(),
             drives,
             base,
@@ -393,88 +398,128 @@ impl<'a> TimeProblem<'a> {
             options,
             scale,
             evaluations: AtomicUsize::new(0),
+            replays: AtomicUsize::new(0),
             observer,
         })
     }
 
     /// Chooses each recording's replay rate by what it changes, measured on
-    /// the start model (a fit calls it once; a problem made only to report
-    /// errors keeps the sure rate rather than pay for the choice).
+    /// the start model, and fixes it for the fit (a problem made only to
+    /// report errors keeps the sure rate of each model it replays rather
+    /// than pay for the choice). See [`TimeProblem::fix_replay_grid`].
+    pub fn choose_replay_rates(&mut self) {
+        let start = self.base.clone();
+        self.fix_replay_grid(&start, "start");
+    }
+
+    /// Fixes each recording's replay grid (its upsampling factor) for
+    /// `model`; returns whether any grid became finer than the one it had.
+    ///
+    /// The grid is fixed while the fit moves the parameters. The upsampling
+    /// follows the model's highest linearised frequency, so a grid that
+    /// followed each trial model would make the misfit jump wherever the
+    /// factor steps (a finite-difference Jacobian across a step is noise),
+    /// and a further mode or a stick stiffness the fit drives upwards would
+    /// make every replay dearer: a four-level F-16 fit whose broad mode
+    /// climbed from 12 to 265 Hz went from 2 to 27 times the recordings'
+    /// rate and had not finished its first Jacobian after ten minutes. The
+    /// fit instead checks its optimum (see [`identify_time`]): where that
+    /// model needs a finer grid, the fit is resumed from the optimum on it.
     ///
     /// The rate [`TimeFitOptions::min_samples_per_period`] asks for is sure
     /// but can be costly: a further mode far above the band (its frequency
     /// unresolved, its flexibility all the band sees) can ask for ten times
     /// the recording's rate and make a fit of a long recording take minutes
     /// per iteration, while replays at the recording's own rate differ by a
-    /// trifle. So the start model is replayed at that rate and at coarser
-    /// ones (2.5, 5, 10, 20 samples per period), and the coarsest whose
-    /// response differs from the sure one by at most 0.2 % of the start's
-    /// own misfit (both in the fit's segment weighting) is used throughout.
-    /// At 1 % a joint's stick stiffness ended 2 % further from the truth
-    /// than at the sure rate on an independent recording (a Masing joint
-    /// with kd 2.7 times the structure's stiffness, a further mode fitted at
-    /// 5 times the band's top): the misfit is mostly noise, the
-    /// discretisation's change is not, and the fit follows it.
-    pub fn choose_replay_rates(&mut self) {
-        const LADDER: [f64; 4] = [2.5, 5.0, 10.0, 20.0];
-        let sure = self.options.min_samples_per_period;
-        let top = self.base.highest_linearised_frequency_hz();
+    /// trifle. So `model` is replayed at that rate and at coarser ones (2.5,
+    /// 5, 10, 20 samples per period), and the coarsest whose response
+    /// differs from the sure one by at most 0.2 % of the model's own misfit
+    /// (both in the fit's segment weighting) is used. At 1 % a joint's stick
+    /// stiffness ended 2 % further from the truth than at the sure rate on
+    /// an independent recording (a Masing joint with kd 2.7 times the
+    /// structure's stiffness, a further mode fitted at 5 times the band's
+    /// top): the misfit is mostly noise, the discretisation's change is
+    /// not, and the fit follows it. The sure rate is capped at
+    /// [`crate::validate::resample::MAX_FACTOR`] times the recording's: a
+    /// model stiffer than that is still replayed, on the finest grid there
+    /// is. A grid already at least as fine as the one chosen is kept.
+    pub fn fix_replay_grid(&mut self, model: &Model, which: &str) -> bool {
+        let mut finer = false;
         for i in 0..self.records.len() {
-            let r = &self.records[i];
-            let factor = |spp: f64| (spp * top / r.sample_rate_hz).ceil().max(1.0);
-            if factor(sure) <= 1.0 {
-                continue;
-            }
-            let replay = |spp: f64| {
-                simulate_prepared(
-                    &self.base,
-                    &self.drives[i],
-                    r.sample_rate_hz,
-                    r.quantity,
-                    self.sign,
-                    spp,
-                )
-                .ok()
-                .map(|s| s.values)
-            };
-            let Some(fine) = replay(sure) else { continue };
-            let weighted = |a: &[f64], b: &[f64]| {
-                r.segments
-                    .iter()
-                    .zip(&self.scale[i])
-                    .map(|(seg, sc)| {
-                        seg.clone()
-                            .map(|j| ((a[j] - b[j]) / sc).powi(2))
-                            .sum::<f64>()
-                    })
-                    .sum::<f64>()
-                    .sqrt()
-            };
-            let misfit = weighted(&fine, &r.response);
-            let mut tried = 0.0;
-            for spp in LADDER.into_iter().filter(|&spp| spp < sure) {
-                // the same factor as one tried already, or as the sure one:
-                // nothing new
-                if factor(spp) <= tried || factor(spp) >= factor(sure) {
-                    continue;
-                }
-                tried = factor(spp);
-                let Some(coarse) = replay(spp) else { continue };
-                let change = weighted(&coarse, &fine);
-                if change <= 0.002 * misfit {
-                    self.samples_per_period[i] = spp;
-                    self.rate_notes.push(format!(
-                        "{}: replayed at {} times its rate, not {}: that changes the response by \
-                         {:.2} % of the start's misfit",
-                        r.name,
-                        factor(spp),
-                        factor(sure),
-                        100.0 * change / misfit.max(f64::MIN_POSITIVE)
-                    ));
-                    break;
+            let (chosen, note) = self.coarsest_grid(model, i, which);
+            match self.replay_factor[i] {
+                Some(used) if used >= chosen => {}
+                previous => {
+                    finer |= previous.is_some();
+                    self.replay_factor[i] = Some(chosen);
+                    self.rate_notes.extend(note);
                 }
             }
         }
+        finer
+    }
+
+    /// The coarsest upsampling of record `i` that replays `model` as its
+    /// sure rate does (see [`TimeProblem::fix_replay_grid`]), with a note
+    /// when it is coarser than the sure one.
+    fn coarsest_grid(&self, model: &Model, i: usize, which: &str) -> (usize, Option<String>) {
+        const LADDER: [f64; 4] = [2.5, 5.0, 10.0, 20.0];
+        let sure = self.options.min_samples_per_period;
+        let top = model.highest_linearised_frequency_hz();
+        let r = &self.records[i];
+        let factor =
+            |spp: f64| ((spp * top / r.sample_rate_hz).ceil().max(1.0) as usize).min(MAX_FACTOR);
+        let replay = |f: usize| {
+            simulate_prepared_at(
+                model,
+                &self.drives[i],
+                r.sample_rate_hz,
+                r.quantity,
+                self.sign,
+                f,
+            )
+            .ok()
+            .map(|s| s.values)
+        };
+        let sure_factor = factor(sure);
+        let Some(fine) = (sure_factor > 1).then(|| replay(sure_factor)).flatten() else {
+            return (sure_factor, None);
+        };
+        let weighted = |a: &[f64], b: &[f64]| {
+            r.segments
+                .iter()
+                .zip(&self.scale[i])
+                .map(|(seg, sc)| {
+                    seg.clone()
+                        .map(|j| ((a[j] - b[j]) / sc).powi(2))
+                        .sum::<f64>()
+                })
+                .sum::<f64>()
+                .sqrt()
+        };
+        let misfit = weighted(&fine, &r.response);
+        let mut tried = 0;
+        for spp in LADDER.into_iter().filter(|&spp| spp < sure) {
+            // the same factor as one tried already, or as the sure one:
+            // nothing new
+            let f = factor(spp);
+            if f <= tried || f >= sure_factor {
+                continue;
+            }
+            tried = f;
+            let Some(coarse) = replay(f) else { continue };
+            let change = weighted(&coarse, &fine);
+            if change <= 0.002 * misfit {
+                let note = format!(
+                    "{}: replayed at {f} times its rate, not {sure_factor}: that changes the \
+                     {which} model's response by {:.2} % of its misfit",
+                    r.name,
+                    100.0 * change / misfit.max(f64::MIN_POSITIVE)
+                );
+                return (f, Some(note));
+            }
+        }
+        (sure_factor, None)
     }
 
     /// The model at `theta` and its distance outside the bounds.
@@ -485,13 +530,19 @@ impl<'a> TimeProblem<'a> {
     /// `model`'s simulated response to record `i`, every sample.
     fn replay(&self, model: &Model, i: usize) -> Result<Vec<f64>> {
         let r = &self.records[i];
-        Ok(simulate_prepared(
+        let factor = match self.replay_factor[i] {
+            Some(f) => f,
+            None => {
+                upsampling_factor(model, r.sample_rate_hz, self.options.min_samples_per_period)?
+            }
+        };
+        Ok(simulate_prepared_at(
             model,
             &self.drives[i],
             r.sample_rate_hz,
             r.quantity,
             self.sign,
-            self.samples_per_period[i],
+            factor,
         )?
         .values)
     }
@@ -548,16 +599,22 @@ impl<'a> TimeProblem<'a> {
         Ok(out)
     }
 
-    /// Each recording's replay rate, as samples per period of the model's
-    /// stiffest linearised mode (at most the options' rate; see
-    /// [`TimeProblem::choose_replay_rates`]).
-    pub fn replay_samples_per_period(&self) -> &[f64] {
-        &self.samples_per_period
+    /// Each recording's replay grid as its upsampling factor (`None`: the
+    /// sure rate of each model replayed; see
+    /// [`TimeProblem::fix_replay_grid`]).
+    pub fn replay_factors(&self) -> &[Option<usize>] {
+        &self.replay_factor
     }
 
     /// What choosing the replay rates found (one note per coarser rate).
     pub fn replay_notes(&self) -> &[String] {
         &self.rate_notes
+    }
+
+    /// How many residual vectors (replays of every recording) were
+    /// computed.
+    pub fn replays(&self) -> usize {
+        self.replays.load(Ordering::Relaxed)
     }
 
     /// The free parameters.
@@ -567,21 +624,27 @@ impl<'a> TimeProblem<'a> {
 }
 
 impl Objective for TimeProblem<'_> {
+    /// Every set of replays is shown to the observer (Levenberg–Marquardt
+    /// and its Jacobian ask for residuals only, and a fit of long recordings
+    /// spends minutes there), numbered by [`TimeProblem::replays`]; the
+    /// optimiser's count of evaluations stays its own.
     fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
         let (model, outside) = self.model_at(theta)?;
-        self.residuals_of(&model, outside)
-    }
-    fn cost(&self, theta: &[f64]) -> Result<f64> {
-        let cost = self.residuals(theta)?.iter().map(|v| v * v).sum::<f64>();
-        let entry = super::problem::TraceEntry {
-            evaluation: self.evaluations.fetch_add(1, Ordering::Relaxed) + 1,
-            cost,
-            parameters: self.parameters.values(theta),
-        };
+        let r = self.residuals_of(&model, outside)?;
+        let replay = self.replays.fetch_add(1, Ordering::Relaxed) + 1;
         if let Some(o) = self.observer {
+            let entry = super::problem::TraceEntry {
+                evaluation: replay,
+                cost: r.iter().map(|v| v * v).sum::<f64>(),
+                parameters: self.parameters.values(theta),
+            };
             o.observe(crate::observe::Event::Cost(&entry));
         }
-        Ok(cost)
+        Ok(r)
+    }
+    fn cost(&self, theta: &[f64]) -> Result<f64> {
+        self.evaluations.fetch_add(1, Ordering::Relaxed);
+        Ok(self.residuals(theta)?.iter().map(|v| v * v).sum::<f64>())
     }
     fn evaluations(&self) -> usize {
         self.evaluations.load(Ordering::Relaxed)
@@ -837,6 +900,18 @@ pub fn time_parameters(
     p.without_gauges(model)
 }
 
+/// Levenberg–Marquardt's relative tolerance on the sum of squares and the
+/// step (MINPACK's `ftol`, `xtol`; its default). Each of its iterations
+/// costs a replay per free parameter for the Jacobian, and an ill-posed fit
+/// crawls: a four-level F-16 fit of 21 parameters spent 3000 replays
+/// lowering its cost by less than one part in 10⁷, on the way to the
+/// patience's 20000.
+const LM_TOLERANCE: f64 = 1.49e-8;
+
+/// How many times a fit resumes on a finer replay grid its optimum needs
+/// (see [`TimeProblem::fix_replay_grid`]).
+const MAX_GRID_RESUMPTIONS: usize = 2;
+
 /// Fits `parameters` of `start` to `records` in the time domain (see the
 /// module docs); `sign` is the response sign of the start's fit.
 pub fn identify_time(
@@ -861,9 +936,32 @@ pub fn identify_time(
     problem.choose_replay_rates();
     let before = problem.errors(start)?;
     let theta0 = problem.parameters.theta_of(start)?;
-    let run = optimise::levenberg_marquardt(&problem, &theta0, options.patience)?;
+    let mut run =
+        optimise::levenberg_marquardt_to(&problem, &theta0, options.patience, LM_TOLERANCE)?;
+    // the grid was fixed on the start: where the optimum needs a finer one,
+    // the fit resumes from the optimum on it (twice at most: each resumption
+    // starts next to its optimum)
+    let mut resumed = 0;
+    loop {
+        let (optimum, _) = problem.model_at(&run.theta)?;
+        if resumed == MAX_GRID_RESUMPTIONS || !problem.fix_replay_grid(&optimum, "fitted") {
+            break;
+        }
+        resumed += 1;
+        let (evaluations, iterations) = (run.evaluations, run.iterations);
+        run =
+            optimise::levenberg_marquardt_to(&problem, &run.theta, options.patience, LM_TOLERANCE)?;
+        run.evaluations += evaluations;
+        run.iterations += iterations;
+    }
     let (model, _) = problem.model_at(&run.theta)?;
     let mut notes = problem.replay_notes().to_vec();
+    if resumed > 0 {
+        notes.push(format!(
+            "the optimum needed a finer replay grid than the start: the fit was resumed on it \
+             {resumed} time(s)"
+        ));
+    }
     let after = problem.errors(&model)?;
     let parameters = time_confidence(&problem, &run.theta)?;
     let set = &problem.parameters;

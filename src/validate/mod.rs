@@ -279,11 +279,18 @@ pub fn simulate_prepared(
     sign: f64,
     min_samples_per_period: f64,
 ) -> Result<SimulatedResponse> {
-    let reference = drive.reference;
-    if reference.is_empty() {
-        return Err(Error::input("reference", "holds no samples"));
-    }
-    model.validate()?;
+    let factor = upsampling_factor(model, sample_rate_hz, min_samples_per_period)?;
+    simulate_prepared_at(model, drive, sample_rate_hz, quantity, sign, factor)
+}
+
+/// The upsampling that gives `model`'s highest linearised frequency at
+/// least `min_samples_per_period` samples per period (at least 1); an error
+/// where that is more than [`resample::MAX_FACTOR`].
+pub fn upsampling_factor(
+    model: &Model,
+    sample_rate_hz: f64,
+    min_samples_per_period: f64,
+) -> Result<usize> {
     let top = model.highest_linearised_frequency_hz();
     let needed = (min_samples_per_period * top / sample_rate_hz).ceil();
     let factor = if needed <= 1.0 { 1 } else { needed as usize };
@@ -298,6 +305,25 @@ pub fn simulate_prepared(
             ),
         ));
     }
+    Ok(factor)
+}
+
+/// [`simulate_prepared`] at a given upsampling `factor` (a fit keeps one
+/// grid while its parameters move: see `fit::time`).
+pub fn simulate_prepared_at(
+    model: &Model,
+    drive: &PreparedDrive,
+    sample_rate_hz: f64,
+    quantity: Quantity,
+    sign: f64,
+    factor: usize,
+) -> Result<SimulatedResponse> {
+    let reference = drive.reference;
+    if reference.is_empty() {
+        return Err(Error::input("reference", "holds no samples"));
+    }
+    model.validate()?;
+    let top = model.highest_linearised_frequency_hz();
     let drive = drive.at(factor)?;
     let mut sim = Simulator::new(
         &model.linear,
