@@ -1238,6 +1238,63 @@ fn datasets_time_protocols_are_the_readmes() {
     }
 }
 
+/// The README's second protocols table: the F-16 and UNESP protocols fitted
+/// from the models written down in `signals/` (what `cargo bench --bench
+/// datasets` adds to each row as `from_start`): each row's e_RMS, its share
+/// of the RMS and the target pinned.
+#[test]
+fn datasets_time_protocols_from_their_starts_are_the_readmes() {
+    let work = tempfile::tempdir().unwrap();
+    for (name, protocol, rows) in [
+        (
+            "f16_gvt_benchmark",
+            super::protocols::f16_from_start as fn(&Path, &Path) -> Vec<serde_json::Value>,
+            [
+                "| F-16 | hysteretic mode | level 2 |",
+                "| F-16 | hysteretic mode | level 4 |",
+                "| F-16 | hysteretic mode | level 6 |",
+            ],
+        ),
+        (
+            "bolted_beam_unesp_bert",
+            super::protocols::unesp_from_start,
+            [
+                "| UNESP | shaker and background | 0.10 V |",
+                "| UNESP | shaker and background | 0.20 V |",
+                "| UNESP | shaker and background | 0.30 V |",
+            ],
+        ),
+    ] {
+        let Some(dir) = common::dataset(name) else {
+            continue;
+        };
+        let got = protocol(&dir, work.path());
+        assert_eq!(got.len(), rows.len(), "{name}: {got:?}");
+        for (r, row) in got.iter().zip(rows) {
+            eprintln!("{row} {r}");
+            let f = |k: &str| r[k].as_f64().unwrap();
+            assert!(
+                r["start"]
+                    .as_str()
+                    .is_some_and(|s| s.starts_with("signals/")),
+                "{r}"
+            );
+            let shown = common::readme_figures(row).expect("README row");
+            assert_eq!(shown.len(), 3, "{row}: {shown:?}");
+            for ((what, value), shown) in [
+                ("e_RMS", f("e_rms")),
+                ("its share of the RMS (%)", 100.0 * f("e_rms_relative")),
+                ("the target (%)", 100.0 * f("target_relative")),
+            ]
+            .into_iter()
+            .zip(shown)
+            {
+                common::assert_readme_figure(&format!("{row} {what}"), value, shown);
+            }
+        }
+    }
+}
+
 /// The README's F-16 time-domain fit with a hysteretic mode: the odd
 /// levels fitted from `signals/f16_hysteretic_mode_start.toml` (the
 /// three-mode fit's model plus the 6.2-6.6 Hz mode with a joint of its
