@@ -68,6 +68,9 @@ pub enum Error {
         #[source]
         source: Box<Error>,
     },
+    /// The caller asked the work to stop ([`crate::observe::Observer::cancelled`]).
+    #[error("cancelled by the caller")]
+    Cancelled,
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -30,6 +30,15 @@ pub enum Event<'a> {
 pub trait Observer: Sync {
     /// One event (from any thread).
     fn observe(&self, event: Event<'_>);
+    /// Whether the caller wants the work stopped (a user's interrupt, seen
+    /// by a binding that cannot kill its host process). The test bench
+    /// checks it after each dwell, the fits before each evaluation and the
+    /// diagnosis before each candidate, and they return
+    /// [`crate::error::Error::Cancelled`]; what a stage returns then is
+    /// not a result.
+    fn cancelled(&self) -> bool {
+        false
+    }
 }
 
 impl<F: Fn(Event<'_>) + Sync> Observer for F {

@@ -1176,6 +1176,37 @@ fn unesp_first_mode_diagnosis_is_the_readmes() {
     }
 }
 
+/// Runs `protocol` on the data set `name` (nothing where it is absent)
+/// and pins each row it returns to the README's row that starts with the
+/// matching `rows` entry: the figures `columns` read from it, in the
+/// README's order. Returns the rows.
+fn pin_protocol_rows(
+    work: &Path,
+    name: &str,
+    protocol: fn(&Path, &Path) -> Vec<serde_json::Value>,
+    rows: [&str; 3],
+    columns: &[(&str, fn(&serde_json::Value) -> f64)],
+) -> Vec<serde_json::Value> {
+    let Some(dir) = common::dataset(name) else {
+        return Vec::new();
+    };
+    let got = protocol(&dir, work);
+    assert_eq!(got.len(), rows.len(), "{name}: {got:?}");
+    for (r, row) in got.iter().zip(rows) {
+        eprintln!("{row} {r}");
+        let shown = common::readme_figures(row).expect("README row");
+        assert_eq!(shown.len(), columns.len(), "{row}: {shown:?}");
+        for ((what, value), shown) in columns.iter().zip(shown) {
+            common::assert_readme_figure(&format!("{row} {what}"), value(r), shown);
+        }
+    }
+    got
+}
+
+fn field(r: &serde_json::Value, k: &str) -> f64 {
+    r[k].as_f64().unwrap_or_else(|| panic!("{k} in {r}"))
+}
+
 /// Issue 13's F-16 and UNESP protocols in the time domain, run as `cargo
 /// bench --bench datasets` runs them (`tests/protocols`): each validation
 /// recording's row of the README's table (e_RMS, its share of the RMS over
@@ -1186,6 +1217,16 @@ fn unesp_first_mode_diagnosis_is_the_readmes() {
 #[test]
 fn datasets_time_protocols_are_the_readmes() {
     let work = tempfile::tempdir().unwrap();
+    let columns: [(&str, fn(&serde_json::Value) -> f64); 4] = [
+        ("e_RMS", |r| field(r, "e_rms")),
+        ("its share of the RMS (%)", |r| {
+            100.0 * field(r, "e_rms_relative")
+        }),
+        ("the linearised model's (%)", |r| {
+            100.0 * field(r, "linear_e_rms_relative")
+        }),
+        ("the target (%)", |r| 100.0 * field(r, "target_relative")),
+    ];
     for (name, protocol, rows) in [
         (
             "f16_gvt_benchmark",
@@ -1206,33 +1247,10 @@ fn datasets_time_protocols_are_the_readmes() {
             ],
         ),
     ] {
-        let Some(dir) = common::dataset(name) else {
-            continue;
-        };
-        let got = protocol(&dir, work.path());
-        assert_eq!(got.len(), rows.len(), "{name}: {got:?}");
-        for (r, row) in got.iter().zip(rows) {
-            eprintln!("{row} {r}");
-            let f = |k: &str| r[k].as_f64().unwrap();
-            let shown = common::readme_figures(row).expect("README row");
-            assert_eq!(shown.len(), 4, "{row}: {shown:?}");
-            for ((what, value), shown) in [
-                ("e_RMS", f("e_rms")),
-                ("its share of the RMS (%)", 100.0 * f("e_rms_relative")),
-                (
-                    "the linearised model's (%)",
-                    100.0 * f("linear_e_rms_relative"),
-                ),
-                ("the target (%)", 100.0 * f("target_relative")),
-            ]
-            .into_iter()
-            .zip(shown)
-            {
-                common::assert_readme_figure(&format!("{row} {what}"), value, shown);
-            }
+        for r in pin_protocol_rows(work.path(), name, protocol, rows, &columns) {
             assert!(
-                f("linear_e_rms_relative") >= 3.0 * f("e_rms_relative"),
-                "{row}: not 3 times closer than the linearised model"
+                field(&r, "linear_e_rms_relative") >= 3.0 * field(&r, "e_rms_relative"),
+                "{r}: not 3 times closer than the linearised model"
             );
         }
     }
@@ -1245,6 +1263,13 @@ fn datasets_time_protocols_are_the_readmes() {
 #[test]
 fn datasets_time_protocols_from_their_starts_are_the_readmes() {
     let work = tempfile::tempdir().unwrap();
+    let columns: [(&str, fn(&serde_json::Value) -> f64); 3] = [
+        ("e_RMS", |r| field(r, "e_rms")),
+        ("its share of the RMS (%)", |r| {
+            100.0 * field(r, "e_rms_relative")
+        }),
+        ("the target (%)", |r| 100.0 * field(r, "target_relative")),
+    ];
     for (name, protocol, rows) in [
         (
             "f16_gvt_benchmark",
@@ -1265,32 +1290,13 @@ fn datasets_time_protocols_from_their_starts_are_the_readmes() {
             ],
         ),
     ] {
-        let Some(dir) = common::dataset(name) else {
-            continue;
-        };
-        let got = protocol(&dir, work.path());
-        assert_eq!(got.len(), rows.len(), "{name}: {got:?}");
-        for (r, row) in got.iter().zip(rows) {
-            eprintln!("{row} {r}");
-            let f = |k: &str| r[k].as_f64().unwrap();
+        for r in pin_protocol_rows(work.path(), name, protocol, rows, &columns) {
             assert!(
                 r["start"]
                     .as_str()
                     .is_some_and(|s| s.starts_with("signals/")),
                 "{r}"
             );
-            let shown = common::readme_figures(row).expect("README row");
-            assert_eq!(shown.len(), 3, "{row}: {shown:?}");
-            for ((what, value), shown) in [
-                ("e_RMS", f("e_rms")),
-                ("its share of the RMS (%)", 100.0 * f("e_rms_relative")),
-                ("the target (%)", 100.0 * f("target_relative")),
-            ]
-            .into_iter()
-            .zip(shown)
-            {
-                common::assert_readme_figure(&format!("{row} {what}"), value, shown);
-            }
         }
     }
 }

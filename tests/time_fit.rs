@@ -114,6 +114,32 @@ fn relative(a: f64, b: f64) -> f64 {
     (a - b) / b
 }
 
+/// Adds a further mode at the case's Nyquist frequency, far above the
+/// band, a flexibility of 1 % of the structure's.
+fn with_a_mode_at_nyquist(model: &mut Model, case: &Case) {
+    let f = 0.5 * case.sample_rate as f64;
+    let w = 2.0 * std::f64::consts::PI * f;
+    model.linear.modes.push(hystid::model::Mode {
+        frequency_hz: f,
+        damping_ratio: 0.05,
+        residue: 0.01 / case.stiffness * w * w,
+        joint: None,
+    });
+}
+
+/// The time problem of `model`'s joint and structure on `record`.
+fn problem_of<'a>(model: &Model, record: &'a TimeRecord) -> TimeProblem<'a> {
+    TimeProblem::new(
+        model.clone(),
+        time_parameters(model, false, None),
+        std::slice::from_ref(record),
+        1.0,
+        TimeFitOptions::default(),
+        None,
+    )
+    .unwrap()
+}
+
 /// A model with a further mode near the recording's Nyquist frequency (far
 /// above the band, a flexibility of 1 % of the structure's) would ask for 20
 /// times the recording's rate; the fit replays it at a coarser rate, and the
@@ -125,23 +151,9 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
     let record = record(case, rec);
     let fs = case.sample_rate as f64;
     let mut model = truth(case);
-    let w = 2.0 * std::f64::consts::PI * 0.5 * fs;
-    model.linear.modes.push(hystid::model::Mode {
-        frequency_hz: 0.5 * fs,
-        damping_ratio: 0.05,
-        residue: 0.01 / case.stiffness * w * w,
-        joint: None,
-    });
+    with_a_mode_at_nyquist(&mut model, case);
     let sure = TimeFitOptions::default().min_samples_per_period;
-    let mut problem = TimeProblem::new(
-        model.clone(),
-        time_parameters(&model, false, None),
-        std::slice::from_ref(&record),
-        1.0,
-        TimeFitOptions::default(),
-        None,
-    )
-    .unwrap();
+    let mut problem = problem_of(&model, &record);
     assert_eq!(problem.replay_factors()[0], None);
     let sure_factor = hystid::validate::upsampling_factor(&model, fs, sure).unwrap();
     assert!(sure_factor >= 20, "{sure_factor}");
@@ -193,22 +205,8 @@ fn the_replay_grid_is_fixed_until_the_optimum_asks_for_a_finer_one() {
     let fs = case.sample_rate as f64;
     let start = truth(case);
     let mut stiff = start.clone();
-    let w = 2.0 * std::f64::consts::PI * 0.5 * fs;
-    stiff.linear.modes.push(hystid::model::Mode {
-        frequency_hz: 0.5 * fs,
-        damping_ratio: 0.05,
-        residue: 0.01 / case.stiffness * w * w,
-        joint: None,
-    });
-    let mut problem = TimeProblem::new(
-        start.clone(),
-        time_parameters(&start, false, None),
-        std::slice::from_ref(&record),
-        1.0,
-        TimeFitOptions::default(),
-        None,
-    )
-    .unwrap();
+    with_a_mode_at_nyquist(&mut stiff, case);
+    let mut problem = problem_of(&start, &record);
     problem.choose_replay_rates();
     let on_start = problem.replay_factors()[0].unwrap();
     let sure = TimeFitOptions::default().min_samples_per_period;

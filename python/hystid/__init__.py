@@ -49,6 +49,19 @@ __all__ = [
 
 OUTPUTS = ("displacement", "velocity", "acceleration", "element_force")
 
+#: The long calls (:func:`virtual_test`, :func:`identify`,
+#: :func:`identify_time`, :func:`diagnose`) take ``progress``: a callable
+#: given one dict per event, as the command's progress line draws them:
+#: ``{"stage": "dwell", "level_index", "frequency_hz"}`` from the test bench,
+#: ``{"stage": "fit", "evaluation", "cost"}`` from a fit, and
+#: ``{"stage": "diagnosis", "event": "baseline" | "round" | "candidate" |
+#: "checking", ...}`` from a diagnosis. It is called with the GIL held, from
+#: the library's worker threads too. Ctrl-C (with or without a callable) and
+#: an exception the callable raises stop the work at the next dwell,
+#: evaluation or candidate, and the call raises it; the callable is not
+#: called again after it raised.
+PROGRESS = "progress"
+
 
 def _definition_text(definition):
     """A test definition (TOML text, JSON text, a dict, or a ``pathlib.Path``
@@ -118,7 +131,7 @@ def simulate(model, force, sample_rate_hz, output="displacement"):
     return _hystid.simulate(m, f, float(sample_rate_hz), output)
 
 
-def virtual_test(definition=None, check_hb=False):
+def virtual_test(definition=None, check_hb=False, progress=None):
     """A virtual stepped-sine test, as ``hystid simulate`` runs it, in memory.
 
     ``definition``: a test definition (TOML text, a ``pathlib.Path``, or a dict; the
@@ -132,12 +145,14 @@ def virtual_test(definition=None, check_hb=False):
     ``excitation.steps``), ``frf`` (``frf.json``), ``summary``
     (``summary.json``, without files), ``hb_check`` (``hb_check.json``, or
     ``None``), and ``definition`` (the TOML text).
+
+    ``progress``: see :data:`PROGRESS` (here one event per dwell).
     """
     if definition is None:
         text, origin = None, None
     else:
         text, origin = _definition_text(definition)
-    text, meta, frf, summary, hb, channels = _hystid.virtual_test(text, origin, check_hb)
+    text, meta, frf, summary, hb, channels = _hystid.virtual_test(text, origin, check_hb, progress)
     meta = json.loads(meta)
     names = [c["name"] for c in meta["channels"]]
     return {
@@ -226,6 +241,7 @@ def identify(
     recordings=None,
     start=None,
     response_sign=1,
+    progress=None,
     **kwargs,
 ):
     """Fits a joint model to nonlinear FRFs (a dict as :func:`extract`,
@@ -250,6 +266,8 @@ def identify(
     ``domain="time"`` (``--domain time``) then refines the fit on the time
     histories ``recordings`` (a list as :func:`identify_time` takes): the
     ``fit.json`` dict with its ``time_domain``.
+
+    ``progress``: see :data:`PROGRESS` (one event per cost evaluation).
     """
     if domain not in ("frf", "time"):
         raise HystidError(f"domain: `{domain}` is not frf or time")
@@ -264,11 +282,11 @@ def identify(
         )
         return json.loads(text)
     ref = None if reference is None else _as_model(reference)
-    text = _hystid.identify(json.dumps(frf), opts, ref, recording, response)
+    text = _hystid.identify(json.dumps(frf), opts, ref, recording, response, progress)
     fit = json.loads(text)
     if domain == "frf":
         return fit
-    return identify_time(recordings, fit=fit, options=json.loads(opts))
+    return identify_time(recordings, fit=fit, options=json.loads(opts), progress=progress)
 
 
 def _time_record(r, i):
@@ -305,6 +323,7 @@ def identify_time(
     window_s=None,
     min_samples_per_period=40.0,
     options=None,
+    progress=None,
     **kwargs,
 ):
     """Fits a model to recorded time histories, as ``hystid identify
@@ -324,7 +343,8 @@ def identify_time(
     ``--min-samples-per-period``), or neither for multisines (a force that
     repeats: the linear estimate at the excited lines, the joint of
     ``element`` nearly linear). Fit options as in :func:`identify`
-    (``element``, ``band_hz``: what is judged).
+    (``element``, ``band_hz``: what is judged). ``progress``: see
+    :data:`PROGRESS` (one event per replay of the recordings).
     """
     if isinstance(recordings, dict):
         recordings = [recordings]
@@ -338,11 +358,12 @@ def identify_time(
         [str(f) for f in fix],
         None if window_s is None else (float(window_s[0]), float(window_s[1])),
         float(min_samples_per_period),
+        progress,
     )
     return json.loads(text)
 
 
-def diagnose(frf, fit=None, *, candidates=None, options=None, **kwargs):
+def diagnose(frf, fit=None, *, candidates=None, options=None, progress=None, **kwargs):
     """Traces a fit's residual to missing effects, adds them and refits, as
     ``hystid diagnose`` does: the ``diagnosis.json`` dict.
 
@@ -356,13 +377,14 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, **kwargs):
     noise; ``shaker``, the coil's lag and back-EMF between a voltage
     reference and the structure, for a voltage reference only;
     ``bouc_wen_joint``, a Bouc-Wen joint in its place, is tried when named;
-    ``"all"`` names every one).
+    ``"all"`` names every one). ``progress``: see :data:`PROGRESS`.
     """
     text = _hystid.diagnose(
         json.dumps(frf),
         _options(options, kwargs),
         None if fit is None else json.dumps(fit),
         None if candidates is None else list(candidates),
+        progress,
     )
     return json.loads(text)
 

@@ -21,7 +21,7 @@ use hystid::diagnose::{DiagnoseOptions, Effect};
 use hystid::fit::{FitOptions, TimeFitOptions, TimeRecord};
 use hystid::harmonics::Quantity;
 use hystid::model::Model;
-use hystid::observe::Silent;
+use hystid::observe::{Event, Observer};
 use hystid::sim::Output;
 use hystid::testbench::{DEFAULT_TEST, TestDefinition};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
@@ -31,6 +31,7 @@ use pyo3::prelude::*;
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use std::path::Path;
+use std::sync::Mutex;
 
 create_exception!(
     hystid,
@@ -38,6 +39,147 @@ create_exception!(
     PyValueError,
     "An error of the hystid library; its message names the file, field or stage, as the command line prints it."
 );
+
+/// The caller's `progress` callable as the library's observer, and Ctrl-C.
+///
+/// Each event reaches the callable as a dict: `{"stage": "dwell",
+/// "level_index", "frequency_hz"}` from the test bench, `{"stage": "fit",
+/// "evaluation", "cost"}` from a fit, `{"stage": "diagnosis", "event":
+/// "baseline" | "round" | "candidate" | "checking", ...}` from a diagnosis.
+///
+/// The library works on a thread of its own ([`Progress::run`]) while the
+/// calling thread, Python's main thread as a rule, waits with the GIL
+/// released and lets Python run its signal handlers every 50 ms. The first
+/// exception, a `KeyboardInterrupt` or one the callable raised, stops the
+/// callable's calls and asks the library to stop ([`Observer::cancelled`]:
+/// the bench after its dwell, a fit before its next evaluation, a diagnosis
+/// before its next candidate), and the call raises it.
+struct Progress {
+    callback: Option<Py<PyAny>>,
+    raised: Mutex<Option<PyErr>>,
+}
+
+impl Progress {
+    fn new(callback: Option<Py<PyAny>>) -> Self {
+        Progress {
+            callback,
+            raised: Mutex::new(None),
+        }
+    }
+
+    fn raise(&self, e: PyErr) {
+        self.raised
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get_or_insert(e);
+    }
+
+    /// Runs `work` (which observes `self`) on a thread of its own, the GIL
+    /// released, and returns its result unless an exception was raised
+    /// meanwhile.
+    fn run<T: Send>(
+        &self,
+        py: Python<'_>,
+        work: impl FnOnce() -> hystid::Result<T> + Send,
+    ) -> PyResult<T> {
+        let result = std::thread::scope(|s| {
+            let (done, mut finished) = std::sync::mpsc::channel();
+            let worker = s.spawn(move || {
+                let r = work();
+                let _ = done.send(());
+                r
+            });
+            loop {
+                // the receiver goes into the GIL-free wait and comes back
+                let (waited, back) = py.detach(move || {
+                    let w = finished.recv_timeout(std::time::Duration::from_millis(50));
+                    (w, finished)
+                });
+                finished = back;
+                if !matches!(waited, Err(std::sync::mpsc::RecvTimeoutError::Timeout)) {
+                    break;
+                }
+                if let Err(e) = py.check_signals() {
+                    self.raise(e);
+                }
+            }
+            match worker.join() {
+                Ok(r) => r,
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        });
+        match self.raised.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            Some(e) => Err(e),
+            None => result.map_err(err),
+        }
+    }
+
+    fn event<'py>(py: Python<'py>, event: Event<'_>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        use hystid::diagnose::DiagnoseEvent as D;
+        let d = pyo3::types::PyDict::new(py);
+        match event {
+            Event::Dwell {
+                level_index,
+                frequency_hz,
+            } => {
+                d.set_item("stage", "dwell")?;
+                d.set_item("level_index", level_index)?;
+                d.set_item("frequency_hz", frequency_hz)?;
+            }
+            Event::Cost(t) => {
+                d.set_item("stage", "fit")?;
+                d.set_item("evaluation", t.evaluation)?;
+                d.set_item("cost", t.cost)?;
+            }
+            Event::Diagnosis(e) => {
+                d.set_item("stage", "diagnosis")?;
+                match e {
+                    D::Baseline { chi2_per_dof } => {
+                        d.set_item("event", "baseline")?;
+                        d.set_item("chi2_per_dof", chi2_per_dof)?;
+                    }
+                    D::Round { round, candidates } => {
+                        d.set_item("event", "round")?;
+                        d.set_item("round", round)?;
+                        d.set_item("candidates", candidates)?;
+                    }
+                    D::Candidate { round, effect } => {
+                        d.set_item("event", "candidate")?;
+                        d.set_item("round", round)?;
+                        d.set_item("effect", effect.name())?;
+                    }
+                    D::Checking { effect } => {
+                        d.set_item("event", "checking")?;
+                        d.set_item("effect", effect.name())?;
+                    }
+                }
+            }
+        }
+        Ok(d)
+    }
+}
+
+impl Observer for Progress {
+    fn observe(&self, event: Event<'_>) {
+        let Some(callback) = &self.callback else {
+            return;
+        };
+        if self.cancelled() {
+            return;
+        }
+        Python::attach(|py| {
+            if let Err(e) = Self::event(py, event).and_then(|d| callback.call1(py, (d,))) {
+                self.raise(e);
+            }
+        });
+    }
+    fn cancelled(&self) -> bool {
+        self.raised
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .is_some()
+    }
+}
 
 /// The library's error as a `HystidError`, with its causes on one line.
 fn err(e: hystid::Error) -> PyErr {
@@ -206,13 +348,14 @@ fn _rust_simulate_seconds<'py>(
 /// default when `None`), in memory: `(definition text, recording.json,
 /// frf.json, summary.json, hb_check.json or None, the four channels)`.
 #[pyfunction]
-#[pyo3(signature = (text = None, origin = None, check_hb = false))]
+#[pyo3(signature = (text = None, origin = None, check_hb = false, progress = None))]
 #[allow(clippy::type_complexity)]
 fn virtual_test<'py>(
     py: Python<'py>,
     text: Option<String>,
     origin: Option<String>,
     check_hb: bool,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(
     String,
     String,
@@ -224,9 +367,11 @@ fn virtual_test<'py>(
     let text = text.unwrap_or_else(|| DEFAULT_TEST.to_string());
     let origin = origin.unwrap_or_else(|| "test definition".into());
     let def = TestDefinition::from_toml(&text, &origin).map_err(err)?;
-    let t = py
-        .detach(|| hystid::analysis::simulate::simulate_in_memory(&def, &text, check_hb, &Silent))
-        .map_err(err)?;
+    let progress = Progress::new(progress);
+    let t = progress.run(py, || {
+        hystid::analysis::simulate::simulate_in_memory(&def, &text, check_hb, &progress)
+    });
+    let t = t?;
     let hb = t.hb_checks.as_ref().map(to_json).transpose()?;
     let out = (
         to_json(&t.meta)?,
@@ -378,7 +523,7 @@ fn fit_options(text: &str) -> PyResult<FitOptions> {
 
 /// Fits a joint model to nonlinear FRFs (frf.json): fit.json.
 #[pyfunction]
-#[pyo3(signature = (frf, options, reference = None, recording = String::new(), response = None))]
+#[pyo3(signature = (frf, options, reference = None, recording = String::new(), response = None, progress = None))]
 fn identify<'py>(
     py: Python<'py>,
     frf: String,
@@ -386,13 +531,16 @@ fn identify<'py>(
     reference: Option<PyRef<'py, PyModel>>,
     recording: String,
     response: Option<String>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
     let reference = reference.and_then(|m| m.inner.joint.clone());
-    let (fit, _) = py
-        .detach(|| hystid::analysis::run_fit(&frf, &options, &Silent, None))
-        .map_err(err)?;
+    let progress = Progress::new(progress);
+    let fit = progress.run(py, || {
+        hystid::analysis::run_fit(&frf, &options, &progress, None)
+    });
+    let (fit, _) = fit?;
     let response = response.unwrap_or_else(|| frf.response.name().to_string());
     let report = FitReport::new(recording, response, fit, reference, Vec::new());
     to_json(&report)
@@ -449,13 +597,14 @@ fn identify_declared<'py>(
 /// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
 /// `options`, as `hystid diagnose` does): diagnosis.json.
 #[pyfunction]
-#[pyo3(signature = (frf, options, fit = None, candidates = None))]
+#[pyo3(signature = (frf, options, fit = None, candidates = None, progress = None))]
 fn diagnose<'py>(
     py: Python<'py>,
     frf: String,
     options: String,
     fit: Option<String>,
     candidates: Option<Vec<String>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let fit_opts = fit_options(&options)?;
@@ -479,28 +628,28 @@ fn diagnose<'py>(
         fit: fit_opts.clone(),
         ..d
     };
-    let (diagnosis, final_model, seconds) = py
-        .detach(|| {
-            let t0 = std::time::Instant::now();
-            let fit = match fit {
-                Some(f) => f,
-                None => hystid::analysis::run_fit(&frf, &fit_opts, &Silent, None)?.0,
-            };
-            let (diagnosis, predictor) =
-                hystid::analysis::diagnose::run_diagnosis(&frf, &fit, &d, &Silent)?;
-            // the final model as reported, with its flags, as the command states it
-            let final_model = FinalModel::of(
-                &frf,
-                &fit,
-                &fit_opts.harmonics,
-                d.band_hz,
-                Some(&diagnosis),
-                None,
-                &predictor,
-            )?;
-            Ok((diagnosis, final_model, t0.elapsed().as_secs_f64()))
-        })
-        .map_err(err)?;
+    let progress = Progress::new(progress);
+    let outcome = progress.run(py, || {
+        let t0 = std::time::Instant::now();
+        let fit = match fit {
+            Some(f) => f,
+            None => hystid::analysis::run_fit(&frf, &fit_opts, &progress, None)?.0,
+        };
+        let (diagnosis, predictor) =
+            hystid::analysis::diagnose::run_diagnosis(&frf, &fit, &d, &progress)?;
+        // the final model as reported, with its flags, as the command states it
+        let final_model = FinalModel::of(
+            &frf,
+            &fit,
+            &fit_opts.harmonics,
+            d.band_hz,
+            Some(&diagnosis),
+            None,
+            &predictor,
+        )?;
+        Ok((diagnosis, final_model, t0.elapsed().as_secs_f64()))
+    });
+    let (diagnosis, final_model, seconds) = outcome?;
     to_json(&DiagnosisReport {
         final_model: Some(&final_model),
         ..DiagnosisReport::new(&diagnosis, seconds)
@@ -602,7 +751,7 @@ fn validate<'py>(
 /// multisine recordings from their linear estimate. One entry per recording
 /// in each list.
 #[pyfunction]
-#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0))]
+#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn identify_time<'py>(
     py: Python<'py>,
@@ -619,7 +768,9 @@ fn identify_time<'py>(
     fix: Vec<String>,
     window_s: Option<(f64, f64)>,
     min_samples_per_period: f64,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
+    let progress = Progress::new(progress);
     let n = references.len();
     if [
         reference_quantities.len(),
@@ -677,42 +828,40 @@ fn identify_time<'py>(
                 ));
             }
             let mut report = from_json::<FitReport>("fit", &text)?;
-            let t = py
-                .detach(|| {
-                    let records = records(None)?;
-                    hystid::analysis::run_time_fit(
-                        &report.fit,
-                        &records,
-                        &TimeFitOptions::default(),
-                        band,
-                        &Silent,
-                    )
-                })
-                .map_err(err)?;
+            let t = progress.run(py, || {
+                let records = records(None)?;
+                hystid::analysis::run_time_fit(
+                    &report.fit,
+                    &records,
+                    &TimeFitOptions::default(),
+                    band,
+                    &progress,
+                )
+            });
+            let t = t?;
             report.set_time_domain(Some(t));
             to_json(&report)?
         }
         (None, Some(start)) => {
             let start = start.inner.clone();
-            let report = py
-                .detach(|| {
-                    let records = records(window_s)?;
-                    hystid::analysis::run_time_fit_from_start(
-                        recording,
-                        String::new(),
-                        &start,
-                        &fix,
-                        &records,
-                        &time_options,
-                        &Silent,
-                    )
-                })
-                .map_err(err)?;
+            let report = progress.run(py, || {
+                let records = records(window_s)?;
+                hystid::analysis::run_time_fit_from_start(
+                    recording,
+                    String::new(),
+                    &start,
+                    &fix,
+                    &records,
+                    &time_options,
+                    &progress,
+                )
+            });
+            let report = report?;
             to_json(&report)?
         }
         (None, None) => {
-            let report = py
-                .detach(|| {
+            let report = progress
+                .run(py, || {
                     let named: Vec<(&str, &Loaded)> =
                         names.iter().map(String::as_str).zip(&loaded).collect();
                     let Some(p) = hystid::analysis::periodic_start_of(&named, fit_opts.element, fit_opts.modes)?
@@ -729,12 +878,12 @@ fn identify_time<'py>(
                         &fix,
                         &p.records,
                         &time_options,
-                        &Silent,
+                        &progress,
                     )?;
                     report.time_domain.notes.insert(0, p.note);
                     Ok(report)
-                })
-                .map_err(err)?;
+                });
+            let report = report?;
             to_json(&report)?
         }
     };

@@ -858,6 +858,7 @@ pub fn diagnose_observed(
     predictor: &HbPredictor,
     observer: &dyn crate::observe::Observer,
 ) -> Result<Diagnosis> {
+    let cancelled = || observer.cancelled();
     let observer = |e: DiagnoseEvent| observer.observe(crate::observe::Event::Diagnosis(&e));
     let harmonics = options
         .harmonics
@@ -1006,6 +1007,11 @@ pub fn diagnose_observed(
                 let (slots, current, lower, data, identified) =
                     (&slots, &current, &lower, &data, &identified);
                 s.spawn_fifo(move |_| {
+                    if cancelled() {
+                        *slots[i].lock().unwrap_or_else(|e| e.into_inner()) =
+                            Some(Err(Error::Cancelled));
+                        return;
+                    }
                     let mut currents = vec![current];
                     if round == 1
                         && let Some(low) = lower
@@ -1020,6 +1026,9 @@ pub fn diagnose_observed(
                 });
             }
         });
+        if cancelled() {
+            return Err(Error::Cancelled);
+        }
         let tried = ranked
             .iter()
             .zip(slots)

@@ -694,7 +694,8 @@ pub fn identify(
         predictor,
         options.weighting,
         observer,
-    );
+    )
+    .numbered_after(stage1.evaluations());
     let theta2 = params.theta_of(&base2)?;
     let steps2: Vec<f64> = params.parameters.iter().map(refine_step).collect();
     // the simplex's cost spread below 1e-6 of the cost is ~1e-3 χ² units
@@ -715,11 +716,7 @@ pub fn identify(
     run.iterations += r1.iterations;
     run.evaluations = stage1.evaluations() + problem.evaluations();
     let mut trace = stage1.trace();
-    let offset = trace.len();
-    trace.extend(problem.trace().into_iter().map(|mut t| {
-        t.evaluation += offset;
-        t
-    }));
+    trace.extend(problem.trace());
     let (model, pred, _) = problem.evaluate(&run.theta)?;
     // intervals with every linear parameter free as well: m, c and k are
     // estimated from the same data, so the element's intervals must carry

@@ -373,6 +373,9 @@ pub struct FitProblem<'a> {
     /// Residual scaling.
     pub weighting: Weighting,
     evaluations: AtomicUsize,
+    /// Evaluations of earlier stages of the same fit: the trace and the
+    /// observer number this problem's on from them.
+    numbered_after: usize,
     solves: AtomicUsize,
     trace: Mutex<Vec<TraceEntry>>,
     observer: Option<&'a dyn crate::observe::Observer>,
@@ -408,6 +411,7 @@ impl<'a> FitProblem<'a> {
             predictor,
             weighting,
             evaluations: AtomicUsize::new(0),
+            numbered_after: 0,
             solves: AtomicUsize::new(0),
             trace: Mutex::new(Vec::new()),
             observer,
@@ -415,6 +419,13 @@ impl<'a> FitProblem<'a> {
             last: Mutex::new(None),
             accepted: Mutex::new(None),
         }
+    }
+
+    /// Numbers this problem's evaluations on from `n` of an earlier stage
+    /// (in the trace and to the observer: one fit, one numbering).
+    pub fn numbered_after(mut self, n: usize) -> Self {
+        self.numbered_after = n;
+        self
     }
 
     /// The model and prediction at `theta`, and the distance outside bounds.
@@ -544,6 +555,9 @@ impl<'a> FitProblem<'a> {
 
     /// Cost `Σ r²` at `theta` (recorded in the trace).
     pub fn cost(&self, theta: &[f64]) -> Result<f64> {
+        if self.observer.is_some_and(|o| o.cancelled()) {
+            return Err(Error::Cancelled);
+        }
         let (pred, outside) = self.evaluate_or_fail(theta)?;
         let r = self.residuals_of(&pred, outside);
         let cost = r.iter().map(|v| v * v).sum::<f64>();
@@ -554,7 +568,7 @@ impl<'a> FitProblem<'a> {
             }
         }
         let entry = TraceEntry {
-            evaluation: self.evaluations.fetch_add(1, Ordering::Relaxed) + 1,
+            evaluation: self.numbered_after + self.evaluations.fetch_add(1, Ordering::Relaxed) + 1,
             cost,
             parameters: self.parameters.values(theta),
         };

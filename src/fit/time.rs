@@ -629,6 +629,9 @@ impl Objective for TimeProblem<'_> {
     /// spends minutes there), numbered by [`TimeProblem::replays`]; the
     /// optimiser's count of evaluations stays its own.
     fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
+        if self.observer.is_some_and(|o| o.cancelled()) {
+            return Err(Error::Cancelled);
+        }
         let (model, outside) = self.model_at(theta)?;
         let r = self.residuals_of(&model, outside)?;
         let replay = self.replays.fetch_add(1, Ordering::Relaxed) + 1;
@@ -1002,6 +1005,38 @@ pub fn identify_time(
     })
 }
 
+/// A Jacobian column below this fraction of the largest one is a parameter
+/// the recordings do not feel (see [`time_confidence`]).
+const UNFELT: f64 = 1e-9;
+
+/// `s² (JᵀJ)⁻¹` over the columns of `jac` that are free (not `at_bound`)
+/// and felt, with those columns' indices.
+///
+/// Directly: `optimise::covariance` never deflates below the unit
+/// variances, and these residuals are relative errors (≪ 1). A parameter
+/// the replay does not feel at all (a damping ratio driven to 1e-20 beside
+/// a joint that gives all the damping: a step in it leaves the replay the
+/// same to the bit, its column zero) makes `JᵀJ` singular and would leave
+/// every parameter without an interval; it is left out instead (reported
+/// as not determined).
+fn felt_covariance(
+    jac: &nalgebra::DMatrix<f64>,
+    at_bound: &[bool],
+    s2: f64,
+) -> (Vec<usize>, Option<nalgebra::DMatrix<f64>>) {
+    let norm = |j: usize| jac.column(j).norm();
+    let largest = (0..jac.ncols())
+        .filter(|&j| !at_bound[j])
+        .map(norm)
+        .fold(0.0, f64::max);
+    let free: Vec<usize> = (0..jac.ncols())
+        .filter(|&j| !at_bound[j] && norm(j) > UNFELT * largest)
+        .collect();
+    let jf = nalgebra::DMatrix::from_fn(jac.nrows(), free.len(), |i, k| jac[(i, free[k])]);
+    let cov = (jf.transpose() * &jf).try_inverse().map(|a| a * s2);
+    (free, cov)
+}
+
 /// Estimates with 95 % intervals from the Jacobian at `theta`, the residual
 /// taken as white noise (see the module docs). A parameter at a bound gets
 /// no interval (`identifiable: false`, with a note).
@@ -1013,11 +1048,7 @@ fn time_confidence(problem: &TimeProblem, theta: &[f64]) -> Result<BTreeMap<Stri
     let at_bound = params.at_bounds(&values);
     let m = r0.len() - 1;
     let s2 = r0[..m].iter().map(|v| v * v).sum::<f64>() / (m as f64 - theta.len() as f64).max(1.0);
-    // `s² (JᵀJ)⁻¹` directly: `optimise::covariance` never deflates below
-    // the unit variances, and these residuals are relative errors (≪ 1)
-    let free: Vec<usize> = (0..theta.len()).filter(|&j| !at_bound[j]).collect();
-    let jf = nalgebra::DMatrix::from_fn(m, free.len(), |i, k| jac[(i, free[k])]);
-    let cov = (jf.transpose() * &jf).try_inverse().map(|a| a * s2);
+    let (free, cov) = felt_covariance(&jac, &at_bound, s2);
     let mut out = BTreeMap::new();
     for (j, p) in params.parameters.iter().enumerate() {
         let value = values[j];
@@ -1069,6 +1100,37 @@ fn time_confidence(problem: &TimeProblem, theta: &[f64]) -> Result<BTreeMap<Stri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A column the replay does not feel (exactly zero) is left out of the
+    /// covariance, which the others then have: with it, `JᵀJ` is singular.
+    #[test]
+    fn an_unfelt_parameter_is_left_out_of_the_covariance() {
+        let jac = nalgebra::DMatrix::from_row_slice(
+            4,
+            3,
+            &[
+                1.0, 0.0, 0.5, //
+                0.0, 0.0, 1.0, //
+                2.0, 0.0, 0.0, //
+                1.0, 0.0, 1.0,
+            ],
+        );
+        let (free, cov) = felt_covariance(&jac, &[false; 3], 2.0);
+        assert_eq!(free, vec![0, 2]);
+        // the two felt columns' `s² (JᵀJ)⁻¹`, by hand: JᵀJ = [[6, 1.5], [1.5, 2.25]]
+        let det = 6.0 * 2.25 - 1.5 * 1.5;
+        let expected = [2.0 * 2.25 / det, -2.0 * 1.5 / det, 2.0 * 6.0 / det];
+        let cov = cov.expect("invertible without the unfelt column");
+        for (got, want) in [cov[(0, 0)], cov[(0, 1)], cov[(1, 1)]]
+            .into_iter()
+            .zip(expected)
+        {
+            assert!((got - want).abs() < 1e-12, "{got} against {want}");
+        }
+        // with every column kept there is no inverse
+        let all = (jac.transpose() * &jac).try_inverse();
+        assert!(all.is_none());
+    }
     use crate::signals::{Channel, Excitation, ExcitationKind, Recording, RecordingMeta, Step};
     use std::f64::consts::PI;
 

@@ -463,6 +463,9 @@ fn run_level(
                 level_index,
                 frequency_hz,
             });
+            if observer.cancelled() {
+                return Err(Error::Cancelled);
+            }
         }
     }
     Ok(out)

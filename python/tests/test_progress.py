@@ -1,0 +1,100 @@
+"""`progress=`: the long calls report what they do, and stop on Ctrl-C or on
+an exception the callable raises."""
+
+import _thread
+import signal
+import threading
+
+import pytest
+
+import hystid
+from conftest import SMALL
+
+
+def test_progress_sees_every_dwell_and_does_not_change_the_result():
+    events = []
+    t = hystid.virtual_test(SMALL, progress=events.append)
+    plain = hystid.virtual_test(SMALL)
+    steps = t["recording"]["excitation"]["steps"]
+    dwells = [e for e in events if e["stage"] == "dwell"]
+    # one event per dwell of the recording, every level's every frequency
+    assert len(dwells) == len(steps) == 4 * 11
+    assert sorted(e["frequency_hz"] for e in dwells) == sorted(s["frequency_hz"] for s in steps)
+    assert sorted({e["level_index"] for e in dwells}) == [0, 1, 2, 3]
+    assert t["frf"] == plain["frf"]
+
+
+def test_a_fit_reports_every_evaluation_of_its_trace_numbered_alike():
+    frf = hystid.virtual_test(SMALL)["frf"]
+    events = []
+    fit = hystid.identify(frf, progress=events.append)
+    # one event per evaluation of the fit's trace, numbered as it is (its
+    # stages on from each other)
+    seen = sorted((e["evaluation"], e["cost"]) for e in events if e["stage"] == "fit")
+    assert seen and seen == [(t["evaluation"], t["cost"]) for t in fit["trace"]]
+    # the same fit (its wall time aside)
+    plain = hystid.identify(frf)
+    del fit["effort"]["seconds"], fit["effort"]["ms_per_evaluation"]
+    del plain["effort"]["seconds"], plain["effort"]["ms_per_evaluation"]
+    assert fit == plain
+
+
+@pytest.fixture
+def sigint():
+    """Python's own SIGINT handler for the test: a shell starts a background
+    job with SIGINT ignored, and Python then leaves it so (and an
+    interrupt does nothing)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+class Stop(Exception):
+    pass
+
+
+def test_an_exception_in_progress_stops_the_call_and_is_raised():
+    calls = []
+
+    def stop_at_the_third(event):
+        calls.append(event)
+        if len(calls) == 3:
+            raise Stop("enough")
+
+    with pytest.raises(Stop, match="enough"):
+        hystid.virtual_test(SMALL, progress=stop_at_the_third)
+    # never called again once it raised
+    assert len(calls) == 3
+
+
+def test_ctrl_c_stops_a_diagnosis_inside_its_first_round(sigint):
+    frf = hystid.virtual_test(SMALL)["frf"]
+    fit = hystid.identify(frf)
+    # the interrupt arrives while the library works (the full diagnosis of
+    # this test takes seconds); with the GIL released and no signal checks
+    # it would surface only after the call
+    events = []
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            hystid.diagnose(frf, fit, candidates=["all"], progress=events.append)
+    finally:
+        timer.cancel()
+    rounds = [e for e in events if e.get("event") == "round"]
+    # stopped inside the first round: its candidates were not all refitted
+    assert len(rounds) <= 1, rounds
+    if rounds:
+        done = [e for e in events if e.get("event") == "candidate"]
+        assert len(done) < rounds[0]["candidates"], (len(done), rounds[0])
+
+
+def test_ctrl_c_stops_a_virtual_test_without_a_progress_callable(sigint):
+    big = SMALL.read_text().replace("count = 11", "count = 400")
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            hystid.virtual_test(big)
+    finally:
+        timer.cancel()
