@@ -454,6 +454,34 @@ fn run_reports_the_test_that_ran_and_flags_a_parameter_at_its_bound() {
     let run: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("run.json")).unwrap()).unwrap();
     assert_eq!(run["fit"]["status"], "converged", "{}", run["fit"]);
+    // the run file's fit channel: one message per evaluation of the fit's
+    // stages, numbered on from each other (1, 2, ... without a repeat), as
+    // its trace is; read with the mcap crate's own reader
+    let bytes = std::fs::read(out.join("run.mcap")).unwrap();
+    let iterations: Vec<u64> = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .filter(|m| m.channel.topic == hystid::record::TOPIC_FIT)
+        .map(|m| {
+            serde_json::from_slice::<serde_json::Value>(&m.data).unwrap()["iteration"]
+                .as_u64()
+                .unwrap()
+        })
+        .collect();
+    let trace = run["fit"]["trace"].as_array().map_or(0, Vec::len);
+    assert!(
+        trace > 0 && iterations.len() == trace,
+        "{} messages, trace {trace}",
+        iterations.len()
+    );
+    assert!(
+        iterations
+            .iter()
+            .enumerate()
+            .all(|(i, &n)| n == i as u64 + 1),
+        "{:?}",
+        &iterations[..iterations.len().min(40)]
+    );
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     // 10 % response noise asked for: the measured RMS ratio, within its
     // scatter over 22 dwells
