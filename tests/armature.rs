@@ -10,8 +10,10 @@
 //! `Z = ks − ma ω² + jω cs` to the point receptance (harmonic balance) or
 //! solves the armature inside each sample (the simulator).
 
-use crate::shaker::{SHAKER_TEST, checked_against_hb, driven, harmonic, march_rk4, read_json};
-use hystid::hb::{HbOptions, solve_point};
+use crate::shaker::{
+    SHAKER_TEST, assert_x1_x3, balanced, checked_against_hb, driven, harmonic, march_rk4, read_json,
+};
+use hystid::hb::HbOptions;
 use hystid::model::{ElementSpec, ModalModel, Mode, Model};
 use num_complex::Complex64;
 use std::f64::consts::PI;
@@ -128,16 +130,7 @@ fn an_armature_on_two_modes_is_the_closed_form() {
     let opts = HbOptions::default();
     for f in [70.0, 86.0, 95.0, 130.0, 175.0, 240.0] {
         let exact = closed_form(f);
-        let pt = solve_point(
-            &m.linear,
-            &mut m.element_set().unwrap(),
-            f,
-            BL / R,
-            None,
-            &opts,
-        )
-        .unwrap();
-        let hb = pt.frf(1).unwrap() * (BL / R);
+        let hb = balanced(&m, f, BL / R, &opts).frf(1).unwrap() * (BL / R);
         assert!(
             (hb / exact - 1.0).norm() < 1e-9,
             "HB at {f} Hz: {hb} vs {exact}"
@@ -154,16 +147,7 @@ fn an_armature_on_two_modes_is_the_closed_form() {
     let bare = |f: f64| {
         let mut w = m.clone();
         w.effects.retain(|e| e.attachment().is_none());
-        let pt = solve_point(
-            &w.linear,
-            &mut w.element_set().unwrap(),
-            f,
-            BL / R,
-            None,
-            &opts,
-        )
-        .unwrap();
-        pt.frf(1).unwrap() * (BL / R)
+        balanced(&w, f, BL / R, &opts).frf(1).unwrap() * (BL / R)
     };
     let peak = |h: &dyn Fn(f64) -> Complex64| {
         (0..=600)
@@ -200,45 +184,12 @@ fn a_cubic_spring_beside_an_armature_is_the_rk4() {
             (x3 / x1).norm() > 1e-3 && (x1 / linear - 1.0).norm() > 0.02,
             "the level should be nonlinear: {x1}, {x3}"
         );
-        let pt = solve_point(
-            &m.linear,
-            &mut m.element_set().unwrap(),
-            f,
-            BL / R * e,
-            None,
-            &opts,
-        )
-        .unwrap();
+        let pt = balanced(&m, f, BL / R * e, &opts);
         assert!(pt.converged);
-        let (h1, h3) = (pt.x[0], pt.x[1]);
-        eprintln!(
-            "HB: X1 {:.1e}, X3 {:.1e}",
-            (h1 / x1 - 1.0).norm(),
-            (h3 / x3 - 1.0).norm()
-        );
-        assert!(
-            (h1 / x1 - 1.0).norm() < 1e-8,
-            "HB X1 at {f} Hz: {h1} vs {x1}"
-        );
-        assert!(
-            (h3 / x3 - 1.0).norm() < 1e-6,
-            "HB X3 at {f} Hz: {h3} vs {x3}"
-        );
+        assert_x1_x3("HB", f, [pt.x[0], pt.x[1]], [x1, x3], [1e-8, 1e-6]);
         let s = simulated(k3, e, f, 400, 1.5);
         let (s1, s3) = (harmonic(&s, 400, 20, 1), harmonic(&s, 400, 20, 3));
-        eprintln!(
-            "simulator: X1 {:.1e}, X3 {:.1e}",
-            (s1 / x1 - 1.0).norm(),
-            (s3 / x3 - 1.0).norm()
-        );
-        assert!(
-            (s1 / x1 - 1.0).norm() < 2e-4,
-            "simulated X1 at {f} Hz: {s1} vs {x1}"
-        );
-        assert!(
-            (s3 / x3 - 1.0).norm() < 2e-3,
-            "simulated X3 at {f} Hz: {s3} vs {x3}"
-        );
+        assert_x1_x3("simulated", f, [s1, s3], [x1, x3], [2e-4, 2e-3]);
     }
 }
 

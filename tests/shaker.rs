@@ -8,7 +8,7 @@
 //! (`ce = Bl²/R`, `te = L/R`) driven by the blocked force `(Bl/R) e`; the
 //! references never see those combinations.
 
-use hystid::hb::{HbOptions, solve_point};
+use hystid::hb::{HbOptions, HbPoint, solve_point};
 use hystid::model::{ElementSpec, ModalModel, Model};
 use hystid::sim::Simulator;
 use num_complex::Complex64;
@@ -113,6 +113,39 @@ pub(crate) fn driven(m: &Model, amplitude: f64, f: f64, p: usize, seconds: f64) 
     sim.run(&drive).unwrap().displacement
 }
 
+/// `m` balanced at `f` under the drive `amplitude` (a shaker's model takes
+/// the blocked force `(Bl/R) e`).
+pub(crate) fn balanced(m: &Model, f: f64, amplitude: f64, opts: &HbOptions) -> HbPoint {
+    solve_point(
+        &m.linear,
+        &mut m.element_set().unwrap(),
+        f,
+        amplitude,
+        None,
+        opts,
+    )
+    .unwrap()
+}
+
+/// Asserts `got`'s `X1` and `X3` each within its relative `tolerance` of
+/// the reference's.
+pub(crate) fn assert_x1_x3(
+    what: &str,
+    f: f64,
+    got: [Complex64; 2],
+    reference: [Complex64; 2],
+    tolerance: [f64; 2],
+) {
+    for (k, ((g, r), t)) in [1, 3]
+        .into_iter()
+        .zip(got.into_iter().zip(reference).zip(tolerance))
+    {
+        let e = (g / r - 1.0).norm();
+        eprintln!("{what} X{k} at {f} Hz: {e:.1e}");
+        assert!(e < t, "{what} X{k} at {f} Hz: {g} vs {r}");
+    }
+}
+
 /// A linear structure through the coil: harmonic balance exactly, and the
 /// simulator within its sampling error, give the closed form's `X/E` below,
 /// at and above the resonance, where the back-EMF (50 N s/m against the
@@ -123,16 +156,7 @@ fn a_linear_structure_through_a_shaker_is_the_coils_closed_form() {
     let opts = HbOptions::default();
     for f in [80.0, 100.0, 125.0] {
         let exact = closed_form(f);
-        let pt = solve_point(
-            &m.linear,
-            &mut m.element_set().unwrap(),
-            f,
-            BL / R,
-            None,
-            &opts,
-        )
-        .unwrap();
-        let hb = pt.frf(1).unwrap() * (BL / R);
+        let hb = balanced(&m, f, BL / R, &opts).frf(1).unwrap() * (BL / R);
         assert!(
             (hb / exact - 1.0).norm() < 1e-9,
             "HB at {f} Hz: {hb} vs {exact}"
@@ -174,35 +198,12 @@ fn a_cubic_spring_through_a_shaker_is_the_coils_rk4() {
             x1.norm() > 1e-4 && (x3 / x1).norm() > 3e-3,
             "the level should be nonlinear: {x1}, {x3}"
         );
-        let pt = solve_point(
-            &m.linear,
-            &mut m.element_set().unwrap(),
-            f,
-            BL / R * e,
-            None,
-            &opts,
-        )
-        .unwrap();
+        let pt = balanced(&m, f, BL / R * e, &opts);
         assert!(pt.converged);
-        let (h1, h3) = (pt.x[0], pt.x[1]);
-        assert!(
-            (h1 / x1 - 1.0).norm() < 1e-8,
-            "HB X1 at {f} Hz: {h1} vs {x1}"
-        );
-        assert!(
-            (h3 / x3 - 1.0).norm() < 1e-7,
-            "HB X3 at {f} Hz: {h3} vs {x3}"
-        );
+        assert_x1_x3("HB", f, [pt.x[0], pt.x[1]], [x1, x3], [1e-8, 1e-7]);
         let s = simulated(k3, e, f, 400, 1.2);
         let (s1, s3) = (harmonic(&s, 400, 20, 1), harmonic(&s, 400, 20, 3));
-        assert!(
-            (s1 / x1 - 1.0).norm() < 5e-5,
-            "simulated X1 at {f} Hz: {s1} vs {x1}"
-        );
-        assert!(
-            (s3 / x3 - 1.0).norm() < 5e-4,
-            "simulated X3 at {f} Hz: {s3} vs {x3}"
-        );
+        assert_x1_x3("simulated", f, [s1, s3], [x1, x3], [5e-5, 5e-4]);
         let fine = simulated(k3, e, f, 4000, 1.2);
         let f1 = harmonic(&fine, 4000, 20, 1);
         assert!(
@@ -244,15 +245,7 @@ fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
     for f in [100.0, 130.0] {
         let mut hb = Complex64::new(0.0, 0.0);
         for (sign, part) in m.parts() {
-            let pt = solve_point(
-                &part.linear,
-                &mut part.element_set().unwrap(),
-                f,
-                force,
-                None,
-                &opts,
-            )
-            .unwrap();
+            let pt = balanced(&part, f, force, &opts);
             assert!(pt.converged);
             hb += sign * pt.x[0];
         }
@@ -273,17 +266,7 @@ fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
         stuck.linear.modes[1].joint = Some(ElementSpec::Jenkins { kd: 1.3e6, fd: 1e6 });
         let mut held = Complex64::new(0.0, 0.0);
         for (sign, part) in stuck.parts() {
-            held += sign
-                * solve_point(
-                    &part.linear,
-                    &mut part.element_set().unwrap(),
-                    f,
-                    force,
-                    None,
-                    &opts,
-                )
-                .unwrap()
-                .x[0];
+            held += sign * balanced(&part, f, force, &opts).x[0];
         }
         assert!(
             (held / hb - 1.0).norm() > 0.01,
