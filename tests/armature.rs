@@ -43,6 +43,7 @@ fn model(k3: f64) -> Model {
         ElementSpec::Shaker {
             ce: BL * BL / R,
             te: L / R,
+            gain: 1.0,
         },
         ElementSpec::Armature {
             ma: MA,

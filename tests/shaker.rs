@@ -4,9 +4,12 @@
 //! structure and an RK4 march of the three states `(x, v, i)` with a cubic
 //! spring (smooth, so RK4 converges at its order).
 //!
-//! hystid's model holds the shaker in the structure's force unit
-//! (`ce = Bl²/R`, `te = L/R`) driven by the blocked force `(Bl/R) e`; the
-//! references never see those combinations.
+//! The model here declares the shaker by its coil (`r`, `l`, `bl`, as a
+//! test definition does), so it is driven by the voltage itself and its
+//! forces are newtons; the references never see hystid's combinations
+//! (`ce = Bl²/R`, `te = L/R`, gain `Bl/R`). The hysteretic-mode case holds
+//! the shaker in the drive's unit (gain 1, driven by the blocked force
+//! `(Bl/R) e`), as a model identified from a voltage does.
 
 use hystid::hb::{HbOptions, HbPoint, solve_point};
 use hystid::model::{ElementSpec, ModalModel, Model};
@@ -22,10 +25,8 @@ const L: f64 = 1.0e-3;
 const BL: f64 = 10.0;
 
 fn model(k3: f64) -> Model {
-    let mut elements = vec![ElementSpec::Shaker {
-        ce: BL * BL / R,
-        te: L / R,
-    }];
+    let coil = format!("kind = \"shaker\"\nr = {R:e}\nl = {L:e}\nbl = {BL:e}");
+    let mut elements = vec![toml::from_str::<ElementSpec>(&coil).unwrap()];
     if k3 > 0.0 {
         elements.push(ElementSpec::CubicStiffness { k3 });
     }
@@ -95,15 +96,14 @@ pub(crate) fn march_rk4<const N: usize>(
     out
 }
 
-/// The digital-filter simulator's response to `e = E cos ωt`, the model
-/// driven by the blocked force `(Bl/R) e`.
+/// The digital-filter simulator's response to `e = E cos ωt`.
 fn simulated(k3: f64, e: f64, f: f64, p: usize, seconds: f64) -> Vec<f64> {
-    driven(&model(k3), BL / R * e, f, p, seconds)
+    driven(&model(k3), e, f, p, seconds)
 }
 
 /// `m`'s displacement under the drive `amplitude cos ωt` from rest, `p`
-/// samples a period, for `seconds` (a shaker's model takes the blocked
-/// force `(Bl/R) e`).
+/// samples a period, for `seconds` (a shaker in the drive's unit takes the
+/// blocked force `(Bl/R) e`, one declared by its coil the voltage).
 pub(crate) fn driven(m: &Model, amplitude: f64, f: f64, p: usize, seconds: f64) -> Vec<f64> {
     let mut sim = Simulator::new(&m.linear, m.element_set().unwrap(), f * p as f64).unwrap();
     let periods = (seconds * f).ceil() as usize;
@@ -113,8 +113,7 @@ pub(crate) fn driven(m: &Model, amplitude: f64, f: f64, p: usize, seconds: f64) 
     sim.run(&drive).unwrap().displacement
 }
 
-/// `m` balanced at `f` under the drive `amplitude` (a shaker's model takes
-/// the blocked force `(Bl/R) e`).
+/// `m` balanced at `f` under the drive `amplitude` (as [`driven`] takes it).
 pub(crate) fn balanced(m: &Model, f: f64, amplitude: f64, opts: &HbOptions) -> HbPoint {
     solve_point(
         &m.linear,
@@ -156,7 +155,7 @@ fn a_linear_structure_through_a_shaker_is_the_coils_closed_form() {
     let opts = HbOptions::default();
     for f in [80.0, 100.0, 125.0] {
         let exact = closed_form(f);
-        let hb = balanced(&m, f, BL / R, &opts).frf(1).unwrap() * (BL / R);
+        let hb = balanced(&m, f, 1.0, &opts).frf(1).unwrap();
         assert!(
             (hb / exact - 1.0).norm() < 1e-9,
             "HB at {f} Hz: {hb} vs {exact}"
@@ -198,7 +197,7 @@ fn a_cubic_spring_through_a_shaker_is_the_coils_rk4() {
             x1.norm() > 1e-4 && (x3 / x1).norm() > 3e-3,
             "the level should be nonlinear: {x1}, {x3}"
         );
-        let pt = balanced(&m, f, BL / R * e, &opts);
+        let pt = balanced(&m, f, e, &opts);
         assert!(pt.converged);
         assert_x1_x3("HB", f, [pt.x[0], pt.x[1]], [x1, x3], [1e-8, 1e-7]);
         let s = simulated(k3, e, f, 400, 1.2);
@@ -233,6 +232,7 @@ fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
         vec![ElementSpec::Shaker {
             ce: BL * BL / R,
             te: L / R,
+            gain: 1.0,
         }],
     )
     .unwrap();

@@ -4,7 +4,7 @@
 //! so the same estimate carries the same flags wherever it is shown.
 
 use crate::fit::Estimate;
-use crate::model::{Domain, Model};
+use crate::model::{Domain, ElementSpec, Model};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -129,7 +129,18 @@ pub fn in_drive_units(unit: &'static str, drive: crate::harmonics::Quantity) -> 
         "kg" => "V s²/m",
         "1/kg" => "m/(V s²)",
         "m/N" => "m/V",
+        "N/V" => "V/V",
         other => other,
+    }
+}
+
+/// What `model`'s forces are measured against with a reference of quantity
+/// `reference`: the reference's own unit, unless a shaker declared by its
+/// coil (a gain other than 1, `Bl/R`) turns the voltage into newtons.
+pub fn force_drive(model: &Model, reference: crate::harmonics::Quantity) -> crate::harmonics::Quantity {
+    match model.laws().find_map(ElementSpec::drive_load) {
+        Some(load) if load.gain != 1.0 => crate::harmonics::Quantity::Force,
+        _ => reference,
     }
 }
 

@@ -699,14 +699,25 @@ pub fn run_time_fit_from_start_signed(
     observer: &dyn Observer,
 ) -> Result<TimeFitReport> {
     let mut params = time_parameters(start, true, None);
-    // the joint's gauges are held whether named or not
-    let gauges = start.joint.iter().flat_map(|j| {
-        j.description()
-            .parameters
-            .iter()
-            .filter(|q| q.role == crate::model::Role::Gauge)
-            .map(|q| q.name.to_string())
-    });
+    // the gauges (Bouc-Wen's β, a shaker's gain) are held whether named or
+    // not, under the names the parameters take
+    let gauges: Vec<String> = start
+        .placed_all()
+        .flat_map(|(at, e)| {
+            let prefix = start.parameter_prefix(at);
+            e.description()
+                .parameters
+                .iter()
+                .filter(|q| q.role == crate::model::Role::Gauge)
+                .map(move |q| {
+                    if prefix.is_empty() {
+                        q.name.to_string()
+                    } else {
+                        format!("{prefix}.{}", q.name)
+                    }
+                })
+        })
+        .collect();
     let names: Vec<String> = params
         .parameters
         .iter()

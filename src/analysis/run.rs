@@ -203,7 +203,7 @@ impl FinalModel {
         let judged = Judged {
             truth: &reference,
             transfer: fit.transfer,
-            drive: frf.reference,
+            drive: super::flags::force_drive(&fit.model, frf.reference),
         };
         let Some(d) = diagnosis else {
             let set = model_parameters(&fit.model, band_hz);

@@ -343,21 +343,17 @@ impl ParameterSet {
         ParameterSet { parameters }
     }
 
-    /// The set without the gauges of `model`'s joint (see
-    /// [`Role::Gauge`]): a fit holds them, as
-    /// the data cannot tell them from the parameters they trade with.
+    /// The set without the gauges of `model`'s elements (see
+    /// [`Role::Gauge`]: Bouc-Wen's `β`, a shaker's gain): a fit holds them,
+    /// as the data cannot tell them from the parameters they trade with.
     pub fn without_gauges(mut self, model: &Model) -> ParameterSet {
-        let Some(law) = model.joint.as_ref().map(ElementSpec::description) else {
-            return self;
-        };
         self.parameters.retain(|p| match &p.target {
-            Target::Element {
-                at: ElementAt::Joint,
-                name,
-            } => !law
-                .parameters
-                .iter()
-                .any(|q| q.name == name && q.role == Role::Gauge),
+            Target::Element { at, name } => !model.element(*at).is_ok_and(|e| {
+                e.description()
+                    .parameters
+                    .iter()
+                    .any(|q| q.name == name && q.role == Role::Gauge)
+            }),
             _ => true,
         });
         self

@@ -93,7 +93,7 @@ impl Attachment {
 
 /// How a drive model between the reference and the structure (a shaker)
 /// loads the structure, per harmonic: the reference reaches the drive point
-/// as `D(ω) F`, `D = 1/(1 + jωτ)`, and the drive adds the dynamic stiffness
+/// as `D(ω) F`, `D = g/(1 + jωτ)`, and the drive adds the dynamic stiffness
 /// `Z(ω) = jω c/(1 + jωτ)` there (see [`crate::model::Shaker`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriveLoad {
@@ -101,17 +101,25 @@ pub struct DriveLoad {
     pub back_emf: f64,
     /// Lag time constant `τ`, s.
     pub time_constant: f64,
+    /// The blocked force `g` per unit of drive (1 when the model's forces
+    /// are in the drive's unit).
+    pub gain: f64,
 }
 
 impl DriveLoad {
-    /// `D(ω) = 1/(1 + jωτ)`: the drive as it reaches the structure.
-    pub fn drive(&self, omega: f64) -> Complex64 {
+    /// `1/(1 + jωτ)`: the lag.
+    fn lag(&self, omega: f64) -> Complex64 {
         1.0 / Complex64::new(1.0, omega * self.time_constant)
+    }
+
+    /// `D(ω) = g/(1 + jωτ)`: the drive as it reaches the structure.
+    pub fn drive(&self, omega: f64) -> Complex64 {
+        self.gain * self.lag(omega)
     }
 
     /// `Z(ω) = jω c/(1 + jωτ)`: the dynamic stiffness the drive adds.
     pub fn impedance(&self, omega: f64) -> Complex64 {
-        Complex64::new(0.0, omega * self.back_emf) * self.drive(omega)
+        Complex64::new(0.0, omega * self.back_emf) * self.lag(omega)
     }
 }
 
@@ -619,6 +627,17 @@ pub trait Law: Element + Sized {
     /// The virgin element with `values` in the order of
     /// [`Description::parameters`].
     fn from_parameters(values: &[f64]) -> Result<Self>;
+
+    /// Rewrites a declaration's fields (a test definition's table, a JSON
+    /// object; `kind` included) into the law's own parameters before they
+    /// are read: where a law may be declared in other terms (a shaker by
+    /// its coil's `r`, `l`, `bl`) or a parameter has a default. An error
+    /// says what is wrong with the fields. Default: as written.
+    fn declared(
+        _fields: &mut serde_json::Map<String, serde_json::Value>,
+    ) -> std::result::Result<(), String> {
+        Ok(())
+    }
 }
 
 #[cfg(test)]

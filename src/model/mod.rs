@@ -75,9 +75,10 @@ macro_rules! registry {
         }
 
         /// An element's kind and parameters (see each law's
-        /// [`Description::parameters`] for their units and meaning).
-        #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-        #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+        /// [`Description::parameters`] for their units and meaning). Read
+        /// through the law's [`Law::declared`] (other terms, defaults).
+        #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+        #[serde(tag = "kind", rename_all = "snake_case")]
         pub enum ElementSpec {
             $(
                 #[doc = concat!("See [`", stringify!($ty), "`].")]
@@ -88,6 +89,33 @@ macro_rules! registry {
                     )+
                 },
             )+
+        }
+
+        /// [`ElementSpec`] as read once its law has rewritten the fields.
+        #[derive(Deserialize)]
+        #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+        enum DeclaredSpec {
+            $($kind { $($p: f64,)+ },)+
+        }
+
+        impl<'de> Deserialize<'de> for ElementSpec {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+                use serde::de::Error as _;
+                let mut fields = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+                let kind = fields
+                    .get("kind")
+                    .and_then(serde_json::Value::as_str)
+                    .and_then(ElementKind::from_name);
+                match kind {
+                    $(Some(ElementKind::$kind) => <$ty as Law>::declared(&mut fields).map_err(D::Error::custom)?,)+
+                    None => {}
+                }
+                let spec = DeclaredSpec::deserialize(serde_json::Value::Object(fields))
+                    .map_err(D::Error::custom)?;
+                Ok(match spec {
+                    $(DeclaredSpec::$kind { $($p),+ } => ElementSpec::$kind { $($p),+ },)+
+                })
+            }
         }
 
         impl ElementSpec {
@@ -158,7 +186,7 @@ registry! {
     BilinearStiffness(BilinearStiffness) { kb },
     Clearance(Clearance) { k, gap },
     ViscousDamping(ViscousDamping) { cj },
-    Shaker(Shaker) { ce, te },
+    Shaker(Shaker) { ce, te, gain },
     Armature(Armature) { ma, ks, cs },
 }
 
@@ -296,7 +324,7 @@ impl ElementSpec {
     /// asks it of every element on each prediction.)
     pub fn drive_load(&self) -> Option<DriveLoad> {
         match *self {
-            ElementSpec::Shaker { ce, te } => Shaker::new(ce, te).drive_load(),
+            ElementSpec::Shaker { ce, te, gain } => Shaker::with_gain(ce, te, gain).drive_load(),
             _ => None,
         }
     }
@@ -739,7 +767,7 @@ impl Model {
             .effects
             .iter()
             .filter_map(|e| match *e {
-                ElementSpec::Shaker { te, .. } => Some(ElementSpec::Shaker { ce: 0.0, te }),
+                ElementSpec::Shaker { te, gain, .. } => Some(ElementSpec::Shaker { ce: 0.0, te, gain }),
                 _ => None,
             })
             .collect();

@@ -62,6 +62,9 @@ pub struct Shaker {
     pub ce: f64,
     /// Electrical time constant `τe = L/R`, s.
     pub te: f64,
+    /// The blocked force per unit of drive, `Bl/R` (N/V); 1 when the
+    /// model's forces are in the drive's unit.
+    pub gain: f64,
     /// The lag of the back-EMF force, marched by the simulator.
     lag: Lag,
 }
@@ -138,13 +141,35 @@ impl Lag {
 }
 
 impl Shaker {
-    /// The shaker with back-EMF damping `ce` and time constant `te`.
+    /// The shaker with back-EMF damping `ce` and time constant `te`, its
+    /// forces in the drive's unit (gain 1).
     pub fn new(ce: f64, te: f64) -> Shaker {
+        Shaker::with_gain(ce, te, 1.0)
+    }
+
+    /// The shaker with back-EMF damping `ce`, time constant `te` and
+    /// blocked force `gain` per unit of drive.
+    pub fn with_gain(ce: f64, te: f64, gain: f64) -> Shaker {
         Shaker {
             ce,
             te,
+            gain,
             lag: Lag::default(),
         }
+    }
+
+    /// The shaker of a coil with resistance `r` (Ω), inductance `l` (H)
+    /// and force factor `bl` (N/A), its forces in newtons.
+    pub fn of_coil(r: f64, l: f64, bl: f64) -> Shaker {
+        Shaker::with_gain(bl * bl / r, l / r, bl / r)
+    }
+
+    /// The coil `(R, L, Bl)` this shaker stands for, when its gain is
+    /// physical (`Bl = ce/gain`, `R = Bl/gain`, `L = te R`).
+    pub fn coil(&self) -> (f64, f64, f64) {
+        let bl = self.ce / self.gain;
+        let r = bl / self.gain;
+        (r, self.te * r, bl)
     }
 }
 
@@ -192,6 +217,7 @@ impl Element for Shaker {
         Some(DriveLoad {
             back_emf: self.ce,
             time_constant: self.te,
+            gain: self.gain,
         })
     }
 }
@@ -220,15 +246,64 @@ impl Law for Shaker {
                 role: Role::Other,
                 start: 0.0,
             },
+            ParameterInfo {
+                name: "gain",
+                unit: "N/V",
+                meaning: "blocked force per unit of drive Bl/R (1: forces in the drive's unit)",
+                domain: Domain::Positive,
+                scale: FitScale::Log,
+                // the drive alone tells it only together with the
+                // structure's scale: a fit holds it where it is declared
+                role: Role::Gauge,
+                start: 1.0,
+            },
         ],
         memory: false,
         odd: true,
         samples_per_period: 0,
-        example: &[50.0, 2e-4],
+        example: &[50.0, 2e-4, 1.0],
     };
 
     fn from_parameters(values: &[f64]) -> Result<Self> {
-        Ok(Shaker::new(values[0], values[1]))
+        Ok(Shaker::with_gain(values[0], values[1], values[2]))
+    }
+
+    /// A shaker is declared by its model's terms (`ce`, `te`, and `gain`,
+    /// 1 when left out) or by its coil's (`r`, `l`, `bl`: the model's forces
+    /// are then newtons), not a mixture.
+    fn declared(
+        fields: &mut serde_json::Map<String, serde_json::Value>,
+    ) -> std::result::Result<(), String> {
+        const COIL: [&str; 3] = ["r", "l", "bl"];
+        let given: Vec<&str> = COIL.into_iter().filter(|k| fields.contains_key(*k)).collect();
+        if given.is_empty() {
+            fields.entry("gain").or_insert(serde_json::Value::from(1.0));
+            return Ok(());
+        }
+        if let Some(model) = ["ce", "te", "gain"].into_iter().find(|k| fields.contains_key(*k)) {
+            return Err(format!(
+                "shaker: give its coil (r, l, bl) or its model's terms (ce, te, gain),                  not both (`{model}` beside `{}`)",
+                given[0]
+            ));
+        }
+        let mut value = |k: &str| -> std::result::Result<f64, String> {
+            let v = fields.remove(k).ok_or_else(|| {
+                format!("shaker: its coil needs r (ohm), l (H) and bl (N/A); `{k}` is missing")
+            })?;
+            v.as_f64().ok_or_else(|| format!("shaker `{k}`: expected a number, got {v}"))
+        };
+        let (r, l, bl) = (value("r")?, value("l")?, value("bl")?);
+        if !(r > 0.0 && r.is_finite()) || !(bl > 0.0 && bl.is_finite()) || !(l >= 0.0 && l.is_finite())
+        {
+            return Err(format!(
+                "shaker: expected r > 0 (ohm), l >= 0 (H) and bl > 0 (N/A), got r = {r}, l = {l}, bl = {bl}"
+            ));
+        }
+        let s = Shaker::of_coil(r, l, bl);
+        for (k, v) in [("ce", s.ce), ("te", s.te), ("gain", s.gain)] {
+            fields.insert(k.into(), serde_json::Value::from(v));
+        }
+        Ok(())
     }
 }
 
@@ -270,5 +345,45 @@ mod tests {
             assert_eq!(s.commit(0.0, v).force, t.force);
             assert_eq!(t.force, lag.commit(40.0 * v));
         }
+    }
+
+    /// Declared by its coil, a shaker is `ce = Bl²/R`, `te = L/R` and gain
+    /// `Bl/R`, and gives its coil back; declared by its model's terms its
+    /// gain is 1 unless given; a mixture, a missing coil term or a coil
+    /// that cannot be are refused, naming what is wrong.
+    #[test]
+    fn a_shaker_is_declared_by_its_coil_or_its_models_terms() {
+        use crate::model::ElementSpec;
+        let read = |t: &str| toml::from_str::<ElementSpec>(t).map_err(|e| e.to_string());
+        let coil = read("kind = \"shaker\"\nr = 2.0\nl = 1e-3\nbl = 10").unwrap();
+        assert_eq!(
+            coil,
+            ElementSpec::Shaker {
+                ce: 50.0,
+                te: 5e-4,
+                gain: 5.0
+            }
+        );
+        let (r, l, bl) = Shaker::with_gain(50.0, 5e-4, 5.0).coil();
+        assert!((r - 2.0).abs() < 1e-15 && (l - 1e-3).abs() < 1e-18 && (bl - 10.0).abs() < 1e-14);
+        assert_eq!(
+            read("kind = \"shaker\"\nce = 50.0\nte = 5e-4").unwrap(),
+            ElementSpec::Shaker {
+                ce: 50.0,
+                te: 5e-4,
+                gain: 1.0
+            }
+        );
+        // what fit.json writes reads back as it was
+        let json = serde_json::to_string(&coil).unwrap();
+        assert_eq!(serde_json::from_str::<ElementSpec>(&json).unwrap(), coil);
+        let mixed = read("kind = \"shaker\"\nr = 2.0\nl = 1e-3\nbl = 10\nte = 1e-4").unwrap_err();
+        assert!(mixed.contains("not both (`te` beside `r`)"), "{mixed}");
+        let partial = read("kind = \"shaker\"\nr = 2.0\nbl = 10").unwrap_err();
+        assert!(partial.contains("`l` is missing"), "{partial}");
+        let bad = read("kind = \"shaker\"\nr = 0.0\nl = 1e-3\nbl = 10").unwrap_err();
+        assert!(bad.contains("expected r > 0"), "{bad}");
+        let unknown = read("kind = \"shaker\"\nce = 1.0\nte = 0.0\nrr = 1").unwrap_err();
+        assert!(unknown.contains("unknown field `rr`"), "{unknown}");
     }
 }

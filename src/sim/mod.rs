@@ -140,6 +140,8 @@ pub struct Simulator<E: Element> {
     /// The drive's lag between the reference and the structure (a shaker's
     /// coil, [`Element::drive_load`]); off without one.
     drive_lag: Lag,
+    /// The drive's blocked force per unit of reference (a shaker's `Bl/R`).
+    drive_gain: f64,
     /// What is attached at the drive point (an armature,
     /// [`Element::attachment`]), solved inside each sample; `None`: nothing.
     attached: Option<AttachedSolve>,
@@ -205,9 +207,9 @@ impl<E: Element> Simulator<E> {
         }
         let t = 1.0 / sample_rate_hz;
         elements.set_time_step(t);
-        let drive_lag = match elements.drive_load() {
-            Some(load) => Lag::new(load.time_constant, t),
-            None => Lag::default(),
+        let (drive_lag, drive_gain) = match elements.drive_load() {
+            Some(load) => (Lag::new(load.time_constant, t), load.gain),
+            None => (Lag::default(), 1.0),
         };
         let attached = elements.attachment();
         if attached.is_some() && linear.modes.iter().any(|m| m.is_hysteretic()) {
@@ -251,6 +253,7 @@ impl<E: Element> Simulator<E> {
             stats: SolveStats::default(),
             hysteretic,
             drive_lag,
+            drive_gain,
             attached: attached.map(|a| AttachedSolve::new(a, b0)),
         })
     }
@@ -399,7 +402,7 @@ impl<E: Element> Simulator<E> {
                     if !force.is_finite() {
                         return Err(self.bad_force(force));
                     }
-                    force = self.drive_lag.commit(force);
+                    force = self.drive_gain * self.drive_lag.commit(force);
                 }
                 let mut s = self.step_modal(force)?;
                 for (sign, mode) in &mut self.hysteretic {

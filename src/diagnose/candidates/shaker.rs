@@ -54,6 +54,7 @@ impl Candidate for Shaker {
             base.with_effect(ElementSpec::Shaker {
                 ce: 0.5 * c,
                 te: wt / w,
+                gain: 1.0,
             })
         });
         Ok(best_as_it_stands(cx, starts)
