@@ -293,8 +293,8 @@ impl Law for Shaker {
             v.as_f64().ok_or_else(|| format!("shaker `{k}`: expected a number, got {v}"))
         };
         let (r, l, bl) = (value("r")?, value("l")?, value("bl")?);
-        if !(r > 0.0 && r.is_finite()) || !(bl > 0.0 && bl.is_finite()) || !(l >= 0.0 && l.is_finite())
-        {
+        let positive = |v: f64| v > 0.0 && v.is_finite();
+        if !(positive(r) && positive(bl) && (l == 0.0 || positive(l))) {
             return Err(format!(
                 "shaker: expected r > 0 (ohm), l >= 0 (H) and bl > 0 (N/A), got r = {r}, l = {l}, bl = {bl}"
             ));
