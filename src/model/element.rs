@@ -243,6 +243,14 @@ pub trait Element {
         None
     }
 
+    /// The part of its last committed force that the drive itself loses (a
+    /// shaker's back-EMF: the coil's force is the lagged drive less it), so
+    /// that the simulator can report the force the drive applies, what a
+    /// force gauge between the shaker and the structure reads. Default: 0.
+    fn drive_reaction(&self) -> f64 {
+        0.0
+    }
+
     /// The impulse (N s) by which the element force's path inside the sample
     /// just committed exceeds the straight line between its two samples,
     /// which is what the ramp-invariant filters assume: a kink inside the
@@ -396,6 +404,10 @@ impl<E: Element> Element for ElementSet<E> {
             .iter()
             .filter_map(Element::attachment)
             .reduce(Attachment::plus)
+    }
+    /// The members' together.
+    fn drive_reaction(&self) -> f64 {
+        self.elements.iter().map(Element::drive_reaction).sum()
     }
     /// The first member's (a model has at most one drive).
     fn drive_load(&self) -> Option<DriveLoad> {

@@ -409,6 +409,9 @@ impl Element for AnyElement {
     fn attachment(&self) -> Option<Attachment> {
         dispatch!(self, e => e.attachment())
     }
+    fn drive_reaction(&self) -> f64 {
+        dispatch!(self, e => e.drive_reaction())
+    }
     #[inline]
     fn commit_sensitivity(
         &mut self,

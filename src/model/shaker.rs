@@ -213,6 +213,10 @@ impl Element for Shaker {
     fn set_time_step(&mut self, h: f64) {
         self.lag = Lag::new(self.te, h);
     }
+    /// The lagged back-EMF force just committed.
+    fn drive_reaction(&self) -> f64 {
+        if self.lag.on { self.lag.y } else { 0.0 }
+    }
     fn drive_load(&self) -> Option<DriveLoad> {
         Some(DriveLoad {
             back_emf: self.ce,

@@ -40,6 +40,11 @@ pub struct Sample {
     pub acceleration: f64,
     /// Total element force `g`, N.
     pub element_force: f64,
+    /// The force the drive applies at the drive point, N: the input itself,
+    /// or with a shaker the coil's force, its lagged drive less its
+    /// back-EMF (what a force gauge between the shaker and the structure
+    /// reads; an armature sits behind the gauge).
+    pub drive_force: f64,
 }
 
 /// Time histories of a run.
@@ -53,6 +58,8 @@ pub struct Response {
     pub acceleration: Vec<f64>,
     /// Element force, N.
     pub element_force: Vec<f64>,
+    /// The force the drive applies (see [`Sample::drive_force`]), N.
+    pub drive_force: Vec<f64>,
 }
 
 impl Response {
@@ -62,6 +69,7 @@ impl Response {
         self.velocity.clear();
         self.acceleration.clear();
         self.element_force.clear();
+        self.drive_force.clear();
     }
 
     fn push(&mut self, s: Sample) {
@@ -69,6 +77,7 @@ impl Response {
         self.velocity.push(s.velocity);
         self.acceleration.push(s.acceleration);
         self.element_force.push(s.element_force);
+        self.drive_force.push(s.drive_force);
     }
 
     /// Number of samples.
@@ -324,6 +333,7 @@ impl<E: Element> Simulator<E> {
         if !force.is_finite() {
             return Err(self.bad_force(force));
         }
+        let applied = force;
         let (u1, u2) = (self.u[0], self.u[1]);
         let mut pred = [0.0; 3];
         for (f, s) in self.filters.iter().zip(self.state.iter_mut()) {
@@ -376,6 +386,7 @@ impl<E: Element> Simulator<E> {
             velocity: v,
             acceleration: a,
             element_force: g,
+            drive_force: applied - self.elements.drive_reaction(),
         })
     }
 
@@ -482,6 +493,7 @@ impl<E: Element> Simulator<E> {
                     velocity: v,
                     acceleration: a,
                     element_force: g,
+                    drive_force: force,
                 },
             );
         }
