@@ -278,7 +278,7 @@ def identify(
         if domain != "frf":
             raise HystidError("start: a model written down is fitted here to the FRFs; use identify_time(start=...) for the time domain")
         text = _hystid.identify_declared(
-            json.dumps(frf), _as_model(start), opts, float(response_sign), recording, response
+            json.dumps(frf), _as_model(start), opts, float(response_sign), recording, response, progress
         )
         return json.loads(text)
     ref = None if reference is None else _as_model(reference)

@@ -346,7 +346,7 @@ fn _rust_simulate_seconds<'py>(
 
 /// A virtual stepped-sine test of a definition (TOML text; the embedded
 /// default when `None`), in memory: `(definition text, recording.json,
-/// frf.json, summary.json, hb_check.json or None, the four channels)`.
+/// frf.json, summary.json, hb_check.json or None, the recorded channels)`.
 #[pyfunction]
 #[pyo3(signature = (text = None, origin = None, check_hb = false, progress = None))]
 #[allow(clippy::type_complexity)]
@@ -549,7 +549,8 @@ fn identify<'py>(
 /// A model written down fitted to nonlinear FRFs as it stands (`hystid
 /// identify --start MODEL`): fit.json with its `frequency_domain`.
 #[pyfunction]
-#[pyo3(signature = (frf, start, options, response_sign = 1.0, recording = String::new(), response = None))]
+#[pyo3(signature = (frf, start, options, response_sign = 1.0, recording = String::new(), response = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
 fn identify_declared<'py>(
     py: Python<'py>,
     frf: String,
@@ -558,6 +559,7 @@ fn identify_declared<'py>(
     response_sign: f64,
     recording: String,
     response: Option<String>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     if response_sign != 1.0 && response_sign != -1.0 {
         return Err(fail(format!(
@@ -568,20 +570,20 @@ fn identify_declared<'py>(
     let options = fit_options(&options)?;
     let model = start.inner.clone();
     let predictor = hystid::fit::HbPredictor::default();
-    let fit = py
-        .detach(|| {
-            hystid::diagnose::fit_declared(
-                &frf,
-                &model,
-                response_sign,
-                options.transfer || response_sign < 0.0,
-                &options.harmonics,
-                options.band_hz,
-                &predictor,
-                hystid::diagnose::DiagnoseOptions::default().patience,
-            )
-        })
-        .map_err(err)?;
+    let progress = Progress::new(progress);
+    let fit = progress.run(py, || {
+        hystid::diagnose::fit_declared(
+            &frf,
+            &model,
+            response_sign,
+            options.transfer || response_sign < 0.0,
+            &options.harmonics,
+            options.band_hz,
+            &predictor,
+            hystid::diagnose::DiagnoseOptions::default().patience,
+            &progress,
+        )
+    })?;
     let report = hystid::analysis::identify::DeclaredFitReport {
         command: "identify".into(),
         version: hystid::analysis::VERSION.into(),

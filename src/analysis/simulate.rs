@@ -74,11 +74,8 @@ pub fn recording_meta(def: &TestDefinition, toml_text: &str, fs: f64) -> Recordi
     RecordingMeta {
         format: FORMAT_V1.into(),
         sample_rate_hz: fs,
-        channels: crate::testbench::recorded_channels(
-            def.model().map_or(crate::harmonics::Quantity::Force, |m| {
-                crate::testbench::reference_quantity(&m)
-            }),
-        ),
+        channels: crate::testbench::test_channels(def)
+            .unwrap_or_else(|_| crate::testbench::recorded_channels(crate::harmonics::Quantity::Force)),
         excitation: Excitation {
             kind: ExcitationKind::SteppedSine,
             steps: Vec::new(),
@@ -197,14 +194,9 @@ impl BenchSink for FileSink {
             let a = (d.start - first_frame) as usize;
             let b = a + d.length;
             let step = self.dwells_written as u32;
-            self.mcap.write_signals(
-                step,
-                d.start,
-                &f64s(&out.force[a..b]),
-                &f64s(&out.displacement[a..b]),
-                &f64s(&out.velocity[a..b]),
-                &f64s(&out.acceleration[a..b]),
-            )?;
+            let dwell: Vec<Vec<f64>> = out.channels().iter().map(|c| f64s(&c[a..b])).collect();
+            let dwell: Vec<&[f64]> = dwell.iter().map(Vec::as_slice).collect();
+            self.mcap.write_channels(step, d.start, &dwell)?;
             let mut msg = DwellMessage::of(d);
             msg.step = self.dwells_written;
             msg.hb_check = checks.get(i);
@@ -212,12 +204,7 @@ impl BenchSink for FileSink {
             self.steps.push(step_of(d));
             self.dwells_written += 1;
         }
-        self.wav.write_frames(&[
-            &out.force,
-            &out.displacement,
-            &out.velocity,
-            &out.acceleration,
-        ])?;
+        self.wav.write_frames(&out.channels())?;
         if let Some((_, _, _, all)) = &mut self.check {
             all.extend(checks);
         }
@@ -477,20 +464,17 @@ pub struct MemorySink {
     pub check: Option<(crate::model::Model, f64, usize, Vec<HbCheck>)>,
     /// The steps so far.
     pub steps: Vec<Step>,
-    /// The channels of [`crate::testbench::recorded_channels`], in order.
-    pub channels: [Vec<f32>; 4],
+    /// The channels of [`crate::testbench::test_channels`], in order.
+    pub channels: Vec<Vec<f32>>,
 }
 
 impl BenchSink for MemorySink {
     fn level(&mut self, out: &LevelOutput, _first_frame: u64) -> Result<()> {
         let checks = level_checks(&self.check, out)?;
         self.steps.extend(out.dwells.iter().map(step_of));
-        for (c, v) in self.channels.iter_mut().zip([
-            &out.force,
-            &out.displacement,
-            &out.velocity,
-            &out.acceleration,
-        ]) {
+        let signals = out.channels();
+        self.channels.resize_with(signals.len(), Vec::new);
+        for (c, v) in self.channels.iter_mut().zip(signals) {
             c.extend_from_slice(v);
         }
         if let Some((_, _, _, all)) = &mut self.check {
@@ -546,7 +530,7 @@ pub fn simulate_in_memory(
     Ok(VirtualTest {
         run,
         meta,
-        channels: sink.channels.into(),
+        channels: sink.channels,
         hb_checks,
         summary,
     })

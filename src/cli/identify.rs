@@ -281,6 +281,7 @@ fn identify_declared(
         options.band_hz,
         &predictor,
         hystid::diagnose::DiagnoseOptions::default().patience,
+        &progress::Drawn(&pb),
     )?;
     pb.finish_and_clear();
     let _out = create_out_dir(&args.out)?;

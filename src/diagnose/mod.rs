@@ -273,6 +273,7 @@ pub fn fit_declared(
     band_hz: Option<(f64, f64)>,
     predictor: &HbPredictor,
     patience: usize,
+    observer: &dyn crate::observe::Observer,
 ) -> Result<DeclaredFit> {
     start.validate()?;
     let data = FitData::from_frf(frf, harmonics, band_hz, None)?
@@ -296,7 +297,7 @@ pub fn fit_declared(
         &data,
         predictor,
         Weighting::StandardError,
-        None,
+        Some(observer),
     )
     .with_warm_start(before.clone());
     let theta0 = params.theta_of(start)?;
@@ -309,11 +310,23 @@ pub fn fit_declared(
         DECLARED_SIMPLEX_ITERATIONS_PER_PARAMETER * n as u64,
         1e-8,
     );
+    // (a cancelled cost ends the simplex as a failure would: say which)
+    if observer.cancelled() {
+        return Err(Error::Cancelled);
+    }
     let from = match simplex {
         Ok(s) if s.cost < cost0 => problem.evaluate(&s.theta)?.0,
         _ => start.clone(),
     };
-    let r = refit(&from, &data, predictor, None, patience)?;
+    // one fit, one numbering of its evaluations
+    let observed = Observed {
+        observer,
+        after: problem.evaluations(),
+    };
+    let r = refit_within(&from, &data, predictor, None, patience, 3, Some(observed))?;
+    if observer.cancelled() {
+        return Err(Error::Cancelled);
+    }
     let params = model_parameters(&r.model, data.band_hz());
     let conf = confidence_at(&r.model, &params, &r.pred, &data, predictor)?;
     let parameters = params
@@ -349,7 +362,14 @@ fn refit(
     warm: Option<&Prediction>,
     patience: usize,
 ) -> Result<Refit> {
-    refit_within(model, data, predictor, warm, patience, 3)
+    refit_within(model, data, predictor, warm, patience, 3, None)
+}
+
+/// Who is told of a refit's evaluations, numbered on from `after`.
+#[derive(Clone, Copy)]
+struct Observed<'a> {
+    observer: &'a dyn crate::observe::Observer,
+    after: usize,
 }
 
 /// [`refit`] with at most `budgets` Levenberg–Marquardt runs of `patience`
@@ -361,6 +381,7 @@ fn refit_within(
     warm: Option<&Prediction>,
     patience: usize,
     budgets: usize,
+    observed: Option<Observed<'_>>,
 ) -> Result<Refit> {
     let mut params = model_parameters(model, data.band_hz());
     // a parameter at its bound (the joint's N → ∞ for Jenkins-like data) is
@@ -377,8 +398,9 @@ fn refit_within(
         data,
         predictor,
         Weighting::StandardError,
-        None,
-    );
+        observed.map(|o| o.observer),
+    )
+    .numbered_after(observed.map_or(0, |o| o.after));
     if let Some(w) = warm {
         problem = problem.with_warm_start(w.clone());
     }
@@ -747,7 +769,7 @@ fn try_candidate(
     } else {
         let screened: Vec<Result<Refit>> = starts
             .par_iter()
-            .map(|(m, warm)| refit_within(m, data, predictor, Some(warm), SCREEN_PATIENCE, 1))
+            .map(|(m, warm)| refit_within(m, data, predictor, Some(warm), SCREEN_PATIENCE, 1, None))
             .collect();
         let mut order: Vec<usize> = (0..screened.len())
             .filter(|&i| screened[i].as_ref().is_ok_and(|r| r.chi2.is_finite()))

@@ -645,9 +645,7 @@ pub trait Law: Element + Sized {
     /// are read: where a law may be declared in other terms (a shaker by
     /// its coil's `r`, `l`, `bl`) or a parameter has a default. An error
     /// says what is wrong with the fields. Default: as written.
-    fn declared(
-        _fields: &mut serde_json::Map<String, serde_json::Value>,
-    ) -> std::result::Result<(), String> {
+    fn declared(_fields: &mut serde_json::Map<String, serde_json::Value>) -> Result<()> {
         Ok(())
     }
 }

@@ -51,7 +51,7 @@
 use super::element::{
     Description, Domain, DriveLoad, Element, ElementForce, FitScale, Law, ParameterInfo, Role,
 };
-use crate::error::Result;
+use crate::error::{Error, Result};
 use num_complex::Complex64;
 
 /// The shaker's back-EMF at the drive point, lagged by the coil (see the
@@ -275,9 +275,7 @@ impl Law for Shaker {
     /// A shaker is declared by its model's terms (`ce`, `te`, and `gain`,
     /// 1 when left out) or by its coil's (`r`, `l`, `bl`: the model's forces
     /// are then newtons), not a mixture.
-    fn declared(
-        fields: &mut serde_json::Map<String, serde_json::Value>,
-    ) -> std::result::Result<(), String> {
+    fn declared(fields: &mut serde_json::Map<String, serde_json::Value>) -> Result<()> {
         const COIL: [&str; 3] = ["r", "l", "bl"];
         let given: Vec<&str> = COIL.into_iter().filter(|k| fields.contains_key(*k)).collect();
         if given.is_empty() {
@@ -285,22 +283,34 @@ impl Law for Shaker {
             return Ok(());
         }
         if let Some(model) = ["ce", "te", "gain"].into_iter().find(|k| fields.contains_key(*k)) {
-            return Err(format!(
-                "shaker: give its coil (r, l, bl) or its model's terms (ce, te, gain),                  not both (`{model}` beside `{}`)",
-                given[0]
+            return Err(Error::model(
+                format!("shaker.{model}"),
+                format!(
+                    "give the shaker's coil (r, l, bl) or its model's terms (ce, te, gain), \
+                     not both (`{model}` beside `{}`)",
+                    given[0]
+                ),
             ));
         }
-        let mut value = |k: &str| -> std::result::Result<f64, String> {
+        let mut value = |k: &str| -> Result<f64> {
             let v = fields.remove(k).ok_or_else(|| {
-                format!("shaker: its coil needs r (ohm), l (H) and bl (N/A); `{k}` is missing")
+                Error::model(
+                    format!("shaker.{k}"),
+                    "missing: the coil needs r (ohm), l (H) and bl (N/A)",
+                )
             })?;
-            v.as_f64().ok_or_else(|| format!("shaker `{k}`: expected a number, got {v}"))
+            v.as_f64().ok_or_else(|| {
+                Error::model(format!("shaker.{k}"), format!("expected a number, got {v}"))
+            })
         };
         let (r, l, bl) = (value("r")?, value("l")?, value("bl")?);
         let positive = |v: f64| v > 0.0 && v.is_finite();
         if !(positive(r) && positive(bl) && (l == 0.0 || positive(l))) {
-            return Err(format!(
-                "shaker: expected r > 0 (ohm), l >= 0 (H) and bl > 0 (N/A), got r = {r}, l = {l}, bl = {bl}"
+            return Err(Error::model(
+                "shaker",
+                format!(
+                    "expected r > 0 (ohm), l >= 0 (H) and bl > 0 (N/A), got r = {r}, l = {l}, bl = {bl}"
+                ),
             ));
         }
         let s = Shaker::of_coil(r, l, bl);
@@ -384,7 +394,7 @@ mod tests {
         let mixed = read("kind = \"shaker\"\nr = 2.0\nl = 1e-3\nbl = 10\nte = 1e-4").unwrap_err();
         assert!(mixed.contains("not both (`te` beside `r`)"), "{mixed}");
         let partial = read("kind = \"shaker\"\nr = 2.0\nbl = 10").unwrap_err();
-        assert!(partial.contains("`l` is missing"), "{partial}");
+        assert!(partial.contains("`shaker.l`: missing"), "{partial}");
         let bad = read("kind = \"shaker\"\nr = 0.0\nl = 1e-3\nbl = 10").unwrap_err();
         assert!(bad.contains("expected r > 0"), "{bad}");
         let unknown = read("kind = \"shaker\"\nce = 1.0\nte = 0.0\nrr = 1").unwrap_err();

@@ -9,7 +9,10 @@
 /// The ROS 2 message definition (`ros2msg` schema) of a signal block.
 pub(crate) const SIGNAL_BLOCK_SCHEMA: &str = "\
 # One block of consecutive samples of a hystid run, physical SI units.
-# Arrays of quantities that are not recorded are empty.
+# Arrays of quantities that are not recorded are empty. `force` is the
+# reference (a voltage driving a shaker, when the run says so); gauge_force
+# is the force a gauge reads beside a voltage reference (absent in runs
+# written before it was added: read as empty).
 uint32 step
 uint64 first_frame
 float64 t0
@@ -18,12 +21,24 @@ float32[] force
 float32[] displacement
 float32[] velocity
 float32[] acceleration
+float32[] gauge_force
 ";
 
 /// The ROS 2 type name of a signal block.
 pub(crate) const SIGNAL_BLOCK_NAME: &str = "hystid_msgs/msg/SignalBlock";
 
 const HEADER: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
+
+/// The signal arrays of a block, in order.
+pub(crate) const ARRAYS: usize = 5;
+/// Their field names.
+pub(crate) const ARRAY_NAMES: [&str; ARRAYS] = [
+    "force",
+    "displacement",
+    "velocity",
+    "acceleration",
+    "gauge_force",
+];
 
 /// Pads `buf` so the next field of `size` bytes is aligned, counting from the
 /// end of the encapsulation header.
@@ -41,7 +56,7 @@ pub(crate) fn encode_signal_block(
     first_frame: u64,
     t0: f64,
     fs: f64,
-    arrays: [&[f64]; 4],
+    arrays: [&[f64]; ARRAYS],
 ) {
     buf.clear();
     buf.extend_from_slice(&HEADER);
@@ -68,9 +83,8 @@ pub(crate) struct SignalBlock<'a> {
     pub first_frame: u64,
     /// Sample rate, Hz (`t0` is `first_frame / fs` and is not kept).
     pub fs: f64,
-    /// Raw little-endian f32 bytes of force, displacement, velocity,
-    /// acceleration.
-    pub arrays: [&'a [u8]; 4],
+    /// Raw little-endian f32 bytes of each of [`ARRAY_NAMES`].
+    pub arrays: [&'a [u8]; ARRAYS],
 }
 
 impl SignalBlock<'_> {
@@ -128,21 +142,20 @@ pub(crate) fn decode_signal_block(data: &[u8]) -> Result<SignalBlock<'_>, CdrErr
         });
     }
     let body = &data[HEADER.len()..];
-    let mut at = 0usize;
-    let mut take = |size: usize, align: usize, field: &'static str| -> Result<&[u8], CdrError> {
-        at = at.div_ceil(align) * align;
-        let end = at
+    let at = std::cell::Cell::new(0usize);
+    let take = |size: usize, align: usize, field: &'static str| -> Result<&[u8], CdrError> {
+        let start = at.get().div_ceil(align) * align;
+        let end = start
             .checked_add(size)
             .filter(|&e| e <= body.len())
             .ok_or(CdrError::Truncated {
                 field,
-                offset: at,
+                offset: start,
                 needed: size,
                 len: body.len(),
             })?;
-        let s = &body[at..end];
-        at = end;
-        Ok(s)
+        at.set(end);
+        Ok(&body[start..end])
     };
     let u32_at = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
     let u64_at = |b: &[u8]| u64::from_le_bytes(b.try_into().expect("8 bytes"));
@@ -150,11 +163,12 @@ pub(crate) fn decode_signal_block(data: &[u8]) -> Result<SignalBlock<'_>, CdrErr
     let first_frame = u64_at(take(8, 8, "first_frame")?);
     take(8, 8, "t0")?;
     let fs = f64::from_bits(u64_at(take(8, 8, "fs")?));
-    let mut arrays: [&[u8]; 4] = [&[]; 4];
-    for (q, name) in ["force", "displacement", "velocity", "acceleration"]
-        .into_iter()
-        .enumerate()
-    {
+    let mut arrays: [&[u8]; ARRAYS] = [&[]; ARRAYS];
+    for (q, name) in ARRAY_NAMES.into_iter().enumerate() {
+        // a block written before the gauge's array was added ends here
+        if name == "gauge_force" && at.get() == body.len() {
+            break;
+        }
         let n = u32_at(take(4, 4, name)?) as usize;
         arrays[q] = take(
             n.checked_mul(4).ok_or(CdrError::TooLong { field: name })?,
@@ -185,7 +199,7 @@ mod tests {
             0x0102_0304_0506_0708,
             0.5,
             1000.0,
-            [&[1.0, -2.0], &[], &[], &[0.25, 4.0]],
+            [&[1.0, -2.0], &[], &[], &[0.25, 4.0], &[]],
         );
         let mut want = vec![0, 1, 0, 0, 7, 0, 0, 0, 0, 0, 0, 0];
         want.extend_from_slice(&0x0102_0304_0506_0708u64.to_le_bytes());
@@ -198,6 +212,7 @@ mod tests {
         want.extend_from_slice(&2u32.to_le_bytes());
         want.extend_from_slice(&0.25f32.to_le_bytes());
         want.extend_from_slice(&4.0f32.to_le_bytes());
+        want.extend_from_slice(&0u32.to_le_bytes());
         assert_eq!(buf, want);
 
         let b = decode_signal_block(&buf).unwrap();
@@ -209,7 +224,11 @@ mod tests {
         b.extend(3, &mut acc);
         assert_eq!(acc, [0.25, 4.0]);
         assert_eq!((b.len(0), b.len(1), b.len(2)), (2, 0, 0));
-        for cut in 0..buf.len() {
+        // a block of the four-array layout (before the gauge's) reads with
+        // the gauge's empty; any other cut is an error
+        let old = decode_signal_block(&buf[..buf.len() - 4]).unwrap();
+        assert_eq!((old.len(3), old.len(4)), (2, 0));
+        for cut in (0..buf.len()).filter(|&c| c != buf.len() - 4) {
             assert!(decode_signal_block(&buf[..cut]).is_err(), "cut at {cut}");
         }
     }

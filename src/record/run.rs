@@ -68,13 +68,10 @@ const ZSTD_LEVEL: u32 = 1;
 /// Target rate of the preview topic, Hz.
 const PREVIEW_HZ: f64 = 1000.0;
 
-/// The order of the four signal arrays in a block.
-const QUANTITIES: [Quantity; 4] = [
-    Quantity::Force,
-    Quantity::Displacement,
-    Quantity::Velocity,
-    Quantity::Acceleration,
-];
+/// The signal arrays of a block (see [`cdr::ARRAY_NAMES`]).
+const SLOTS: usize = cdr::ARRAYS;
+/// The slot of a force gauge's channel beside a voltage reference.
+const GAUGE: usize = 4;
 /// Keys of the `run` metadata record that are not free metadata.
 const RESERVED_KEYS: [&str; 5] = [
     "format",
@@ -95,9 +92,11 @@ pub struct RunInfo {
     pub seed: u64,
     /// Sample rate, Hz.
     pub sample_rate_hz: f64,
-    /// The recorded channels: exactly one `force` and at most one each of
-    /// `displacement`, `velocity`, `acceleration`, with SI units. Samples are
-    /// stored in physical units, so `scale` is not used (read back as 1).
+    /// The recorded channels: the reference (one `force`, or one `voltage`
+    /// driving a shaker, beside which one `force` may be a gauge's) and at
+    /// most one each of `displacement`, `velocity`, `acceleration`, with SI
+    /// units. Samples are stored in physical units, so `scale` is not used
+    /// (read back as 1).
     pub channels: Vec<Channel>,
     /// Free metadata (must not use the keys `format`, `tool_version`, `seed`,
     /// `sample_rate_hz`, `channels`).
@@ -139,10 +138,12 @@ struct Preview {
     velocity: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     acceleration: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gauge_force: Option<f64>,
 }
 
 /// JSON schema of the preview topic.
-const PREVIEW_SCHEMA: &str = r#"{"title":"hystid preview sample","type":"object","properties":{"force":{"type":"number","description":"N"},"displacement":{"type":"number","description":"m"},"velocity":{"type":"number","description":"m/s"},"acceleration":{"type":"number","description":"m/s^2"}}}"#;
+const PREVIEW_SCHEMA: &str = r#"{"title":"hystid preview sample","type":"object","properties":{"force":{"type":"number","description":"N"},"displacement":{"type":"number","description":"m"},"velocity":{"type":"number","description":"m/s"},"acceleration":{"type":"number","description":"m/s^2"},"gauge_force":{"type":"number","description":"N"}}}"#;
 /// JSON schema of the dwell topic.
 const DWELL_SCHEMA: &str = r#"{"title":"hystid dwell","type":"object","properties":{"frequency_hz":{"type":"number"},"level":{"type":"number"},"start":{"type":"integer"},"settle":{"type":"integer"},"length":{"type":"integer"}}}"#;
 /// JSON schema of the fit topic.
@@ -159,8 +160,10 @@ pub struct McapRecorder {
     writer: mcap::Writer<BufWriter<File>>,
     pending: PendingFile,
     clock: Clock,
-    recorded: [bool; 4],
-    names: [String; 4],
+    recorded: [bool; SLOTS],
+    names: [String; SLOTS],
+    /// Each channel's slot, in [`RunInfo::channels`]' order.
+    slots: Vec<usize>,
     decimation: u64,
     ids: [u16; 4],
     sequences: [u32; 4],
@@ -190,16 +193,32 @@ fn mcap_error(path: &Path, e: McapError) -> Error {
     }
 }
 
-/// Index of a recordable quantity in a signal block.
-pub(super) fn slot(q: Quantity) -> Option<usize> {
+/// Index of a recordable quantity in a signal block: the reference's slot
+/// holds a force, or the voltage driving a shaker, beside which a force is a
+/// gauge's.
+fn slot(q: Quantity, beside_voltage: bool) -> usize {
     match q {
-        // the reference's slot: a force, or the voltage driving a shaker
-        Quantity::Voltage => Some(0),
-        q => QUANTITIES.iter().position(|&x| x == q),
+        Quantity::Voltage => 0,
+        Quantity::Force if beside_voltage => GAUGE,
+        Quantity::Force => 0,
+        Quantity::Displacement => 1,
+        Quantity::Velocity => 2,
+        Quantity::Acceleration => 3,
     }
 }
 
-fn check_info(info: &RunInfo) -> Result<[Option<usize>; 4]> {
+/// Each of `channels`' slot in a signal block.
+fn channel_slots(channels: &[Channel]) -> Vec<usize> {
+    let voltage = channels.iter().any(|c| c.quantity == Quantity::Voltage);
+    channels.iter().map(|c| slot(c.quantity, voltage)).collect()
+}
+
+/// Each of a run's channels' slot in a signal block.
+pub(super) fn checked_slots(info: &RunInfo) -> Vec<usize> {
+    channel_slots(&info.channels)
+}
+
+fn check_info(info: &RunInfo) -> Result<[Option<usize>; SLOTS]> {
     let fs = info.sample_rate_hz;
     if !(fs.is_finite() && fs > 0.0) {
         return Err(Error::input(
@@ -207,24 +226,18 @@ fn check_info(info: &RunInfo) -> Result<[Option<usize>; 4]> {
             format!("expected a finite rate > 0, got {fs}"),
         ));
     }
-    let mut by_slot = [None; 4];
+    let mut by_slot = [None; SLOTS];
     let mut names = std::collections::HashSet::new();
+    let slots = channel_slots(&info.channels);
     for (i, ch) in info.channels.iter().enumerate() {
         let what = format!("run channels[{i}]");
-        let s = slot(ch.quantity).ok_or_else(|| {
-            Error::input(
-                &what,
-                format!(
-                    "quantity {} cannot be recorded (force or voltage, displacement, velocity, acceleration)",
-                    ch.quantity
-                ),
-            )
-        })?;
+        let s = slots[i];
         if by_slot[s].replace(i).is_some() {
             return Err(Error::input(
                 &what,
                 format!(
-                    "a second {} channel; at most one of each (and one reference, force or voltage)",
+                    "a second {} channel; at most one of each (one reference, force or \
+                     voltage, and beside a voltage one force)",
                     ch.quantity
                 ),
             ));
@@ -248,6 +261,7 @@ fn check_info(info: &RunInfo) -> Result<[Option<usize>; 4]> {
         }
     }
     if by_slot[0].is_none() {
+        // (a force alone is the reference, so this is a run without either)
         return Err(Error::input(
             "run channels",
             "a force or voltage channel is required (the reference)",
@@ -367,6 +381,7 @@ impl McapRecorder {
             clock: Clock::new(info.sample_rate_hz),
             recorded: by_slot.map(|s| s.is_some()),
             names,
+            slots: checked_slots(info),
             decimation: (info.sample_rate_hz / PREVIEW_HZ).ceil().max(1.0) as u64,
             ids: [signals, preview, dwell, fit],
             sequences: [0; 4],
@@ -413,7 +428,8 @@ impl McapRecorder {
     /// Every slice of a recorded quantity must have `force.len()` samples,
     /// all finite and within the f32 range; slices of quantities not in
     /// [`RunInfo::channels`] are ignored (pass `&[]`). Frames must follow
-    /// those already written (no overlap).
+    /// those already written (no overlap). A force gauge's channel beside a
+    /// voltage is written by [`Self::write_channels`].
     pub fn write_signals(
         &mut self,
         step: u32,
@@ -423,8 +439,40 @@ impl McapRecorder {
         velocity: &[f64],
         acceleration: &[f64],
     ) -> Result<()> {
-        let n = force.len();
-        let mut arrays = [force, displacement, velocity, acceleration];
+        self.write_arrays(
+            step,
+            first_frame,
+            [force, displacement, velocity, acceleration, &[]],
+        )
+    }
+
+    /// [`Self::write_signals`] with one slice per channel, in
+    /// [`RunInfo::channels`]' order (a gauge's force included).
+    pub fn write_channels(&mut self, step: u32, first_frame: u64, channels: &[&[f64]]) -> Result<()> {
+        if channels.len() != self.slots.len() {
+            return Err(Error::input(
+                format!("signals at frame {first_frame}"),
+                format!(
+                    "{} channels given, the run has {}",
+                    channels.len(),
+                    self.slots.len()
+                ),
+            ));
+        }
+        let mut arrays: [&[f64]; SLOTS] = [&[]; SLOTS];
+        for (&s, &c) in self.slots.iter().zip(channels) {
+            arrays[s] = c;
+        }
+        self.write_arrays(step, first_frame, arrays)
+    }
+
+    fn write_arrays(
+        &mut self,
+        step: u32,
+        first_frame: u64,
+        mut arrays: [&[f64]; SLOTS],
+    ) -> Result<()> {
+        let n = arrays[0].len();
         for (s, a) in arrays.iter_mut().enumerate() {
             if !self.recorded[s] {
                 *a = &[];
@@ -434,7 +482,7 @@ impl McapRecorder {
             if a.len() != n {
                 return Err(Error::input(
                     format!("signals `{name}` at frame {first_frame}"),
-                    format!("{} samples where force has {n}", a.len()),
+                    format!("{} samples where the reference has {n}", a.len()),
                 ));
             }
             if let Some(i) = super::first_out_of_range(a, f32::MAX as f64) {
@@ -489,6 +537,7 @@ impl McapRecorder {
                     displacement: pick(1),
                     velocity: pick(2),
                     acceleration: pick(3),
+                    gauge_force: pick(GAUGE),
                 };
                 json.clear();
                 serde_json::to_writer(&mut json, &p).expect("finite scalars serialise");
@@ -568,6 +617,9 @@ pub struct StepSignals {
     pub velocity: Vec<f64>,
     /// Acceleration, m/s²; empty if not recorded.
     pub acceleration: Vec<f64>,
+    /// A force gauge's force beside a voltage reference, N; empty if not
+    /// recorded.
+    pub gauge_force: Vec<f64>,
 }
 
 impl StepSignals {
@@ -582,6 +634,7 @@ impl StepSignals {
             &self.displacement,
             &self.velocity,
             &self.acceleration,
+            &self.gauge_force,
         ][s]
     }
 
@@ -590,7 +643,8 @@ impl StepSignals {
             0 => &mut self.force,
             1 => &mut self.displacement,
             2 => &mut self.velocity,
-            _ => &mut self.acceleration,
+            3 => &mut self.acceleration,
+            _ => &mut self.gauge_force,
         }
     }
 }
@@ -884,7 +938,7 @@ pub(super) struct Stretch {
     pub step: u32,
     pub first_frame: u64,
     pub frames: u64,
-    pub recorded: [bool; 4],
+    pub recorded: [bool; SLOTS],
 }
 
 /// What a linear scan has collected.
@@ -973,13 +1027,11 @@ impl Scan {
             ));
         }
         let n = b.len(0);
-        if (1..4).any(|s| b.len(s) != 0 && b.len(s) != n) {
-            return bad(format!(
-                "arrays of unequal length: force {n}, displacement {}, velocity {}, acceleration {}",
-                b.len(1),
-                b.len(2),
-                b.len(3)
-            ));
+        if (1..SLOTS).any(|s| b.len(s) != 0 && b.len(s) != n) {
+            let lengths: Vec<String> = (0..SLOTS)
+                .map(|s| format!("{} {}", cdr::ARRAY_NAMES[s], b.len(s)))
+                .collect();
+            return bad(format!("arrays of unequal length: {}", lengths.join(", ")));
         }
         let recorded = std::array::from_fn(|s| b.len(s) != 0);
         let cont = self
@@ -988,10 +1040,13 @@ impl Scan {
             .is_some_and(|l| l.step == b.step && l.first_frame + l.frames == b.first_frame);
         if cont {
             let last = self.stretches.last_mut().expect("just checked");
-            if let Some(s) = (1..4).find(|&s| last.frames > 0 && last.recorded[s] != recorded[s]) {
+            if let Some(s) =
+                (1..SLOTS).find(|&s| last.frames > 0 && last.recorded[s] != recorded[s])
+            {
                 return bad(format!(
                     "{} recorded in some blocks of step {} but not in others",
-                    QUANTITIES[s], b.step
+                    cdr::ARRAY_NAMES[s],
+                    b.step
                 ));
             }
             last.frames += n as u64;
@@ -1010,12 +1065,13 @@ impl Scan {
                     displacement: Vec::new(),
                     velocity: Vec::new(),
                     acceleration: Vec::new(),
+                    gauge_force: Vec::new(),
                 });
             }
         }
         if self.keep_samples {
             let last = self.signals.last_mut().expect("pushed with its stretch");
-            for s in 0..4 {
+            for s in 0..SLOTS {
                 b.extend(s, last.array_mut(s));
             }
         }
@@ -1064,13 +1120,9 @@ impl Scan {
                 ),
             ));
         }
-        let recorded: Vec<usize> = info
-            .channels
-            .iter()
-            .filter_map(|c| slot(c.quantity))
-            .collect();
+        let recorded = checked_slots(&info);
         for st in &self.stretches {
-            for (s, q) in QUANTITIES.iter().enumerate() {
+            for (s, q) in cdr::ARRAY_NAMES.iter().enumerate() {
                 let has = st.recorded[s];
                 if has != recorded.contains(&s) {
                     return Err(Error::format(
@@ -1173,8 +1225,7 @@ impl McapRun {
             .collect();
         let (meta, frames) = self.recording_meta(&stretches)?;
         let mut channels = Vec::with_capacity(self.info.channels.len());
-        for ch in &self.info.channels {
-            let s = slot(ch.quantity).expect("checked when read");
+        for s in checked_slots(&self.info) {
             let mut x = Vec::with_capacity(frames);
             for st in &self.signals {
                 x.extend_from_slice(st.array(s));

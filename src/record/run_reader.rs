@@ -12,7 +12,7 @@
 //! behind the scan starts it again from the file's beginning.
 
 use super::cdr;
-use super::run::{RunScanner, Scanned, Stretch, read_run_layout, slot};
+use super::run::{RunScanner, Scanned, Stretch, read_run_layout, checked_slots};
 use super::{McapRun, RecordingMeta, TOPIC_SIGNALS};
 use crate::error::{Error, Result};
 use crate::signals::FrameSource;
@@ -57,12 +57,7 @@ impl McapRunReader {
             Error::context(format!("{}: rebuilding the recording", path.display()), e)
         })?;
         let origin = stretches.first().map_or(0, |s: &Stretch| s.first_frame);
-        let slots = run
-            .info
-            .channels
-            .iter()
-            .map(|c| slot(c.quantity).expect("checked when read"))
-            .collect();
+        let slots = checked_slots(&run.info);
         Ok(McapRunReader {
             path: path.to_path_buf(),
             run,

@@ -60,6 +60,25 @@ pub fn recorded_channels(reference: Quantity) -> Vec<crate::record::Channel> {
     .collect()
 }
 
+/// The channels the virtual test of `def` records, in recording order: those
+/// of [`recorded_channels`], with `test.force_gauge` the shaker's force
+/// (channel `force`) after the voltage.
+pub fn test_channels(def: &TestDefinition) -> Result<Vec<crate::record::Channel>> {
+    let mut channels = recorded_channels(reference_quantity(&def.model()?));
+    if def.test.force_gauge {
+        channels.insert(
+            1,
+            crate::record::Channel {
+                name: "force".into(),
+                quantity: Quantity::Force,
+                unit: Quantity::Force.si_unit().into(),
+                scale: 1.0,
+            },
+        );
+    }
+    Ok(channels)
+}
+
 /// What a virtual test of `model` records as its reference: the force, or,
 /// when a shaker stands between the drive and the structure, its voltage
 /// (at 1 N/V: the model's forces are then in the drive's unit, as a model
@@ -162,6 +181,25 @@ pub struct LevelOutput {
     pub velocity: Vec<f32>,
     /// Measured acceleration, m/s².
     pub acceleration: Vec<f32>,
+    /// With a force gauge, the measured force the shaker applies, N (else
+    /// empty).
+    pub gauge: Vec<f32>,
+}
+
+impl LevelOutput {
+    /// The signals in the order [`test_channels`] lists them.
+    pub fn channels(&self) -> Vec<&[f32]> {
+        let mut c = vec![
+            &self.force[..],
+            &self.displacement[..],
+            &self.velocity[..],
+            &self.acceleration[..],
+        ];
+        if !self.gauge.is_empty() {
+            c.insert(1, &self.gauge[..]);
+        }
+        c
+    }
 }
 
 /// Receives each level's output, in level order.
@@ -269,7 +307,11 @@ pub fn run(
         sample_rate_hz: fs,
         frf: NonlinearFrf {
             response: def.test.response.quantity(),
-            reference: reference_quantity(&model),
+            reference: if def.test.force_gauge {
+                Quantity::Force
+            } else {
+                reference_quantity(&model)
+            },
             max_harmonic: def.test.max_harmonic,
             levels: frf_levels,
         },
@@ -310,6 +352,10 @@ fn run_level(
     let mut rng = ChaCha8Rng::seed_from_u64(t.seed);
     // an independent stream per level: the same bytes whatever the threads
     rng.set_stream(level_index as u64);
+    // the gauge's noise has streams of its own, so that the other channels
+    // are the same with a gauge as without
+    let mut gauge_rng = ChaCha8Rng::seed_from_u64(t.seed);
+    gauge_rng.set_stream((1 << 32) + level_index as u64);
     let mut analyser = HarmonicAnalyser::new();
     let response_q = t.response.quantity();
     let mut out = LevelOutput {
@@ -319,6 +365,7 @@ fn run_level(
     let mut phase = 0.0f64;
     let mut clean = Response::default();
     let mut force = Vec::new();
+    let mut gauge = Vec::new();
     for (direction, freqs) in sweeps {
         for &f_req in freqs {
             let d = design_dwell(f_req, fs, t.frequency_tolerance);
@@ -331,6 +378,7 @@ fn run_level(
                          clean: &mut Response,
                          fine: &mut Response|
              -> Result<()> {
+                // (`clean.drive_force` is the force the drive applies)
                 let n = l * os;
                 fine.clear();
                 sim.run_generator(
@@ -344,6 +392,7 @@ fn run_level(
                     clean.velocity.push(fine.velocity[i]);
                     clean.acceleration.push(fine.acceleration[i]);
                     clean.element_force.push(fine.element_force[i]);
+                    clean.drive_force.push(fine.drive_force[i]);
                 }
                 Ok(())
             };
@@ -382,15 +431,25 @@ fn run_level(
                 clean.acceleration.clone(),
             ];
             let fractions = [t.force_noise, t.noise, t.noise, t.noise];
-            for (sig, frac) in noisy.iter_mut().zip(fractions) {
+            let add_noise = |sig: &mut [f64], frac: f64, rng: &mut ChaCha8Rng| {
                 let sigma = frac * rms(&sig[settle..]);
                 if sigma > 0.0 {
                     for v in sig.iter_mut() {
-                        let z: f64 = StandardNormal.sample(&mut rng);
+                        let z: f64 = StandardNormal.sample(rng);
                         *v += sigma * z;
                     }
                 }
+            };
+            for (sig, frac) in noisy.iter_mut().zip(fractions) {
+                add_noise(sig, frac, &mut rng);
             }
+            // with a gauge, the bench's reference is the force it reads
+            gauge.clear();
+            if t.force_gauge {
+                gauge.extend_from_slice(&clean.drive_force);
+                add_noise(&mut gauge, t.force_noise, &mut gauge_rng);
+            }
+            let reference = if t.force_gauge { &gauge } else { &noisy[0] };
             let ri = match response_q {
                 Quantity::Displacement => 1,
                 Quantity::Velocity => 2,
@@ -398,7 +457,7 @@ fn run_level(
             };
             let measured = analyser
                 .coherent(
-                    &noisy[0][settle..],
+                    &reference[settle..],
                     &noisy[ri][settle..],
                     l,
                     q,
@@ -456,6 +515,7 @@ fn run_level(
             {
                 dst.extend(src.iter().map(|&v| v as f32));
             }
+            out.gauge.extend(gauge.iter().map(|&v| v as f32));
             // the next dwell starts where this one's phase left off (each
             // block is whole periods, so the phase is back where it started)
             phase = phase.rem_euclid(2.0 * PI);

@@ -278,6 +278,12 @@ pub struct TestSpec {
     /// Force noise RMS as a fraction of the clean force RMS.
     #[serde(default)]
     pub force_noise: f64,
+    /// With a shaker: also record the force it applies (a force gauge
+    /// between the shaker and the structure, noise `force_noise`) as a
+    /// `force` channel beside the voltage. The recording's reference is
+    /// then that force (the first force channel), and so is the bench's.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub force_gauge: bool,
     /// Noise seed.
     #[serde(default = "default_seed")]
     pub seed: u64,
@@ -631,6 +637,13 @@ impl TestDefinition {
                 ),
             ));
         }
+        if t.force_gauge && !self.model()?.laws().any(|e| e.drive_load().is_some()) {
+            return Err(Error::plan(
+                "test.force_gauge",
+                "needs a shaker ([[effects]] kind = \"shaker\"): without one the drive is \
+                 the force itself, recorded as the reference",
+            ));
+        }
         if !(t.force_noise.is_finite() && (0.0..=10.0).contains(&t.force_noise)) {
             return Err(Error::plan(
                 "test.force_noise",
@@ -884,6 +897,15 @@ mod tests {
             (
                 with("response = \"displacement\"", "response = \"force\""),
                 "force",
+            ),
+            // a gauge needs a shaker; a shaker's coil all its terms
+            (
+                with("seed = 1", "seed = 1\nforce_gauge = true"),
+                "test.force_gauge",
+            ),
+            (
+                with("[test]", "[[effects]]\nkind = \"shaker\"\nr = 1.0\nbl = 5.0\n[test]"),
+                "shaker.l",
             ),
         ];
         for (text, needle) in cases {
