@@ -39,6 +39,28 @@ def test_a_fit_reports_every_evaluation_of_its_trace_numbered_alike():
     assert fit == plain
 
 
+def test_a_model_written_down_reports_its_fit_numbered_on_across_its_stages():
+    frf = hystid.virtual_test(SMALL)["frf"]
+    start = hystid.model(SMALL)
+    events = []
+    fit = hystid.identify(frf, start=start, progress=events.append)
+    # the simplex and the refit number their evaluations on from each
+    # other: 1..N, each once
+    numbers = [e["evaluation"] for e in events if e["stage"] == "fit"]
+    assert numbers == list(range(1, len(numbers) + 1)) and len(numbers) > 10
+    assert fit == hystid.identify(frf, start=start)
+    calls = []
+
+    def stop_at_the_fifth(event):
+        calls.append(event)
+        if len(calls) == 5:
+            raise Stop("enough")
+
+    with pytest.raises(Stop, match="enough"):
+        hystid.identify(frf, start=start, progress=stop_at_the_fifth)
+    assert len(calls) == 5
+
+
 @pytest.fixture
 def sigint():
     """Python's own SIGINT handler for the test: a shell starts a background

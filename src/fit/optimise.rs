@@ -130,15 +130,39 @@ pub struct OptimiserRun {
     pub status: FitStatus,
 }
 
-struct Cost<'a, P: ?Sized>(&'a P);
+/// The objective as argmin sees it. The first error (a cancelled fit, say)
+/// is kept and returned once the solver stops: argmin's Nelder–Mead unwraps
+/// the costs of its first simplex, so there the error is reported to it as
+/// an infinite cost, and afterwards as the error that ends its run.
+struct Cost<'a, P: ?Sized> {
+    problem: &'a P,
+    /// Costs argmin evaluates before it can take an error (the first
+    /// simplex's vertices).
+    unchecked: usize,
+    calls: std::sync::atomic::AtomicUsize,
+    failure: &'a std::sync::Mutex<Option<Error>>,
+}
 
 impl<P: Objective + ?Sized> argmin::core::CostFunction for Cost<'_, P> {
     type Param = DVector<f64>;
     type Output = f64;
     fn cost(&self, p: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
-        self.0
-            .cost(p.as_slice())
-            .map_err(|e| argmin::core::Error::msg(e.to_string()))
+        let call = self.calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        match self.problem.cost(p.as_slice()) {
+            Ok(c) => Ok(c),
+            Err(e) => {
+                let message = e.to_string();
+                self.failure
+                    .lock()
+                    .expect("failure lock")
+                    .get_or_insert(e);
+                if call < self.unchecked {
+                    Ok(f64::INFINITY)
+                } else {
+                    Err(argmin::core::Error::msg(message))
+                }
+            }
+        }
     }
 }
 
@@ -166,13 +190,23 @@ pub fn nelder_mead<P: Objective + ?Sized>(
     let solver = NelderMead::new(simplex)
         .with_sd_tolerance(rel_tol * c0.max(f64::MIN_POSITIVE))
         .map_err(|e| Error::plan("nelder_mead", e.to_string()))?;
-    let res = Executor::new(Cost(problem), solver)
+    let failure = std::sync::Mutex::new(None);
+    let cost = Cost {
+        problem,
+        unchecked: n + 1,
+        calls: Default::default(),
+        failure: &failure,
+    };
+    let res = Executor::new(cost, solver)
         .configure(|s| s.max_iters(max_iters))
-        .run()
-        .map_err(|e| Error::NotConverged {
-            stage: "Nelder-Mead",
-            reason: e.to_string(),
-        })?;
+        .run();
+    if let Some(e) = failure.lock().expect("failure lock").take() {
+        return Err(e);
+    }
+    let res = res.map_err(|e| Error::NotConverged {
+        stage: "Nelder-Mead",
+        reason: e.to_string(),
+    })?;
     let state = res.state();
     let theta = state
         .get_best_param()
@@ -404,5 +438,48 @@ mod tests {
             serde_json::to_string(&FitStatus::IterationLimit).unwrap(),
             "\"iteration_limit\""
         );
+    }
+
+    /// A quadratic bowl that fails from its `fail_at`-th cost on.
+    struct Failing {
+        fail_at: usize,
+        calls: std::sync::atomic::AtomicUsize,
+    }
+
+    impl super::Objective for Failing {
+        fn residuals(&self, theta: &[f64]) -> crate::Result<Vec<f64>> {
+            let call = self.calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            if call >= self.fail_at {
+                return Err(crate::Error::Cancelled);
+            }
+            Ok(theta.iter().map(|t| t - 1.0).collect())
+        }
+        fn cost(&self, theta: &[f64]) -> crate::Result<f64> {
+            Ok(self.residuals(theta)?.iter().map(|r| r * r).sum())
+        }
+        fn evaluations(&self) -> usize {
+            self.calls.load(std::sync::atomic::Ordering::Relaxed)
+        }
+    }
+
+    /// A cost that fails inside Nelder–Mead's first simplex (which argmin
+    /// would unwrap) or later ends the run with that error, never a panic;
+    /// one that never fails finds the bowl's bottom.
+    #[test]
+    fn a_failing_cost_ends_nelder_mead_with_its_error() {
+        for fail_at in [3, 40] {
+            let p = Failing {
+                fail_at,
+                calls: Default::default(),
+            };
+            let r = super::nelder_mead(&p, &[0.0; 3], &[0.5; 3], 500, 1e-12);
+            assert!(matches!(r, Err(crate::Error::Cancelled)), "{fail_at}: {r:?}");
+        }
+        let p = Failing {
+            fail_at: usize::MAX,
+            calls: Default::default(),
+        };
+        let r = super::nelder_mead(&p, &[0.0; 3], &[0.5; 3], 500, 1e-12).unwrap();
+        assert!(r.theta.iter().all(|t| (t - 1.0).abs() < 1e-3), "{:?}", r.theta);
     }
 }
