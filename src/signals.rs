@@ -135,10 +135,14 @@ impl Recording {
     }
 
     /// The default response channel: the first channel that is not the
-    /// reference.
+    /// reference, passing over the drive's other channels (the voltage
+    /// beside a force gauge's force) to the first motion when there is one.
     pub fn default_response_channel(&self) -> Option<usize> {
         let r = self.reference_channel();
-        (0..self.meta.channels.len()).find(|&i| Some(i) != r)
+        let others = || (0..self.meta.channels.len()).filter(move |&i| Some(i) != r);
+        others()
+            .find(|&i| self.meta.channels[i].quantity.is_motion())
+            .or_else(|| others().next())
     }
 }
 

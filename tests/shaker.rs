@@ -657,6 +657,12 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
     // the back-EMF takes a fifth of the force at the top level's resonance,
     // next to nothing at 100 Hz
     assert!(drop < 0.85, "{figures:?}");
+    // and the coil from the voltage, the force and the velocity
+    let coil = |n: &str| f["coil"][n].as_f64().unwrap();
+    for (name, truth) in [("r", 1.0), ("l", 5e-4), ("bl", 20.0)] {
+        let e = coil(name) / truth - 1.0;
+        assert!(e.abs() < 1e-3, "coil {name}: {:+.3} %", 100.0 * e);
+    }
     assert!(at(0, "force_amplitude") / lagged(0) > 0.97, "{figures:?}");
     assert!(
         figures[2].1.abs() < 1.0 && figures[3].1.abs() < 1.0 && figures[4].1.abs() < 1.0,

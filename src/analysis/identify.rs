@@ -69,6 +69,10 @@ pub struct FitReport {
     /// The time-domain refinement's flagged parameters.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub time_domain_flags: BTreeMap<String, Vec<Flag>>,
+    /// The shaker's coil, where a recording holds its voltage beside the
+    /// force it applies ([`crate::fit::coil`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coil: Option<crate::fit::coil::CoilFit>,
 }
 
 /// The report's own fields, beside the flattened fit.
@@ -90,6 +94,8 @@ struct ReportHead {
     time_domain: Option<TimeFitResult>,
     #[serde(default)]
     time_domain_flags: BTreeMap<String, Vec<Flag>>,
+    #[serde(default)]
+    coil: Option<crate::fit::coil::CoilFit>,
 }
 
 // By hand, through a JSON value: serde's derived `flatten` buffers the fit's
@@ -113,6 +119,7 @@ impl<'de> Deserialize<'de> for FitReport {
             files: head.files,
             time_domain: head.time_domain,
             time_domain_flags: head.time_domain_flags,
+            coil: head.coil,
         })
     }
 }
@@ -141,6 +148,7 @@ impl FitReport {
             files,
             time_domain: None,
             time_domain_flags: BTreeMap::new(),
+            coil: None,
         }
     }
 

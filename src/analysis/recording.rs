@@ -416,6 +416,18 @@ pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionOptions) ->
     reduce(&loaded, r)
 }
 
+/// The shaker's coil of the recording at `path` (a run file or a WAV
+/// recording), when it holds a voltage, the force the shaker applies and
+/// the drive point's motion at stated steps ([`crate::fit::coil`]); read
+/// one dwell at a time.
+pub fn coil_of_path(path: &Path) -> Result<Option<crate::fit::coil::CoilFit>> {
+    if is_mcap(path) {
+        crate::fit::coil::fit_coil(&mut crate::record::McapRunReader::open(path)?)
+    } else {
+        crate::fit::coil::fit_coil(&mut crate::record::RecordingReader::open(path)?)
+    }
+}
+
 /// [`reduce_path`]'s streamed reduction of `source`, when its excitation is
 /// stepped and its steps are stated; `None` otherwise.
 fn reduce_streamed(

@@ -441,9 +441,33 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         files,
     );
     report.set_time_domain(time_domain);
+    // the shaker's coil, from the first recording that holds its voltage
+    // beside its force
+    for path in &args.recordings {
+        if let Some(c) = hystid::analysis::recording::coil_of_path(path)? {
+            report.coil = Some(c);
+            break;
+        }
+    }
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
         print_fit(&report);
+        if let Some(c) = &report.coil {
+            say!(
+                "  shaker coil (`{}` / `{}` / `{}`, {} dwells): R = {:.4} ohm, L = {:.4e} H, Bl = {:.4} N/A (ce {:.4} N s/m, te {:.4e} s, gain {:.4} N/V; residual {:.2} % of the force)",
+                c.channels[0],
+                c.channels[1],
+                c.channels[2],
+                c.dwells,
+                c.r,
+                c.l,
+                c.bl,
+                c.ce,
+                c.te,
+                c.gain,
+                100.0 * c.residual
+            );
+        }
         if let Some(t) = &report.time_domain {
             let unit = hystid::harmonics::Quantity::from_name(&report.response)
                 .map_or("", |q| q.si_unit());

@@ -3,6 +3,7 @@
 //! eq. 9); or, from such a fit, the recording itself replayed in the time
 //! domain ([`time`]).
 
+pub mod coil;
 pub mod identify;
 pub mod linear;
 

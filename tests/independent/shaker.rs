@@ -9,7 +9,7 @@ use super::kit::corpus::{
 };
 use super::kit::recording::write_recording;
 use super::kit::refsim::RefCoil;
-use super::kit::score::{hystid_bin, run_diagnose_with, selected_effects};
+use super::kit::score::{hystid_bin, run_diagnose_with, run_identify, selected_effects};
 use std::f64::consts::PI;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -55,6 +55,11 @@ fn a_shaker_from_the_independent_simulator_is_found() {
     let rec = generate(&case);
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("independent-shaker");
     let js = write_recording(&dir.join("recordings"), &case, &rec).unwrap();
+    // the same run with the force the coil applies beside its voltage
+    let mut gauged = case.clone();
+    gauged.gauge = true;
+    gauged.name = format!("{}-gauge", case.name);
+    let js_gauge = write_recording(&dir.join("recordings"), &gauged, &rec).unwrap();
     drop(rec);
     let run = run_diagnose_with(
         &hystid_bin(),
@@ -113,4 +118,34 @@ fn a_shaker_from_the_independent_simulator_is_found() {
         assert!(e.abs() < 3.0, "{what}: {e:+.2} %");
     }
     assert!(before >= 3.0 * after, "H1 error {before} -> {after}");
+
+    // with the gauge's force as the reference, `identify` needs no model of
+    // the shaker, and finds its coil from the voltage, the force and the
+    // velocity: R, L and Bl each within 1 %
+    let fit = run_identify(&hystid_bin(), &js_gauge, &dir.join("out-gauge"), "jenkins");
+    assert_eq!(
+        fit["coil"]["channels"],
+        serde_json::json!(["drive", "gauge", "response"])
+    );
+    let c = |n: &str| fit["coil"][n].as_f64().unwrap();
+    let p = |n: &str| fit["parameters"][n]["value"].as_f64().unwrap();
+    let gauge = [
+        ("R", 100.0 * (c("r") / coil.r - 1.0)),
+        ("L", 100.0 * (c("l") / coil.l - 1.0)),
+        ("Bl", 100.0 * (c("bl") / coil.bl - 1.0)),
+        ("kd", 100.0 * (p("kd") / case.kd - 1.0)),
+        ("fd", 100.0 * (p("fd") / case.fd - 1.0)),
+    ];
+    eprintln!("with the gauge: {gauge:?}");
+    let shown = crate::common::readme_figures(&format!("| {}-gauge |", case.name))
+        .unwrap_or_else(|| panic!("no README row for {}-gauge", case.name));
+    for (i, (what, value)) in gauge.iter().enumerate() {
+        crate::common::assert_readme_figure(&format!("{}-gauge: {what}", case.name), *value, shown[i]);
+    }
+    for (what, e) in &gauge[..3] {
+        assert!(e.abs() < 1.0, "{what}: {e:+.2} %");
+    }
+    for (what, e) in &gauge[3..] {
+        assert!(e.abs() < 3.0, "{what}: {e:+.2} %");
+    }
 }

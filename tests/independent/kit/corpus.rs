@@ -213,6 +213,9 @@ pub struct Case {
     /// A shaker's coil between the drive and the structure: the levels are
     /// then volts and the reference is the voltage.
     pub coil: Option<RefCoil>,
+    /// With a coil: the recording also holds the force it applies (a force
+    /// gauge's, noise `force_noise`), after the voltage.
+    pub gauge: bool,
 }
 
 impl Case {
@@ -463,6 +466,7 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         analysis_periods: rng.random_range(16..=32u64),
         substeps: 16,
         coil: None,
+        gauge: false,
     };
     let x_top = case.top_amplitude();
     let mut kinds = effects.to_vec();
@@ -572,6 +576,9 @@ pub struct Recording {
     /// The clean (noise-free) response, for checks.
     pub clean_response: Vec<f64>,
     pub clean_force: Vec<f64>,
+    /// With a coil, the force it applies with the force's noise (its own
+    /// random stream: the other channels are the same with it or without).
+    pub gauge: Vec<f64>,
 }
 
 /// Simulates the case and adds the seeded noise.
@@ -656,6 +663,18 @@ pub fn generate_with(case: &Case, parts: &[RefSystem]) -> Recording {
             force[i] += case.force_noise * f_rms * b;
         }
     }
+    let mut gauge = Vec::new();
+    if case.coil.is_some() {
+        let mut rng = ChaCha8Rng::seed_from_u64(case.seed ^ 0x5eed_0000_0002);
+        gauge = out.drive_force.clone();
+        for &(_, _, s, _, len) in &steps {
+            let g_rms = rms(&out.drive_force[s..s + len]);
+            for g in &mut gauge[s..s + len] {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                *g += case.force_noise * g_rms * z;
+            }
+        }
+    }
     Recording {
         sample_rate: case.sample_rate,
         force,
@@ -663,5 +682,6 @@ pub fn generate_with(case: &Case, parts: &[RefSystem]) -> Recording {
         steps,
         clean_response,
         clean_force: out.force,
+        gauge,
     }
 }

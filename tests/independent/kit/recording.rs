@@ -76,17 +76,21 @@ pub fn write_recording(dir: &Path, case: &Case, rec: &Recording) -> std::io::Res
     std::fs::create_dir_all(dir)?;
     let wav = dir.join(format!("{}.wav", case.name));
     let js = dir.join(format!("{}.json", case.name));
-    let scales = [
-        channel_scale(case.format, &rec.force),
-        channel_scale(case.format, &rec.response),
-    ];
+    // the signals in channel order: the reference, a gauge's force after
+    // a voltage when asked, the response
+    let mut signals = vec![&rec.force];
+    if case.gauge && case.coil.is_some() {
+        signals.push(&rec.gauge);
+    }
+    signals.push(&rec.response);
+    let scales: Vec<f64> = signals.iter().map(|s| channel_scale(case.format, s)).collect();
     let (bits, fmt) = match case.format {
         SampleFormat::Float32 => (32, hound::SampleFormat::Float),
         SampleFormat::Pcm16 => (16, hound::SampleFormat::Int),
         SampleFormat::Pcm24 => (24, hound::SampleFormat::Int),
     };
     let spec = hound::WavSpec {
-        channels: 2,
+        channels: signals.len() as u16,
         sample_rate: rec.sample_rate,
         bits_per_sample: bits,
         sample_format: fmt,
@@ -94,7 +98,7 @@ pub fn write_recording(dir: &Path, case: &Case, rec: &Recording) -> std::io::Res
     let io = |e: hound::Error| std::io::Error::other(e.to_string());
     let mut w = hound::WavWriter::create(&wav, spec).map_err(io)?;
     for i in 0..rec.force.len() {
-        for (c, v) in [rec.force[i], rec.response[i]].into_iter().enumerate() {
+        for (c, v) in signals.iter().map(|s| s[i]).enumerate() {
             match case.format {
                 SampleFormat::Float32 => w.write_sample((v / scales[c]) as f32),
                 SampleFormat::Pcm16 => w.write_sample(quantise(v, scales[c], 16) as i16),
@@ -115,17 +119,19 @@ pub fn write_recording(dir: &Path, case: &Case, rec: &Recording) -> std::io::Res
             .collect::<Vec<_>>()
             .into();
     }
+    let mut channels = vec![match case.coil {
+        // through a shaker's coil the reference is the voltage
+        Some(_) => json!({"name": "drive", "quantity": "voltage", "unit": "V", "scale": scales[0]}),
+        None => json!({"name": "force", "quantity": "force", "unit": "N", "scale": scales[0]}),
+    }];
+    if signals.len() == 3 {
+        channels.push(json!({"name": "gauge", "quantity": "force", "unit": "N", "scale": scales[1]}));
+    }
+    channels.push(json!({"name": "response", "quantity": case.quantity.name(), "unit": case.quantity.unit(), "scale": scales[signals.len() - 1]}));
     let doc = json!({
         "format": "hystid.recording.v1",
         "sample_rate_hz": rec.sample_rate,
-        "channels": [
-            match case.coil {
-                // through a shaker's coil the reference is the voltage
-                Some(_) => json!({"name": "drive", "quantity": "voltage", "unit": "V", "scale": scales[0]}),
-                None => json!({"name": "force", "quantity": "force", "unit": "N", "scale": scales[0]}),
-            },
-            {"name": "response", "quantity": case.quantity.name(), "unit": case.quantity.unit(), "scale": scales[1]},
-        ],
+        "channels": channels,
         "excitation": excitation,
         "description": format!("independent reference simulator (RK4, {} sub-steps per sample): {}", case.substeps, case.summary()),
         "metadata": {"generator": "hystid tests/independent reference simulator", "truth": truth_json(case)},

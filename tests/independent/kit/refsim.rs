@@ -491,6 +491,9 @@ pub struct RefOutput {
     pub acceleration: Vec<f64>,
     /// The joint's force (for checks).
     pub joint_force: Vec<f64>,
+    /// The force the drive applies: the force itself, or through a coil
+    /// `Bl i` (what a force gauge reads).
+    pub drive_force: Vec<f64>,
 }
 
 const MAXM: usize = 4;
@@ -540,6 +543,7 @@ impl RefSystem {
             velocity: Vec::with_capacity(n),
             acceleration: Vec::with_capacity(n),
             joint_force: Vec::with_capacity(n),
+            drive_force: Vec::with_capacity(n),
         };
         let sum = |a: &[f64; MAXM]| a[..nm].iter().sum::<f64>();
         let mut fh = 0.0;
@@ -571,6 +575,7 @@ impl RefSystem {
             out.velocity.push(v);
             out.acceleration.push(a);
             out.joint_force.push(fh);
+            out.drive_force.push(pushed(f, current));
             if i + 1 == n {
                 break;
             }

@@ -1,0 +1,183 @@
+//! The shaker's coil, identified from a stepped recording that holds its
+//! voltage `e`, the force `F` it applies (a force gauge between the shaker
+//! and the structure) and the drive point's motion.
+//!
+//! The coil (resistance `R`, inductance `L`, force factor `Bl`) obeys
+//! `L i' + R i + Bl v = e` and pushes with `F = Bl i`, so at each dwell's
+//! fundamental (see [`crate::model::Shaker`])
+//!
+//! ```text
+//! F (1 + jωτ) = g e − ce v,      g = Bl/R,  ce = Bl²/R,  τ = L/R
+//! ```
+//!
+//! Divided by `F`, with `E = e/F` and `V = v/F`, each dwell gives two real
+//! equations linear in `(g, ce, τ)`:
+//!
+//! ```text
+//! g Re E − ce Re V        = 1
+//! g Im E − ce Im V − ω τ  = 0
+//! ```
+//!
+//! solved by least squares over the dwells; then `Bl = ce/g`, `R = Bl/g`,
+//! `L = τ R`. A voltage alone cannot give these (the structure's scale
+//! trades with `g`, see the shaker's model); with the force beside it they
+//! are determined, the structure not needed. The motion is taken at the
+//! drive point: the velocity channel, else the displacement times `jω`,
+//! else the acceleration over `jω`.
+
+use crate::error::{Error, Result};
+use crate::harmonics::Quantity;
+use crate::signals::FrameSource;
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// The coil found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CoilFit {
+    /// Coil resistance `R`, Ω.
+    pub r: f64,
+    /// Coil inductance `L`, H.
+    pub l: f64,
+    /// Force factor `Bl`, N/A.
+    pub bl: f64,
+    /// The shaker model's terms: back-EMF damping `Bl²/R`, N s/m.
+    pub ce: f64,
+    /// Electrical time constant `L/R`, s.
+    pub te: f64,
+    /// Blocked force per volt `Bl/R`, N/V.
+    pub gain: f64,
+    /// Dwells used.
+    pub dwells: usize,
+    /// RMS of the equations' residuals (each relative to the force, so a
+    /// fraction of it).
+    pub residual: f64,
+    /// The channels used: voltage, force, motion.
+    pub channels: [String; 3],
+}
+
+/// The first channel of `quantity`.
+fn first(source: &impl FrameSource, quantity: Quantity) -> Option<usize> {
+    source
+        .meta()
+        .channels
+        .iter()
+        .position(|c| c.quantity == quantity)
+}
+
+/// The fundamental of `x` at `omega` (rad per sample) by least squares on a
+/// mean, a cosine and a sine.
+fn fundamental(x: &[f64], omega: f64) -> Option<Complex64> {
+    // the normal equations, summed sample by sample (no matrix per dwell)
+    let mut ata = nalgebra::Matrix3::<f64>::zeros();
+    let mut atb = nalgebra::Vector3::<f64>::zeros();
+    for (n, &xn) in x.iter().enumerate() {
+        let (s, c) = (omega * n as f64).sin_cos();
+        let row = nalgebra::Vector3::new(1.0, c, s);
+        ata += row * row.transpose();
+        atb += row * xn;
+    }
+    let sol = ata.lu().solve(&atb)?;
+    // x = C cos + S sin = Re[(C − jS) e^{jωn}]
+    Some(Complex64::new(sol[1], -sol[2]))
+}
+
+/// The coil of `source`'s shaker, when it holds a voltage, a force, a
+/// motion channel and stated steps (else `None`). Reads one dwell at a time.
+///
+/// Errors: a read fails, or the dwells do not determine the coil (fewer
+/// than two usable, or a coil that cannot be: `R`, `Bl` not positive).
+pub fn fit_coil(source: &mut impl FrameSource) -> Result<Option<CoilFit>> {
+    let meta = source.meta().clone();
+    let (Some(e), Some(f)) = (
+        first(source, Quantity::Voltage),
+        first(source, Quantity::Force),
+    ) else {
+        return Ok(None);
+    };
+    let motion = [
+        Quantity::Velocity,
+        Quantity::Displacement,
+        Quantity::Acceleration,
+    ]
+    .into_iter()
+    .find_map(|q| first(source, q).map(|c| (c, q)));
+    let Some((m, quantity)) = motion else {
+        return Ok(None);
+    };
+    if meta.excitation.steps.is_empty() {
+        return Ok(None);
+    }
+    let fs = meta.sample_rate_hz;
+    let mut rows: Vec<[f64; 4]> = Vec::new();
+    let mut buf = vec![Vec::new(); meta.channels.len()];
+    for step in &meta.excitation.steps {
+        let start = step.start + step.settle;
+        let count = step.length.saturating_sub(step.settle);
+        let w = 2.0 * PI * step.frequency_hz;
+        if count < 16 || !(w > 0.0) {
+            continue;
+        }
+        let got = source.read_at(start, count, &mut buf)?;
+        let omega = w / fs;
+        let (Some(ev), Some(fv), Some(mv)) = (
+            fundamental(&buf[e][..got], omega),
+            fundamental(&buf[f][..got], omega),
+            fundamental(&buf[m][..got], omega),
+        ) else {
+            continue;
+        };
+        let jw = Complex64::new(0.0, w);
+        let v = match quantity {
+            Quantity::Displacement => mv * jw,
+            Quantity::Acceleration => mv / jw,
+            _ => mv,
+        };
+        if fv.norm() == 0.0 {
+            continue;
+        }
+        let (ee, vv) = (ev / fv, v / fv);
+        rows.push([ee.re, -vv.re, 0.0, 1.0]);
+        rows.push([ee.im, -vv.im, -w, 0.0]);
+    }
+    let what = || format!("{}: the shaker's coil", source.source_name());
+    if rows.len() < 4 {
+        return Err(Error::input(
+            what(),
+            "fewer than two dwells with a voltage, force and motion to fit it to",
+        ));
+    }
+    let a = DMatrix::from_fn(rows.len(), 3, |i, j| rows[i][j]);
+    let b = DVector::from_fn(rows.len(), |i, _| rows[i][3]);
+    let x = a
+        .clone()
+        .svd(true, true)
+        .solve(&b, 1e-12)
+        .map_err(|m| Error::input(what(), m))?;
+    let (gain, ce, te) = (x[0], x[1], x[2]);
+    if !(gain > 0.0 && ce > 0.0 && gain.is_finite() && ce.is_finite()) {
+        return Err(Error::input(
+            what(),
+            format!(
+                "the dwells give no coil (Bl/R = {gain:.4e} N/V, Bl²/R = {ce:.4e} N s/m): \
+                 is the force the shaker's, and the motion the drive point's?"
+            ),
+        ));
+    }
+    let residual = ((&a * &x - &b).norm_squared() / (rows.len() / 2) as f64).sqrt();
+    let bl = ce / gain;
+    let r = bl / gain;
+    let name = |c: usize| meta.channels[c].name.clone();
+    Ok(Some(CoilFit {
+        r,
+        l: te * r,
+        bl,
+        ce,
+        te,
+        gain,
+        dwells: rows.len() / 2,
+        residual,
+        channels: [name(e), name(f), name(m)],
+    }))
+}
