@@ -181,3 +181,97 @@ pub fn fit_coil(source: &mut impl FrameSource) -> Result<Option<CoilFit>> {
         channels: [name(e), name(f), name(m)],
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{Channel, Excitation, ExcitationKind, Recording, RecordingMeta, Step};
+
+    /// Dwells of a coil (R 1.5 ohm, L 0.2 mH, Bl 12 N/A) on a structure of
+    /// mobility `Y = jω/(k − mω² + jωc)`, written from the coil's own
+    /// equations: `v = Y F`, `e = F (R + jωL)/Bl + Bl v`.
+    fn dwells(frequencies: &[f64]) -> Recording {
+        let (r, l, bl) = (1.5, 2e-4, 12.0);
+        let (m, c, k) = (2.0, 30.0, 4e6);
+        let fs = 20_000.0;
+        let mut channels = vec![Vec::new(); 3];
+        let mut steps = Vec::new();
+        for &f in frequencies {
+            let w = 2.0 * PI * f;
+            let jw = Complex64::new(0.0, w);
+            let force = Complex64::new(40.0, 0.0);
+            let v = force * jw / (k - m * w * w + jw * c);
+            let e = force * (r + jw * l) / bl + bl * v;
+            let n = 2000;
+            steps.push(Step {
+                frequency_hz: f,
+                level: e.norm(),
+                start: channels[0].len(),
+                settle: 0,
+                length: n,
+            });
+            for i in 0..n {
+                let rot = Complex64::from_polar(1.0, w * i as f64 / fs);
+                for (ch, z) in channels.iter_mut().zip([e, force, v]) {
+                    ch.push((z * rot).re);
+                }
+            }
+        }
+        let channel = |name: &str, quantity: Quantity| Channel {
+            name: name.into(),
+            quantity,
+            unit: quantity.si_unit().into(),
+            scale: 1.0,
+        };
+        Recording {
+            meta: RecordingMeta {
+                format: crate::record::FORMAT_V1.into(),
+                sample_rate_hz: fs,
+                channels: vec![
+                    channel("drive", Quantity::Voltage),
+                    channel("force", Quantity::Force),
+                    channel("velocity", Quantity::Velocity),
+                ],
+                excitation: Excitation {
+                    kind: ExcitationKind::SteppedSine,
+                    steps,
+                    sweep: None,
+                },
+                description: String::new(),
+                metadata: Default::default(),
+                extra: Default::default(),
+            },
+            channels,
+        }
+    }
+
+    fn fitted(rec: &Recording) -> Result<Option<CoilFit>> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("coil.json");
+        crate::record::write_recording(&path, rec, crate::record::SampleFormat::Float32)?;
+        fit_coil(&mut crate::record::RecordingReader::open(&path)?)
+    }
+
+    /// From dwells written by the coil's equations the fit gives the coil
+    /// back (to the samples' f32 rounding); one dwell cannot give three
+    /// unknowns, and a recording without a force is not a coil's.
+    #[test]
+    fn the_coils_own_dwells_give_it_back() {
+        let got = fitted(&dwells(&[150.0, 250.0, 400.0, 700.0])).unwrap().unwrap();
+        for (name, value, truth) in [("R", got.r, 1.5), ("L", got.l, 2e-4), ("Bl", got.bl, 12.0)] {
+            assert!((value / truth - 1.0).abs() < 1e-5, "{name}: {value} vs {truth}");
+        }
+        assert_eq!(got.dwells, 4);
+        assert!(got.residual < 1e-5, "{}", got.residual);
+        let one = fitted(&dwells(&[250.0])).unwrap_err().to_string();
+        assert!(one.contains("fewer than two dwells"), "{one}");
+        let mut no_force = dwells(&[150.0, 250.0]);
+        no_force.meta.channels[1] = Channel {
+            name: "accel".into(),
+            quantity: Quantity::Acceleration,
+            unit: "m/s^2".into(),
+            scale: 1.0,
+        };
+        assert_eq!(fitted(&no_force).unwrap(), None);
+    }
+}
