@@ -623,9 +623,7 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
     let resonance = (0..n)
         .max_by(|&a, &b| displacement(a).total_cmp(&displacement(b)))
         .unwrap();
-    let lagged = |i: usize| {
-        150.0 * 20.0 / (2.0 * PI * at(i, "frequency_hz") * 5e-4).hypot(1.0)
-    };
+    let lagged = |i: usize| 150.0 * 20.0 / (2.0 * PI * at(i, "frequency_hz") * 5e-4).hypot(1.0);
     let drop = at(resonance, "force_amplitude") / lagged(resonance);
 
     let fit = dir.path().join("fit");
@@ -642,7 +640,10 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
     let params = &f["parameters"];
     let got = |n: &str| params[n]["value"].as_f64().unwrap();
     let figures = [
-        ("force at resonance, % of the coil's lagged drive", 100.0 * drop),
+        (
+            "force at resonance, % of the coil's lagged drive",
+            100.0 * drop,
+        ),
         ("resonance (Hz)", at(resonance, "frequency_hz")),
         ("kd error (%)", 100.0 * (got("kd") / 2.4e7 - 1.0)),
         ("fd error (%)", 100.0 * (got("fd") / 246.048 - 1.0)),

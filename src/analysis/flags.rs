@@ -137,7 +137,10 @@ pub fn in_drive_units(unit: &'static str, drive: crate::harmonics::Quantity) -> 
 /// What `model`'s forces are measured against with a reference of quantity
 /// `reference`: the reference's own unit, unless a shaker declared by its
 /// coil (a gain other than 1, `Bl/R`) turns the voltage into newtons.
-pub fn force_drive(model: &Model, reference: crate::harmonics::Quantity) -> crate::harmonics::Quantity {
+pub fn force_drive(
+    model: &Model,
+    reference: crate::harmonics::Quantity,
+) -> crate::harmonics::Quantity {
     match model.laws().find_map(ElementSpec::drive_load) {
         Some(load) if load.gain != 1.0 => crate::harmonics::Quantity::Force,
         _ => reference,

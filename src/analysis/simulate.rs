@@ -74,8 +74,9 @@ pub fn recording_meta(def: &TestDefinition, toml_text: &str, fs: f64) -> Recordi
     RecordingMeta {
         format: FORMAT_V1.into(),
         sample_rate_hz: fs,
-        channels: crate::testbench::test_channels(def)
-            .unwrap_or_else(|_| crate::testbench::recorded_channels(crate::harmonics::Quantity::Force)),
+        channels: crate::testbench::test_channels(def).unwrap_or_else(|_| {
+            crate::testbench::recorded_channels(crate::harmonics::Quantity::Force)
+        }),
         excitation: Excitation {
             kind: ExcitationKind::SteppedSine,
             steps: Vec::new(),

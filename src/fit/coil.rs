@@ -116,7 +116,7 @@ pub fn fit_coil(source: &mut impl FrameSource) -> Result<Option<CoilFit>> {
         let start = step.start + step.settle;
         let count = step.length.saturating_sub(step.settle);
         let w = 2.0 * PI * step.frequency_hz;
-        if count < 16 || !(w > 0.0) {
+        if count < 16 || w.is_nan() || w <= 0.0 {
             continue;
         }
         let got = source.read_at(start, count, &mut buf)?;
@@ -257,9 +257,14 @@ mod tests {
     /// unknowns, and a recording without a force is not a coil's.
     #[test]
     fn the_coils_own_dwells_give_it_back() {
-        let got = fitted(&dwells(&[150.0, 250.0, 400.0, 700.0])).unwrap().unwrap();
+        let got = fitted(&dwells(&[150.0, 250.0, 400.0, 700.0]))
+            .unwrap()
+            .unwrap();
         for (name, value, truth) in [("R", got.r, 1.5), ("L", got.l, 2e-4), ("Bl", got.bl, 12.0)] {
-            assert!((value / truth - 1.0).abs() < 1e-5, "{name}: {value} vs {truth}");
+            assert!(
+                (value / truth - 1.0).abs() < 1e-5,
+                "{name}: {value} vs {truth}"
+            );
         }
         assert_eq!(got.dwells, 4);
         assert!(got.residual < 1e-5, "{}", got.residual);

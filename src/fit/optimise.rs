@@ -147,15 +147,14 @@ impl<P: Objective + ?Sized> argmin::core::CostFunction for Cost<'_, P> {
     type Param = DVector<f64>;
     type Output = f64;
     fn cost(&self, p: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
-        let call = self.calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let call = self
+            .calls
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         match self.problem.cost(p.as_slice()) {
             Ok(c) => Ok(c),
             Err(e) => {
                 let message = e.to_string();
-                self.failure
-                    .lock()
-                    .expect("failure lock")
-                    .get_or_insert(e);
+                self.failure.lock().expect("failure lock").get_or_insert(e);
                 if call < self.unchecked {
                     Ok(f64::INFINITY)
                 } else {
@@ -448,7 +447,10 @@ mod tests {
 
     impl super::Objective for Failing {
         fn residuals(&self, theta: &[f64]) -> crate::Result<Vec<f64>> {
-            let call = self.calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            let call = self
+                .calls
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+                + 1;
             if call >= self.fail_at {
                 return Err(crate::Error::Cancelled);
             }
@@ -473,13 +475,20 @@ mod tests {
                 calls: Default::default(),
             };
             let r = super::nelder_mead(&p, &[0.0; 3], &[0.5; 3], 500, 1e-12);
-            assert!(matches!(r, Err(crate::Error::Cancelled)), "{fail_at}: {r:?}");
+            assert!(
+                matches!(r, Err(crate::Error::Cancelled)),
+                "{fail_at}: {r:?}"
+            );
         }
         let p = Failing {
             fail_at: usize::MAX,
             calls: Default::default(),
         };
         let r = super::nelder_mead(&p, &[0.0; 3], &[0.5; 3], 500, 1e-12).unwrap();
-        assert!(r.theta.iter().all(|t| (t - 1.0).abs() < 1e-3), "{:?}", r.theta);
+        assert!(
+            r.theta.iter().all(|t| (t - 1.0).abs() < 1e-3),
+            "{:?}",
+            r.theta
+        );
     }
 }

@@ -770,7 +770,9 @@ impl Model {
             .effects
             .iter()
             .filter_map(|e| match *e {
-                ElementSpec::Shaker { te, gain, .. } => Some(ElementSpec::Shaker { ce: 0.0, te, gain }),
+                ElementSpec::Shaker { te, gain, .. } => {
+                    Some(ElementSpec::Shaker { ce: 0.0, te, gain })
+                }
                 _ => None,
             })
             .collect();

@@ -277,12 +277,18 @@ impl Law for Shaker {
     /// are then newtons), not a mixture.
     fn declared(fields: &mut serde_json::Map<String, serde_json::Value>) -> Result<()> {
         const COIL: [&str; 3] = ["r", "l", "bl"];
-        let given: Vec<&str> = COIL.into_iter().filter(|k| fields.contains_key(*k)).collect();
+        let given: Vec<&str> = COIL
+            .into_iter()
+            .filter(|k| fields.contains_key(*k))
+            .collect();
         if given.is_empty() {
             fields.entry("gain").or_insert(serde_json::Value::from(1.0));
             return Ok(());
         }
-        if let Some(model) = ["ce", "te", "gain"].into_iter().find(|k| fields.contains_key(*k)) {
+        if let Some(model) = ["ce", "te", "gain"]
+            .into_iter()
+            .find(|k| fields.contains_key(*k))
+        {
             return Err(Error::model(
                 format!("shaker.{model}"),
                 format!(

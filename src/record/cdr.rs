@@ -143,20 +143,20 @@ pub(crate) fn decode_signal_block(data: &[u8]) -> Result<SignalBlock<'_>, CdrErr
     }
     let body = &data[HEADER.len()..];
     let at = std::cell::Cell::new(0usize);
-    let take = |size: usize, align: usize, field: &'static str| -> Result<&[u8], CdrError> {
-        let start = at.get().div_ceil(align) * align;
-        let end = start
-            .checked_add(size)
-            .filter(|&e| e <= body.len())
-            .ok_or(CdrError::Truncated {
-                field,
-                offset: start,
-                needed: size,
-                len: body.len(),
-            })?;
-        at.set(end);
-        Ok(&body[start..end])
-    };
+    let take =
+        |size: usize, align: usize, field: &'static str| -> Result<&[u8], CdrError> {
+            let start = at.get().div_ceil(align) * align;
+            let end = start.checked_add(size).filter(|&e| e <= body.len()).ok_or(
+                CdrError::Truncated {
+                    field,
+                    offset: start,
+                    needed: size,
+                    len: body.len(),
+                },
+            )?;
+            at.set(end);
+            Ok(&body[start..end])
+        };
     let u32_at = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
     let u64_at = |b: &[u8]| u64::from_le_bytes(b.try_into().expect("8 bytes"));
     let step = u32_at(take(4, 4, "step")?);

@@ -448,7 +448,12 @@ impl McapRecorder {
 
     /// [`Self::write_signals`] with one slice per channel, in
     /// [`RunInfo::channels`]' order (a gauge's force included).
-    pub fn write_channels(&mut self, step: u32, first_frame: u64, channels: &[&[f64]]) -> Result<()> {
+    pub fn write_channels(
+        &mut self,
+        step: u32,
+        first_frame: u64,
+        channels: &[&[f64]],
+    ) -> Result<()> {
         if channels.len() != self.slots.len() {
             return Err(Error::input(
                 format!("signals at frame {first_frame}"),

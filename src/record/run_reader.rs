@@ -12,7 +12,7 @@
 //! behind the scan starts it again from the file's beginning.
 
 use super::cdr;
-use super::run::{RunScanner, Scanned, Stretch, read_run_layout, checked_slots};
+use super::run::{RunScanner, Scanned, Stretch, checked_slots, read_run_layout};
 use super::{McapRun, RecordingMeta, TOPIC_SIGNALS};
 use crate::error::{Error, Result};
 use crate::signals::FrameSource;

@@ -904,7 +904,10 @@ mod tests {
                 "test.force_gauge",
             ),
             (
-                with("[test]", "[[effects]]\nkind = \"shaker\"\nr = 1.0\nbl = 5.0\n[test]"),
+                with(
+                    "[test]",
+                    "[[effects]]\nkind = \"shaker\"\nr = 1.0\nbl = 5.0\n[test]",
+                ),
                 "shaker.l",
             ),
         ];

@@ -140,7 +140,11 @@ fn a_shaker_from_the_independent_simulator_is_found() {
     let shown = crate::common::readme_figures(&format!("| {}-gauge |", case.name))
         .unwrap_or_else(|| panic!("no README row for {}-gauge", case.name));
     for (i, (what, value)) in gauge.iter().enumerate() {
-        crate::common::assert_readme_figure(&format!("{}-gauge: {what}", case.name), *value, shown[i]);
+        crate::common::assert_readme_figure(
+            &format!("{}-gauge: {what}", case.name),
+            *value,
+            shown[i],
+        );
     }
     for (what, e) in &gauge[..3] {
         assert!(e.abs() < 1.0, "{what}: {e:+.2} %");

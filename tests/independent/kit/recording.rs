@@ -83,7 +83,10 @@ pub fn write_recording(dir: &Path, case: &Case, rec: &Recording) -> std::io::Res
         signals.push(&rec.gauge);
     }
     signals.push(&rec.response);
-    let scales: Vec<f64> = signals.iter().map(|s| channel_scale(case.format, s)).collect();
+    let scales: Vec<f64> = signals
+        .iter()
+        .map(|s| channel_scale(case.format, s))
+        .collect();
     let (bits, fmt) = match case.format {
         SampleFormat::Float32 => (32, hound::SampleFormat::Float),
         SampleFormat::Pcm16 => (16, hound::SampleFormat::Int),
@@ -125,7 +128,8 @@ pub fn write_recording(dir: &Path, case: &Case, rec: &Recording) -> std::io::Res
         None => json!({"name": "force", "quantity": "force", "unit": "N", "scale": scales[0]}),
     }];
     if signals.len() == 3 {
-        channels.push(json!({"name": "gauge", "quantity": "force", "unit": "N", "scale": scales[1]}));
+        channels
+            .push(json!({"name": "gauge", "quantity": "force", "unit": "N", "scale": scales[1]}));
     }
     channels.push(json!({"name": "response", "quantity": case.quantity.name(), "unit": case.quantity.unit(), "scale": scales[signals.len() - 1]}));
     let doc = json!({
