@@ -529,30 +529,15 @@ fn a_declared_shaker_is_identified_from_the_frfs() {
 /// L 0.5 mH, Bl 20 N/A: ce 400 N s/m and te 0.5 ms as above, gain 20 N/V,
 /// the levels the same blocked forces) and a force gauge recording the
 /// force it applies beside the voltage.
-pub(crate) const GAUGE_TEST: &str = r#"
-[system]
-mass = 10.0
-damping = 200.0
-stiffness = 1.0e7
-[joint]
-kind = "jenkins"
-kd = 2.4e7
-fd = 246.048
-[[effects]]
-kind = "shaker"
-r = 1.0
-l = 5e-4
-bl = 20.0
-[test]
-frequencies_hz = { start = 100.0, stop = 350.0, count = 21 }
-levels_n = [2.5, 25.0, 150.0]
-sweep = "up"
-noise = 0.10
-force_noise = 0.02
-force_gauge = true
-seed = 1
-response = "displacement"
-"#;
+pub(crate) fn gauge_test() -> String {
+    SHAKER_TEST
+        .replace("ce = 400.0\nte = 5e-4", "r = 1.0\nl = 5e-4\nbl = 20.0")
+        .replace("[50.0, 500.0, 3000.0]", "[2.5, 25.0, 150.0]")
+        .replace(
+            "noise = 0.10",
+            "noise = 0.10\nforce_noise = 0.02\nforce_gauge = true",
+        )
+}
 
 /// With a force gauge the bench records the force the shaker applies as a
 /// `force` channel beside the voltage, in the WAV recording and the run
@@ -569,13 +554,15 @@ response = "displacement"
 fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
     let dir = tempfile::tempdir().unwrap();
     let p = std::path::Path::new;
-    let toml = crate::cli::write_test(dir.path(), "gauge.toml", GAUGE_TEST);
+    let gauge = gauge_test();
+    assert!(gauge.contains("bl = 20.0") && gauge.contains("force_gauge = true"));
+    let toml = crate::cli::write_test(dir.path(), "gauge.toml", &gauge);
     let sim = dir.path().join("sim");
     crate::cli::simulated(&toml, &sim);
     let plain = crate::cli::write_test(
         dir.path(),
         "plain.toml",
-        &GAUGE_TEST.replace("force_gauge = true\n", ""),
+        &gauge.replace("\nforce_gauge = true", ""),
     );
     let sim_plain = dir.path().join("plain");
     crate::cli::simulated(&plain, &sim_plain);

@@ -569,30 +569,18 @@ fn identify_declared<'py>(
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
     let model = start.inner.clone();
-    let predictor = hystid::fit::HbPredictor::default();
     let progress = Progress::new(progress);
-    let fit = progress.run(py, || {
-        hystid::diagnose::fit_declared(
+    let report = progress.run(py, || {
+        hystid::analysis::identify::DeclaredFitReport::fit(
             &frf,
             &model,
             response_sign,
-            options.transfer || response_sign < 0.0,
-            &options.harmonics,
-            options.band_hz,
-            &predictor,
-            hystid::diagnose::DiagnoseOptions::default().patience,
+            &options,
+            recording,
+            response.unwrap_or_default(),
             &progress,
         )
     })?;
-    let report = hystid::analysis::identify::DeclaredFitReport {
-        command: "identify".into(),
-        version: hystid::analysis::VERSION.into(),
-        recording,
-        response: response.unwrap_or_default(),
-        start: model,
-        frequency_domain: fit,
-        files: Vec::new(),
-    };
     to_json(&report)
 }
 

@@ -172,3 +172,23 @@ def test_a_model_written_down_is_identify_start(cli, py):
     assert fit["frequency_domain"]["error"]["chi2_per_dof"] < 1.5
     with pytest.raises(hystid.HystidError, match="response_sign"):
         hystid.identify(py["frf"], start=start, response_sign=2)
+
+
+def test_a_force_gauge_is_recorded_as_hystid_simulate_records_it(tmp_path):
+    """A shaker declared by its coil with a force gauge: the package's
+    virtual test holds the same five channels, bit for bit, as the
+    command's recording.wav, and its FRFs are against the force."""
+    text = SMALL.read_text().replace(
+        "[test]",
+        '[[effects]]\nkind = "shaker"\nr = 1.0\nl = 5e-4\nbl = 20.0\n\n[test]\nforce_gauge = true\nforce_noise = 0.02',
+    )
+    definition = tmp_path / "gauge.toml"
+    definition.write_text(text)
+    run_cli("simulate", definition, "--out", "sim", cwd=tmp_path)
+    t = hystid.virtual_test(definition)
+    names = [c["name"] for c in t["recording"]["channels"]]
+    assert names == ["drive", "force", "displacement", "velocity", "acceleration"]
+    wav = read_wav_f32(tmp_path / "sim" / "recording.wav")
+    for i, name in enumerate(names):
+        assert t["signals"][name].tobytes() == wav[:, i].tobytes(), name
+    assert t["frf"]["reference"] == "force"

@@ -650,6 +650,40 @@ pub struct DeclaredFitReport {
 }
 
 impl DeclaredFitReport {
+    /// The report of `start` fitted to `frf` with `options`' harmonics, band
+    /// and transfer (`identify --start`; see [`crate::diagnose::fit_declared`]),
+    /// `observer` told of every evaluation.
+    pub fn fit(
+        frf: &NonlinearFrf,
+        start: &Model,
+        response_sign: f64,
+        options: &FitOptions,
+        recording: String,
+        response: String,
+        observer: &dyn Observer,
+    ) -> Result<DeclaredFitReport> {
+        let fit = crate::diagnose::fit_declared(
+            frf,
+            start,
+            response_sign,
+            options.transfer || response_sign < 0.0,
+            &options.harmonics,
+            options.band_hz,
+            &HbPredictor::default(),
+            crate::diagnose::DiagnoseOptions::default().patience,
+            observer,
+        )?;
+        Ok(DeclaredFitReport {
+            command: "identify".into(),
+            version: super::VERSION.into(),
+            recording,
+            response,
+            start: start.clone(),
+            frequency_domain: fit,
+            files: Vec::new(),
+        })
+    }
+
     /// Whether a fit.json's text is this kind of report.
     pub fn is_one(value: &serde_json::Value) -> bool {
         value.get("start").is_some() && value.get("frequency_domain").is_some()

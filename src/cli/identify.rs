@@ -271,29 +271,18 @@ fn identify_declared(
         .map(|p| p.display().to_string())
         .collect();
     let pb = progress::spinner("fitting the model written down to the FRFs", quiet);
-    let predictor = HbPredictor::default();
-    let fit = hystid::diagnose::fit_declared(
+    let mut report = hystid::analysis::identify::DeclaredFitReport::fit(
         &frf,
         model,
         response_sign,
-        options.transfer || response_sign < 0.0,
-        &options.harmonics,
-        options.band_hz,
-        &predictor,
-        hystid::diagnose::DiagnoseOptions::default().patience,
+        &options,
+        names.join(", "),
+        args.response.clone().unwrap_or_default(),
         &progress::Drawn(&pb),
     )?;
     pb.finish_and_clear();
     let _out = create_out_dir(&args.out)?;
-    let report = hystid::analysis::identify::DeclaredFitReport {
-        command: "identify".into(),
-        version: env!("CARGO_PKG_VERSION").into(),
-        recording: names.join(", "),
-        response: args.response.clone().unwrap_or_default(),
-        start: model.clone(),
-        frequency_domain: fit,
-        files: vec![args.out.join("fit.json")],
-    };
+    report.files = vec![args.out.join("fit.json")];
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
         let f = &report.frequency_domain;
