@@ -49,15 +49,9 @@ def test_a_model_written_down_reports_its_fit_numbered_on_across_its_stages():
     numbers = [e["evaluation"] for e in events if e["stage"] == "fit"]
     assert numbers == list(range(1, len(numbers) + 1)) and len(numbers) > 10
     assert fit == hystid.identify(frf, start=start)
-    calls = []
-
-    def stop_at_the_fifth(event):
-        calls.append(event)
-        if len(calls) == 5:
-            raise Stop("enough")
-
+    calls, stop = stopping_at(5)
     with pytest.raises(Stop, match="enough"):
-        hystid.identify(frf, start=start, progress=stop_at_the_fifth)
+        hystid.identify(frf, start=start, progress=stop)
     assert len(calls) == 5
 
 
@@ -75,16 +69,23 @@ class Stop(Exception):
     pass
 
 
-def test_an_exception_in_progress_stops_the_call_and_is_raised():
+def stopping_at(n):
+    """A progress callable that records its events and raises `Stop` at the
+    `n`-th; and the list it records them in."""
     calls = []
 
-    def stop_at_the_third(event):
+    def stop(event):
         calls.append(event)
-        if len(calls) == 3:
+        if len(calls) == n:
             raise Stop("enough")
 
+    return calls, stop
+
+
+def test_an_exception_in_progress_stops_the_call_and_is_raised():
+    calls, stop = stopping_at(3)
     with pytest.raises(Stop, match="enough"):
-        hystid.virtual_test(SMALL, progress=stop_at_the_third)
+        hystid.virtual_test(SMALL, progress=stop)
     # never called again once it raised
     assert len(calls) == 3
 
