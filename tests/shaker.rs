@@ -596,6 +596,21 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
     assert_eq!(from_run.channels, rec.channels);
     let frf = read_json(&sim.join("frf.json"));
     assert_eq!(frf["reference"], "force");
+    // the run's report says what was driven and what was recorded
+    let def = hystid::testbench::TestDefinition::from_toml(&gauge, "gauge.toml").unwrap();
+    let memory = hystid::analysis::simulate::simulate_in_memory(
+        &def,
+        &gauge,
+        false,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
+    let described = hystid::analysis::run::test_markdown(&def, &memory.summary);
+    assert!(
+        described.contains("3 levels (2.5, 25, 150 V)")
+            && described.contains("the shaker's force recorded by a force gauge (2 % noise)"),
+        "{described}"
+    );
 
     // the force drop, from the top level's FRF points: at the resonance
     // (the largest displacement) the force against what the coil would

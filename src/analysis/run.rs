@@ -598,11 +598,24 @@ pub fn test_markdown(def: &TestDefinition, sim: &SimulateSummary) -> String {
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), &f| (a.min(f), b.max(f)));
     let levels: Vec<String> = def.test.levels_n.iter().map(|l| format!("{l}")).collect();
+    // a shaker is driven in volts; a gauge's force is then the reference
+    let drive = def.model().map_or(crate::harmonics::Quantity::Force, |m| {
+        crate::testbench::reference_quantity(&m)
+    });
+    let gauge = if def.test.force_gauge {
+        format!(
+            ", the shaker's force recorded by a force gauge ({} % noise) and the FRFs taken against it",
+            100.0 * def.test.force_noise
+        )
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         s,
-        "Virtual stepped-sine test of {structure} with {elements}: {} levels ({} N) × {} frequencies {lo}–{hi} Hz ({} sweep), {} Hz sampling, {} % response noise asked, {:.1} % response noise (measured, RMS); {} frames in {:.2} s.\n",
+        "Virtual stepped-sine test of {structure} with {elements}: {} levels ({} {}) × {} frequencies {lo}–{hi} Hz ({} sweep){gauge}, {} Hz sampling, {} % response noise asked, {:.1} % response noise (measured, RMS); {} frames in {:.2} s.\n",
         def.test.levels_n.len(),
         levels.join(", "),
+        drive.si_unit(),
         freqs.len(),
         format!("{:?}", def.test.sweep).to_lowercase(),
         sim.sample_rate_hz,
