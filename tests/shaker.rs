@@ -567,7 +567,8 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
     let sim_plain = dir.path().join("plain");
     crate::cli::simulated(&plain, &sim_plain);
 
-    let rec = hystid::record::read_recording(&sim.join("recording.json")).unwrap();
+    let rec_json = sim.join("recording.json");
+    let rec = hystid::record::read_recording(&rec_json).unwrap();
     let quantities: Vec<String> = rec
         .meta
         .channels
@@ -596,6 +597,35 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
     assert_eq!(from_run.channels, rec.channels);
     let frf = read_json(&sim.join("frf.json"));
     assert_eq!(frf["reference"], "force");
+    // a model with the shaker takes the voltage, not the gauge's force:
+    // validate and identify --start say so, naming the channel or file
+    let model = dir.path().join("model.toml");
+    std::fs::write(&model, &gauge).unwrap();
+    for args in [
+        vec![
+            "validate",
+            model.to_str().unwrap(),
+            rec_json.to_str().unwrap(),
+        ],
+        vec![
+            "identify",
+            rec_json.to_str().unwrap(),
+            "--start",
+            model.to_str().unwrap(),
+        ],
+    ] {
+        let out = dir.path().join("refused");
+        let mut args = args.clone();
+        args.extend(["-q", "--out", out.to_str().unwrap()]);
+        let o = crate::cli::hystid(&args);
+        let text = crate::cli::text(&o);
+        assert_eq!(o.status.code(), Some(2), "{text}");
+        assert!(
+            text.contains("is a force, and the model has a shaker")
+                && (text.contains("`force`") || text.contains("recording.json: the reference")),
+            "{text}"
+        );
+    }
     // the run's report says what was driven and what was recorded
     let def = hystid::testbench::TestDefinition::from_toml(&gauge, "gauge.toml").unwrap();
     let memory = hystid::analysis::simulate::simulate_in_memory(

@@ -41,6 +41,11 @@ fn record(case: &Case, rec: &Recording) -> TimeRecord {
     TimeRecord {
         name: case.name.clone(),
         reference: rec.force,
+        reference_quantity: if case.coil.is_some() {
+            Quantity::Voltage
+        } else {
+            Quantity::Force
+        },
         response: rec.response,
         sample_rate_hz: case.sample_rate as f64,
         quantity: match case.quantity {

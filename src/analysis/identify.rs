@@ -662,6 +662,7 @@ impl DeclaredFitReport {
         response: String,
         observer: &dyn Observer,
     ) -> Result<DeclaredFitReport> {
+        start.check_reference(frf.reference, &format!("{recording}: the reference"))?;
         let fit = crate::diagnose::fit_declared(
             frf,
             start,

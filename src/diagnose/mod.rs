@@ -276,6 +276,7 @@ pub fn fit_declared(
     observer: &dyn crate::observe::Observer,
 ) -> Result<DeclaredFit> {
     start.validate()?;
+    start.check_reference(frf.reference, "the FRFs' reference")?;
     let data = FitData::from_frf(frf, harmonics, band_hz, None)?
         .with_sign(response_sign)
         .with_transfer(transfer);

@@ -51,8 +51,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub struct TimeRecord {
     /// A name for reports (the file).
     pub name: String,
-    /// The measured force driving the model, N.
+    /// The measured force driving the model, N (or the voltage driving a
+    /// shaker).
     pub reference: Vec<f64>,
+    /// What the reference is: a force, or a voltage.
+    pub reference_quantity: Quantity,
     /// The measured response, in `quantity`.
     pub response: Vec<f64>,
     /// Samples per second.
@@ -221,6 +224,7 @@ impl TimeRecord {
         let mut r = TimeRecord {
             name: name.to_string(),
             reference: rec.channels[reference].clone(),
+            reference_quantity: rec.meta.channels[reference].quantity,
             response: rec.channels[response].clone(),
             sample_rate_hz: fs,
             quantity: channel.quantity,
@@ -927,6 +931,9 @@ pub fn identify_time(
 ) -> Result<TimeFitResult> {
     if parameters.is_empty() {
         return Err(Error::plan("parameters", "none free: nothing to fit"));
+    }
+    for r in records {
+        start.check_reference(r.reference_quantity, &format!("{}: the reference", r.name))?;
     }
     let mut problem = TimeProblem::new(
         start.clone(),

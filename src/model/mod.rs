@@ -790,6 +790,24 @@ impl Model {
         parts
     }
 
+    /// Errors unless a reference of quantity `reference` (named `what`) can
+    /// drive the model: a model with a shaker takes the voltage that drives
+    /// the shaker, not a measured force (the force a gauge reads is what
+    /// the shaker already made of the voltage).
+    pub fn check_reference(&self, reference: crate::harmonics::Quantity, what: &str) -> Result<()> {
+        if reference == crate::harmonics::Quantity::Force
+            && self.laws().any(|e| e.drive_load().is_some())
+        {
+            return Err(Error::input(
+                what,
+                "is a force, and the model has a shaker, which a voltage drives: take a \
+                 model without the shaker (the force is the structure's own input), or a \
+                 recording of the voltage",
+            ));
+        }
+        Ok(())
+    }
+
     /// The position of parameter `name` in the element at `at` (an error
     /// naming both if there is none).
     pub fn parameter_index(&self, at: ElementAt, name: &str) -> Result<usize> {

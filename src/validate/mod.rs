@@ -548,6 +548,13 @@ pub fn validate_recording(
             "has no force or voltage channel to drive the model with",
         )
     })?;
+    model.check_reference(
+        rec.meta.channels[reference].quantity,
+        &format!(
+            "the reference channel `{}`",
+            rec.meta.channels[reference].name
+        ),
+    )?;
     let nch = rec.channels.len().min(rec.meta.channels.len());
     if response_channel >= nch || response_channel == reference {
         return Err(Error::input(
