@@ -626,21 +626,29 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
             "{text}"
         );
     }
-    // the run's report says what was driven and what was recorded
-    let def = hystid::testbench::TestDefinition::from_toml(&gauge, "gauge.toml").unwrap();
-    let memory = hystid::analysis::simulate::simulate_in_memory(
-        &def,
-        &gauge,
-        false,
-        &hystid::observe::Silent,
-    )
-    .unwrap();
-    let described = hystid::analysis::run::test_markdown(&def, &memory.summary);
+    // `hystid run`'s report says what was driven and recorded, and gives
+    // the coil found against the one simulated
+    let run = dir.path().join("run");
+    run_ok(&[
+        p("run"),
+        &toml,
+        p("--no-diagnose"),
+        p("-q"),
+        p("--out"),
+        &run,
+    ]);
+    let described = std::fs::read_to_string(run.join("report.md")).unwrap();
     assert!(
         described.contains("3 levels (2.5, 25, 150 V)")
-            && described.contains("the shaker's force recorded by a force gauge (2 % noise)"),
+            && described.contains("the shaker's force recorded by a force gauge (2 % noise)")
+            && described.contains("The shaker's coil, from the voltage `drive`, the force `force`")
+            && described.contains("against the simulated 20"),
         "{described}"
     );
+    let in_run = read_json(&run.join("run.json"))["fit"]["coil"]["bl"]
+        .as_f64()
+        .unwrap();
+    assert!((in_run / 20.0 - 1.0).abs() < 1e-3, "{in_run}");
 
     // the force drop, from the top level's FRF points: at the resonance
     // (the largest displacement) the force against what the coil would

@@ -627,6 +627,40 @@ pub fn test_markdown(def: &TestDefinition, sim: &SimulateSummary) -> String {
     s
 }
 
+/// The shaker's coil found from the voltage, the gauge's force and the
+/// motion, against the shaker simulated (its coil, when its gain is
+/// physical).
+pub fn coil_markdown(c: &crate::fit::coil::CoilFit, def: &TestDefinition) -> String {
+    let simulated = def
+        .model()
+        .ok()
+        .and_then(|m| m.laws().find_map(crate::model::ElementSpec::drive_load))
+        .map(|d| {
+            let s = crate::model::Shaker::with_gain(d.back_emf, d.time_constant, d.gain);
+            s.coil()
+        });
+    let against = |got: f64, unit: &str, truth: Option<f64>| match truth {
+        Some(t) => format!(
+            "{} {unit} ({} against the simulated {})",
+            fmt(got),
+            relative(got, t),
+            short(t)
+        ),
+        None => format!("{} {unit}", fmt(got)),
+    };
+    format!(
+        "The shaker's coil, from the voltage `{}`, the force `{}` and the motion `{}` at {} dwells (`coil` in fit.json): R = {}, L = {}, Bl = {}; the dwells' equations fit to {} of the force.\n\n",
+        c.channels[0],
+        c.channels[1],
+        c.channels[2],
+        c.dwells,
+        against(c.r, "ohm", simulated.map(|s| s.0)),
+        against(c.l, "H", simulated.map(|s| s.1)),
+        against(c.bl, "N/A", simulated.map(|s| s.2)),
+        percent(c.residual),
+    )
+}
+
 /// The final model as a section of `report.md`: the parameters with their
 /// intervals, references and flags; the error before and after.
 pub fn final_markdown(f: &FinalModel) -> String {
@@ -769,6 +803,9 @@ pub fn report_markdown(
         "# hystid run: a friction joint identified from a virtual stepped-sine test\n"
     );
     s += &test_markdown(def, sim);
+    if let Some(c) = &report.coil {
+        s += &coil_markdown(c, def);
+    }
     s += &final_markdown(final_model);
     if is_papers_case(def) {
         s += &paper_table(report, final_model);

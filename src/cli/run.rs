@@ -53,6 +53,11 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         reference.clone(),
         Vec::new(),
     );
+    let mut report = report;
+    // a gauge beside the shaker's voltage: its coil, from the run file
+    if !args.no_recording {
+        report.coil = hystid::analysis::recording::coil_of_path(&args.out.join("run.mcap"))?;
+    }
     write_json(&args.out.join("fit.json"), &report)?;
     let mut diagnosis = None;
     if !args.no_diagnose {
