@@ -378,7 +378,6 @@ fn run_level(
                          clean: &mut Response,
                          fine: &mut Response|
              -> Result<()> {
-                // (`clean.drive_force` is the force the drive applies)
                 let n = l * os;
                 fine.clear();
                 sim.run_generator(
