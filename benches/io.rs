@@ -158,6 +158,7 @@ fn generate(stem: &Path) {
         description: "hystid bench: generated 1 GB stepped sine".into(),
         metadata: Default::default(),
         extra: Default::default(),
+        chosen_reference: None,
     };
     let mut w = RecordingWriter::create(stem, meta).unwrap();
     let mut force = vec![0f32; DWELL];

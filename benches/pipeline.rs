@@ -92,6 +92,7 @@ fn bench_record(c: &mut Criterion) {
         description: "bench".into(),
         metadata: Default::default(),
         extra: Default::default(),
+        chosen_reference: None,
     };
     let stem = dir.path().join("recording");
     let write_wav = || {

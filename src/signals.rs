@@ -6,7 +6,7 @@
 //! without knowing the format. [`FrameSource`] is a recording too large to
 //! hold, read a stretch of frames at a time.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use serde::{Deserialize, Serialize};
 
@@ -104,6 +104,61 @@ pub struct RecordingMeta {
     /// Unknown keys, preserved when the file is rewritten.
     #[serde(flatten)]
     pub extra: serde_json::Map<String, serde_json::Value>,
+    /// The reference channel the user chose in place of the format's rule
+    /// (an analysis's choice, never written to a file).
+    #[serde(skip)]
+    pub chosen_reference: Option<usize>,
+}
+
+impl RecordingMeta {
+    /// Index of the reference (input) channel: the one chosen
+    /// ([`RecordingMeta::choose_reference`]), else the first `force`
+    /// channel, else the first `voltage` channel.
+    pub fn reference_channel(&self) -> Option<usize> {
+        let q = |want| self.channels.iter().position(|c| c.quantity == want);
+        self.chosen_reference
+            .or_else(|| q(Quantity::Force).or_else(|| q(Quantity::Voltage)))
+    }
+
+    /// Makes the channel `name` the reference: a voltage beside a force
+    /// gauge, say, to analyse the whole drive (amplifier, shaker and
+    /// structure) rather than the structure the gauge sees. `source` names
+    /// the file in errors.
+    ///
+    /// Errors: no channel of that name, or one that is not a force or a
+    /// voltage.
+    pub fn choose_reference(&mut self, source: &str, name: &str) -> Result<usize> {
+        let names = || {
+            self.channels
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+        };
+        let i = self
+            .channels
+            .iter()
+            .position(|c| c.name == name)
+            .ok_or_else(|| {
+                Error::format(
+                    source,
+                    "channels",
+                    format!(
+                        "no channel `{name}` to use as the reference (channels: {:?})",
+                        names()
+                    ),
+                )
+            })?;
+        let q = self.channels[i].quantity;
+        if !matches!(q, Quantity::Force | Quantity::Voltage) {
+            return Err(Error::format(
+                source,
+                "channels",
+                format!("the reference `{name}` is a {q}: a reference is a force or a voltage"),
+            ));
+        }
+        self.chosen_reference = Some(i);
+        Ok(i)
+    }
 }
 
 /// A recording in memory: the sidecar and each channel's samples in physical
@@ -122,11 +177,10 @@ impl Recording {
         self.channels.first().map_or(0, Vec::len)
     }
 
-    /// Index of the reference (input) channel: the first `force` channel, else
-    /// the first `voltage` channel.
+    /// Index of the reference (input) channel
+    /// ([`RecordingMeta::reference_channel`]).
     pub fn reference_channel(&self) -> Option<usize> {
-        let q = |want| self.meta.channels.iter().position(|c| c.quantity == want);
-        q(Quantity::Force).or_else(|| q(Quantity::Voltage))
+        self.meta.reference_channel()
     }
 
     /// Index of a channel by name.

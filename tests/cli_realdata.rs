@@ -55,6 +55,7 @@ fn meta(fs: f64, response: Quantity, kind: ExcitationKind) -> RecordingMeta {
         description: String::new(),
         metadata: Default::default(),
         extra: Default::default(),
+        chosen_reference: None,
     }
 }
 

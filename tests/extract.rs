@@ -302,6 +302,7 @@ fn meta(steps: Vec<Step>) -> RecordingMeta {
         description: String::new(),
         metadata: Default::default(),
         extra: Default::default(),
+        chosen_reference: None,
     }
 }
 

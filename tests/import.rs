@@ -1137,6 +1137,7 @@ fn recording(fs: f64, channels: Vec<(&str, Quantity, Vec<f64>)>) -> Recording {
             description: String::new(),
             metadata: Default::default(),
             extra: Default::default(),
+            chosen_reference: None,
         },
         channels: channels.into_iter().map(|(_, _, x)| x).collect(),
     }

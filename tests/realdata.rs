@@ -81,6 +81,7 @@ fn recording(
             description: String::new(),
             metadata: Default::default(),
             extra: Default::default(),
+            chosen_reference: None,
         },
         channels: vec![force, response],
     }

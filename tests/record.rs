@@ -73,6 +73,7 @@ pub(crate) fn sample_recording(frames: usize, seed: u64) -> Recording {
             description: "test recording".into(),
             metadata: serde_json::Map::from_iter([("rig".to_string(), json!("virtual"))]),
             extra: serde_json::Map::new(),
+            chosen_reference: None,
         },
         channels: vec![force, disp, acc],
     }
@@ -803,8 +804,17 @@ fn mcap_run_round_trip() {
     assert_reader_matches(&path, &rec);
     // reduced one dwell at a time from the file: the FRFs of the whole read
     let options = hystid::analysis::ReductionOptions::default();
-    let streamed = hystid::analysis::reduce_path(&path, Some("x"), &options).unwrap();
-    let loaded = hystid::analysis::load_recording(&path, Some("x")).unwrap();
+    let streamed = hystid::analysis::reduce_path(
+        &path,
+        hystid::analysis::ChannelChoice::response(Some("x")),
+        &options,
+    )
+    .unwrap();
+    let loaded = hystid::analysis::load_recording(
+        &path,
+        hystid::analysis::ChannelChoice::response(Some("x")),
+    )
+    .unwrap();
     let whole = hystid::analysis::reduce(&loaded, &options).unwrap();
     assert!(streamed.streamed && !whole.streamed);
     assert_eq!(streamed.frf.levels.len(), 2);
@@ -816,8 +826,21 @@ fn mcap_run_round_trip() {
     let flat_path = dir.path().join("flat.mcap");
     record_run(&flat_path, &info, &flat, 0);
     for e in [
-        error_of(hystid::analysis::reduce_path(&flat_path, Some("x"), &options).map(|_| ())),
-        error_of(hystid::analysis::load_recording(&flat_path, Some("x")).map(|_| ())),
+        error_of(
+            hystid::analysis::reduce_path(
+                &flat_path,
+                hystid::analysis::ChannelChoice::response(Some("x")),
+                &options,
+            )
+            .map(|_| ()),
+        ),
+        error_of(
+            hystid::analysis::load_recording(
+                &flat_path,
+                hystid::analysis::ChannelChoice::response(Some("x")),
+            )
+            .map(|_| ()),
+        ),
     ] {
         assert!(
             e.contains("flat.mcap") && e.contains("drive") && e.contains("flat (all zero)"),

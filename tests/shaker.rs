@@ -711,3 +711,122 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
         "{figures:?}"
     );
 }
+
+/// The same gauge recording with its voltage named as the reference
+/// (`--reference drive`): the analysis then sees the whole drive, and
+/// `diagnose` finds the shaker on it, undeclared, where with the gauge's
+/// force (the format's rule) there is none to find. Two routes through one
+/// recording then agree: the coil's time constant from the voltage route
+/// is `L/R` within 0.5 %, its back-EMF (in the drive's unit, `Bl` V s/m)
+/// within 5 % and its interval holds 20; the structure it finds in volts,
+/// times the gain `Bl/R` the gauge route measures (`fit::coil`), is the
+/// simulated one within 0.5 % (kd, fd, mass, stiffness). The choice is
+/// written to diagnosis.json, and `validate` takes it from there; bad
+/// choices are refused with exit 2, naming the channel.
+#[test]
+fn the_voltage_named_as_the_reference_beside_a_gauge_gives_the_shaker() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = std::path::Path::new;
+    let toml = crate::cli::write_test(dir.path(), "gauge.toml", &gauge_test());
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&toml, &sim);
+    let rec = sim.join("recording.json");
+    let diag = dir.path().join("diag");
+    run_ok(&[
+        p("diagnose"),
+        &rec,
+        p("--reference"),
+        p("drive"),
+        p("-q"),
+        p("--out"),
+        &diag,
+    ]);
+    let d = read_json(&diag.join("diagnosis.json"));
+    assert_eq!(d["reference_channel"], "drive");
+    let selected: Vec<&str> = d["selected"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["effect"].as_str().unwrap())
+        .collect();
+    assert!(selected.contains(&"shaker"), "{selected:?}");
+    let params = &d["final_model"]["parameters"];
+    let got = |n: &str| params[n]["value"].as_f64().unwrap();
+    let ci = |n: &str| {
+        let c = &params[n]["ci95"];
+        (c[0].as_f64().unwrap(), c[1].as_f64().unwrap())
+    };
+    let te = got("shaker.te") / 5e-4 - 1.0;
+    assert!(te.abs() < 5e-3, "te {:+.3} %", 100.0 * te);
+    let ce = got("shaker.ce") / 20.0 - 1.0;
+    let (lo, hi) = ci("shaker.ce");
+    assert!(
+        ce.abs() < 0.05 && lo < 20.0 && 20.0 < hi,
+        "ce {:+.2} %",
+        100.0 * ce
+    );
+    assert_eq!(params["kd"]["unit"], "V/m");
+    // the gauge route's gain turns volts into newtons
+    let coil = hystid::analysis::recording::coil_of_path(&rec)
+        .unwrap()
+        .expect("a coil from voltage, force and motion");
+    let mut figures = vec![("te", 100.0 * te), ("ce", 100.0 * ce)];
+    for (name, truth) in [
+        ("kd", 2.4e7),
+        ("fd", 246.048),
+        ("mass", 10.0),
+        ("stiffness", 1.0e7),
+    ] {
+        let e = got(name) * coil.gain / truth - 1.0;
+        assert!(e.abs() < 5e-3, "{name}: {:+.3} %", 100.0 * e);
+        figures.push((name, 100.0 * e));
+    }
+    eprintln!("{figures:?}");
+    let shown = readme_line("The voltage named as the reference beside the gauge:");
+    assert_eq!(shown.len(), figures.len());
+    for ((what, value), shown) in figures.iter().zip(shown) {
+        crate::common::assert_readme_figure(what, *value, shown);
+    }
+    // validate takes the reference from the diagnosis: the error is the
+    // response's 10 % noise
+    let val = dir.path().join("val");
+    run_ok(&[
+        p("validate"),
+        &diag.join("diagnosis.json"),
+        &rec,
+        p("-q"),
+        p("--out"),
+        &val,
+    ]);
+    let v = read_json(&val.join("validate.json"));
+    let relative = v["recordings"][0]["whole"]["relative"].as_f64().unwrap();
+    assert!((relative - 0.10).abs() < 0.005, "{relative}");
+    // bad choices
+    for (choice, says) in [
+        (
+            "displacement",
+            "`channels`: the reference `displacement` is a displacement",
+        ),
+        (
+            "nope",
+            "`channels`: no channel `nope` to use as the reference",
+        ),
+    ] {
+        let o = crate::cli::hystid(&[
+            "validate",
+            diag.join("diagnosis.json").to_str().unwrap(),
+            rec.to_str().unwrap(),
+            "--reference",
+            choice,
+            "-q",
+            "--out",
+            dir.path().join("refused").to_str().unwrap(),
+        ]);
+        let text = crate::cli::text(&o);
+        assert_eq!(o.status.code(), Some(2), "{text}");
+        assert!(
+            text.contains("recording.json") && text.contains(says),
+            "{text}"
+        );
+    }
+}

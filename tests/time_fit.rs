@@ -509,7 +509,8 @@ fn an_effect_the_time_history_does_not_need_is_dropped() {
     let (case, rec) = jenkins_case();
     let dir = tempfile::tempdir().unwrap();
     let path = write_recording(dir.path(), case, rec).unwrap();
-    let reduced = hystid::analysis::reduce_path(&path, None, &Default::default()).unwrap();
+    let reduced =
+        hystid::analysis::reduce_path(&path, Default::default(), &Default::default()).unwrap();
     let predictor = HbPredictor::default();
     let fit_options = FitOptions {
         element: ElementKind::Jenkins,
@@ -546,7 +547,7 @@ fn an_effect_the_time_history_does_not_need_is_dropped() {
         .expect("the control's first round tried every candidate");
     report.accepted = true;
     report.verdict = Verdict::Kept;
-    let records = hystid::analysis::time_records(&[path], None, None).unwrap();
+    let records = hystid::analysis::time_records(&[path], Default::default(), None).unwrap();
     let t = refine_in_time(
         &mut d,
         &reduced.frf,

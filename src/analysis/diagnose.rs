@@ -289,6 +289,22 @@ pub struct DiagnosisReport<'a> {
     /// `run.json`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub final_model: Option<&'a super::run::FinalModel>,
+    /// The reference channel named by the user (`--reference`); none: the
+    /// recording format's rule.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_channel: Option<&'a str>,
+}
+
+/// What a diagnosis's report holds beside the diagnosis (see
+/// [`write_diagnosis_with`]).
+#[derive(Clone, Copy, Default)]
+pub struct DiagnosisExtras<'a> {
+    /// The time-domain refinement, when there is one.
+    pub time: Option<&'a TimeOutcome>,
+    /// The final model as reported, with its flags.
+    pub final_model: Option<&'a super::run::FinalModel>,
+    /// The reference channel the user named.
+    pub reference_channel: Option<&'a str>,
 }
 
 impl<'a> DiagnosisReport<'a> {
@@ -301,6 +317,7 @@ impl<'a> DiagnosisReport<'a> {
             diagnosis: d,
             time_domain: None,
             final_model: None,
+            reference_channel: None,
         }
     }
 }
@@ -313,28 +330,33 @@ pub fn write_diagnosis(
     predictor: &HbPredictor,
     seconds: f64,
 ) -> Result<Vec<PathBuf>> {
-    write_diagnosis_with(dir, frf, d, predictor, seconds, None, None)
+    write_diagnosis_with(dir, frf, d, predictor, seconds, DiagnosisExtras::default())
 }
 
-/// [`write_diagnosis`], with the time-domain refinement when there is one
-/// (`time_domain` in `diagnosis.json`, a section in `diagnosis.md`) and the
-/// final model as reported, with its flags (`final_model`, and a section
-/// after the explanation).
+/// [`write_diagnosis`], with `extras`: the time-domain refinement when there
+/// is one (`time_domain` in `diagnosis.json`, a section in `diagnosis.md`),
+/// the final model as reported, with its flags (`final_model`, and a
+/// section after the explanation), and the reference channel named.
 pub fn write_diagnosis_with(
     dir: &Path,
     frf: &NonlinearFrf,
     d: &Diagnosis,
     predictor: &HbPredictor,
     seconds: f64,
-    time: Option<&TimeOutcome>,
-    final_model: Option<&super::run::FinalModel>,
+    extras: DiagnosisExtras,
 ) -> Result<Vec<PathBuf>> {
+    let DiagnosisExtras {
+        time,
+        final_model,
+        reference_channel,
+    } = extras;
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
     write_json(
         &files[0],
         &DiagnosisReport {
             time_domain: time,
             final_model,
+            reference_channel,
             ..DiagnosisReport::new(d, seconds)
         },
     )?;

@@ -46,6 +46,10 @@ pub struct FitReport {
     pub recording: String,
     /// The response analysed.
     pub response: String,
+    /// The reference channel named by the user (`--reference`); none: the
+    /// recording format's rule (the first force, else the first voltage).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_channel: Option<String>,
     /// The fit.
     #[serde(flatten)]
     pub fit: FitResult,
@@ -83,6 +87,8 @@ struct ReportHead {
     recording: String,
     response: String,
     #[serde(default)]
+    reference_channel: Option<String>,
+    #[serde(default)]
     reference: Option<ElementSpec>,
     #[serde(default)]
     comparison: Vec<Comparison>,
@@ -112,6 +118,7 @@ impl<'de> Deserialize<'de> for FitReport {
             version: head.version,
             recording: head.recording,
             response: head.response,
+            reference_channel: head.reference_channel,
             fit,
             reference: head.reference,
             comparison: head.comparison,
@@ -141,6 +148,7 @@ impl FitReport {
             version: super::VERSION.into(),
             recording,
             response,
+            reference_channel: None,
             fit,
             reference,
             comparison,
@@ -349,15 +357,16 @@ pub fn write_convergence(dir: &Path, fit: &FitResult) -> Result<Vec<PathBuf>> {
 }
 
 /// The recordings as the time-domain fit reads them: each one's reference
-/// and `response` channel (as [`super::load_recording`] chooses), the whole
+/// and response channels (as `choice` names them, else as
+/// [`super::load_recording`] chooses), the whole
 /// record judged, or only what `band_hz` holds (see
 /// [`TimeRecord::from_recording`]).
 pub fn time_records(
     recordings: &[PathBuf],
-    response: Option<&str>,
+    choice: super::ChannelChoice,
     band_hz: Option<(f64, f64)>,
 ) -> Result<Vec<TimeRecord>> {
-    time_records_in(recordings, response, None, band_hz)
+    time_records_in(recordings, choice, None, band_hz)
 }
 
 /// [`time_records`] judged over `window_s` (seconds from each record's
@@ -365,14 +374,14 @@ pub fn time_records(
 /// multisine).
 pub fn time_records_in(
     recordings: &[PathBuf],
-    response: Option<&str>,
+    choice: super::ChannelChoice,
     window_s: Option<(f64, f64)>,
     band_hz: Option<(f64, f64)>,
 ) -> Result<Vec<TimeRecord>> {
     recordings
         .iter()
         .map(|p| {
-            let l = super::load_recording(p, response)?;
+            let l = super::load_recording(p, choice)?;
             let fs = l.recording.meta.sample_rate_hz;
             let window =
                 window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
@@ -418,13 +427,13 @@ pub const MULTISINE_LINES: usize = 3;
 /// FRF fit's path.
 pub fn periodic_start(
     recordings: &[PathBuf],
-    response: Option<&str>,
+    choice: super::ChannelChoice,
     kind: crate::model::ElementKind,
     modes: usize,
 ) -> Result<Option<PeriodicStart>> {
     let loaded = recordings
         .iter()
-        .map(|p| Ok((p.display().to_string(), super::load_recording(p, response)?)))
+        .map(|p| Ok((p.display().to_string(), super::load_recording(p, choice)?)))
         .collect::<Result<Vec<_>>>()?;
     let named: Vec<(&str, &super::Loaded)> = loaded.iter().map(|(n, l)| (n.as_str(), l)).collect();
     periodic_start_of(&named, kind, modes)
@@ -614,6 +623,10 @@ pub struct TimeFitReport {
     /// The response channel named by the user (empty: the first channel
     /// that is not the reference).
     pub response: String,
+    /// The reference channel named by the user (`--reference`); none: the
+    /// recording format's rule (the first force, else the first voltage).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_channel: Option<String>,
     /// The model the fit started from, as written down.
     pub start: Model,
     /// The parameters held at the start's values.
@@ -641,6 +654,10 @@ pub struct DeclaredFitReport {
     /// The response channel named by the user (empty: the first channel
     /// that is not the reference).
     pub response: String,
+    /// The reference channel named by the user (`--reference`); none: the
+    /// recording format's rule (the first force, else the first voltage).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_channel: Option<String>,
     /// The model the fit started from, as written down.
     pub start: Model,
     /// The fit.
@@ -679,6 +696,7 @@ impl DeclaredFitReport {
             version: super::VERSION.into(),
             recording,
             response,
+            reference_channel: None,
             start: start.clone(),
             frequency_domain: fit,
             files: Vec::new(),
@@ -792,6 +810,7 @@ pub fn run_time_fit_from_start_signed(
         version: super::VERSION.into(),
         recording,
         response,
+        reference_channel: None,
         start: start.clone(),
         fixed: fixed.to_vec(),
         time_domain_flags: flag_estimates(

@@ -30,9 +30,9 @@ pub use identify::{
     run_time_fit_from_start_signed, time_records, time_records_in, write_fit_plots,
 };
 pub use recording::{
-    Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited, combine_recordings,
-    excitation_of, load_recording, reduce, reduce_path, reduce_recordings, response_channel,
-    sweep_options,
+    ChannelChoice, Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited,
+    combine_recordings, excitation_of, load_recording, reduce, reduce_path, reduce_recordings,
+    response_channel, sweep_options,
 };
 
 use crate::error::{Error, Result};

@@ -12,6 +12,37 @@ use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
 use crate::testbench::TestDefinition;
 use std::path::{Path, PathBuf};
 
+/// The channels a user names for an analysis; `None` where the default
+/// applies (the response: the virtual test's, else the first motion; the
+/// reference: the recording format's rule, the first force, else the first
+/// voltage).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ChannelChoice<'a> {
+    /// The response channel's name.
+    pub response: Option<&'a str>,
+    /// The reference channel's name: a voltage beside a force gauge, say,
+    /// to analyse the drive (amplifier, shaker and structure) as a whole.
+    pub reference: Option<&'a str>,
+}
+
+impl<'a> ChannelChoice<'a> {
+    /// The response by name, the reference by the format's rule.
+    pub fn response(response: Option<&'a str>) -> Self {
+        ChannelChoice {
+            response,
+            reference: None,
+        }
+    }
+
+    /// Applies the reference chosen to `meta` (read from `path`).
+    pub fn apply(&self, path: &Path, meta: &mut RecordingMeta) -> Result<()> {
+        if let Some(name) = self.reference {
+            meta.choose_reference(&path.display().to_string(), name)?;
+        }
+        Ok(())
+    }
+}
+
 /// A recording loaded for analysis, with the test definition it came from
 /// when it is a hystid virtual test (the truth, for comparison plots).
 pub struct Loaded {
@@ -96,6 +127,7 @@ impl Loaded {
             description: String::new(),
             metadata: Default::default(),
             extra: Default::default(),
+            chosen_reference: None,
         };
         Ok(Loaded {
             recording: Recording {
@@ -119,7 +151,7 @@ fn recorded_truth(meta: &RecordingMeta) -> Option<String> {
 
 /// The response channel: `response` by name, else the virtual test's
 /// response quantity, else the first channel that is not the reference;
-/// it must be a motion and not the reference.
+/// it must be a motion and not the reference (`meta`'s, as chosen).
 pub fn response_channel(
     path: &Path,
     meta: &RecordingMeta,
@@ -187,10 +219,11 @@ fn is_mcap(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
 }
 
-/// Reads `run.mcap` or a WAV + JSON recording, with its response channel
-/// (`response` by name, else as [`response_channel`] chooses).
-pub fn load_recording(path: &Path, response: Option<&str>) -> Result<Loaded> {
-    let (recording, toml_text, truncated) = if is_mcap(path) {
+/// Reads `run.mcap` or a WAV + JSON recording, with its reference and
+/// response channels (as `choice` names them, else as
+/// [`response_channel`] chooses).
+pub fn load_recording(path: &Path, choice: ChannelChoice) -> Result<Loaded> {
+    let (mut recording, toml_text, truncated) = if is_mcap(path) {
         let run = crate::record::read_run(path)?;
         let text = run.info.test_definition.clone();
         let rec = run.to_recording().map_err(|e| {
@@ -204,7 +237,8 @@ pub fn load_recording(path: &Path, response: Option<&str>) -> Result<Loaded> {
     };
     let truth =
         toml_text.and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
-    let response = response_channel(path, &recording.meta, response, truth.as_ref())?;
+    choice.apply(path, &mut recording.meta)?;
+    let response = response_channel(path, &recording.meta, choice.response, truth.as_ref())?;
     let reference = recording
         .reference_channel()
         .expect("checked by response_channel");
@@ -382,7 +416,7 @@ pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
 /// Reduces the recording at `path`: a stepped-sine WAV + JSON recording
 /// whose sidecar states its steps is reduced from disk one dwell at a time
 /// (memory bounded whatever the file size); anything else is read whole.
-pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionOptions) -> Result<Reduced> {
+pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> Result<Reduced> {
     if path
         .to_str()
         .is_some_and(|p| p.to_ascii_lowercase().ends_with(".quality.json"))
@@ -402,17 +436,17 @@ pub fn reduce_path(path: &Path, response: Option<&str>, r: &ReductionOptions) ->
         )
         .ok();
         let truncated = reader.run().truncated;
-        reduce_streamed(path, reader, truth, truncated, response, r)?
+        reduce_streamed(path, reader, truth, truncated, choice, r)?
     } else {
         let reader = crate::record::RecordingReader::open(path)?;
         let truth = recorded_truth(reader.meta())
             .and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
-        reduce_streamed(path, reader, truth, false, response, r)?
+        reduce_streamed(path, reader, truth, false, choice, r)?
     };
     if let Some(reduced) = streamed {
         return Ok(reduced);
     }
-    let loaded = load_recording(path, response)?;
+    let loaded = load_recording(path, choice)?;
     reduce(&loaded, r)
 }
 
@@ -435,22 +469,24 @@ fn reduce_streamed(
     mut source: impl FrameSource,
     truth: Option<TestDefinition>,
     truncated: bool,
-    response: Option<&str>,
+    choice: ChannelChoice,
     r: &ReductionOptions,
 ) -> Result<Option<Reduced>> {
-    let meta = source.meta().clone();
+    let mut meta = source.meta().clone();
     if excitation_of(&meta, r.excitation) != Excitation::Stepped || meta.excitation.steps.is_empty()
     {
         return Ok(None);
     }
-    let ch = response_channel(path, &meta, response, truth.as_ref())?;
-    let reference = Recording {
-        meta: meta.clone(),
-        channels: Vec::new(),
-    }
-    .reference_channel()
-    .expect("checked by response_channel");
-    let red = match reduce_stepped_stream(&mut source, ch, &stepped_options(r)) {
+    choice.apply(path, &mut meta)?;
+    let ch = response_channel(path, &meta, choice.response, truth.as_ref())?;
+    let reference = meta
+        .reference_channel()
+        .expect("checked by response_channel");
+    let options = ReduceOptions {
+        reference_channel: Some(reference),
+        ..stepped_options(r)
+    };
+    let red = match reduce_stepped_stream(&mut source, ch, &options) {
         Ok(red) => red,
         // a reference that is all zero fails the first dwell: say why, as
         // `load_recording` does (read through once more, only on failure)
@@ -559,14 +595,14 @@ pub fn combine_recordings(sets: &[(PathBuf, NonlinearFrf)]) -> Result<NonlinearF
 /// `on_reduced` sees each reduction as it is made.
 pub fn reduce_recordings(
     recordings: &[PathBuf],
-    response: Option<&str>,
+    choice: ChannelChoice,
     reduction: &ReductionOptions,
     on_reduced: &mut dyn FnMut(&Path, &Reduced),
 ) -> Result<(NonlinearFrf, Reduced)> {
     let mut sets = Vec::with_capacity(recordings.len());
     let mut first: Option<Reduced> = None;
     for path in recordings {
-        let red = reduce_path(path, response, reduction)
+        let red = reduce_path(path, choice, reduction)
             .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
         on_reduced(path, &red);
         sets.push((path.clone(), red.frf.clone()));

@@ -93,6 +93,7 @@ pub fn recording_meta(def: &TestDefinition, toml_text: &str, fs: f64) -> Recordi
             ),
         ]),
         extra: Default::default(),
+        chosen_reference: None,
     }
 }
 

@@ -20,6 +20,8 @@ pub struct FitModel {
     pub response_sign: f64,
     /// The response channel the fit used.
     pub response: Option<String>,
+    /// The reference channel the fit was made with, when the user named it.
+    pub reference: Option<String>,
     /// `fitted`, `fitted in the time domain`, `diagnosed`, `linear` or
     /// `declared`.
     pub kind: &'static str,
@@ -51,6 +53,7 @@ pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
             model,
             response_sign,
             response: None,
+            reference: None,
             kind: "declared",
         });
     }
@@ -112,6 +115,7 @@ impl FitModel {
                 model,
                 response_sign,
                 response: None,
+                reference: value["reference_channel"].as_str().map(str::to_string),
                 kind: "diagnosed",
             });
         }
@@ -133,6 +137,7 @@ impl FitModel {
                 model: f.model,
                 response_sign: f.response_sign,
                 response: None,
+                reference: report.reference_channel,
                 kind: "fitted to the FRFs from a start",
             });
         }
@@ -156,6 +161,7 @@ impl FitModel {
                 // none named: the first channel that is not the reference, as
                 // the fit took it
                 response: (!report.response.is_empty()).then_some(report.response),
+                reference: report.reference_channel,
                 kind: "fitted in the time domain",
             });
         }
@@ -169,6 +175,7 @@ impl FitModel {
     /// element) and response sign.
     pub fn of_report(report: FitReport, linear: bool, path: &Path) -> Result<FitModel> {
         let response = Some(report.response.clone());
+        let reference = report.reference_channel.clone();
         let (final_model, final_sign) = report.final_model();
         let (final_model, final_sign) = (final_model.clone(), final_sign);
         let kind = if report.time_domain.is_some() {
@@ -186,6 +193,7 @@ impl FitModel {
                 model,
                 response_sign: s.sign,
                 response,
+                reference,
                 kind: "linear",
             });
         }
@@ -203,6 +211,7 @@ impl FitModel {
             model: final_model,
             response_sign: final_sign,
             response,
+            reference,
             kind,
         })
     }

@@ -1,6 +1,7 @@
 //! Command-line arguments: clap derive structs, no logic.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use hystid::analysis::ChannelChoice;
 use std::path::PathBuf;
 
 /// Testing and identification of friction joints in vibrating structures.
@@ -84,6 +85,12 @@ pub struct IdentifyArgs {
     /// first channel that is not the reference).
     #[arg(long)]
     pub response: Option<String>,
+    /// Reference channel name, in place of the recording format's rule
+    /// (the first force, else the first voltage): e.g. the amplifier's
+    /// voltage beside a force gauge, to fit the shaker and the structure
+    /// together (a model with a `shaker` effect).
+    #[arg(long)]
+    pub reference: Option<String>,
     /// How the recordings are reduced.
     #[command(flatten)]
     pub reduction: ReductionArgs,
@@ -226,6 +233,13 @@ pub struct ValidateArgs {
     /// first channel that is not the reference).
     #[arg(long)]
     pub response: Option<String>,
+    /// Reference channel name (default: the one the fit was made with when
+    /// it was named, else the recording format's rule: the first force,
+    /// else the first voltage): e.g. the amplifier's
+    /// voltage beside a force gauge, to fit the shaker and the structure
+    /// together (a model with a `shaker` effect).
+    #[arg(long)]
+    pub reference: Option<String>,
     /// Validate the fit's linear model instead: the smallest level's SDOF
     /// (`linear.stick` of fit.json), no element; the baseline the joint
     /// element must beat.
@@ -319,6 +333,12 @@ pub struct DiagnoseArgs {
     /// Response channel name.
     #[arg(long)]
     pub response: Option<String>,
+    /// Reference channel name, in place of the recording format's rule
+    /// (the first force, else the first voltage): e.g. the amplifier's
+    /// voltage beside a force gauge, to fit the shaker and the structure
+    /// together (a model with a `shaker` effect).
+    #[arg(long)]
+    pub reference: Option<String>,
     /// Candidate effects (default: all but bouc_wen_joint): second_mode,
     /// cubic_stiffness, bilinear_stiffness, quadratic_damping, clearance,
     /// iwan4_joint (an Iwan joint in place of the fitted joint law),
@@ -366,4 +386,24 @@ pub struct RunArgs {
     /// for the default test); the FRFs, fit, diagnosis and report are the same.
     #[arg(long)]
     pub no_recording: bool,
+}
+
+impl IdentifyArgs {
+    /// The channels named.
+    pub fn channels(&self) -> ChannelChoice<'_> {
+        ChannelChoice {
+            response: self.response.as_deref(),
+            reference: self.reference.as_deref(),
+        }
+    }
+}
+
+impl DiagnoseArgs {
+    /// The channels named.
+    pub fn channels(&self) -> ChannelChoice<'_> {
+        ChannelChoice {
+            response: self.response.as_deref(),
+            reference: self.reference.as_deref(),
+        }
+    }
 }

@@ -5,7 +5,9 @@ use super::args::{DiagnoseArgs, Domain};
 use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
 use anyhow::Result;
-use hystid::analysis::diagnose::{TimeOutcome, refine_in_time, write_diagnosis_with};
+use hystid::analysis::diagnose::{
+    DiagnosisExtras, TimeOutcome, refine_in_time, write_diagnosis_with,
+};
 use hystid::analysis::run::FinalModel;
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
 use hystid::extract::NonlinearFrf;
@@ -44,12 +46,7 @@ pub fn run_diagnosis(
 pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;
-    let (frf, _) = reduce_recordings(
-        &args.recordings,
-        args.response.as_deref(),
-        &args.reduction,
-        quiet,
-    )?;
+    let (frf, _) = reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let _out = create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
     let (fit, _) = run_fit(&frf, &fit_opts, quiet, None)?;
@@ -66,23 +63,20 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         Domain::Time => {
             // a refit that fails leaves the FRF diagnosis standing, with why
             let pb = progress::spinner("refitting in the time domain", quiet);
-            let t = hystid::analysis::time_records(
-                &args.recordings,
-                args.response.as_deref(),
-                options.band_hz,
-            )
-            .and_then(|records| {
-                refine_in_time(
-                    &mut d,
-                    &frf,
-                    &records,
-                    &hystid::fit::TimeFitOptions::default(),
-                    options.band_hz,
-                    options.patience,
-                    &predictor,
-                    &progress::Drawn(&pb),
-                )
-            });
+            let t =
+                hystid::analysis::time_records(&args.recordings, args.channels(), options.band_hz)
+                    .and_then(|records| {
+                        refine_in_time(
+                            &mut d,
+                            &frf,
+                            &records,
+                            &hystid::fit::TimeFitOptions::default(),
+                            options.band_hz,
+                            options.patience,
+                            &predictor,
+                            &progress::Drawn(&pb),
+                        )
+                    });
             pb.finish_and_clear();
             Some(match t {
                 Ok(t) => TimeOutcome::Refined(Box::new(t)),
@@ -110,8 +104,11 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         &d,
         &predictor,
         t0.elapsed().as_secs_f64(),
-        time.as_ref(),
-        Some(&final_model),
+        DiagnosisExtras {
+            time: time.as_ref(),
+            final_model: Some(&final_model),
+            reference_channel: args.reference.as_deref(),
+        },
     )?;
     if !quiet {
         say!("hystid diagnose: {}", d.explanation);

@@ -190,7 +190,7 @@ pub fn run_fit(
 /// them into one FRF set; also returns the first reduction.
 pub fn reduce_recordings(
     recordings: &[PathBuf],
-    response: Option<&str>,
+    channels: hystid::analysis::ChannelChoice,
     reduction: &ReductionArgs,
     quiet: bool,
 ) -> Result<(NonlinearFrf, Reduced)> {
@@ -208,7 +208,7 @@ pub fn reduce_recordings(
     };
     Ok(hystid::analysis::reduce_recordings(
         recordings,
-        response,
+        channels,
         &options,
         &mut on_reduced,
     )?)
@@ -229,12 +229,8 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
         .map(|w| super::validate::parse_range(w, "--window", "s"))
         .transpose()?;
     let band = fit_options(&args.fit)?.band_hz;
-    let records = hystid::analysis::time_records_in(
-        &args.recordings,
-        args.response.as_deref(),
-        window,
-        band,
-    )?;
+    let records =
+        hystid::analysis::time_records_in(&args.recordings, args.channels(), window, band)?;
     fit_in_time(
         args,
         &start.model,
@@ -259,12 +255,7 @@ fn identify_declared(
         );
     }
     let options = fit_options(&args.fit)?;
-    let (frf, _) = reduce_recordings(
-        &args.recordings,
-        args.response.as_deref(),
-        &args.reduction,
-        quiet,
-    )?;
+    let (frf, _) = reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let names: Vec<String> = args
         .recordings
         .iter()
@@ -283,6 +274,7 @@ fn identify_declared(
     pb.finish_and_clear();
     let _out = create_out_dir(&args.out)?;
     report.files = vec![args.out.join("fit.json")];
+    report.reference_channel = args.reference.clone();
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
         let f = &report.frequency_domain;
@@ -337,6 +329,7 @@ fn fit_in_time(
     }
     let _out = create_out_dir(&args.out)?;
     report.files = vec![args.out.join("fit.json")];
+    report.reference_channel = args.reference.clone();
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
         print_time_fit(&report.time_domain, records[0].quantity.si_unit());
@@ -362,7 +355,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         let kind = fit_options(&args.fit)?.element;
         if let Some(p) = hystid::analysis::periodic_start(
             &args.recordings,
-            args.response.as_deref(),
+            args.channels(),
             kind,
             args.fit.modes,
         )? {
@@ -370,12 +363,8 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         }
     }
     let options = fit_options(&args.fit)?;
-    let (frf, first) = reduce_recordings(
-        &args.recordings,
-        args.response.as_deref(),
-        &args.reduction,
-        quiet,
-    )?;
+    let (frf, first) =
+        reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let recording_names: Vec<String> = args
         .recordings
         .iter()
@@ -405,11 +394,8 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     let time_domain = match args.domain {
         Domain::Frf => None,
         Domain::Time => {
-            let records = hystid::analysis::time_records(
-                &args.recordings,
-                args.response.as_deref(),
-                options.band_hz,
-            )?;
+            let records =
+                hystid::analysis::time_records(&args.recordings, args.channels(), options.band_hz)?;
             let pb = progress::spinner("fitting in the time domain", quiet);
             let t = hystid::analysis::run_time_fit(
                 &fit,
@@ -438,6 +424,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
             break;
         }
     }
+    report.reference_channel = args.reference.clone();
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
         print_fit(&report);

@@ -60,8 +60,11 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         );
     }
     for path in &args.recordings {
-        let response = args.response.as_deref().or(fit.response.as_deref());
-        let loaded = load_recording(path, response)?;
+        let channels = hystid::analysis::ChannelChoice {
+            response: args.response.as_deref().or(fit.response.as_deref()),
+            reference: args.reference.as_deref().or(fit.reference.as_deref()),
+        };
+        let loaded = load_recording(path, channels)?;
         if loaded.truncated {
             eprintln!(
                 "warning: {} is truncated; analysing the complete chunks",

@@ -240,6 +240,7 @@ mod tests {
                 description: String::new(),
                 metadata: Default::default(),
                 extra: Default::default(),
+                chosen_reference: None,
             },
             channels,
         }

@@ -1162,6 +1162,7 @@ mod tests {
                 description: String::new(),
                 metadata: Default::default(),
                 extra: Default::default(),
+                chosen_reference: None,
             },
             channels: vec![force, response],
         }

@@ -744,6 +744,7 @@ fn build(path: &Path, spec: &ImportSpec, loaded: Loaded) -> Result<Imported> {
             description: spec.description.clone(),
             metadata: meta_map,
             extra: serde_json::Map::new(),
+            chosen_reference: None,
         },
         channels: samples,
     };

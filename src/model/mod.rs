@@ -801,8 +801,8 @@ impl Model {
             return Err(Error::input(
                 what,
                 "is a force, and the model has a shaker, which a voltage drives: take a \
-                 model without the shaker (the force is the structure's own input), or a \
-                 recording of the voltage",
+                 model without the shaker (the force is the structure's own input), or the \
+                 amplifier's voltage as the reference (`--reference` with its channel's name)",
             ));
         }
         Ok(())

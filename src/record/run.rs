@@ -1329,6 +1329,7 @@ impl McapRun {
             ),
             metadata,
             extra: serde_json::Map::new(),
+            chosen_reference: None,
         };
         super::sidecar::check(Path::new("MCAP run"), &meta, Some(frames as u64))?;
         Ok((meta, frames))

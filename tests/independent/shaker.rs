@@ -152,4 +152,47 @@ fn a_shaker_from_the_independent_simulator_is_found() {
     for (what, e) in &gauge[3..] {
         assert!(e.abs() < 3.0, "{what}: {e:+.2} %");
     }
+
+    // the diagnosed model, shaker and all, replayed on the gauged recording
+    // with its voltage named as the reference is the same replay as on the
+    // recording without the gauge (the same voltage and velocity samples);
+    // with the format's rule (the gauge's force) it is refused, pointing at
+    // `--reference`
+    let diagnosis = dir.join("out").join("diagnosis.json");
+    let validate = |rec: &std::path::Path, extra: &[&str], out: &str| {
+        let mut args = vec![
+            "validate".to_string(),
+            diagnosis.display().to_string(),
+            rec.display().to_string(),
+            "-q".into(),
+            "--no-frf".into(),
+            "--out".into(),
+            dir.join(out).display().to_string(),
+        ];
+        args.extend(extra.iter().map(|a| a.to_string()));
+        std::process::Command::new(hystid_bin())
+            .args(&args)
+            .output()
+            .unwrap()
+    };
+    let e_rms = |out: &str| {
+        let v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join(out).join("validate.json")).unwrap())
+                .unwrap();
+        v["recordings"][0]["whole"]["e_rms"].as_f64().unwrap()
+    };
+    assert!(validate(&js, &[], "val").status.success());
+    assert!(
+        validate(&js_gauge, &["--reference", "drive"], "val-gauge")
+            .status
+            .success()
+    );
+    assert_eq!(e_rms("val"), e_rms("val-gauge"));
+    let refused = validate(&js_gauge, &[], "val-refused");
+    let text = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{text}");
+    assert!(
+        text.contains("`gauge`") && text.contains("--reference"),
+        "{text}"
+    );
 }
