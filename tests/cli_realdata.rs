@@ -1305,7 +1305,7 @@ fn datasets_time_protocols_from_their_starts_are_the_readmes() {
 /// The README's F-16 time-domain fit with a hysteretic mode: the odd
 /// levels fitted from `signals/f16_hysteretic_mode_start.toml` (the
 /// three-mode fit's model plus the 6.2-6.6 Hz mode with a joint of its
-/// own), validated on the even levels over 4.5-9 Hz; each level's share of
+/// own, and an Iwan joint at the drive point), validated on the even levels over 4.5-9 Hz; each level's share of
 /// the RMS is pinned, and is below the three-mode protocol's (the README's
 /// datasets table).
 #[test]
