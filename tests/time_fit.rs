@@ -554,7 +554,7 @@ fn an_effect_the_time_history_does_not_need_is_dropped() {
         &records,
         &TimeFitOptions::default(),
         None,
-        options.patience,
+        &options,
         &predictor,
         &hystid::observe::Silent,
     )
@@ -596,4 +596,162 @@ fn an_effect_the_time_history_does_not_need_is_dropped() {
     let after = t.refit.after[0].segment_relative;
     eprintln!("after {after:.5}, truth {truth_error:.5}");
     assert!(after < truth_error * 1.002, "{after} vs {truth_error}");
+}
+
+/// The other side of the confirmation: an effect the FRF diagnosis did not
+/// keep that the recorded time histories need is added by the time domain.
+/// The independent Jenkins recording with a cubic spring is diagnosed on
+/// its FRFs (which find the cubic spring), and the diagnosis is then made
+/// to have left it out in its last round: the model without it refitted
+/// ([`hystid::diagnose::without_effect`]) and its report marked not kept.
+/// `refine_in_time` puts the last round's closest candidates to the time
+/// histories: with the cubic spring the misfit falls far past the
+/// confirmation's 0.5 %, so it is added (its report says why, the account
+/// too), k3 comes back within 5 % of the truth, and the misfit is the
+/// truth's within 0.5 %; a candidate that is not needed is not added.
+#[test]
+fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
+    use hystid::analysis::diagnose::{CONFIRMATION_RISE, refine_in_time};
+    use hystid::diagnose::{DiagnoseOptions, Effect, Verdict};
+    use hystid::fit::{FitOptions, HbPredictor};
+    use hystid::model::ElementKind;
+    let case = case_with(
+        211,
+        JointKind::Jenkins,
+        &[crate::independent::kit::corpus::EffectKind::CubicStiffness],
+        &options(3, 6),
+    );
+    let rec = generate(&case);
+    let k3_true = match case.effects[0] {
+        TrueEffect::Cubic { k3 } => k3,
+        ref e => panic!("{e:?}"),
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_recording(dir.path(), &case, &rec).unwrap();
+    let reduced =
+        hystid::analysis::reduce_path(&path, Default::default(), &Default::default()).unwrap();
+    let predictor = HbPredictor::default();
+    let fit_options = FitOptions {
+        element: ElementKind::Jenkins,
+        ..FitOptions::default()
+    };
+    let fit = hystid::fit::identify(&reduced.frf, &fit_options, &predictor, None).unwrap();
+    let options = DiagnoseOptions {
+        fit: fit_options,
+        ..DiagnoseOptions::default()
+    };
+    let found = hystid::diagnose::diagnose(&reduced.frf, &fit, &options, &predictor).unwrap();
+    // two of the closest candidates put to the time histories
+    let options = DiagnoseOptions {
+        time_proposals: 2,
+        ..options
+    };
+    let kept: Vec<Effect> = found.selected.iter().map(|s| s.effect).collect();
+    assert_eq!(kept, [Effect::CubicStiffness], "{}", found.explanation);
+    // as if the FRFs had not kept it in their last round
+    let mut d = hystid::diagnose::without_effect(
+        &found,
+        &reduced.frf,
+        Effect::CubicStiffness,
+        "left out for the test".into(),
+        options.patience,
+        &predictor,
+    )
+    .unwrap();
+    let last = d.candidates.iter().map(|c| c.round).max().unwrap();
+    let report = d
+        .candidates
+        .iter_mut()
+        .rev()
+        .find(|r| r.effect == Effect::CubicStiffness)
+        .unwrap();
+    report.round = last;
+    report.verdict = Verdict::BelowCriterion;
+    report.note = None;
+    assert!(d.selected.is_empty() && d.model.effects.is_empty());
+    let records = hystid::analysis::time_records(&[path], Default::default(), None).unwrap();
+    let t = refine_in_time(
+        &mut d,
+        &reduced.frf,
+        &records,
+        &TimeFitOptions::default(),
+        None,
+        &options,
+        &predictor,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
+    eprintln!("proposals: {:#?}", t.proposals);
+    let cubic = t
+        .proposals
+        .iter()
+        .find(|p| p.effect == Effect::CubicStiffness)
+        .expect("the cubic spring put to the time domain");
+    assert!(
+        cubic.kept && cubic.gain > 10.0 * CONFIRMATION_RISE,
+        "{cubic:?}"
+    );
+    assert_eq!(t.proposals.iter().filter(|p| p.kept).count(), 1);
+    let kept: Vec<Effect> = d.selected.iter().map(|s| s.effect).collect();
+    assert_eq!(kept, [Effect::CubicStiffness]);
+    let report = d
+        .candidates
+        .iter()
+        .rev()
+        .find(|r| r.effect == Effect::CubicStiffness)
+        .unwrap();
+    assert_eq!(report.verdict, Verdict::KeptInTime);
+    assert!(report.accepted);
+    assert!(
+        d.explanation
+            .contains("the recorded time histories need it"),
+        "{}",
+        d.explanation
+    );
+    let k3 = t.refit.parameters["cubic_stiffness.k3"].value;
+    eprintln!("k3 {k3:.4e} against {k3_true:.4e}");
+    assert!((k3 / k3_true - 1.0).abs() < 0.05, "{k3} vs {k3_true}");
+    // at the truth's misfit
+    let truth_model = truth(&case);
+    let params = time_parameters(&truth_model, true, None);
+    let truth_error = TimeProblem::new(
+        truth_model.clone(),
+        params,
+        &records,
+        t.refit.response_sign,
+        TimeFitOptions::default(),
+        None,
+    )
+    .unwrap()
+    .errors(&truth_model)
+    .unwrap()[0]
+        .segment_relative;
+    let after = t.refit.after[0].segment_relative;
+    eprintln!("after {after:.5}, truth {truth_error:.5}");
+    assert!(after < truth_error * 1.005, "{after} vs {truth_error}");
+    let figures = [
+        ("misfit fall with the cubic spring (%)", 100.0 * cubic.gain),
+        ("k3 error (%)", 100.0 * (k3 / k3_true - 1.0)),
+        ("misfit after (%)", 100.0 * after),
+        ("the truth's misfit (%)", 100.0 * truth_error),
+    ];
+    let shown =
+        crate::common::readme_figures("An effect the FRFs left out, put to the time histories:")
+            .expect("README line");
+    assert_eq!(shown.len(), figures.len(), "{shown:?}");
+    for ((what, value), shown) in figures.iter().zip(shown) {
+        crate::common::assert_readme_figure(what, *value, shown);
+    }
+    // the command asks for the time domain, exit 2 before reading anything
+    let o = hystid(&[
+        "diagnose",
+        "no-such-recording.json",
+        "--time-proposals",
+        "2",
+        "--out",
+        dir.path().join("refused").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--time-proposals") && text(&o).contains("add --domain time"));
+    assert!(!dir.path().join("refused").exists());
 }

@@ -44,6 +44,31 @@ pub struct TimeRefinement {
     /// in time: whether the recordings need it.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub checks: Vec<EffectCheck>,
+    /// The candidates the FRF diagnosis did not keep that came closest,
+    /// each added to the final model and refitted in time: whether the
+    /// recordings need it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub proposals: Vec<TimeProposal>,
+}
+
+/// One candidate the FRFs did not keep, put to the time domain: the final
+/// model with it, refitted on the recordings.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TimeProposal {
+    /// The effect.
+    pub effect: Effect,
+    /// Each recording's error with the final model plus the effect,
+    /// refitted (empty when there was no start or the refit failed).
+    pub with: Vec<RecordError>,
+    /// How much lower the misfit is with it: the final model's misfit over
+    /// this one's, minus 1 (the confirmation's `rise` seen from the other
+    /// side).
+    pub gain: f64,
+    /// Whether it was added (`gain > CONFIRMATION_RISE`, the best such).
+    pub kept: bool,
+    /// Why it could not be tried, when it could not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
 }
 
 /// One kept effect put to the time domain: the model without it refitted on
@@ -88,6 +113,12 @@ pub enum TimeOutcome {
 /// step.
 pub const CONFIRMATION_RISE: f64 = 0.005;
 
+/// Levenberg–Marquardt's patience for a proposal's time refit: enough to
+/// tell a misfit that falls by more than [`CONFIRMATION_RISE`] from one
+/// that does not, from a start next to the refined model; the one added is
+/// then refitted with the full budget.
+const PROPOSAL_PATIENCE: usize = 6;
+
 /// Levenberg–Marquardt's patience for a refit without one effect: it starts
 /// next to its optimum (the full refit's values), so a shorter budget than
 /// the full refit's finds it.
@@ -95,7 +126,7 @@ const CHECK_PATIENCE: usize = 12;
 
 /// The misfit a confirmation compares: each recording's dwell-weighted
 /// relative e_RMS, root mean square over the recordings.
-fn misfit(errors: &[RecordError]) -> f64 {
+pub fn misfit(errors: &[RecordError]) -> f64 {
     let n = errors.len().max(1) as f64;
     (errors
         .iter()
@@ -127,10 +158,11 @@ pub fn refine_in_time(
     records: &[TimeRecord],
     options: &TimeFitOptions,
     band_hz: Option<(f64, f64)>,
-    patience: usize,
+    diagnose_options: &DiagnoseOptions,
     predictor: &HbPredictor,
     observer: &dyn Observer,
 ) -> Result<TimeRefinement> {
+    let patience = diagnose_options.patience;
     let params = time_parameters(&d.model, options.refine_linear, band_hz);
     let mut refit = identify_time(
         &d.model,
@@ -262,11 +294,165 @@ pub fn refine_in_time(
             }
         }
     }
+    // then the other way: the candidates the FRFs came closest to keeping,
+    // each added to the final model and refitted in time (briefly: it starts
+    // next to the refined model); the best that lowers the misfit by more
+    // than a confirmation asks is added, which the confirmation would then
+    // keep
+    let with = misfit(&refit.after);
+    let proposal_options = TimeFitOptions {
+        patience: options.patience.min(PROPOSAL_PATIENCE),
+        ..options.clone()
+    };
+    let mut proposals: Vec<TimeProposal> = Vec::new();
+    let mut best: Option<(usize, crate::model::Model)> = None;
+    for effect in time_proposals(d, &checks, diagnose_options.time_proposals) {
+        let start = match crate::diagnose::candidate_on_final(
+            d,
+            frf,
+            effect,
+            diagnose_options,
+            predictor,
+        ) {
+            Ok(Some(m)) => m,
+            Ok(None) => {
+                proposals.push(TimeProposal::failed(
+                    effect,
+                    "no start in the residual".into(),
+                ));
+                continue;
+            }
+            Err(e) => {
+                proposals.push(TimeProposal::failed(
+                    effect,
+                    format!("its FRF refit failed: {e}"),
+                ));
+                continue;
+            }
+        };
+        // the effect as the FRFs sized it, on the final model as the time
+        // domain refined it: the FRF refit moves the shared parameters
+        // away from where the recordings want them
+        let start = grafted(&start, &refit.model, options.refine_linear, band_hz);
+        let p = time_parameters(&start, options.refine_linear, band_hz);
+        match identify_time(&start, p, sign, records, &proposal_options, None) {
+            Ok(r) => {
+                let gain = with / misfit(&r.after).max(f64::MIN_POSITIVE) - 1.0;
+                if gain > CONFIRMATION_RISE
+                    && best.as_ref().is_none_or(|(i, _)| gain > proposals[*i].gain)
+                {
+                    best = Some((proposals.len(), r.model));
+                }
+                proposals.push(TimeProposal {
+                    effect,
+                    with: r.after,
+                    gain,
+                    kept: false,
+                    failed: None,
+                });
+            }
+            Err(e) => proposals.push(TimeProposal::failed(
+                effect,
+                format!("its time refit failed: {e}"),
+            )),
+        }
+    }
+    if let Some((i, start)) = best {
+        let effect = proposals[i].effect;
+        let why = format!(
+            "with it, refitted, the misfit to the recorded time histories fell by {:.2} %, \
+             from {:.2} % to {:.2} % per-dwell relative e_RMS, where {:.1} % confirms an effect",
+            100.0 * proposals[i].gain,
+            100.0 * with,
+            100.0 * misfit(&proposals[i].with),
+            100.0 * CONFIRMATION_RISE
+        );
+        let p = time_parameters(&start, options.refine_linear, band_hz);
+        // the larger model refitted with the full budget, then its FRF side;
+        // where either fails the diagnosis stands as it was
+        if let Ok(mut r) = identify_time(&start, p, sign, records, options, None)
+            && let Ok(larger) =
+                crate::diagnose::with_effect(d, frf, effect, &r.model, why, patience, predictor)
+        {
+            *d = larger;
+            // `before` stays the FRF diagnosis's own final model
+            r.before = refit.before.clone();
+            refit = r;
+            proposals[i].kept = true;
+        }
+    }
     Ok(TimeRefinement {
         baseline,
         refit,
         checks,
+        proposals,
     })
+}
+
+/// `candidate` with every parameter it shares by name with `refined` (the
+/// joint's, the structure's, an effect's) at `refined`'s value: what the
+/// candidate adds, on the refined model.
+fn grafted(
+    candidate: &crate::model::Model,
+    refined: &crate::model::Model,
+    refine_linear: bool,
+    band_hz: Option<(f64, f64)>,
+) -> crate::model::Model {
+    let mut out = candidate.clone();
+    let theirs = time_parameters(refined, refine_linear, band_hz);
+    for q in &time_parameters(candidate, refine_linear, band_hz).parameters {
+        if let Some(r) = theirs.parameters.iter().find(|r| r.name == q.name)
+            && let Ok(v) = r.read(refined)
+        {
+            // a value the candidate's model refuses leaves the candidate's
+            let mut trial = out.clone();
+            if q.write(&mut trial, v).is_ok() && trial.validate().is_ok() {
+                out = trial;
+            }
+        }
+    }
+    out
+}
+
+impl TimeProposal {
+    fn failed(effect: Effect, why: String) -> Self {
+        TimeProposal {
+            effect,
+            with: Vec::new(),
+            gain: f64::NAN,
+            kept: false,
+            failed: Some(why),
+        }
+    }
+}
+
+/// The candidates to put to the time domain: those of the diagnosis's last
+/// round (tried on its final model, or the one before it when the rounds
+/// ran out) that lowered `χ²` but were not kept, the largest drop first, at
+/// most `at_most`; never an effect in the model or one the time domain just
+/// dropped.
+fn time_proposals(d: &Diagnosis, checks: &[EffectCheck], at_most: usize) -> Vec<Effect> {
+    let last = d.candidates.iter().map(|c| c.round).max().unwrap_or(0);
+    let mut reports: Vec<&crate::diagnose::CandidateReport> = d
+        .candidates
+        .iter()
+        .filter(|c| c.round == last && !c.accepted && c.delta_chi2 > 0.0)
+        .filter(|c| !d.selected.iter().any(|s| s.effect == c.effect))
+        .filter(|c| !checks.iter().any(|k| k.effect == c.effect))
+        .collect();
+    reports.sort_by(|a, b| {
+        b.delta_chi2
+            .total_cmp(&a.delta_chi2)
+            .then(a.effect.cmp(&b.effect))
+    });
+    let mut effects: Vec<Effect> = Vec::new();
+    for r in reports {
+        if !effects.contains(&r.effect) {
+            effects.push(r.effect);
+        }
+    }
+    effects.truncate(at_most);
+    effects
 }
 
 /// `diagnosis.json`: the diagnosis with the command and its wall time.
@@ -423,6 +609,29 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
                     } else {
                         "**no: dropped**"
                     }
+                ),
+            };
+        }
+    }
+    if !t.proposals.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nThe candidates the FRFs came closest to keeping, each added to the final model \
+             and refitted in time (added when the misfit falls by more than {:.1} %; the best \
+             such):\n\n\
+             | effect | misfit with it | fall | added |\n|---|---|---|---|",
+            100.0 * CONFIRMATION_RISE
+        );
+        for p in &t.proposals {
+            let _ = match &p.failed {
+                Some(why) => writeln!(s, "| {} | not tried: {why} | | no |", p.effect.name()),
+                None => writeln!(
+                    s,
+                    "| {} | {:.2} % | {:+.2} % | {} |",
+                    p.effect.name(),
+                    100.0 * misfit(&p.with),
+                    100.0 * p.gain,
+                    if p.kept { "**yes**" } else { "no" }
                 ),
             };
         }
@@ -593,6 +802,7 @@ pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
                 Verdict::AnotherDidBetter => "no: another did better",
                 Verdict::BelowCriterion => "no",
                 Verdict::NotConfirmedInTime => "no: not confirmed in the time domain",
+                Verdict::KeptInTime => "**yes**: needed by the time histories",
             },
             100.0 * c.fit.error_relative,
             c.fit.chi2_per_dof,

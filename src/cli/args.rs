@@ -362,6 +362,14 @@ pub struct DiagnoseArgs {
     /// final model refitted on the recorded time histories).
     #[arg(long, value_enum, default_value_t = Domain::Frf)]
     pub domain: Domain,
+    /// With `--domain time`: put the N candidates the FRFs came closest to
+    /// keeping (the largest drops of chi-square in the last round) to the
+    /// recorded time histories too, each added to the final model and
+    /// refitted in time; the best that lowers the misfit by more than a
+    /// confirmation asks (0.5 %) is added. Each costs a refit on the whole
+    /// recordings.
+    #[arg(long, default_value_t = 0)]
+    pub time_proposals: usize,
 }
 
 /// `hystid run`.

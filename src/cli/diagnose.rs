@@ -44,6 +44,11 @@ pub fn run_diagnosis(
 
 /// `hystid diagnose`.
 pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
+    if args.time_proposals > 0 && args.domain != Domain::Time {
+        anyhow::bail!(
+            "--time-proposals: the candidates are put to the time histories; add --domain time"
+        );
+    }
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;
     let (frf, _) = reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
@@ -55,6 +60,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     let options = DiagnoseOptions {
         band_hz: fit_opts.band_hz,
         fit: fit_opts.clone(),
+        time_proposals: args.time_proposals,
         ..options
     };
     let (mut d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
@@ -72,7 +78,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                             &records,
                             &hystid::fit::TimeFitOptions::default(),
                             options.band_hz,
-                            options.patience,
+                            &options,
                             &predictor,
                             &progress::Drawn(&pb),
                         )
@@ -140,6 +146,18 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                             "not confirmed (dropped)"
                         },
                         100.0 * c.rise
+                    ),
+                }
+            }
+            for p in &t.proposals {
+                match &p.failed {
+                    Some(why) => say!("  {} not tried in the time domain: {why}", p.effect.name()),
+                    None => say!(
+                        "  {} {} in the time domain: with it, refitted, the misfit is {:.2} % against {:.2} % without",
+                        p.effect.name(),
+                        if p.kept { "added" } else { "not needed" },
+                        100.0 * hystid::analysis::diagnose::misfit(&p.with),
+                        100.0 * hystid::analysis::diagnose::misfit(&p.with) * (1.0 + p.gain)
                     ),
                 }
             }

@@ -62,6 +62,10 @@ pub struct DiagnoseOptions {
     /// How the baseline was identified (a candidate mode is identified the
     /// same way, with one more mode).
     pub fit: crate::fit::FitOptions,
+    /// With a refinement in the time domain: how many of the candidates the
+    /// FRFs did not keep are put to the recorded time histories (each costs
+    /// a refit on the whole recordings; 0: none).
+    pub time_proposals: usize,
 }
 
 impl Default for DiagnoseOptions {
@@ -73,6 +77,7 @@ impl Default for DiagnoseOptions {
             band_hz: None,
             patience: 12,
             fit: crate::fit::FitOptions::default(),
+            time_proposals: 0,
         }
     }
 }
@@ -148,6 +153,10 @@ pub enum Verdict {
     /// on the recorded time histories, fitted them as well (see
     /// [`without_effect`]).
     NotConfirmedInTime,
+    /// Not kept on the FRFs, kept when the final model with it, refitted on
+    /// the recorded time histories, fitted them better (see
+    /// [`with_effect`]).
+    KeptInTime,
 }
 
 /// A candidate whose refit could not be done, and why: a finding of the
@@ -1385,6 +1394,84 @@ pub fn without_effect(
     })
 }
 
+/// The final model of `d` with `effect` added, refitted on the same FRFs as
+/// the diagnosis refits a candidate (its starts from the residual, the best
+/// refit kept): a start for putting the effect to the recorded time
+/// histories. `None` where the candidate finds no start in the residual.
+pub fn candidate_on_final(
+    d: &Diagnosis,
+    frf: &NonlinearFrf,
+    effect: Effect,
+    options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+) -> Result<Option<Model>> {
+    let data = FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?
+        .with_sign(d.response_sign)
+        .with_transfer(options.fit.transfer || d.response_sign < 0.0);
+    let current = refit(&d.model, &data, predictor, None, options.patience)?;
+    let identified = candidates::Identified::default();
+    let expected = crate::fit::problem::expected_chi_square(&data);
+    Ok(try_candidate(
+        effect,
+        &[&current],
+        frf,
+        &data,
+        options,
+        predictor,
+        &identified,
+        expected,
+    )?
+    .map(|r| r.model))
+}
+
+/// `d` with `effect` added to its final model, for an effect the FRFs did
+/// not keep that the recorded time histories need: `model` (the final model
+/// with the effect, refitted in time) is the final model, judged on the same
+/// FRFs as it stands (refitted there it would go back to where the FRFs
+/// left the effect unresolved), the effect's latest report marked
+/// [`Verdict::KeptInTime`] with `why`, the intervals, fit and account of the
+/// larger model. The FRFs start every
+/// dwell from a virgin joint and a steady state; a replay of the whole
+/// recording carries what they leave out (the joint's load history, a
+/// sweep's transients), so an effect they cannot resolve may be plain in
+/// the time domain.
+pub fn with_effect(
+    d: &Diagnosis,
+    frf: &NonlinearFrf,
+    effect: Effect,
+    model: &Model,
+    why: String,
+    patience: usize,
+    predictor: &HbPredictor,
+) -> Result<Diagnosis> {
+    let data = FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?.with_sign(d.response_sign);
+    // no Levenberg-Marquardt run: the model's own prediction and χ²
+    let current = refit_within(model, &data, predictor, None, patience, 0, None)?;
+    let mut reports = d.candidates.clone();
+    if let Some(rep) = reports.iter_mut().rev().find(|r| r.effect == effect) {
+        rep.accepted = true;
+        rep.verdict = Verdict::KeptInTime;
+        rep.note = Some(why);
+    }
+    let mut chosen: Vec<Effect> = d.selected.iter().map(|s| s.effect).collect();
+    chosen.push(effect);
+    conclude(Conclusion {
+        harmonics: d.harmonics.clone(),
+        band_hz: d.band_hz,
+        baseline: d.baseline.clone(),
+        base_features: d.features.clone(),
+        reports,
+        failed: d.failed.clone(),
+        chosen,
+        current,
+        data: &data,
+        predictor,
+        baseline_model: d.baseline_model.clone(),
+        response_sign: d.response_sign,
+        expected: crate::fit::problem::expected_chi_square(&data),
+    })
+}
+
 /// Turns the latest accepted report of `effect` into a dropped one: the
 /// verdict says why it went, the note (given the round it was kept in) the
 /// figures.
@@ -1436,6 +1523,14 @@ fn explain(
         dropped.push_str(&format!(
             "The candidate {} was kept on the FRFs but not confirmed in the time domain ({}), \
              so it was dropped and the rest refitted. ",
+            r.effect.name(),
+            r.note.as_deref().unwrap_or("no reason recorded")
+        ));
+    }
+    for r in reports.iter().filter(|r| r.verdict == Verdict::KeptInTime) {
+        dropped.push_str(&format!(
+            "The candidate {} was not kept on the FRFs, but the recorded time histories \
+             need it ({}), so it was added. ",
             r.effect.name(),
             r.note.as_deref().unwrap_or("no reason recorded")
         ));
