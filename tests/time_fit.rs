@@ -72,6 +72,25 @@ fn record(case: &Case, rec: &Recording) -> TimeRecord {
     }
 }
 
+/// The true model's per-dwell relative e_RMS on the first of `records`,
+/// replayed as the fits replay (the response taken with `sign`).
+fn truth_misfit(case: &Case, records: &[TimeRecord], sign: f64) -> f64 {
+    let truth_model = truth(case);
+    let params = time_parameters(&truth_model, true, None);
+    TimeProblem::new(
+        truth_model.clone(),
+        params,
+        records,
+        sign,
+        TimeFitOptions::default(),
+        None,
+    )
+    .unwrap()
+    .errors(&truth_model)
+    .unwrap()[0]
+        .segment_relative
+}
+
 /// The case's true model in hystid's terms.
 fn truth(case: &Case) -> Model {
     let joint = match case.joint {
@@ -579,20 +598,7 @@ fn an_effect_the_time_history_does_not_need_is_dropped() {
     assert!(d.explanation.contains("not confirmed in the time domain"));
     // the joint alone, refitted, at the truth's misfit (within the 0.2 %
     // the replay's rate may move it)
-    let truth_model = truth(case);
-    let params = time_parameters(&truth_model, true, None);
-    let truth_error = TimeProblem::new(
-        truth_model.clone(),
-        params,
-        &records,
-        t.refit.response_sign,
-        TimeFitOptions::default(),
-        None,
-    )
-    .unwrap()
-    .errors(&truth_model)
-    .unwrap()[0]
-        .segment_relative;
+    let truth_error = truth_misfit(case, &records, t.refit.response_sign);
     let after = t.refit.after[0].segment_relative;
     eprintln!("after {after:.5}, truth {truth_error:.5}");
     assert!(after < truth_error * 1.002, "{after} vs {truth_error}");
@@ -712,20 +718,7 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     eprintln!("k3 {k3:.4e} against {k3_true:.4e}");
     assert!((k3 / k3_true - 1.0).abs() < 0.05, "{k3} vs {k3_true}");
     // at the truth's misfit
-    let truth_model = truth(&case);
-    let params = time_parameters(&truth_model, true, None);
-    let truth_error = TimeProblem::new(
-        truth_model.clone(),
-        params,
-        &records,
-        t.refit.response_sign,
-        TimeFitOptions::default(),
-        None,
-    )
-    .unwrap()
-    .errors(&truth_model)
-    .unwrap()[0]
-        .segment_relative;
+    let truth_error = truth_misfit(&case, &records, t.refit.response_sign);
     let after = t.refit.after[0].segment_relative;
     eprintln!("after {after:.5}, truth {truth_error:.5}");
     assert!(after < truth_error * 1.005, "{after} vs {truth_error}");

@@ -1372,6 +1372,25 @@ pub fn without_effect(
     let current = refit(&without, &data, predictor, None, patience)?;
     let mut reports = d.candidates.clone();
     mark_dropped(&mut reports, effect, Verdict::NotConfirmedInTime, |_| why);
+    let chosen = d
+        .selected
+        .iter()
+        .map(|s| s.effect)
+        .filter(|&e| e != effect)
+        .collect();
+    reconcluded(d, reports, chosen, current, &data, predictor)
+}
+
+/// `d` concluded again with `reports`, the effects `chosen` and the final
+/// refit `current` on `data` (its baseline and features as they were).
+fn reconcluded(
+    d: &Diagnosis,
+    reports: Vec<CandidateReport>,
+    chosen: Vec<Effect>,
+    current: Refit,
+    data: &FitData,
+    predictor: &HbPredictor,
+) -> Result<Diagnosis> {
     conclude(Conclusion {
         harmonics: d.harmonics.clone(),
         band_hz: d.band_hz,
@@ -1379,18 +1398,13 @@ pub fn without_effect(
         base_features: d.features.clone(),
         reports,
         failed: d.failed.clone(),
-        chosen: d
-            .selected
-            .iter()
-            .map(|s| s.effect)
-            .filter(|&e| e != effect)
-            .collect(),
+        chosen,
         current,
-        data: &data,
+        data,
         predictor,
         baseline_model: d.baseline_model.clone(),
         response_sign: d.response_sign,
-        expected: crate::fit::problem::expected_chi_square(&data),
+        expected: crate::fit::problem::expected_chi_square(data),
     })
 }
 
@@ -1455,21 +1469,7 @@ pub fn with_effect(
     }
     let mut chosen: Vec<Effect> = d.selected.iter().map(|s| s.effect).collect();
     chosen.push(effect);
-    conclude(Conclusion {
-        harmonics: d.harmonics.clone(),
-        band_hz: d.band_hz,
-        baseline: d.baseline.clone(),
-        base_features: d.features.clone(),
-        reports,
-        failed: d.failed.clone(),
-        chosen,
-        current,
-        data: &data,
-        predictor,
-        baseline_model: d.baseline_model.clone(),
-        response_sign: d.response_sign,
-        expected: crate::fit::problem::expected_chi_square(&data),
-    })
+    reconcluded(d, reports, chosen, current, &data, predictor)
 }
 
 /// Turns the latest accepted report of `effect` into a dropped one: the
