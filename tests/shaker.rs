@@ -743,12 +743,7 @@ fn the_voltage_named_as_the_reference_beside_a_gauge_gives_the_shaker() {
     ]);
     let d = read_json(&diag.join("diagnosis.json"));
     assert_eq!(d["reference_channel"], "drive");
-    let selected: Vec<&str> = d["selected"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["effect"].as_str().unwrap())
-        .collect();
+    let selected = crate::independent::kit::score::selected_effects(&d);
     assert!(selected.contains(&"shaker"), "{selected:?}");
     let params = &d["final_model"]["parameters"];
     let got = |n: &str| params[n]["value"].as_f64().unwrap();

@@ -72,6 +72,33 @@ fn record(case: &Case, rec: &Recording) -> TimeRecord {
     }
 }
 
+/// The recording at `path` reduced, identified with a Jenkins joint and
+/// diagnosed on its FRFs (the default candidates); with the options and
+/// predictor the diagnosis used.
+fn jenkins_diagnosis(
+    path: &std::path::Path,
+) -> (
+    hystid::analysis::Reduced,
+    hystid::diagnose::DiagnoseOptions,
+    hystid::fit::HbPredictor,
+    hystid::diagnose::Diagnosis,
+) {
+    let reduced =
+        hystid::analysis::reduce_path(path, Default::default(), &Default::default()).unwrap();
+    let predictor = hystid::fit::HbPredictor::default();
+    let fit_options = hystid::fit::FitOptions {
+        element: hystid::model::ElementKind::Jenkins,
+        ..Default::default()
+    };
+    let fit = hystid::fit::identify(&reduced.frf, &fit_options, &predictor, None).unwrap();
+    let options = hystid::diagnose::DiagnoseOptions {
+        fit: fit_options,
+        ..Default::default()
+    };
+    let d = hystid::diagnose::diagnose(&reduced.frf, &fit, &options, &predictor).unwrap();
+    (reduced, options, predictor, d)
+}
+
 /// The true model's per-dwell relative e_RMS on the first of `records`,
 /// replayed as the fits replay (the response taken with `sign`).
 fn truth_misfit(case: &Case, records: &[TimeRecord], sign: f64) -> f64 {
@@ -462,12 +489,7 @@ fn diagnose_in_the_time_domain_follows_the_joints_history_beside_a_contact() {
     eprintln!("{}", text(&o));
     let d: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("diagnosis.json")).unwrap()).unwrap();
-    let selected: Vec<&str> = d["selected"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["effect"].as_str().unwrap())
-        .collect();
+    let selected = crate::independent::kit::score::selected_effects(&d);
     assert_eq!(selected, ["bilinear_stiffness"]);
     let t = &d["time_domain"];
     let rel = |v: &serde_json::Value| v[0]["segment_relative"].as_f64().unwrap();
@@ -522,25 +544,11 @@ fn diagnose_in_the_time_domain_follows_the_joints_history_beside_a_contact() {
 #[test]
 fn an_effect_the_time_history_does_not_need_is_dropped() {
     use hystid::analysis::diagnose::{CONFIRMATION_RISE, refine_in_time};
-    use hystid::diagnose::{DiagnoseOptions, Effect, SelectedEffect, Verdict};
-    use hystid::fit::{FitOptions, HbPredictor};
-    use hystid::model::ElementKind;
+    use hystid::diagnose::{Effect, SelectedEffect, Verdict};
     let (case, rec) = jenkins_case();
     let dir = tempfile::tempdir().unwrap();
     let path = write_recording(dir.path(), case, rec).unwrap();
-    let reduced =
-        hystid::analysis::reduce_path(&path, Default::default(), &Default::default()).unwrap();
-    let predictor = HbPredictor::default();
-    let fit_options = FitOptions {
-        element: ElementKind::Jenkins,
-        ..FitOptions::default()
-    };
-    let fit = hystid::fit::identify(&reduced.frf, &fit_options, &predictor, None).unwrap();
-    let options = DiagnoseOptions {
-        fit: fit_options,
-        ..DiagnoseOptions::default()
-    };
-    let mut d = hystid::diagnose::diagnose(&reduced.frf, &fit, &options, &predictor).unwrap();
+    let (reduced, options, predictor, mut d) = jenkins_diagnosis(&path);
     assert!(d.selected.is_empty(), "{:?}", d.selected);
     // the top level's velocity amplitude: displacement amplitude x ω
     let top = rec
@@ -619,8 +627,6 @@ fn an_effect_the_time_history_does_not_need_is_dropped() {
 fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     use hystid::analysis::diagnose::{CONFIRMATION_RISE, refine_in_time};
     use hystid::diagnose::{DiagnoseOptions, Effect, Verdict};
-    use hystid::fit::{FitOptions, HbPredictor};
-    use hystid::model::ElementKind;
     let case = case_with(
         211,
         JointKind::Jenkins,
@@ -634,19 +640,7 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     };
     let dir = tempfile::tempdir().unwrap();
     let path = write_recording(dir.path(), &case, &rec).unwrap();
-    let reduced =
-        hystid::analysis::reduce_path(&path, Default::default(), &Default::default()).unwrap();
-    let predictor = HbPredictor::default();
-    let fit_options = FitOptions {
-        element: ElementKind::Jenkins,
-        ..FitOptions::default()
-    };
-    let fit = hystid::fit::identify(&reduced.frf, &fit_options, &predictor, None).unwrap();
-    let options = DiagnoseOptions {
-        fit: fit_options,
-        ..DiagnoseOptions::default()
-    };
-    let found = hystid::diagnose::diagnose(&reduced.frf, &fit, &options, &predictor).unwrap();
+    let (reduced, options, predictor, found) = jenkins_diagnosis(&path);
     // two of the closest candidates put to the time histories
     let options = DiagnoseOptions {
         time_proposals: 2,
