@@ -372,7 +372,7 @@ pub fn refine_in_time(
         // where either fails the diagnosis stands as it was
         if let Ok(mut r) = identify_time(&start, p, sign, records, options, None)
             && let Ok(larger) =
-                crate::diagnose::with_effect(d, frf, effect, &r.model, why, patience, predictor)
+                crate::diagnose::with_effect(d, frf, effect, &r.model, why, predictor)
         {
             *d = larger;
             // `before` stays the FRF diagnosis's own final model

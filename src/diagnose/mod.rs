@@ -1455,12 +1455,11 @@ pub fn with_effect(
     effect: Effect,
     model: &Model,
     why: String,
-    patience: usize,
     predictor: &HbPredictor,
 ) -> Result<Diagnosis> {
     let data = FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?.with_sign(d.response_sign);
-    // no Levenberg-Marquardt run: the model's own prediction and χ²
-    let current = refit_within(model, &data, predictor, None, patience, 0, None)?;
+    // no Levenberg-Marquardt run (no budget): the model's own prediction and χ²
+    let current = refit_within(model, &data, predictor, None, 0, 0, None)?;
     let mut reports = d.candidates.clone();
     if let Some(rep) = reports.iter_mut().rev().find(|r| r.effect == effect) {
         rep.accepted = true;
