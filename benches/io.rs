@@ -19,14 +19,22 @@
 //!   later runs, never in the repository). Criterion times the first tenth
 //!   of the file per iteration (throughput: WAV bytes per second).
 //!
-//! The whole gigabyte in one pass, timed, with its peak memory measured alone
-//! (the peak is reset after the file exists, via `/proc/self/clear_refs`):
+//! * `sweep/10min` (with `HYSTID_BENCH_RSS` only): a 10-minute swept sine at
+//!   20 kHz (12 M frames, 96 MB of float WAV: a Jenkins SDOF at 80 Hz swept
+//!   10 -> 200 Hz), reduced as `hystid identify` reduces it
+//!   (`hystid::analysis::recording::reduce_path`, the automatic
+//!   sweep-distortion compensation): read from disk a stretch at a time, peak
+//!   RSS ≤ 200 MB. Generated once beside the stepped one (`swept-10min`).
+//!
+//! The whole gigabyte in one pass, then the swept reduction, each timed
+//! with its peak memory measured alone (the peak is reset after the file
+//! exists, via `/proc/self/clear_refs`):
 //!
 //! ```text
 //! HYSTID_BENCH_RSS=1 cargo bench --bench io
 //! ```
 //!
-//! prints the pass's time and `VmHWM` and exits without running criterion.
+//! prints each pass's time and `VmHWM` and exits without running criterion.
 
 #[path = "common/mod.rs"]
 mod common;
@@ -256,9 +264,123 @@ fn rss_mode() {
     }
 }
 
+/// The 10-minute swept recording's stem, generated if absent.
+fn swept_recording() -> PathBuf {
+    let dir = std::env::temp_dir().join("hystid-bench");
+    let stem = dir.join("swept-10min");
+    let fs = 20_000.0;
+    let n = (600.0 * fs) as usize;
+    let expected = 44 + (n * 2 * 4) as u64;
+    let ok = std::fs::metadata(stem.with_extension("wav")).is_ok_and(|m| m.len() >= expected)
+        && stem.with_extension("json").is_file();
+    if ok {
+        return stem;
+    }
+    std::fs::create_dir_all(&dir).unwrap();
+    let t = Instant::now();
+    let rate = 190.0 / 600.0;
+    let force: Vec<f64> = (0..n)
+        .map(|i| {
+            let t = i as f64 / fs;
+            100.0 * (2.0 * PI * (10.0 * t + 0.5 * rate * t * t)).sin()
+        })
+        .collect();
+    let model = hystid::model::ModalModel::new(vec![
+        hystid::model::Mode::from_mck(1.0, 10.0, 2.526_618e5).unwrap(),
+    ])
+    .unwrap();
+    let joint = hystid::model::Jenkins::new(1e5, 20.0).unwrap();
+    let v = hystid::sim::Simulator::new(&model, joint, fs)
+        .unwrap()
+        .run(&force)
+        .unwrap()
+        .velocity;
+    let channel = |name: &str, q: Quantity| Channel {
+        name: name.into(),
+        quantity: q,
+        unit: q.si_unit().into(),
+        scale: 1.0,
+    };
+    let meta = RecordingMeta {
+        format: FORMAT_V1.into(),
+        sample_rate_hz: fs,
+        channels: vec![
+            channel("force", Quantity::Force),
+            channel("velocity", Quantity::Velocity),
+        ],
+        excitation: Excitation {
+            kind: ExcitationKind::SweptSine,
+            steps: Vec::new(),
+            sweep: None,
+        },
+        description: "hystid bench: generated 10-minute swept sine".into(),
+        metadata: Default::default(),
+        extra: Default::default(),
+        chosen_reference: None,
+    };
+    let mut w = RecordingWriter::create(&stem, meta).unwrap();
+    let (f32s, v32s): (Vec<f32>, Vec<f32>) = force
+        .iter()
+        .zip(&v)
+        .map(|(&f, &v)| (f as f32, v as f32))
+        .unzip();
+    w.write_frames(&[&f32s, &v32s]).unwrap();
+    w.finish().unwrap();
+    eprintln!(
+        "sweep: generated {} in {:.1} s",
+        stem.with_extension("wav").display(),
+        t.elapsed().as_secs_f64()
+    );
+    stem
+}
+
+/// `HYSTID_BENCH_RSS=1`: the 10-minute sweep reduced from disk, with its
+/// peak memory.
+fn sweep_rss_mode() {
+    use hystid::analysis::recording::{ChannelChoice, ReductionOptions, reduce_path};
+    let stem = swept_recording();
+    let reset = std::fs::write("/proc/self/clear_refs", "5").is_ok();
+    let t = Instant::now();
+    let r = reduce_path(
+        &stem.with_extension("json"),
+        ChannelChoice::default(),
+        &ReductionOptions::default(),
+    )
+    .unwrap();
+    let took = t.elapsed().as_secs_f64();
+    let (sweep, sigma) = r.sweep.unwrap();
+    println!(
+        "sweep: {} frames reduced to {} points in {took:.2} s ({}; sweep {:.3} -> {:.3} Hz, \
+         compensation {:.2} s)",
+        sweep.end - sweep.start,
+        r.frf.levels[0].points.len(),
+        if r.streamed {
+            "read a stretch at a time"
+        } else {
+            "read whole"
+        },
+        sweep.f_start_hz,
+        sweep.f_end_hz,
+        sigma.unwrap_or(0.0)
+    );
+    match common::peak_rss_bytes() {
+        Some(p) => println!(
+            "sweep: peak RSS {:.1} MB (VmHWM{})",
+            p as f64 / 1e6,
+            if reset {
+                ", reset before the reduction"
+            } else {
+                ", could not be reset: includes setup"
+            }
+        ),
+        None => println!("sweep: peak RSS unavailable (no /proc/self/status)"),
+    }
+}
+
 fn main() {
     if std::env::var_os("HYSTID_BENCH_RSS").is_some() {
         rss_mode();
+        sweep_rss_mode();
         return;
     }
     let mut c = Criterion::default()

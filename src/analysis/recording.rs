@@ -4,8 +4,9 @@
 
 use crate::error::{Error, Result};
 use crate::extract::{
-    NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, choose_compensation, reduce_stepped,
-    reduce_stepped_stream, reduce_sweep_recording,
+    NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, WHOLE_RECORD_FRAMES, choose_compensation,
+    choose_compensation_stream, reduce_stepped, reduce_stepped_stream, reduce_sweep_recording,
+    reduce_sweep_stream,
 };
 use crate::harmonics::Quantity;
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
@@ -359,6 +360,16 @@ pub fn sweep_options(
     sample_rate_hz: f64,
     r: &ReductionOptions,
 ) -> Result<SweepOptions> {
+    sweep_options_by(r, &mut |opts| {
+        choose_compensation(force, response, sample_rate_hz, opts)
+    })
+}
+
+/// Sweep options, the automatic compensation chosen by `choose`.
+fn sweep_options_by(
+    r: &ReductionOptions,
+    choose: &mut dyn FnMut(&SweepOptions) -> Result<f64>,
+) -> Result<SweepOptions> {
     let mut opts = SweepOptions {
         max_harmonic: max_harmonic(r, Excitation::Swept),
         window_periods: r.window_periods,
@@ -366,7 +377,7 @@ pub fn sweep_options(
         ..SweepOptions::default()
     };
     opts.compensation_s = match r.compensation {
-        Compensation::Auto => Some(choose_compensation(force, response, sample_rate_hz, &opts)?),
+        Compensation::Auto => Some(choose(&opts)?),
         Compensation::Off => None,
         Compensation::Seconds(s) => Some(s),
     };
@@ -414,8 +425,10 @@ pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
 }
 
 /// Reduces the recording at `path`: a stepped-sine WAV + JSON recording
-/// whose sidecar states its steps is reduced from disk one dwell at a time
-/// (memory bounded whatever the file size); anything else is read whole.
+/// whose sidecar states its steps is reduced from disk one dwell at a time,
+/// and a swept-sine one longer than [`WHOLE_RECORD_FRAMES`] a stretch at a
+/// time (memory bounded whatever the file size); anything else is read
+/// whole.
 pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> Result<Reduced> {
     if path
         .to_str()
@@ -473,8 +486,9 @@ fn reduce_streamed(
     r: &ReductionOptions,
 ) -> Result<Option<Reduced>> {
     let mut meta = source.meta().clone();
-    if excitation_of(&meta, r.excitation) != Excitation::Stepped || meta.excitation.steps.is_empty()
-    {
+    let excitation = excitation_of(&meta, r.excitation);
+    let swept = excitation == Excitation::Swept && source.frames() > WHOLE_RECORD_FRAMES;
+    if !swept && (excitation != Excitation::Stepped || meta.excitation.steps.is_empty()) {
         return Ok(None);
     }
     choice.apply(path, &mut meta)?;
@@ -482,6 +496,10 @@ fn reduce_streamed(
     let reference = meta
         .reference_channel()
         .expect("checked by response_channel");
+    if swept {
+        return reduce_swept_stream(path, source, truth, truncated, &meta, (reference, ch), r)
+            .map(Some);
+    }
     let options = ReduceOptions {
         reference_channel: Some(reference),
         ..stepped_options(r)
@@ -508,6 +526,50 @@ fn reduce_streamed(
         streamed: true,
         truncated,
     }))
+}
+
+/// [`reduce_streamed`]'s swept-sine reduction of a long recording, read a
+/// stretch at a time (`channels`: the reference and the response).
+fn reduce_swept_stream(
+    path: &Path,
+    mut source: impl FrameSource,
+    truth: Option<TestDefinition>,
+    truncated: bool,
+    meta: &RecordingMeta,
+    (reference, ch): (usize, usize),
+    r: &ReductionOptions,
+) -> Result<Reduced> {
+    let reduced = sweep_options_by(r, &mut |opts| {
+        choose_compensation_stream(&mut source, reference, ch, opts)
+    })
+    .and_then(|opts| {
+        let red = reduce_sweep_stream(&mut source, reference, ch, &opts)?;
+        Ok((red, opts.compensation_s))
+    });
+    let (red, compensation) = match reduced {
+        Ok(r) => r,
+        Err(e) => {
+            return Err(if is_flat(&mut source, reference)? {
+                flat_reference(path, &meta.channels[reference].name)
+            } else {
+                e
+            });
+        }
+    };
+    let sweep = red.sweep;
+    Ok(Reduced {
+        frf: red.into_frf(
+            meta.channels[ch].quantity,
+            meta.channels[reference].quantity,
+        ),
+        response_name: meta.channels[ch].name.clone(),
+        sample_rate_hz: meta.sample_rate_hz,
+        excitation: Excitation::Swept,
+        sweep: Some((sweep, compensation)),
+        truth,
+        streamed: true,
+        truncated,
+    })
 }
 
 /// The error for a reference channel `name` of `path` that is all zero.

@@ -8,7 +8,7 @@
 //! strictly allow. `σ = 4τ` balances the two: about 6 % smoothing at the
 //! peak.
 
-use super::{FrfPoint, SweepOptions, reduce_sweep};
+use super::{FrfPoint, SweepOptions, SweepReduction, reduce_sweep};
 use crate::error::Result;
 use std::f64::consts::PI;
 
@@ -60,25 +60,34 @@ pub fn choose_compensation(
     sample_rate_hz: f64,
     options: &SweepOptions,
 ) -> Result<f64> {
+    choose_compensation_by(sample_rate_hz, options, &mut |o| {
+        reduce_sweep(force, response, sample_rate_hz, o)
+    })
+}
+
+/// [`choose_compensation`] with the reductions made by `reduce` (of a
+/// record in memory or read from disk a stretch at a time).
+pub(crate) fn choose_compensation_by(
+    sample_rate_hz: f64,
+    options: &SweepOptions,
+    reduce: &mut dyn FnMut(&SweepOptions) -> Result<SweepReduction>,
+) -> Result<f64> {
     let plain_options = SweepOptions {
         compensation_s: None,
         ..options.clone()
     };
-    let plain = reduce_sweep(force, response, sample_rate_hz, &plain_options)?;
+    let plain = reduce(&plain_options)?;
     let duration = (plain.sweep.end - plain.sweep.start) as f64 / sample_rate_hz;
     let cap = duration / 6.0;
     let sigma = |points: &[FrfPoint]| {
         resonance_time_constant(points).map_or(cap / 2.0, |t| (TIME_CONSTANTS * t).min(cap))
     };
     let first = sigma(&plain.level.points);
-    let again = reduce_sweep(
-        force,
-        response,
-        sample_rate_hz,
-        &SweepOptions {
-            compensation_s: Some(first),
-            ..plain_options
-        },
-    )?;
+    // a long sweep's points are many: not held through the second reduction
+    drop(plain);
+    let again = reduce(&SweepOptions {
+        compensation_s: Some(first),
+        ..plain_options
+    })?;
     Ok(sigma(&again.level.points).max(first))
 }

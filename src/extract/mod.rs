@@ -40,6 +40,7 @@ mod periodic;
 mod stepped;
 mod streaming;
 mod sweep;
+mod sweep_blocks;
 
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
 pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
@@ -54,6 +55,7 @@ pub use sweep::{
     SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep, reduce_sweep,
     reduce_sweep_recording,
 };
+pub use sweep_blocks::{WHOLE_RECORD_FRAMES, choose_compensation_stream, reduce_sweep_stream};
 
 use crate::harmonics::Quantity;
 use num_complex::Complex64;

@@ -49,11 +49,18 @@
 //! of the sweep, which a friction joint's amplitude dependence does not
 //! strictly allow; without compensation the result is what a shaker
 //! controller reports.
+//!
+//! **Long records.** Steps 1 and the compensation transform the record
+//! whole; a record longer than [`super::WHOLE_RECORD_FRAMES`] is reduced a
+//! block at a time instead, and can be read from disk a stretch at a time
+//! ([`super::reduce_sweep_stream`]), so that memory does not grow with its
+//! length (see `sweep_blocks`).
 
-use super::analytic::analytic;
+use super::analytic::{Analytic, analytic};
 use super::estimator::check_finite;
 use super::lsq::HarmonicLsq;
 use super::noncoherent::solve_dense;
+use super::sweep_blocks::{BLOCKS, Blocks, InMemory, PairSource};
 use super::{Direction, FrfLevel, FrfPoint, NonlinearFrf};
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
@@ -162,7 +169,7 @@ impl SweepReduction {
 
 /// A fitted phase law in samples: `θ(n)`, `dθ/dn`.
 #[derive(Clone, Copy, Debug)]
-enum PhaseLaw {
+pub(super) enum PhaseLaw {
     /// `p0 + p1 u + p2 u²`, `u = (n − mid)/half`.
     Quadratic { mid: f64, half: f64, p: [f64; 3] },
     /// `c0 + c1 e^{λ(n − mid)}`, λ per sample.
@@ -171,7 +178,7 @@ enum PhaseLaw {
 
 impl PhaseLaw {
     #[inline]
-    fn phase(&self, n: f64) -> f64 {
+    pub(super) fn phase(&self, n: f64) -> f64 {
         match *self {
             PhaseLaw::Quadratic { mid, half, p } => {
                 let u = (n - mid) / half;
@@ -182,7 +189,7 @@ impl PhaseLaw {
     }
 
     /// rad per sample.
-    fn rate(&self, n: f64) -> f64 {
+    pub(super) fn rate(&self, n: f64) -> f64 {
         match *self {
             PhaseLaw::Quadratic { mid, half, p } => {
                 let u = (n - mid) / half;
@@ -365,12 +372,22 @@ fn driven_stretch(envelope: &[f64], threshold: f64) -> Option<(usize, usize)> {
 }
 
 /// Active sweep, phase-law fit and the sweep's figures.
-fn fit_sweep(
+pub(super) fn fit_sweep(
     reference: &[f64],
     sample_rate_hz: f64,
     options: &SweepOptions,
 ) -> Result<(PhaseLaw, SweepFit)> {
-    let a = analytic(reference);
+    fit_phase(&analytic(reference), sample_rate_hz, options)
+}
+
+/// [`fit_sweep`] from the reference's instantaneous phase and envelope
+/// sampled at `sample_rate_hz` (every sample of the record, or every `D`-th
+/// of a long one at `fs/D`: see [`super::sweep_blocks`]).
+pub(super) fn fit_phase(
+    a: &Analytic,
+    sample_rate_hz: f64,
+    options: &SweepOptions,
+) -> Result<(PhaseLaw, SweepFit)> {
     // the median of the driven part: a record that is silent for half its
     // length (a chirp followed by a free decay) still has a sweep
     let peak = a.amplitude.iter().copied().fold(0.0, f64::max);
@@ -388,7 +405,7 @@ fn fit_sweep(
         return Err(Error::input("reference", "is zero: no sweep to follow"));
     };
     // a first fit over the active part gives the period for the edge margins
-    let all = vec![true; reference.len()];
+    let all = vec![true; a.phase.len()];
     // the phase is smooth: about 20 000 samples fix the law as well as all
     let stride = ((end - start) / 20_000).max(1);
     let (rough, _) = fit_quadratic(&a.phase, start..end, &all, stride)
@@ -550,15 +567,47 @@ impl SweepFit {
 }
 
 /// One plain window's result.
-struct WindowFit {
-    center: f64,
-    force: Vec<Complex64>,
-    response: Vec<Complex64>,
-    /// `E|ΔF_k|²`, `E|ΔY_k|²`.
-    force_var: Vec<f64>,
-    response_var: Vec<f64>,
+pub(super) struct WindowFit {
+    pub(super) center: f64,
+    pub(super) harmonics: Harmonics,
     /// Residual variances of the force and the response fits.
-    residual_var: [f64; 2],
+    pub(super) residual_var: [f64; 2],
+}
+
+/// Harmonics `0..=K` of the force (channel 0) and the response (channel 1)
+/// at one window, with `E|ΔF_k|²` and `E|ΔY_k|²`: two allocations a window,
+/// as a long sweep has tens of thousands of them.
+pub(super) struct Harmonics {
+    width: usize,
+    /// The force's, then the response's.
+    values: Vec<Complex64>,
+    variances: Vec<f64>,
+}
+
+impl Harmonics {
+    pub(super) fn new(width: usize) -> Harmonics {
+        Harmonics {
+            width,
+            values: vec![Complex64::default(); 2 * width],
+            variances: vec![0.0; 2 * width],
+        }
+    }
+    /// Channel `ch`'s harmonics.
+    pub(super) fn of(&self, ch: usize) -> &[Complex64] {
+        &self.values[ch * self.width..][..self.width]
+    }
+    fn of_mut(&mut self, ch: usize) -> &mut [Complex64] {
+        &mut self.values[ch * self.width..][..self.width]
+    }
+    /// Channel `ch`'s variances.
+    pub(super) fn variances(&self, ch: usize) -> &[f64] {
+        &self.variances[ch * self.width..][..self.width]
+    }
+    /// Harmonic `h` of channel `ch` and its variance.
+    pub(super) fn set(&mut self, ch: usize, h: usize, value: Complex64, variance: f64) {
+        self.values[ch * self.width + h] = value;
+        self.variances[ch * self.width + h] = variance;
+    }
 }
 
 /// Reduces a swept-sine record into FRF points (see the module docs).
@@ -572,13 +621,23 @@ pub fn reduce_sweep(
     sample_rate_hz: f64,
     options: &SweepOptions,
 ) -> Result<SweepReduction> {
+    super::check_paired(force, response, "response")?;
+    reduce_sweep_from(
+        &mut InMemory { force, response },
+        sample_rate_hz,
+        options,
+        &BLOCKS,
+    )
+}
+
+/// Checks the options and the rate of a swept-sine reduction.
+fn check_options(sample_rate_hz: f64, options: &SweepOptions) -> Result<()> {
     if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
         return Err(Error::input(
             "sample_rate_hz",
             format!("must be finite and > 0, got {sample_rate_hz}"),
         ));
     }
-    super::check_paired(force, response, "response")?;
     if options.max_harmonic == 0 || options.window_periods == 0 {
         return Err(Error::plan(
             "sweep.max_harmonic / sweep.window_periods",
@@ -602,15 +661,35 @@ pub fn reduce_sweep(
             format!("must be finite and > 0 seconds, got {s}"),
         ));
     }
-    if force.len() < 64 {
+    Ok(())
+}
+
+/// [`reduce_sweep`] of the force and response `src` reads: a record of at
+/// most `blocks.whole` frames whole, as always; a longer one a block at a
+/// time ([`super::sweep_blocks`]), whether it is in memory or on disk, so
+/// both give the same bits.
+pub(super) fn reduce_sweep_from(
+    src: &mut dyn PairSource,
+    sample_rate_hz: f64,
+    options: &SweepOptions,
+    blocks: &Blocks,
+) -> Result<SweepReduction> {
+    check_options(sample_rate_hz, options)?;
+    let frames = src.frames();
+    if frames < 64 {
         return Err(Error::input(
             "force",
-            format!("{} samples: too short for a sweep", force.len()),
+            format!("{frames} samples: too short for a sweep"),
         ));
     }
-    check_finite(force, "force")?;
-    check_finite(response, "response")?;
-    let (law, sweep) = fit_sweep(force, sample_rate_hz, options)?;
+    let (law, sweep) = if frames <= blocks.whole {
+        let (force, response) = src.pair(0, frames)?;
+        check_finite(force, "force")?;
+        check_finite(response, "response")?;
+        fit_sweep(force, sample_rate_hz, options)?
+    } else {
+        super::sweep_blocks::fit_sweep_in_blocks(src, sample_rate_hz, options, blocks)?
+    };
     let k = options.max_harmonic;
     let f_top = sweep.f_start_hz.max(sweep.f_end_hz);
     if 2.0 * k as f64 * f_top >= sample_rate_hz {
@@ -623,7 +702,7 @@ pub fn reduce_sweep(
             ),
         ));
     }
-    let windows = plain_windows(force, response, &law, &sweep, options)?;
+    let windows = plain_windows(src, &law, &sweep, options)?;
     if windows.is_empty() {
         return Err(Error::input(
             "force",
@@ -636,17 +715,7 @@ pub fn reduce_sweep(
     let points = match options.compensation_s {
         None => windows
             .iter()
-            .map(|w| {
-                point(
-                    w,
-                    &law,
-                    sample_rate_hz,
-                    &w.force,
-                    &w.response,
-                    &w.force_var,
-                    &w.response_var,
-                )
-            })
+            .map(|w| point(w, &law, sample_rate_hz, &w.harmonics))
             .collect(),
         Some(sigma) => {
             let PhaseLaw::Quadratic { .. } = law else {
@@ -656,29 +725,26 @@ pub fn reduce_sweep(
                      as logarithmic (set `law = linear` to force it)",
                 ));
             };
-            compensated(
-                force,
-                response,
-                &law,
-                &sweep,
-                &windows,
-                sigma * sample_rate_hz,
-                k,
-            )
-            .into_iter()
-            .zip(&windows)
-            .map(|(c, w)| {
-                point(
-                    w,
+            let sigma_samples = sigma * sample_rate_hz;
+            let compensated = if frames + 2 * reach(sigma_samples, &sweep) < blocks.whole {
+                let (force, response) = src.pair(0, frames)?;
+                compensated(force, response, &law, &sweep, &windows, sigma_samples, k)
+            } else {
+                super::sweep_blocks::compensated_in_blocks(
+                    src,
                     &law,
-                    sample_rate_hz,
-                    &c.force,
-                    &c.response,
-                    &c.force_var,
-                    &c.response_var,
-                )
-            })
-            .collect()
+                    &sweep,
+                    &windows,
+                    sigma_samples,
+                    k,
+                    blocks,
+                )?
+            };
+            compensated
+                .into_iter()
+                .zip(&windows)
+                .map(|(c, w)| point(w, &law, sample_rate_hz, &c))
+                .collect()
         }
     };
     let points: Vec<FrfPoint> = points;
@@ -699,15 +765,15 @@ pub fn reduce_sweep(
     })
 }
 
-fn point(
-    w: &WindowFit,
-    law: &PhaseLaw,
-    sample_rate_hz: f64,
-    force: &[Complex64],
-    response: &[Complex64],
-    force_var: &[f64],
-    response_var: &[f64],
-) -> FrfPoint {
+/// Samples either side of a window centre the compensation's kernel
+/// reaches: four standard deviations, at most the active sweep.
+pub(super) fn reach(sigma_samples: f64, sweep: &SweepFit) -> usize {
+    ((4.0 * sigma_samples).ceil() as usize).min(sweep.end - sweep.start)
+}
+
+fn point(w: &WindowFit, law: &PhaseLaw, sample_rate_hz: f64, harmonics: &Harmonics) -> FrfPoint {
+    let (force, response) = (harmonics.of(0), harmonics.of(1));
+    let (force_var, response_var) = (harmonics.variances(0), harmonics.variances(1));
     let f1 = force[1];
     let p = f1.norm_sqr();
     // referred to the force's phase (the FRF convention of `crate::harmonics`)
@@ -738,9 +804,8 @@ fn point(
 }
 
 /// The plain (quasi-steady) windows.
-fn plain_windows(
-    force: &[f64],
-    response: &[f64],
+pub(super) fn plain_windows(
+    src: &mut dyn PairSource,
     law: &PhaseLaw,
     sweep: &SweepFit,
     options: &SweepOptions,
@@ -751,11 +816,9 @@ fn plain_windows(
     let m = lsq.unknowns();
     let mut diag = vec![0.0; m];
     let theta0 = law.phase(sweep.start as f64);
-    // sin/cos of the phase once per sample: windows overlap
-    let sc: Vec<(f64, f64)> = (sweep.start..sweep.end)
-        .map(|n| law.phase(n as f64).sin_cos())
-        .collect();
-    let at = |n: usize| sc[n - sweep.start];
+    // sin/cos of the phase once per sample (windows overlap), kept from the
+    // current window on
+    let mut phasors = Phasors::default();
     let mut model = [0.0; 2];
     let mut out = Vec::new();
     let (mut na, mut nb) = (sweep.start, sweep.start);
@@ -772,10 +835,11 @@ fn plain_windows(
         if nb >= sweep.end {
             break;
         }
+        let sc = phasors.over(law, na, nb);
+        let (force, response) = src.pair(na, nb)?;
         lsq.reset();
-        for n in na..nb {
-            let (s1, c1) = at(n);
-            lsq.add_sc(s1, c1, &[force[n], response[n]]);
+        for ((&(s1, c1), &f), &y) in sc.iter().zip(force).zip(response) {
+            lsq.add_sc(s1, c1, &[f, y]);
         }
         if nb - na <= m || !lsq.solve() {
             return Err(Error::input(
@@ -786,51 +850,63 @@ fn plain_windows(
                 ),
             ));
         }
-        let mut fh = vec![Complex64::default(); width];
-        let mut yh = vec![Complex64::default(); width];
-        lsq.harmonics(0, &mut fh);
-        lsq.harmonics(1, &mut yh);
+        let mut harmonics = Harmonics::new(width);
+        lsq.harmonics(0, harmonics.of_mut(0));
+        lsq.harmonics(1, harmonics.of_mut(1));
         // residual variances by a second pass (the cheap Σy² − cᵀAᵀy loses
         // precision on clean data)
         let (mut rf, mut ry) = (0.0, 0.0);
-        for n in na..nb {
-            let (s1, c1) = at(n);
+        for ((&(s1, c1), &f), &y) in sc.iter().zip(force).zip(response) {
             lsq.model_sc(s1, c1, &mut model);
-            rf += (force[n] - model[0]).powi(2);
-            ry += (response[n] - model[1]).powi(2);
+            rf += (f - model[0]).powi(2);
+            ry += (y - model[1]).powi(2);
         }
         let dof = (nb - na - m) as f64;
         let (sf, sy) = (rf / dof, ry / dof);
         lsq.inverse_diagonal(&mut diag);
-        let var = |s: f64| {
-            (0..width)
-                .map(|h| {
-                    if h == 0 {
-                        s * diag[0]
-                    } else {
-                        s * (diag[2 * h - 1] + diag[2 * h])
-                    }
-                })
-                .collect::<Vec<f64>>()
-        };
+        for (ch, s) in [sf, sy].into_iter().enumerate() {
+            for h in 0..width {
+                let v = if h == 0 {
+                    s * diag[0]
+                } else {
+                    s * (diag[2 * h - 1] + diag[2 * h])
+                };
+                harmonics.variances[ch * width + h] = v;
+            }
+        }
         out.push(WindowFit {
             center: 0.5 * (na + nb - 1) as f64,
-            force: fh,
-            response: yh,
-            force_var: var(sf),
-            response_var: var(sy),
+            harmonics,
             residual_var: [sf, sy],
         });
     }
     Ok(out)
 }
 
-/// Compensated harmonics and their variances at one window centre.
-struct Compensated {
-    force: Vec<Complex64>,
-    response: Vec<Complex64>,
-    force_var: Vec<f64>,
-    response_var: Vec<f64>,
+/// `(sin θ(n), cos θ(n))` of the fitted phase over a stretch of samples
+/// that only moves forward: each sample's computed once, and only the
+/// current window's kept (a long record's would be 16 bytes a sample).
+#[derive(Default)]
+struct Phasors {
+    start: usize,
+    sc: Vec<(f64, f64)>,
+}
+
+impl Phasors {
+    fn over(&mut self, law: &PhaseLaw, a: usize, b: usize) -> &[(f64, f64)] {
+        let end = self.start + self.sc.len();
+        if a < self.start || a > end {
+            self.start = a;
+            self.sc.clear();
+        } else {
+            self.sc.drain(..a - self.start);
+            self.start = a;
+        }
+        let from = self.start + self.sc.len();
+        self.sc
+            .extend((from..b).map(|n| law.phase(n as f64).sin_cos()));
+        &self.sc[..b - a]
+    }
 }
 
 /// The compensated harmonics at each window centre (see the module docs):
@@ -839,7 +915,7 @@ struct Compensated {
 /// `c_h(m) = e^{jhα m²/2} e^{−m²/2σ²}` (FFT convolution), then normalised by
 /// the same kernel applied to the record's support, so that a constant
 /// envelope is returned unchanged, also near the record's ends.
-fn compensated(
+pub(super) fn compensated(
     force: &[f64],
     response: &[f64],
     law: &PhaseLaw,
@@ -847,7 +923,7 @@ fn compensated(
     windows: &[WindowFit],
     sigma_samples: f64,
     k: usize,
-) -> Vec<Compensated> {
+) -> Vec<Harmonics> {
     let PhaseLaw::Quadratic { half, p, .. } = *law else {
         unreachable!("checked by the caller")
     };
@@ -863,33 +939,8 @@ fn compensated(
     let scale = 1.0 / nfft as f64;
     // Nothing of the record's length is kept but the FFT buffers (three of
     // them at a time): the unit phasors `e^{jθ(n)}`, their powers and the
-    // plain envelopes are recomputed per pass, in the same order of
-    // operations as a stored copy would have been, so the same bits.
-    let unit = |i: usize| {
-        let (s, c) = law.phase((start + i) as f64).sin_cos();
-        Complex64::new(c, s)
-    };
-    // the plain envelope interpolated linearly between window centres (held
-    // beyond the first and the last): `(a, b, t)` at sample `i`, from a
-    // cursor `j` that only moves forward within a pass
-    let between = |i: usize, j: &mut usize| {
-        let n = (start + i) as f64;
-        while *j < windows.len() && windows[*j].center <= n {
-            *j += 1;
-        }
-        if *j == 0 {
-            (0, 0, 0.0)
-        } else if *j == windows.len() {
-            (*j - 1, *j - 1, 0.0)
-        } else {
-            let (a, b) = (&windows[*j - 1], &windows[*j]);
-            (*j - 1, *j, (n - a.center) / (b.center - a.center))
-        }
-    };
-    let plain = |ch: usize, h: usize, (a, b, t): (usize, usize, f64)| {
-        let get = |w: &WindowFit| if ch == 0 { w.force[h] } else { w.response[h] };
-        get(&windows[a]) * (1.0 - t) + get(&windows[b]) * t
-    };
+    // plain envelopes are recomputed per pass (`Demodulated`), in the same
+    // order of operations as a stored copy would have been, so the same bits.
     // the record's support, for the normalisation, and Σ|c|² over it, both
     // kept at the window centres only
     let mut support = vec![Complex64::default(); nfft];
@@ -908,17 +959,8 @@ fn compensated(
         let energy = convolve(&*inv, &support, g2, scale);
         centers.iter().map(|&c| energy[c].re).collect()
     };
-    let mut out: Vec<Compensated> = windows
-        .iter()
-        .map(|_| Compensated {
-            force: vec![Complex64::default(); width],
-            response: vec![Complex64::default(); width],
-            force_var: vec![0.0; width],
-            response_var: vec![0.0; width],
-        })
-        .collect();
+    let mut out: Vec<Harmonics> = windows.iter().map(|_| Harmonics::new(width)).collect();
     let signals = [force, response];
-    let pw0 = Complex64::new(1.0, 0.0);
     for h in 0..width {
         let hf = h as f64;
         let mut ker = kernel(nfft, reach, |m| {
@@ -932,26 +974,18 @@ fn compensated(
         let factor = if h == 0 { 1.0 } else { 2.0 };
         for ch in 0..2 {
             // this harmonic alone: the signal minus the other harmonics' model
+            let demodulated = Demodulated {
+                law,
+                start,
+                windows,
+                width,
+                ch,
+                h,
+            };
             let mut d = vec![Complex64::default(); nfft];
             let mut j = 0;
             for i in 0..len {
-                let u = unit(i);
-                let at = between(i, &mut j);
-                // the other harmonics' model, and `e^{jhθ}` as `h` successive
-                // products on the way
-                let (mut full, mut pw, mut pw_h) = (0.0, Complex64::new(1.0, 0.0), pw0);
-                for hh in 0..width {
-                    let v = plain(ch, hh, at);
-                    full += if hh == 0 { v.re } else { (v * pw).re };
-                    if hh == h {
-                        pw_h = pw;
-                    }
-                    pw *= u;
-                }
-                let v = plain(ch, h, at);
-                let own = if h == 0 { v.re } else { (v * pw_h).re };
-                let cleaned = signals[ch][start + i] - full + own;
-                d[reach + i] = pw_h.conj() * cleaned;
+                d[reach + i] = demodulated.at(i, signals[ch][start + i], &mut j);
             }
             fwd.process(&mut d);
             let conv = convolve(&*inv, &ker, d, scale);
@@ -962,23 +996,73 @@ fn compensated(
                 // propagated: E|ΔA|² = factor² σ² Σ|c|² / |N|²
                 let var =
                     windows[w].residual_var[ch] * factor * factor * energy[w] / nrm.norm_sqr();
-                let slot = &mut out[w];
-                if ch == 0 {
-                    slot.force[h] = value;
-                    slot.force_var[h] = var;
-                } else {
-                    slot.response[h] = value;
-                    slot.response_var[h] = var;
-                }
+                out[w].set(ch, h, value, var);
             }
         }
     }
     out
 }
 
+/// The compensation's input for harmonic `h` of channel `ch` (0 the force,
+/// 1 the response): the signal less the other harmonics' plain-window
+/// model (interpolated linearly between window centres, held beyond the
+/// first and the last), demodulated by `e^{−jhθ(n)}`.
+pub(super) struct Demodulated<'a> {
+    pub(super) law: &'a PhaseLaw,
+    /// The active sweep's first sample; `i` counts from it.
+    pub(super) start: usize,
+    pub(super) windows: &'a [WindowFit],
+    pub(super) width: usize,
+    pub(super) ch: usize,
+    pub(super) h: usize,
+}
+
+impl Demodulated<'_> {
+    /// At sample `start + i`, whose value is `sample`; `j` is a cursor over
+    /// the windows that only moves forward (start it at 0, or at the first
+    /// window whose centre is after the sample).
+    #[inline]
+    pub(super) fn at(&self, i: usize, sample: f64, j: &mut usize) -> Complex64 {
+        let (windows, h, ch) = (self.windows, self.h, self.ch);
+        let n = (self.start + i) as f64;
+        let (s, c) = self.law.phase(n).sin_cos();
+        let u = Complex64::new(c, s);
+        while *j < windows.len() && windows[*j].center <= n {
+            *j += 1;
+        }
+        let (a, b, t) = if *j == 0 {
+            (0, 0, 0.0)
+        } else if *j == windows.len() {
+            (*j - 1, *j - 1, 0.0)
+        } else {
+            let (a, b) = (&windows[*j - 1], &windows[*j]);
+            (*j - 1, *j, (n - a.center) / (b.center - a.center))
+        };
+        let plain = |hh: usize| {
+            let get = |w: &WindowFit| w.harmonics.of(ch)[hh];
+            get(&windows[a]) * (1.0 - t) + get(&windows[b]) * t
+        };
+        // the other harmonics' model, and `e^{jhθ}` as `h` successive
+        // products on the way
+        let (mut full, mut pw, mut pw_h) =
+            (0.0, Complex64::new(1.0, 0.0), Complex64::new(1.0, 0.0));
+        for hh in 0..self.width {
+            let v = plain(hh);
+            full += if hh == 0 { v.re } else { (v * pw).re };
+            if hh == h {
+                pw_h = pw;
+            }
+            pw *= u;
+        }
+        let v = plain(h);
+        let own = if h == 0 { v.re } else { (v * pw_h).re };
+        pw_h.conj() * (sample - full + own)
+    }
+}
+
 /// A kernel laid out for circular convolution: `m = 0..reach` at the start,
 /// negative `m` at the end.
-fn kernel(nfft: usize, reach: usize, f: impl Fn(f64) -> Complex64) -> Vec<Complex64> {
+pub(super) fn kernel(nfft: usize, reach: usize, f: impl Fn(f64) -> Complex64) -> Vec<Complex64> {
     let mut k = vec![Complex64::default(); nfft];
     for m in 0..=reach {
         let v = f(m as f64);
@@ -991,7 +1075,7 @@ fn kernel(nfft: usize, reach: usize, f: impl Fn(f64) -> Complex64) -> Vec<Comple
 }
 
 /// Inverse FFT of `a · b` (both spectra), scaled.
-fn convolve(
+pub(super) fn convolve(
     inv: &dyn rustfft::Fft<f64>,
     a: &[Complex64],
     mut b: Vec<Complex64>,
