@@ -892,6 +892,41 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
     assert!(far < 5e-3, "{far}");
 }
 
+/// Where the band shows no resonance (a mode at 400 Hz swept up from 10 Hz
+/// at 1 kHz), the automatic compensation is four of the sweep's time
+/// constants `1/√|α|`, the same for a sweep twice as long at the same rate
+/// (0.2 Hz/s: 4/√(2π·0.2) = 3.57 s; the rule before took a twelfth of the
+/// sweep, 8.3 and 16.7 s here). With a resonance in the band it is four of the
+/// resonance's (the F-16's in `realdata`).
+#[test]
+fn without_a_resonance_the_compensation_is_the_sweeps_time_scale() {
+    let fs = 1000.0;
+    let model = ModalModel::new(vec![
+        hystid::model::Mode::from_modal_mass(400.0, 0.05, 1.0).unwrap(),
+    ])
+    .unwrap();
+    for seconds in [100.0, 200.0] {
+        let n = (seconds * fs) as usize;
+        let rate = 0.2;
+        let force: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 / fs;
+                (2.0 * PI * (10.0 * t + 0.5 * rate * t * t)).sin()
+            })
+            .collect();
+        let x = Simulator::new(&model, NoElement, fs)
+            .unwrap()
+            .run(&force)
+            .unwrap()
+            .displacement;
+        let opts = SweepOptions::default();
+        let sigma = extract::choose_compensation(&force, &x, fs, &opts).unwrap();
+        let want = extract::TIME_CONSTANTS / (2.0 * PI * rate).sqrt();
+        eprintln!("{seconds} s: sigma {sigma:.4} s, want {want:.4} s");
+        assert!((sigma / want - 1.0).abs() < 1e-3, "{sigma} vs {want}");
+    }
+}
+
 /// A logarithmic up-sweep 2 → 20 Hz in 100 s (λ = ln 10/100 s, 1.99
 /// octaves/min): the law is recognised and its rate found to 0.1 %.
 #[test]

@@ -49,8 +49,14 @@ pub fn resonance_time_constant(points: &[FrfPoint]) -> Option<f64> {
 
 /// A compensation window for a swept-sine record: [`TIME_CONSTANTS`] times
 /// the largest resonance's time constant, capped at a sixth of the active
-/// sweep (so the kernel fits in the record; half the cap when no resonance
-/// shows). The sweep broadens the plain (uncompensated) reduction's peak,
+/// sweep (so the kernel fits in the record). When no resonance shows (no
+/// half-power crossing on one side of the peak), [`TIME_CONSTANTS`] times
+/// the sweep's own time scale `1/√|α|` (`α` the sweep rate in rad/s²), at
+/// most half the cap: a mode whose `τ` is within it is swept nearly
+/// quasi-steadily (`ατ² ≤ 1`), and a mode swept slower would show as a
+/// resonance. (Half the cap alone, as before 2026-11-27, grew with the
+/// sweep's duration: 50 s on a 10-minute sweep, mixing the response over
+/// minutes and holding a kernel of 8 M frames at 20 kHz.) The sweep broadens the plain (uncompensated) reduction's peak,
 /// which shortens `τ`, so `τ` is measured again on the reduction compensated
 /// with the first estimate, and the larger `σ` kept. `options` are those of
 /// the reductions (their `compensation_s` is ignored).
@@ -79,8 +85,10 @@ pub(crate) fn choose_compensation_by(
     let plain = reduce(&plain_options)?;
     let duration = (plain.sweep.end - plain.sweep.start) as f64 / sample_rate_hz;
     let cap = duration / 6.0;
+    let alpha = 2.0 * PI * plain.sweep.rate_hz_per_s.abs();
+    let no_resonance = (TIME_CONSTANTS / alpha.sqrt()).min(cap / 2.0);
     let sigma = |points: &[FrfPoint]| {
-        resonance_time_constant(points).map_or(cap / 2.0, |t| (TIME_CONSTANTS * t).min(cap))
+        resonance_time_constant(points).map_or(no_resonance, |t| (TIME_CONSTANTS * t).min(cap))
     };
     let first = sigma(&plain.level.points);
     // a long sweep's points are many: not held through the second reduction
