@@ -972,7 +972,7 @@ pub(super) fn compensated(
             centers.iter().map(|&c| norm[c]).collect()
         };
         let factor = if h == 0 { 1.0 } else { 2.0 };
-        for ch in 0..2 {
+        for (ch, signal) in signals.iter().enumerate() {
             // this harmonic alone: the signal minus the other harmonics' model
             let demodulated = Demodulated {
                 law,
@@ -985,7 +985,7 @@ pub(super) fn compensated(
             let mut d = vec![Complex64::default(); nfft];
             let mut j = 0;
             for i in 0..len {
-                d[reach + i] = demodulated.at(i, signals[ch][start + i], &mut j);
+                d[reach + i] = demodulated.at(i, signal[start + i], &mut j);
             }
             fwd.process(&mut d);
             let conv = convolve(&*inv, &ker, d, scale);
