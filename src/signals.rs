@@ -219,3 +219,48 @@ pub trait FrameSource {
     /// Errors: `start` beyond the end, or the read fails.
     fn read_at(&mut self, start: usize, count: usize, out: &mut [Vec<f64>]) -> Result<usize>;
 }
+
+/// A recording in memory read as a file is ([`FrameSource`]), for the stages
+/// that read one a stretch at a time (the coil's fit from arrays a binding
+/// hands over, say).
+pub struct InMemoryFrames<'a> {
+    recording: &'a Recording,
+    name: String,
+}
+
+impl<'a> InMemoryFrames<'a> {
+    /// `recording`, named `name` in errors.
+    pub fn new(recording: &'a Recording, name: impl Into<String>) -> InMemoryFrames<'a> {
+        InMemoryFrames {
+            recording,
+            name: name.into(),
+        }
+    }
+}
+
+impl FrameSource for InMemoryFrames<'_> {
+    fn meta(&self) -> &RecordingMeta {
+        &self.recording.meta
+    }
+    fn frames(&self) -> usize {
+        self.recording.frames()
+    }
+    fn source_name(&self) -> String {
+        self.name.clone()
+    }
+    fn read_at(&mut self, start: usize, count: usize, out: &mut [Vec<f64>]) -> Result<usize> {
+        let frames = self.frames();
+        if start > frames {
+            return Err(crate::error::Error::input(
+                &self.name,
+                format!("frame {start} is beyond its {frames} frames"),
+            ));
+        }
+        let end = start.saturating_add(count).min(frames);
+        for (o, c) in out.iter_mut().zip(&self.recording.channels) {
+            o.clear();
+            o.extend_from_slice(&c[start..end]);
+        }
+        Ok(end - start)
+    }
+}

@@ -16,6 +16,8 @@ function            returns                                     the command's
 ``identify``        the fit                                     ``fit.json``
 ``diagnose``        the diagnosis                               ``diagnosis.json``
 ``validate``        the validation (+ the simulated response)   ``validate.json``
+``fit_coil``        the shaker's coil (R, L, Bl)                ``fit.json``'s
+                                                                ``coil``
 ==================  ==========================================  =================
 
 Errors are :class:`HystidError` (a ``ValueError``) carrying the message the
@@ -39,6 +41,7 @@ __all__ = [
     "Model",
     "diagnose",
     "extract",
+    "fit_coil",
     "identify",
     "identify_time",
     "model",
@@ -385,6 +388,31 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, progress=None, **k
         None if fit is None else json.dumps(fit),
         None if candidates is None else list(candidates),
         progress,
+    )
+    return json.loads(text)
+
+
+def fit_coil(voltage, force, motion, sample_rate_hz, *, steps, motion_quantity="velocity"):
+    """The shaker's coil from a stepped recording that holds the amplifier's
+    voltage, the force the shaker applies (a force gauge between it and the
+    structure) and the drive point's motion, as ``hystid identify`` reports
+    it in ``fit.json``'s ``coil``: ``r`` (ohm), ``l`` (H), ``bl`` (N/A), the
+    shaker model's ``ce`` (Bl^2/R), ``te`` (L/R) and ``gain`` (Bl/R), the
+    ``dwells`` used and the equations' relative ``residual``.
+
+    At each dwell's fundamental the coil obeys ``F (1 + j w te) = gain e -
+    ce v``, two real equations linear in ``(gain, ce, te)``, solved by least
+    squares over the dwells. ``steps``: the dwells, as in :func:`extract`
+    (their ``settle`` frames are left out); ``motion_quantity``:
+    ``"velocity"``, ``"displacement"`` or ``"acceleration"``.
+    """
+    text = _hystid.fit_coil(
+        _f64(voltage, "voltage"),
+        _f64(force, "force"),
+        _f64(motion, "motion"),
+        motion_quantity,
+        float(sample_rate_hz),
+        _excitation(steps, None),
     )
     return json.loads(text)
 

@@ -735,6 +735,33 @@ fn validate<'py>(
     Ok((to_json(&report)?, simulated.into_pyarray(py)))
 }
 
+/// The shaker's coil (fit.json's `coil`: R, L, Bl and the shaker model's
+/// terms) from a stepped recording's voltage, the force the shaker applies
+/// and the drive point's motion, dwell by dwell (`excitation`: its steps).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn fit_coil<'py>(
+    py: Python<'py>,
+    voltage: PyReadonlyArray1<'py, f64>,
+    force: PyReadonlyArray1<'py, f64>,
+    motion: PyReadonlyArray1<'py, f64>,
+    motion_quantity: String,
+    sample_rate_hz: f64,
+    excitation: String,
+) -> PyResult<String> {
+    let excitation: hystid::record::Excitation = from_json("excitation", &excitation)?;
+    let q = quantity("motion_quantity", &motion_quantity)?;
+    let (e, f, m) = (
+        slice("voltage", &voltage)?.to_vec(),
+        slice("force", &force)?.to_vec(),
+        slice("motion", &motion)?.to_vec(),
+    );
+    let coil = py
+        .detach(|| hystid::fit::coil::fit_coil_of_signals(e, f, m, q, sample_rate_hz, excitation))
+        .map_err(err)?;
+    to_json(&coil)
+}
+
 /// A time-domain fit (fit.json, as `hystid identify --domain time`): of
 /// an FRF fit's model (`fit`, fit.json, refined as the command refines it),
 /// of a model written down (`start`, as `--start`), or with neither of
@@ -897,5 +924,6 @@ fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(identify_time, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_coil, m)?)?;
     Ok(())
 }

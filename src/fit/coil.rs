@@ -182,6 +182,98 @@ pub fn fit_coil(source: &mut impl FrameSource) -> Result<Option<CoilFit>> {
     }))
 }
 
+/// [`fit_coil`] of signals in memory: the voltage, the force the shaker
+/// applies and the drive point's motion (`motion_quantity`), sampled
+/// together at `sample_rate_hz`, with the dwells in `excitation.steps` (what
+/// a binding hands over).
+///
+/// Errors: a rate that is not positive, a motion quantity that is not one,
+/// lengths that differ, a non-finite sample (named), no steps, and those of
+/// [`fit_coil`].
+pub fn fit_coil_of_signals(
+    voltage: Vec<f64>,
+    force: Vec<f64>,
+    motion: Vec<f64>,
+    motion_quantity: Quantity,
+    sample_rate_hz: f64,
+    excitation: crate::signals::Excitation,
+) -> Result<CoilFit> {
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(Error::input(
+            "sample_rate_hz",
+            format!("must be finite and > 0, got {sample_rate_hz}"),
+        ));
+    }
+    if !motion_quantity.is_motion() {
+        return Err(Error::input(
+            "motion_quantity",
+            format!(
+                "must be a displacement, a velocity or an acceleration, not a {motion_quantity}"
+            ),
+        ));
+    }
+    if voltage.len() != force.len() || voltage.len() != motion.len() {
+        return Err(Error::input(
+            "signals",
+            format!(
+                "the voltage, the force and the motion must be sampled together; got {}, {} and \
+                 {} samples",
+                voltage.len(),
+                force.len(),
+                motion.len()
+            ),
+        ));
+    }
+    for (name, x) in [
+        ("voltage", &voltage),
+        ("force", &force),
+        ("motion", &motion),
+    ] {
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(Error::input(
+                format!("{name}[{i}]"),
+                format!("is {}: samples must be finite", x[i]),
+            ));
+        }
+    }
+    if excitation.steps.is_empty() {
+        return Err(Error::input(
+            "steps",
+            "the coil is fitted dwell by dwell: the dwells' steps are needed",
+        ));
+    }
+    let channel = |name: &str, quantity: Quantity| crate::signals::Channel {
+        name: name.into(),
+        quantity,
+        unit: quantity.si_unit().into(),
+        scale: 1.0,
+    };
+    let recording = crate::signals::Recording {
+        meta: crate::signals::RecordingMeta {
+            format: crate::record::FORMAT_V1.into(),
+            sample_rate_hz,
+            channels: vec![
+                channel("voltage", Quantity::Voltage),
+                channel("force", Quantity::Force),
+                channel("motion", motion_quantity),
+            ],
+            excitation,
+            description: String::new(),
+            metadata: Default::default(),
+            extra: Default::default(),
+            chosen_reference: None,
+        },
+        channels: vec![voltage, force, motion],
+    };
+    let mut source = crate::signals::InMemoryFrames::new(&recording, "signals");
+    fit_coil(&mut source)?.ok_or_else(|| {
+        Error::input(
+            "signals",
+            "hold no voltage, force and motion at stated steps to fit a coil to",
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -279,5 +371,42 @@ mod tests {
             scale: 1.0,
         };
         assert_eq!(fitted(&no_force).unwrap(), None);
+    }
+
+    /// The same dwells handed over as arrays (no file: no f32 rounding)
+    /// give the coil to 1e-9, and the same as the file to its f32 rounding;
+    /// arrays without steps are refused naming them.
+    #[test]
+    fn the_coils_dwells_as_arrays_give_it_back() {
+        let rec = dwells(&[150.0, 250.0, 400.0, 700.0]);
+        let mut channels = rec.channels.clone().into_iter();
+        let mut next = || channels.next().unwrap();
+        let (e, f, v) = (next(), next(), next());
+        let got = fit_coil_of_signals(
+            e.clone(),
+            f.clone(),
+            v.clone(),
+            Quantity::Velocity,
+            rec.meta.sample_rate_hz,
+            rec.meta.excitation.clone(),
+        )
+        .unwrap();
+        for (name, value, truth) in [("R", got.r, 1.5), ("L", got.l, 2e-4), ("Bl", got.bl, 12.0)] {
+            assert!(
+                (value / truth - 1.0).abs() < 1e-9,
+                "{name}: {value} vs {truth}"
+            );
+        }
+        let file = fitted(&rec).unwrap().unwrap();
+        assert!((got.bl / file.bl - 1.0).abs() < 1e-5);
+        let no_steps = Excitation {
+            kind: ExcitationKind::SteppedSine,
+            steps: Vec::new(),
+            sweep: None,
+        };
+        let err = fit_coil_of_signals(e, f, v, Quantity::Velocity, 20_000.0, no_steps)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("steps"), "{err}");
     }
 }
