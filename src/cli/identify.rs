@@ -195,23 +195,36 @@ pub fn reduce_recordings(
     quiet: bool,
 ) -> Result<(NonlinearFrf, Reduced)> {
     let options = reduction_options(reduction)?;
-    let mut on_reduced = |path: &Path, red: &Reduced| {
-        if red.truncated {
-            eprintln!(
-                "warning: {} is truncated; analysing the complete chunks",
-                path.display()
-            );
-        }
-        if !quiet {
-            print_reduced(path, red);
-        }
+    // a long sweep takes tens of seconds to reduce: a spinner names the
+    // recording being read
+    let reducing = |i: usize| {
+        recordings
+            .get(i)
+            .map(|p| format!("reducing {}", p.display()))
+            .unwrap_or_default()
     };
-    Ok(hystid::analysis::reduce_recordings(
-        recordings,
-        channels,
-        &options,
-        &mut on_reduced,
-    )?)
+    let pb = progress::spinner(&reducing(0), quiet);
+    pb.enable_steady_tick(std::time::Duration::from_millis(150));
+    let mut done = 0;
+    let mut on_reduced = |path: &Path, red: &Reduced| {
+        pb.suspend(|| {
+            if red.truncated {
+                eprintln!(
+                    "warning: {} is truncated; analysing the complete chunks",
+                    path.display()
+                );
+            }
+            if !quiet {
+                print_reduced(path, red);
+            }
+        });
+        done += 1;
+        pb.set_message(reducing(done));
+    };
+    let reduced =
+        hystid::analysis::reduce_recordings(recordings, channels, &options, &mut on_reduced);
+    pb.finish_and_clear();
+    Ok(reduced?)
 }
 
 /// `hystid identify --start MODEL` (a model written down, a fit.json or a
