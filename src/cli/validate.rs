@@ -3,7 +3,7 @@
 
 use super::args::ValidateArgs;
 use super::identify::reduction_options;
-use super::{EXIT_OK, create_out_dir, write_json};
+use super::{EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::load_recording;
 use hystid::analysis::validate::{
@@ -59,26 +59,34 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             fit.response_sign
         );
     }
+    // a long recording is read, replayed and reduced for seconds: a
+    // spinner names it
+    let pb = progress::spinner("", quiet);
+    pb.enable_steady_tick(std::time::Duration::from_millis(150));
     for path in &args.recordings {
+        pb.set_message(format!("validating on {}", path.display()));
         let channels = hystid::analysis::ChannelChoice {
             response: args.response.as_deref().or(fit.response.as_deref()),
             reference: args.reference.as_deref().or(fit.reference.as_deref()),
         };
         let loaded = load_recording(path, channels)?;
         if loaded.truncated {
-            eprintln!(
-                "warning: {} is truncated; analysing the complete chunks",
-                path.display()
-            );
+            pb.suspend(|| {
+                eprintln!(
+                    "warning: {} is truncated; analysing the complete chunks",
+                    path.display()
+                )
+            });
         }
         let stem = unique_stem(path, &mut used);
         let (entry, written) = validate_on(&fit, path, &loaded, &settings, &args.out, &stem)?;
         files.extend(written);
         if !quiet {
-            print_validation(path, &entry.response, &entry.validation);
+            pb.suspend(|| print_validation(path, &entry.response, &entry.validation));
         }
         entries.push(entry);
     }
+    pb.finish_and_clear();
     let report = ValidateReport {
         command: "validate",
         version: env!("CARGO_PKG_VERSION"),
