@@ -51,19 +51,7 @@ pub(crate) fn analytic(signal: &[f64]) -> Analytic {
         *b = Complex64::new(v - mean, 0.0);
     }
     let mut planner = FftPlanner::<f64>::new();
-    planner.plan_fft_forward(nfft).process(&mut buf);
-    // keep DC and Nyquist, double the positive frequencies, drop the negative
-    let half = nfft / 2;
-    for (k, v) in buf.iter_mut().enumerate() {
-        if k == 0 || (nfft.is_multiple_of(2) && k == half) {
-            continue;
-        } else if k < nfft.div_ceil(2) {
-            *v *= 2.0;
-        } else {
-            *v = Complex64::default();
-        }
-    }
-    planner.plan_fft_inverse(nfft).process(&mut buf);
+    to_analytic(&mut planner, &mut buf);
     let inv = 1.0 / nfft as f64;
     let mut phase = Vec::with_capacity(n);
     let mut amplitude = Vec::with_capacity(n);
@@ -85,6 +73,25 @@ pub(crate) fn analytic(signal: &[f64]) -> Analytic {
         amplitude.push(z.norm());
     }
     Analytic { phase, amplitude }
+}
+
+/// `buf` (a real signal, zero-padded) into `nfft` times its analytic
+/// signal: DC and Nyquist kept, the positive frequencies doubled, the
+/// negative dropped.
+pub(crate) fn to_analytic(planner: &mut FftPlanner<f64>, buf: &mut [Complex64]) {
+    let nfft = buf.len();
+    planner.plan_fft_forward(nfft).process(buf);
+    let half = nfft / 2;
+    for (k, v) in buf.iter_mut().enumerate() {
+        if k == 0 || (nfft.is_multiple_of(2) && k == half) {
+            continue;
+        } else if k < nfft.div_ceil(2) {
+            *v *= 2.0;
+        } else {
+            *v = Complex64::default();
+        }
+    }
+    planner.plan_fft_inverse(nfft).process(buf);
 }
 
 #[cfg(test)]

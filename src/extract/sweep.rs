@@ -188,6 +188,15 @@ impl PhaseLaw {
         }
     }
 
+    /// The chirp rate `α` of a quadratic law, rad/sample² (the
+    /// compensation's; callers have checked the law is quadratic).
+    pub(super) fn chirp_rate(&self) -> f64 {
+        match *self {
+            PhaseLaw::Quadratic { half, p, .. } => 2.0 * p[2] / (half * half),
+            PhaseLaw::Exponential { .. } => unreachable!("checked by the caller"),
+        }
+    }
+
     /// rad per sample.
     pub(super) fn rate(&self, n: f64) -> f64 {
         match *self {
@@ -924,14 +933,11 @@ pub(super) fn compensated(
     sigma_samples: f64,
     k: usize,
 ) -> Vec<Harmonics> {
-    let PhaseLaw::Quadratic { half, p, .. } = *law else {
-        unreachable!("checked by the caller")
-    };
-    let alpha = 2.0 * p[2] / (half * half); // rad/sample²
+    let alpha = law.chirp_rate();
     let (start, end) = (sweep.start, sweep.end);
     let len = end - start;
     let width = k + 1;
-    let reach = ((4.0 * sigma_samples).ceil() as usize).min(len);
+    let reach = reach(sigma_samples, sweep);
     let nfft = super::analytic::next_smooth(len + 2 * reach + 1);
     let mut planner = FftPlanner::<f64>::new();
     let fwd = planner.plan_fft_forward(nfft);
@@ -949,12 +955,9 @@ pub(super) fn compensated(
         .for_each(|v| *v = Complex64::new(1.0, 0.0));
     fwd.process(&mut support);
     let s2 = sigma_samples * sigma_samples;
-    let centers: Vec<usize> = windows
-        .iter()
-        .map(|w| reach + (w.center.round() as usize).clamp(start, end - 1) - start)
-        .collect();
+    let centers: Vec<usize> = window_centres(windows, sweep).map(|c| reach + c).collect();
     let energy: Vec<f64> = {
-        let mut g2 = kernel(nfft, reach, |m| Complex64::new((-(m * m) / s2).exp(), 0.0));
+        let mut g2 = kernel(nfft, reach, |m| gaussian_squared(m, s2));
         fwd.process(&mut g2);
         let energy = convolve(&*inv, &support, g2, scale);
         centers.iter().map(|&c| energy[c].re).collect()
@@ -963,15 +966,12 @@ pub(super) fn compensated(
     let signals = [force, response];
     for h in 0..width {
         let hf = h as f64;
-        let mut ker = kernel(nfft, reach, |m| {
-            Complex64::from_polar((-(m * m) / (2.0 * s2)).exp(), 0.5 * hf * alpha * m * m)
-        });
+        let mut ker = kernel(nfft, reach, |m| chirp_kernel(m, s2, hf * alpha));
         fwd.process(&mut ker);
         let norm: Vec<Complex64> = {
             let norm = convolve(&*inv, &ker, support.clone(), scale);
             centers.iter().map(|&c| norm[c]).collect()
         };
-        let factor = if h == 0 { 1.0 } else { 2.0 };
         for (ch, signal) in signals.iter().enumerate() {
             // this harmonic alone: the signal minus the other harmonics' model
             let demodulated = Demodulated {
@@ -990,17 +990,62 @@ pub(super) fn compensated(
             fwd.process(&mut d);
             let conv = convolve(&*inv, &ker, d, scale);
             for (w, &c) in centers.iter().enumerate() {
-                let nrm = norm[w];
-                let value = conv[c] / nrm * factor;
-                // white noise of the plain window's residual variance σ²,
-                // propagated: E|ΔA|² = factor² σ² Σ|c|² / |N|²
-                let var =
-                    windows[w].residual_var[ch] * factor * factor * energy[w] / nrm.norm_sqr();
-                out[w].set(ch, h, value, var);
+                store(
+                    &mut out[w],
+                    &windows[w],
+                    (ch, h),
+                    conv[c],
+                    norm[w],
+                    energy[w],
+                );
             }
         }
     }
     out
+}
+
+/// Each window's centre as a sample of the active sweep, counted from its
+/// start.
+pub(super) fn window_centres<'a>(
+    windows: &'a [WindowFit],
+    sweep: &SweepFit,
+) -> impl Iterator<Item = usize> + 'a {
+    let (start, end) = (sweep.start, sweep.end);
+    windows
+        .iter()
+        .map(move |w| (w.center.round() as usize).clamp(start, end - 1) - start)
+}
+
+/// The compensation's Gaussian squared, `e^{−m²/σ²}` (`s2 = σ²`): the
+/// noise's propagation through the kernel.
+pub(super) fn gaussian_squared(m: f64, s2: f64) -> Complex64 {
+    Complex64::new((-(m * m) / s2).exp(), 0.0)
+}
+
+/// The compensation's kernel for harmonic `h`, `e^{jhα m²/2} e^{−m²/2σ²}`
+/// (`h_alpha = hα`, `s2 = σ²`).
+pub(super) fn chirp_kernel(m: f64, s2: f64, h_alpha: f64) -> Complex64 {
+    Complex64::from_polar((-(m * m) / (2.0 * s2)).exp(), 0.5 * h_alpha * m * m)
+}
+
+/// Harmonic `h` of channel `ch` at a window from the kernel's sum over the
+/// window's neighbourhood `conv`, normalised by the kernel's sum over the
+/// record's support `norm`; its variance from the plain window's residual
+/// variance `σ²` as white noise, `E|ΔA|² = factor² σ² Σ|c|² / |N|²`
+/// (`energy = Σ|c|²` over the support; `factor` 2 for a harmonic, 1 for
+/// the mean).
+pub(super) fn store(
+    out: &mut Harmonics,
+    window: &WindowFit,
+    (ch, h): (usize, usize),
+    conv: Complex64,
+    norm: Complex64,
+    energy: f64,
+) {
+    let factor = if h == 0 { 1.0 } else { 2.0 };
+    let value = conv / norm * factor;
+    let var = window.residual_var[ch] * factor * factor * energy / norm.norm_sqr();
+    out.set(ch, h, value, var);
 }
 
 /// The compensation's input for harmonic `h` of channel `ch` (0 the force,

@@ -43,7 +43,8 @@
 
 use super::analytic::next_smooth;
 use super::sweep::{
-    Demodulated, Harmonics, PhaseLaw, SweepFit, SweepOptions, WindowFit, fit_phase, kernel, reach,
+    Demodulated, Harmonics, PhaseLaw, SweepFit, SweepOptions, WindowFit, chirp_kernel, fit_phase,
+    gaussian_squared, kernel, reach, store, window_centres,
 };
 use crate::error::{Error, Result};
 use crate::signals::FrameSource;
@@ -255,18 +256,7 @@ pub(super) fn fit_sweep_in_blocks(
             };
             *z = Complex64::new((v - mean) * w, 0.0);
         }
-        planner.plan_fft_forward(nfft).process(&mut buf);
-        let half = nfft / 2;
-        for (k, v) in buf.iter_mut().enumerate() {
-            if k == 0 || (nfft.is_multiple_of(2) && k == half) {
-                continue;
-            } else if k < nfft.div_ceil(2) {
-                *v *= 2.0;
-            } else {
-                *v = Complex64::default();
-            }
-        }
-        planner.plan_fft_inverse(nfft).process(&mut buf);
+        super::analytic::to_analytic(&mut planner, &mut buf);
         let inv = 1.0 / nfft as f64;
         // unwrap from frame `a`, joined to the block before by whole turns
         let first = buf[a - lo].arg();
@@ -385,10 +375,7 @@ pub(super) fn compensated_in_blocks(
     k: usize,
     blocks: &Blocks,
 ) -> Result<Vec<Harmonics>> {
-    let PhaseLaw::Quadratic { half, p, .. } = *law else {
-        unreachable!("checked by the caller")
-    };
-    let alpha = 2.0 * p[2] / (half * half); // rad/sample²
+    let alpha = law.chirp_rate();
     let (start, end) = (sweep.start, sweep.end);
     let len = end - start;
     let width = k + 1;
@@ -401,12 +388,9 @@ pub(super) fn compensated_in_blocks(
     let inv = planner.plan_fft_inverse(nfft);
     let scale = 1.0 / nfft as f64;
     let s2 = sigma_samples * sigma_samples;
-    let centers: Vec<usize> = windows
-        .iter()
-        .map(|w| (w.center.round() as usize).clamp(start, end - 1) - start)
-        .collect();
+    let centers: Vec<usize> = window_centres(windows, sweep).collect();
     let energy: Vec<f64> = {
-        let sums = KernelSums::new(r, &|m| Complex64::new((-(m * m) / s2).exp(), 0.0));
+        let sums = KernelSums::new(r, &|m| gaussian_squared(m, s2));
         centers
             .iter()
             .map(|&c| sums.over_support(c, len).re)
@@ -416,15 +400,13 @@ pub(super) fn compensated_in_blocks(
     let mut seg = vec![Complex64::default(); nfft];
     for h in 0..width {
         let hf = h as f64;
-        let f =
-            |m: f64| Complex64::from_polar((-(m * m) / (2.0 * s2)).exp(), 0.5 * hf * alpha * m * m);
+        let f = |m: f64| chirp_kernel(m, s2, hf * alpha);
         let mut ker = kernel(nfft, r, f);
         fwd.process(&mut ker);
         let norm: Vec<Complex64> = {
             let sums = KernelSums::new(r, &f);
             centers.iter().map(|&c| sums.over_support(c, len)).collect()
         };
-        let factor = if h == 0 { 1.0 } else { 2.0 };
         for ch in 0..2 {
             let demodulated = Demodulated {
                 law,
@@ -456,11 +438,8 @@ pub(super) fn compensated_in_blocks(
                 inv.process(&mut seg);
                 while next < centers.len() && centers[next] < ob {
                     let w = next;
-                    let nrm = norm[w];
-                    let value = seg[centers[w] - o + r] / nrm * factor;
-                    let var =
-                        windows[w].residual_var[ch] * factor * factor * energy[w] / nrm.norm_sqr();
-                    out[w].set(ch, h, value, var);
+                    let conv = seg[centers[w] - o + r];
+                    store(&mut out[w], &windows[w], (ch, h), conv, norm[w], energy[w]);
                     next += 1;
                 }
             }
