@@ -56,10 +56,11 @@ pub fn resonance_time_constant(points: &[FrfPoint]) -> Option<f64> {
 /// quasi-steadily (`ατ² ≤ 1`), and a mode swept slower would show as a
 /// resonance. (Half the cap alone, as before 2026-11-27, grew with the
 /// sweep's duration: 50 s on a 10-minute sweep, mixing the response over
-/// minutes and holding a kernel of 8 M frames at 20 kHz.) The sweep broadens the plain (uncompensated) reduction's peak,
-/// which shortens `τ`, so `τ` is measured again on the reduction compensated
-/// with the first estimate, and the larger `σ` kept. `options` are those of
-/// the reductions (their `compensation_s` is ignored).
+/// minutes and holding a kernel of 8 M frames at 20 kHz.) The sweep
+/// broadens the plain (uncompensated) reduction's peak, which shortens `τ`,
+/// so `τ` is measured again on the reduction compensated with the first
+/// estimate, and the larger `σ` kept. `options` are those of the reductions
+/// (their `compensation_s` is ignored).
 pub fn choose_compensation(
     force: &[f64],
     response: &[f64],

@@ -735,7 +735,7 @@ pub(super) fn reduce_sweep_from(
                 ));
             };
             let sigma_samples = sigma * sample_rate_hz;
-            let compensated = if frames + 2 * reach(sigma_samples, &sweep) < blocks.whole {
+            let compensated = if frames <= blocks.whole {
                 let (force, response) = src.pair(0, frames)?;
                 compensated(force, response, &law, &sweep, &windows, sigma_samples, k)
             } else {
