@@ -2,7 +2,11 @@
 //! ([`crate::diagnose`]), and its files: `diagnosis.json`, `diagnosis.md`
 //! and the residual figures.
 
+use super::recording::ReplayReduction;
 use super::write_json;
+use crate::diagnose::time_residual::{
+    TimeResidual, TracedCandidate, share_explained, time_residual,
+};
 use crate::diagnose::{DiagnoseOptions, Diagnosis, Effect, Verdict, diagnose_observed};
 use crate::error::Result;
 use crate::extract::NonlinearFrf;
@@ -44,9 +48,20 @@ pub struct TimeRefinement {
     /// in time: whether the recordings need it.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub checks: Vec<EffectCheck>,
-    /// The candidates the FRF diagnosis did not keep that came closest,
-    /// each added to the final model and refitted in time: whether the
-    /// recordings need it.
+    /// The refitted model's residual in the FRFs' plane (the measured
+    /// response and the model's replay reduced alike), with the candidates
+    /// traced in it when some are put to the time histories
+    /// ([`crate::diagnose::time_residual`]); `None` where the recordings
+    /// were not given for it, or it failed (see `residual_failed`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual: Option<TimeResidual>,
+    /// Why the time residual could not be reduced or traced.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_failed: Option<String>,
+    /// The candidates put to the time histories, each added to the final
+    /// model and refitted in time: whether the recordings need it. Those
+    /// that explain the most of the time residual (`residual.traced`), else
+    /// those the FRF diagnosis came closest to keeping.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub proposals: Vec<TimeProposal>,
 }
@@ -160,6 +175,7 @@ pub fn refine_in_time(
     band_hz: Option<(f64, f64)>,
     diagnose_options: &DiagnoseOptions,
     predictor: &HbPredictor,
+    replays: Option<&ReplayReduction>,
     observer: &dyn Observer,
 ) -> Result<TimeRefinement> {
     let patience = diagnose_options.patience;
@@ -294,11 +310,33 @@ pub fn refine_in_time(
             }
         }
     }
-    // then the other way: the candidates the FRFs came closest to keeping,
-    // each added to the final model and refitted in time (briefly: it starts
-    // next to the refined model); the best that lowers the misfit by more
-    // than a confirmation asks is added, which the confirmation would then
-    // keep
+    // the refitted model's residual in the FRFs' plane; with proposals
+    // asked, every candidate traced in it
+    let want = diagnose_options.time_proposals > 0;
+    let (residual, traced_starts, residual_failed) = match replays {
+        Some(rr) => match trace_time_residual(
+            d,
+            frf,
+            rr,
+            &refit.model,
+            records,
+            options,
+            band_hz,
+            diagnose_options,
+            predictor,
+            &checks,
+            want,
+        ) {
+            Ok((r, starts)) => (Some(r), Some(starts), None),
+            Err(e) => (None, None, Some(e.to_string())),
+        },
+        None => (None, None, None),
+    };
+    // then the other way: the candidates that explain the most of the time
+    // residual (else those the FRFs came closest to keeping), each added to
+    // the final model and refitted in time (briefly: it starts next to the
+    // refined model); the best that lowers the misfit by more than a
+    // confirmation asks is added, which the confirmation would then keep
     let with = misfit(&refit.after);
     let proposal_options = TimeFitOptions {
         patience: options.patience.min(PROPOSAL_PATIENCE),
@@ -306,34 +344,55 @@ pub fn refine_in_time(
     };
     let mut proposals: Vec<TimeProposal> = Vec::new();
     let mut best: Option<(usize, crate::model::Model)> = None;
-    for effect in time_proposals(d, &checks, diagnose_options.time_proposals) {
-        let start = match crate::diagnose::candidate_on_final(
-            d,
-            frf,
-            effect,
-            diagnose_options,
-            predictor,
-        ) {
-            Ok(Some(m)) => m,
-            Ok(None) => {
-                proposals.push(TimeProposal::failed(
+    let put: Vec<(Effect, Option<crate::model::Model>)> = match (&residual, traced_starts) {
+        (Some(r), Some(mut starts)) if want => r
+            .traced
+            .iter()
+            .filter(|t| t.failed.is_none() && t.share > MIN_TRACED_SHARE)
+            .take(diagnose_options.time_proposals)
+            .map(|t| {
+                let i = starts.iter().position(|(e, _)| *e == t.effect);
+                (t.effect, i.map(|i| starts.swap_remove(i).1))
+            })
+            .collect(),
+        _ => time_proposals(d, &checks, diagnose_options.time_proposals)
+            .into_iter()
+            .map(|e| (e, None))
+            .collect(),
+    };
+    for (effect, traced_start) in put {
+        let start = match traced_start {
+            Some(m) => m,
+            None => {
+                let start = match crate::diagnose::candidate_on_final(
+                    d,
+                    frf,
                     effect,
-                    "no start in the residual".into(),
-                ));
-                continue;
-            }
-            Err(e) => {
-                proposals.push(TimeProposal::failed(
-                    effect,
-                    format!("its FRF refit failed: {e}"),
-                ));
-                continue;
+                    diagnose_options,
+                    predictor,
+                ) {
+                    Ok(Some(m)) => m,
+                    Ok(None) => {
+                        proposals.push(TimeProposal::failed(
+                            effect,
+                            "no start in the residual".into(),
+                        ));
+                        continue;
+                    }
+                    Err(e) => {
+                        proposals.push(TimeProposal::failed(
+                            effect,
+                            format!("its FRF refit failed: {e}"),
+                        ));
+                        continue;
+                    }
+                };
+                // the effect as the FRFs sized it, on the final model as the
+                // time domain refined it: the FRF refit moves the shared
+                // parameters away from where the recordings want them
+                grafted(&start, &refit.model, options.refine_linear, band_hz)
             }
         };
-        // the effect as the FRFs sized it, on the final model as the time
-        // domain refined it: the FRF refit moves the shared parameters
-        // away from where the recordings want them
-        let start = grafted(&start, &refit.model, options.refine_linear, band_hz);
         let p = time_parameters(&start, options.refine_linear, band_hz);
         match identify_time(&start, p, sign, records, &proposal_options, None) {
             Ok(r) => {
@@ -385,8 +444,100 @@ pub fn refine_in_time(
         baseline,
         refit,
         checks,
+        residual,
+        residual_failed,
         proposals,
     })
+}
+
+/// A candidate is put to the time histories only where it explains more
+/// than this share of the time residual's `χ²` (see
+/// [`crate::diagnose::time_residual`]): below it, the step along its
+/// signature is lost in what the residual holds besides.
+pub const MIN_TRACED_SHARE: f64 = 0.01;
+
+/// The refined model's time residual in the FRFs' plane (its replay of each
+/// recording reduced as the measured response was) and, with `trace`, each
+/// candidate that may join the model traced in it: started on the FRFs as
+/// the diagnosis starts it on its final model, grafted onto the refined
+/// model, its signature the change of the refined model's harmonic-balance
+/// FRFs. Returns the residual and the grafted starts (the proposals' own).
+#[allow(clippy::too_many_arguments)]
+fn trace_time_residual(
+    d: &Diagnosis,
+    frf: &NonlinearFrf,
+    replays: &ReplayReduction,
+    refined: &crate::model::Model,
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+    band_hz: Option<(f64, f64)>,
+    diagnose_options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+    checks: &[EffectCheck],
+    trace: bool,
+) -> Result<(TimeResidual, Vec<(Effect, crate::model::Model)>)> {
+    let params = time_parameters(refined, options.refine_linear, band_hz);
+    let problem = TimeProblem::new(
+        refined.clone(),
+        params,
+        records,
+        d.response_sign,
+        options.clone(),
+        None,
+    )?;
+    let replayed = replays.replayed(&problem.replays_of(refined)?)?;
+    let data = FitData::from_frf(replays.measured(), &d.harmonics, d.band_hz, None)?
+        .with_sign(d.response_sign);
+    let rdata =
+        FitData::from_frf(&replayed, &d.harmonics, d.band_hz, None)?.with_sign(d.response_sign);
+    let (mut residual, pred) = time_residual(&data, &rdata);
+    if !trace {
+        return Ok((residual, Vec::new()));
+    }
+    // what may join the model: not in it, not just dropped by a check
+    let effects: Vec<Effect> = diagnose_options
+        .candidates
+        .iter()
+        .copied()
+        .filter(|e| e.candidate().applies_to(refined))
+        .filter(|e| !d.selected.iter().any(|s| s.effect == *e))
+        .filter(|e| !checks.iter().any(|k| k.effect == *e))
+        .collect();
+    let starts =
+        crate::diagnose::candidates_on_final(d, frf, &effects, diagnose_options, predictor)?;
+    let without = predictor.predict_from(refined, &data, None)?;
+    let mut grafts = Vec::new();
+    for (&effect, start) in effects.iter().zip(starts) {
+        let failed = |why: String| TracedCandidate {
+            effect,
+            share: f64::NAN,
+            failed: Some(why),
+        };
+        residual.traced.push(match start {
+            Ok(Some(m)) => {
+                let g = grafted(&m, refined, options.refine_linear, band_hz);
+                match predictor.predict_from(&g, &data, None) {
+                    Ok(with) => {
+                        grafts.push((effect, g));
+                        TracedCandidate {
+                            effect,
+                            share: share_explained(&data, &pred, &without, &with),
+                            failed: None,
+                        }
+                    }
+                    Err(e) => failed(format!("its FRFs could not be predicted: {e}")),
+                }
+            }
+            Ok(None) => failed("no start in the residual".into()),
+            Err(e) => failed(format!("its FRF refit failed: {e}")),
+        });
+    }
+    // the largest share first; those not traced last
+    residual.traced.sort_by(|a, b| {
+        let key = |t: &TracedCandidate| if t.share.is_nan() { -1.0 } else { t.share };
+        key(b).total_cmp(&key(a)).then(a.effect.cmp(&b.effect))
+    });
+    Ok((residual, grafts))
 }
 
 /// `candidate` with every parameter it shares by name with `refined` (the
@@ -453,6 +604,45 @@ fn time_proposals(d: &Diagnosis, checks: &[EffectCheck], at_most: usize) -> Vec<
     }
     effects.truncate(at_most);
     effects
+}
+
+/// The time residual in words: its `χ²` per degree of freedom by harmonic
+/// and by level (the measured response against the refitted model's replay,
+/// reduced alike), and the candidates traced in it.
+pub fn time_residual_lines(r: &TimeResidual) -> Vec<String> {
+    let f = &r.features;
+    let by_h = f
+        .chi2_per_dof_by_harmonic
+        .iter()
+        .map(|(h, c)| format!("H{h} {c:.3}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let by_level = f
+        .chi2_per_dof_by_level
+        .iter()
+        .map(|(l, c)| format!("{} {c:.3}", crate::diagnose::fmt_value(*l)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let mut out = vec![format!(
+        "the time residual in the FRFs' plane ({} points, the replay reduced as the recordings were): \
+         chi2/dof by harmonic {by_h}; fundamental by level {by_level}",
+        r.points
+    )];
+    if !r.traced.is_empty() {
+        let shares = r
+            .traced
+            .iter()
+            .map(|t| match &t.failed {
+                None => format!("{} {:.1} %", t.effect.name(), 100.0 * t.share),
+                Some(_) => format!("{} not traced", t.effect.name()),
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        out.push(format!(
+            "the share of it each candidate explains (a step along its own FRF change): {shares}"
+        ));
+    }
+    out
 }
 
 /// `diagnosis.json`: the diagnosis with the command and its wall time.
@@ -613,10 +803,49 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             };
         }
     }
+    if let Some(r) = &t.residual {
+        let _ = writeln!(
+            s,
+            "\nThe refitted model's residual in the FRFs' plane: the model's replay of each \
+             recording reduced as the recording was, against the measured FRFs ({} points; \
+             chi-square per degree of freedom, 1 is the noise):\n\n\
+             | harmonic | chi2/dof |\n|---|---|",
+            r.points
+        );
+        for (h, c) in &r.features.chi2_per_dof_by_harmonic {
+            let _ = writeln!(s, "| {h} | {c:.3} |");
+        }
+        let _ = writeln!(s, "\n| level | chi2/dof of the fundamental |\n|---|---|");
+        for (l, c) in &r.features.chi2_per_dof_by_level {
+            let _ = writeln!(s, "| {} | {c:.3} |", crate::diagnose::fmt_value(*l));
+        }
+        if !r.traced.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nEach candidate that may join the model traced in it: the share of its \
+                 chi-square a step along the candidate's own FRF change removes (put to the \
+                 time histories, the largest first, above {:.0} %):\n\n\
+                 | candidate | share |\n|---|---|",
+                100.0 * MIN_TRACED_SHARE
+            );
+            for c in &r.traced {
+                let _ = match &c.failed {
+                    Some(why) => writeln!(s, "| {} | not traced: {why} |", c.effect.name()),
+                    None => writeln!(s, "| {} | {:.1} % |", c.effect.name(), 100.0 * c.share),
+                };
+            }
+        }
+    }
+    if let Some(why) = &t.residual_failed {
+        let _ = writeln!(
+            s,
+            "\nThe time residual could not be reduced or traced: {why}"
+        );
+    }
     if !t.proposals.is_empty() {
         let _ = writeln!(
             s,
-            "\nThe candidates the FRFs came closest to keeping, each added to the final model \
+            "\nThe candidates put to the time histories, each added to the final model \
              and refitted in time (added when the misfit falls by more than {:.1} %; the best \
              such):\n\n\
              | effect | misfit with it | fall | added |\n|---|---|---|---|",

@@ -674,6 +674,106 @@ pub fn reduce_recordings(
     Ok((combine_recordings(&sets)?, first))
 }
 
+/// Recordings held with the reduction each was given, so that a model's
+/// replay of each is reduced exactly as the measured response was: the same
+/// reduction of the same reference (the same windows, the same frequencies)
+/// and the same sweep compensation, the automatic one resolved once on the
+/// measured response. The difference of the two FRF sets is a time-domain
+/// residual in the plane the FRFs live in
+/// ([`crate::diagnose::time_residual`]).
+pub struct ReplayReduction {
+    sources: Vec<(PathBuf, Loaded, ReductionOptions)>,
+    measured: NonlinearFrf,
+}
+
+impl ReplayReduction {
+    /// Loads and reduces each recording (whole: a replay needs every
+    /// sample anyway).
+    pub fn new(
+        recordings: &[PathBuf],
+        choice: ChannelChoice,
+        reduction: &ReductionOptions,
+    ) -> Result<ReplayReduction> {
+        let mut sources = Vec::with_capacity(recordings.len());
+        let mut sets = Vec::with_capacity(recordings.len());
+        for path in recordings {
+            let at = |e| Error::context(format!("reducing {}", path.display()), e);
+            let loaded = load_recording(path, choice).map_err(at)?;
+            let red = reduce(&loaded, reduction).map_err(at)?;
+            let fixed = ReductionOptions {
+                excitation: Some(red.excitation),
+                compensation: match red.sweep {
+                    Some((_, Some(s))) => Compensation::Seconds(s),
+                    Some((_, None)) => Compensation::Off,
+                    None => reduction.compensation,
+                },
+                ..reduction.clone()
+            };
+            sets.push((path.clone(), red.frf));
+            sources.push((path.clone(), loaded, fixed));
+        }
+        Ok(ReplayReduction {
+            measured: combine_recordings(&sets)?,
+            sources,
+        })
+    }
+
+    /// The measured FRFs, as [`reduce_recordings`] combines them.
+    pub fn measured(&self) -> &NonlinearFrf {
+        &self.measured
+    }
+
+    /// The FRFs of `responses` (one per recording, in order, every sample:
+    /// a model's replay) reduced as the measured ones were.
+    pub fn replayed(&self, responses: &[Vec<f64>]) -> Result<NonlinearFrf> {
+        if responses.len() != self.sources.len() {
+            return Err(Error::input(
+                "replays",
+                format!(
+                    "{} given for {} recordings",
+                    responses.len(),
+                    self.sources.len()
+                ),
+            ));
+        }
+        let mut sets = Vec::with_capacity(responses.len());
+        for ((path, loaded, options), response) in self.sources.iter().zip(responses) {
+            let rec = &loaded.recording;
+            if response.len() != rec.frames() {
+                return Err(Error::input(
+                    format!("{}: replay", path.display()),
+                    format!("{} samples for {} frames", response.len(), rec.frames()),
+                ));
+            }
+            let replay = Loaded {
+                recording: Recording {
+                    meta: rec.meta.clone(),
+                    channels: rec
+                        .channels
+                        .iter()
+                        .enumerate()
+                        .map(|(c, v)| {
+                            if c == loaded.response {
+                                response.clone()
+                            } else {
+                                v.clone()
+                            }
+                        })
+                        .collect(),
+                },
+                response: loaded.response,
+                truth: None,
+                truncated: loaded.truncated,
+            };
+            let red = reduce(&replay, options).map_err(|e| {
+                Error::context(format!("reducing the replay of {}", path.display()), e)
+            })?;
+            sets.push((path.clone(), red.frf));
+        }
+        combine_recordings(&sets)
+    }
+}
+
 /// Keeps the points inside `band` (all when `None`), dropping emptied levels.
 pub fn band_limited(frf: &NonlinearFrf, band: Option<(f64, f64)>) -> NonlinearFrf {
     let mut out = frf.clone();

@@ -2,12 +2,13 @@
 //! refit, and report the error before and after.
 
 use super::args::{DiagnoseArgs, Domain};
-use super::identify::{fit_options, reduce_recordings, run_fit};
+use super::identify::{fit_options, reduce_recordings, reduction_options, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
 use anyhow::Result;
 use hystid::analysis::diagnose::{
     DiagnosisExtras, TimeOutcome, refine_in_time, write_diagnosis_with,
 };
+use hystid::analysis::recording::ReplayReduction;
 use hystid::analysis::run::FinalModel;
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
 use hystid::extract::NonlinearFrf;
@@ -69,9 +70,20 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         Domain::Time => {
             // a refit that fails leaves the FRF diagnosis standing, with why
             let pb = progress::spinner("refitting in the time domain", quiet);
+            let reduction = reduction_options(&args.reduction)?;
             let t =
                 hystid::analysis::time_records(&args.recordings, args.channels(), options.band_hz)
                     .and_then(|records| {
+                        // the recordings held to reduce the refitted model's
+                        // replay as they were reduced: its residual in the
+                        // FRFs' plane (reported where this fails, not fatal)
+                        let replays =
+                            ReplayReduction::new(&args.recordings, args.channels(), &reduction);
+                        if let Err(e) = &replays {
+                            pb.suspend(|| {
+                                eprintln!("warning: the time residual is not reduced: {e}")
+                            });
+                        }
                         refine_in_time(
                             &mut d,
                             &frf,
@@ -80,6 +92,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                             options.band_hz,
                             &options,
                             &predictor,
+                            replays.as_ref().ok(),
                             &progress::Drawn(&pb),
                         )
                     });
@@ -148,6 +161,14 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                         100.0 * c.rise
                     ),
                 }
+            }
+            if let Some(r) = &t.residual {
+                for line in hystid::analysis::diagnose::time_residual_lines(r) {
+                    say!("  {line}");
+                }
+            }
+            if let Some(why) = &t.residual_failed {
+                say!("  the time residual could not be reduced or traced: {why}");
             }
             for p in &t.proposals {
                 match &p.failed {

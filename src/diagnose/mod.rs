@@ -28,6 +28,7 @@
 
 pub mod candidates;
 pub mod features;
+pub mod time_residual;
 
 pub use candidates::Effect;
 pub use features::{ResidualFeatures, features};
@@ -1419,23 +1420,44 @@ pub fn candidate_on_final(
     options: &DiagnoseOptions,
     predictor: &HbPredictor,
 ) -> Result<Option<Model>> {
+    candidates_on_final(d, frf, &[effect], options, predictor)?
+        .pop()
+        .unwrap_or(Ok(None))
+}
+
+/// [`candidate_on_final`] for each of `effects` (in parallel, each result in
+/// its effect's place): the final model refitted once, every candidate
+/// started from it.
+pub fn candidates_on_final(
+    d: &Diagnosis,
+    frf: &NonlinearFrf,
+    effects: &[Effect],
+    options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+) -> Result<Vec<Result<Option<Model>>>> {
+    use rayon::prelude::*;
     let data = FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?
         .with_sign(d.response_sign)
         .with_transfer(options.fit.transfer || d.response_sign < 0.0);
     let current = refit(&d.model, &data, predictor, None, options.patience)?;
     let identified = candidates::Identified::default();
     let expected = crate::fit::problem::expected_chi_square(&data);
-    Ok(try_candidate(
-        effect,
-        &[&current],
-        frf,
-        &data,
-        options,
-        predictor,
-        &identified,
-        expected,
-    )?
-    .map(|r| r.model))
+    Ok(effects
+        .par_iter()
+        .map(|&effect| {
+            try_candidate(
+                effect,
+                &[&current],
+                frf,
+                &data,
+                options,
+                predictor,
+                &identified,
+                expected,
+            )
+            .map(|r| r.map(|r| r.model))
+        })
+        .collect())
 }
 
 /// `d` with `effect` added to its final model, for an effect the FRFs did

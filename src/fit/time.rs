@@ -551,6 +551,14 @@ impl<'a> TimeProblem<'a> {
         .values)
     }
 
+    /// `model`'s simulated response to every recording, every sample (in
+    /// the recordings' order).
+    pub fn replays_of(&self, model: &Model) -> Result<Vec<Vec<f64>>> {
+        (0..self.records.len())
+            .map(|i| self.replay(model, i))
+            .collect()
+    }
+
     /// Each recording's error figures with `model`.
     pub fn errors(&self, model: &Model) -> Result<Vec<RecordError>> {
         self.records
