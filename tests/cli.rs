@@ -396,6 +396,37 @@ fn diagnose_keeps_the_users_joint_law_in_every_candidate() {
         (0.09..0.103).contains(&diagnosed) && diagnosed < 0.95 * base,
         "final {diagnosed} against baseline {base}"
     );
+    // replayed as the continuous model (the joint's force compensated too):
+    // said in validate.json, and on the same noise floor
+    let v = dir.path().join("val_continuous");
+    let o = hystid(&[
+        "validate",
+        out.join("diagnosis.json").to_str().unwrap(),
+        rec.to_str().unwrap(),
+        "--replay",
+        "continuous",
+        "--out",
+        v.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(v.join("validate.json")).unwrap()).unwrap();
+    assert_eq!(r["recordings"][0]["replay"], "continuous");
+    let continuous = r["recordings"][0]["whole"]["relative"].as_f64().unwrap();
+    eprintln!("e_RMS / RMS replayed as the continuous model: {continuous:.4}");
+    assert!((0.09..0.103).contains(&continuous), "{continuous}");
+    let o = hystid(&[
+        "validate",
+        out.join("diagnosis.json").to_str().unwrap(),
+        rec.to_str().unwrap(),
+        "--replay",
+        "smooth",
+        "--out",
+        dir.path().join("val_refused").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--replay"), "{}", text(&o));
     let o = hystid(&[
         "validate",
         out.join("diagnosis.json").to_str().unwrap(),

@@ -771,6 +771,46 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
         &judged(&replayed),
     );
     let truth_chi2 = &truth_residual.features.chi2_per_dof_by_harmonic;
+    // the same replayed as the continuous model (the joint's force taken as
+    // band-limited too): its fundamental falls to the floor the recording's
+    // own clean response leaves
+    let continuous_options = TimeFitOptions {
+        input: hystid::validate::DriveInput::Continuous,
+        ..TimeFitOptions::default()
+    };
+    let continuous = TimeProblem::new(
+        truth_model.clone(),
+        time_parameters(&truth_model, true, None),
+        &records,
+        t.refit.response_sign,
+        continuous_options.clone(),
+        None,
+    )
+    .unwrap();
+    let continuous_frf = replays
+        .replayed(&continuous.replays_of(&truth_model).unwrap())
+        .unwrap();
+    let (continuous_residual, _) = hystid::diagnose::time_residual::time_residual(
+        &judged(replays.measured()),
+        &judged(&continuous_frf),
+    );
+    let continuous_chi2 = continuous_residual.features.chi2_per_dof_by_harmonic[&1];
+    let continuous_misfit = continuous.errors(&truth_model).unwrap()[0].segment_relative;
+    let clean = replays
+        .replayed(std::slice::from_ref(&rec.clean_response))
+        .unwrap();
+    let (clean_residual, _) = hystid::diagnose::time_residual::time_residual(
+        &judged(replays.measured()),
+        &judged(&clean),
+    );
+    let clean_chi2 = clean_residual.features.chi2_per_dof_by_harmonic[&1];
+    eprintln!(
+        "continuous replay: H1 chi2/dof {continuous_chi2:.3}, misfit {continuous_misfit:.5}; the clean response's {clean_chi2:.3}"
+    );
+    assert!(
+        continuous_chi2 < 1.2 * clean_chi2,
+        "{continuous_chi2} vs {clean_chi2}"
+    );
     eprintln!(
         "the truth's time residual: {truth_chi2:?} over {} points",
         truth_residual.points
@@ -848,6 +888,15 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
         ("the truth's H1 chi2/dof", truth_chi2[&1]),
         ("the truth's H2 chi2/dof", truth_chi2[&2]),
         ("the truth's H3 chi2/dof", truth_chi2[&3]),
+        (
+            "the truth's H1 chi2/dof replayed as the continuous model",
+            continuous_chi2,
+        ),
+        ("the clean response's H1 chi2/dof", clean_chi2),
+        (
+            "the truth's misfit, continuous (%)",
+            100.0 * continuous_misfit,
+        ),
     ];
     let shown = crate::common::readme_figures("The time residual traced on that recording:")
         .expect("README line");

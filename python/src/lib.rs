@@ -698,6 +698,7 @@ fn validate<'py>(
     let fit = FitModel::of_json(fit.as_bytes(), linear, Path::new(origin)).map_err(err)?;
     let s: SettingsJson = from_json("settings", &settings)?;
     let settings = ValidationSettings {
+        input: Default::default(),
         band_hz: s.band_hz,
         window_s: s.window_s,
         min_samples_per_period: s.min_samples_per_period,

@@ -267,6 +267,9 @@ pub struct ValidationSettings {
     /// Each recording is one period of a periodic steady state (see
     /// [`ValidateOptions::periodic`]); no FRF comparison then.
     pub periodic: bool,
+    /// What the reference and the joint's force are between samples (see
+    /// [`crate::validate::DriveInput`]).
+    pub input: crate::validate::DriveInput,
 }
 
 /// A file stem for `path`'s figures not yet in `used` (`name`, `name_2`, …).
@@ -318,7 +321,7 @@ pub fn validate_loaded(
         band_hz: band,
         reduction,
         periodic: settings.periodic,
-        ..ValidateOptions::default()
+        input: settings.input,
     };
     validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)
 }

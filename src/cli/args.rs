@@ -128,6 +128,29 @@ pub struct IdentifyArgs {
     /// upsampled.
     #[arg(long, default_value_t = 40.0)]
     pub min_samples_per_period: f64,
+    /// With `--domain time`: how the model is replayed (see `Replay`).
+    #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
+    pub replay: Replay,
+}
+
+/// How a model is replayed on a measured reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Replay {
+    /// The reference as the band-limited signal its samples stand for; the
+    /// joint's force as the ramp-invariant filters take it.
+    BandLimited,
+    /// The joint's force taken as band-limited too (its sinc² loss inside
+    /// the loop compensated): closer to the continuous model.
+    Continuous,
+}
+
+impl From<Replay> for hystid::validate::DriveInput {
+    fn from(r: Replay) -> Self {
+        match r {
+            Replay::BandLimited => hystid::validate::DriveInput::BandLimited,
+            Replay::Continuous => hystid::validate::DriveInput::Continuous,
+        }
+    }
 }
 
 /// What `identify` fits to.
@@ -256,6 +279,9 @@ pub struct ValidateArgs {
     /// frequency before the simulation is upsampled.
     #[arg(long, default_value_t = 20.0)]
     pub min_samples_per_period: f64,
+    /// How the model is replayed (see `Replay`).
+    #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
+    pub replay: Replay,
     /// Each recording is one period of a periodic steady state (a multisine
     /// test set): the model is driven by it repeated until its slowest mode
     /// has settled, and the last period is compared (no FRF comparison).

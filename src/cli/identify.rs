@@ -323,6 +323,7 @@ fn fit_in_time(
         .collect();
     let options = hystid::fit::TimeFitOptions {
         min_samples_per_period: args.min_samples_per_period,
+        input: args.replay.into(),
         ..Default::default()
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
@@ -413,7 +414,10 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
             let t = hystid::analysis::run_time_fit(
                 &fit,
                 &records,
-                &hystid::fit::TimeFitOptions::default(),
+                &hystid::fit::TimeFitOptions {
+                    input: args.replay.into(),
+                    ..Default::default()
+                },
                 options.band_hz,
                 &progress::Drawn(&pb),
             )?;

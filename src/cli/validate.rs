@@ -32,6 +32,7 @@ pub(super) fn parse_range(text: &str, flag: &str, unit: &str) -> Result<(f64, f6
 pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     let fit = read_fit(&args.fit, args.linear)?;
     let settings = ValidationSettings {
+        input: args.replay.into(),
         band_hz: args
             .band
             .as_deref()

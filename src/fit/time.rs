@@ -974,6 +974,14 @@ pub fn identify_time(
     }
     let (model, _) = problem.model_at(&run.theta)?;
     let mut notes = problem.replay_notes().to_vec();
+    if options.input == DriveInput::Continuous {
+        notes.insert(
+            0,
+            "replayed as the continuous model: the joint's force taken as band-limited, its \
+             sinc^2 loss inside the filters' loop compensated (--replay continuous)"
+                .into(),
+        );
+    }
     if resumed > 0 {
         notes.push(format!(
             "the optimum needed a finer replay grid than the start: the fit was resumed on it \
