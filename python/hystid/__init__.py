@@ -440,6 +440,7 @@ def validate(
     window_periods=4,
     fit_name="",
     recording="",
+    replay="band_limited",
 ):
     """Drives a fitted model (a ``fit.json`` dict) with a measured force and
     compares the simulated response with the measured one, as ``hystid
@@ -452,9 +453,12 @@ def validate(
     of a steady state) and the reduction options are the command's flags;
     ``fit`` is either kind of ``fit.json`` (an FRF fit's, or ``identify
     --domain time --start``'s);
-    ``steps``, ``sweep`` as in :func:`extract`.
+    ``steps``, ``sweep`` as in :func:`extract`; ``replay="continuous"`` is
+    ``--replay continuous`` (the joint's force taken as band-limited too, its
+    ``sinc²`` loss inside the simulator's loop compensated).
     """
     settings = {
+        "replay": str(replay),
         "band_hz": None if band_hz is None else list(band_hz),
         "window_s": None if window_s is None else list(window_s),
         "min_samples_per_period": float(min_samples_per_period),

@@ -661,6 +661,10 @@ struct SettingsJson {
     #[serde(default)]
     periodic: bool,
     reduction: ReductionJson,
+    /// `band_limited` (the default), `continuous` or `ramp` (see
+    /// `hystid::validate::DriveInput`).
+    #[serde(default)]
+    replay: hystid::validate::DriveInput,
 }
 
 fn twenty() -> f64 {
@@ -698,7 +702,7 @@ fn validate<'py>(
     let fit = FitModel::of_json(fit.as_bytes(), linear, Path::new(origin)).map_err(err)?;
     let s: SettingsJson = from_json("settings", &settings)?;
     let settings = ValidationSettings {
-        input: Default::default(),
+        input: s.replay,
         band_hz: s.band_hz,
         window_s: s.window_s,
         min_samples_per_period: s.min_samples_per_period,

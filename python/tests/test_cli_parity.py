@@ -122,6 +122,29 @@ def test_validate_takes_a_diagnosis(py):
     assert val["recordings"][0]["whole"]["relative"] == pytest.approx(fitted, rel=0.02)
 
 
+def test_validate_replays_the_continuous_model_when_asked(py):
+    """`replay="continuous"` is `validate --replay continuous`: said in the
+    report, and on the same 10 % noise floor as the plain replay (the
+    compensation itself is checked in Rust against the stuck loop's closed
+    form); a replay that is not one is refused, naming it."""
+    s, meta = py["test"]["signals"], py["test"]["recording"]
+    fit = py["fit"]
+    val = hystid.validate(
+        fit, s["force"], s["displacement"], meta["sample_rate_hz"],
+        steps=meta["excitation"]["steps"], replay="continuous",
+    )
+    entry = val["recordings"][0]
+    assert entry["replay"] == "continuous"
+    assert py["validate"]["recordings"][0]["replay"] == "band_limited"
+    plain = py["validate"]["recordings"][0]["whole"]["relative"]
+    assert entry["whole"]["relative"] == pytest.approx(plain, rel=0.02)
+    with pytest.raises(Exception, match="replay"):
+        hystid.validate(
+            fit, s["force"], s["displacement"], meta["sample_rate_hz"],
+            steps=meta["excitation"]["steps"], replay="smooth",
+        )
+
+
 def test_validate_periodic_is_hystid_validate_periodic(cli, tmp_path):
     """`periodic=True` is `validate --periodic`: one period of a steady state
     (20 cycles of 200 Hz at 300 N, 0.1 s at 10 kHz, with a made-up

@@ -508,8 +508,9 @@ impl<E: Element> Simulator<E> {
             }
             return Ok(());
         }
-        // (the element force compensated is the general path's: written
-        // into this loop, the build miscompiled it, rustc 1.95 at opt-level 3)
+        // (the element force's compensation lives in the general path: a
+        // first form of it written into this loop gave other results at
+        // opt-level 3 than at 0 with rustc 1.95, a cause not found)
         if self.filters.len() != 1 || self.attached.is_some() || self.compensated {
             for i in 0..n {
                 let s = self.step_modal(input(i))?;
