@@ -457,8 +457,12 @@ def validate(
     ``--replay continuous`` (the joint's force taken as band-limited too, its
     ``sinc²`` loss inside the simulator's loop compensated).
     """
+    if replay not in ("band_limited", "continuous", "ramp"):
+        raise ValueError(
+            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
+        )
     settings = {
-        "replay": str(replay),
+        "replay": replay,
         "band_hz": None if band_hz is None else list(band_hz),
         "window_s": None if window_s is None else list(window_s),
         "min_samples_per_period": float(min_samples_per_period),
