@@ -327,6 +327,7 @@ def identify_time(
     min_samples_per_period=40.0,
     options=None,
     progress=None,
+    replay="band_limited",
     **kwargs,
 ):
     """Fits a model to recorded time histories, as ``hystid identify
@@ -348,7 +349,12 @@ def identify_time(
     ``element`` nearly linear). Fit options as in :func:`identify`
     (``element``, ``band_hz``: what is judged). ``progress``: see
     :data:`PROGRESS` (one event per replay of the recordings).
+    ``replay="continuous"`` is ``--replay continuous`` (see :func:`validate`).
     """
+    if replay not in ("band_limited", "continuous", "ramp"):
+        raise ValueError(
+            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
+        )
     if isinstance(recordings, dict):
         recordings = [recordings]
     parts = list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
@@ -362,6 +368,7 @@ def identify_time(
         None if window_s is None else (float(window_s[0]), float(window_s[1])),
         float(min_samples_per_period),
         progress,
+        replay,
     )
     return json.loads(text)
 

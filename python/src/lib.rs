@@ -773,7 +773,7 @@ fn fit_coil<'py>(
 /// multisine recordings from their linear estimate. One entry per recording
 /// in each list.
 #[pyfunction]
-#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None))]
+#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited")))]
 #[allow(clippy::too_many_arguments)]
 fn identify_time<'py>(
     py: Python<'py>,
@@ -791,8 +791,10 @@ fn identify_time<'py>(
     window_s: Option<(f64, f64)>,
     min_samples_per_period: f64,
     progress: Option<Py<PyAny>>,
+    replay: String,
 ) -> PyResult<String> {
     let progress = Progress::new(progress);
+    let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
     let n = references.len();
     if [
         reference_quantities.len(),
@@ -838,6 +840,7 @@ fn identify_time<'py>(
     };
     let time_options = TimeFitOptions {
         min_samples_per_period,
+        input,
         ..TimeFitOptions::default()
     };
     let recording = names.join(", ");
