@@ -388,12 +388,13 @@ pub struct DiagnoseArgs {
     /// final model refitted on the recorded time histories).
     #[arg(long, value_enum, default_value_t = Domain::Frf)]
     pub domain: Domain,
-    /// With `--domain time`: put the N candidates the FRFs came closest to
-    /// keeping (the largest drops of chi-square in the last round) to the
-    /// recorded time histories too, each added to the final model and
-    /// refitted in time; the best that lowers the misfit by more than a
-    /// confirmation asks (0.5 %) is added. Each costs a refit on the whole
-    /// recordings.
+    /// With `--domain time`: trace every candidate in the refitted model's
+    /// time residual (its replay reduced as the recordings were) and put the
+    /// N that explain the most of it to the recorded time histories, each
+    /// added to the final model and refitted in time; the best that lowers
+    /// the misfit by more than a confirmation asks (0.5 %) is added. Each
+    /// candidate traced costs an FRF refit, each proposal a refit on the
+    /// whole recordings.
     #[arg(long, default_value_t = 0)]
     pub time_proposals: usize,
 }

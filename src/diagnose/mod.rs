@@ -64,8 +64,10 @@ pub struct DiagnoseOptions {
     /// same way, with one more mode).
     pub fit: crate::fit::FitOptions,
     /// With a refinement in the time domain: how many of the candidates the
-    /// FRFs did not keep are put to the recorded time histories (each costs
-    /// a refit on the whole recordings; 0: none).
+    /// FRFs did not keep are put to the recorded time histories, those that
+    /// explain the most of the time residual first (see
+    /// [`time_residual`]; each costs a refit on the whole recordings; 0:
+    /// none).
     pub time_proposals: usize,
 }
 
