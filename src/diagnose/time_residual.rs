@@ -9,7 +9,7 @@
 //! frequency and harmonic, in units of the measured noise, and what the
 //! reduction does to a steady state (a sweep's distortion, a transient left
 //! in a dwell) is in both and cancels. Its features are those of
-//! [`super::features`]: which harmonics, which levels, where the peaks sit.
+//! [`mod@super::features`]: which harmonics, which levels, where the peaks sit.
 //!
 //! Each candidate is traced by its own signature in that plane: `δ_c`, how
 //! the model's harmonic-balance FRFs change when the candidate, as the FRFs
