@@ -723,6 +723,23 @@ impl ReplayReduction {
         &self.measured
     }
 
+    /// The held recordings as the time-domain fit takes them (as
+    /// [`super::time_records`] reads them, without reading them again).
+    pub fn time_records(&self, band_hz: Option<(f64, f64)>) -> Result<Vec<crate::fit::TimeRecord>> {
+        self.sources
+            .iter()
+            .map(|(path, l, _)| {
+                crate::fit::TimeRecord::from_recording(
+                    &path.display().to_string(),
+                    &l.recording,
+                    l.response,
+                    None,
+                    band_hz,
+                )
+            })
+            .collect()
+    }
+
     /// The FRFs of `responses` (one per recording, in order, every sample:
     /// a model's replay) reduced as the measured ones were.
     pub fn replayed(&self, responses: &[Vec<f64>]) -> Result<NonlinearFrf> {

@@ -71,31 +71,25 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             // a refit that fails leaves the FRF diagnosis standing, with why
             let pb = progress::spinner("refitting in the time domain", quiet);
             let reduction = reduction_options(&args.reduction)?;
-            let t =
-                hystid::analysis::time_records(&args.recordings, args.channels(), options.band_hz)
-                    .and_then(|records| {
-                        // the recordings held to reduce the refitted model's
-                        // replay as they were reduced: its residual in the
-                        // FRFs' plane (reported where this fails, not fatal)
-                        let replays =
-                            ReplayReduction::new(&args.recordings, args.channels(), &reduction);
-                        if let Err(e) = &replays {
-                            pb.suspend(|| {
-                                eprintln!("warning: the time residual is not reduced: {e}")
-                            });
-                        }
-                        refine_in_time(
-                            &mut d,
-                            &frf,
-                            &records,
-                            &hystid::fit::TimeFitOptions::default(),
-                            options.band_hz,
-                            &options,
-                            &predictor,
-                            replays.as_ref().ok(),
-                            &progress::Drawn(&pb),
-                        )
-                    });
+            // the recordings read once: the time records the refit replays,
+            // and held to reduce the refitted model's replay as they were
+            // reduced (its residual in the FRFs' plane)
+            let t = ReplayReduction::new(&args.recordings, args.channels(), &reduction).and_then(
+                |replays| {
+                    let records = replays.time_records(options.band_hz)?;
+                    refine_in_time(
+                        &mut d,
+                        &frf,
+                        &records,
+                        &hystid::fit::TimeFitOptions::default(),
+                        options.band_hz,
+                        &options,
+                        &predictor,
+                        Some(&replays),
+                        &progress::Drawn(&pb),
+                    )
+                },
+            );
             pb.finish_and_clear();
             Some(match t {
                 Ok(t) => TimeOutcome::Refined(Box::new(t)),

@@ -310,7 +310,7 @@ impl<E: Element> Simulator<E> {
     /// the recursion carries the rest, which is the loss. A stuck joint then
     /// keeps its whole stiffness in the loop (without it, `kd (ωT)²/12` is
     /// lost: 0.2 % at 40 samples per period, enough to move a lightly
-    /// damped resonance by a tenth of its half-power width).
+    /// damped resonance by a fraction of its half-power width).
     ///
     /// The pre-emphasis is the band-limited signal's; across a kink of the
     /// element law (a reversal, a slip), where the force is not that, the
