@@ -18,9 +18,10 @@
 //!   samples, `Simulator::with_transitions_located`) to it: >= 0.6x. `sim/masing_formula` is the
 //!   Masing element on the untabulated eq. (10) backbone, for comparison;
 //!   `sim/model_element_set` the type the virtual test bench simulates
-//!   (`ElementSet<AnyElement>` from a `Model`). `sim/bouc_wen/1` and `/2`:
-//!   the Bouc-Wen joint at its example shape, exact flow and RK4 sub-steps
-//!   (target ≥ 10 M samples/s). `sim/iwan4`: Segalman's Iwan joint
+//!   (`ElementSet<AnyElement>` from a `Model`). `sim/bouc_wen/1`, `/2`, `/1.5`:
+//!   the Bouc-Wen joint at its example shape, the exact flow (ν = 1) and
+//!   the general flow's short steps and sub-steps for a whole and a
+//!   fractional exponent (target ≥ 10 M samples/s). `sim/iwan4`: Segalman's Iwan joint
 //!   (χ = −0.5, β = 0.5) through the model's element set (target ≥ 15 M
 //!   samples/s, as Masing).
 //! * `hb/point_warm/*`: one converged, warm-started harmonic-balance point
@@ -161,8 +162,14 @@ fn simulator(c: &mut Criterion<ThreadCpu>) {
         b.iter(|| mas.run_displacement(black_box(&f), &mut out).unwrap())
     });
     // Bouc-Wen at its example shape (softening to 240 N, near the paper's
-    // slip force): the exact flow (ν = 1) and RK4 sub-steps (ν = 2)
-    for (nu, beta) in [(1.0, 1e5), (2.0, 2.4e7 / 240.0 / 240.0)] {
+    // slip force): the exact flow (ν = 1) and the general flow's short
+    // steps and sub-steps (ν = 2: |z|^(ν−1) by multiplication; ν = 1.5: a
+    // power per flow)
+    for (nu, beta) in [
+        (1.0, 1e5),
+        (2.0, 2.4e7 / 240.0 / 240.0),
+        (1.5, 2.4e7 / 240f64.powf(1.5)),
+    ] {
         let bw = BoucWen::new(2.4e7, beta, 0.5, 0.5, nu).unwrap();
         let mut sim = Simulator::new(&model, bw, FS).unwrap();
         g.bench_with_input(BenchmarkId::new("bouc_wen", nu), &nu, |b, _| {
