@@ -71,8 +71,11 @@ pub struct BoucWen {
     /// bits) and its end `z` and power. The simulator commits the point
     /// its last trial settled on, whose flow need not be run again (a flow
     /// is a function of `z₀` and `h` alone: the same bits either way).
-    last_flow: Cell<Option<([u64; 2], (f64, f64))>>,
+    last_flow: Cell<Option<RememberedFlow>>,
 }
+
+/// A flow's start and step (as bits) and its end `z` and power.
+type RememberedFlow = ([u64; 2], (f64, f64));
 
 /// Largest number of sub-steps per sample (`ν ≠ 1`).
 const MAX_SUBSTEPS: usize = 1024;
@@ -233,10 +236,10 @@ impl BoucWen {
     /// [`BoucWen::flow_substepped`]; the last one remembered.
     fn flow_general(&self, z0: f64, p0: f64, h: f64) -> (f64, f64) {
         let key = [z0.to_bits(), h.to_bits()];
-        if let Some((k, end)) = self.last_flow.get() {
-            if k == key {
-                return end;
-            }
+        if let Some((k, end)) = self.last_flow.get()
+            && k == key
+        {
+            return end;
         }
         let end = match self.short_step(z0, p0, h) {
             Some((z, _)) => (z, self.power(z.abs())),
