@@ -44,6 +44,8 @@ pub struct TimeRefinement {
     /// The final model refitted in the time domain (`before`: the FRF
     /// diagnosis's final model).
     pub refit: TimeFitResult,
+    /// How every model was replayed on the recordings (`--replay`).
+    pub replay: crate::validate::DriveInput,
     /// Each effect the FRF diagnosis kept, taken out and the rest refitted
     /// in time: whether the recordings need it.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -441,6 +443,7 @@ pub fn refine_in_time(
         }
     }
     Ok(TimeRefinement {
+        replay: options.input,
         baseline,
         refit,
         checks,
@@ -759,8 +762,16 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
     let _ = writeln!(
         s,
         "\n## In the time domain\n\nThe final model refitted on the recorded time histories \
-         ({} samples, {:?}): each dwell's relative e_RMS, root mean square over the dwells.\n",
-        t.refit.samples, t.refit.status
+         ({} samples, {:?}; every model replayed {}): each dwell's relative e_RMS, root mean \
+         square over the dwells.\n",
+        t.refit.samples,
+        t.refit.status,
+        match t.replay {
+            crate::validate::DriveInput::Continuous => {
+                "as the continuous model, the joint's sinc^2 loss compensated"
+            }
+            _ => "on the band-limited reference",
+        }
     );
     let _ = writeln!(
         s,

@@ -397,6 +397,11 @@ pub struct DiagnoseArgs {
     /// whole recordings.
     #[arg(long, default_value_t = 0)]
     pub time_proposals: usize,
+    /// With `--domain time`: how every model is replayed on the recordings
+    /// (its refit, its checks and proposals, its time residual), as
+    /// `identify --replay` takes it.
+    #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
+    pub replay: Replay,
 }
 
 /// `hystid run`.

@@ -81,7 +81,10 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                         &mut d,
                         &frf,
                         &records,
-                        &hystid::fit::TimeFitOptions::default(),
+                        &hystid::fit::TimeFitOptions {
+                            input: args.replay.into(),
+                            ..Default::default()
+                        },
                         options.band_hz,
                         &options,
                         &predictor,
