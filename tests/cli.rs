@@ -714,6 +714,33 @@ fn diagnose_in_the_time_domain_replays_as_asked() {
     assert!(text(&o).contains("--replay"), "{}", text(&o));
 }
 
+/// `identify --starts N` is the time-domain fit's: without `--domain time`
+/// it is refused with exit 2 and leaves no output, as is a count of 0.
+#[test]
+fn identify_refuses_starts_without_the_time_domain() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    simulated(&test, &sim);
+    let out = dir.path().join("fit");
+    for (extra, expected) in [
+        (&["--starts", "3"][..], "add --domain time"),
+        (&["--starts", "0", "--domain", "time"][..], "--starts"),
+    ] {
+        let mut a = vec![
+            "identify",
+            sim.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(extra);
+        let o = hystid(&a);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(expected), "{}", text(&o));
+        assert!(!out.exists(), "an output was left: {}", text(&o));
+    }
+}
+
 /// `run` on a test with an undeclared cubic stiffness reports one model,
 /// the diagnosis's, everywhere: the terminal, report.md and run.json name
 /// it and give its parameters (the cubic's with the value it was simulated

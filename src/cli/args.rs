@@ -131,6 +131,13 @@ pub struct IdentifyArgs {
     /// With `--domain time`: how the model is replayed (see `Replay`).
     #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
     pub replay: Replay,
+    /// With `--domain time`: descend from N starts, the given one and N-1
+    /// spread about it (each parameter moved by up to a factor 1.5, or 15 %
+    /// on a linear scale, the same on every run), and keep the lowest cost.
+    /// A fit over several modes, a joint and a shaker has more than one
+    /// basin. Each start costs about as much as the fit.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub starts: u32,
 }
 
 /// How a model is replayed on a measured reference.

@@ -324,6 +324,7 @@ fn fit_in_time(
     let options = hystid::fit::TimeFitOptions {
         min_samples_per_period: args.min_samples_per_period,
         input: args.replay.into(),
+        starts: args.starts as usize,
         ..Default::default()
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
@@ -360,6 +361,9 @@ fn fit_in_time(
 
 /// `hystid identify`.
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
+    if args.starts > 1 && args.domain != Domain::Time {
+        bail!("--starts: the time-domain fit descends from several starts; add --domain time");
+    }
     if let Some(start) = &args.start {
         return identify_from_start(args, start, quiet);
     }
@@ -416,6 +420,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
                 &records,
                 &hystid::fit::TimeFitOptions {
                     input: args.replay.into(),
+                    starts: args.starts as usize,
                     ..Default::default()
                 },
                 options.band_hz,

@@ -286,6 +286,17 @@ pub struct TimeFitOptions {
     pub refine_linear: bool,
     /// What the force is between its samples (see [`DriveInput`]).
     pub input: DriveInput,
+    /// How many starts the fit descends from: the given one and `starts −
+    /// 1` others spread about it (see [`spread_start`]); the lowest cost
+    /// is kept. A time fit over several modes, a joint and a shaker has
+    /// more than one basin, and which one Levenberg–Marquardt settles in
+    /// depends on where it starts.
+    #[serde(default = "one")]
+    pub starts: usize,
+}
+
+fn one() -> usize {
+    1
 }
 
 impl Default for TimeFitOptions {
@@ -295,8 +306,55 @@ impl Default for TimeFitOptions {
             patience: 40,
             refine_linear: true,
             input: DriveInput::BandLimited,
+            starts: 1,
         }
     }
+}
+
+/// How far [`spread_start`] moves a parameter at most: a factor of 1.5
+/// either way for a parameter fitted in its logarithm or reciprocal, 15 %
+/// of its value for one fitted on a linear scale.
+const SPREAD_FACTOR: f64 = 1.5;
+const SPREAD_LINEAR: f64 = 0.15;
+
+/// The `k`-th further start about `theta0` (`k ≥ 1`): every parameter
+/// moved by a share of its spread drawn from a fixed sequence (a
+/// SplitMix64 hash of `k` and its index, so the starts are the same on
+/// every run and machine), then held inside its bounds.
+pub fn spread_start(parameters: &ParameterSet, theta0: &[f64], k: usize) -> Vec<f64> {
+    parameters
+        .parameters
+        .iter()
+        .zip(theta0)
+        .enumerate()
+        .map(|(i, (p, &t))| {
+            let u = 2.0 * unit_draw((k as u64) << 32 | i as u64) - 1.0;
+            let moved = match p.transform {
+                Transform::Log => t + u * SPREAD_FACTOR.ln(),
+                Transform::Reciprocal => t * SPREAD_FACTOR.powf(u),
+                Transform::Scaled { .. } => t * (1.0 + SPREAD_LINEAR * u),
+            };
+            // inside the bounds by a hair: a start on a bound is a start
+            // the optimiser's transform cannot leave
+            let (lo, hi) = (p.theta(p.bounds[0]), p.theta(p.bounds[1]));
+            let (lo, hi) = (lo.min(hi), lo.max(hi));
+            let margin = 1e-6 * (hi - lo).abs().min(1.0);
+            if (hi - lo).is_finite() && hi > lo {
+                moved.clamp(lo + margin, hi - margin)
+            } else {
+                moved
+            }
+        })
+        .collect()
+}
+
+/// A number in `[0, 1)` from `seed` (SplitMix64's finaliser).
+fn unit_draw(seed: u64) -> f64 {
+    let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
 }
 
 /// The error of a model on one recording.
@@ -337,6 +395,76 @@ pub struct TimeFitResult {
     /// The parameters that ended at (within 1 % of) a bound of the fit.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub at_bound: Vec<String>,
+    /// Where the fit descended from more than one start
+    /// ([`TimeFitOptions::starts`]): how each ended.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub starts: Vec<StartOutcome>,
+}
+
+/// How one start of a fit ended.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StartOutcome {
+    /// 0 for the given start, `k` for the `k`-th spread about it.
+    pub start: usize,
+    /// The cost it descended to (`None`: it failed).
+    pub cost: Option<f64>,
+    /// Its misfit, the cost without the bounds' penalty, on the grid the
+    /// last start ended on: what the starts are compared by.
+    pub misfit: Option<f64>,
+    /// How it ended.
+    pub status: FitStatus,
+    /// Why it failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
+}
+
+impl StartOutcome {
+    fn of(
+        start: usize,
+        run: std::result::Result<&OptimiserRun, &Error>,
+        misfit: Option<f64>,
+    ) -> StartOutcome {
+        match run {
+            Ok(r) => StartOutcome {
+                start,
+                cost: Some(r.cost),
+                misfit,
+                status: r.status,
+                failed: None,
+            },
+            Err(e) => StartOutcome {
+                start,
+                cost: None,
+                misfit: None,
+                status: FitStatus::Stopped,
+                failed: Some(e.to_string()),
+            },
+        }
+    }
+}
+
+/// Levenberg–Marquardt from `theta0` on the problem's replay grid, resumed
+/// where the optimum needs a finer one than the grid holds (fixed on the
+/// start: at most [`MAX_GRID_RESUMPTIONS`] in a fit, counted in `resumed`;
+/// each resumption starts next to its optimum).
+fn descend(
+    problem: &mut TimeProblem<'_>,
+    theta0: &[f64],
+    patience: usize,
+    resumed: &mut usize,
+) -> Result<OptimiserRun> {
+    let mut run = optimise::levenberg_marquardt_to(&*problem, theta0, patience, LM_TOLERANCE)?;
+    loop {
+        let (optimum, _) = problem.model_at(&run.theta)?;
+        if *resumed == MAX_GRID_RESUMPTIONS || !problem.fix_replay_grid(&optimum, "fitted") {
+            return Ok(run);
+        }
+        *resumed += 1;
+        let (evaluations, iterations) = (run.evaluations, run.iterations);
+        run = optimise::levenberg_marquardt_to(&*problem, &run.theta, patience, LM_TOLERANCE)?;
+        run.evaluations += evaluations;
+        run.iterations += iterations;
+    }
 }
 
 /// The replay of recordings through a model whose free parameters are
@@ -582,6 +710,16 @@ impl<'a> TimeProblem<'a> {
                 })
             })
             .collect()
+    }
+
+    /// The misfit at `theta` without the bounds' penalty: `Σ r²` of the
+    /// model whose parameters are held at their bounds (what the fit's
+    /// result is), comparable between fits that leave `θ` beyond a bound
+    /// by different amounts.
+    pub fn misfit(&self, theta: &[f64]) -> Result<f64> {
+        let (model, _) = self.model_at(theta)?;
+        let r = self.residuals_of(&model, 0.0)?;
+        Ok(r[..r.len() - 1].iter().map(|v| v * v).sum())
     }
 
     fn residuals_of(&self, model: &Model, outside: f64) -> Result<Vec<f64>> {
@@ -954,26 +1092,59 @@ pub fn identify_time(
     problem.choose_replay_rates();
     let before = problem.errors(start)?;
     let theta0 = problem.parameters.theta_of(start)?;
-    let mut run =
-        optimise::levenberg_marquardt_to(&problem, &theta0, options.patience, LM_TOLERANCE)?;
-    // the grid was fixed on the start: where the optimum needs a finer one,
-    // the fit resumes from the optimum on it (twice at most: each resumption
-    // starts next to its optimum)
     let mut resumed = 0;
-    loop {
-        let (optimum, _) = problem.model_at(&run.theta)?;
-        if resumed == MAX_GRID_RESUMPTIONS || !problem.fix_replay_grid(&optimum, "fitted") {
-            break;
+    let run = descend(&mut problem, &theta0, options.patience, &mut resumed)?;
+    // further starts spread about the given one (each on the grid the fit
+    // has reached so far); a start that fails is reported, not fatal
+    // compared by their misfit on the grid the last one ended on (a
+    // resumption may have refined it), the bounds' penalty left out
+    let mut ended: Vec<(usize, Result<OptimiserRun>)> = vec![(0, Ok(run))];
+    for k in 1..options.starts.max(1) {
+        let theta = spread_start(&problem.parameters, &theta0, k);
+        let other = descend(&mut problem, &theta, options.patience, &mut resumed);
+        if matches!(other, Err(Error::Cancelled)) {
+            return Err(Error::Cancelled);
         }
-        resumed += 1;
-        let (evaluations, iterations) = (run.evaluations, run.iterations);
-        run =
-            optimise::levenberg_marquardt_to(&problem, &run.theta, options.patience, LM_TOLERANCE)?;
-        run.evaluations += evaluations;
-        run.iterations += iterations;
+        ended.push((k, other));
     }
+    let mut starts = Vec::with_capacity(ended.len());
+    let mut best: Option<(f64, OptimiserRun)> = None;
+    let (mut evaluations, mut iterations) = (0, 0);
+    for (k, run) in ended {
+        let misfit = match &run {
+            Ok(r) if k > 0 || options.starts > 1 => Some(problem.misfit(&r.theta)?),
+            _ => None,
+        };
+        starts.push(StartOutcome::of(k, run.as_ref(), misfit));
+        if let Ok(r) = run {
+            evaluations += r.evaluations;
+            iterations += r.iterations;
+            let m = misfit.unwrap_or(0.0);
+            if best.as_ref().is_none_or(|(b, _)| m < *b) {
+                best = Some((m, r));
+            }
+        }
+    }
+    // the given start descended (its failure is the fit's, above)
+    let (_, mut run) = best.expect("the given start's run");
+    run.evaluations = evaluations;
+    run.iterations = iterations;
     let (model, _) = problem.model_at(&run.theta)?;
     let mut notes = problem.replay_notes().to_vec();
+    if starts.len() > 1 {
+        let best = starts
+            .iter()
+            .filter_map(|s| s.misfit.map(|m| (m, s.start)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map_or(0, |(_, k)| k);
+        notes.push(format!(
+            "descended from {} starts (the given one and {} spread about it); the lowest cost \
+             is start {best}'s{}",
+            starts.len(),
+            starts.len() - 1,
+            if best == 0 { ", the given one" } else { "" }
+        ));
+    }
     if options.input == DriveInput::Continuous {
         notes.insert(
             0,
@@ -1015,6 +1186,7 @@ pub fn identify_time(
         ));
     }
     Ok(TimeFitResult {
+        starts: if starts.len() > 1 { starts } else { Vec::new() },
         model,
         response_sign: sign,
         parameters,
@@ -1156,6 +1328,65 @@ mod tests {
     }
     use crate::signals::{Channel, Excitation, ExcitationKind, Recording, RecordingMeta, Step};
     use std::f64::consts::PI;
+    /// The further starts are the same on every call, move a parameter
+    /// fitted in its logarithm by up to a factor 1.5, a reciprocal one
+    /// likewise and a linear one by up to 15 %, cover that range both ways
+    /// (the draws are uniform: over 400 starts the extremes come within 2 %
+    /// of it and the mean within 0.1 of the middle), and stay strictly
+    /// inside the bounds: a start on a bound (a damping ratio at its
+    /// largest) is moved off it.
+    #[test]
+    fn further_starts_are_spread_about_the_given_one_inside_the_bounds() {
+        use super::super::params::{Parameter, Target};
+        let p = |transform, bounds| Parameter {
+            name: "p".into(),
+            target: Target::Mass { mode: 0 },
+            transform,
+            bounds,
+        };
+        let set = ParameterSet {
+            parameters: vec![
+                p(Transform::Log, [1e-3, 1e3]),
+                p(Transform::Scaled { scale: 0.1 }, [0.0, 0.9]),
+                p(Transform::Reciprocal, [1.0, 1e3]),
+            ],
+        };
+        let values = [2.0, 0.9, 10.0];
+        let theta0: Vec<f64> = set
+            .parameters
+            .iter()
+            .zip(values)
+            .map(|(p, v)| p.theta(v))
+            .collect();
+        let mut shares: Vec<Vec<f64>> = vec![Vec::new(); 3];
+        for k in 1..=400 {
+            let t = spread_start(&set, &theta0, k);
+            assert_eq!(t, spread_start(&set, &theta0, k));
+            let v = set.values(&t);
+            let ratio = v[0] / values[0];
+            assert!((1.0 / 1.5..=1.5).contains(&ratio), "{ratio}");
+            shares[0].push(ratio.ln() / 1.5f64.ln());
+            // from its upper bound: only down, and never on it
+            assert!(v[1] < 0.9 && v[1] >= 0.9 * 0.85, "{}", v[1]);
+            let ratio = v[2] / values[2];
+            assert!((1.0 / 1.5..=1.5).contains(&ratio), "{ratio}");
+            shares[2].push(ratio.ln() / 1.5f64.ln());
+        }
+        assert_ne!(
+            spread_start(&set, &theta0, 1),
+            spread_start(&set, &theta0, 2)
+        );
+        for u in [&shares[0], &shares[2]] {
+            let (lo, hi) = u
+                .iter()
+                .fold((1.0f64, -1.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+            let mean = u.iter().sum::<f64>() / u.len() as f64;
+            assert!(
+                lo < -0.98 && hi > 0.98 && mean.abs() < 0.1,
+                "{lo} {hi} {mean}"
+            );
+        }
+    }
 
     fn recording(fs: f64, force: Vec<f64>, excitation: Excitation) -> Recording {
         let channel = |name: &str, quantity: Quantity| Channel {
