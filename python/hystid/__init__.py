@@ -328,6 +328,7 @@ def identify_time(
     options=None,
     progress=None,
     replay="band_limited",
+    starts=1,
     **kwargs,
 ):
     """Fits a model to recorded time histories, as ``hystid identify
@@ -349,7 +350,9 @@ def identify_time(
     ``element`` nearly linear). Fit options as in :func:`identify`
     (``element``, ``band_hz``: what is judged). ``progress``: see
     :data:`PROGRESS` (one event per replay of the recordings).
-    ``replay="continuous"`` is ``--replay continuous`` (see :func:`validate`).
+    ``replay="continuous"`` is ``--replay continuous`` (see :func:`validate`);
+    ``starts=N`` is ``--starts N`` (descend from N starts spread about the
+    given one, keep the lowest misfit; ``time_domain.starts`` lists them).
     """
     if replay not in ("band_limited", "continuous", "ramp"):
         raise ValueError(
@@ -369,6 +372,7 @@ def identify_time(
         float(min_samples_per_period),
         progress,
         replay,
+        int(starts),
     )
     return json.loads(text)
 

@@ -773,7 +773,7 @@ fn fit_coil<'py>(
 /// multisine recordings from their linear estimate. One entry per recording
 /// in each list.
 #[pyfunction]
-#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited")))]
+#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
 #[allow(clippy::too_many_arguments)]
 fn identify_time<'py>(
     py: Python<'py>,
@@ -792,7 +792,11 @@ fn identify_time<'py>(
     min_samples_per_period: f64,
     progress: Option<Py<PyAny>>,
     replay: String,
+    starts: usize,
 ) -> PyResult<String> {
+    if !(1..=64).contains(&starts) {
+        return Err(fail(format!("starts: expected 1 to 64, got {starts}")));
+    }
     let progress = Progress::new(progress);
     let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
     let n = references.len();
@@ -841,6 +845,7 @@ fn identify_time<'py>(
     let time_options = TimeFitOptions {
         min_samples_per_period,
         input,
+        starts,
         ..TimeFitOptions::default()
     };
     let recording = names.join(", ");

@@ -96,6 +96,25 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     assert q["fd"]["value"] == pytest.approx(8.0, rel=0.01)
     with pytest.raises(ValueError, match="replay"):
         hystid.identify_time([{"force": force, "response": y, "sample_rate_hz": fs}], replay="smooth")
+    # from three starts (`--starts 3`): the command's fit, every start
+    # listed with its misfit, the kept one the lowest, the joint as found
+    run_cli("identify", "m.json", "--out", "fit3", "--domain", "time", "--element", "jenkins",
+            "--starts", "3", cwd=tmp_path, expect=None)
+    ref3 = json.loads((tmp_path / "fit3" / "fit.json").read_text())
+    three = hystid.identify_time(
+        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
+        element="jenkins", starts=3,
+    )
+    same_fit(three, ref3)
+    listed = three["time_domain"]["starts"]
+    assert [s["start"] for s in listed] == [0, 1, 2]
+    best = min(listed, key=lambda s: s["misfit"])
+    assert f"start {best['start']}'s" in three["time_domain"]["notes"][-1]
+    q = three["time_domain"]["parameters"]
+    assert q["kd"]["value"] == pytest.approx(4.0e4, rel=0.005)
+    assert q["fd"]["value"] == pytest.approx(8.0, rel=0.005)
+    with pytest.raises(hystid.HystidError, match="starts"):
+        hystid.identify_time([{"force": force, "response": y, "sample_rate_hz": fs}], starts=0)
 
 
 def test_a_multisine_over_two_modes_takes_modes(tmp_path):
