@@ -31,9 +31,9 @@
 //!   predictor does); the throughput is points per second.
 //!   `hb/describing_function/*` solves the single-harmonic balance of the
 //!   same points (the ratio asked for); `hb/point_warm/masing_formula` uses
-//!   the untabulated backbone; `hb/point_warm/bouc_wen` the Bouc-Wen joint
-//!   at its example shape (periods marched until its loop repeats; target
-//!   ≤ 40 µs); `hb/point_warm/iwan4/0.5` the Iwan joint (target ≤ 40 µs).
+//!   the untabulated backbone; `hb/point_warm/bouc_wen/1` and `/2` the
+//!   Bouc-Wen joint at its example shape, exact and general flow (periods
+//!   marched until its loop repeats; target ≤ 40 µs); `hb/point_warm/iwan4/0.5` the Iwan joint (target ≤ 40 µs).
 //! * `hb/curve/jenkins/*` (issue 16's curve): the paper system with its
 //!   Jenkins joint, harmonics 0..=7, 512 samples per period, 121 points
 //!   150-350 Hz at 1 kN, each warm-started from its neighbour: `hystid`
@@ -221,10 +221,11 @@ fn harmonic_balance(c: &mut Criterion<ThreadCpu>) {
         ("masing", 3.0, false),
         ("masing_formula", 22.55, true),
         ("bouc_wen", 1.0, false),
+        ("bouc_wen", 2.0, false),
         ("iwan4", 0.5, false),
     ] {
         let model = match name {
-            "bouc_wen" => bouc_wen_model(),
+            "bouc_wen" => bouc_wen_model(n),
             "iwan4" => iwan4_model(),
             _ => masing_model(n),
         };

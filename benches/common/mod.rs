@@ -36,16 +36,16 @@ pub fn masing_model(n: f64) -> Model {
 }
 
 /// The paper's SDOF with a Bouc-Wen joint at the law's example shape
-/// (`α = kd`, softening to 240 N).
-pub fn bouc_wen_model() -> Model {
+/// (`α = kd`, softening to 240 N) with the exponent `nu`.
+pub fn bouc_wen_model(nu: f64) -> Model {
     Model::new(
         sdof(),
         vec![hystid::model::ElementSpec::BoucWen {
             alpha: KD,
-            beta: 1e5,
+            beta: KD / 240f64.powf(nu),
             gamma: 0.5,
             delta: 0.5,
-            nu: 1.0,
+            nu,
         }],
     )
     .unwrap()
