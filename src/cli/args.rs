@@ -133,7 +133,8 @@ pub struct IdentifyArgs {
     pub replay: Replay,
     /// With `--domain time`: descend from N starts, the given one and N-1
     /// spread about it (each parameter moved by up to a factor 1.5, or 15 %
-    /// on a linear scale, the same on every run), and keep the lowest cost.
+    /// on a linear scale, the same on every run), and keep the one with the
+    /// lowest misfit (the cost without the bounds' penalty).
     /// A fit over several modes, a joint and a shaker has more than one
     /// basin. Each start costs about as much as the fit.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]

@@ -287,10 +287,11 @@ pub struct TimeFitOptions {
     /// What the force is between its samples (see [`DriveInput`]).
     pub input: DriveInput,
     /// How many starts the fit descends from: the given one and `starts −
-    /// 1` others spread about it (see [`spread_start`]); the lowest cost
-    /// is kept. A time fit over several modes, a joint and a shaker has
-    /// more than one basin, and which one Levenberg–Marquardt settles in
-    /// depends on where it starts.
+    /// 1` others spread about it (see [`spread_start`]); the one with the
+    /// lowest misfit (the cost without the bounds' penalty) is kept. A
+    /// time fit over several modes, a joint and a shaker has more than one
+    /// basin, and which one Levenberg–Marquardt settles in depends on where
+    /// it starts.
     #[serde(default = "one")]
     pub starts: usize,
 }
@@ -1138,7 +1139,7 @@ pub fn identify_time(
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .map_or(0, |(_, k)| k);
         notes.push(format!(
-            "descended from {} starts (the given one and {} spread about it); the lowest cost \
+            "descended from {} starts (the given one and {} spread about it); the lowest misfit \
              is start {best}'s{}",
             starts.len(),
             starts.len() - 1,
