@@ -714,21 +714,28 @@ fn diagnose_in_the_time_domain_replays_as_asked() {
     assert!(text(&o).contains("--replay"), "{}", text(&o));
 }
 
-/// `identify --starts N` is the time-domain fit's: without `--domain time`
-/// it is refused with exit 2 and leaves no output, as is a count of 0.
+/// `identify --starts N` and `--replay` are the time-domain fit's: without
+/// `--domain time` they are refused with exit 2 and leave no output, as is
+/// a count of 0; `diagnose --replay` likewise.
 #[test]
-fn identify_refuses_starts_without_the_time_domain() {
+fn time_domain_options_are_refused_without_the_time_domain() {
     let dir = tempfile::tempdir().unwrap();
     let test = write_test(dir.path(), "small.toml", SMALL_TEST);
     let sim = dir.path().join("sim");
     simulated(&test, &sim);
     let out = dir.path().join("fit");
-    for (extra, expected) in [
-        (&["--starts", "3"][..], "add --domain time"),
-        (&["--starts", "0", "--domain", "time"][..], "--starts"),
+    for (command, extra, expected) in [
+        ("identify", &["--starts", "3"][..], "--starts"),
+        (
+            "identify",
+            &["--starts", "0", "--domain", "time"][..],
+            "--starts",
+        ),
+        ("identify", &["--replay", "continuous"][..], "--replay"),
+        ("diagnose", &["--replay", "continuous"][..], "--replay"),
     ] {
         let mut a = vec![
-            "identify",
+            command,
             sim.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),

@@ -1442,10 +1442,10 @@ fn unesp_time_fit_with_a_background_is_the_readmes() {
 /// (`--replay continuous`): from the given start alone it settles in a
 /// basin where the mode's viscous damping does the joint's work (11.2,
 /// 8.9 and 5.7 % on the fitted chirps, 10.9 % at 0.10 V); descending from
-/// four starts (`--starts 4`), the third spread start reaches a misfit
-/// about a third of the given start's, and every validation chirp is
-/// closer than the shaker's fit without the background. Figures pinned in
-/// the README.
+/// two starts (`--starts 2`), the spread one reaches
+/// well under half the given start's misfit (0.3), and every validation
+/// chirp is closer than the shaker's fit without the background. Figures
+/// pinned in the README.
 #[test]
 fn unesp_time_fit_from_several_starts_leaves_the_worse_basin() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
@@ -1456,27 +1456,27 @@ fn unesp_time_fit_from_several_starts_leaves_the_worse_basin() {
         &data,
         work.path(),
         "unesp_background_start.toml",
-        &["--replay", "continuous", "--starts", "4"],
+        &["--replay", "continuous", "--starts", "2"],
     );
     let starts = fitted.fit["time_domain"]["starts"].as_array().unwrap();
-    assert_eq!(starts.len(), 4);
+    assert_eq!(starts.len(), 2);
     let misfit = |k: usize| starts[k]["misfit"].as_f64().unwrap();
-    let best = (0..4)
+    let best = (0..2)
         .min_by(|&a, &b| misfit(a).total_cmp(&misfit(b)))
         .unwrap();
     eprintln!(
         "misfits: {:?}; the lowest start {best}'s",
-        (0..4).map(misfit).collect::<Vec<_>>()
+        (0..2).map(misfit).collect::<Vec<_>>()
     );
     assert_ne!(best, 0, "a spread start does better than the given one");
     assert!(misfit(best) < 0.5 * misfit(0), "{starts:?}");
     let notes = fitted.fit["time_domain"]["notes"].to_string();
     assert!(notes.contains(&format!("start {best}'s")), "{notes}");
     let line =
-        common::readme_figures("UNESP with a background from four starts:").expect("README line");
+        common::readme_figures("UNESP with a background from two starts:").expect("README line");
     common::assert_readme_figure("the given start's misfit", misfit(0), line[0]);
     common::assert_readme_figure("the lowest misfit", misfit(best), line[1]);
-    for (relative, l) in fitted.pin_rows("UNESP with a background, continuous, four starts") {
+    for (relative, l) in fitted.pin_rows("UNESP with a background, continuous, two starts") {
         let one = common::readme_figures(&format!("| UNESP with the shaker | {l} V |"))
             .expect("README row");
         eprintln!("{l} V: {relative:.1} % (the shaker alone: {} %)", one[1].0);

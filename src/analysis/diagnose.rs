@@ -770,7 +770,8 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             crate::validate::DriveInput::Continuous => {
                 "as the continuous model, the joint's sinc^2 loss compensated"
             }
-            _ => "on the band-limited reference",
+            crate::validate::DriveInput::BandLimited => "on the band-limited reference",
+            crate::validate::DriveInput::Ramp => "on the reference drawn straight between samples",
         }
     );
     let _ = writeln!(

@@ -45,10 +45,17 @@ pub fn run_diagnosis(
 
 /// `hystid diagnose`.
 pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
-    if args.time_proposals > 0 && args.domain != Domain::Time {
-        anyhow::bail!(
-            "--time-proposals: the candidates are put to the time histories; add --domain time"
-        );
+    if args.domain != Domain::Time {
+        if args.time_proposals > 0 {
+            anyhow::bail!(
+                "--time-proposals: the candidates are put to the time histories; add --domain time"
+            );
+        }
+        if args.replay != super::args::Replay::BandLimited {
+            anyhow::bail!(
+                "--replay: only the time-domain refit replays the models; add --domain time"
+            );
+        }
     }
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;

@@ -1,7 +1,9 @@
 //! `hystid identify`: fit a hysteresis element to a recording's nonlinear
 //! FRFs (paper Figures 2.2 and 3.3).
 
-use super::args::{Domain, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs};
+use super::args::{
+    Domain, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs, Replay,
+};
 use super::{create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::{
@@ -361,8 +363,13 @@ fn fit_in_time(
 
 /// `hystid identify`.
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
-    if args.starts > 1 && args.domain != Domain::Time {
-        bail!("--starts: the time-domain fit descends from several starts; add --domain time");
+    if args.domain != Domain::Time {
+        if args.starts > 1 {
+            bail!("--starts: the time-domain fit descends from several starts; add --domain time");
+        }
+        if args.replay != Replay::BandLimited {
+            bail!("--replay: only the time-domain fit replays the model; add --domain time");
+        }
     }
     if let Some(start) = &args.start {
         return identify_from_start(args, start, quiet);

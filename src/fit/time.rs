@@ -319,17 +319,20 @@ const SPREAD_FACTOR: f64 = 1.5;
 const SPREAD_LINEAR: f64 = 0.15;
 
 /// The `k`-th further start about `theta0` (`k ≥ 1`): every parameter
-/// moved by a share of its spread drawn from a fixed sequence (a
-/// SplitMix64 hash of `k` and its index, so the starts are the same on
-/// every run and machine), then held inside its bounds.
+/// moved by a share of its spread drawn uniformly from the `k`-th stream of
+/// a seeded ChaCha8 generator (the same starts on every run and machine),
+/// then held inside its bounds. A parameter fitted on a linear scale whose
+/// value is 0 stays there unless 0 is a bound.
 pub fn spread_start(parameters: &ParameterSet, theta0: &[f64], k: usize) -> Vec<f64> {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SPREAD_SEED);
+    rng.set_stream(k as u64);
     parameters
         .parameters
         .iter()
         .zip(theta0)
-        .enumerate()
-        .map(|(i, (p, &t))| {
-            let u = 2.0 * unit_draw((k as u64) << 32 | i as u64) - 1.0;
+        .map(|(p, &t)| {
+            let u: f64 = rng.random_range(-1.0..=1.0);
             let moved = match p.transform {
                 Transform::Log => t + u * SPREAD_FACTOR.ln(),
                 Transform::Reciprocal => t * SPREAD_FACTOR.powf(u),
@@ -349,14 +352,8 @@ pub fn spread_start(parameters: &ParameterSet, theta0: &[f64], k: usize) -> Vec<
         .collect()
 }
 
-/// A number in `[0, 1)` from `seed` (SplitMix64's finaliser).
-fn unit_draw(seed: u64) -> f64 {
-    let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 11) as f64 / (1u64 << 53) as f64
-}
+/// The seed of [`spread_start`]'s generator.
+const SPREAD_SEED: u64 = 0x5EED_57A2;
 
 /// The error of a model on one recording.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -1095,10 +1092,8 @@ pub fn identify_time(
     let theta0 = problem.parameters.theta_of(start)?;
     let mut resumed = 0;
     let run = descend(&mut problem, &theta0, options.patience, &mut resumed)?;
-    // further starts spread about the given one (each on the grid the fit
-    // has reached so far); a start that fails is reported, not fatal
-    // compared by their misfit on the grid the last one ended on (a
-    // resumption may have refined it), the bounds' penalty left out
+    // further starts spread about the given one, each on the grid the fit
+    // has reached so far; a start that fails is reported, not fatal
     let mut ended: Vec<(usize, Result<OptimiserRun>)> = vec![(0, Ok(run))];
     for k in 1..options.starts.max(1) {
         let theta = spread_start(&problem.parameters, &theta0, k);
@@ -1108,12 +1103,15 @@ pub fn identify_time(
         }
         ended.push((k, other));
     }
+    // compared by their misfit on the grid the last one ended on (a
+    // resumption may have refined it), the bounds' penalty left out
+    let several = ended.len() > 1;
     let mut starts = Vec::with_capacity(ended.len());
-    let mut best: Option<(f64, OptimiserRun)> = None;
+    let mut best: Option<(f64, usize, OptimiserRun)> = None;
     let (mut evaluations, mut iterations) = (0, 0);
     for (k, run) in ended {
         let misfit = match &run {
-            Ok(r) if k > 0 || options.starts > 1 => Some(problem.misfit(&r.theta)?),
+            Ok(r) if several => Some(problem.misfit(&r.theta)?),
             _ => None,
         };
         starts.push(StartOutcome::of(k, run.as_ref(), misfit));
@@ -1121,29 +1119,24 @@ pub fn identify_time(
             evaluations += r.evaluations;
             iterations += r.iterations;
             let m = misfit.unwrap_or(0.0);
-            if best.as_ref().is_none_or(|(b, _)| m < *b) {
-                best = Some((m, r));
+            if best.as_ref().is_none_or(|(b, _, _)| m < *b) {
+                best = Some((m, k, r));
             }
         }
     }
     // the given start descended (its failure is the fit's, above)
-    let (_, mut run) = best.expect("the given start's run");
+    let (_, kept, mut run) = best.expect("the given start's run");
     run.evaluations = evaluations;
     run.iterations = iterations;
     let (model, _) = problem.model_at(&run.theta)?;
     let mut notes = problem.replay_notes().to_vec();
-    if starts.len() > 1 {
-        let best = starts
-            .iter()
-            .filter_map(|s| s.misfit.map(|m| (m, s.start)))
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map_or(0, |(_, k)| k);
+    if several {
         notes.push(format!(
             "descended from {} starts (the given one and {} spread about it); the lowest misfit \
-             is start {best}'s{}",
+             is start {kept}'s{}",
             starts.len(),
             starts.len() - 1,
-            if best == 0 { ", the given one" } else { "" }
+            if kept == 0 { ", the given one" } else { "" }
         ));
     }
     if options.input == DriveInput::Continuous {
@@ -1187,7 +1180,7 @@ pub fn identify_time(
         ));
     }
     Ok(TimeFitResult {
-        starts: if starts.len() > 1 { starts } else { Vec::new() },
+        starts: if several { starts } else { Vec::new() },
         model,
         response_sign: sign,
         parameters,
