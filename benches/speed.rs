@@ -20,7 +20,7 @@
 //!   `sim/model_element_set` the type the virtual test bench simulates
 //!   (`ElementSet<AnyElement>` from a `Model`). `sim/bouc_wen/1`, `/2`, `/1.5`:
 //!   the Bouc-Wen joint at its example shape, the exact flow (ν = 1) and
-//!   the general flow's short steps and sub-steps for a whole and a
+//!   the flow along the law's universal curve for a whole and a
 //!   fractional exponent (target ≥ 10 M samples/s). `sim/iwan4`: Segalman's Iwan joint
 //!   (χ = −0.5, β = 0.5) through the model's element set (target ≥ 15 M
 //!   samples/s, as Masing).
