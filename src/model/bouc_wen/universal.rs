@@ -13,19 +13,24 @@
 //! it is `tanh ψ` (`ε = 1`) or `tan ψ` (`ε = −1`); for other `ν` it has no
 //! closed form, so it is tabulated once per exponent, to rounding:
 //!
-//! * near `ψ = 0`, where `U^ν` is not smooth for a fractional `ν`, by its
-//!   series in `q = ψ^ν`, `U = ψ Σ c_k q^k`: substituted into the equation,
-//!   `(kν + 1) c_k = −ε [q^(k−1)] (Σ c_j q^j)^ν`, the power of a series by
-//!   J.C.P. Miller's recurrence (Knuth, TAOCP vol. 2, 4.7);
-//! * beyond, by Taylor polynomials about nodes a fixed step apart, each
-//!   node's coefficients from the equation by the same recurrence (`(k + 1)
-//!   a_(k+1) = [k = 0] − ε b_k`, `b = (Σ a_j t^j)^ν`) and the next node
-//!   reached by the longer series of the last;
+//! * by Taylor polynomials of degree 10 about nodes, each node's
+//!   coefficients from the equation itself: `(k + 1) a_(k+1) = [k = 0] − ε
+//!   b_k`, `b = (Σ a_j t^j)^ν`, the power of a series by J.C.P. Miller's
+//!   recurrence (Knuth, TAOCP vol. 2, 4.7);
+//! * near `ψ = 0`, where `U^ν` is not smooth for a fractional `ν` (the
+//!   series about `ψ` converge only to `ψ`), the nodes are graded: eight
+//!   per octave, found from the bits of `ψ`, each started from the series
+//!   in `q = ψ^ν`, `U = ψ Σ c_k q^k` (substituted into the equation, `(kν +
+//!   1) c_k = −ε [q^(k−1)] (Σ c_j q^j)^ν`), down to where `ψ^ν` is below
+//!   rounding and `U = ψ`;
+//! * beyond the power of two where that series stops converging fast,
+//!   evenly spaced, the next node reached by the longer series of the last;
 //! * for `ε = 1` past `1 − U < 10⁻⁸`, where `1 − U` decays as `e^(−νψ)` to
 //!   within `10⁻⁸` of itself, by that exponential.
 //!
-//! A flow then costs a polynomial where the sub-stepped flow it replaces
-//! took tens of exponentials, and it is exact to rounding, so harmonic
+//! A flow then costs two polynomials (the curve and its slope, by Estrin's
+//! scheme) where the sub-stepped flow it replaces took tens of
+//! exponentials, and it is exact to rounding, so harmonic
 //! balance's symmetric-loop start and its sensitivities are exact for every
 //! `ν`, as they were for `ν = 1`.
 
@@ -43,6 +48,11 @@ const ZERO_TERMS: usize = 40;
 /// radius for every `ν` of the law's range; the terms left out are checked
 /// at construction).
 const ZERO_Q: f64 = 0.3;
+/// Nodes per octave below `ψ_s` (a power of two: the sub-interval is read
+/// from the mantissa's leading [`NEAR_BITS`] bits).
+const NEAR_NODES: usize = 8;
+/// `log2` of [`NEAR_NODES`].
+const NEAR_BITS: u32 = 3;
 /// `1 − U` where the softening curve hands over to its exponential tail.
 const TAIL: f64 = 1e-8;
 /// The stiffening curve (`ε = −1`) is tabulated to this `U` (beyond, the
@@ -84,9 +94,16 @@ pub(super) fn curve(nu: f64, eps: f64) -> Arc<Universal> {
 pub(super) struct Universal {
     nu: f64,
     eps: f64,
-    /// `c_k` of the series about zero.
-    zero: Vec<f64>,
-    /// Where the nodes take over from the series about zero, and `q` there.
+    /// Below `ψ_s = 2^e_s`: Taylor coefficients about the centres of
+    /// [`NEAR_NODES`] equal parts of each octave, the top octave first,
+    /// their derivatives' and the centres.
+    near: Vec<[f64; DEGREE + 1]>,
+    near_slopes: Vec<[f64; DEGREE + 1]>,
+    near_centres: Vec<f64>,
+    e_s: i32,
+    /// Below it `U = ψ` to rounding.
+    psi_min: f64,
+    /// Where the evenly spaced nodes start.
     psi_s: f64,
     /// `U(ψ_s)`.
     u_s: f64,
@@ -129,8 +146,34 @@ impl Universal {
             .rposition(|k| (zero[k] * q_s.powi(k as i32)).abs() > 1e-17)
             .map_or(1, |k| k + 1);
         zero.truncate(terms);
-        let psi_s = q_s.powf(1.0 / nu);
-        let u_s = psi_s * horner(&zero, q_s);
+        // the nodes take over at a power of two, 2^e_s, below which the
+        // series about zero sets the graded nodes (see `near`)
+        let e_s = q_s.powf(1.0 / nu).log2().floor() as i32;
+        let psi_s = 2f64.powi(e_s);
+        let series = |psi: f64| psi * horner(&zero, psi.powf(nu));
+        let u_s = series(psi_s);
+        // below ψ_s, nodes graded with ψ: NEAR_NODES per octave down to
+        // where ψ^ν is below rounding (U = ψ there), each the series' value
+        // expanded by the equation (the Taylor radius about ψ is ψ, so a
+        // node spans a 16th of it either way)
+        let mut octaves = 0;
+        while octaves < 1100 && (2f64.powi(e_s - octaves).powf(nu) * zero[1]).abs() >= 1e-17 {
+            octaves += 1;
+        }
+        let mut near = Vec::new();
+        let mut near_slopes = Vec::new();
+        let mut near_centres = Vec::new();
+        let mut coefficients = [0.0; DEGREE + 1];
+        for o in 0..octaves {
+            let low = 2f64.powi(e_s - 1 - o);
+            for m in 0..NEAR_NODES {
+                let centre = low * (1.0 + (m as f64 + 0.5) / NEAR_NODES as f64);
+                taylor(series(centre), nu, eps, &mut coefficients);
+                near.push(coefficients);
+                near_slopes.push(derivative(&coefficients));
+                near_centres.push(centre);
+            }
+        }
         // the Taylor radius about a node is at least its distance to the
         // branch point at 0 (≥ ψ_s) and, as ν grows, the curve's corner
         // sharpens like 1/ν
@@ -168,20 +211,15 @@ impl Universal {
         let last = nodes.len() - 1;
         let psi_end = psi_s + (last as f64 + 0.5) * h;
         let u_end = horner(&nodes[last], 0.5 * h);
-        let slopes = nodes
-            .iter()
-            .map(|a| {
-                let mut d = [0.0; DEGREE + 1];
-                for k in 0..DEGREE {
-                    d[k] = (k as f64 + 1.0) * a[k + 1];
-                }
-                d
-            })
-            .collect();
+        let slopes = nodes.iter().map(derivative).collect();
         Universal {
             nu,
             eps,
-            zero,
+            near,
+            near_slopes,
+            near_centres,
+            e_s,
+            psi_min: 2f64.powi(e_s - octaves),
             slopes,
             psi_s,
             u_s,
@@ -198,13 +236,22 @@ impl Universal {
     #[inline]
     pub fn at(&self, psi: f64) -> Option<(f64, f64)> {
         if psi < self.psi_s {
-            let q = psi.powf(self.nu);
-            let (mut u, mut du) = (0.0, 0.0);
-            for (k, c) in self.zero.iter().enumerate().rev() {
-                u = u * q + c;
-                du = du * q + c * (k as f64 * self.nu + 1.0);
+            if psi < self.psi_min {
+                return Some((psi, 1.0));
             }
-            return Some((psi * u, du));
+            // the octave below 2^e_s and the sub-interval, from the bits
+            let bits = psi.to_bits();
+            let e = ((bits >> 52) & 0x7ff) as i32 - 1023;
+            let m = ((bits >> (52 - NEAR_BITS)) & (NEAR_NODES as u64 - 1)) as usize;
+            let i = (self.e_s - 1 - e) as usize * NEAR_NODES + m;
+            let t = psi - self.near_centres[i];
+            let t2 = t * t;
+            let t4 = t2 * t2;
+            let t8 = t4 * t4;
+            return Some((
+                estrin(&self.near[i], t, t2, t4, t8),
+                estrin(&self.near_slopes[i], t, t2, t4, t8),
+            ));
         }
         if psi < self.psi_end {
             let x = (psi - self.psi_s) * self.inv_h;
@@ -319,6 +366,16 @@ fn estrin(a: &[f64; DEGREE + 1], t: f64, t2: f64, t4: f64, t8: f64) -> f64 {
     p0 + p1 * t4 + p2 * t8
 }
 
+/// The coefficients of a polynomial's derivative, `(k + 1) a_(k+1)`
+/// (padded with a zero).
+fn derivative(a: &[f64; DEGREE + 1]) -> [f64; DEGREE + 1] {
+    let mut d = [0.0; DEGREE + 1];
+    for k in 0..DEGREE {
+        d[k] = (k as f64 + 1.0) * a[k + 1];
+    }
+    d
+}
+
 /// `Σ c_k x^k`.
 #[inline]
 fn horner(c: &[f64], x: f64) -> f64 {
@@ -344,8 +401,11 @@ mod tests {
         let mut worst: f64 = 0.0;
         for (nu, eps, u, du, top) in cases {
             let c = Universal::new(nu, eps);
-            for i in 0..=3000 {
-                let psi = top * (i as f64 / 3000.0).powi(2);
+            // evenly, then geometrically towards zero (the graded nodes)
+            let grid = (0..=3000)
+                .map(|i| top * (i as f64 / 3000.0).powi(2))
+                .chain((0..400).map(|k| 0.7f64.powf(0.37 * k as f64)));
+            for psi in grid {
                 let Some((v, dv)) = c.at(psi) else {
                     assert!(eps < 0.0 && u(psi) > 2.0, "nu {nu} eps {eps} psi {psi}");
                     continue;
