@@ -104,8 +104,10 @@ impl Candidate for HystereticMode {
         Ok(starts)
     }
 
+    /// Its modal constant (a mode above the band is fitted by its
+    /// flexibility) and its joint's slip force.
     fn size_parameters(&self) -> &'static [&'static str] {
-        &["residue", "joint.fd"]
+        &["residue", "flexibility", "joint.fd"]
     }
 
     fn implausible(

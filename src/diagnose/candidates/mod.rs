@@ -473,4 +473,57 @@ mod tests {
         );
         assert!(Effect::parse_list(&[]).is_err());
     }
+
+    /// A candidate that adds a mode is judged by that mode's modal constant
+    /// wherever the mode lies: in the band (fitted by its residue), below
+    /// or above it (by its flexibility). A name the size check does not
+    /// know lets an unresolved mode through (a hysteretic mode above the
+    /// F-16's band was kept with its flexibility's interval across zero).
+    #[test]
+    fn an_added_modes_constant_is_a_size_parameter_on_every_side_of_the_band() {
+        use crate::model::{ModalModel, Mode};
+        let band = Some((90.0, 110.0));
+        for &effect in Effect::ALL {
+            let candidate = effect.candidate();
+            for frequency_hz in [50.0, 100.0, 200.0] {
+                let mut added = Mode {
+                    frequency_hz,
+                    damping_ratio: 0.01,
+                    residue: 0.5,
+                    joint: None,
+                };
+                if effect == Effect::HystereticMode {
+                    added.joint = Some(ElementSpec::Jenkins { kd: 1e6, fd: 10.0 });
+                }
+                let first = Mode {
+                    frequency_hz: 100.0,
+                    damping_ratio: 0.01,
+                    residue: 1.0,
+                    joint: None,
+                };
+                let model =
+                    Model::new(ModalModel::new(vec![first, added]).unwrap(), Vec::new()).unwrap();
+                if candidate.added_mode(&model) != Some(1) {
+                    continue;
+                }
+                let params = crate::diagnose::model_parameters(&model, band);
+                let constant = params
+                    .parameters
+                    .iter()
+                    .filter_map(|p| candidate.own_parameter(effect.name(), &model, &p.name))
+                    .find(|n| *n == "residue" || *n == "flexibility");
+                let Some(constant) = constant else {
+                    panic!(
+                        "{}: no modal constant among its parameters at {frequency_hz} Hz",
+                        effect.name()
+                    );
+                };
+                assert!(
+                    candidate.size_parameters().contains(&constant),
+                    "{} at {frequency_hz} Hz: {constant} is not judged",
+                    effect.name()
+                );
+            }
+        }
+    }
 }
