@@ -875,6 +875,12 @@ mod tests {
             2e-5,
             246.0,
         );
+        // a fractional exponent, stiffer unloading than loading
+        check_element(
+            BoucWen::new(2.4e7, 2.4e7 / 240f64.powf(1.5), 0.8, -0.3, 1.5).unwrap(),
+            2e-5,
+            246.0,
+        );
     }
 
     /// The exact flow against RK4 at many sub-steps (the same law, a second
