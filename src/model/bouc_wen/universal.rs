@@ -245,27 +245,14 @@ impl Universal {
             let m = ((bits >> (52 - NEAR_BITS)) & (NEAR_NODES as u64 - 1)) as usize;
             let i = (self.e_s - 1 - e) as usize * NEAR_NODES + m;
             let t = psi - self.near_centres[i];
-            let t2 = t * t;
-            let t4 = t2 * t2;
-            let t8 = t4 * t4;
-            return Some((
-                estrin(&self.near[i], t, t2, t4, t8),
-                estrin(&self.near_slopes[i], t, t2, t4, t8),
-            ));
+            return Some(value_and_slope(&self.near[i], &self.near_slopes[i], t));
         }
         if psi < self.psi_end {
             let x = (psi - self.psi_s) * self.inv_h;
             let i = (x + 0.5) as usize;
             let t = psi - (self.psi_s + i as f64 * self.h);
             let i = i.min(self.nodes.len() - 1);
-            // Estrin's scheme: the two polynomials' terms in parallel
-            let t2 = t * t;
-            let t4 = t2 * t2;
-            let t8 = t4 * t4;
-            return Some((
-                estrin(&self.nodes[i], t, t2, t4, t8),
-                estrin(&self.slopes[i], t, t2, t4, t8),
-            ));
+            return Some(value_and_slope(&self.nodes[i], &self.slopes[i], t));
         }
         if self.eps > 0.0 {
             // 1 − U = (1 − U_end) e^(−ν(ψ − ψ_end)), U′ = 1 − U^ν ≈ ν (1 − U)
@@ -355,6 +342,16 @@ fn taylor(u: f64, nu: f64, eps: f64, out: &mut [f64]) {
 }
 
 const _: () = assert!(DEGREE == 10, "estrin is written for degree 10");
+
+/// A node's polynomial and its derivative's at `t` from the node, the two
+/// evaluated side by side.
+#[inline(always)]
+fn value_and_slope(a: &[f64; DEGREE + 1], d: &[f64; DEGREE + 1], t: f64) -> (f64, f64) {
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    let t8 = t4 * t4;
+    (estrin(a, t, t2, t4, t8), estrin(d, t, t2, t4, t8))
+}
 
 /// `Σ a_k t^k` of degree [`DEGREE`] by Estrin's scheme, given `t²`, `t⁴`,
 /// `t⁸`: a few multiplications deep instead of ten.
