@@ -244,8 +244,11 @@ impl BoucWen {
             let z = self.flow_exact(z0, h);
             return FlowEnd::off_curve(z, self.slope_with(z, 1.0, sign(h)));
         }
+        // harmonic balance commits each sample once, with no trial before
+        let remember = !self.period_open;
         let key = [z0.to_bits(), h.to_bits()];
-        if let Some((k, end)) = self.last_flow.get()
+        if remember
+            && let Some((k, end)) = self.last_flow.get()
             && k == key
         {
             return end;
@@ -254,7 +257,9 @@ impl BoucWen {
             let (z, p) = self.flow_substepped(z0, self.power(z0.abs()), h);
             FlowEnd::off_curve(z, self.slope_with(z, p, sign(h)))
         });
-        self.last_flow.set(Some((key, end)));
+        if remember {
+            self.last_flow.set(Some((key, end)));
+        }
         end
     }
 
