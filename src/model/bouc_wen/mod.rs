@@ -15,7 +15,7 @@
 //! straight (what the digital-filter simulator assumes), and `z` is carried
 //! along it by the exact flow for `ν = 1` (`f_s` is affine in `z` on either
 //! side of `z = 0`: an exponential, split where `z` changes sign) and, for
-//! other `ν`, along the law's universal curve ([`universal`]): on either
+//! other `ν`, along the law's universal curve (the `universal` module): on either
 //! side of `z = 0` and in either direction the law is one equation
 //! `dU/dψ = 1 ∓ U^ν` scaled, tabulated once per `ν` to rounding, so a step
 //! costs two short polynomials however stiff it is (exponential
