@@ -31,8 +31,9 @@
 //!   predictor does); the throughput is points per second.
 //!   `hb/describing_function/*` solves the single-harmonic balance of the
 //!   same points (the ratio asked for); `hb/point_warm/masing_formula` uses
-//!   the untabulated backbone; `hb/point_warm/bouc_wen/1` and `/2` the
-//!   Bouc-Wen joint at its example shape, exact and general flow (periods
+//!   the untabulated backbone; `hb/point_warm/bouc_wen/1`, `/2` and `/1.5`
+//!   the Bouc-Wen joint at its example shape, the exact flow and the
+//!   universal curve for a whole and a fractional exponent (periods
 //!   marched until its loop repeats; target ≤ 40 µs); `hb/point_warm/iwan4/0.5` the Iwan joint (target ≤ 40 µs).
 //! * `hb/curve/jenkins/*` (issue 16's curve): the paper system with its
 //!   Jenkins joint, harmonics 0..=7, 512 samples per period, 121 points
@@ -222,6 +223,7 @@ fn harmonic_balance(c: &mut Criterion<ThreadCpu>) {
         ("masing_formula", 22.55, true),
         ("bouc_wen", 1.0, false),
         ("bouc_wen", 2.0, false),
+        ("bouc_wen", 1.5, false),
         ("iwan4", 0.5, false),
     ] {
         let model = match name {
