@@ -10,8 +10,9 @@
 //! `dU/dψ = 1 − ε U^ν`, `U(0) = 0`, `ε = sign(c)`,
 //!
 //! entered at `ψ₀ = U⁻¹(|z₀| / a)` and left at `ψ₀ ± ℓ α / a`. For `ν = 2`
-//! it is `tanh ψ` (`ε = 1`) or `tan ψ` (`ε = −1`); for other `ν` it has no
-//! closed form, so it is tabulated once per exponent, to rounding:
+//! it is `tanh ψ` (`ε = 1`) or `tan ψ` (`ε = −1`), for `ν = 1` an
+//! exponential (the tests' closed forms); for most `ν` it has none, so it
+//! is tabulated once per exponent, to rounding:
 //!
 //! * by Taylor polynomials of degree 10 about nodes, each node's
 //!   coefficients from the equation itself: `(k + 1) a_(k+1) = [k = 0] − ε
