@@ -483,6 +483,7 @@ mod tests {
     fn an_added_modes_constant_is_a_size_parameter_on_every_side_of_the_band() {
         use crate::model::{ModalModel, Mode};
         let band = Some((90.0, 110.0));
+        let mut checked = 0;
         for &effect in Effect::ALL {
             let candidate = effect.candidate();
             for frequency_hz in [50.0, 100.0, 200.0] {
@@ -523,7 +524,10 @@ mod tests {
                     "{} at {frequency_hz} Hz: {constant} is not judged",
                     effect.name()
                 );
+                checked += 1;
             }
         }
+        // a linear and a hysteretic mode, each on three sides of the band
+        assert_eq!(checked, 6);
     }
 }

@@ -289,15 +289,11 @@ impl Universal {
             if i + 1 < self.nodes.len() && u > horner(&self.nodes[i], 0.5 * self.h) {
                 i += 1;
             }
-            let a = &self.nodes[i];
+            let (a, d) = (&self.nodes[i], &self.slopes[i]);
             let (lo, hi) = (-0.5 * self.h, 0.5 * self.h);
             let mut t = ((u - a[0]) / a[1]).clamp(lo, hi);
             for _ in 0..30 {
-                let (mut p, mut dp) = (a[DEGREE], 0.0);
-                for k in (0..DEGREE).rev() {
-                    dp = dp * t + p;
-                    p = p * t + a[k];
-                }
+                let (p, dp) = value_and_slope(a, d, t);
                 let step = (p - u) / dp;
                 t = (t - step).clamp(lo, hi);
                 if step.abs() <= 1e-16 * self.h {
