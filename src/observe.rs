@@ -24,7 +24,22 @@ pub enum Event<'a> {
     Cost(&'a TraceEntry),
     /// The diagnosis moved on.
     Diagnosis(&'a DiagnoseEvent),
+    /// A stage that works through a known amount moved on: `done` of
+    /// `total` (samples simulated, dwells or sweep stages reduced).
+    Progress {
+        /// What the stage is doing (`simulating`, `reducing`, `reducing the
+        /// simulated response`).
+        task: &'static str,
+        /// How much of it is done.
+        done: u64,
+        /// How much there is.
+        total: u64,
+    },
 }
+
+/// Samples a long simulation runs between two [`Event::Progress`] reports
+/// (and checks for [`Observer::cancelled`]): a few tens of milliseconds.
+pub const SAMPLES_PER_REPORT: usize = 1 << 18;
 
 /// Told of every [`Event`] of the stages it is handed to.
 pub trait Observer: Sync {
@@ -32,8 +47,10 @@ pub trait Observer: Sync {
     fn observe(&self, event: Event<'_>);
     /// Whether the caller wants the work stopped (a user's interrupt, seen
     /// by a binding that cannot kill its host process). The test bench
-    /// checks it after each dwell, the fits before each evaluation and the
-    /// diagnosis before each candidate, and they return
+    /// checks it after each dwell, the fits before each evaluation, the
+    /// diagnosis before each candidate, a simulation every
+    /// [`SAMPLES_PER_REPORT`] samples and a reduction after each dwell or
+    /// stage of a sweep, and they return
     /// [`crate::error::Error::Cancelled`]; what a stage returns then is
     /// not a result.
     fn cancelled(&self) -> bool {

@@ -52,17 +52,21 @@ __all__ = [
 
 OUTPUTS = ("displacement", "velocity", "acceleration", "element_force")
 
-#: The long calls (:func:`virtual_test`, :func:`identify`,
-#: :func:`identify_time`, :func:`diagnose`) take ``progress``: a callable
-#: given one dict per event, as the command's progress line draws them:
+#: The calls that can take long (:func:`simulate`, :func:`virtual_test`,
+#: :func:`extract`, :func:`identify`, :func:`identify_time`,
+#: :func:`diagnose`, :func:`validate`) take ``progress``: a callable given
+#: one dict per event, as the command's progress line draws them:
 #: ``{"stage": "dwell", "level_index", "frequency_hz"}`` from the test bench,
-#: ``{"stage": "fit", "evaluation", "cost"}`` from a fit, and
+#: ``{"stage": "fit", "evaluation", "cost"}`` from a fit,
 #: ``{"stage": "diagnosis", "event": "baseline" | "round" | "candidate" |
-#: "checking", ...}`` from a diagnosis. It is called with the GIL held, from
-#: the library's worker threads too. Ctrl-C (with or without a callable) and
-#: an exception the callable raises stop the work at the next dwell,
-#: evaluation or candidate, and the call raises it; the callable is not
-#: called again after it raised.
+#: "checking", ...}`` from a diagnosis, and ``{"stage": "progress", "task",
+#: "done", "total"}`` from a simulation (``task`` ``"simulating"``, every
+#: 262 144 samples), a reduction (``"reducing"``: a stepped sine's dwells, a
+#: swept sine's whole reductions) and a validation's FRF comparison. It is
+#: called with the GIL held, from the library's worker threads too. Ctrl-C
+#: (with or without a callable) and an exception the callable raises stop
+#: the work at the next dwell, evaluation, candidate or progress event, and
+#: the call raises it; the callable is not called again after it raised.
 PROGRESS = "progress"
 
 
@@ -118,7 +122,7 @@ def _f64(x, name):
     return a
 
 
-def simulate(model, force, sample_rate_hz, output="displacement"):
+def simulate(model, force, sample_rate_hz, output="displacement", progress=None):
     """The response of ``model`` (a :class:`Model` or anything :func:`model`
     takes) driven from rest by ``force`` (N) sampled at ``sample_rate_hz``.
 
@@ -126,12 +130,14 @@ def simulate(model, force, sample_rate_hz, output="displacement"):
     ``"element_force"`` (the elements' total force, N), or ``"all"`` for a
     dict of the four. A contiguous float64 ``force`` is read in place; the
     result is a new float64 array, one sample per force sample.
+    ``progress``: see :data:`PROGRESS` (``"simulating"``, samples done of
+    all).
     """
     m = _as_model(model)
     f = _f64(force, "force")
     if output == "all":
-        return dict(zip(OUTPUTS, _hystid.simulate_all(m, f, float(sample_rate_hz))))
-    return _hystid.simulate(m, f, float(sample_rate_hz), output)
+        return dict(zip(OUTPUTS, _hystid.simulate_all(m, f, float(sample_rate_hz), progress)))
+    return _hystid.simulate(m, f, float(sample_rate_hz), output, progress)
 
 
 def virtual_test(definition=None, check_hb=False, progress=None):
@@ -201,6 +207,7 @@ def extract(
     compensation="auto",
     hop_periods=1.0,
     window_periods=4,
+    progress=None,
 ):
     """Nonlinear FRFs (``frf.json``) of a force (or voltage) and a response
     sampled at ``sample_rate_hz``, reduced as ``hystid identify`` reduces a
@@ -211,7 +218,8 @@ def extract(
     ``length``); without them the dwells are found. ``sweep``: a sweep's
     known ``f_start_hz``, ``f_end_hz``. ``excitation``: ``"stepped"``,
     ``"swept"`` or ``None`` (swept when a ``sweep`` is given, else stepped).
-    The other options are the command's reduction flags.
+    The other options are the command's reduction flags. ``progress``: see
+    :data:`PROGRESS` (``"reducing"``).
     """
     frf = _hystid.extract(
         _f64(force, "force"),
@@ -221,6 +229,7 @@ def extract(
         float(sample_rate_hz),
         _excitation(steps, sweep),
         json.dumps(_reduction(excitation, max_harmonic, compensation, hop_periods, window_periods)),
+        progress,
     )
     return json.loads(frf)
 
@@ -452,6 +461,7 @@ def validate(
     fit_name="",
     recording="",
     replay="band_limited",
+    progress=None,
 ):
     """Drives a fitted model (a ``fit.json`` dict) with a measured force and
     compares the simulated response with the measured one, as ``hystid
@@ -466,7 +476,9 @@ def validate(
     --domain time --start``'s);
     ``steps``, ``sweep`` as in :func:`extract`; ``replay="continuous"`` is
     ``--replay continuous`` (the joint's force taken as band-limited too, its
-    ``sinc²`` loss inside the simulator's loop compensated).
+    ``sinc²`` loss inside the simulator's loop compensated). ``progress``:
+    see :data:`PROGRESS` (``"simulating"``, then the FRF comparison's
+    reductions).
     """
     if replay not in ("band_limited", "continuous", "ramp"):
         raise ValueError(
@@ -493,6 +505,7 @@ def validate(
         json.dumps(settings),
         fit_name,
         recording,
+        progress,
     )
     report = json.loads(text)
     report["recordings"][0]["simulated"] = simulated

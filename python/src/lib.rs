@@ -15,7 +15,7 @@ use hystid::analysis::validate::{
     FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
 };
 use hystid::analysis::{
-    Compensation, Excitation as Reduction, FitReport, Loaded, ReductionOptions, reduce,
+    Compensation, Excitation as Reduction, FitReport, Loaded, ReductionOptions, reduce_observed,
 };
 use hystid::diagnose::{DiagnoseOptions, Effect};
 use hystid::fit::{FitOptions, TimeFitOptions, TimeRecord};
@@ -45,7 +45,9 @@ create_exception!(
 /// Each event reaches the callable as a dict: `{"stage": "dwell",
 /// "level_index", "frequency_hz"}` from the test bench, `{"stage": "fit",
 /// "evaluation", "cost"}` from a fit, `{"stage": "diagnosis", "event":
-/// "baseline" | "round" | "candidate" | "checking", ...}` from a diagnosis.
+/// "baseline" | "round" | "candidate" | "checking", ...}` from a diagnosis,
+/// `{"stage": "progress", "task", "done", "total"}` from a simulation or a
+/// reduction.
 ///
 /// The library works on a thread of its own ([`Progress::run`]) while the
 /// calling thread, Python's main thread as a rule, waits with the GIL
@@ -53,7 +55,8 @@ create_exception!(
 /// exception, a `KeyboardInterrupt` or one the callable raised, stops the
 /// callable's calls and asks the library to stop ([`Observer::cancelled`]:
 /// the bench after its dwell, a fit before its next evaluation, a diagnosis
-/// before its next candidate), and the call raises it.
+/// before its next candidate, a simulation within a quarter of a million
+/// samples, a reduction after its dwell), and the call raises it.
 struct Progress {
     callback: Option<Py<PyAny>>,
     raised: Mutex<Option<PyErr>>,
@@ -130,6 +133,12 @@ impl Progress {
                 d.set_item("stage", "fit")?;
                 d.set_item("evaluation", t.evaluation)?;
                 d.set_item("cost", t.cost)?;
+            }
+            Event::Progress { task, done, total } => {
+                d.set_item("stage", "progress")?;
+                d.set_item("task", task)?;
+                d.set_item("done", done)?;
+                d.set_item("total", total)?;
             }
             Event::Diagnosis(e) => {
                 d.set_item("stage", "diagnosis")?;
@@ -281,37 +290,42 @@ fn output(name: &str) -> PyResult<Output> {
 /// `model` driven from rest by `force` sampled at `sample_rate_hz`: one
 /// output (`displacement`, `velocity`, `acceleration`, `element_force`).
 #[pyfunction]
-#[pyo3(signature = (model, force, sample_rate_hz, output_name = "displacement".to_string()))]
+#[pyo3(signature = (model, force, sample_rate_hz, output_name = "displacement".to_string(), progress = None))]
 fn simulate<'py>(
     py: Python<'py>,
     model: PyRef<'py, PyModel>,
     force: PyReadonlyArray1<'py, f64>,
     sample_rate_hz: f64,
     output_name: String,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let which = output(&output_name)?;
     let f = slice("force", &force)?;
     let m = &model.inner;
-    let y = py
-        .detach(|| hystid::sim::simulate(m, f, sample_rate_hz, which))
-        .map_err(err)?;
+    let progress = Progress::new(progress);
+    let y = progress.run(py, || {
+        hystid::sim::simulate_observed(m, f, sample_rate_hz, which, &progress)
+    })?;
     Ok(y.into_pyarray(py))
 }
 
 /// Every output of [`simulate`], in `Output::ALL`'s order.
 #[pyfunction]
+#[pyo3(signature = (model, force, sample_rate_hz, progress = None))]
 #[allow(clippy::type_complexity)]
 fn simulate_all<'py>(
     py: Python<'py>,
     model: PyRef<'py, PyModel>,
     force: PyReadonlyArray1<'py, f64>,
     sample_rate_hz: f64,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Vec<Bound<'py, PyArray1<f64>>>> {
     let f = slice("force", &force)?;
     let m = &model.inner;
-    let r = py
-        .detach(|| hystid::sim::simulate_all(m, f, sample_rate_hz))
-        .map_err(err)?;
+    let progress = Progress::new(progress);
+    let r = progress.run(py, || {
+        hystid::sim::simulate_all_observed(m, f, sample_rate_hz, &progress)
+    })?;
     Ok(vec![
         r.displacement.into_pyarray(py),
         r.velocity.into_pyarray(py),
@@ -465,6 +479,7 @@ fn loaded(
 
 /// Nonlinear FRFs (frf.json) of a reference and a response.
 #[pyfunction]
+#[pyo3(signature = (reference, reference_quantity, response, response_quantity, sample_rate_hz, excitation, reduction, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn extract<'py>(
     py: Python<'py>,
@@ -475,6 +490,7 @@ fn extract<'py>(
     sample_rate_hz: f64,
     excitation: String,
     reduction: String,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let options = from_json::<ReductionJson>("reduction", &reduction)?.options()?;
     let loaded = loaded(
@@ -485,7 +501,8 @@ fn extract<'py>(
         sample_rate_hz,
         &excitation,
     )?;
-    let red = py.detach(|| reduce(&loaded, &options)).map_err(err)?;
+    let progress = Progress::new(progress);
+    let red = progress.run(py, || reduce_observed(&loaded, &options, &progress))?;
     to_json(&red.frf)
 }
 
@@ -678,7 +695,7 @@ fn yes() -> bool {
 /// response: validate.json with this one recording, and the simulated
 /// response.
 #[pyfunction]
-#[pyo3(signature = (fit, linear, reference, reference_quantity, response, response_quantity, sample_rate_hz, excitation, settings, fit_name = String::new(), recording_name = String::new()))]
+#[pyo3(signature = (fit, linear, reference, reference_quantity, response, response_quantity, sample_rate_hz, excitation, settings, fit_name = String::new(), recording_name = String::new(), progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn validate<'py>(
     py: Python<'py>,
@@ -693,6 +710,7 @@ fn validate<'py>(
     settings: String,
     fit_name: String,
     recording_name: String,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Bound<'py, PyArray1<f64>>)> {
     let origin = if fit_name.is_empty() {
         "fit"
@@ -718,9 +736,8 @@ fn validate<'py>(
         sample_rate_hz,
         &excitation,
     )?;
-    let mut v = py
-        .detach(|| validate_loaded(&fit, &loaded, &settings))
-        .map_err(err)?;
+    let progress = Progress::new(progress);
+    let mut v = progress.run(py, || validate_loaded(&fit, &loaded, &settings, &progress))?;
     let simulated = std::mem::take(&mut v.simulated);
     let response = loaded.recording.meta.channels[loaded.response].name.clone();
     let report = ValidateReport {

@@ -5,6 +5,7 @@ import _thread
 import signal
 import threading
 
+import numpy as np
 import pytest
 
 import hystid
@@ -121,3 +122,53 @@ def test_ctrl_c_stops_a_virtual_test_without_a_progress_callable(sigint):
             hystid.virtual_test(big)
     finally:
         timer.cancel()
+
+
+def progress_of(events):
+    return [(e["task"], e["done"], e["total"]) for e in events if e["stage"] == "progress"]
+
+
+def test_a_simulation_reports_its_samples_and_stops_when_asked():
+    # a million samples: four stretches of 2^18, the last one short
+    n = 1_000_000
+    force = 100.0 * np.sin(2 * np.pi * 80.0 * np.arange(n) / 20_000.0)
+    m = hystid.model(SMALL)
+    events = []
+    y = hystid.simulate(m, force, 20_000.0, progress=events.append)
+    stretch = 1 << 18
+    expected = [("simulating", min(k * stretch, n), n) for k in range(1, 5)]
+    assert progress_of(events) == expected
+    # the same bits as one stretch (the simulator carries its state across)
+    assert np.array_equal(y, hystid.simulate(m, force, 20_000.0))
+    every = []
+    all_outputs = hystid.simulate(m, force, 20_000.0, output="all", progress=every.append)
+    assert progress_of(every) == expected
+    assert np.array_equal(all_outputs["displacement"], y)
+    calls, stop = stopping_at(2)
+    with pytest.raises(Stop, match="enough"):
+        hystid.simulate(m, force, 20_000.0, progress=stop)
+    assert len(calls) == 2
+
+
+def test_a_reduction_and_a_validation_report_their_dwells_and_stages():
+    t = hystid.virtual_test(SMALL)
+    s, meta = t["signals"], t["recording"]
+    fs, steps = meta["sample_rate_hz"], meta["excitation"]["steps"]
+    events = []
+    frf = hystid.extract(s["force"], s["displacement"], fs, steps=steps, progress=events.append)
+    # one event per dwell, in order
+    n = len(steps)
+    assert progress_of(events) == [("reducing", k, n) for k in range(1, n + 1)]
+    assert frf == hystid.extract(s["force"], s["displacement"], fs, steps=steps)
+    fit = hystid.identify(frf)
+    seen = []
+    val = hystid.validate(fit, s["force"], s["displacement"], fs, steps=steps, progress=seen.append)
+    p = progress_of(seen)
+    simulating = [e for e in p if e[0] == "simulating"]
+    # the replay to its last sample (upsampled or not), then both reductions
+    assert simulating and simulating[-1][1] == simulating[-1][2] >= len(s["force"])
+    task = "reducing the measured and simulated responses"
+    assert p[len(simulating):] == [(task, 0, 2), (task, 1, 2), (task, 2, 2)]
+    plain = hystid.validate(fit, s["force"], s["displacement"], fs, steps=steps)
+    assert np.array_equal(val["recordings"][0].pop("simulated"), plain["recordings"][0].pop("simulated"))
+    assert val == plain

@@ -5,8 +5,8 @@
 use crate::error::{Error, Result};
 use crate::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, WHOLE_RECORD_FRAMES, choose_compensation,
-    choose_compensation_stream, reduce_stepped, reduce_stepped_stream, reduce_sweep_recording,
-    reduce_sweep_stream,
+    choose_compensation_stream, reduce_stepped_observed, reduce_stepped_stream,
+    reduce_sweep_recording, reduce_sweep_stream,
 };
 use crate::harmonics::Quantity;
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
@@ -386,26 +386,58 @@ fn sweep_options_by(
 
 /// Nonlinear FRFs of a loaded recording.
 pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
+    reduce_observed(loaded, r, &crate::observe::Silent)
+}
+
+/// [`reduce`], telling `observer` how it progresses (`reducing`: a stepped
+/// sine's dwells; a swept sine's whole reductions, three where the
+/// compensation is chosen from the data) and stopping where it asks
+/// ([`Error::Cancelled`]).
+pub fn reduce_observed(
+    loaded: &Loaded,
+    r: &ReductionOptions,
+    observer: &dyn crate::observe::Observer,
+) -> Result<Reduced> {
     let rec = &loaded.recording;
     let excitation = excitation_of(&rec.meta, r.excitation);
     let response_name = rec.meta.channels[loaded.response].name.clone();
     let fs = rec.meta.sample_rate_hz;
     let (frf, sweep) = match excitation {
         Excitation::Stepped => (
-            reduce_stepped(rec, loaded.response, &stepped_options(r))?,
+            reduce_stepped_observed(rec, loaded.response, &stepped_options(r), observer)?.frf,
             None,
         ),
         Excitation::Swept => {
             let reference = rec
                 .reference_channel()
                 .ok_or_else(|| Error::input("recording", "no reference channel"))?;
+            // the automatic compensation is two reductions more
+            let total = if r.compensation == Compensation::Auto {
+                3
+            } else {
+                1
+            };
+            let report = |done: u64| {
+                observer.observe(crate::observe::Event::Progress {
+                    task: "reducing",
+                    done,
+                    total,
+                });
+                if observer.cancelled() {
+                    return Err(Error::Cancelled);
+                }
+                Ok(())
+            };
+            report(0)?;
             let opts = sweep_options(
                 &rec.channels[reference],
                 &rec.channels[loaded.response],
                 fs,
                 r,
             )?;
+            report(total - 1)?;
             let red = reduce_sweep_recording(rec, loaded.response, &opts)?;
+            report(total)?;
             let sweep = red.sweep;
             let q = rec.meta.channels[loaded.response].quantity;
             let rq = rec.meta.channels[reference].quantity;

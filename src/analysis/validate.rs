@@ -7,7 +7,7 @@ use super::recording::{Excitation, Loaded, ReductionOptions, excitation_of, step
 use crate::error::{Error, Result};
 use crate::model::{ModalModel, Model};
 use crate::plot::{self, FrfSeries, SeriesStyle, TimeSignal};
-use crate::validate::{Reduction, ValidateOptions, Validation, validate_recording};
+use crate::validate::{Reduction, ValidateOptions, Validation, validate_recording_observed};
 use num_complex::Complex64;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -288,12 +288,14 @@ pub fn unique_stem(path: &Path, used: &mut Vec<String>) -> String {
     name
 }
 
-/// Validates `fit` on a loaded recording: [`validate_on`] without the
+/// Validates `fit` on a loaded recording, its progress told to `observer`
+/// (which may stop it): [`validate_on`] without the
 /// figures.
 pub fn validate_loaded(
     fit: &FitModel,
     loaded: &Loaded,
     settings: &ValidationSettings,
+    observer: &dyn crate::observe::Observer,
 ) -> Result<Validation> {
     let rec = &loaded.recording;
     let reference = rec
@@ -323,7 +325,14 @@ pub fn validate_loaded(
         periodic: settings.periodic,
         input: settings.input,
     };
-    validate_recording(&fit.model, fit.response_sign, rec, loaded.response, &opts)
+    validate_recording_observed(
+        &fit.model,
+        fit.response_sign,
+        rec,
+        loaded.response,
+        &opts,
+        observer,
+    )
 }
 
 /// Validates `fit` on the recording loaded from `path` and writes its
@@ -335,8 +344,9 @@ pub fn validate_on(
     settings: &ValidationSettings,
     dir: &Path,
     stem: &str,
+    observer: &dyn crate::observe::Observer,
 ) -> Result<(RecordingValidation, Vec<PathBuf>)> {
-    let v = validate_loaded(fit, loaded, settings)
+    let v = validate_loaded(fit, loaded, settings, observer)
         .map_err(|e| Error::context(format!("validating on {}", path.display()), e))?;
     let band = settings.band_hz;
     let rec = &loaded.recording;

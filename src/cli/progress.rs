@@ -61,6 +61,15 @@ impl hystid::observe::Observer for Drawn<'_> {
             Event::Diagnosis(D::Checking { effect }) => {
                 pb.set_message(format!("checking {}", effect.name()))
             }
+            Event::Progress { task, done, total } => {
+                pb.set_message(progress_message(task, done, total));
+                pb.tick();
+            }
         }
     }
+}
+
+/// `simulating 42 %`.
+pub fn progress_message(task: &str, done: u64, total: u64) -> String {
+    format!("{task} {:.0} %", 100.0 * done as f64 / total.max(1) as f64)
 }

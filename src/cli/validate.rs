@@ -80,7 +80,17 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             });
         }
         let stem = unique_stem(path, &mut used);
-        let (entry, written) = validate_on(&fit, path, &loaded, &settings, &args.out, &stem)?;
+        let shown = path.display().to_string();
+        let observer = |e: hystid::observe::Event<'_>| {
+            if let hystid::observe::Event::Progress { task, done, total } = e {
+                pb.set_message(format!(
+                    "validating on {shown}: {}",
+                    progress::progress_message(task, done, total)
+                ));
+            }
+        };
+        let (entry, written) =
+            validate_on(&fit, path, &loaded, &settings, &args.out, &stem, &observer)?;
         files.extend(written);
         if !quiet {
             pb.suspend(|| print_validation(path, &entry.response, &entry.validation));

@@ -48,7 +48,8 @@ pub use noncoherent::{estimate_frequency, noncoherent};
 pub use periodic::{EXCITED_LINE, Line, PERIODIC_CORRELATION, find_period, periodic_frf};
 pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, below_resolution,
-    combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_report, settling,
+    combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_observed,
+    reduce_stepped_report, settling,
 };
 pub use streaming::reduce_stepped_stream;
 pub use sweep::{

@@ -37,6 +37,7 @@ use super::noncoherent::{
 use super::{Direction, FrfLevel, FrfPoint, NonlinearFrf};
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
+use crate::observe::{Event, Observer, Silent};
 use crate::signals::{Recording, Step};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -885,6 +886,18 @@ pub fn reduce_stepped_report(
     response_channel: usize,
     options: &ReduceOptions,
 ) -> Result<SteppedReduction> {
+    reduce_stepped_observed(rec, response_channel, options, &Silent)
+}
+
+/// [`reduce_stepped_report`], telling `observer` after each dwell
+/// (`reducing`, dwells done of all) and stopping there if it asks
+/// ([`Error::Cancelled`]).
+pub fn reduce_stepped_observed(
+    rec: &Recording,
+    response_channel: usize,
+    options: &ReduceOptions,
+    observer: &dyn Observer,
+) -> Result<SteppedReduction> {
     let reference_channel = options
         .reference_channel
         .or_else(|| rec.reference_channel())
@@ -1048,6 +1061,14 @@ pub fn reduce_stepped_report(
             level: 0,
             point: 0,
         });
+        observer.observe(Event::Progress {
+            task: "reducing",
+            done: i as u64 + 1,
+            total: steps.len() as u64,
+        });
+        if observer.cancelled() {
+            return Err(Error::Cancelled);
+        }
     }
     let (levels, index) = group_levels(points);
     for (r, (l, p)) in reports.iter_mut().zip(index) {

@@ -37,6 +37,7 @@ use super::params::{ParameterSet, Transform};
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use crate::model::Model;
+use crate::observe::Silent;
 use crate::validate::resample::MAX_FACTOR;
 use crate::validate::{
     DriveInput, ErrorMetrics, PreparedDrive, error_metrics, simulate_prepared_at, upsampling_factor,
@@ -607,6 +608,7 @@ impl<'a> TimeProblem<'a> {
                 r.quantity,
                 self.sign,
                 f,
+                &Silent,
             )
             .ok()
             .map(|s| s.values)
@@ -673,6 +675,7 @@ impl<'a> TimeProblem<'a> {
             r.quantity,
             self.sign,
             factor,
+            &Silent,
         )?
         .values)
     }

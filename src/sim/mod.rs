@@ -30,6 +30,7 @@ use crate::model::shaker::Lag;
 use crate::model::{
     AnyElement, Attachment, Element, ElementForce, ImplicitStep, ModalModel, Model,
 };
+use crate::observe::{Event, Observer};
 
 /// One output sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -646,6 +647,29 @@ impl<E: Element> Simulator<E> {
         }
     }
 
+    /// [`Simulator::run_output`] a stretch at a time, reporting
+    /// `simulating` progress to `observer` and stopping if it asks (the same
+    /// bits as one call).
+    ///
+    /// # Panics
+    /// If `out.len() != force.len()`.
+    pub fn run_output_observed(
+        &mut self,
+        force: &[f64],
+        output: Output,
+        out: &mut [f64],
+        observer: &dyn Observer,
+    ) -> Result<()> {
+        assert_eq!(
+            force.len(),
+            out.len(),
+            "output length must equal input length"
+        );
+        in_stretches(force.len(), observer, |range| {
+            self.run_output(&force[range.clone()], output, &mut out[range])
+        })
+    }
+
     /// Runs a block into caller-provided slices (no allocation).
     ///
     /// # Panics
@@ -722,19 +746,78 @@ pub fn simulate(
     sample_rate_hz: f64,
     output: Output,
 ) -> Result<Vec<f64>> {
+    simulate_observed(
+        model,
+        force,
+        sample_rate_hz,
+        output,
+        &crate::observe::Silent,
+    )
+}
+
+/// [`simulate`], reporting `simulating` progress to `observer` every
+/// [`SAMPLES_PER_REPORT`](crate::observe::SAMPLES_PER_REPORT) samples and
+/// stopping there if it asks ([`crate::Error::Cancelled`]). The same bits
+/// as one call: the simulator carries its state from stretch to stretch.
+pub fn simulate_observed(
+    model: &Model,
+    force: &[f64],
+    sample_rate_hz: f64,
+    output: Output,
+    observer: &dyn Observer,
+) -> Result<Vec<f64>> {
     model.validate()?;
     let mut sim = Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?;
     let mut out = vec![0.0; force.len()];
-    sim.run_output(force, output, &mut out)?;
+    sim.run_output_observed(force, output, &mut out, observer)?;
     Ok(out)
 }
 
 /// `model` driven from rest by `force` sampled at `sample_rate_hz`: every
 /// output ([`simulate`] for one).
 pub fn simulate_all(model: &Model, force: &[f64], sample_rate_hz: f64) -> Result<Response> {
+    simulate_all_observed(model, force, sample_rate_hz, &crate::observe::Silent)
+}
+
+/// [`simulate_all`] observed as [`simulate_observed`] is.
+pub fn simulate_all_observed(
+    model: &Model,
+    force: &[f64],
+    sample_rate_hz: f64,
+    observer: &dyn Observer,
+) -> Result<Response> {
     model.validate()?;
     let mut sim = Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?;
-    sim.run(force)
+    let mut out = Response::default();
+    in_stretches(force.len(), observer, |range| {
+        sim.run_into(&force[range], &mut out)
+    })?;
+    Ok(out)
+}
+
+/// Runs `stretch` over `0..n` in stretches of
+/// [`SAMPLES_PER_REPORT`](crate::observe::SAMPLES_PER_REPORT), telling
+/// `observer` after each and stopping if it asks.
+fn in_stretches(
+    n: usize,
+    observer: &dyn Observer,
+    mut stretch: impl FnMut(std::ops::Range<usize>) -> Result<()>,
+) -> Result<()> {
+    let mut done = 0;
+    while done < n {
+        if observer.cancelled() {
+            return Err(crate::Error::Cancelled);
+        }
+        let end = (done + crate::observe::SAMPLES_PER_REPORT).min(n);
+        stretch(done..end)?;
+        done = end;
+        observer.observe(Event::Progress {
+            task: "simulating",
+            done: done as u64,
+            total: n as u64,
+        });
+    }
+    Ok(())
 }
 
 /// Caller-owned output slices for [`Simulator::run_slices`].
@@ -882,5 +965,81 @@ mod tests {
             e.to_string().contains("must exceed twice the highest mode"),
             "{e}"
         );
+    }
+
+    /// A run in stretches (as an observed simulation makes it) is the same
+    /// bits as one run, with the element force compensated and the slip
+    /// transitions located too (both carry state from sample to sample);
+    /// progress is told after each stretch, and an observer that asks stops
+    /// the run at the next.
+    #[test]
+    fn an_observed_run_is_one_run_told_in_stretches() {
+        use crate::observe::{Event, Observer, SAMPLES_PER_REPORT};
+        use std::sync::Mutex;
+        struct Told(Mutex<Vec<(u64, u64)>>, usize);
+        impl Observer for Told {
+            fn observe(&self, e: Event<'_>) {
+                if let Event::Progress { task, done, total } = e {
+                    assert_eq!(task, "simulating");
+                    self.0.lock().unwrap().push((done, total));
+                }
+            }
+            fn cancelled(&self) -> bool {
+                self.0.lock().unwrap().len() >= self.1
+            }
+        }
+        let model = Model::new(
+            ModalModel::sdof(10.0, 200.0, 1e7).unwrap(),
+            vec![ElementSpec::Jenkins {
+                kd: 2.4e7,
+                fd: 246.048,
+            }],
+        )
+        .unwrap();
+        let fs = 50_000.0;
+        // two whole stretches and a part: the joint slips in every one
+        let n = 2 * SAMPLES_PER_REPORT + 1234;
+        let force: Vec<f64> = (0..n)
+            .map(|i| 400.0 * (2.0 * std::f64::consts::PI * 150.0 * i as f64 / fs).sin())
+            .collect();
+        let fresh = || Simulator::new(&model.linear, model.element_set().unwrap(), fs).unwrap();
+        let build = |variant: usize| match variant {
+            0 => fresh(),
+            1 => fresh().with_element_force_compensated(),
+            _ => fresh().with_transitions_located(),
+        };
+        for (variant, name) in ["plain", "compensated", "located"].iter().enumerate() {
+            let mut whole = vec![0.0; n];
+            build(variant)
+                .run_output(&force, Output::Velocity, &mut whole)
+                .unwrap();
+            let told = Told(Mutex::new(Vec::new()), usize::MAX);
+            let mut parts = vec![0.0; n];
+            build(variant)
+                .run_output_observed(&force, Output::Velocity, &mut parts, &told)
+                .unwrap();
+            assert!(
+                whole
+                    .iter()
+                    .zip(&parts)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{name}"
+            );
+            let s = SAMPLES_PER_REPORT as u64;
+            let n = n as u64;
+            assert_eq!(*told.0.lock().unwrap(), [(s, n), (2 * s, n), (n, n)]);
+        }
+        let all = simulate_all(&model, &force, fs).unwrap();
+        let told = Told(Mutex::new(Vec::new()), usize::MAX);
+        assert_eq!(
+            simulate_all_observed(&model, &force, fs, &told).unwrap(),
+            all
+        );
+        assert_eq!(told.0.lock().unwrap().len(), 3);
+        // asked to stop after the first stretch: the second is not run
+        let stop = Told(Mutex::new(Vec::new()), 1);
+        let e = simulate_observed(&model, &force, fs, Output::Displacement, &stop).unwrap_err();
+        assert!(matches!(e, crate::Error::Cancelled), "{e}");
+        assert_eq!(stop.0.lock().unwrap().len(), 1);
     }
 }

@@ -36,6 +36,7 @@ use crate::extract::{
 };
 use crate::harmonics::Quantity;
 use crate::model::Model;
+use crate::observe::{Event, Observer, Silent};
 use crate::record::{Recording, Step};
 use crate::sim::Simulator;
 use serde::{Deserialize, Serialize};
@@ -192,10 +193,13 @@ pub fn simulate_response(
         sign,
         min_samples_per_period,
         DriveInput::BandLimited,
+        &Silent,
     )
 }
 
-/// [`simulate_response`] with the force between samples as `input` says.
+/// [`simulate_response`] with the force between samples as `input` says,
+/// its progress told to `observer` (which may stop it).
+#[allow(clippy::too_many_arguments)]
 pub fn simulate_response_with(
     model: &Model,
     reference: &[f64],
@@ -204,6 +208,7 @@ pub fn simulate_response_with(
     sign: f64,
     min_samples_per_period: f64,
     input: DriveInput,
+    observer: &dyn Observer,
 ) -> Result<SimulatedResponse> {
     if !quantity.is_motion() {
         return Err(Error::input(
@@ -229,13 +234,16 @@ pub fn simulate_response_with(
             format!("must be +1 or -1, got {sign}"),
         ));
     }
-    simulate_prepared(
+    let drive = PreparedDrive::new(reference, input);
+    let factor = upsampling_factor(model, sample_rate_hz, min_samples_per_period)?;
+    simulate_prepared_at(
         model,
-        &PreparedDrive::new(reference, input),
+        &drive,
         sample_rate_hz,
         quantity,
         sign,
-        min_samples_per_period,
+        factor,
+        observer,
     )
 }
 
@@ -292,7 +300,15 @@ pub fn simulate_prepared(
     min_samples_per_period: f64,
 ) -> Result<SimulatedResponse> {
     let factor = upsampling_factor(model, sample_rate_hz, min_samples_per_period)?;
-    simulate_prepared_at(model, drive, sample_rate_hz, quantity, sign, factor)
+    simulate_prepared_at(
+        model,
+        drive,
+        sample_rate_hz,
+        quantity,
+        sign,
+        factor,
+        &Silent,
+    )
 }
 
 /// The upsampling that gives `model`'s highest linearised frequency at
@@ -321,7 +337,8 @@ pub fn upsampling_factor(
 }
 
 /// [`simulate_prepared`] at a given upsampling `factor` (a fit keeps one
-/// grid while its parameters move: see `fit::time`).
+/// grid while its parameters move: see `fit::time`), its progress told to
+/// `observer` (which may stop it).
 pub fn simulate_prepared_at(
     model: &Model,
     drive: &PreparedDrive,
@@ -329,6 +346,7 @@ pub fn simulate_prepared_at(
     quantity: Quantity,
     sign: f64,
     factor: usize,
+    observer: &dyn Observer,
 ) -> Result<SimulatedResponse> {
     let reference = drive.reference;
     if reference.is_empty() {
@@ -357,7 +375,7 @@ pub fn simulate_prepared_at(
         Quantity::Force | Quantity::Voltage => unreachable!("checked above"),
     };
     let mut fine = vec![0.0; drive.len()];
-    sim.run_output(&drive, output, &mut fine)?;
+    sim.run_output_observed(&drive, output, &mut fine, observer)?;
     if let Some(i) = fine.iter().position(|v| !v.is_finite()) {
         return Err(Error::NotConverged {
             stage: "validation simulation",
@@ -567,6 +585,27 @@ pub fn validate_recording(
     response_channel: usize,
     options: &ValidateOptions,
 ) -> Result<Validation> {
+    validate_recording_observed(
+        model,
+        response_sign,
+        rec,
+        response_channel,
+        options,
+        &Silent,
+    )
+}
+
+/// [`validate_recording`], telling `observer` how the replay and the
+/// reductions progress (`simulating`, `reducing`, `reducing the simulated
+/// response`) and stopping where it asks ([`Error::Cancelled`]).
+pub fn validate_recording_observed(
+    model: &Model,
+    response_sign: f64,
+    rec: &Recording,
+    response_channel: usize,
+    options: &ValidateOptions,
+    observer: &dyn Observer,
+) -> Result<Validation> {
     let reference = rec.reference_channel().ok_or_else(|| {
         Error::input(
             "recording",
@@ -619,6 +658,7 @@ pub fn validate_recording(
         response_sign,
         options.min_samples_per_period,
         options.input,
+        observer,
     )?;
     sim.values.drain(..(repeats - 1) * n);
     sim.values.truncate(measured.len());
@@ -632,6 +672,7 @@ pub fn validate_recording(
             &sim.values,
             r,
             options.band_hz,
+            observer,
         )?),
     };
     let window = match (options.window_s, options.band_hz, &frf) {
@@ -673,6 +714,9 @@ pub fn sweep_window(sweep: &SweepFit, band: (f64, f64)) -> (usize, usize) {
     (r.start, r.end)
 }
 
+/// The task the FRF comparison reports: both signals reduced.
+const REDUCING: &str = "reducing the measured and simulated responses";
+
 fn compare_frfs(
     rec: &Recording,
     reference: usize,
@@ -680,12 +724,24 @@ fn compare_frfs(
     simulated: &[f64],
     reduction: &Reduction,
     band_hz: Option<(f64, f64)>,
+    observer: &dyn Observer,
 ) -> Result<FrfComparison> {
+    // the reductions' progress: measured, then simulated
+    let report = |task: &'static str, done: u64, total: u64| -> Result<()> {
+        observer.observe(Event::Progress { task, done, total });
+        if observer.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        Ok(())
+    };
     let fs = rec.meta.sample_rate_hz;
     let (measured, simulated, sweep) = match reduction {
         Reduction::Swept(opts) => {
+            report(REDUCING, 0, 2)?;
             let m = reduce_sweep(&rec.channels[reference], &rec.channels[response], fs, opts)?;
+            report(REDUCING, 1, 2)?;
             let s = reduce_sweep(&rec.channels[reference], simulated, fs, opts)?;
+            report(REDUCING, 2, 2)?;
             let q = rec.meta.channels[response].quantity;
             let r = rec.meta.channels[reference].quantity;
             let sweep = m.sweep;
@@ -708,6 +764,7 @@ fn compare_frfs(
                 reference_channel: Some(0),
                 ..opts.clone()
             };
+            report(REDUCING, 0, 2)?;
             let mut meas = pair(&rec.channels[response]);
             let first = reduce_stepped_report(&meas, 1, &opts)?;
             // the simulated response on exactly the measured dwells
@@ -716,7 +773,9 @@ fn compare_frfs(
             let mut sim = pair(simulated);
             sim.meta.excitation.steps = steps;
             let m = reduce_stepped_report(&meas, 1, &opts)?.frf;
+            report(REDUCING, 1, 2)?;
             let s = reduce_stepped_report(&sim, 1, &opts)?.frf;
+            report(REDUCING, 2, 2)?;
             (m, s, None)
         }
     };
@@ -801,6 +860,7 @@ mod tests {
                     1.0,
                     2.0,
                     input,
+                    &Silent,
                 )
                 .unwrap()
                 .values;
