@@ -270,10 +270,17 @@ fn the_replay_grid_is_fixed_until_the_optimum_asks_for_a_finer_one() {
     // factor, sample for sample
     let drive =
         hystid::validate::PreparedDrive::new(&record.reference, TimeFitOptions::default().input);
-    let on_grid =
-        hystid::validate::simulate_prepared_at(&stiff, &drive, fs, record.quantity, 1.0, on_start)
-            .unwrap()
-            .values;
+    let on_grid = hystid::validate::simulate_prepared_at(
+        &stiff,
+        &drive,
+        fs,
+        record.quantity,
+        1.0,
+        on_start,
+        &hystid::observe::Silent,
+    )
+    .unwrap()
+    .values;
     let judged = problem.errors(&stiff).unwrap()[0].window.e_rms;
     let direct =
         hystid::validate::error_metrics(&record.response, &on_grid, fs, record.window.clone())
