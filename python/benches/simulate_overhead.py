@@ -53,4 +53,19 @@ for name, m in models.items():
         f"(medians of {ROUNDS}), overhead {100 * (p / r - 1):+.2f} % "
         f"[Python min {min(py) * 1e3:.2f} ms, Rust min {min(rust) * 1e3:.2f} ms]"
     )
+# a short call, as a Python loop over many small simulations makes it: the
+# fixed cost of a call (argument conversion, the worker thread that lets
+# Ctrl-C and `progress=` through, the output array)
+short = force[:1000]
+m = models["jenkins"]
+calls = 2000
+py, rust = [], []
+for _ in range(ROUNDS):
+    t0 = time.perf_counter()
+    for _ in range(calls):
+        hystid.simulate(m, short, FS)
+    py.append((time.perf_counter() - t0) / calls)
+    rust.append(statistics.median(_hystid._rust_simulate_seconds(m, short, FS) for _ in range(calls)))
+p, r = statistics.median(py), statistics.median(rust)
+print(f"jenkins  1e3 samples: Python {p * 1e6:8.2f} us, Rust {r * 1e6:8.2f} us per call (medians of {ROUNDS})")
 print(f"load average after: {os.getloadavg()}")

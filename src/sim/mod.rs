@@ -930,17 +930,22 @@ mod tests {
     use super::*;
     use crate::model::ElementSpec;
 
-    /// [`simulate`] is the simulator's run, one output at a time.
-    #[test]
-    fn simulate_gives_each_output_of_a_run() {
-        let model = Model::new(
+    /// The paper's SDOF with a Jenkins joint.
+    fn paper_jenkins() -> Model {
+        Model::new(
             ModalModel::sdof(10.0, 200.0, 1e7).unwrap(),
             vec![ElementSpec::Jenkins {
                 kd: 2.4e7,
                 fd: 246.048,
             }],
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    /// [`simulate`] is the simulator's run, one output at a time.
+    #[test]
+    fn simulate_gives_each_output_of_a_run() {
+        let model = paper_jenkins();
         let fs = 50_000.0;
         let force: Vec<f64> = (0..20_000)
             .map(|i| 400.0 * (2.0 * std::f64::consts::PI * 150.0 * i as f64 / fs).sin())
@@ -988,14 +993,7 @@ mod tests {
                 self.0.lock().unwrap().len() >= self.1
             }
         }
-        let model = Model::new(
-            ModalModel::sdof(10.0, 200.0, 1e7).unwrap(),
-            vec![ElementSpec::Jenkins {
-                kd: 2.4e7,
-                fd: 246.048,
-            }],
-        )
-        .unwrap();
+        let model = paper_jenkins();
         let fs = 50_000.0;
         // two whole stretches and a part: the joint slips in every one
         let n = 2 * SAMPLES_PER_REPORT + 1234;
