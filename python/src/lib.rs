@@ -117,6 +117,37 @@ impl Progress {
         }
     }
 
+    /// [`Progress::run`] for work too short to need a thread of its own
+    /// (a few milliseconds: a worker thread and its polling would cost more
+    /// than the work): run here with the GIL released; an exception the
+    /// callable raised meanwhile is raised, Ctrl-C is seen when it returns.
+    fn run_here<T: Send>(
+        &self,
+        py: Python<'_>,
+        work: impl FnOnce() -> hystid::Result<T> + Send,
+    ) -> PyResult<T> {
+        let result = py.detach(work);
+        match self.raised.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            Some(e) => Err(e),
+            None => result.map_err(err),
+        }
+    }
+
+    /// [`Progress::run`] for a simulation of `samples`: on this thread when
+    /// it is one stretch ([`hystid::observe::SAMPLES_PER_REPORT`]).
+    fn run_simulation<T: Send>(
+        &self,
+        py: Python<'_>,
+        samples: usize,
+        work: impl FnOnce() -> hystid::Result<T> + Send,
+    ) -> PyResult<T> {
+        if samples <= hystid::observe::SAMPLES_PER_REPORT {
+            self.run_here(py, work)
+        } else {
+            self.run(py, work)
+        }
+    }
+
     fn event<'py>(py: Python<'py>, event: Event<'_>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
         use hystid::diagnose::DiagnoseEvent as D;
         let d = pyo3::types::PyDict::new(py);
@@ -303,7 +334,7 @@ fn simulate<'py>(
     let f = slice("force", &force)?;
     let m = &model.inner;
     let progress = Progress::new(progress);
-    let y = progress.run(py, || {
+    let y = progress.run_simulation(py, f.len(), || {
         hystid::sim::simulate_observed(m, f, sample_rate_hz, which, &progress)
     })?;
     Ok(y.into_pyarray(py))
@@ -323,7 +354,7 @@ fn simulate_all<'py>(
     let f = slice("force", &force)?;
     let m = &model.inner;
     let progress = Progress::new(progress);
-    let r = progress.run(py, || {
+    let r = progress.run_simulation(py, f.len(), || {
         hystid::sim::simulate_all_observed(m, f, sample_rate_hz, &progress)
     })?;
     Ok(vec![

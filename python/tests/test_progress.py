@@ -148,6 +148,14 @@ def test_a_simulation_reports_its_samples_and_stops_when_asked():
     with pytest.raises(Stop, match="enough"):
         hystid.simulate(m, force, 20_000.0, progress=stop)
     assert len(calls) == 2
+    # a short one runs on the calling thread (no worker to start): one event,
+    # and the callable's exception is raised all the same
+    short = []
+    assert np.array_equal(hystid.simulate(m, force[:1000], 20_000.0, progress=short.append), y[:1000])
+    assert progress_of(short) == [("simulating", 1000, 1000)]
+    calls, stop = stopping_at(1)
+    with pytest.raises(Stop, match="enough"):
+        hystid.simulate(m, force[:1000], 20_000.0, output="all", progress=stop)
 
 
 def test_a_reduction_and_a_validation_report_their_dwells_and_stages():
