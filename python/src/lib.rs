@@ -583,7 +583,7 @@ fn identify<'py>(
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
-    let reference = reference.and_then(|m| m.inner.joint.clone());
+    let reference = reference.and_then(|m| m.inner.joint);
     let progress = Progress::new(progress);
     let fit = progress.run(py, || {
         hystid::analysis::run_fit(&frf, &options, &progress, None)
