@@ -123,6 +123,13 @@ impl Error {
             source: Box::new(source),
         }
     }
+    /// The error under its [`Error::Context`] wrappers: what failed.
+    pub fn root(&self) -> &Error {
+        match self {
+            Error::Context { source, .. } => source.root(),
+            e => e,
+        }
+    }
     /// An [`Error::Io`] for a file.
     pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
         Error::Io {

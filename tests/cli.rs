@@ -952,3 +952,116 @@ fn run_finds_an_undeclared_hysteretic_mode() {
         crate::common::assert_readme_figure(what, value, shown[i]);
     }
 }
+
+/// A model that runs away under one recording's drive (a softening cubic
+/// stiffness whose restoring force turns over past 2 cm) is that
+/// recording's result, not the end of the others': `validate` writes the
+/// figures of the recording it could replay, says why it could not replay
+/// the other (its replay did not converge), and exits 1 (degraded); one
+/// recording alone, it still writes validate.json with the reason.
+#[test]
+fn validate_reports_a_replay_that_runs_away_and_validates_the_rest() {
+    use hystid::harmonics::Quantity;
+    use hystid::record::{
+        Channel, Excitation, ExcitationKind, FORMAT_V1, Recording, RecordingMeta, SampleFormat,
+        write_recording,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let model_text = "[system]\nmass = 1.0\ndamping = 20.0\nstiffness = 4.0e5\n\n\
+                      [[effects]]\nkind = \"cubic_stiffness\"\nk3 = -1.0e9\n";
+    let model_path = dir.path().join("model.toml");
+    std::fs::write(&model_path, model_text).unwrap();
+    let fs = 5000.0;
+    // 50 Hz, below the 100 Hz mode: 20 N moves it 0.07 mm, 20 kN 7 cm
+    let recording = |amplitude: f64, name: &str| -> PathBuf {
+        let force: Vec<f64> = (0..5000)
+            .map(|i| amplitude * (2.0 * std::f64::consts::PI * 50.0 * i as f64 / fs).sin())
+            .collect();
+        let x = hystid::sim::simulate(
+            &hystid::testbench::model_from_toml(
+                "[system]\nmass = 1.0\ndamping = 20.0\nstiffness = 4.0e5\n",
+                "linear",
+            )
+            .unwrap(),
+            &force,
+            fs,
+            hystid::sim::Output::Displacement,
+        )
+        .unwrap();
+        let channel = |name: &str, quantity: Quantity, unit: &str| Channel {
+            name: name.into(),
+            quantity,
+            unit: unit.into(),
+            scale: 1.0,
+        };
+        let rec = Recording {
+            meta: RecordingMeta {
+                format: FORMAT_V1.into(),
+                sample_rate_hz: fs,
+                channels: vec![
+                    channel("force", Quantity::Force, "N"),
+                    channel("x", Quantity::Displacement, "m"),
+                ],
+                excitation: Excitation {
+                    kind: ExcitationKind::SteppedSine,
+                    steps: Vec::new(),
+                    sweep: None,
+                },
+                description: String::new(),
+                metadata: Default::default(),
+                extra: Default::default(),
+                chosen_reference: None,
+            },
+            channels: vec![force, x],
+        };
+        let path = dir.path().join(name);
+        write_recording(&path, &rec, SampleFormat::Float32).unwrap();
+        path.with_extension("json")
+    };
+    let quiet = recording(20.0, "quiet");
+    let loud = recording(20_000.0, "loud");
+    let out = dir.path().join("val");
+    let o = hystid(&[
+        "validate",
+        model_path.to_str().unwrap(),
+        quiet.to_str().unwrap(),
+        loud.to_str().unwrap(),
+        "--no-frf",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("1 of 2 recordings could not be replayed"),
+        "{}",
+        text(&o)
+    );
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("validate.json")).unwrap()).unwrap();
+    let entries = v["recordings"].as_array().unwrap();
+    assert_eq!(entries.len(), 2);
+    // the quiet one validated: the model is the linear one plus a cubic that
+    // barely acts there, so it replays the linear response within 1e-3
+    let relative = entries[0]["whole"]["relative"].as_f64().unwrap();
+    assert!(relative < 1e-3, "{relative}");
+    assert!(entries[0].get("replay_failed").is_none());
+    // the loud one: no figures, and why
+    assert!(entries[1].get("whole").is_none(), "{}", entries[1]);
+    let why = entries[1]["replay_failed"].as_str().unwrap();
+    assert!(
+        why.contains("loud.json") && why.contains("did not converge"),
+        "{why}"
+    );
+    // alone, the same: a report that says why, exit 1
+    let o = hystid(&[
+        "validate",
+        model_path.to_str().unwrap(),
+        loud.to_str().unwrap(),
+        "--no-frf",
+        "--out",
+        dir.path().join("val_loud").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(dir.path().join("val_loud/validate.json").is_file());
+}

@@ -1074,19 +1074,7 @@ fn f16_second_mode_diagnosis_is_the_readmes() {
         return;
     };
     let work = tempfile::tempdir().unwrap();
-    let level = |l: &str| {
-        super::protocols::import(
-            work.path(),
-            &data.join(format!("BenchmarkData/F16Data_SineSw_Level{l}.mat")),
-            &format!("L{}", &l[..1]),
-            &super::protocols::F16_IMPORT,
-        )
-    };
-    let odd: Vec<PathBuf> = ["1", "3", "5", "7"].iter().map(|l| level(l)).collect();
-    let held: Vec<PathBuf> = ["2_Validation", "4_Validation", "6_Validation"]
-        .iter()
-        .map(|l| level(l))
-        .collect();
+    let (odd, held) = f16_levels(work.path(), &data);
     let out = work.path().join("diag");
     let mut args: Vec<&str> = vec!["diagnose"];
     args.extend(odd.iter().map(|p| s(p)));
@@ -1113,23 +1101,61 @@ fn f16_second_mode_diagnosis_is_the_readmes() {
             ("cubic_stiffness", &["k3"]),
         ],
     );
-    let val = work.path().join("val");
-    let mut args: Vec<&str> = vec!["validate", s(&diagnosis)];
+    f16_validation_is_the_readmes(
+        work.path(),
+        &diagnosis,
+        &held,
+        "6:7.6",
+        "F-16 diagnosed on 6-7.6 Hz, two nonlinear modes",
+    );
+}
+
+/// The F-16 levels imported into `work` as the README's walkthrough imports
+/// them: the odd levels (fitted) and the even ones (held out).
+fn f16_levels(work: &Path, data: &Path) -> (Vec<PathBuf>, Vec<PathBuf>) {
+    let level = |l: &str| {
+        super::protocols::import(
+            work,
+            &data.join(format!("BenchmarkData/F16Data_SineSw_Level{l}.mat")),
+            &format!("L{}", &l[..1]),
+            &super::protocols::F16_IMPORT,
+        )
+    };
+    let odd = ["1", "3", "5", "7"].iter().map(|l| level(l)).collect();
+    let held = ["2_Validation", "4_Validation", "6_Validation"]
+        .iter()
+        .map(|l| level(l))
+        .collect();
+    (odd, held)
+}
+
+/// `model` validated on the F-16's held-out levels over `band`; each
+/// level's e_RMS and share of the RMS asserted as the README's row `| {row}
+/// | level {l} |` prints them; the shares (%).
+fn f16_validation_is_the_readmes(
+    work: &Path,
+    model: &Path,
+    held: &[PathBuf],
+    band: &str,
+    row: &str,
+) -> Vec<f64> {
+    let val = work.join("val");
+    let mut args: Vec<&str> = vec!["validate", s(model)];
     args.extend(held.iter().map(|p| s(p)));
-    args.extend(["--band", "6:7.6", "-q", "--out", s(&val)]);
+    args.extend(["--band", band, "-q", "--out", s(&val)]);
     run_ok(&args);
     let v = json(&val.join("validate.json"));
+    let mut shares = Vec::new();
     for (r, l) in v["recordings"].as_array().unwrap().iter().zip([2, 4, 6]) {
         let relative = 100.0 * r["window"]["relative"].as_f64().unwrap();
         let e_rms = r["window"]["e_rms"].as_f64().unwrap();
         eprintln!("level {l}: e_RMS {e_rms:.3} m/s^2, {relative:.1} % of the RMS");
-        let shown = common::readme_figures(&format!(
-            "| F-16 diagnosed on 6-7.6 Hz, two nonlinear modes | level {l} |"
-        ))
-        .expect("README row");
+        let shown = common::readme_figures(&format!("| {row} | level {l} |")).expect("README row");
         common::assert_readme_figure(&format!("level {l} e_RMS"), e_rms, shown[0]);
         common::assert_readme_figure(&format!("level {l} share (%)"), relative, shown[1]);
+        shares.push(relative);
     }
+    shares
 }
 
 /// The README's UNESP walkthrough: three chirps diagnosed on mode 2's band,
@@ -1385,19 +1411,7 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         return;
     };
     let work = tempfile::tempdir().unwrap();
-    let level = |l: &str| {
-        super::protocols::import(
-            work.path(),
-            &data.join(format!("BenchmarkData/F16Data_SineSw_Level{l}.mat")),
-            &format!("L{}", &l[..1]),
-            &super::protocols::F16_IMPORT,
-        )
-    };
-    let fit: Vec<PathBuf> = ["1", "3", "5", "7"].iter().map(|l| level(l)).collect();
-    let held: Vec<PathBuf> = ["2_Validation", "4_Validation", "6_Validation"]
-        .iter()
-        .map(|l| level(l))
-        .collect();
+    let (fit, held) = f16_levels(work.path(), &data);
     let start =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("signals/f16_hysteretic_mode_start.toml");
     let out = work.path().join("fit");
@@ -1415,21 +1429,14 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         s(&out),
     ]);
     run_ok(&args);
-    let val = work.path().join("val");
-    let fit_json = out.join("fit.json");
-    let mut args: Vec<&str> = vec!["validate", s(&fit_json)];
-    args.extend(held.iter().map(|p| s(p)));
-    args.extend(["--band", "4.5:9", "-q", "--out", s(&val)]);
-    run_ok(&args);
-    let v = json(&val.join("validate.json"));
-    for (r, l) in v["recordings"].as_array().unwrap().iter().zip([2, 4, 6]) {
-        let relative = 100.0 * r["window"]["relative"].as_f64().unwrap();
-        let e_rms = r["window"]["e_rms"].as_f64().unwrap();
-        eprintln!("level {l}: e_RMS {e_rms:.3} m/s^2, {relative:.1} % of the RMS");
-        let shown = common::readme_figures(&format!("| F-16 with a hysteretic mode | level {l} |"))
-            .expect("README row");
-        common::assert_readme_figure(&format!("level {l} e_RMS"), e_rms, shown[0]);
-        common::assert_readme_figure(&format!("level {l} share (%)"), relative, shown[1]);
+    let shares = f16_validation_is_the_readmes(
+        work.path(),
+        &out.join("fit.json"),
+        &held,
+        "4.5:9",
+        "F-16 with a hysteretic mode",
+    );
+    for (relative, l) in shares.into_iter().zip([2, 4, 6]) {
         let without = common::readme_figures(&format!("| F-16 | level {l} |")).expect("README row");
         assert!(
             relative < without[1].0,

@@ -781,7 +781,8 @@ fn validate<'py>(
         recordings: vec![RecordingValidation {
             recording: recording_name,
             response,
-            validation: v,
+            validation: Some(v),
+            replay_failed: None,
         }],
         files: Vec::new(),
     };

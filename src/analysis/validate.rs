@@ -224,9 +224,14 @@ pub struct RecordingValidation {
     pub recording: String,
     /// The response channel.
     pub response: String,
-    /// The figures.
+    /// The figures (none where the replay failed).
     #[serde(flatten)]
-    pub validation: Validation,
+    pub validation: Option<Validation>,
+    /// Why the model could not be replayed on this recording (a solve
+    /// that did not converge: the model runs away under this drive), which
+    /// leaves the other recordings' figures standing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub replay_failed: Option<String>,
 }
 
 /// validate.json.
@@ -440,7 +445,8 @@ pub fn validate_on(
     let entry = RecordingValidation {
         recording: path.display().to_string(),
         response: channel.name.clone(),
-        validation: v,
+        validation: Some(v),
+        replay_failed: None,
     };
     Ok((entry, files))
 }

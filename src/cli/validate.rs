@@ -3,11 +3,11 @@
 
 use super::args::ValidateArgs;
 use super::identify::reduction_options;
-use super::{EXIT_OK, create_out_dir, progress, write_json};
+use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::load_recording;
 use hystid::analysis::validate::{
-    ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
+    RecordingValidation, ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
 };
 use hystid::validate::Validation;
 use std::path::Path;
@@ -90,13 +90,31 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             }
         };
         let (entry, written) =
-            validate_on(&fit, path, &loaded, &settings, &args.out, &stem, &observer)?;
+            match validate_on(&fit, path, &loaded, &settings, &args.out, &stem, &observer) {
+                Ok(done) => done,
+                // the model ran away under this recording's drive: that is
+                // this recording's result, not the end of the others'
+                Err(e) if matches!(e.root(), hystid::Error::NotConverged { .. }) => {
+                    let why = hystid::error::one_line(&e);
+                    pb.suspend(|| eprintln!("warning: {why}"));
+                    let response = &loaded.recording.meta.channels[loaded.response];
+                    entries.push(RecordingValidation {
+                        recording: path.display().to_string(),
+                        response: response.name.clone(),
+                        validation: None,
+                        replay_failed: Some(why),
+                    });
+                    continue;
+                }
+                Err(e) => return Err(e.into()),
+            };
         files.extend(written);
-        if !quiet {
-            pb.suspend(|| print_validation(path, &entry.response, &entry.validation));
+        if !quiet && let Some(v) = &entry.validation {
+            pb.suspend(|| print_validation(path, &entry.response, v));
         }
         entries.push(entry);
     }
+    let failed = entries.iter().filter(|e| e.replay_failed.is_some()).count();
     pb.finish_and_clear();
     let report = ValidateReport {
         command: "validate",
@@ -113,6 +131,15 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         for f in &report.files {
             say!("  wrote {}", f.display());
         }
+    }
+    if failed > 0 {
+        if !quiet {
+            say!(
+                "{failed} of {} recordings could not be replayed (validate.json says why)",
+                report.recordings.len()
+            );
+        }
+        return Ok(EXIT_DEGRADED);
     }
     Ok(EXIT_OK)
 }
