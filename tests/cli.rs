@@ -961,11 +961,7 @@ fn run_finds_an_undeclared_hysteretic_mode() {
 /// recording alone, it still writes validate.json with the reason.
 #[test]
 fn validate_reports_a_replay_that_runs_away_and_validates_the_rest() {
-    use hystid::harmonics::Quantity;
-    use hystid::record::{
-        Channel, Excitation, ExcitationKind, FORMAT_V1, Recording, RecordingMeta, SampleFormat,
-        write_recording,
-    };
+    use hystid::record::ExcitationKind;
     let dir = tempfile::tempdir().unwrap();
     let model_text = "[system]\nmass = 1.0\ndamping = 20.0\nstiffness = 4.0e5\n\n\
                       [[effects]]\nkind = \"cubic_stiffness\"\nk3 = -1.0e9\n";
@@ -988,35 +984,13 @@ fn validate_reports_a_replay_that_runs_away_and_validates_the_rest() {
             hystid::sim::Output::Displacement,
         )
         .unwrap();
-        let channel = |name: &str, quantity: Quantity, unit: &str| Channel {
-            name: name.into(),
-            quantity,
-            unit: unit.into(),
-            scale: 1.0,
-        };
-        let rec = Recording {
-            meta: RecordingMeta {
-                format: FORMAT_V1.into(),
-                sample_rate_hz: fs,
-                channels: vec![
-                    channel("force", Quantity::Force, "N"),
-                    channel("x", Quantity::Displacement, "m"),
-                ],
-                excitation: Excitation {
-                    kind: ExcitationKind::SteppedSine,
-                    steps: Vec::new(),
-                    sweep: None,
-                },
-                description: String::new(),
-                metadata: Default::default(),
-                extra: Default::default(),
-                chosen_reference: None,
-            },
-            channels: vec![force, x],
-        };
-        let path = dir.path().join(name);
-        write_recording(&path, &rec, SampleFormat::Float32).unwrap();
-        path.with_extension("json")
+        force_and_displacement(
+            &dir.path().join(name),
+            fs,
+            force,
+            x,
+            ExcitationKind::SteppedSine,
+        )
     };
     let quiet = recording(20.0, "quiet");
     let loud = recording(20_000.0, "loud");
@@ -1064,4 +1038,128 @@ fn validate_reports_a_replay_that_runs_away_and_validates_the_rest() {
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(dir.path().join("val_loud/validate.json").is_file());
+}
+
+/// A recording of a force and a displacement at `fs`, written at `stem`
+/// (float WAV + JSON) with the excitation `kind` and no steps stated; the
+/// JSON's path.
+fn force_and_displacement(
+    stem: &Path,
+    fs: f64,
+    force: Vec<f64>,
+    x: Vec<f64>,
+    kind: hystid::record::ExcitationKind,
+) -> PathBuf {
+    use hystid::harmonics::Quantity;
+    use hystid::record::{
+        Channel, Excitation, FORMAT_V1, Recording, RecordingMeta, SampleFormat, write_recording,
+    };
+    let channel = |name: &str, quantity: Quantity, unit: &str| Channel {
+        name: name.into(),
+        quantity,
+        unit: unit.into(),
+        scale: 1.0,
+    };
+    let rec = Recording {
+        meta: RecordingMeta {
+            format: FORMAT_V1.into(),
+            sample_rate_hz: fs,
+            channels: vec![
+                channel("force", Quantity::Force, "N"),
+                channel("x", Quantity::Displacement, "m"),
+            ],
+            excitation: Excitation {
+                kind,
+                steps: Vec::new(),
+                sweep: None,
+            },
+            description: String::new(),
+            metadata: Default::default(),
+            extra: Default::default(),
+            chosen_reference: None,
+        },
+        channels: vec![force, x],
+    };
+    write_recording(stem, &rec, SampleFormat::Float32).unwrap();
+    stem.with_extension("json")
+}
+
+/// A recording that states no excitation and whose force is a multisine
+/// played five times is refused by the FRF path (`identify`, `diagnose`),
+/// naming it a multisine, its period and lines, and the time-domain fit
+/// that reads it (which does: exit 0); a dwell search used to cut it into
+/// "dwells" and fail on a harmonic above Nyquist (the Bouc-Wen
+/// benchmark's estimation record). Stated as a stepped sine, it is not
+/// refused for being a multisine.
+#[test]
+fn an_unstated_multisine_is_sent_to_the_time_domain_fit() {
+    use hystid::record::ExcitationKind;
+    let dir = tempfile::tempdir().unwrap();
+    let (fs, period) = (2000.0, 1000);
+    // lines 5..60 of a 2 Hz grid (10-120 Hz), Schroeder phases
+    let one: Vec<f64> = (0..period)
+        .map(|i| {
+            (5..60)
+                .map(|k| {
+                    let phase = -std::f64::consts::PI * (k * (k - 1)) as f64 / 55.0;
+                    (2.0 * std::f64::consts::PI * k as f64 * i as f64 / period as f64 + phase).cos()
+                })
+                .sum::<f64>()
+        })
+        .collect();
+    let force: Vec<f64> = one
+        .iter()
+        .cycle()
+        .take(5 * period)
+        .map(|v| 10.0 * v)
+        .collect();
+    let linear = hystid::testbench::model_from_toml(
+        "[system]\nmass = 1.0\ndamping = 20.0\nstiffness = 4.0e5\n",
+        "linear",
+    )
+    .unwrap();
+    let x = hystid::sim::simulate(&linear, &force, fs, hystid::sim::Output::Displacement).unwrap();
+    let rec = force_and_displacement(
+        &dir.path().join("ms"),
+        fs,
+        force,
+        x,
+        ExcitationKind::Unknown,
+    );
+    for command in ["identify", "diagnose"] {
+        let o = hystid(&[
+            command,
+            rec.to_str().unwrap(),
+            "--out",
+            dir.path().join(command).to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{command}: {}", text(&o));
+        let t = text(&o);
+        assert!(
+            t.contains("ms.json")
+                && t.contains("is a multisine (a period of 1000 samples repeated, 55 excited lines over 10.0000-118.0000 Hz)")
+                && t.contains("identify --domain time"),
+            "{command}: {t}"
+        );
+    }
+    let o = hystid(&[
+        "identify",
+        rec.to_str().unwrap(),
+        "--domain",
+        "time",
+        "--out",
+        dir.path().join("time").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = hystid(&[
+        "identify",
+        rec.to_str().unwrap(),
+        "--excitation",
+        "stepped",
+        "--out",
+        dir.path().join("stated").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!text(&o).contains("multisine"), "{}", text(&o));
 }

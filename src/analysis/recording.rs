@@ -384,6 +384,49 @@ fn sweep_options_by(
     Ok(opts)
 }
 
+/// Frames at the start of a recording searched for a repeating reference.
+const MULTISINE_SEARCH: usize = 1 << 20;
+
+/// An error when a recording that states no excitation is a periodic
+/// multisine (its reference repeats, with at least
+/// [`super::MULTISINE_LINES`] excited lines, in its first
+/// [`MULTISINE_SEARCH`] frames): a dwell search would cut it into
+/// meaningless "dwells". A stepped sine's reference repeats only within a
+/// dwell, at one line.
+fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
+    if rec.meta.excitation.kind != ExcitationKind::Unknown || !rec.meta.excitation.steps.is_empty()
+    {
+        return Ok(());
+    }
+    let Some(reference) = rec.reference_channel() else {
+        return Ok(());
+    };
+    let n = rec.frames().min(MULTISINE_SEARCH);
+    let u = &rec.channels[reference][..n];
+    let Some(period) = crate::extract::find_period(u) else {
+        return Ok(());
+    };
+    let fs = rec.meta.sample_rate_hz;
+    let lines = crate::extract::periodic_frf(u, &rec.channels[response][..n], fs, period);
+    if lines.len() < super::MULTISINE_LINES {
+        return Ok(());
+    }
+    let (lo, hi) = lines.iter().fold((f64::INFINITY, 0.0f64), |(a, b), l| {
+        (a.min(l.frequency_hz), b.max(l.frequency_hz))
+    });
+    Err(Error::input(
+        "recording",
+        format!(
+            "its reference is a multisine (a period of {period} samples repeated, {} excited \
+             lines over {lo:.4}-{hi:.4} Hz), which nonlinear FRFs are not read from (they need \
+             stepped or swept sines): fit it in the time domain (`identify --domain time`, \
+             which starts from its linear FRF at the excited lines), or state `--excitation \
+             stepped` if it is one",
+            lines.len()
+        ),
+    ))
+}
+
 /// Nonlinear FRFs of a loaded recording.
 pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
     reduce_observed(loaded, r, &crate::observe::Silent)
@@ -403,10 +446,15 @@ pub fn reduce_observed(
     let response_name = rec.meta.channels[loaded.response].name.clone();
     let fs = rec.meta.sample_rate_hz;
     let (frf, sweep) = match excitation {
-        Excitation::Stepped => (
-            reduce_stepped_observed(rec, loaded.response, &stepped_options(r), observer)?.frf,
-            None,
-        ),
+        Excitation::Stepped => {
+            if r.excitation.is_none() {
+                refuse_a_multisine(rec, loaded.response)?;
+            }
+            (
+                reduce_stepped_observed(rec, loaded.response, &stepped_options(r), observer)?.frf,
+                None,
+            )
+        }
         Excitation::Swept => {
             let reference = rec
                 .reference_channel()
