@@ -27,8 +27,8 @@ pub enum Event<'a> {
     /// A stage that works through a known amount moved on: `done` of
     /// `total` (samples simulated, dwells or sweep stages reduced).
     Progress {
-        /// What the stage is doing (`simulating`, `reducing`, `reducing the
-        /// simulated response`).
+        /// What the stage is doing (`simulating`, `reducing`, and a
+        /// validation's `reducing the measured and simulated responses`).
         task: &'static str,
         /// How much of it is done.
         done: u64,

@@ -401,13 +401,15 @@ fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
     let Some(reference) = rec.reference_channel() else {
         return Ok(());
     };
-    let n = rec.frames().min(MULTISINE_SEARCH);
-    let u = &rec.channels[reference][..n];
+    let (u, y) = (&rec.channels[reference], &rec.channels[response]);
+    // unequal lengths are the reduction's to refuse, naming the channels
+    let n = u.len().min(y.len()).min(MULTISINE_SEARCH);
+    let u = &u[..n];
     let Some(period) = crate::extract::find_period(u) else {
         return Ok(());
     };
     let fs = rec.meta.sample_rate_hz;
-    let lines = crate::extract::periodic_frf(u, &rec.channels[response][..n], fs, period);
+    let lines = crate::extract::periodic_frf(u, &y[..n], fs, period);
     if lines.len() < super::MULTISINE_LINES {
         return Ok(());
     }

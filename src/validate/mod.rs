@@ -596,8 +596,8 @@ pub fn validate_recording(
 }
 
 /// [`validate_recording`], telling `observer` how the replay and the
-/// reductions progress (`simulating`, `reducing`, `reducing the simulated
-/// response`) and stopping where it asks ([`Error::Cancelled`]).
+/// FRF comparison progress (`simulating`, then [`REDUCING`]) and stopping
+/// where it asks ([`Error::Cancelled`]).
 pub fn validate_recording_observed(
     model: &Model,
     response_sign: f64,
