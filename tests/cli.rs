@@ -1163,3 +1163,67 @@ fn an_unstated_multisine_is_sent_to_the_time_domain_fit() {
     ]);
     assert!(!text(&o).contains("multisine"), "{}", text(&o));
 }
+
+/// A fit remembers what its reference was (fit.json's `reference_quantity`),
+/// and `validate` refuses a recording driven by the other quantity, naming
+/// the channel (a model fitted in newtons driven by volts gave figures that
+/// meant nothing: e_RMS 100 % of the RMS), exit 2; the same recording
+/// driven by a force validates.
+#[test]
+fn validate_refuses_a_recording_driven_by_another_quantity_than_the_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    simulated(&test, &sim);
+    let fit = dir.path().join("fit");
+    let o = hystid(&[
+        "identify",
+        sim.join("recording.json").to_str().unwrap(),
+        "--out",
+        fit.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let fit_json = fit.join("fit.json");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&fit_json).unwrap()).unwrap();
+    assert_eq!(report["reference_quantity"], "force");
+    // the same samples, the reference declared a voltage
+    let mut meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(sim.join("recording.json")).unwrap()).unwrap();
+    meta["channels"][0]["quantity"] = "voltage".into();
+    meta["channels"][0]["unit"] = "V".into();
+    std::fs::write(
+        dir.path().join("volts.json"),
+        serde_json::to_vec(&meta).unwrap(),
+    )
+    .unwrap();
+    std::fs::copy(sim.join("recording.wav"), dir.path().join("volts.wav")).unwrap();
+    let o = hystid(&[
+        "validate",
+        fit_json.to_str().unwrap(),
+        dir.path().join("volts.json").to_str().unwrap(),
+        "--no-frf",
+        "--out",
+        dir.path().join("val_volts").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(
+        t.contains("volts.json")
+            && t.contains(
+                "reference channel `force`: is a voltage, but the model was fitted with a force"
+            ),
+        "{t}"
+    );
+    let o = hystid(&[
+        "validate",
+        fit_json.to_str().unwrap(),
+        sim.join("recording.json").to_str().unwrap(),
+        "--no-frf",
+        "--out",
+        dir.path().join("val").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+}

@@ -690,7 +690,7 @@ fn diagnose<'py>(
     let (diagnosis, final_model, seconds) = outcome?;
     to_json(&DiagnosisReport {
         final_model: Some(&final_model),
-        ..DiagnosisReport::new(&diagnosis, seconds)
+        ..DiagnosisReport::new(&diagnosis, frf.reference, seconds)
     })
 }
 

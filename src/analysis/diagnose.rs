@@ -672,6 +672,10 @@ pub struct DiagnosisReport<'a> {
     /// recording format's rule.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_channel: Option<&'a str>,
+    /// The quantity of the reference the FRFs were measured against (a
+    /// force or a voltage): `validate` refuses a recording driven by the
+    /// other.
+    pub reference_quantity: crate::harmonics::Quantity,
 }
 
 /// What a diagnosis's report holds beside the diagnosis (see
@@ -687,8 +691,9 @@ pub struct DiagnosisExtras<'a> {
 }
 
 impl<'a> DiagnosisReport<'a> {
-    /// The report of `d`, made in `seconds`.
-    pub fn new(d: &'a Diagnosis, seconds: f64) -> Self {
+    /// The report of `d`, made in `seconds` from FRFs measured against a
+    /// `reference` quantity.
+    pub fn new(d: &'a Diagnosis, reference: crate::harmonics::Quantity, seconds: f64) -> Self {
         DiagnosisReport {
             command: "diagnose",
             version: super::VERSION,
@@ -697,6 +702,7 @@ impl<'a> DiagnosisReport<'a> {
             time_domain: None,
             final_model: None,
             reference_channel: None,
+            reference_quantity: reference,
         }
     }
 }
@@ -736,7 +742,7 @@ pub fn write_diagnosis_with(
             time_domain: time,
             final_model,
             reference_channel,
-            ..DiagnosisReport::new(d, seconds)
+            ..DiagnosisReport::new(d, frf.reference, seconds)
         },
     )?;
     files.extend(residual_plots(dir, frf, d, predictor)?);

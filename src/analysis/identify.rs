@@ -662,6 +662,11 @@ pub struct DeclaredFitReport {
     pub start: Model,
     /// The fit.
     pub frequency_domain: crate::diagnose::DeclaredFit,
+    /// The quantity of the reference the FRFs were measured against (a
+    /// force or a voltage): `validate` refuses a recording driven by the
+    /// other.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_quantity: Option<crate::harmonics::Quantity>,
     /// Files written.
     pub files: Vec<PathBuf>,
 }
@@ -699,6 +704,7 @@ impl DeclaredFitReport {
             reference_channel: None,
             start: start.clone(),
             frequency_domain: fit,
+            reference_quantity: Some(frf.reference),
             files: Vec::new(),
         })
     }

@@ -5,6 +5,7 @@
 use super::identify::FitReport;
 use super::recording::{Excitation, Loaded, ReductionOptions, excitation_of, stepped_options};
 use crate::error::{Error, Result};
+use crate::harmonics::Quantity;
 use crate::model::{ModalModel, Model};
 use crate::plot::{self, FrfSeries, SeriesStyle, TimeSignal};
 use crate::validate::{Reduction, ValidateOptions, Validation, validate_recording_observed};
@@ -22,6 +23,9 @@ pub struct FitModel {
     pub response: Option<String>,
     /// The reference channel the fit was made with, when the user named it.
     pub reference: Option<String>,
+    /// The quantity the fit's reference was (a force or a voltage), when
+    /// its report says (a model written down does not).
+    pub reference_quantity: Option<Quantity>,
     /// `fitted`, `fitted in the time domain`, `diagnosed`, `linear` or
     /// `declared`.
     pub kind: &'static str,
@@ -54,6 +58,7 @@ pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
             response_sign,
             response: None,
             reference: None,
+            reference_quantity: None,
             kind: "declared",
         });
     }
@@ -116,6 +121,8 @@ impl FitModel {
                 response_sign,
                 response: None,
                 reference: value["reference_channel"].as_str().map(str::to_string),
+                reference_quantity: serde_json::from_value(value["reference_quantity"].clone())
+                    .ok(),
                 kind: "diagnosed",
             });
         }
@@ -138,6 +145,7 @@ impl FitModel {
                 response_sign: f.response_sign,
                 response: None,
                 reference: report.reference_channel,
+                reference_quantity: report.reference_quantity,
                 kind: "fitted to the FRFs from a start",
             });
         }
@@ -162,6 +170,7 @@ impl FitModel {
                 // the fit took it
                 response: (!report.response.is_empty()).then_some(report.response),
                 reference: report.reference_channel,
+                reference_quantity: t.reference_quantity,
                 kind: "fitted in the time domain",
             });
         }
@@ -176,6 +185,11 @@ impl FitModel {
     pub fn of_report(report: FitReport, linear: bool, path: &Path) -> Result<FitModel> {
         let response = Some(report.response.clone());
         let reference = report.reference_channel.clone();
+        let reference_quantity = report
+            .time_domain
+            .as_ref()
+            .and_then(|t| t.reference_quantity)
+            .or(report.fit.reference_quantity);
         let (final_model, final_sign) = report.final_model();
         let (final_model, final_sign) = (final_model.clone(), final_sign);
         let kind = if report.time_domain.is_some() {
@@ -194,6 +208,7 @@ impl FitModel {
                 response_sign: s.sign,
                 response,
                 reference,
+                reference_quantity,
                 kind: "linear",
             });
         }
@@ -212,6 +227,7 @@ impl FitModel {
             response_sign: final_sign,
             response,
             reference,
+            reference_quantity,
             kind,
         })
     }
@@ -306,6 +322,22 @@ pub fn validate_loaded(
     let reference = rec
         .reference_channel()
         .ok_or_else(|| Error::input("recording", "no reference channel"))?;
+    let channel = &rec.meta.channels[reference];
+    if let Some(fitted) = fit.reference_quantity
+        && channel.quantity != fitted
+    {
+        // a model fitted in newtons driven by volts (or the reverse) gives
+        // figures that mean nothing
+        return Err(Error::input(
+            format!("reference channel `{}`", channel.name),
+            format!(
+                "is a {}, but the model was fitted with a {fitted} as its reference: validate \
+                 it on recordings driven as the fit's were (`--reference` names another \
+                 channel)",
+                channel.quantity
+            ),
+        ));
+    }
     let reduction = if settings.frf && !settings.periodic {
         Some(
             match excitation_of(&rec.meta, settings.reduction.excitation) {

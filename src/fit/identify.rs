@@ -350,6 +350,11 @@ pub struct FitResult {
     /// the interval's. Their value is the bound's, not a measurement.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub at_bound: Vec<String>,
+    /// The quantity of the reference the FRFs were measured against (a
+    /// force or a voltage): `validate` refuses a recording driven by the
+    /// other (absent from fit.json files written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_quantity: Option<crate::harmonics::Quantity>,
 }
 
 /// Linear system estimates from the largest and smallest levels.
@@ -852,6 +857,7 @@ pub fn identify(
         },
         notes,
         at_bound,
+        reference_quantity: Some(frf.reference),
     })
 }
 

@@ -398,6 +398,10 @@ pub struct TimeFitResult {
     /// ([`TimeFitOptions::starts`]): how each ended.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub starts: Vec<StartOutcome>,
+    /// The quantity of the recordings' reference (a force or a voltage):
+    /// `validate` refuses a recording driven by the other.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_quantity: Option<Quantity>,
 }
 
 /// How one start of a fit ended.
@@ -1194,6 +1198,7 @@ pub fn identify_time(
         samples,
         notes,
         at_bound,
+        reference_quantity: records.first().map(|r| r.reference_quantity),
     })
 }
 
