@@ -1051,33 +1051,9 @@ fn force_and_displacement(
     kind: hystid::record::ExcitationKind,
 ) -> PathBuf {
     use hystid::harmonics::Quantity;
-    use hystid::record::{
-        Channel, Excitation, FORMAT_V1, Recording, RecordingMeta, SampleFormat, write_recording,
-    };
-    let channel = |name: &str, quantity: Quantity, unit: &str| Channel {
-        name: name.into(),
-        quantity,
-        unit: unit.into(),
-        scale: 1.0,
-    };
+    use hystid::record::{Recording, SampleFormat, write_recording};
     let rec = Recording {
-        meta: RecordingMeta {
-            format: FORMAT_V1.into(),
-            sample_rate_hz: fs,
-            channels: vec![
-                channel("force", Quantity::Force, "N"),
-                channel("x", Quantity::Displacement, "m"),
-            ],
-            excitation: Excitation {
-                kind,
-                steps: Vec::new(),
-                sweep: None,
-            },
-            description: String::new(),
-            metadata: Default::default(),
-            extra: Default::default(),
-            chosen_reference: None,
-        },
+        meta: super::cli_realdata::meta(fs, Quantity::Displacement, kind),
         channels: vec![force, x],
     };
     write_recording(stem, &rec, SampleFormat::Float32).unwrap();

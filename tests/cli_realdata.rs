@@ -42,7 +42,9 @@ fn channel(name: &str, q: Quantity) -> Channel {
     }
 }
 
-fn meta(fs: f64, response: Quantity, kind: ExcitationKind) -> RecordingMeta {
+/// A recording's metadata: `force` and a response `y` of `response`, at
+/// `fs`, with the excitation `kind` and no steps stated.
+pub(crate) fn meta(fs: f64, response: Quantity, kind: ExcitationKind) -> RecordingMeta {
     RecordingMeta {
         format: FORMAT_V1.into(),
         sample_rate_hz: fs,
