@@ -64,6 +64,21 @@ impl<F: Fn(Event<'_>) + Sync> Observer for F {
     }
 }
 
+/// Tells `observer` that `task` has done `done` of `total`, then
+/// [`crate::Error::Cancelled`] if it asks the work to stop there.
+pub fn progress(
+    observer: &dyn Observer,
+    task: &'static str,
+    done: u64,
+    total: u64,
+) -> crate::Result<()> {
+    observer.observe(Event::Progress { task, done, total });
+    if observer.cancelled() {
+        return Err(crate::Error::Cancelled);
+    }
+    Ok(())
+}
+
 /// An observer that ignores everything.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Silent;

@@ -467,17 +467,7 @@ pub fn reduce_observed(
             } else {
                 1
             };
-            let report = |done: u64| {
-                observer.observe(crate::observe::Event::Progress {
-                    task: "reducing",
-                    done,
-                    total,
-                });
-                if observer.cancelled() {
-                    return Err(Error::Cancelled);
-                }
-                Ok(())
-            };
+            let report = |done| crate::observe::progress(observer, "reducing", done, total);
             report(0)?;
             let opts = sweep_options(
                 &rec.channels[reference],
@@ -864,7 +854,13 @@ impl ReplayReduction {
                 truth: None,
                 truncated: loaded.truncated,
             };
-            let red = reduce(&replay, options).map_err(|e| {
+            // as the measured recording was reduced (its excitation settled
+            // then: not searched for again)
+            let options = ReductionOptions {
+                excitation: Some(excitation_of(&rec.meta, options.excitation)),
+                ..options.clone()
+            };
+            let red = reduce(&replay, &options).map_err(|e| {
                 Error::context(format!("reducing the replay of {}", path.display()), e)
             })?;
             sets.push((path.clone(), red.frf));

@@ -374,6 +374,9 @@ pub fn validate_loaded(
 
 /// Validates `fit` on the recording loaded from `path` and writes its
 /// figures into `dir` as `{stem}_time`, `{stem}_time_window`, `{stem}_frf`.
+/// A replay that does not converge (the model runs away under this drive)
+/// is the entry's `replay_failed`, with no figures; other errors are
+/// errors.
 pub fn validate_on(
     fit: &FitModel,
     path: &Path,
@@ -383,10 +386,26 @@ pub fn validate_on(
     stem: &str,
     observer: &dyn crate::observe::Observer,
 ) -> Result<(RecordingValidation, Vec<PathBuf>)> {
-    let v = validate_loaded(fit, loaded, settings, observer)
-        .map_err(|e| Error::context(format!("validating on {}", path.display()), e))?;
-    let band = settings.band_hz;
     let rec = &loaded.recording;
+    let v = match validate_loaded(fit, loaded, settings, observer)
+        .map_err(|e| Error::context(format!("validating on {}", path.display()), e))
+    {
+        Ok(v) => v,
+        // the model ran away under this recording's drive: that is this
+        // recording's result (no figures, and why), not the end of the
+        // others'
+        Err(e) if matches!(e.root(), Error::NotConverged { .. }) => {
+            let entry = RecordingValidation {
+                recording: path.display().to_string(),
+                response: rec.meta.channels[loaded.response].name.clone(),
+                validation: None,
+                replay_failed: Some(crate::error::one_line(&e)),
+            };
+            return Ok((entry, Vec::new()));
+        }
+        Err(e) => return Err(e),
+    };
+    let band = settings.band_hz;
     let mut files = Vec::new();
     let name = path.file_name().map_or_else(
         || path.display().to_string(),

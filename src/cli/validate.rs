@@ -7,7 +7,7 @@ use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::load_recording;
 use hystid::analysis::validate::{
-    RecordingValidation, ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
+    ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
 };
 use hystid::validate::Validation;
 use std::path::Path;
@@ -90,26 +90,11 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             }
         };
         let (entry, written) =
-            match validate_on(&fit, path, &loaded, &settings, &args.out, &stem, &observer) {
-                Ok(done) => done,
-                // the model ran away under this recording's drive: that is
-                // this recording's result, not the end of the others'
-                Err(e) if matches!(e.root(), hystid::Error::NotConverged { .. }) => {
-                    let why = hystid::error::one_line(&e);
-                    pb.suspend(|| eprintln!("warning: {why}"));
-                    let response = &loaded.recording.meta.channels[loaded.response];
-                    entries.push(RecordingValidation {
-                        recording: path.display().to_string(),
-                        response: response.name.clone(),
-                        validation: None,
-                        replay_failed: Some(why),
-                    });
-                    continue;
-                }
-                Err(e) => return Err(e.into()),
-            };
+            validate_on(&fit, path, &loaded, &settings, &args.out, &stem, &observer)?;
         files.extend(written);
-        if !quiet && let Some(v) = &entry.validation {
+        if let Some(why) = &entry.replay_failed {
+            pb.suspend(|| eprintln!("warning: {why}"));
+        } else if !quiet && let Some(v) = &entry.validation {
             pb.suspend(|| print_validation(path, &entry.response, v));
         }
         entries.push(entry);

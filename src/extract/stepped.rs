@@ -37,7 +37,7 @@ use super::noncoherent::{
 use super::{Direction, FrfLevel, FrfPoint, NonlinearFrf};
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
-use crate::observe::{Event, Observer, Silent};
+use crate::observe::{Observer, Silent};
 use crate::signals::{Recording, Step};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -1061,14 +1061,7 @@ pub fn reduce_stepped_observed(
             level: 0,
             point: 0,
         });
-        observer.observe(Event::Progress {
-            task: "reducing",
-            done: i as u64 + 1,
-            total: steps.len() as u64,
-        });
-        if observer.cancelled() {
-            return Err(Error::Cancelled);
-        }
+        crate::observe::progress(observer, "reducing", i as u64 + 1, steps.len() as u64)?;
     }
     let (levels, index) = group_levels(points);
     for (r, (l, p)) in reports.iter_mut().zip(index) {

@@ -30,7 +30,7 @@ use crate::model::shaker::Lag;
 use crate::model::{
     AnyElement, Attachment, Element, ElementForce, ImplicitStep, ModalModel, Model,
 };
-use crate::observe::{Event, Observer};
+use crate::observe::Observer;
 
 /// One output sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -797,7 +797,7 @@ pub fn simulate_all_observed(
 
 /// Runs `stretch` over `0..n` in stretches of
 /// [`SAMPLES_PER_REPORT`](crate::observe::SAMPLES_PER_REPORT), telling
-/// `observer` after each and stopping if it asks.
+/// `observer` after each and stopping there if it asks.
 fn in_stretches(
     n: usize,
     observer: &dyn Observer,
@@ -805,17 +805,10 @@ fn in_stretches(
 ) -> Result<()> {
     let mut done = 0;
     while done < n {
-        if observer.cancelled() {
-            return Err(crate::Error::Cancelled);
-        }
         let end = (done + crate::observe::SAMPLES_PER_REPORT).min(n);
         stretch(done..end)?;
         done = end;
-        observer.observe(Event::Progress {
-            task: "simulating",
-            done: done as u64,
-            total: n as u64,
-        });
+        crate::observe::progress(observer, "simulating", done as u64, n as u64)?;
     }
     Ok(())
 }

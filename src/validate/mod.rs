@@ -36,7 +36,7 @@ use crate::extract::{
 };
 use crate::harmonics::Quantity;
 use crate::model::Model;
-use crate::observe::{Event, Observer, Silent};
+use crate::observe::{Observer, Silent};
 use crate::record::{Recording, Step};
 use crate::sim::Simulator;
 use serde::{Deserialize, Serialize};
@@ -727,13 +727,7 @@ fn compare_frfs(
     observer: &dyn Observer,
 ) -> Result<FrfComparison> {
     // the reductions' progress: measured, then simulated
-    let report = |task: &'static str, done: u64, total: u64| -> Result<()> {
-        observer.observe(Event::Progress { task, done, total });
-        if observer.cancelled() {
-            return Err(Error::Cancelled);
-        }
-        Ok(())
-    };
+    let report = |task, done, total| crate::observe::progress(observer, task, done, total);
     let fs = rec.meta.sample_rate_hz;
     let (measured, simulated, sweep) = match reduction {
         Reduction::Swept(opts) => {
