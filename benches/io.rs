@@ -25,6 +25,10 @@
 //!   (`hystid::analysis::recording::reduce_path`, the automatic
 //!   sweep-distortion compensation): read from disk a stretch at a time, peak
 //!   RSS ≤ 200 MB. Generated once beside the stepped one (`swept-10min`).
+//!   `HYSTID_BENCH_SWEEP_MINUTES=40` makes it 40 minutes long (48 M frames,
+//!   the same 10 -> 200 Hz, so four times as many periods: more than a
+//!   sweep's points allow, `hystid::extract::MAX_SWEEP_POINTS`), to show
+//!   the peak does not grow with the length (`swept-40min`).
 //!
 //! The whole gigabyte in one pass, then the swept reduction, each timed
 //! with its peak memory measured alone (the peak is reset after the file
@@ -264,12 +268,18 @@ fn rss_mode() {
     }
 }
 
-/// The 10-minute swept recording's stem, generated if absent.
+/// The swept recording's stem (10 minutes, or `HYSTID_BENCH_SWEEP_MINUTES`),
+/// generated if absent.
 fn swept_recording() -> PathBuf {
+    let minutes: u32 = std::env::var("HYSTID_BENCH_SWEEP_MINUTES")
+        .ok()
+        .and_then(|m| m.parse().ok())
+        .unwrap_or(10);
+    let seconds = 60.0 * minutes as f64;
     let dir = std::env::temp_dir().join("hystid-bench");
-    let stem = dir.join("swept-10min");
+    let stem = dir.join(format!("swept-{minutes}min"));
     let fs = 20_000.0;
-    let n = (600.0 * fs) as usize;
+    let n = (seconds * fs) as usize;
     let expected = 44 + (n * 2 * 4) as u64;
     let ok = std::fs::metadata(stem.with_extension("wav")).is_ok_and(|m| m.len() >= expected)
         && stem.with_extension("json").is_file();
@@ -278,7 +288,7 @@ fn swept_recording() -> PathBuf {
     }
     std::fs::create_dir_all(&dir).unwrap();
     let t = Instant::now();
-    let rate = 190.0 / 600.0;
+    let rate = 190.0 / seconds;
     let force: Vec<f64> = (0..n)
         .map(|i| {
             let t = i as f64 / fs;
@@ -313,7 +323,7 @@ fn swept_recording() -> PathBuf {
             steps: Vec::new(),
             sweep: None,
         },
-        description: "hystid bench: generated 10-minute swept sine".into(),
+        description: format!("hystid bench: generated {minutes}-minute swept sine"),
         metadata: Default::default(),
         extra: Default::default(),
         chosen_reference: None,
@@ -334,7 +344,7 @@ fn swept_recording() -> PathBuf {
     stem
 }
 
-/// `HYSTID_BENCH_RSS=1`: the 10-minute sweep reduced from disk, with its
+/// `HYSTID_BENCH_RSS=1`: the swept recording reduced from disk, with its
 /// peak memory.
 fn sweep_rss_mode() {
     use hystid::analysis::recording::{ChannelChoice, ReductionOptions, reduce_path};
@@ -348,12 +358,14 @@ fn sweep_rss_mode() {
     )
     .unwrap();
     let took = t.elapsed().as_secs_f64();
-    let (sweep, sigma) = r.sweep.unwrap();
+    let reading = r.sweep.unwrap();
+    let (sweep, sigma) = (reading.sweep, reading.compensation_s);
     println!(
-        "sweep: {} frames reduced to {} points in {took:.2} s ({}; sweep {:.3} -> {:.3} Hz, \
-         compensation {:.2} s)",
+        "sweep: {} frames reduced to {} points (hop {:.3} periods) in {took:.2} s ({}; sweep \
+         {:.3} -> {:.3} Hz, compensation {:.2} s)",
         sweep.end - sweep.start,
         r.frf.levels[0].points.len(),
+        reading.hop_periods,
         if r.streamed {
             "read a stretch at a time"
         } else {

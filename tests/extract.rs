@@ -693,6 +693,63 @@ fn a_chirp_from_zero_hertz_is_reduced() {
     assert!(plain < 1e-2, "{plain}");
 }
 
+/// A sweep holding more periods than `max_points` hops is read at the hop
+/// that gives at most that many points (issue 16: the points, not the
+/// samples, were what still grew with a long sweep): the same points, to
+/// the bit, as a reduction asked for that hop, and the same receptance as
+/// at the hop asked. The 0-40 Hz chirp above holds 160 periods, 156 points
+/// at the default hop; with at most 40 the hop becomes 4.0 periods.
+#[test]
+fn a_sweep_with_more_periods_than_points_allowed_is_read_at_a_longer_hop() {
+    let model = ModalModel::new(vec![
+        hystid::model::Mode::from_modal_mass(30.0, 0.10, 1.0).unwrap(),
+    ])
+    .unwrap();
+    let fs = 1024.0;
+    let force: Vec<f64> = (0..8192)
+        .map(|i| (2.0 * PI * 2.5 * (i as f64 / fs).powi(2)).sin())
+        .collect();
+    let x = Simulator::new(&model, NoElement, fs)
+        .unwrap()
+        .run(&force)
+        .unwrap()
+        .displacement;
+    let all = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
+    assert_eq!(all.hop_periods, 1.0);
+    let capped_options = SweepOptions {
+        max_points: 40,
+        ..SweepOptions::default()
+    };
+    let capped = reduce_sweep(&force, &x, fs, &capped_options).unwrap();
+    let (n_all, n_capped) = (all.level.points.len(), capped.level.points.len());
+    eprintln!(
+        "{n_all} points at hop 1; at most 40: {n_capped} at hop {:.4}",
+        capped.hop_periods
+    );
+    assert!(n_all > 150, "{n_all}");
+    assert!(n_capped <= 40 && n_capped >= 38, "{n_capped}");
+    // the swept phase over the cap, as the sweep's span says (2.5 t^2 over 8 s)
+    assert!(
+        (capped.hop_periods - 4.0).abs() < 0.05,
+        "{}",
+        capped.hop_periods
+    );
+    let asked = reduce_sweep(
+        &force,
+        &x,
+        fs,
+        &SweepOptions {
+            hop_periods: capped.hop_periods,
+            ..SweepOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(asked.level.points, capped.level.points);
+    // and the receptance is read as well where the sweep is quasi-steady
+    let worst = worst_sweep_error(&capped, &model, fs, |f| (3.0..20.0).contains(&f));
+    assert!(worst < 1e-2, "{worst}");
+}
+
 /// The F-16 rate through a 7.3 Hz mode with ζ = 0.7 %: α τ² ≈ 3, far from
 /// quasi-steady. Plain windows are checked where the sweep is quasi-steady
 /// (more than 1.5 Hz from the mode and 0.5 Hz from the start transient),

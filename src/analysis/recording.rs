@@ -325,8 +325,8 @@ pub struct Reduced {
     pub sample_rate_hz: f64,
     /// How it was reduced.
     pub excitation: Excitation,
-    /// Swept sine: the sweep found and the compensation used (s).
-    pub sweep: Option<(SweepFit, Option<f64>)>,
+    /// Swept sine: the sweep found, the compensation and the hop used.
+    pub sweep: Option<SweptReading>,
     /// The virtual test's definition, if recorded.
     pub truth: Option<TestDefinition>,
     /// Reduced from disk one dwell at a time (memory bounded).
@@ -478,10 +478,15 @@ pub fn reduce_observed(
             report(total - 1)?;
             let red = reduce_sweep_recording(rec, loaded.response, &opts)?;
             report(total)?;
-            let sweep = red.sweep;
+            let reading = SweptReading {
+                sweep: red.sweep,
+                compensation_s: opts.compensation_s,
+                hop_periods: red.hop_periods,
+                hop_asked: opts.hop_periods,
+            };
             let q = rec.meta.channels[loaded.response].quantity;
             let rq = rec.meta.channels[reference].quantity;
-            (red.into_frf(q, rq), Some((sweep, opts.compensation_s)))
+            (red.into_frf(q, rq), Some(reading))
         }
     };
     Ok(Reduced {
@@ -494,6 +499,20 @@ pub fn reduce_observed(
         streamed: false,
         truncated: loaded.truncated,
     })
+}
+
+/// How a swept-sine recording was read into FRF points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweptReading {
+    /// The sweep found.
+    pub sweep: SweepFit,
+    /// The compensation's window, s (`None`: off).
+    pub compensation_s: Option<f64>,
+    /// The hop between windows, periods.
+    pub hop_periods: f64,
+    /// The hop asked (`hop_periods` is longer where the sweep holds more
+    /// points than [`crate::extract::SweepOptions::max_points`]).
+    pub hop_asked: f64,
 }
 
 /// Reduces the recording at `path`: a stepped-sine WAV + JSON recording
@@ -616,9 +635,9 @@ fn reduce_swept_stream(
     })
     .and_then(|opts| {
         let red = reduce_sweep_stream(&mut source, reference, ch, &opts)?;
-        Ok((red, opts.compensation_s))
+        Ok((red, opts.compensation_s, opts.hop_periods))
     });
-    let (red, compensation) = match reduced {
+    let (red, compensation, hop_asked) = match reduced {
         Ok(r) => r,
         Err(e) => {
             return Err(if is_flat(&mut source, reference)? {
@@ -628,7 +647,12 @@ fn reduce_swept_stream(
             });
         }
     };
-    let sweep = red.sweep;
+    let reading = SweptReading {
+        sweep: red.sweep,
+        compensation_s: compensation,
+        hop_periods: red.hop_periods,
+        hop_asked,
+    };
     Ok(Reduced {
         frf: red.into_frf(
             meta.channels[ch].quantity,
@@ -637,7 +661,7 @@ fn reduce_swept_stream(
         response_name: meta.channels[ch].name.clone(),
         sample_rate_hz: meta.sample_rate_hz,
         excitation: Excitation::Swept,
-        sweep: Some((sweep, compensation)),
+        sweep: Some(reading),
         truth,
         streamed: true,
         truncated,
@@ -775,10 +799,15 @@ impl ReplayReduction {
             let fixed = ReductionOptions {
                 excitation: Some(red.excitation),
                 compensation: match red.sweep {
-                    Some((_, Some(s))) => Compensation::Seconds(s),
-                    Some((_, None)) => Compensation::Off,
+                    Some(SweptReading {
+                        compensation_s: Some(s),
+                        ..
+                    }) => Compensation::Seconds(s),
+                    Some(_) => Compensation::Off,
                     None => reduction.compensation,
                 },
+                // a replay is read at the measured recording's hop
+                hop_periods: red.sweep.map_or(reduction.hop_periods, |s| s.hop_periods),
                 ..reduction.clone()
             };
             sets.push((path.clone(), red.frf));

@@ -68,14 +68,25 @@ pub fn print_reduced(path: &Path, r: &Reduced) {
         levels.join(", "),
         r.frf.reference.si_unit()
     );
-    if let Some((s, comp)) = &r.sweep {
+    if let Some(reading) = &r.sweep {
+        let s = &reading.sweep;
         say_part!(
             "; sweep {:.4} -> {:.4} Hz at {:.5} Hz/s, compensation {}",
             s.f_start_hz,
             s.f_end_hz,
             s.rate_hz_per_s,
-            comp.map_or("off".to_string(), |c| format!("{c:.2} s"))
+            reading
+                .compensation_s
+                .map_or("off".to_string(), |c| format!("{c:.2} s"))
         );
+        if reading.hop_periods > reading.hop_asked {
+            say_part!(
+                "; read every {:.2} periods, not {}: at most {} points per sweep",
+                reading.hop_periods,
+                reading.hop_asked,
+                hystid::extract::MAX_SWEEP_POINTS
+            );
+        }
     }
     if r.streamed {
         say_part!(" (streamed)");

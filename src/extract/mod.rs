@@ -53,7 +53,7 @@ pub use stepped::{
 };
 pub use streaming::reduce_stepped_stream;
 pub use sweep::{
-    SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep, reduce_sweep,
+    MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep, reduce_sweep,
     reduce_sweep_recording,
 };
 pub use sweep_blocks::{WHOLE_RECORD_FRAMES, choose_compensation_stream, reduce_sweep_stream};

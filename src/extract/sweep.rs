@@ -102,7 +102,18 @@ pub struct SweepOptions {
     /// Sweep-distortion compensation: the Gaussian window's standard
     /// deviation in seconds (linear sweeps only; see the module docs).
     pub compensation_s: Option<f64>,
+    /// At most this many points: a sweep of more than `max_points ×
+    /// hop_periods` periods is read at the hop that gives this many, so
+    /// that the points (about half a kilobyte each, with their windows) and
+    /// a fit's cost, which grow with them, stay bounded whatever the
+    /// record's length (see [`SweepReduction::hop_periods`]).
+    pub max_points: usize,
 }
+
+/// [`SweepOptions::max_points`] by default: 32 768 points, 16 MB, one per
+/// period of a 10-200 Hz sweep of 5 minutes (a slower sweep is read at a
+/// longer hop).
+pub const MAX_SWEEP_POINTS: usize = 1 << 15;
 
 impl Default for SweepOptions {
     fn default() -> Self {
@@ -114,6 +125,7 @@ impl Default for SweepOptions {
             amplitude_threshold: 0.1,
             edge_periods: 5.0,
             compensation_s: None,
+            max_points: MAX_SWEEP_POINTS,
         }
     }
 }
@@ -148,6 +160,10 @@ pub struct SweepReduction {
     /// The points in time order; `level` is the median force amplitude,
     /// `blocks` of each point is 1 (one window).
     pub level: FrfLevel,
+    /// The hop the windows were read at, periods: the one asked, or a
+    /// longer one where the sweep holds more than
+    /// [`SweepOptions::max_points`] of those.
+    pub hop_periods: f64,
 }
 
 impl SweepReduction {
@@ -647,9 +663,9 @@ fn check_options(sample_rate_hz: f64, options: &SweepOptions) -> Result<()> {
             format!("must be finite and > 0, got {sample_rate_hz}"),
         ));
     }
-    if options.max_harmonic == 0 || options.window_periods == 0 {
+    if options.max_harmonic == 0 || options.window_periods == 0 || options.max_points == 0 {
         return Err(Error::plan(
-            "sweep.max_harmonic / sweep.window_periods",
+            "sweep.max_harmonic / sweep.window_periods / sweep.max_points",
             "must be at least 1",
         ));
     }
@@ -711,6 +727,14 @@ pub(super) fn reduce_sweep_from(
             ),
         ));
     }
+    // a sweep of more periods than the points allow is read at a longer hop
+    let periods =
+        (law.phase((sweep.end - 1) as f64) - law.phase(sweep.start as f64)).abs() / (2.0 * PI);
+    let hop_periods = options.hop_periods.max(periods / options.max_points as f64);
+    let options = &SweepOptions {
+        hop_periods,
+        ..options.clone()
+    };
     let windows = plain_windows(src, &law, &sweep, options)?;
     if windows.is_empty() {
         return Err(Error::input(
@@ -771,6 +795,7 @@ pub(super) fn reduce_sweep_from(
             points,
         },
         sweep,
+        hop_periods,
     })
 }
 
