@@ -256,52 +256,75 @@ pub fn run(
     let mut frf_levels = Vec::new();
     let mut counted = 0;
     // levels run in parallel a few at a time, so memory stays bounded by the
-    // thread count while the sink still receives them in order
-    for start in (0..levels.len()).step_by(chunk) {
-        let end = (start + chunk).min(levels.len());
-        let outputs: Vec<Result<LevelOutput>> = (start..end)
+    // thread count while the sink still receives them in order; the next
+    // batch is simulated while the sink writes this one (writing the MCAP
+    // and WAV files is serial, and left the other cores idle)
+    let batches: Vec<std::ops::Range<usize>> = (0..levels.len())
+        .step_by(chunk)
+        .map(|start| start..(start + chunk).min(levels.len()))
+        .collect();
+    let simulate = |batch: std::ops::Range<usize>| -> Vec<Result<LevelOutput>> {
+        batch
             .into_par_iter()
             .map(|i| run_level(def, &model, fs, &sweeps, i, levels[i], observer))
-            .collect();
-        for out in outputs {
-            let mut out = out?;
-            for d in &mut out.dwells {
-                d.start += frames;
-                d.index = dwells.len() + counted;
-                counted += 1;
-            }
-            sink.level(&out, frames)?;
-            frames += out.force.len() as u64;
-            for (dir, _) in &sweeps {
-                let points = out
-                    .dwells
-                    .iter()
-                    .filter(|d| d.direction == *dir)
-                    .map(|d| FrfPoint {
-                        frequency_hz: d.design.frequency_hz,
-                        force_amplitude: d.measured.force[1].norm(),
-                        h: d.measured.h.clone(),
-                        std_error: d.measured.std_error.clone(),
-                        force_distortion: d
-                            .measured
-                            .force
+            .collect()
+    };
+    let mut pending = batches.first().cloned().map(simulate);
+    for k in 0..batches.len() {
+        let outputs = pending.take().unwrap_or_default();
+        let next = batches.get(k + 1).cloned();
+        let (written, simulated) = std::thread::scope(|scope| {
+            let ahead = next.map(|b| scope.spawn(|| simulate(b)));
+            let write = || -> Result<()> {
+                for out in outputs {
+                    let mut out = out?;
+                    for d in &mut out.dwells {
+                        d.start += frames;
+                        d.index = dwells.len() + counted;
+                        counted += 1;
+                    }
+                    sink.level(&out, frames)?;
+                    frames += out.force.len() as u64;
+                    for (dir, _) in &sweeps {
+                        let points = out
+                            .dwells
                             .iter()
-                            .map(|f| f / d.measured.force[1])
-                            .collect(),
-                        blocks: d.measured.blocks,
-                        settle_periods: d.settle_periods,
-                        settled: d.settled,
-                    })
-                    .collect();
-                frf_levels.push(FrfLevel {
-                    level: levels[out.level_index],
-                    direction: *dir,
-                    points,
-                });
-            }
-            dwells.extend(out.dwells);
-            counted = 0;
-        }
+                            .filter(|d| d.direction == *dir)
+                            .map(|d| FrfPoint {
+                                frequency_hz: d.design.frequency_hz,
+                                force_amplitude: d.measured.force[1].norm(),
+                                h: d.measured.h.clone(),
+                                std_error: d.measured.std_error.clone(),
+                                force_distortion: d
+                                    .measured
+                                    .force
+                                    .iter()
+                                    .map(|f| f / d.measured.force[1])
+                                    .collect(),
+                                blocks: d.measured.blocks,
+                                settle_periods: d.settle_periods,
+                                settled: d.settled,
+                            })
+                            .collect();
+                        frf_levels.push(FrfLevel {
+                            level: levels[out.level_index],
+                            direction: *dir,
+                            points,
+                        });
+                    }
+                    dwells.extend(out.dwells);
+                    counted = 0;
+                }
+                Ok(())
+            };
+            let written = write();
+            // a simulation that panicked is a bug: its panic goes on
+            let simulated =
+                ahead.map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)));
+            (written, simulated)
+        });
+        written?;
+        pending = simulated;
     }
     Ok(BenchRun {
         sample_rate_hz: fs,
