@@ -1446,6 +1446,27 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
             without[1].0
         );
     }
+    // where the residual lies in frequency, over each level's window
+    let v = json(&work.path().join("val/validate.json"));
+    for (r, l) in v["recordings"].as_array().unwrap().iter().zip([2, 4, 6]) {
+        let b = &r["window"]["by_frequency"];
+        let pc = |part: &str, of: &str| 100.0 * b[part][of].as_f64().unwrap();
+        let figures = [
+            ("error in the band", pc("inside", "error")),
+            ("error just above it", pc("above", "error")),
+            ("error beyond", pc("beyond", "error")),
+            ("measured beyond", pc("beyond", "measured")),
+            ("model beyond", pc("beyond", "simulated")),
+        ];
+        let shown = common::readme_figures(&format!(
+            "| by frequency, F-16 with a hysteretic mode | level {l} |"
+        ))
+        .expect("README row");
+        assert_eq!(shown.len(), figures.len(), "{shown:?}");
+        for ((what, value), shown) in figures.into_iter().zip(shown) {
+            common::assert_readme_figure(&format!("level {l} {what} (%)"), value, shown);
+        }
+    }
 }
 
 /// Issue 13's UNESP protocol with the shaker (issue 12): the time-domain fit

@@ -276,8 +276,10 @@ pub struct ValidateArgs {
     /// element must beat.
     #[arg(long)]
     pub linear: bool,
-    /// Frequency band LO:HI in Hz for the FRF comparison, and for a sweep the
-    /// time window of the second error figure.
+    /// Frequency band LO:HI in Hz for the FRF comparison, for a sweep the
+    /// time window of the second error figure, and where each error figure
+    /// is split by frequency (below, in the band, up to twice its top, and
+    /// beyond).
     #[arg(long)]
     pub band: Option<String>,
     /// Time window T0:T1 in seconds for the second error figure.

@@ -129,6 +129,26 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     Ok(EXIT_OK)
 }
 
+/// Where in frequency an error figure's residual lies (with `--band`).
+fn print_by_frequency(e: &hystid::validate::ErrorMetrics) {
+    let Some(b) = &e.by_frequency else {
+        return;
+    };
+    let (lo, hi) = b.band_hz;
+    let pc = |x: f64| format!("{:.1} %", 100.0 * x);
+    let top = 2.0 * hi;
+    say!(
+        "    by frequency: error {} below {lo} Hz, {} in {lo}-{hi} Hz, {} in {hi}-{top} Hz, {} above \
+         {top} Hz, where the measured response holds {} of its RMS and the model {}",
+        pc(b.below.error),
+        pc(b.inside.error),
+        pc(b.above.error),
+        pc(b.beyond.error),
+        pc(b.beyond.measured),
+        pc(b.beyond.simulated)
+    );
+}
+
 fn print_validation(path: &Path, response: &str, v: &Validation) {
     // the unit of the quantity compared, whatever the channel is called
     let unit = v.quantity.si_unit();
@@ -150,6 +170,7 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
         100.0 * v.whole.relative,
         v.whole.measured_rms
     );
+    print_by_frequency(&v.whole);
     if let Some(w) = &v.window {
         say!(
             "  window {:.2}-{:.2} s: e_RMS {:.4e} {unit} ({:.1} % of {:.4e} {unit})",
@@ -159,6 +180,7 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
             100.0 * w.relative,
             w.measured_rms
         );
+        print_by_frequency(w);
     }
     if let Some(c) = &v.frf {
         for l in &c.levels {
