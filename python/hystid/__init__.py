@@ -39,6 +39,7 @@ __all__ = [
     "DEFAULT_TEST",
     "HystidError",
     "Model",
+    "Simulation",
     "diagnose",
     "extract",
     "fit_coil",
@@ -138,6 +139,46 @@ def simulate(model, force, sample_rate_hz, output="displacement", progress=None)
     if output == "all":
         return dict(zip(OUTPUTS, _hystid.simulate_all(m, f, float(sample_rate_hz), progress)))
     return _hystid.simulate(m, f, float(sample_rate_hz), output, progress)
+
+
+class Simulation:
+    """A simulation of ``model`` at ``sample_rate_hz`` that carries its state
+    from one :meth:`run` to the next: a force fed in blocks (from a data
+    acquisition, a co-simulation, a file read in pieces) gives, block by
+    block, the samples :func:`simulate` gives on the whole, to the bit.
+
+    A run that stops inside its block (Ctrl-C, the ``progress`` callable's
+    exception, a solve that fails) leaves the state part-way through it:
+    the next :meth:`run` then raises until :meth:`reset`.
+    """
+
+    def __init__(self, model, sample_rate_hz):
+        self._sim = _hystid.Simulation(_as_model(model), float(sample_rate_hz))
+
+    def run(self, force, output="displacement", progress=None):
+        """The response to the next block of ``force`` (N), continuing from
+        where the last block left the structure and its joint; ``output``
+        and ``progress`` as :func:`simulate`'s."""
+        f = _f64(force, "force")
+        if output == "all":
+            return dict(zip(OUTPUTS, self._sim.run_all(f, progress)))
+        return self._sim.run(f, output, progress)
+
+    def reset(self):
+        """Back to rest: the structure still, the joint virgin."""
+        self._sim.reset()
+
+    @property
+    def samples(self):
+        """Samples run since rest."""
+        return self._sim.samples
+
+    @property
+    def sample_rate_hz(self):
+        return self._sim.sample_rate_hz
+
+    def __repr__(self):
+        return f"hystid.Simulation(at {self.sample_rate_hz} Hz, {self.samples} samples run)"
 
 
 def virtual_test(definition=None, check_hb=False, progress=None):

@@ -365,6 +365,133 @@ fn simulate_all<'py>(
     ])
 }
 
+/// The simulator of a model with its elements.
+type ModelSimulator = hystid::sim::Simulator<hystid::model::ElementSet<hystid::model::AnyElement>>;
+
+/// A simulation that carries its state from one `run` to the next: a
+/// record fed in blocks (from a DAQ, a co-simulation, a file read in
+/// pieces) gives the samples one `simulate` of the whole gives.
+#[pyclass(module = "hystid", name = "Simulation")]
+struct PySimulation {
+    /// Behind a lock for pyo3 (a Python object may be shared between
+    /// threads; `run` takes `&mut self` anyway).
+    sim: Mutex<ModelSimulator>,
+    sample_rate_hz: f64,
+    /// Samples run since rest.
+    samples: u64,
+    /// Why the state is not one a run may continue from: a run that
+    /// stopped inside its block (interrupted, or the solve failed) left it
+    /// part-way.
+    broken: Option<String>,
+}
+
+impl PySimulation {
+    /// Runs `work` on the block of `n` samples, unless a run before broke
+    /// the state; a run that fails breaks it.
+    fn block<T: Send>(
+        &mut self,
+        py: Python<'_>,
+        n: usize,
+        progress: Option<Py<PyAny>>,
+        work: impl FnOnce(&mut ModelSimulator, &Progress) -> hystid::Result<T> + Send,
+    ) -> PyResult<T> {
+        if let Some(why) = &self.broken {
+            return Err(fail(format!(
+                "the simulation stopped inside a run after sample {} ({why}): its state is \
+                 part-way through that block; call reset() to start again from rest",
+                self.samples
+            )));
+        }
+        let progress = Progress::new(progress);
+        let mut guard = self.sim.lock().unwrap_or_else(|e| e.into_inner());
+        let sim = &mut *guard;
+        let p = &progress;
+        let result = progress.run_simulation(py, n, move || work(sim, p));
+        drop(guard);
+        match result {
+            Ok(y) => {
+                self.samples += n as u64;
+                Ok(y)
+            }
+            Err(e) => {
+                self.broken = Some(e.to_string());
+                Err(e)
+            }
+        }
+    }
+}
+
+#[pymethods]
+impl PySimulation {
+    #[new]
+    fn new(model: PyRef<'_, PyModel>, sample_rate_hz: f64) -> PyResult<Self> {
+        let m = &model.inner;
+        m.validate().map_err(err)?;
+        let sim = ModelSimulator::new(&m.linear, m.element_set().map_err(err)?, sample_rate_hz)
+            .map_err(err)?;
+        Ok(PySimulation {
+            sim: Mutex::new(sim),
+            sample_rate_hz,
+            samples: 0,
+            broken: None,
+        })
+    }
+
+    /// The response to the next block of `force`: one output.
+    #[pyo3(signature = (force, output_name = "displacement".to_string(), progress = None))]
+    fn run<'py>(
+        &mut self,
+        py: Python<'py>,
+        force: PyReadonlyArray1<'py, f64>,
+        output_name: String,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let which = output(&output_name)?;
+        let f = slice("force", &force)?;
+        let y = self.block(py, f.len(), progress, |sim, p| {
+            let mut out = vec![0.0; f.len()];
+            sim.run_output_observed(f, which, &mut out, p).map(|_| out)
+        })?;
+        Ok(y.into_pyarray(py))
+    }
+
+    /// Every output of [`PySimulation::run`], in `Output::ALL`'s order.
+    #[pyo3(signature = (force, progress = None))]
+    fn run_all<'py>(
+        &mut self,
+        py: Python<'py>,
+        force: PyReadonlyArray1<'py, f64>,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Vec<Bound<'py, PyArray1<f64>>>> {
+        let f = slice("force", &force)?;
+        let r = self.block(py, f.len(), progress, |sim, p| sim.run_observed(f, p))?;
+        Ok(vec![
+            r.displacement.into_pyarray(py),
+            r.velocity.into_pyarray(py),
+            r.acceleration.into_pyarray(py),
+            r.element_force.into_pyarray(py),
+        ])
+    }
+
+    /// Back to rest (and a broken state forgotten).
+    fn reset(&mut self) {
+        self.sim.lock().unwrap_or_else(|e| e.into_inner()).reset();
+        self.samples = 0;
+        self.broken = None;
+    }
+
+    /// Samples run since rest.
+    #[getter]
+    fn samples(&self) -> u64 {
+        self.samples
+    }
+
+    #[getter]
+    fn sample_rate_hz(&self) -> f64 {
+        self.sample_rate_hz
+    }
+}
+
 /// The seconds the library's own `simulate` takes on `force` (timed in
 /// Rust, without Python): the reference of the overhead benchmark.
 #[pyfunction]
@@ -975,6 +1102,7 @@ fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DEFAULT_TEST", DEFAULT_TEST)?;
     m.add("VERSION", hystid::analysis::VERSION)?;
     m.add_class::<PyModel>()?;
+    m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(json_to_toml, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_all, m)?)?;

@@ -171,3 +171,56 @@ def test_a_hysteretic_mode_that_never_slips_is_the_closed_form():
         hr = s2 / abs(mass) / (wr**2 - w**2 + 2j * zeta * wr * w)
         expected = s2 * receptance(f) + sign * hr / (1 + kd * hr)
         assert abs(got / expected - 1) < 1e-7, (sign, got, expected)
+
+
+def test_a_simulation_fed_in_blocks_is_the_whole_run():
+    """`Simulation` carries the structure's and the joint's state from one
+    block to the next: blocks of 1000, 1, 300 000 (two progress stretches
+    of 262 144 samples and a part) and the rest give, joined, the bits of one
+    `simulate` of the whole, for each output and for "all"; `reset` is rest
+    again. The paper's Jenkins joint, slipping under 300 N: a state lost at a
+    block's edge would move the slider and show at once."""
+    m = hystid.model(SMALL)
+    fs = 50000.0
+    n = 700_000
+    t = np.arange(n) / fs
+    force = 300.0 * np.sin(2 * np.pi * 150.0 * t) + 80.0 * np.sin(2 * np.pi * 410.0 * t)
+    edges = [0, 1000, 1001, 301_001, n]
+    for output in ("displacement", "element_force"):
+        whole = hystid.simulate(m, force, fs, output=output)
+        sim = hystid.Simulation(m, fs)
+        parts = [sim.run(force[a:b], output=output) for a, b in zip(edges, edges[1:])]
+        assert sim.samples == n
+        assert np.array_equal(np.concatenate(parts), whole), output
+        sim.reset()
+        assert sim.samples == 0
+        assert np.array_equal(sim.run(force[:1000], output=output), whole[:1000])
+    every = hystid.simulate(m, force, fs, output="all")
+    sim = hystid.Simulation(m, fs)
+    blocks = [sim.run(force[a:b], output="all") for a, b in zip(edges, edges[1:])]
+    for name, y in every.items():
+        assert np.array_equal(np.concatenate([b[name] for b in blocks]), y), name
+
+
+def test_a_simulation_stopped_inside_a_block_must_be_reset():
+    """A block stopped part-way (here the progress callable's exception at
+    its second stretch) leaves the state inside that block: the next `run`
+    raises, naming `reset`, and after `reset` the simulation is the whole
+    run again."""
+    m = hystid.model(SMALL)
+    fs = 50000.0
+    force = 300.0 * np.sin(2 * np.pi * 150.0 * np.arange(600_000) / fs)
+    sim = hystid.Simulation(m, fs)
+    first = sim.run(force[:5000])
+
+    def stop(event):
+        if event["done"] > 262_144:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sim.run(force[5000:], progress=stop)
+    with pytest.raises(hystid.HystidError, match="reset"):
+        sim.run(force[:10])
+    sim.reset()
+    assert np.array_equal(sim.run(force[:5000]), first)
+    assert "50000.0 Hz" in repr(sim)

@@ -603,6 +603,17 @@ impl<E: Element> Simulator<E> {
         Ok(out)
     }
 
+    /// [`Simulator::run`] a stretch at a time, telling `observer` after
+    /// each and stopping there if it asks (the state then stands where the
+    /// last stretch left it).
+    pub fn run_observed(&mut self, force: &[f64], observer: &dyn Observer) -> Result<Response> {
+        let mut out = Response::default();
+        in_stretches(force.len(), observer, |range| {
+            self.run_into(&force[range], &mut out)
+        })?;
+        Ok(out)
+    }
+
     /// Runs `n` samples of a force generator `force(i)` (i counts from 0 in
     /// this call), appending to `out`.
     pub fn run_generator(
@@ -787,12 +798,8 @@ pub fn simulate_all_observed(
     observer: &dyn Observer,
 ) -> Result<Response> {
     model.validate()?;
-    let mut sim = Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?;
-    let mut out = Response::default();
-    in_stretches(force.len(), observer, |range| {
-        sim.run_into(&force[range], &mut out)
-    })?;
-    Ok(out)
+    Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?
+        .run_observed(force, observer)
 }
 
 /// Runs `stretch` over `0..n` in stretches of
