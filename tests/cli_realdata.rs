@@ -1431,6 +1431,20 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         s(&out),
     ]);
     run_ok(&args);
+    // the fit's final errors are split by frequency about its band too: the
+    // parts (Parseval, one FFT) add up to the window's relative e_RMS (a sum
+    // in time)
+    let fitted = json(&out.join("fit.json"));
+    for a in fitted["time_domain"]["after"].as_array().unwrap() {
+        let w = &a["window"];
+        let b = &w["by_frequency"];
+        let parts: f64 = ["below", "inside", "above", "beyond"]
+            .iter()
+            .map(|p| b[*p]["error"].as_f64().unwrap().powi(2))
+            .sum();
+        let relative = w["relative"].as_f64().unwrap();
+        assert!((parts.sqrt() / relative - 1.0).abs() < 1e-9, "{a}");
+    }
     let shares = f16_validation_is_the_readmes(
         work.path(),
         &out.join("fit.json"),

@@ -69,6 +69,7 @@ fn record(case: &Case, rec: &Recording) -> TimeRecord {
                 })
                 .collect::<Vec<_>>(),
         ),
+        band_hz: None,
     }
 }
 

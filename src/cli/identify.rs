@@ -526,5 +526,6 @@ fn print_time_fit(t: &hystid::fit::TimeFitResult, unit: &str) {
             100.0 * b.segment_relative,
             100.0 * a.segment_relative
         );
+        super::validate::print_by_frequency(&a.window);
     }
 }

@@ -130,7 +130,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
 }
 
 /// Where in frequency an error figure's residual lies (with `--band`).
-fn print_by_frequency(e: &hystid::validate::ErrorMetrics) {
+pub(crate) fn print_by_frequency(e: &hystid::validate::ErrorMetrics) {
     let Some(b) = &e.by_frequency else {
         return;
     };

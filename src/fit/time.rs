@@ -68,6 +68,9 @@ pub struct TimeRecord {
     /// The stretches of the window each judged on its own RMS (see the
     /// module docs): ordered, not overlapping.
     pub segments: Vec<Range<usize>>,
+    /// The band judged, Hz (`--band`), about which the fit's final error is
+    /// split by frequency ([`TimeProblem::errors_by_frequency`]).
+    pub band_hz: Option<(f64, f64)>,
 }
 
 impl TimeRecord {
@@ -231,6 +234,7 @@ impl TimeRecord {
             quantity: channel.quantity,
             segments: TimeRecord::segments_at(window.clone(), &steps),
             window,
+            band_hz,
         };
         if let (Some((lo, hi)), false) = (band_hz, steps.is_empty()) {
             // each segment is judged as the dwell it starts in
@@ -694,6 +698,17 @@ impl<'a> TimeProblem<'a> {
 
     /// Each recording's error figures with `model`.
     pub fn errors(&self, model: &Model) -> Result<Vec<RecordError>> {
+        self.errors_with(model, false)
+    }
+
+    /// [`TimeProblem::errors`], each window's error split by frequency about
+    /// its record's band, where it has one (an FFT of the window each: for
+    /// a fit's final report, not for every replay).
+    pub fn errors_by_frequency(&self, model: &Model) -> Result<Vec<RecordError>> {
+        self.errors_with(model, true)
+    }
+
+    fn errors_with(&self, model: &Model, split: bool) -> Result<Vec<RecordError>> {
         self.records
             .iter()
             .zip(&self.scale)
@@ -707,9 +722,22 @@ impl<'a> TimeProblem<'a> {
                         .map(|i| ((sim[i] - r.response[i]) / sc).powi(2))
                         .sum::<f64>();
                 }
+                let mut window =
+                    error_metrics(&r.response, &sim, r.sample_rate_hz, r.window.clone())?;
+                if let (true, Some(band)) = (split, r.band_hz)
+                    && window.measured_rms > 0.0
+                {
+                    window.by_frequency = Some(crate::validate::error_by_frequency(
+                        &r.response,
+                        &sim,
+                        r.sample_rate_hz,
+                        r.window.clone(),
+                        band,
+                    )?);
+                }
                 Ok(RecordError {
                     recording: r.name.clone(),
-                    window: error_metrics(&r.response, &sim, r.sample_rate_hz, r.window.clone())?,
+                    window,
                     segments: r.segments.len(),
                     segment_relative: (sum / r.segments.len() as f64).sqrt(),
                 })
@@ -1160,7 +1188,7 @@ pub fn identify_time(
              {resumed} time(s)"
         ));
     }
-    let after = problem.errors(&model)?;
+    let after = problem.errors_by_frequency(&model)?;
     let parameters = time_confidence(&problem, &run.theta)?;
     let set = &problem.parameters;
     let mut at_bound: Vec<String> = set
