@@ -397,8 +397,8 @@ impl PySimulation {
     ) -> PyResult<T> {
         if let Some(why) = &self.broken {
             return Err(fail(format!(
-                "the simulation stopped inside a run after sample {} ({why}): its state is \
-                 part-way through that block; call reset() to start again from rest",
+                "the simulation stopped inside the run that started at sample {} ({why}): its \
+                 state is part-way through that block; call reset() to start again from rest",
                 self.samples
             )));
         }
