@@ -645,6 +645,33 @@ fn peak(r: &extract::SweepReduction) -> (f64, f64) {
         .unwrap()
 }
 
+/// A 30 Hz mode (ζ = 10 %, unit modal mass) driven at 1024 Hz by a chirp
+/// from 0 to 40 Hz at 5 Hz/s (8 s, then rest until `frames`): the model,
+/// the rate, the force and the displacement.
+fn chirp_through_a_30_hz_mode(frames: usize) -> (ModalModel, f64, Vec<f64>, Vec<f64>) {
+    let model = ModalModel::new(vec![
+        hystid::model::Mode::from_modal_mass(30.0, 0.10, 1.0).unwrap(),
+    ])
+    .unwrap();
+    let fs = 1024.0;
+    let force: Vec<f64> = (0..frames)
+        .map(|i| {
+            let t = i as f64 / fs;
+            if t < 8.0 {
+                (2.0 * PI * 2.5 * t * t).sin()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let x = Simulator::new(&model, NoElement, fs)
+        .unwrap()
+        .run(&force)
+        .unwrap()
+        .displacement;
+    (model, fs, force, x)
+}
+
 /// A chirp from 0 Hz (a test lab's default, as the UNESP beam's 0-40 Hz
 /// chirps: 5 Hz/s for 8 s, then free decay, 1024 Hz) has no period at its
 /// start, and its fitted law crosses zero by a hair there: the sweep is
@@ -655,23 +682,7 @@ fn peak(r: &extract::SweepReduction) -> (f64, f64) {
 /// Until 2026-11-26 such a record was refused.
 #[test]
 fn a_chirp_from_zero_hertz_is_reduced() {
-    let model = ModalModel::new(vec![
-        hystid::model::Mode::from_modal_mass(30.0, 0.10, 1.0).unwrap(),
-    ])
-    .unwrap();
-    let fs = 1024.0;
-    let force: Vec<f64> = (0..16384)
-        .map(|i| {
-            let t = i as f64 / fs;
-            if t < 8.0 {
-                (2.0 * PI * 2.5 * t * t).sin()
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    let mut sim = Simulator::new(&model, NoElement, fs).unwrap();
-    let x = sim.run(&force).unwrap().displacement;
+    let (model, fs, force, x) = chirp_through_a_30_hz_mode(16384);
     let r = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
     let s = r.sweep;
     eprintln!(
@@ -701,19 +712,7 @@ fn a_chirp_from_zero_hertz_is_reduced() {
 /// at the default hop; with at most 40 the hop becomes 4.0 periods.
 #[test]
 fn a_sweep_with_more_periods_than_points_allowed_is_read_at_a_longer_hop() {
-    let model = ModalModel::new(vec![
-        hystid::model::Mode::from_modal_mass(30.0, 0.10, 1.0).unwrap(),
-    ])
-    .unwrap();
-    let fs = 1024.0;
-    let force: Vec<f64> = (0..8192)
-        .map(|i| (2.0 * PI * 2.5 * (i as f64 / fs).powi(2)).sin())
-        .collect();
-    let x = Simulator::new(&model, NoElement, fs)
-        .unwrap()
-        .run(&force)
-        .unwrap()
-        .displacement;
+    let (model, fs, force, x) = chirp_through_a_30_hz_mode(8192);
     let all = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
     assert_eq!(all.hop_periods, 1.0);
     let capped_options = SweepOptions {
