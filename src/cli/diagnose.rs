@@ -147,6 +147,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                     100.0 * f.segment_relative,
                     100.0 * a.segment_relative
                 );
+                super::validate::print_by_frequency(&a.window);
             }
             for c in &t.checks {
                 match &c.failed {

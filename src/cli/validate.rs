@@ -138,7 +138,7 @@ pub(crate) fn print_by_frequency(e: &hystid::validate::ErrorMetrics) {
     let pc = |x: f64| format!("{:.1} %", 100.0 * x);
     let top = 2.0 * hi;
     say!(
-        "    by frequency: error {} below {lo} Hz, {} in {lo}-{hi} Hz, {} in {hi}-{top} Hz, {} above \
+        "    by frequency, as shares of the measured RMS: error {} below {lo} Hz, {} in {lo}-{hi} Hz, {} in {hi}-{top} Hz, {} above \
          {top} Hz, where the measured response holds {} of its RMS and the model {}",
         pc(b.below.error),
         pc(b.inside.error),
