@@ -208,6 +208,12 @@ impl Observer for Progress {
             return;
         }
         Python::attach(|py| {
+            // again with the GIL held: another thread's event may have raised
+            // while this one waited for it (levels run in parallel), and the
+            // callable is never called once it raised
+            if self.cancelled() {
+                return;
+            }
             if let Err(e) = Self::event(py, event).and_then(|d| callback.call1(py, (d,))) {
                 self.raise(e);
             }
