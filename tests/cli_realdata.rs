@@ -1356,81 +1356,36 @@ fn datasets_time_protocols_are_the_readmes() {
     }
 }
 
-/// The README's second protocols table: the F-16 and UNESP protocols fitted
-/// from the models written down in `signals/` (what `cargo bench --bench
-/// datasets` adds to each row as `from_start`): each row's e_RMS, its share
-/// of the RMS and the target pinned.
-#[test]
-fn datasets_time_protocols_from_their_starts_are_the_readmes() {
-    let work = tempfile::tempdir().unwrap();
-    let columns: [(&str, fn(&serde_json::Value) -> f64); 3] = [
-        ("e_RMS", |r| field(r, "e_rms")),
-        ("its share of the RMS (%)", |r| {
-            100.0 * field(r, "e_rms_relative")
-        }),
-        ("the target (%)", |r| 100.0 * field(r, "target_relative")),
-    ];
-    for (name, protocol, rows) in [
-        (
-            "f16_gvt_benchmark",
-            super::protocols::f16_from_start as fn(&Path, &Path) -> Vec<serde_json::Value>,
-            [
-                "| F-16 | hysteretic mode | level 2 |",
-                "| F-16 | hysteretic mode | level 4 |",
-                "| F-16 | hysteretic mode | level 6 |",
-            ],
-        ),
-        (
-            "bolted_beam_unesp_bert",
-            super::protocols::unesp_from_start,
-            [
-                "| UNESP | shaker and background | 0.10 V |",
-                "| UNESP | shaker and background | 0.20 V |",
-                "| UNESP | shaker and background | 0.30 V |",
-            ],
-        ),
-    ] {
-        for r in pin_protocol_rows(work.path(), name, protocol, rows, &columns) {
-            assert!(
-                r["start"]
-                    .as_str()
-                    .is_some_and(|s| s.starts_with("signals/")),
-                "{r}"
-            );
-        }
-    }
-}
-
 /// The README's F-16 time-domain fit with a hysteretic mode: the odd
 /// levels fitted from `signals/f16_hysteretic_mode_start.toml` (the
 /// three-mode fit's model plus the 6.2-6.6 Hz mode with a joint of its
-/// own, and an Iwan joint at the drive point), validated on the even levels over 4.5-9 Hz; each level's share of
-/// the RMS is pinned, and is below the three-mode protocol's (the README's
-/// datasets table).
+/// own, and an Iwan joint at the drive point), validated on the even
+/// levels over 4.5-9 Hz. The fit is the one `cargo bench --bench datasets`
+/// makes (`tests/protocols`: the README's walkthrough command), so its
+/// rows of the README's second protocols table are pinned here, then the
+/// walkthrough's own validation: each level's share of the RMS, below
+/// the three-mode protocol's, and where the residual lies in frequency.
 #[test]
 fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
-    let Some(data) = common::dataset("f16_gvt_benchmark") else {
+    if common::dataset("f16_gvt_benchmark").is_none() {
         return;
-    };
+    }
     let work = tempfile::tempdir().unwrap();
-    let (fit, held) = f16_levels(work.path(), &data);
-    let start =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("signals/f16_hysteretic_mode_start.toml");
-    let out = work.path().join("fit");
-    let mut args: Vec<&str> = vec!["identify"];
-    args.extend(fit.iter().map(|p| s(p)));
-    args.extend([
-        "--domain",
-        "time",
-        "--start",
-        s(&start),
-        "--band",
-        "4.5:9",
-        "-q",
-        "--out",
-        s(&out),
-    ]);
-    run_ok(&args);
+    pin_from_start_rows(
+        work.path(),
+        "f16_gvt_benchmark",
+        super::protocols::f16_from_start,
+        [
+            "| F-16 | hysteretic mode | level 2 |",
+            "| F-16 | hysteretic mode | level 4 |",
+            "| F-16 | hysteretic mode | level 6 |",
+        ],
+    );
+    let out = work.path().join("f16_start_fit");
+    let held: Vec<PathBuf> = [2, 4, 6]
+        .iter()
+        .map(|l| work.path().join(format!("f16_L{l}.json")))
+        .collect();
     // the fit's final errors are split by frequency about its band too: the
     // parts (Parseval, one FFT) add up to the window's relative e_RMS (a sum
     // in time)
@@ -1514,15 +1469,32 @@ fn unesp_time_fit_with_the_shaker_is_the_readmes() {
 /// The same with a second, broad mode beside the joint's
 /// (`signals/unesp_background_start.toml`): the fit drives its damping ratio
 /// to the bound (a background, not a resonance), and the two lower validation
-/// chirps come within issue 13's 5 %. The README's rows and the background's
-/// figures are pinned; each row is below the shaker-only fit's.
+/// chirps come within issue 13's 5 %. The fit is the one `cargo bench
+/// --bench datasets` makes (`tests/protocols`), so its rows of the README's
+/// second protocols table are pinned here; then the walkthrough's
+/// validation: the README's rows and the background's figures, each row
+/// below the shaker-only fit's.
 #[test]
 fn unesp_time_fit_with_a_background_is_the_readmes() {
-    let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
+    if common::dataset("bolted_beam_unesp_bert").is_none() {
         return;
-    };
+    }
     let work = tempfile::tempdir().unwrap();
-    let fitted = unesp_time_fit(&data, work.path(), "unesp_background_start.toml", &[]);
+    pin_from_start_rows(
+        work.path(),
+        "bolted_beam_unesp_bert",
+        super::protocols::unesp_from_start,
+        [
+            "| UNESP | shaker and background | 0.10 V |",
+            "| UNESP | shaker and background | 0.20 V |",
+            "| UNESP | shaker and background | 0.30 V |",
+        ],
+    );
+    let held: Vec<PathBuf> = ["0p10", "0p20", "0p30"]
+        .iter()
+        .map(|l| work.path().join(format!("unesp_c{l}.json")))
+        .collect();
+    let fitted = unesp_validation(work.path(), &work.path().join("unesp_start_fit"), &held);
     let p = &fitted.fit["time_domain"]["parameters"];
     let value = |name: &str| p[name]["value"].as_f64().unwrap();
     assert_eq!(
@@ -1662,6 +1634,11 @@ fn unesp_time_fit(data: &Path, work: &Path, start: &str, extra: &[&str]) -> Unes
     ]);
     args.extend(extra);
     run_ok(&args);
+    unesp_validation(work, &out, &held)
+}
+
+/// The fit in `out` validated on `held` over 88-100 Hz.
+fn unesp_validation(work: &Path, out: &Path, held: &[PathBuf]) -> UnespTimeFit {
     let fitted = json(&out.join("fit.json"));
     assert_eq!(fitted["time_domain"]["response_sign"], -1.0);
     let val = work.join("val");
@@ -1673,5 +1650,32 @@ fn unesp_time_fit(data: &Path, work: &Path, start: &str, extra: &[&str]) -> Unes
     UnespTimeFit {
         fit: fitted,
         validation: json(&val.join("validate.json")),
+    }
+}
+
+/// The README's second protocols table's rows of data set `name`:
+/// `protocol` (fitted from a model in `signals/`, as `cargo bench --bench
+/// datasets` adds them to its rows as `from_start`) run into `work`, each
+/// row's e_RMS, share of the RMS and target pinned.
+fn pin_from_start_rows(
+    work: &Path,
+    name: &str,
+    protocol: fn(&Path, &Path) -> Vec<serde_json::Value>,
+    rows: [&str; 3],
+) {
+    let columns: [(&str, fn(&serde_json::Value) -> f64); 3] = [
+        ("e_RMS", |r| field(r, "e_rms")),
+        ("its share of the RMS (%)", |r| {
+            100.0 * field(r, "e_rms_relative")
+        }),
+        ("the target (%)", |r| 100.0 * field(r, "target_relative")),
+    ];
+    for r in pin_protocol_rows(work, name, protocol, rows, &columns) {
+        assert!(
+            r["start"]
+                .as_str()
+                .is_some_and(|s| s.starts_with("signals/")),
+            "{r}"
+        );
     }
 }
