@@ -360,6 +360,7 @@ pub fn fit_declared(
 }
 
 /// A model refitted to the data judged, with its prediction and `χ²`.
+#[derive(Clone)]
 pub(crate) struct Refit {
     pub(crate) model: Model,
     pub(crate) pred: Prediction,
@@ -443,6 +444,40 @@ fn refit_within(
     let (model, pred, _) = problem.evaluate(&theta)?;
     let chi2 = crate::fit::problem::chi_square(data, &pred);
     Ok(Refit { model, pred, chi2 })
+}
+
+/// The best refit seen of each set of kept effects (the baseline's: none).
+/// A refit after an effect is dropped starts from the model without it and
+/// can settle in a worse basin than the same effects reached in an earlier
+/// round: the earlier model is then the diagnosis's, since both are fits
+/// of the same model class to the same data.
+#[derive(Default)]
+struct BestBySet(Vec<(Vec<Effect>, Refit)>);
+
+impl BestBySet {
+    fn key(chosen: &[Effect]) -> Vec<Effect> {
+        let mut k = chosen.to_vec();
+        k.sort();
+        k
+    }
+
+    /// Notes `r` as a refit of `chosen`.
+    fn note(&mut self, chosen: &[Effect], r: &Refit) {
+        let key = Self::key(chosen);
+        match self.0.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, best)) if best.chi2 <= r.chi2 => {}
+            Some((_, best)) => *best = r.clone(),
+            None => self.0.push((key, r.clone())),
+        }
+    }
+
+    /// `r`, or the better refit of the same effects seen before.
+    fn better(&mut self, chosen: &[Effect], r: Refit) -> Refit {
+        self.note(chosen, &r);
+        let key = Self::key(chosen);
+        let best = &self.0.iter().find(|(k, _)| *k == key).expect("noted").1;
+        if best.chi2 < r.chi2 { best.clone() } else { r }
+    }
 }
 
 fn model_fit(model: &Model, data: &FitData, pred: &Prediction, chi2: f64) -> ModelFit {
@@ -1002,6 +1037,8 @@ pub fn diagnose_observed(
     let mut remaining = options.candidates.clone();
     let mut reports = Vec::new();
     let mut chosen: Vec<Effect> = Vec::new();
+    let mut seen = BestBySet::default();
+    seen.note(&chosen, &current);
     let mut failed: Vec<FailedCandidate> = Vec::new();
     let mut round = 0;
     while round < options.max_effects
@@ -1178,6 +1215,7 @@ pub fn diagnose_observed(
                 rep.verdict = Verdict::Kept;
                 chosen.push(rep.effect);
                 remaining.retain(|e| *e != rep.effect);
+                seen.note(&chosen, &r);
                 current = r;
             }
             reports.push(rep);
@@ -1196,11 +1234,11 @@ pub fn diagnose_observed(
             let Some(without) = gone.candidate().remove(&current.model) else {
                 break;
             };
-            match refit(&without, &data, predictor, None, options.patience) {
-                Ok(r) => current = r,
-                Err(_) => break,
-            }
+            let Ok(r) = refit(&without, &data, predictor, None, options.patience) else {
+                break;
+            };
             chosen.retain(|&e| e != gone);
+            current = seen.better(&chosen, r);
             mark_dropped(&mut reports, gone, Verdict::DroppedLater, |kept_in| {
                 format!(
                     "kept in round {kept_in}, dropped in round {round}: once {} was added, {why}",
@@ -1640,5 +1678,48 @@ fn capitalise(s: &str) -> String {
     match c.next() {
         Some(f) => f.to_uppercase().collect::<String>() + c.as_str(),
         None => String::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refit(chi2: f64, mass: f64) -> Refit {
+        Refit {
+            model: Model {
+                linear: crate::model::ModalModel::sdof(mass, 1.0, 1e4).unwrap(),
+                joint: None,
+                effects: Vec::new(),
+            },
+            pred: Prediction::default(),
+            chi2,
+        }
+    }
+
+    /// After a drop, the refit of a set of effects seen before in a better
+    /// fit gives way to it (whatever the order the effects were kept in);
+    /// a better one is kept, and another set is its own.
+    #[test]
+    fn a_drop_never_leaves_a_worse_fit_of_effects_seen_before() {
+        let mut seen = BestBySet::default();
+        let (shaker, cubic) = (Effect::Shaker, Effect::CubicStiffness);
+        seen.note(&[shaker], &refit(1254.8, 1.0));
+        seen.note(&[shaker, cubic], &refit(1115.9, 2.0));
+        // round 3's cascade: cubic dropped, a cold refit of the shaker alone
+        // settles higher than round 1's
+        let r = seen.better(&[shaker], refit(3041.7, 3.0));
+        assert_eq!((r.chi2, r.model.linear.modes[0].residue), (1254.8, 1.0));
+        // one lower is kept, and is what the set gives from then on
+        let r = seen.better(&[shaker], refit(1200.0, 4.0));
+        assert_eq!(r.chi2, 1200.0);
+        assert_eq!(seen.better(&[shaker], refit(1300.0, 5.0)).chi2, 1200.0);
+        // the set, not the order
+        assert_eq!(
+            seen.better(&[cubic, shaker], refit(2000.0, 6.0)).chi2,
+            1115.9
+        );
+        // a set not seen is the refit itself
+        assert_eq!(seen.better(&[cubic], refit(5000.0, 7.0)).chi2, 5000.0);
     }
 }
