@@ -592,25 +592,40 @@ pub(crate) fn scan_start(
     best.map(|(size, chi2)| (size, chi2, gn))
 }
 
+/// A refit's parameters and their confidence intervals: computed once per
+/// model and asked of each effect it holds.
+struct Intervals {
+    params: ParameterSet,
+    conf: crate::fit::identify::Confidence,
+}
+
+impl Intervals {
+    fn at(r: &Refit, data: &FitData, predictor: &HbPredictor) -> Result<Intervals> {
+        let params = model_parameters(&r.model, data.band_hz());
+        let conf = confidence_at(&r.model, &params, &r.pred, data, predictor)?;
+        Ok(Intervals { params, conf })
+    }
+}
+
 /// Why the data do not resolve an effect's size in `r` (k3, kb, c2, a
 /// clearance's stiffness, a mode's modal constant), if they do not: an
 /// interval that includes zero (the effect may not be there at all) or
 /// spans more than a decade.
-fn unresolved(
+/// `intervals`: the refit's, computed once for every effect it holds.
+fn unresolved_in(
     effect: Effect,
     r: &Refit,
+    intervals: &Intervals,
     data: &FitData,
-    predictor: &HbPredictor,
-) -> Result<Option<String>> {
-    let params = model_parameters(&r.model, data.band_hz());
-    let conf = confidence_at(&r.model, &params, &r.pred, data, predictor)?;
+) -> Option<String> {
+    let Intervals { params, conf } = intervals;
     let candidate = effect.candidate();
     for (p, e) in params.parameters.iter().zip(&conf.estimates) {
         let Some(name) = candidate.own_parameter(effect.name(), &r.model, &p.name) else {
             continue;
         };
         if let Some(why) = candidate.implausible(name, e, &r.model, data) {
-            return Ok(Some(why));
+            return Some(why);
         }
         // the effect's size; its shape (a mode's frequency and damping, a
         // gap) may sit at a bound without making the effect doubtful
@@ -622,19 +637,19 @@ fn unresolved(
             .iter()
             .any(|&b| b.is_finite() && (e.value - b).abs() <= 1e-9 * b.abs().max(e.value.abs()));
         if !e.identifiable {
-            return Ok(Some(format!(
+            return Some(format!(
                 "lowered χ² enough, but the data do not determine its {name}{}",
                 e.note
                     .as_deref()
                     .map(|n| format!(" ({n})"))
                     .unwrap_or_default()
-            )));
+            ));
         }
         if at_bound || e.value == 0.0 {
-            return Ok(Some(format!(
+            return Some(format!(
                 "lowered χ² enough, but its {name} = {} sits at its bound: not resolved from the noise",
                 fmt_value(e.value)
-            )));
+            ));
         }
         let [lo, hi] = e.ci95;
         let straddles = lo <= 0.0 && hi >= 0.0;
@@ -642,15 +657,15 @@ fn unresolved(
             || (lo > 0.0 && hi / lo > 10.0)
             || (hi < 0.0 && lo / hi > 10.0);
         if straddles || too_wide {
-            return Ok(Some(format!(
+            return Some(format!(
                 "lowered χ² enough, but its {name} = {} has the 95 % interval [{}, {}]: not resolved from the noise",
                 fmt_value(e.value),
                 fmt_value(lo),
                 fmt_value(hi)
-            )));
+            ));
         }
     }
-    Ok(None)
+    None
 }
 
 /// The σ-weighted confidence intervals of `params` at `model`.
@@ -1184,27 +1199,30 @@ pub fn diagnose_observed(
                 .criterion
                 .total_cmp(&round_results[a].0.criterion)
         });
-        let mut best: Option<usize> = None;
+        let mut best: Option<(usize, Intervals)> = None;
         for j in order {
             let (rep, r) = &mut round_results[j];
             observer(DiagnoseEvent::Checking { effect: rep.effect });
-            let why = match unresolved(rep.effect, r, &data, predictor) {
-                Ok(None) => None,
-                Ok(Some(why)) => Some(why),
-                Err(e) => Some(format!("its intervals could not be computed: {e}")),
+            let (why, intervals) = match Intervals::at(r, &data, predictor) {
+                Ok(i) => (unresolved_in(rep.effect, r, &i, &data), Some(i)),
+                Err(e) => (
+                    Some(format!("its intervals could not be computed: {e}")),
+                    None,
+                ),
             };
-            match why {
-                None => {
-                    best = Some(j);
+            match (why, intervals) {
+                (None, Some(intervals)) => {
+                    best = Some((j, intervals));
                     break;
                 }
-                Some(why) => {
+                (None, None) => unreachable!("an effect without intervals is unresolved"),
+                (Some(why), _) => {
                     rep.note = Some(why);
                     rep.verdict = Verdict::SizeNotResolved;
                 }
             }
         }
-        let Some(i) = best else {
+        let Some((i, intervals)) = best else {
             reports.extend(round_results.into_iter().map(|(r, _)| r));
             break;
         };
@@ -1222,15 +1240,21 @@ pub fn diagnose_observed(
         }
         // an effect kept earlier may have lost its reason to be there once
         // this one came in (a quadratic damping that stood in for a mode):
-        // drop it, refit, and look again
-        while let Some(&gone) = chosen
-            .iter()
-            .find(|&&e| !matches!(unresolved(e, &current, &data, predictor), Ok(None)))
-        {
-            let why = unresolved(gone, &current, &data, predictor)
-                .ok()
-                .flatten()
-                .unwrap_or_else(|| "its intervals could not be computed".into());
+        // drop it, refit, and look again. The intervals are the model's,
+        // computed once for every effect it holds (the kept candidate's
+        // from its check above)
+        let mut at_current = Ok(intervals);
+        loop {
+            let why_of = |e: Effect, at: &Result<Intervals>| match at {
+                Ok(i) => unresolved_in(e, &current, i, &data),
+                Err(_) => Some("its intervals could not be computed".into()),
+            };
+            let Some((gone, why)) = chosen
+                .iter()
+                .find_map(|&e| why_of(e, &at_current).map(|why| (e, why)))
+            else {
+                break;
+            };
             let Some(without) = gone.candidate().remove(&current.model) else {
                 break;
             };
@@ -1239,6 +1263,7 @@ pub fn diagnose_observed(
             };
             chosen.retain(|&e| e != gone);
             current = seen.better(&chosen, r);
+            at_current = Intervals::at(&current, &data, predictor);
             mark_dropped(&mut reports, gone, Verdict::DroppedLater, |kept_in| {
                 format!(
                     "kept in round {kept_in}, dropped in round {round}: once {} was added, {why}",
