@@ -1054,6 +1054,8 @@ pub fn diagnose_observed(
     let mut chosen: Vec<Effect> = Vec::new();
     let mut seen = BestBySet::default();
     seen.note(&chosen, &current);
+    // the intervals at `current`, once a round has computed them
+    let mut current_intervals: Option<Intervals> = None;
     let mut failed: Vec<FailedCandidate> = Vec::new();
     let mut round = 0;
     while round < options.max_effects
@@ -1271,6 +1273,7 @@ pub fn diagnose_observed(
                 )
             });
         }
+        current_intervals = at_current.ok();
     }
     conclude(Conclusion {
         harmonics,
@@ -1286,6 +1289,7 @@ pub fn diagnose_observed(
         baseline_model: base.model,
         response_sign: fit.response_sign,
         expected,
+        intervals: current_intervals,
     })
 }
 
@@ -1306,6 +1310,8 @@ struct Conclusion<'a> {
     response_sign: f64,
     /// The `χ²` noise alone gives.
     expected: f64,
+    /// The intervals at `current`, where the rounds computed them.
+    intervals: Option<Intervals>,
 }
 
 /// The diagnosis: the kept effects' intervals at the final model, its fit
@@ -1325,13 +1331,16 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         baseline_model,
         response_sign,
         expected,
+        intervals,
     } = c;
     let normalised = |chi2: f64| chi2 / expected.max(f64::MIN_POSITIVE);
     // intervals of the effects kept, at the final model
     let mut selected = Vec::new();
     if !chosen.is_empty() {
-        let params = model_parameters(&current.model, data.band_hz());
-        let conf = confidence_at(&current.model, &params, &current.pred, data, predictor)?;
+        let Intervals { params, conf } = match intervals {
+            Some(i) => i,
+            None => Intervals::at(&current, data, predictor)?,
+        };
         let mut pairs: Vec<(crate::fit::params::Parameter, Estimate)> =
             params.parameters.into_iter().zip(conf.estimates).collect();
         // a mode above the band was fitted by its flexibility; its modal
@@ -1471,6 +1480,7 @@ fn reconcluded(
         baseline_model: d.baseline_model.clone(),
         response_sign: d.response_sign,
         expected: crate::fit::problem::expected_chi_square(data),
+        intervals: None,
     })
 }
 
