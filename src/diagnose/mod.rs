@@ -610,8 +610,8 @@ impl Intervals {
 /// Why the data do not resolve an effect's size in `r` (k3, kb, c2, a
 /// clearance's stiffness, a mode's modal constant), if they do not: an
 /// interval that includes zero (the effect may not be there at all) or
-/// spans more than a decade.
-/// `intervals`: the refit's, computed once for every effect it holds.
+/// spans more than a decade. `intervals` are the refit's, computed once
+/// for every effect it holds.
 fn unresolved_in(
     effect: Effect,
     r: &Refit,
@@ -1205,24 +1205,18 @@ pub fn diagnose_observed(
         for j in order {
             let (rep, r) = &mut round_results[j];
             observer(DiagnoseEvent::Checking { effect: rep.effect });
-            let (why, intervals) = match Intervals::at(r, &data, predictor) {
-                Ok(i) => (unresolved_in(rep.effect, r, &i, &data), Some(i)),
-                Err(e) => (
-                    Some(format!("its intervals could not be computed: {e}")),
-                    None,
-                ),
+            let why = match Intervals::at(r, &data, predictor) {
+                Ok(intervals) => match unresolved_in(rep.effect, r, &intervals, &data) {
+                    None => {
+                        best = Some((j, intervals));
+                        break;
+                    }
+                    Some(why) => why,
+                },
+                Err(e) => format!("its intervals could not be computed: {e}"),
             };
-            match (why, intervals) {
-                (None, Some(intervals)) => {
-                    best = Some((j, intervals));
-                    break;
-                }
-                (None, None) => unreachable!("an effect without intervals is unresolved"),
-                (Some(why), _) => {
-                    rep.note = Some(why);
-                    rep.verdict = Verdict::SizeNotResolved;
-                }
-            }
+            rep.note = Some(why);
+            rep.verdict = Verdict::SizeNotResolved;
         }
         let Some((i, intervals)) = best else {
             reports.extend(round_results.into_iter().map(|(r, _)| r));
