@@ -1371,7 +1371,7 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         return;
     }
     let work = tempfile::tempdir().unwrap();
-    pin_from_start_rows(
+    let held = pin_from_start_rows(
         work.path(),
         "f16_gvt_benchmark",
         super::protocols::f16_from_start,
@@ -1381,11 +1381,7 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
             "| F-16 | hysteretic mode | level 6 |",
         ],
     );
-    let out = work.path().join("f16_start_fit");
-    let held: Vec<PathBuf> = [2, 4, 6]
-        .iter()
-        .map(|l| work.path().join(format!("f16_L{l}.json")))
-        .collect();
+    let out = super::protocols::fit_dir(work.path(), "f16", true);
     // the fit's final errors are split by frequency about its band too: the
     // parts (Parseval, one FFT) add up to the window's relative e_RMS (a sum
     // in time)
@@ -1480,7 +1476,7 @@ fn unesp_time_fit_with_a_background_is_the_readmes() {
         return;
     }
     let work = tempfile::tempdir().unwrap();
-    pin_from_start_rows(
+    let held = pin_from_start_rows(
         work.path(),
         "bolted_beam_unesp_bert",
         super::protocols::unesp_from_start,
@@ -1490,11 +1486,8 @@ fn unesp_time_fit_with_a_background_is_the_readmes() {
             "| UNESP | shaker and background | 0.30 V |",
         ],
     );
-    let held: Vec<PathBuf> = ["0p10", "0p20", "0p30"]
-        .iter()
-        .map(|l| work.path().join(format!("unesp_c{l}.json")))
-        .collect();
-    let fitted = unesp_validation(work.path(), &work.path().join("unesp_start_fit"), &held);
+    let out = super::protocols::fit_dir(work.path(), "unesp", true);
+    let fitted = unesp_validation(work.path(), &out, &held);
     let p = &fitted.fit["time_domain"]["parameters"];
     let value = |name: &str| p[name]["value"].as_f64().unwrap();
     assert_eq!(
@@ -1656,13 +1649,14 @@ fn unesp_validation(work: &Path, out: &Path, held: &[PathBuf]) -> UnespTimeFit {
 /// The README's second protocols table's rows of data set `name`:
 /// `protocol` (fitted from a model in `signals/`, as `cargo bench --bench
 /// datasets` adds them to its rows as `from_start`) run into `work`, each
-/// row's e_RMS, share of the RMS and target pinned.
+/// row's e_RMS, share of the RMS and target pinned. The held-out
+/// recordings, as the protocol imported them into `work`.
 fn pin_from_start_rows(
     work: &Path,
     name: &str,
     protocol: fn(&Path, &Path) -> Vec<serde_json::Value>,
     rows: [&str; 3],
-) {
+) -> Vec<PathBuf> {
     let columns: [(&str, fn(&serde_json::Value) -> f64); 3] = [
         ("e_RMS", |r| field(r, "e_rms")),
         ("its share of the RMS (%)", |r| {
@@ -1670,12 +1664,16 @@ fn pin_from_start_rows(
         }),
         ("the target (%)", |r| 100.0 * field(r, "target_relative")),
     ];
-    for r in pin_protocol_rows(work, name, protocol, rows, &columns) {
-        assert!(
-            r["start"]
-                .as_str()
-                .is_some_and(|s| s.starts_with("signals/")),
-            "{r}"
-        );
-    }
+    pin_protocol_rows(work, name, protocol, rows, &columns)
+        .iter()
+        .map(|r| {
+            assert!(
+                r["start"]
+                    .as_str()
+                    .is_some_and(|s| s.starts_with("signals/")),
+                "{r}"
+            );
+            work.join(r["recording"].as_str().expect("the row's recording"))
+        })
+        .collect()
 }

@@ -93,9 +93,17 @@ pub struct Protocol<'a> {
     pub start: Option<&'static str>,
 }
 
+/// Where [`run_protocol`] writes the fit of data set `dataset` (the
+/// protocol's own name: `f16`, `unesp`, `bouc_wen`) inside `work`, fitted
+/// from a start written down or not.
+pub fn fit_dir(work: &Path, dataset: &str, from_start: bool) -> PathBuf {
+    let variant = if from_start { "_start" } else { "" };
+    work.join(format!("{dataset}{variant}_fit"))
+}
+
 pub fn run_protocol(p: &Protocol, work: &Path) -> Vec<Value> {
     let variant = if p.start.is_some() { "_start" } else { "" };
-    let fit_dir = work.join(format!("{}{variant}_fit", p.dataset));
+    let fit_dir = fit_dir(work, p.dataset, p.start.is_some());
     let _ = std::fs::remove_dir_all(&fit_dir);
     let mut args: Vec<&str> = vec!["identify", "--out", s(&fit_dir)];
     args.extend(p.fit.iter().map(String::as_str));
