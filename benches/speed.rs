@@ -357,6 +357,35 @@ fn hb_curve(c: &mut Criterion<ThreadCpu>) {
         solver.evaluations() as f64 / POINTS as f64
     );
     assert!(worst < 1e-3, "H1 differs by {worst:.1e}");
+    // the ratios from interleaved runs (each the least CPU time of 15), so
+    // that a load that changes between criterion's groups does not enter
+    let mut elements_sweep = model.element_set().unwrap();
+    let (mut point, mut swept, mut plain) = (u64::MAX, u64::MAX, u64::MAX);
+    for _ in 0..15 {
+        let t = common::thread_cpu_ns();
+        black_box(hystid_sweep(&mut solver));
+        point = point.min(common::thread_cpu_ns() - t);
+        let t = common::thread_cpu_ns();
+        black_box(
+            solver
+                .sweep(&model.linear, &mut elements_sweep, &freqs, LEVEL)
+                .unwrap(),
+        );
+        swept = swept.min(common::thread_cpu_ns() - t);
+        let t = common::thread_cpu_ns();
+        black_box(naive_sweep(&mut naive));
+        plain = plain.min(common::thread_cpu_ns() - t);
+    }
+    let per_point = |ns: u64| ns as f64 / 1e3 / POINTS as f64;
+    println!(
+        "hb/curve: interleaved (least of 15, CPU time): point by point {:.1} us, the sweep {:.1} \
+         us, the naive balance {:.1} us per point: {:.1}x / {:.1}x the naive",
+        per_point(point),
+        per_point(swept),
+        per_point(plain),
+        plain as f64 / point as f64,
+        plain as f64 / swept as f64
+    );
     let mut g = c.benchmark_group("hb");
     g.throughput(Throughput::Elements(POINTS as u64));
     g.bench_function("curve/jenkins/hystid", |b| {

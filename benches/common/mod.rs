@@ -218,7 +218,7 @@ unsafe extern "C" {
 /// `CLOCK_THREAD_CPUTIME_ID` (Linux).
 const THREAD_CPU: i32 = 3;
 
-fn thread_cpu_ns() -> u64 {
+pub fn thread_cpu_ns() -> u64 {
     let mut t = Timespec { sec: 0, nsec: 0 };
     // SAFETY: `t` is a valid out-pointer; the clock id is a Linux constant.
     let rc = unsafe { clock_gettime(THREAD_CPU, &mut t) };

@@ -9,11 +9,18 @@
 //! 3. `G_h = (2/N) Σ_j g_j e^{−jhθ_j}` (`1/N` for `h = 0`), a forward real
 //!    FFT, in the convention of [`crate::harmonics`].
 //!
-//! The Jacobian `∂G/∂X` is carried through the same march by
-//! [`Element::commit_sensitivity`] (the chain rule through the turning-point
-//! history; NLvib's `HB_residual.m` does the same for its Jenkins element),
-//! then transformed column by column. Nothing here allocates after
-//! construction.
+//! The Jacobian `∂G/∂X` is carried through the same march (the chain rule
+//! through the turning-point history; NLvib's `HB_residual.m` does the same
+//! for its Jenkins element). A law that states its sensitivity as tangents
+//! plus memory terms ([`Element::commit_sensitivity_terms`]: Jenkins, Masing
+//! and Iwan, every memoryless law) is projected in that form: the tangent
+//! part `Σ_j k_j w_j ⊗ b_j` from one FFT of the tangents `k_j` (each entry a
+//! harmonic `a ± b` of `k`), each memory term as its coefficients' weighted
+//! sum of the analysis rows times its vector, `O(N log N + N n)` in all.
+//! Any other law ([`Element::commit_sensitivity`], dense rows) has each of
+//! the `n` columns transformed, `O(n N log N)`. The march without
+//! sensitivities commits the samples between two turning points in one
+//! [`Element::commit_run`]. Nothing here allocates after construction.
 //!
 //! The unknowns are real: `X_0` for the static harmonic, then `Re X_h`,
 //! `Im X_h` for each `h ≥ 1`, in the order of the harmonic set.
@@ -29,7 +36,7 @@ const SETTLED: f64 = 1e-12;
 /// ... or, once the Newton steps on the period map no longer halve that
 /// distance (rounding in a long march), this much.
 const SETTLED_AT_ROUNDING: f64 = 1e-9;
-use crate::model::Element;
+use crate::model::{Element, SensitivityTerms};
 use num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::f64::consts::PI;
@@ -135,6 +142,24 @@ pub(crate) struct Aft {
     /// `∂x/∂p`, `∂v/∂p` at an extremum.
     dx_extremum: Vec<f64>,
     dv_extremum: Vec<f64>,
+    /// The analysis rows `w_j` (`G = Σ_j w_j g_j`), sample-major.
+    analysis: Vec<f64>,
+    /// Each unknown's harmonic and unit `u` (its basis is `Re(u e^{ihθ})`).
+    units: Vec<(usize, Complex64)>,
+    /// Whether this evaluation carries its sensitivities in structured form
+    /// ([`SensitivityTerms`]) rather than as dense rows.
+    structured: bool,
+    /// Carry dense rows always (the reference the structured form is
+    /// tested against).
+    #[cfg(test)]
+    dense_only: bool,
+    terms: SensitivityTerms,
+    /// The tangents `∂g/∂x`, `∂g/∂v` at the samples (structured form).
+    tangent_x: Vec<f64>,
+    tangent_v: Vec<f64>,
+    tangent_spectrum: Vec<Complex64>,
+    /// `S(q)`, `q = −2h_max..=2h_max`, of the tangent being projected.
+    harmonic_sums: Vec<Complex64>,
 }
 
 /// A displacement extremum between two samples: a turning point.
@@ -190,6 +215,23 @@ impl Aft {
         }
         let odd_only =
             samples.is_multiple_of(2) && layout.harmonics.iter().all(|h| !h.is_multiple_of(2));
+        let mut units = Vec::with_capacity(n);
+        let mut weight = vec![0.0; n];
+        for (i, &h) in layout.harmonics.iter().enumerate() {
+            let s = layout.slots[i];
+            weight[s] = if h == 0 { 1.0 } else { 2.0 } / samples as f64;
+            units.push((h, Complex64::new(1.0, 0.0)));
+            if h != 0 {
+                weight[s + 1] = weight[s];
+                units.push((h, Complex64::new(0.0, 1.0)));
+            }
+        }
+        // the analysis of `g` is the synthesis basis, scaled: `Re(u e^{ihθ})`
+        // is cos for the real part and −sin for the imaginary
+        let analysis = basis_x
+            .chunks_exact(n)
+            .flat_map(|row| row.iter().zip(&weight).map(|(b, w)| b * w))
+            .collect();
         Aft {
             layout,
             samples,
@@ -213,6 +255,16 @@ impl Aft {
             extremum_at: vec![NONE; samples],
             dx_extremum: vec![0.0; n],
             dv_extremum: vec![0.0; n],
+            analysis,
+            units,
+            structured: false,
+            #[cfg(test)]
+            dense_only: false,
+            terms: SensitivityTerms::default(),
+            tangent_x: vec![0.0; samples],
+            tangent_v: vec![0.0; samples],
+            tangent_spectrum: vec![Complex64::new(0.0, 0.0); samples / 2 + 1],
+            harmonic_sums: Vec::with_capacity(4 * harmonics.last().copied().unwrap_or(0) + 1),
         }
     }
 
@@ -253,13 +305,21 @@ impl Aft {
     /// `x(θ)`, `x'(θ)`, `x''(θ)` by direct sums.
     fn at_phase(&self, xs: &[f64], theta: f64) -> (f64, f64, f64) {
         let (mut x, mut d1, mut d2) = (0.0, 0.0, 0.0);
+        // `e^{jhθ}` by powers of `e^{jθ}` (one `sin_cos`; the harmonics
+        // increase): rounding grows as `h ε`, far below the tolerances here
+        let step = Complex64::from_polar(1.0, theta);
+        let (mut power, mut at) = (Complex64::new(1.0, 0.0), 0);
         for (i, &h) in self.layout.harmonics.iter().enumerate() {
             let s = self.layout.slots[i];
             if h == 0 {
                 x += xs[s];
             } else {
                 let hf = h as f64;
-                let (sn, cs) = (hf * theta).sin_cos();
+                while at < h {
+                    power *= step;
+                    at += 1;
+                }
+                let (sn, cs) = (power.im, power.re);
                 // Re and Im of X e^{jhθ}
                 let c = xs[s] * cs - xs[s + 1] * sn;
                 let d = xs[s] * sn + xs[s + 1] * cs;
@@ -287,7 +347,7 @@ impl Aft {
         let step = 2.0 * PI / ns as f64;
         for j in 0..ns {
             let a = self.xp[j];
-            let b = self.xp[(j + 1) % ns];
+            let b = self.xp[if j + 1 == ns { 0 } else { j + 1 }];
             if a * b >= 0.0 {
                 continue;
             }
@@ -432,6 +492,21 @@ impl Aft {
             half = tip.is_some_and(|i| self.extremum_at[(i + ns / 2) % ns] != NONE);
         }
         let count = if half && memory { ns / 2 } else { count };
+        // the structured form needs each kept sample committed once
+        #[cfg(test)]
+        let want_structured = want && !self.dense_only;
+        #[cfg(not(test))]
+        let want_structured = want;
+        self.structured = want_structured
+            && settle == 0
+            && !(memory && method == PeriodicLoop::TwoPeriods)
+            && match elements.memory_terms() {
+                Some(slots) => {
+                    self.terms.start(n, slots);
+                    true
+                }
+                None => false,
+            };
         elements.reset();
         if let Some(j) = ramp_sample {
             self.commit_sample(elements, j, omega, velocity, want, false);
@@ -452,18 +527,10 @@ impl Aft {
             if settle > 0 {
                 elements.open_period();
             }
-            for s in 0..count {
-                let j = (start + s) % ns;
-                self.commit_sample(elements, j, omega, velocity, want, true);
-                // a turning point after the last sample changes nothing stored
-                // (with the ramp, it is the ramp's own point closing the loop);
-                // when periods follow, the one closing the period counts
-                if memory && (s + 1 < count || settle > 0) {
-                    let e = self.extremum_at[j];
-                    if e != NONE {
-                        self.commit_extremum(elements, e, omega, velocity, want);
-                    }
-                }
+            if want {
+                self.march_samples(elements, start, count, memory, settle > 0, omega, velocity);
+            } else {
+                self.march_runs(elements, start, count, memory, settle > 0, omega, velocity);
             }
             if settle > 0 {
                 let residual = elements.close_period(half);
@@ -491,7 +558,10 @@ impl Aft {
                 let j = (start + s) % ns;
                 let jm = (j + period) % ns;
                 self.g[jm] = -self.g[j];
-                if want {
+                if self.structured {
+                    self.tangent_x[jm] = self.tangent_x[j];
+                    self.tangent_v[jm] = self.tangent_v[j];
+                } else if want {
                     self.dg_rows.copy_within(j * n..(j + 1) * n, jm * n);
                     self.dg_rows[jm * n..(jm + 1) * n]
                         .iter_mut()
@@ -510,6 +580,12 @@ impl Aft {
         self.buf.copy_from_slice(&self.g);
         self.analyse_buf(g_out, 1, 0);
         if let Some(dg) = dg {
+            if self.structured {
+                // the mirrored half's memory terms project as the marched
+                // half's (odd harmonics: `w_{j+N/2} = −w_j`, `∂g` mirrored)
+                self.project_structured(omega, velocity, if half { 2.0 } else { 1.0 }, dg);
+                return Ok(());
+            }
             for k in 0..n {
                 for (b, row) in self.buf.iter_mut().zip(self.dg_rows.chunks_exact(n)) {
                     *b = row[k];
@@ -518,6 +594,77 @@ impl Aft {
             }
         }
         Ok(())
+    }
+
+    /// The march with sensitivities: `count` samples from `start`, each
+    /// followed by the turning point after it, if any.
+    #[allow(clippy::too_many_arguments)]
+    fn march_samples<E: Element>(
+        &mut self,
+        elements: &mut E,
+        start: usize,
+        count: usize,
+        memory: bool,
+        periods_follow: bool,
+        omega: f64,
+        velocity: bool,
+    ) {
+        let ns = self.samples;
+        let mut j = start;
+        for s in 0..count {
+            self.commit_sample(elements, j, omega, velocity, true, true);
+            // a turning point after the last sample changes nothing stored
+            // (with the ramp, it is the ramp's own point closing the loop);
+            // when periods follow, the one closing the period counts
+            if memory && (s + 1 < count || periods_follow) {
+                let e = self.extremum_at[j];
+                if e != NONE {
+                    self.commit_extremum(elements, e, omega, velocity, true);
+                }
+            }
+            j = if j + 1 == ns { 0 } else { j + 1 };
+        }
+    }
+
+    /// The march without sensitivities: `count` samples from `start`, in
+    /// runs that end at a turning point (committed after its run, as
+    /// [`Aft::evaluate`]'s sample-by-sample march does) or at the period's
+    /// wrap, each run one [`Element::commit_run`].
+    #[allow(clippy::too_many_arguments)]
+    fn march_runs<E: Element>(
+        &mut self,
+        elements: &mut E,
+        start: usize,
+        count: usize,
+        memory: bool,
+        periods_follow: bool,
+        omega: f64,
+        velocity: bool,
+    ) {
+        let ns = self.samples;
+        let (mut done, mut j) = (0, start);
+        while done < count {
+            let mut end = j;
+            loop {
+                end += 1;
+                let last = end - 1;
+                if done + (end - j) == count
+                    || end == ns
+                    || (memory && self.extremum_at[last] != NONE)
+                {
+                    break;
+                }
+            }
+            self.g[j..end].fill(0.0);
+            elements.commit_run(&self.x[j..end], &self.v[j..end], &mut self.g[j..end]);
+            done += end - j;
+            // as in `march_samples`
+            let e = self.extremum_at[end - 1];
+            if memory && e != NONE && (done < count || periods_follow) {
+                self.commit_extremum(elements, e, omega, velocity, false);
+            }
+            j = if end == ns { 0 } else { end };
+        }
     }
 
     /// Commits sample `j` (storing its force and sensitivities if `store`).
@@ -543,6 +690,23 @@ impl Aft {
             for (d, &b) in self.dv.iter_mut().zip(&self.basis_v[j * n..(j + 1) * n]) {
                 *d = omega * b;
             }
+        }
+        if self.structured {
+            let f = elements.commit_sensitivity_terms(
+                self.x[j],
+                self.v[j],
+                &self.basis_x[j * n..(j + 1) * n],
+                &self.dv,
+                &mut self.terms,
+            );
+            let w = store.then(|| &self.analysis[j * n..(j + 1) * n]);
+            let (k, c) = self.terms.end_sample(w);
+            if store {
+                self.g[j] = f.force;
+                self.tangent_x[j] = k;
+                self.tangent_v[j] = c;
+            }
+            return;
         }
         let dg = if store {
             &mut self.dg_rows[j * n..(j + 1) * n]
@@ -592,6 +756,17 @@ impl Aft {
                 }
             }
         }
+        if self.structured {
+            elements.commit_sensitivity_terms(
+                x,
+                0.0,
+                &self.dx_extremum,
+                &self.dv_extremum,
+                &mut self.terms,
+            );
+            self.terms.end_sample(None);
+            return;
+        }
         self.dg_sample.fill(0.0);
         elements.commit_sensitivity(
             x,
@@ -600,6 +775,75 @@ impl Aft {
             &self.dv_extremum,
             &mut self.dg_sample,
         );
+    }
+
+    /// `∂G/∂X` from the structured sensitivities: the tangents' part
+    /// `Σ_j k_j w_j ⊗ b_j` from one FFT of `k` (with `w`, `b` of the form
+    /// `Re(u e^{ihθ})`, `Re A Re B = ½ Re(AB + AB̄)`, so each entry is a
+    /// harmonic `a ± b` of `k`), the same for `c` and the velocity basis,
+    /// and the memory terms' projection (`memory_scale` times it).
+    fn project_structured(
+        &mut self,
+        omega: f64,
+        velocity: bool,
+        memory_scale: f64,
+        dg: &mut [f64],
+    ) {
+        let n = self.layout.len;
+        let ns = self.samples;
+        dg.fill(0.0);
+        self.terms.finish(memory_scale, dg);
+        let parts: &[(bool, f64)] = if velocity {
+            &[(false, 0.0), (true, omega)]
+        } else {
+            &[(false, 0.0)]
+        };
+        for &(of_velocity, omega) in parts {
+            let tangent = if of_velocity {
+                &self.tangent_v
+            } else {
+                &self.tangent_x
+            };
+            if tangent.iter().all(|&t| t == 0.0) {
+                continue;
+            }
+            self.buf.copy_from_slice(tangent);
+            self.r2c
+                .process_with_scratch(
+                    &mut self.buf,
+                    &mut self.tangent_spectrum,
+                    &mut self.scratch_r2c,
+                )
+                .expect("forward real FFT on buffers of the planned length");
+            // `S(q) = Σ_j k_j e^{iqθ_j}` for `|q| ≤ 2 h_max` from the
+            // spectrum `Σ_j k_j e^{−iqθ_j}` (periodic in `q` over `N`)
+            let top = 2 * self.units.last().map_or(0, |u| u.0) as i64;
+            self.harmonic_sums.clear();
+            for q in -top..=top {
+                let m = q.rem_euclid(ns as i64) as usize;
+                self.harmonic_sums.push(if m <= ns / 2 {
+                    self.tangent_spectrum[m].conj()
+                } else {
+                    self.tangent_spectrum[ns - m]
+                });
+            }
+            let sums = &self.harmonic_sums;
+            let s_at = |q: i64| sums[(q + top) as usize];
+            for (r, &(a, v)) in self.units.iter().enumerate() {
+                let scale = if a == 0 { 1.0 } else { 2.0 } / ns as f64;
+                for (t, &(b, u)) in self.units.iter().enumerate() {
+                    // the velocity basis: `∂v/∂p = Re(u jbω e^{ibθ})`
+                    let u = if of_velocity {
+                        u * Complex64::new(0.0, b as f64 * omega)
+                    } else {
+                        u
+                    };
+                    let (a, b) = (a as i64, b as i64);
+                    let z = v * u * s_at(a + b) + v * u.conj() * s_at(a - b);
+                    dg[r * n + t] += scale * 0.5 * z.re;
+                }
+            }
+        }
     }
 }
 
@@ -728,6 +972,91 @@ mod tests {
             *x = 1e-5 * ((k as f64 * 1.7).sin() + 0.3) / (1.0 + k as f64);
         }
         xs
+    }
+
+    /// The structured projection of the sensitivities (tangents by one FFT,
+    /// memory terms by weighted sums) equals the dense one (every column
+    /// transformed) for every element, a set mixing memory and memoryless
+    /// laws, both periodic-loop methods, and the half-wave march.
+    #[test]
+    fn structured_jacobian_equals_the_dense_one() {
+        let omega = 2.0 * PI * 200.0;
+        let mut sets: Vec<(String, ElementSet<crate::model::AnyElement>)> = all_specs()
+            .into_iter()
+            .map(|spec| {
+                (
+                    format!("{spec:?}"),
+                    ElementSet::new(vec![spec.build().unwrap()]),
+                )
+            })
+            .collect();
+        let mixed = [
+            ElementSpec::Jenkins {
+                kd: 2.4e7,
+                fd: 246.048,
+            },
+            ElementSpec::Masing {
+                kd: 1.2e7,
+                fd: 120.0,
+                n: 3.0,
+            },
+            ElementSpec::from_values(
+                ElementKind::CubicStiffness,
+                ElementKind::CubicStiffness.description().example,
+            ),
+            ElementSpec::from_values(
+                ElementKind::ViscousDamping,
+                ElementKind::ViscousDamping.description().example,
+            ),
+        ];
+        sets.push((
+            "Jenkins + Masing + cubic + viscous".into(),
+            ElementSet::new(mixed.iter().map(|s| s.build().unwrap()).collect()),
+        ));
+        for (harmonics, ns, odd) in [
+            (&[0, 1, 2, 3, 5][..], 128, false),
+            (&[1, 3, 5, 7][..], 128, true),
+        ] {
+            let mut aft = Aft::new(harmonics, ns);
+            let n = aft.layout.len;
+            let xs = test_x(&aft.layout);
+            for (name, e) in &mut sets {
+                let odd = odd && e.odd_law();
+                for method in [PeriodicLoop::MaxAmplitude, PeriodicLoop::TwoPeriods] {
+                    let (mut g, mut dg) = (vec![0.0; n], vec![0.0; n * n]);
+                    aft.dense_only = false;
+                    aft.evaluate(&xs, omega, e, method, odd, &mut g, Some(&mut dg))
+                        .unwrap();
+                    // every law but a gradually settling one takes the
+                    // structured form in the usual march
+                    if method == PeriodicLoop::MaxAmplitude && e.periods_to_settle() == 0 {
+                        assert!(aft.structured, "{name}: dense");
+                    }
+                    let (mut g_dense, mut dg_dense) = (vec![0.0; n], vec![0.0; n * n]);
+                    aft.dense_only = true;
+                    aft.evaluate(
+                        &xs,
+                        omega,
+                        e,
+                        method,
+                        odd,
+                        &mut g_dense,
+                        Some(&mut dg_dense),
+                    )
+                    .unwrap();
+                    assert_eq!(g, g_dense, "{name}: the forces differ");
+                    let scale = dg_dense.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+                    for (i, (a, b)) in dg.iter().zip(&dg_dense).enumerate() {
+                        assert!(
+                            (a - b).abs() <= 1e-12 * scale,
+                            "{name} {method:?} odd {odd} ∂G[{}]/∂X[{}]: {a} vs {b}",
+                            i / n,
+                            i % n
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

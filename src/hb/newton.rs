@@ -306,6 +306,9 @@ impl Core {
         let mut jac_fresh = true;
         let mut trial_jacobian = false;
         let mut forced = false;
+        // whether `lu` holds the factors of `jac` (a kept Jacobian is
+        // factored once)
+        let mut factored = false;
         loop {
             let rel = nr / norm(x).max(f64::MIN_POSITIVE);
             if !rel.is_finite() {
@@ -318,7 +321,8 @@ impl Core {
                 // follow it
                 forced = true;
                 lu.copy_from_slice(jac);
-                if lu_factor(lu, piv, n) {
+                factored = lu_factor(lu, piv, n);
+                if factored {
                     for (s, ri) in step.iter_mut().zip(r.iter()) {
                         *s = -ri;
                     }
@@ -358,9 +362,12 @@ impl Core {
                 );
             }
             iteration += 1;
-            lu.copy_from_slice(jac);
-            if !lu_factor(lu, piv, n) {
-                return fail(iteration, rel, SolveFailure::SingularJacobian);
+            if !factored {
+                lu.copy_from_slice(jac);
+                if !lu_factor(lu, piv, n) {
+                    return fail(iteration, rel, SolveFailure::SingularJacobian);
+                }
+                factored = true;
             }
             for (s, ri) in step.iter_mut().zip(r.iter()) {
                 *s = -ri;
@@ -392,6 +399,7 @@ impl Core {
                         if let Err(why) = eval(x, rt, Some(jac), counters) {
                             return fail(iteration, rel, SolveFailure::Evaluation(why));
                         }
+                        factored = false;
                         jac_fresh = true;
                         trial_jacobian = true;
                         continue;
@@ -401,6 +409,7 @@ impl Core {
                         // without exact sensitivities): retry with differences
                         switched = true;
                         use_fd = true;
+                        factored = false;
                         if let Err(why) = fd_jacobian(&mut eval, x, r, jac, xfd, rfd, counters) {
                             return fail(iteration, rel, SolveFailure::Evaluation(why));
                         }
@@ -415,6 +424,8 @@ impl Core {
                     nr = norm(r);
                     let poor = contraction > 0.1;
                     trial_jacobian = poor;
+                    // every branch but the last brings a new Jacobian
+                    factored &= !(with_jac || use_fd || poor);
                     if with_jac {
                         jac.copy_from_slice(jact);
                         jac_fresh = true;

@@ -9,7 +9,8 @@
 //! limit of the eq. (10) Masing element.
 
 use super::element::{
-    Description, Element, ElementForce, ImplicitStep, Law, SLIP_FORCE, STICK_STIFFNESS, sign,
+    Description, Element, ElementForce, ImplicitStep, Law, SLIP_FORCE, STICK_STIFFNESS,
+    SensitivityTerms, sign,
 };
 use crate::error::{Result, require_positive};
 use num_complex::Complex64;
@@ -30,6 +31,9 @@ pub struct Jenkins {
     stick_gain: Cell<(f64, f64)>,
     /// `∂slider/∂p` carried by [`Element::commit_sensitivity`] (empty: zero).
     slider_sensitivity: Vec<f64>,
+    /// Whether [`Element::commit_sensitivity_terms`] has stated the current
+    /// `slider_sensitivity` as its memory term.
+    slider_stated: bool,
     /// The simulator's sample interval (0: the law sampled as is, see
     /// [`Element::set_sample_interval`]).
     h: f64,
@@ -54,6 +58,7 @@ impl Jenkins {
             xc: fd / kd,
             stick_gain: Cell::new((f64::NAN, f64::NAN)),
             slider_sensitivity: Vec::new(),
+            slider_stated: false,
             h: 0.0,
             last_v: 0.0,
             last_force: 0.0,
@@ -147,6 +152,21 @@ impl Law for Jenkins {
     }
 }
 
+/// `to ← from` for a row of a few unknowns, once per slipping sample: inline
+/// moves, not the library call (and its set-up) `copy_from_slice` becomes.
+#[inline]
+fn copy_short(to: &mut [f64], from: &[f64]) {
+    let mut to = to.chunks_exact_mut(4);
+    let mut from = from.chunks_exact(4);
+    for (t, f) in (&mut to).zip(&mut from) {
+        let f: [f64; 4] = f.try_into().expect("chunks of 4");
+        t.copy_from_slice(&f);
+    }
+    for (t, &f) in to.into_remainder().iter_mut().zip(from.remainder()) {
+        *t = f;
+    }
+}
+
 /// The Jenkins element's describing function (Caughey 1960).
 ///
 /// `a ≤ Fd/kd`: `kd` (stick). Beyond, with `β = arccos(1 − 2a_c/a)`:
@@ -208,6 +228,7 @@ impl Element for Jenkins {
     fn reset(&mut self) {
         self.slider = 0.0;
         self.slider_sensitivity.clear();
+        self.slider_stated = false;
         self.last_v = 0.0;
         self.last_force = 0.0;
         self.slip_dir = 0.0;
@@ -247,6 +268,43 @@ impl Element for Jenkins {
             }
         } else {
             self.slider_sensitivity.copy_from_slice(dx);
+        }
+        self.slider = slider;
+        f
+    }
+
+    fn memory_terms(&self) -> Option<usize> {
+        Some(1)
+    }
+
+    /// [`Element::commit_sensitivity`]'s `kd (∂x − ∂x_s)` in stick: the
+    /// tangent `kd` and one memory term, `−kd` times the slider's
+    /// sensitivity, which changes only while it slips.
+    #[inline]
+    fn commit_sensitivity_terms(
+        &mut self,
+        x: f64,
+        _v: f64,
+        dx: &[f64],
+        _dv: &[f64],
+        terms: &mut SensitivityTerms,
+    ) -> ElementForce {
+        if self.slider_sensitivity.len() != dx.len() {
+            self.slider_sensitivity.clear();
+            self.slider_sensitivity.resize(dx.len(), 0.0);
+            self.slider_stated = false;
+        }
+        let (f, slider) = self.evaluate(x, 0.0);
+        if f.stiffness != 0.0 {
+            if !self.slider_stated {
+                terms.replace(0, &self.slider_sensitivity);
+                self.slider_stated = true;
+            }
+            terms.tangent(self.kd, 0.0);
+            terms.coefficient(0, -self.kd);
+        } else {
+            copy_short(&mut self.slider_sensitivity, dx);
+            self.slider_stated = false;
         }
         self.slider = slider;
         f

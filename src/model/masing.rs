@@ -19,7 +19,7 @@
 
 use super::element::{
     Description, Domain, Element, ElementForce, FitScale, ImplicitStep, Law, ParameterInfo, Role,
-    SLIP_FORCE, SOLVE_TOLERANCE, STICK_STIFFNESS, sign,
+    SLIP_FORCE, SOLVE_TOLERANCE, STICK_STIFFNESS, SensitivityTerms, sign,
 };
 use crate::error::{Error, Result, require_positive};
 use num_complex::Complex64;
@@ -495,6 +495,9 @@ pub struct Masing<B: Backbone = PowerBackbone> {
     sens_dim: usize,
     prev_sens: Vec<f64>,
     stack_sens: Vec<f64>,
+    /// Whether [`Element::commit_sensitivity_terms`] has stated the current
+    /// branch origin's sensitivities as its memory terms.
+    origin_stated: bool,
 }
 
 /// An exact evaluation on a branch: position, branch identity, force, tangent,
@@ -671,6 +674,7 @@ impl<B: Backbone> Masing<B> {
             anchor: Cell::new(None),
             sens_dim: 0,
             prev_sens: Vec::new(),
+            origin_stated: false,
             stack_sens: Vec::new(),
         }
     }
@@ -800,6 +804,56 @@ impl<B: Backbone> Masing<B> {
 /// Newton steps before handing over to the simulator's safeguarded solve.
 const SOLVE_STEPS: usize = 4;
 
+impl<B: Backbone> Masing<B> {
+    /// Commits `x` and carries the sensitivities through the history:
+    /// `prev_sens` holds this sample's `(∂x, ∂F)` after it. Also whether the
+    /// branch's origin (the stack's top) changed at this sample.
+    fn carry_sensitivity(&mut self, x: f64, dx: &[f64]) -> (ElementForce, bool) {
+        let n = dx.len();
+        if self.sens_dim != n {
+            // first use since reset (or a new size): the history so far is
+            // taken as independent of p
+            self.sens_dim = n;
+            self.prev_sens.clear();
+            self.prev_sens.resize(2 * n, 0.0);
+            self.stack_sens.clear();
+            self.stack_sens.resize(2 * n * self.stack.len(), 0.0);
+            self.origin_stated = false;
+        }
+        let at = self.locate(x);
+        let f = self.force_at(x, at, false);
+        let before = self.stack.len();
+        let changed = if at.push && at.open > before {
+            self.stack.push((self.x_prev, self.f_prev));
+            self.stack_sens.extend_from_slice(&self.prev_sens);
+            true
+        } else {
+            self.stack.truncate(at.open);
+            self.stack_sens.truncate(2 * n * at.open);
+            at.open != before
+        };
+        // the branch's origin is now the top of the stack
+        let k = f.stiffness;
+        if at.open == 0 {
+            for (p, &d) in self.prev_sens[n..].iter_mut().zip(dx) {
+                *p = k * d;
+            }
+        } else {
+            let r = &self.stack_sens[2 * n * (at.open - 1)..2 * n * at.open];
+            for i in 0..n {
+                self.prev_sens[n + i] = r[n + i] + k * (dx[i] - r[i]);
+            }
+        }
+        self.prev_sens[..n].copy_from_slice(dx);
+        self.direction = at.direction;
+        self.x_prev = x;
+        self.f_prev = f.force;
+        self.k_prev = f.stiffness;
+        self.anchor.set(None);
+        (f, changed)
+    }
+}
+
 impl<B: Backbone> Element for Masing<B> {
     #[inline]
     fn trial(&self, x: f64, _v: f64) -> ElementForce {
@@ -849,46 +903,42 @@ impl<B: Backbone> Element for Masing<B> {
         df: &mut [f64],
     ) -> ElementForce {
         let n = dx.len();
-        if self.sens_dim != n {
-            // first use since reset (or a new size): the history so far is
-            // taken as independent of p
-            self.sens_dim = n;
-            self.prev_sens.clear();
-            self.prev_sens.resize(2 * n, 0.0);
-            self.stack_sens.clear();
-            self.stack_sens.resize(2 * n * self.stack.len(), 0.0);
+        let (f, _) = self.carry_sensitivity(x, dx);
+        for (d, &p) in df.iter_mut().zip(&self.prev_sens[n..]) {
+            *d += p;
         }
-        let at = self.locate(x);
-        let f = self.force_at(x, at, false);
-        if at.push && at.open > self.stack.len() {
-            self.stack.push((self.x_prev, self.f_prev));
-            self.stack_sens.extend_from_slice(&self.prev_sens);
-        } else {
-            self.stack.truncate(at.open);
-            self.stack_sens.truncate(2 * n * at.open);
-        }
-        // the branch's origin is now the top of the stack
-        let k = f.stiffness;
-        if at.open == 0 {
-            for i in 0..n {
-                let d = k * dx[i];
-                self.prev_sens[n + i] = d;
-                df[i] += d;
+        f
+    }
+
+    fn memory_terms(&self) -> Option<usize> {
+        Some(2)
+    }
+
+    /// [`Element::commit_sensitivity`]'s `∂F_r + k (∂x − ∂x_r)` on a branch:
+    /// the tangent `k` and two memory terms, `1 · ∂F_r` and `−k · ∂x_r`,
+    /// whose vectors change when the branch's origin does.
+    fn commit_sensitivity_terms(
+        &mut self,
+        x: f64,
+        _v: f64,
+        dx: &[f64],
+        _dv: &[f64],
+        terms: &mut SensitivityTerms,
+    ) -> ElementForce {
+        let n = dx.len();
+        let (f, origin_changed) = self.carry_sensitivity(x, dx);
+        let open = self.stack.len();
+        terms.tangent(f.stiffness, 0.0);
+        if open > 0 {
+            if origin_changed || !self.origin_stated {
+                let r = &self.stack_sens[2 * n * (open - 1)..2 * n * open];
+                terms.replace(0, &r[n..]);
+                terms.replace(1, &r[..n]);
+                self.origin_stated = true;
             }
-        } else {
-            let r = &self.stack_sens[2 * n * (at.open - 1)..2 * n * at.open];
-            for i in 0..n {
-                let d = r[n + i] + k * (dx[i] - r[i]);
-                self.prev_sens[n + i] = d;
-                df[i] += d;
-            }
+            terms.coefficient(0, 1.0);
+            terms.coefficient(1, -f.stiffness);
         }
-        self.prev_sens[..n].copy_from_slice(dx);
-        self.direction = at.direction;
-        self.x_prev = x;
-        self.f_prev = f.force;
-        self.k_prev = f.stiffness;
-        self.anchor.set(None);
         f
     }
 

@@ -31,7 +31,7 @@ pub use clearance::Clearance;
 pub use cubic_stiffness::CubicStiffness;
 pub use element::{
     Attachment, Description, Domain, DriveLoad, Element, ElementForce, ElementSet, FitScale,
-    ImplicitStep, Law, NoElement, ParameterInfo, Role,
+    ImplicitStep, Law, NoElement, ParameterInfo, Role, SensitivityTerms,
 };
 pub use iwan::Iwan4Backbone;
 pub use jenkins::Jenkins;
@@ -422,6 +422,23 @@ impl Element for AnyElement {
         df: &mut [f64],
     ) -> ElementForce {
         dispatch!(self, e => e.commit_sensitivity(x, v, dx, dv, df))
+    }
+    fn commit_run(&mut self, x: &[f64], v: &[f64], g: &mut [f64]) {
+        dispatch!(self, e => e.commit_run(x, v, g))
+    }
+    fn memory_terms(&self) -> Option<usize> {
+        dispatch!(self, e => e.memory_terms())
+    }
+    #[inline]
+    fn commit_sensitivity_terms(
+        &mut self,
+        x: f64,
+        v: f64,
+        dx: &[f64],
+        dv: &[f64],
+        terms: &mut element::SensitivityTerms,
+    ) -> ElementForce {
+        dispatch!(self, e => e.commit_sensitivity_terms(x, v, dx, dv, terms))
     }
 }
 
