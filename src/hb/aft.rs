@@ -527,11 +527,16 @@ impl Aft {
             if settle > 0 {
                 elements.open_period();
             }
-            if want {
-                self.march_samples(elements, start, count, memory, settle > 0, omega, velocity);
-            } else {
-                self.march_runs(elements, start, count, memory, settle > 0, omega, velocity);
-            }
+            self.march(
+                elements,
+                start,
+                count,
+                memory,
+                settle > 0,
+                omega,
+                velocity,
+                want,
+            );
             if settle > 0 {
                 let residual = elements.close_period(half);
                 let scale = (0..count).fold(0.0f64, |m, s| m.max(self.g[(start + s) % ns].abs()));
@@ -596,10 +601,12 @@ impl Aft {
         Ok(())
     }
 
-    /// The march with sensitivities: `count` samples from `start`, each
-    /// followed by the turning point after it, if any.
+    /// The march: `count` samples from `start`, each followed by the
+    /// turning point after it, if any. With sensitivities sample by sample;
+    /// without, in runs that end at a turning point or at the period's wrap,
+    /// each run one [`Element::commit_run`].
     #[allow(clippy::too_many_arguments)]
-    fn march_samples<E: Element>(
+    fn march<E: Element>(
         &mut self,
         elements: &mut E,
         start: usize,
@@ -608,40 +615,27 @@ impl Aft {
         periods_follow: bool,
         omega: f64,
         velocity: bool,
+        sensitivities: bool,
     ) {
         let ns = self.samples;
-        let mut j = start;
-        for s in 0..count {
-            self.commit_sample(elements, j, omega, velocity, true, true);
-            // a turning point after the last sample changes nothing stored
-            // (with the ramp, it is the ramp's own point closing the loop);
-            // when periods follow, the one closing the period counts
-            if memory && (s + 1 < count || periods_follow) {
-                let e = self.extremum_at[j];
-                if e != NONE {
-                    self.commit_extremum(elements, e, omega, velocity, true);
+        if sensitivities {
+            let mut j = start;
+            for s in 0..count {
+                self.commit_sample(elements, j, omega, velocity, true, true);
+                // a turning point after the last sample changes nothing
+                // stored (with the ramp, it is the ramp's own point closing
+                // the loop); when periods follow, the one closing the period
+                // counts
+                if memory && (s + 1 < count || periods_follow) {
+                    let e = self.extremum_at[j];
+                    if e != NONE {
+                        self.commit_extremum(elements, e, omega, velocity, true);
+                    }
                 }
+                j = if j + 1 == ns { 0 } else { j + 1 };
             }
-            j = if j + 1 == ns { 0 } else { j + 1 };
+            return;
         }
-    }
-
-    /// The march without sensitivities: `count` samples from `start`, in
-    /// runs that end at a turning point (committed after its run, as
-    /// [`Aft::evaluate`]'s sample-by-sample march does) or at the period's
-    /// wrap, each run one [`Element::commit_run`].
-    #[allow(clippy::too_many_arguments)]
-    fn march_runs<E: Element>(
-        &mut self,
-        elements: &mut E,
-        start: usize,
-        count: usize,
-        memory: bool,
-        periods_follow: bool,
-        omega: f64,
-        velocity: bool,
-    ) {
-        let ns = self.samples;
         let (mut done, mut j) = (0, start);
         while done < count {
             let mut end = j;
@@ -658,7 +652,7 @@ impl Aft {
             self.g[j..end].fill(0.0);
             elements.commit_run(&self.x[j..end], &self.v[j..end], &mut self.g[j..end]);
             done += end - j;
-            // as in `march_samples`
+            // as above
             let e = self.extremum_at[end - 1];
             if memory && e != NONE && (done < count || periods_follow) {
                 self.commit_extremum(elements, e, omega, velocity, false);
