@@ -10,7 +10,7 @@
 
 use super::element::{
     Description, Element, ElementForce, ImplicitStep, Law, SLIP_FORCE, STICK_STIFFNESS,
-    SensitivityTerms, sign,
+    SensitivityTerms, copy_short, sign,
 };
 use crate::error::{Result, require_positive};
 use num_complex::Complex64;
@@ -152,18 +152,24 @@ impl Law for Jenkins {
     }
 }
 
-/// `to ← from` for a row of a few unknowns, once per slipping sample: inline
-/// moves, not the library call (and its set-up) `copy_from_slice` becomes.
-#[inline]
-fn copy_short(to: &mut [f64], from: &[f64]) {
-    let mut to = to.chunks_exact_mut(4);
-    let mut from = from.chunks_exact(4);
-    for (t, f) in (&mut to).zip(&mut from) {
-        let f: [f64; 4] = f.try_into().expect("chunks of 4");
-        t.copy_from_slice(&f);
-    }
-    for (t, &f) in to.into_remainder().iter_mut().zip(from.remainder()) {
-        *t = f;
+impl Jenkins {
+    /// Commits `x` as harmonic balance's sampled law (no sample interval)
+    /// and carries the slider's sensitivity: in slip the slider follows, so
+    /// `∂x_s = ∂x`; in stick (the force's stiffness not 0) it is kept.
+    #[inline]
+    fn carry_slider(&mut self, x: f64, dx: &[f64]) -> ElementForce {
+        if self.slider_sensitivity.len() != dx.len() {
+            self.slider_sensitivity.clear();
+            self.slider_sensitivity.resize(dx.len(), 0.0);
+            self.slider_stated = false;
+        }
+        let (f, slider) = self.evaluate(x, 0.0);
+        if f.stiffness == 0.0 {
+            copy_short(&mut self.slider_sensitivity, dx);
+            self.slider_stated = false;
+        }
+        self.slider = slider;
+        f
     }
 }
 
@@ -256,20 +262,12 @@ impl Element for Jenkins {
         _dv: &[f64],
         df: &mut [f64],
     ) -> ElementForce {
-        if self.slider_sensitivity.len() != dx.len() {
-            self.slider_sensitivity.clear();
-            self.slider_sensitivity.resize(dx.len(), 0.0);
-        }
-        // harmonic balance's sampled law (no sample interval given)
-        let (f, slider) = self.evaluate(x, 0.0);
+        let f = self.carry_slider(x, dx);
         if f.stiffness != 0.0 {
             for ((d, &a), &s) in df.iter_mut().zip(dx).zip(&self.slider_sensitivity) {
                 *d += self.kd * (a - s);
             }
-        } else {
-            self.slider_sensitivity.copy_from_slice(dx);
         }
-        self.slider = slider;
         f
     }
 
@@ -289,12 +287,7 @@ impl Element for Jenkins {
         _dv: &[f64],
         terms: &mut SensitivityTerms,
     ) -> ElementForce {
-        if self.slider_sensitivity.len() != dx.len() {
-            self.slider_sensitivity.clear();
-            self.slider_sensitivity.resize(dx.len(), 0.0);
-            self.slider_stated = false;
-        }
-        let (f, slider) = self.evaluate(x, 0.0);
+        let f = self.carry_slider(x, dx);
         if f.stiffness != 0.0 {
             if !self.slider_stated {
                 terms.replace(0, &self.slider_sensitivity);
@@ -302,11 +295,7 @@ impl Element for Jenkins {
             }
             terms.tangent(self.kd, 0.0);
             terms.coefficient(0, -self.kd);
-        } else {
-            copy_short(&mut self.slider_sensitivity, dx);
-            self.slider_stated = false;
         }
-        self.slider = slider;
         f
     }
 

@@ -19,7 +19,7 @@
 
 use super::element::{
     Description, Domain, Element, ElementForce, FitScale, ImplicitStep, Law, ParameterInfo, Role,
-    SLIP_FORCE, SOLVE_TOLERANCE, STICK_STIFFNESS, SensitivityTerms, sign,
+    SLIP_FORCE, SOLVE_TOLERANCE, STICK_STIFFNESS, SensitivityTerms, copy_short, sign,
 };
 use crate::error::{Error, Result, require_positive};
 use num_complex::Complex64;
@@ -844,7 +844,7 @@ impl<B: Backbone> Masing<B> {
                 self.prev_sens[n + i] = r[n + i] + k * (dx[i] - r[i]);
             }
         }
-        self.prev_sens[..n].copy_from_slice(dx);
+        copy_short(&mut self.prev_sens[..n], dx);
         self.direction = at.direction;
         self.x_prev = x;
         self.f_prev = f.force;
