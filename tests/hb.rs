@@ -517,6 +517,79 @@ fn a_sweep_starting_between_the_folds_picks_the_branch_of_its_direction() {
     assert!(rel(down.points[0].x[0], lower.x[0]) < 1e-8);
 }
 
+/// `solve_point` walked along the frequencies, each point's guess the last
+/// solution, starts from the balance linearised about that solution
+/// (unless the step it predicts is large, as near a fold): the same
+/// solutions as the plain walk from the last solution (each point on a fresh
+/// solver, which holds no walk), on the same branches through a Duffing
+/// fold, in fewer evaluations.
+#[test]
+fn a_point_by_point_walk_is_predicted_and_keeps_its_branch() {
+    let linear = paper_linear();
+    let walk = |e: &mut dyn FnMut(&mut HbSolver, f64, Option<&[Complex64]>) -> hb::HbPoint,
+                freqs: &[f64],
+                fresh: bool,
+                opts: &HbOptions| {
+        let mut solver = HbSolver::new(opts).unwrap();
+        let (mut last, mut points, mut evaluations) = (None::<Vec<Complex64>>, vec![], 0);
+        for &f in freqs {
+            if fresh {
+                evaluations += solver.evaluations();
+                solver = HbSolver::new(opts).unwrap();
+            }
+            let p = e(&mut solver, f, last.as_deref());
+            assert!(p.converged, "{f} Hz: {:?}", p.failure);
+            last = Some(p.x.clone());
+            points.push(p);
+        }
+        (points, evaluations + solver.evaluations())
+    };
+    // the Jenkins curve of the speed bench, and a hardening Duffing
+    // oscillator swept up and down through its folds
+    let jenkins = HbOptions {
+        harmonics: (0..=7).collect(),
+        samples_per_period: 512,
+        ..HbOptions::default()
+    };
+    let mut j = Jenkins::new(KD, FD).unwrap();
+    let mut solve_j = |s: &mut HbSolver, f: f64, g: Option<&[Complex64]>| {
+        s.solve_point(&linear, &mut j, f, 1000.0, g).unwrap()
+    };
+    let mut cases = vec![];
+    let jf = grid(150.0, 350.0, 121);
+    let (a, ea) = walk(&mut solve_j, &jf, false, &jenkins);
+    let (b, eb) = walk(&mut solve_j, &jf, true, &jenkins);
+    cases.push(("jenkins", a, b, ea, eb, 0.75));
+    let up = grid(150.0, 190.0, 81);
+    let down: Vec<f64> = up.iter().rev().copied().collect();
+    let odd = HbOptions::with_harmonics(hb::odd_harmonics(5));
+    let mut cubic = CubicStiffness { k3: 4e12 };
+    let mut solve_c = |s: &mut HbSolver, f: f64, g: Option<&[Complex64]>| {
+        s.solve_point(&linear, &mut cubic, f, 200.0, g).unwrap()
+    };
+    for (name, freqs) in [("duffing up", &up), ("duffing down", &down)] {
+        let (a, ea) = walk(&mut solve_c, freqs, false, &odd);
+        let (b, eb) = walk(&mut solve_c, freqs, true, &odd);
+        cases.push((name, a, b, ea, eb, 0.8));
+    }
+    for (name, a, b, ea, eb, most) in cases {
+        let worst = a
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| rel(p.frf(1).unwrap(), q.frf(1).unwrap()))
+            .fold(0.0, f64::max);
+        eprintln!(
+            "{name}: predicted walk {ea} evaluations, plain walk {eb}; H1 within {worst:.1e}"
+        );
+        // both within the solver's tolerance (1e-8 on the harmonics)
+        assert!(worst < 1e-6, "{name}: H1 differs by {worst:.1e}");
+        assert!(
+            (ea as f64) < most * eb as f64,
+            "{name}: {ea} evaluations against {eb}"
+        );
+    }
+}
+
 #[test]
 fn options_read_from_toml_with_defaults_and_reject_unknown_keys() {
     let o: HbOptions =
