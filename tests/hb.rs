@@ -570,7 +570,7 @@ fn a_point_by_point_walk_is_predicted_and_keeps_its_branch() {
     for (name, freqs) in [("duffing up", &up), ("duffing down", &down)] {
         let (a, ea) = walk(&mut solve_c, freqs, false, &odd);
         let (b, eb) = walk(&mut solve_c, freqs, true, &odd);
-        cases.push((name, a, b, ea, eb, 0.8));
+        cases.push((name, a, b, ea, eb, 0.9));
     }
     for (name, a, b, ea, eb, most) in cases {
         let worst = a
