@@ -526,10 +526,8 @@ fn a_sweep_starting_between_the_folds_picks_the_branch_of_its_direction() {
 #[test]
 fn a_point_by_point_walk_is_predicted_and_keeps_its_branch() {
     let linear = paper_linear();
-    let walk = |e: &mut dyn FnMut(&mut HbSolver, f64, Option<&[Complex64]>) -> hb::HbPoint,
-                freqs: &[f64],
-                fresh: bool,
-                opts: &HbOptions| {
+    type Solve<'a> = dyn FnMut(&mut HbSolver, f64, Option<&[Complex64]>) -> hb::HbPoint + 'a;
+    let walk = |e: &mut Solve, freqs: &[f64], fresh: bool, opts: &HbOptions| {
         let mut solver = HbSolver::new(opts).unwrap();
         let (mut last, mut points, mut evaluations) = (None::<Vec<Complex64>>, vec![], 0);
         for &f in freqs {

@@ -940,5 +940,60 @@ pub(crate) mod check {
             );
             prev = x;
         }
+        // harmonic balance's march: runs of samples (some repeated, as a
+        // turning point between samples can be) committed by `commit_run`
+        // in a period, bit for bit as `commit` sample by sample
+        let mut xs2 = Vec::with_capacity(xs.len() + xs.len() / 13);
+        for (i, &x) in xs.iter().enumerate() {
+            xs2.push(x);
+            if i % 13 == 5 {
+                xs2.push(x);
+            }
+        }
+        let vs: Vec<f64> = xs2
+            .iter()
+            .scan(0.0, |p, &x| {
+                let v = (x - *p) * 1000.0 + if x == *p { 1.0 } else { 0.0 };
+                *p = x;
+                Some(v)
+            })
+            .collect();
+        let (mut by_run, mut by_sample) = (e.clone(), e.clone());
+        by_run.reset();
+        by_sample.reset();
+        by_run.open_period();
+        by_sample.open_period();
+        // −0 + f is f to the bit (a zero force keeps its sign)
+        let mut g_run = vec![-0.0; xs2.len()];
+        let mut start = 0;
+        for (k, len) in [1usize, 7, 40, 3, 81].iter().cycle().enumerate() {
+            let end = (start + len + k % 2).min(xs2.len());
+            by_run.commit_run(&xs2[start..end], &vs[start..end], &mut g_run[start..end]);
+            start = end;
+            if start == xs2.len() {
+                break;
+            }
+        }
+        for (i, (&x, &v)) in xs2.iter().zip(&vs).enumerate() {
+            let f = by_sample.commit(x, v).force;
+            assert_eq!(
+                f.to_bits(),
+                g_run[i].to_bits(),
+                "commit_run differs from commit at sample {i}"
+            );
+        }
+        assert_eq!(
+            by_run.close_period(false).to_bits(),
+            by_sample.close_period(false).to_bits(),
+            "commit_run left another state than commit"
+        );
+        // the period's closing used what the run carried (a settling law's
+        // memory gain): the next sample shows it
+        let x = 0.5 * scale;
+        assert_eq!(
+            by_run.commit(x, 1.0).force.to_bits(),
+            by_sample.commit(x, 1.0).force.to_bits(),
+            "commit_run carried another period state than commit"
+        );
     }
 }

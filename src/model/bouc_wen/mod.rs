@@ -271,6 +271,25 @@ impl BoucWen {
     /// at its origin. `None` off the curves' tables (a stiffening side
     /// driven far, a softening one above its asymptote).
     fn flow_universal(&self, z0: f64, h: f64, committed: bool) -> Option<FlowEnd> {
+        if !committed {
+            return self.flow_universal_from(z0, h, None);
+        }
+        let mut known = self.psi.get();
+        let end = self.flow_universal_from(z0, h, Some(&mut known));
+        self.psi.set(known);
+        end
+    }
+
+    /// [`BoucWen::flow_universal`] with the committed `z`'s `ψ` per region
+    /// in `known` (`NaN`: not yet found; found when needed and kept there),
+    /// or none when `z0` is not the committed `z`.
+    #[inline(always)]
+    fn flow_universal_from(
+        &self,
+        z0: f64,
+        h: f64,
+        mut known: Option<&mut [f64; 2]>,
+    ) -> Option<FlowEnd> {
         let regions = self.regions.as_ref()?;
         let s = sign(h);
         let (mut z, mut left) = (z0, h.abs());
@@ -289,17 +308,15 @@ impl BoucWen {
                 z = 0.0;
                 continue;
             };
-            let psi0 = if z == 0.0 {
-                0.0
-            } else if committed && z.to_bits() == self.z.to_bits() {
-                let mut known = self.psi.get();
-                if known[r].is_nan() {
-                    known[r] = curve.inverse(z.abs() / region.a)?;
-                    self.psi.set(known);
+            let psi0 = match known.as_deref_mut() {
+                _ if z == 0.0 => 0.0,
+                Some(known) if z.to_bits() == z0.to_bits() => {
+                    if known[r].is_nan() {
+                        known[r] = curve.inverse(z.abs() / region.a)?;
+                    }
+                    known[r]
                 }
-                known[r]
-            } else {
-                curve.inverse(z.abs() / region.a)?
+                _ => curve.inverse(z.abs() / region.a)?,
             };
             let psi1 = psi0 + kappa * left * region.rate;
             if psi1 >= 0.0 {
@@ -656,6 +673,57 @@ impl Element for BoucWen {
         };
         self.settle(x, s, &f, end);
         f
+    }
+
+    /// Harmonic balance's march along the universal curves (`ν ≠ 1`, a
+    /// period open) with the committed state in locals: the same steps, to
+    /// the bit, as [`Element::commit`] sample by sample, without its cells'
+    /// round trips per sample.
+    fn commit_run(&mut self, x: &[f64], v: &[f64], g: &mut [f64]) {
+        if !(self.period_open && self.regions.is_some()) {
+            for ((&x, &v), g) in x.iter().zip(v).zip(g) {
+                *g += self.commit(x, v).force;
+            }
+            return;
+        }
+        let (mut y, mut z, mut gain) = (self.y, self.z, self.memory_gain);
+        let (mut psi, mut slopes) = (self.psi.get(), self.slopes.get());
+        for ((&x, &v), g) in x.iter().zip(v).zip(g) {
+            let h = x - y;
+            let s = if h != 0.0 { sign(h) } else { sign(v) };
+            let d = usize::from(s < 0.0);
+            if slopes[d].is_nan() {
+                slopes[d] = self.slope(z, s);
+            }
+            let f0 = slopes[d];
+            y = x;
+            if h == 0.0 {
+                // the committed force and slope
+                gain *= flow_ratio(f0, f0, self.alpha);
+                *g += z;
+                continue;
+            }
+            let end = self
+                .flow_universal_from(z, h, Some(&mut psi))
+                .unwrap_or_else(|| {
+                    let (z1, p) = self.flow_substepped(z, self.power(z.abs()), h);
+                    FlowEnd::off_curve(z1, self.slope_with(z1, p, s))
+                });
+            gain *= flow_ratio(f0, end.slope, self.alpha);
+            z = end.z;
+            psi = [f64::NAN; 2];
+            if end.region < 2 {
+                psi[end.region] = end.psi;
+            }
+            slopes = [f64::NAN; 2];
+            slopes[d] = end.slope;
+            *g += z;
+        }
+        self.y = y;
+        self.z = z;
+        self.memory_gain = gain;
+        self.psi.set(psi);
+        self.slopes.set(slopes);
     }
 
     fn reset(&mut self) {
