@@ -134,7 +134,7 @@ pub const CONFIRMATION_RISE: f64 = 0.005;
 /// tell a misfit that falls by more than [`CONFIRMATION_RISE`] from one
 /// that does not, from a start next to the refined model; the one added is
 /// then refitted with the full budget.
-const PROPOSAL_PATIENCE: usize = 6;
+pub(crate) const PROPOSAL_PATIENCE: usize = 6;
 
 /// Levenberg–Marquardt's patience for a refit without one effect: it starts
 /// next to its optimum (the full refit's values), so a shorter budget than
@@ -569,7 +569,7 @@ fn grafted(
 }
 
 impl TimeProposal {
-    fn failed(effect: Effect, why: String) -> Self {
+    pub(crate) fn failed(effect: Effect, why: String) -> Self {
         TimeProposal {
             effect,
             with: Vec::new(),

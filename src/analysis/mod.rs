@@ -18,6 +18,7 @@ pub mod figures;
 pub mod flags;
 pub mod frf_uff;
 pub mod identify;
+pub mod multisine;
 pub mod recording;
 pub mod run;
 pub mod simulate;

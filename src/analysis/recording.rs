@@ -422,7 +422,8 @@ fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
             "its reference is a multisine (a period of {period} samples repeated, {} excited \
              lines over {lo:.4}-{hi:.4} Hz), which nonlinear FRFs are not read from (they need \
              stepped or swept sines): fit it in the time domain (`identify --domain time`, \
-             which starts from its linear FRF at the excited lines), or state `--excitation \
+             which starts from its linear FRF at the excited lines; `diagnose --domain time` \
+             diagnoses it at the lines of its period), or state `--excitation \
              stepped` if it is one",
             lines.len()
         ),

@@ -395,7 +395,9 @@ pub struct DiagnoseArgs {
     #[command(flatten)]
     pub fit: IdentifyOptionsArgs,
     /// `frf` (the diagnosis on the nonlinear FRFs) or `time` (that, then its
-    /// final model refitted on the recorded time histories).
+    /// final model refitted on the recorded time histories; multisines,
+    /// which no FRF is read from, are diagnosed on the time histories
+    /// alone, their residual read at the lines of the period).
     #[arg(long, value_enum, default_value_t = Domain::Frf)]
     pub domain: Domain,
     /// With `--domain time`: trace every candidate in the refitted model's
@@ -404,7 +406,8 @@ pub struct DiagnoseArgs {
     /// added to the final model and refitted in time; the best that lowers
     /// the misfit by more than a confirmation asks (0.5 %) is added. Each
     /// candidate traced costs an FRF refit, each proposal a refit on the
-    /// whole recordings.
+    /// whole recordings. On multisines: the candidates refitted per round,
+    /// those that explain the most of the residual per line first (0: 3).
     #[arg(long, default_value_t = 0)]
     pub time_proposals: usize,
     /// With `--domain time`: how every model is replayed on the recordings
@@ -412,6 +415,11 @@ pub struct DiagnoseArgs {
     /// `identify --replay` takes it.
     #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
     pub replay: Replay,
+    /// With `--domain time`: fewest samples per period of the model's
+    /// highest linearised frequency before the replay is upsampled (as
+    /// `identify --domain time` takes it).
+    #[arg(long, default_value_t = 40.0)]
+    pub min_samples_per_period: f64,
 }
 
 /// `hystid run`.

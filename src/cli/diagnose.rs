@@ -59,6 +59,24 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     }
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;
+    // multisines, which no FRF reduction reads: diagnosed on their lines
+    if args.domain == Domain::Time
+        && args.reduction.excitation == super::args::ExcitationArg::Auto
+        && let Some(p) = hystid::analysis::periodic_start(
+            &args.recordings,
+            args.channels(),
+            fit_opts.element,
+            fit_opts.modes,
+        )?
+    {
+        let options = DiagnoseOptions {
+            band_hz: fit_opts.band_hz,
+            fit: fit_opts.clone(),
+            time_proposals: args.time_proposals,
+            ..options
+        };
+        return diagnose_multisine_command(args, p, &options, quiet);
+    }
     let (frf, _) = reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let _out = create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
@@ -90,6 +108,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                         &records,
                         &hystid::fit::TimeFitOptions {
                             input: args.replay.into(),
+                            min_samples_per_period: args.min_samples_per_period,
                             ..Default::default()
                         },
                         options.band_hz,
@@ -187,6 +206,72 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                     ),
                 }
             }
+        }
+        for f in files {
+            say!("  wrote {}", f.display());
+        }
+    }
+    Ok(EXIT_OK)
+}
+
+/// `hystid diagnose --domain time` on multisines (see
+/// [`hystid::analysis::multisine`]).
+fn diagnose_multisine_command(
+    args: &DiagnoseArgs,
+    p: hystid::analysis::PeriodicStart,
+    options: &DiagnoseOptions,
+    quiet: bool,
+) -> Result<u8> {
+    let _out = create_out_dir(&args.out)?;
+    let t0 = std::time::Instant::now();
+    let pb = progress::spinner("diagnosing on the multisine's lines", quiet);
+    let mut d = hystid::analysis::multisine::diagnose_multisine(
+        &p.start,
+        &p.records,
+        &hystid::fit::TimeFitOptions {
+            input: args.replay.into(),
+            min_samples_per_period: args.min_samples_per_period,
+            ..Default::default()
+        },
+        options,
+        &progress::Drawn(&pb),
+    )?;
+    pb.finish_and_clear();
+    d.start = p.note;
+    let files = hystid::analysis::multisine::write_multisine_diagnosis(
+        &args.out,
+        &d,
+        &p.records,
+        t0.elapsed().as_secs_f64(),
+        args.reference.as_deref(),
+    )?;
+    if !quiet {
+        say!("hystid diagnose: {}", d.explanation);
+        for (b, a) in d.baseline.after.iter().zip(&d.refit.after) {
+            say!(
+                "  {}: relative e_RMS {:.2} % (baseline) -> {:.2} % (final); per period {:.2} % -> {:.2} %",
+                a.recording,
+                100.0 * b.window.relative,
+                100.0 * a.window.relative,
+                100.0 * b.segment_relative,
+                100.0 * a.segment_relative
+            );
+        }
+        for r in &d.rounds {
+            let shares: Vec<String> = r
+                .traced
+                .iter()
+                .map(|t| match &t.failed {
+                    None => format!("{} {:.1} %", t.effect.name(), 100.0 * t.share),
+                    Some(_) => format!("{} not traced", t.effect.name()),
+                })
+                .collect();
+            say!(
+                "  round {}: chi2 per line {:.2}; traced: {}",
+                r.round,
+                r.residual.chi2_per_line,
+                shares.join(", ")
+            );
         }
         for f in files {
             say!("  wrote {}", f.display());

@@ -28,6 +28,7 @@
 
 pub mod candidates;
 pub mod features;
+pub mod lines;
 pub mod time_residual;
 
 pub use candidates::Effect;

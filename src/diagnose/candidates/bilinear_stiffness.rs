@@ -2,12 +2,17 @@
 //! noise, which a symmetric joint cannot make.
 
 use super::{Candidate, Context};
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect};
 use crate::error::Result;
 use crate::model::{ElementKind, ElementSpec, Model};
 
 /// See the module docs.
 pub(crate) struct BilinearStiffness;
+
+fn with(kb: f64) -> ElementSpec {
+    ElementSpec::BilinearStiffness { kb }
+}
 
 impl Candidate for BilinearStiffness {
     fn law(&self) -> Option<ElementKind> {
@@ -27,7 +32,13 @@ impl Candidate for BilinearStiffness {
     /// either side).
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let (_, k) = cx.damping_and_stiffness();
-        Ok(cx.sized_starts(&|kb| ElementSpec::BilinearStiffness { kb }, 0.01 * k, true))
+        Ok(cx.sized_starts(&with, 0.01 * k, true))
+    }
+
+    /// Probed as on the FRFs, sized by the Gauss–Newton step on the lines.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        let (_, k) = cx.damping_and_stiffness();
+        cx.sized_starts(&with, 0.01 * k, true)
     }
 
     fn size_parameters(&self) -> &'static [&'static str] {

@@ -12,6 +12,7 @@ use super::{
     Candidate, Context, best_as_it_stands, joint_misfit_score, replaceable_joint,
     replacing_parameters,
 };
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
 use crate::error::Result;
 use crate::model::{ElementKind, ElementSpec, Model, Role};
@@ -31,6 +32,27 @@ const SHAPES: [(f64, f64); 4] = [(0.5, 1.0), (0.5, 2.0), (0.8, 1.0), (0.8, 2.0)]
 /// (the paper's Jenkins test: 2000 times; a Bouc-Wen recording fitted with
 /// a Masing law: 5; an Iwan one: 1.1).
 const START_GATE: f64 = 10.0;
+
+/// `model` with its joint replaced by a Bouc-Wen joint of each of
+/// [`SHAPES`] (none when the joint cannot be replaced).
+fn shapes(model: &Model) -> impl Iterator<Item = Model> + '_ {
+    let joint = replaceable_joint(model, ElementKind::BoucWen);
+    SHAPES.iter().filter_map(move |&(share, nu)| {
+        let (kt, fs) = joint?;
+        // saturation at fs: β (γ + δ) fs^ν = α, with β = α / fs
+        let sum = fs.powf(1.0 - nu);
+        let mut m = model.clone();
+        m.joint = Some(ElementSpec::BoucWen {
+            alpha: kt,
+            beta: kt / fs,
+            gamma: share * sum,
+            delta: (1.0 - share) * sum,
+            nu,
+        });
+        m.joint.as_ref()?.validate("joint").ok()?;
+        Some(m)
+    })
+}
 
 impl Candidate for BoucWenJoint {
     fn law(&self) -> Option<ElementKind> {
@@ -83,30 +105,20 @@ impl Candidate for BoucWenJoint {
     /// that start fits more than [`START_GATE`] times worse than the current
     /// model.
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
-        let model = cx.model();
-        let Some((kt, fs)) = replaceable_joint(model, ElementKind::BoucWen) else {
-            return Ok(Vec::new());
-        };
-        let beta = kt / fs;
-        let shapes = SHAPES.iter().filter_map(|&(share, nu)| {
-            // saturation at fs: β (γ + δ) fs^ν = α, with β = α / fs
-            let sum = fs.powf(1.0 - nu);
-            let mut m = model.clone();
-            m.joint = Some(ElementSpec::BoucWen {
-                alpha: kt,
-                beta,
-                gamma: share * sum,
-                delta: (1.0 - share) * sum,
-                nu,
-            });
-            m.joint.as_ref()?.validate("joint").ok()?;
-            Some(m)
-        });
-        Ok(best_as_it_stands(cx, shapes)
+        Ok(best_as_it_stands(cx, shapes(cx.model()))
             .filter(|(chi2, _)| *chi2 <= START_GATE * cx.current.chi2)
             .map(|(_, m)| m)
             .into_iter()
             .collect())
+    }
+
+    /// The same shapes, the one of lowest `χ²` on the lines, gated alike.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        cx.best_as_it_stands(shapes(cx.model()))
+            .filter(|(chi2, _)| *chi2 <= START_GATE * cx.chi2)
+            .map(|(_, m)| m)
+            .into_iter()
+            .collect()
     }
 
     /// The law's stiffness and its sharpness: a `ν` run to its bound is a

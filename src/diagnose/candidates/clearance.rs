@@ -3,12 +3,16 @@
 //! the level rises).
 
 use super::{Candidate, Context};
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect};
 use crate::error::Result;
 use crate::model::{ElementKind, ElementSpec, Model};
 
 /// See the module docs.
 pub(crate) struct Clearance;
+
+/// The gaps tried, as fractions of the largest amplitude.
+const GAPS: [f64; 3] = [0.25, 0.5, 0.75];
 
 impl Candidate for Clearance {
     fn law(&self) -> Option<ElementKind> {
@@ -25,7 +29,7 @@ impl Candidate for Clearance {
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let (_, k) = cx.damping_and_stiffness();
         let (a_max, _) = cx.amplitudes();
-        Ok([0.25, 0.5, 0.75]
+        Ok(GAPS
             .iter()
             .filter_map(|&g| {
                 let gap = g * a_max;
@@ -44,6 +48,21 @@ impl Candidate for Clearance {
             .map(|(e, _)| cx.with_element(e))
             .into_iter()
             .collect())
+    }
+
+    /// The same gaps, each stiffness sized by the Gauss–Newton step on the
+    /// lines; the one of lowest `χ²` there.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        let (_, k) = cx.damping_and_stiffness();
+        let (a_max, _) = cx.amplitudes();
+        let sized = GAPS.iter().flat_map(|&g| {
+            let gap = g * a_max;
+            cx.sized_starts(&|p| ElementSpec::Clearance { k: p, gap }, 0.01 * k, false)
+        });
+        cx.best_as_it_stands(sized)
+            .map(|(_, m)| m)
+            .into_iter()
+            .collect()
     }
 
     fn size_parameters(&self) -> &'static [&'static str] {

@@ -2,12 +2,22 @@
 //! the level rises (a hardening or softening no joint can make).
 
 use super::{Candidate, Context};
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect};
 use crate::error::Result;
 use crate::model::{ElementKind, ElementSpec, Model};
 
 /// See the module docs.
 pub(crate) struct CubicStiffness;
+
+fn with(k3: f64) -> ElementSpec {
+    ElementSpec::CubicStiffness { k3 }
+}
+
+/// 1 % of the stiffness `k` at the largest amplitude `a_max`.
+fn probe(k: f64, a_max: f64) -> f64 {
+    0.01 * k / (a_max * a_max)
+}
 
 impl Candidate for CubicStiffness {
     fn law(&self) -> Option<ElementKind> {
@@ -23,11 +33,14 @@ impl Candidate for CubicStiffness {
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let (_, k) = cx.damping_and_stiffness();
         let (a_max, _) = cx.amplitudes();
-        Ok(cx.sized_starts(
-            &|k3| ElementSpec::CubicStiffness { k3 },
-            0.01 * k / (a_max * a_max),
-            true,
-        ))
+        Ok(cx.sized_starts(&with, probe(k, a_max), true))
+    }
+
+    /// Probed as on the FRFs, sized by the Gauss–Newton step on the lines.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        let (_, k) = cx.damping_and_stiffness();
+        let (a_max, _) = cx.amplitudes();
+        cx.sized_starts(&with, probe(k, a_max), true)
     }
 
     fn size_parameters(&self) -> &'static [&'static str] {

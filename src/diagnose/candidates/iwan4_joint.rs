@@ -10,6 +10,7 @@ use super::{
     Candidate, Context, best_as_it_stands, joint_misfit_score, replaceable_joint,
     replacing_parameters,
 };
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
 use crate::error::Result;
 use crate::model::{ElementKind, ElementSpec, Model};
@@ -20,6 +21,18 @@ pub(crate) struct Iwan4Joint;
 /// The starting shapes: `χ` from a nearly uniform slider density to one
 /// crowded at small slips, with a small and a large spike.
 const SHAPES: [(f64, f64); 3] = [(-0.5, 0.3), (-0.2, 1.0), (-0.8, 0.1)];
+
+/// `model` with its joint replaced by an Iwan joint of each of [`SHAPES`]
+/// (none when the joint cannot be replaced).
+fn shapes(model: &Model) -> impl Iterator<Item = Model> + '_ {
+    let joint = replaceable_joint(model, ElementKind::Iwan4);
+    SHAPES.iter().filter_map(move |&(chi, beta)| {
+        let (kt, fs) = joint?;
+        let mut m = model.clone();
+        m.joint = Some(ElementSpec::Iwan4 { fs, kt, chi, beta });
+        Some(m)
+    })
+}
 
 impl Candidate for Iwan4Joint {
     fn law(&self) -> Option<ElementKind> {
@@ -54,19 +67,18 @@ impl Candidate for Iwan4Joint {
     /// on the independent Iwan recordings); none when the joint already is
     /// one (see [`Candidate::applies_to`]).
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
-        let model = cx.model();
-        let Some((kt, fs)) = replaceable_joint(model, ElementKind::Iwan4) else {
-            return Ok(Vec::new());
-        };
-        let shapes = SHAPES.iter().map(|&(chi, beta)| {
-            let mut m = model.clone();
-            m.joint = Some(ElementSpec::Iwan4 { fs, kt, chi, beta });
-            m
-        });
-        Ok(best_as_it_stands(cx, shapes)
+        Ok(best_as_it_stands(cx, shapes(cx.model()))
             .map(|(_, m)| m)
             .into_iter()
             .collect())
+    }
+
+    /// The same shapes, the one of lowest `χ²` on the lines.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        cx.best_as_it_stands(shapes(cx.model()))
+            .map(|(_, m)| m)
+            .into_iter()
+            .collect()
     }
 
     /// The joint the law replaces must itself be determined: its stiffness,

@@ -278,6 +278,14 @@ pub(crate) trait Candidate: Sync {
     /// effect added; empty when the residual offers no start.
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>>;
 
+    /// The models it is refitted from on a multisine's time-domain fit,
+    /// each the current model with the effect added, sized on the residual
+    /// per line ([`super::lines`]); empty when the lines offer no start or
+    /// it is not traced there.
+    fn line_starts(&self, _cx: &super::lines::LineContext<'_>) -> Vec<Model> {
+        Vec::new()
+    }
+
     /// The parameters that size it: the data must resolve one of these
     /// (an interval that excludes zero, not at a bound) for it to be kept;
     /// its shape parameters (a gap, a mode's frequency) may sit at a bound.

@@ -2,12 +2,17 @@
 //! model's more as the level rises (losses growing with velocity).
 
 use super::{Candidate, Context};
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect};
 use crate::error::Result;
 use crate::model::{ElementKind, ElementSpec, Model};
 
 /// See the module docs.
 pub(crate) struct QuadraticDamping;
+
+fn with(c2: f64) -> ElementSpec {
+    ElementSpec::QuadraticDamping { c2 }
+}
 
 impl Candidate for QuadraticDamping {
     fn law(&self) -> Option<ElementKind> {
@@ -23,11 +28,14 @@ impl Candidate for QuadraticDamping {
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
         let (c, _) = cx.damping_and_stiffness();
         let (_, v_max) = cx.amplitudes();
-        Ok(cx.sized_starts(
-            &|c2| ElementSpec::QuadraticDamping { c2 },
-            0.01 * c / v_max,
-            false,
-        ))
+        Ok(cx.sized_starts(&with, 0.01 * c / v_max, false))
+    }
+
+    /// Probed as on the FRFs, sized by the Gauss–Newton step on the lines.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        let (c, _) = cx.damping_and_stiffness();
+        let (_, v_max) = cx.amplitudes();
+        cx.sized_starts(&with, 0.01 * c / v_max, false)
     }
 
     fn size_parameters(&self) -> &'static [&'static str] {

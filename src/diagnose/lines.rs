@@ -1,0 +1,733 @@
+//! The residual of a time-domain fit to multisines, line by line, traced to
+//! the candidates.
+//!
+//! A periodic multisine (a period of `N` samples played `P + 1` times, the
+//! first period a transient) is read where it is exact: at the lines of its
+//! period. Over the `P` steady periods, the DFT of each period at line `k`
+//! (`f_k = k f_s / N`) is averaged, `Ȳ_k = (1/P) Σ_p Y_k^(p)`, and the
+//! periods' scatter gives the noise of that mean,
+//! `σ_k² = Σ_p |Y_k^(p) − Ȳ_k|² / (P (P − 1))`, smoothed over the
+//! neighbouring lines (with few periods one line's scatter is itself noisy).
+//! The model's replay, driven by the same measured reference from rest, is
+//! averaged over the same periods, `Ŷ_k`, so that the transient both share
+//! cancels. The residual of line `k` in units of the noise is
+//! `r_k = (Ȳ_k − Ŷ_k)/σ_k`, `|r_k|² ≈ 1` where only noise is left.
+//!
+//! The lines fall into three classes, the multisine user's reading of a
+//! nonlinearity (Pintelon and Schoukens, *System Identification: A
+//! Frequency Domain Approach*, 2012, ch. 4): the **excited** lines (the
+//! reference's, within 20 dB of its strongest), where a wrong linear part or
+//! a level-dependent stiffness or damping shows; and the lines not excited,
+//! **odd** and **even** by their index `k`, where the response holds only what
+//! the nonlinearity moved there (an odd law such as a joint or a cubic
+//! stiffness fills odd combinations, an asymmetric one even ones). The lines
+//! judged run to three times the highest excited frequency (an odd law's
+//! third-order products), at most to Nyquist.
+//!
+//! A candidate is traced by its signature on the lines, `δ_k = (Ŷ_k^c −
+//! Ŷ_k)/σ_k`, the change of the replayed lines when it is added to the
+//! model, less what the model's own free parameters can make: `δ` is
+//! projected off the span of their sensitivities `∂Ŷ/∂θ_j / σ` (one replay
+//! each), since the candidate's refit lets them readjust (a cubic stiffness
+//! is at first mostly more stiffness, which the fitted stiffness already
+//! gives). The share of the residual's `χ² = Σ|r_k|²` a step along it
+//! removes at best is `s_c = max(0, Re⟨r, δ⟩)² / (‖r‖² ‖δ‖²)` (as in
+//! [`super::time_residual`]), and for an effect of one size parameter the
+//! Gauss–Newton step `Re⟨r, δ⟩/‖δ‖²` along a probe sizes its start.
+
+use crate::error::{Error, Result};
+use crate::fit::TimeRecord;
+use crate::fit::time::TimeProblem;
+use crate::model::{ElementSpec, Model};
+use num_complex::Complex64;
+use rustfft::FftPlanner;
+use serde::Serialize;
+use std::ops::Range;
+
+/// What a line of a multisine's period holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LineClass {
+    /// A line the reference excites.
+    Excited,
+    /// A line not excited, of odd index.
+    OddNotExcited,
+    /// A line not excited, of even index.
+    EvenNotExcited,
+}
+
+impl LineClass {
+    /// In words.
+    pub fn words(self) -> &'static str {
+        match self {
+            LineClass::Excited => "excited",
+            LineClass::OddNotExcited => "odd not excited",
+            LineClass::EvenNotExcited => "even not excited",
+        }
+    }
+}
+
+/// Neighbouring lines on either side over which a line's noise is averaged.
+const NOISE_NEIGHBOURS: usize = 8;
+
+/// One recording's steady periods at the lines of its period: the measured
+/// response's mean and its noise (see the module docs).
+#[derive(Clone, Debug)]
+pub struct PeriodicSpectra {
+    /// The recording.
+    pub name: String,
+    /// Samples per second.
+    pub sample_rate_hz: f64,
+    /// Samples per period.
+    pub period: usize,
+    /// The steady periods, as samples of the record.
+    periods: Vec<Range<usize>>,
+    /// The lines judged (DFT bins).
+    pub bins: Vec<usize>,
+    /// Each line's class.
+    pub class: Vec<LineClass>,
+    /// The reference's mean spectrum at the lines.
+    pub reference: Vec<Complex64>,
+    /// The measured response's mean spectrum at the lines.
+    pub measured: Vec<Complex64>,
+    /// The noise (standard error) of `measured` at each line.
+    pub sigma: Vec<f64>,
+}
+
+impl PeriodicSpectra {
+    /// The spectra of `record`, whose segments are its steady periods (as a
+    /// multisine's time fit judges it): at least two, of equal length.
+    pub fn of(record: &TimeRecord) -> Result<PeriodicSpectra> {
+        let at = |f: &str| format!("{}: {f}", record.name);
+        let periods = record.segments.clone();
+        let period = periods.first().map_or(0, |s| s.len());
+        if periods.len() < 2 || period < 8 || periods.iter().any(|s| s.len() != period) {
+            return Err(Error::input(
+                at("periods"),
+                format!(
+                    "the residual per line needs at least two steady periods of equal length; \
+                     the record is judged over {} stretch(es)",
+                    periods.len()
+                ),
+            ));
+        }
+        let fft = FftPlanner::<f64>::new().plan_fft_forward(period);
+        let spectra = |x: &[f64]| -> Vec<Vec<Complex64>> {
+            periods
+                .iter()
+                .map(|p| {
+                    let mut b: Vec<Complex64> = x[p.clone()]
+                        .iter()
+                        .map(|&v| Complex64::new(v, 0.0))
+                        .collect();
+                    fft.process(&mut b);
+                    b
+                })
+                .collect()
+        };
+        let us = spectra(&record.reference);
+        let ys = spectra(&record.response);
+        let mean = |s: &[Vec<Complex64>], k: usize| {
+            s.iter().map(|b| b[k]).sum::<Complex64>() / s.len() as f64
+        };
+        let half = period.div_ceil(2);
+        let u: Vec<Complex64> = (0..half).map(|k| mean(&us, k)).collect();
+        let strongest = u[1..].iter().map(|v| v.norm()).fold(0.0, f64::max);
+        let excited =
+            |k: usize| strongest > 0.0 && u[k].norm() >= crate::extract::EXCITED_LINE * strongest;
+        let highest = (1..half)
+            .filter(|&k| excited(k))
+            .max()
+            .ok_or_else(|| Error::input(at("reference"), "no line of its period is excited"))?;
+        let last = (3 * highest).min(half - 1);
+        let bins: Vec<usize> = (1..=last).collect();
+        let class = bins
+            .iter()
+            .map(|&k| match (excited(k), k % 2) {
+                (true, _) => LineClass::Excited,
+                (false, 1) => LineClass::OddNotExcited,
+                _ => LineClass::EvenNotExcited,
+            })
+            .collect();
+        let p = ys.len() as f64;
+        let measured: Vec<Complex64> = bins.iter().map(|&k| mean(&ys, k)).collect();
+        let scatter: Vec<f64> = bins
+            .iter()
+            .zip(&measured)
+            .map(|(&k, m)| ys.iter().map(|b| (b[k] - m).norm_sqr()).sum::<f64>() / (p * (p - 1.0)))
+            .collect();
+        // smoothed over the neighbours; held above the rounding of the
+        // largest line, so that a noise-free record still scales
+        let floor = (1e-12 * measured.iter().map(|v| v.norm()).fold(0.0, f64::max)).powi(2);
+        let sigma = (0..bins.len())
+            .map(|i| {
+                let lo = i.saturating_sub(NOISE_NEIGHBOURS);
+                let hi = (i + NOISE_NEIGHBOURS + 1).min(bins.len());
+                let v = scatter[lo..hi].iter().sum::<f64>() / (hi - lo) as f64;
+                v.max(floor).max(f64::MIN_POSITIVE).sqrt()
+            })
+            .collect();
+        Ok(PeriodicSpectra {
+            name: record.name.clone(),
+            sample_rate_hz: record.sample_rate_hz,
+            period,
+            reference: bins.iter().map(|&k| u[k]).collect(),
+            periods,
+            bins,
+            class,
+            measured,
+            sigma,
+        })
+    }
+
+    /// The frequency of line `i`, Hz.
+    pub fn frequency_hz(&self, i: usize) -> f64 {
+        self.bins[i] as f64 * self.sample_rate_hz / self.period as f64
+    }
+
+    /// A replay's mean spectrum over the same periods at the same lines.
+    pub fn replayed(&self, replay: &[f64]) -> Vec<Complex64> {
+        let fft = FftPlanner::<f64>::new().plan_fft_forward(self.period);
+        let mut sum = vec![Complex64::new(0.0, 0.0); self.bins.len()];
+        for p in &self.periods {
+            let mut b: Vec<Complex64> = replay[p.clone()]
+                .iter()
+                .map(|&v| Complex64::new(v, 0.0))
+                .collect();
+            fft.process(&mut b);
+            for (s, &k) in sum.iter_mut().zip(&self.bins) {
+                *s += b[k];
+            }
+        }
+        let n = self.periods.len() as f64;
+        sum.into_iter().map(|v| v / n).collect()
+    }
+
+    /// The residual in units of the noise, `(Ȳ − Ŷ)/σ`, of a replay's lines.
+    pub fn residual(&self, replayed: &[Complex64]) -> Vec<Complex64> {
+        self.measured
+            .iter()
+            .zip(replayed)
+            .zip(&self.sigma)
+            .map(|((m, r), s)| (m - r) / s)
+            .collect()
+    }
+
+    /// The RMS of the measured displacement over a period, from the lines
+    /// (Parseval; the response converted from its quantity at each line).
+    pub fn displacement_rms(&self, quantity: crate::harmonics::Quantity) -> f64 {
+        let sum: f64 = (0..self.bins.len())
+            .map(|i| {
+                let w = crate::harmonics::omega(self.frequency_hz(i));
+                (self.measured[i] / quantity.from_displacement(w)).norm_sqr()
+            })
+            .sum();
+        (2.0 * sum).sqrt() / self.period as f64
+    }
+}
+
+/// `χ²` of a class of lines, and its share of the whole.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClassResidual {
+    /// The class.
+    pub class: LineClass,
+    /// Lines of it judged.
+    pub lines: usize,
+    /// `χ²` per line (about 1 where only noise is left).
+    pub chi2_per_line: f64,
+    /// Its share of the residual's `χ²`.
+    pub share: f64,
+}
+
+/// `χ²` per line over a band of the excited range.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BandResidual {
+    /// From, Hz.
+    pub from_hz: f64,
+    /// To, Hz.
+    pub to_hz: f64,
+    /// Lines in it (all classes).
+    pub lines: usize,
+    /// `χ²` per line.
+    pub chi2_per_line: f64,
+}
+
+/// One of the lines the residual is largest at.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StrongLine {
+    /// The recording.
+    pub recording: String,
+    /// Its frequency, Hz.
+    pub frequency_hz: f64,
+    /// Its class.
+    pub class: LineClass,
+    /// `|r_k|`: the residual in units of the noise.
+    pub in_noise: f64,
+}
+
+/// A model's residual per line over every recording, in features.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LineResidual {
+    /// Lines judged over every recording.
+    pub lines: usize,
+    /// `χ²` per line over all (about 1 where only noise is left).
+    pub chi2_per_line: f64,
+    /// By class of line.
+    pub by_class: Vec<ClassResidual>,
+    /// By recording: its name and `χ²` per line.
+    pub by_recording: Vec<(String, f64)>,
+    /// By band, the judged range cut into [`BANDS`] of equal width.
+    pub by_band: Vec<BandResidual>,
+    /// The lines it is largest at, the largest first (at most
+    /// [`STRONGEST`]).
+    pub strongest: Vec<StrongLine>,
+}
+
+/// Bands the residual is split into.
+pub const BANDS: usize = 8;
+
+/// Strongest lines reported.
+pub const STRONGEST: usize = 6;
+
+/// The features of the residuals `r` (one per recording, as
+/// [`PeriodicSpectra::residual`] gives them).
+pub fn line_residual(spectra: &[PeriodicSpectra], r: &[Vec<Complex64>]) -> LineResidual {
+    let total: f64 = r.iter().flatten().map(|v| v.norm_sqr()).sum();
+    let lines: usize = r.iter().map(|v| v.len()).sum();
+    let by_class = [
+        LineClass::Excited,
+        LineClass::OddNotExcited,
+        LineClass::EvenNotExcited,
+    ]
+    .into_iter()
+    .filter_map(|class| {
+        let (n, sum) = spectra
+            .iter()
+            .zip(r)
+            .flat_map(|(s, r)| s.class.iter().zip(r))
+            .filter(|(c, _)| **c == class)
+            .fold((0usize, 0.0), |(n, sum), (_, v)| {
+                (n + 1, sum + v.norm_sqr())
+            });
+        (n > 0).then(|| ClassResidual {
+            class,
+            lines: n,
+            chi2_per_line: sum / n as f64,
+            share: sum / total.max(f64::MIN_POSITIVE),
+        })
+    })
+    .collect();
+    let by_recording = spectra
+        .iter()
+        .zip(r)
+        .map(|(s, r)| {
+            let sum: f64 = r.iter().map(|v| v.norm_sqr()).sum();
+            (s.name.clone(), sum / r.len().max(1) as f64)
+        })
+        .collect();
+    let top = spectra
+        .iter()
+        .map(|s| s.frequency_hz(s.bins.len() - 1))
+        .fold(0.0, f64::max);
+    let by_band = (0..BANDS)
+        .filter_map(|b| {
+            let (from, to) = (
+                top * b as f64 / BANDS as f64,
+                top * (b + 1) as f64 / BANDS as f64,
+            );
+            let (n, sum) = spectra
+                .iter()
+                .zip(r)
+                .flat_map(|(s, r)| (0..r.len()).map(move |i| (s.frequency_hz(i), r[i])))
+                .filter(|(f, _)| *f > from && *f <= to)
+                .fold((0usize, 0.0), |(n, sum), (_, v)| {
+                    (n + 1, sum + v.norm_sqr())
+                });
+            (n > 0).then(|| BandResidual {
+                from_hz: from,
+                to_hz: to,
+                lines: n,
+                chi2_per_line: sum / n as f64,
+            })
+        })
+        .collect();
+    let mut all: Vec<StrongLine> = spectra
+        .iter()
+        .zip(r)
+        .flat_map(|(s, r)| {
+            (0..r.len()).map(move |i| StrongLine {
+                recording: s.name.clone(),
+                frequency_hz: s.frequency_hz(i),
+                class: s.class[i],
+                in_noise: r[i].norm(),
+            })
+        })
+        .collect();
+    all.sort_by(|a, b| {
+        b.in_noise
+            .total_cmp(&a.in_noise)
+            .then(a.frequency_hz.total_cmp(&b.frequency_hz))
+    });
+    all.truncate(STRONGEST);
+    LineResidual {
+        lines,
+        chi2_per_line: total / lines.max(1) as f64,
+        by_class,
+        by_recording,
+        by_band,
+        strongest: all,
+    }
+}
+
+/// `δ` with its components along the orthonormal `basis` removed.
+fn orthogonal(delta: &[Vec<Complex64>], basis: &[Vec<Vec<Complex64>>]) -> Vec<Vec<Complex64>> {
+    let mut out = delta.to_vec();
+    for q in basis {
+        let (dot, _) = projection(&out, q);
+        for (o, q) in out.iter_mut().zip(q) {
+            for (a, b) in o.iter_mut().zip(q) {
+                *a -= b * dot;
+            }
+        }
+    }
+    out
+}
+
+/// `Re⟨r, δ⟩` and `‖δ‖²` over every recording's lines.
+fn projection(r: &[Vec<Complex64>], delta: &[Vec<Complex64>]) -> (f64, f64) {
+    let mut dot = 0.0;
+    let mut dd = 0.0;
+    for (r, d) in r.iter().zip(delta) {
+        for (a, b) in r.iter().zip(d) {
+            dot += a.re * b.re + a.im * b.im;
+            dd += b.norm_sqr();
+        }
+    }
+    (dot, dd)
+}
+
+/// `s_c` of the module docs: the share of the residual `r`'s `χ²` a step
+/// along the signature `delta` removes at best (0 where it points away).
+pub fn share_explained(r: &[Vec<Complex64>], delta: &[Vec<Complex64>]) -> f64 {
+    let (dot, dd) = projection(r, delta);
+    let rr: f64 = r.iter().flatten().map(|v| v.norm_sqr()).sum();
+    if dd <= 0.0 || rr <= 0.0 || !dot.is_finite() {
+        return 0.0;
+    }
+    dot.max(0.0).powi(2) / (rr * dd)
+}
+
+/// What a candidate's starts on the lines are made from: the model it is
+/// added to, its replayed lines and residual, and the replay of any other
+/// model on the same grid.
+pub(crate) struct LineContext<'a> {
+    model: &'a Model,
+    problem: &'a TimeProblem<'a>,
+    spectra: &'a [PeriodicSpectra],
+    /// The model's residual per recording, in units of the noise.
+    residual: Vec<Vec<Complex64>>,
+    /// An orthonormal basis of the lines' change with the model's own free
+    /// parameters (see [`LineContext::new`]).
+    basis: Vec<Vec<Vec<Complex64>>>,
+    /// Its `χ²`.
+    pub chi2: f64,
+    /// The largest displacement and velocity amplitudes of the responses.
+    amplitudes: (f64, f64),
+}
+
+/// A multisine's peak over its RMS taken for the amplitudes a candidate is
+/// probed at: a random-phase multisine's crest factor is about 3-4, and
+/// the probe only needs the order of magnitude (its Gauss–Newton step
+/// sizes the start).
+const CREST_FACTOR: f64 = 3.0;
+
+impl<'a> LineContext<'a> {
+    /// The context of `model` (replayed by `problem`, whose records are those
+    /// of `spectra`, in order).
+    pub fn new(
+        model: &'a Model,
+        problem: &'a TimeProblem<'a>,
+        spectra: &'a [PeriodicSpectra],
+        quantity: crate::harmonics::Quantity,
+    ) -> Result<LineContext<'a>> {
+        let lines = replay_lines(problem, spectra, model)?;
+        let residual: Vec<Vec<Complex64>> = spectra
+            .iter()
+            .zip(&lines)
+            .map(|(s, l)| s.residual(l))
+            .collect();
+        let chi2 = residual.iter().flatten().map(|v| v.norm_sqr()).sum();
+        // the velocity's amplitude at the response's centroid frequency
+        let (mut a, mut v) = (0.0f64, 0.0f64);
+        for s in spectra {
+            let x = CREST_FACTOR * s.displacement_rms(quantity);
+            let (num, den) = (0..s.bins.len())
+                .filter(|&i| s.class[i] == LineClass::Excited)
+                .fold((0.0, 0.0), |(n, d), i| {
+                    let m = (s.measured[i] / quantity.from_displacement(1.0)).norm();
+                    (n + m * s.frequency_hz(i), d + m)
+                });
+            let w = crate::harmonics::omega(if den > 0.0 { num / den } else { 1.0 });
+            a = a.max(x);
+            v = v.max(x * w);
+        }
+        // the lines' change with each of the model's own free parameters
+        // (a step of 1e-4 in its transformed coordinate), orthonormalised:
+        // a candidate is traced by what it adds beyond them, as its refit
+        // lets them readjust (a cubic stiffness is mostly more stiffness
+        // at the excited lines, which the fitted stiffness already gives)
+        let mut basis: Vec<Vec<Vec<Complex64>>> = Vec::new();
+        let params = problem.parameters();
+        if let Ok(theta) = params.theta_of(model) {
+            let scale = residual.iter().flatten().map(|v| v.norm_sqr()).sum::<f64>();
+            for j in 0..theta.len() {
+                let mut t = theta.clone();
+                t[j] += 1e-4;
+                let Ok((m, _)) = params.model_at(model, &t) else {
+                    continue;
+                };
+                let Ok(l) = replay_lines(problem, spectra, &m) else {
+                    continue;
+                };
+                let column: Vec<Vec<Complex64>> = spectra
+                    .iter()
+                    .zip(&l)
+                    .zip(&lines)
+                    .map(|((s, a), b)| {
+                        a.iter()
+                            .zip(b)
+                            .zip(&s.sigma)
+                            .map(|((a, b), s)| (a - b) / s)
+                            .collect()
+                    })
+                    .collect();
+                let q = orthogonal(&column, &basis);
+                let (_, qq) = projection(&q, &q);
+                // a direction the lines do not feel, or one the others span
+                if !(qq.is_finite() && qq > 1e-20 * scale.max(f64::MIN_POSITIVE)) {
+                    continue;
+                }
+                let norm = qq.sqrt();
+                basis.push(
+                    q.into_iter()
+                        .map(|v| v.into_iter().map(|x| x / norm).collect())
+                        .collect(),
+                );
+            }
+        }
+        Ok(LineContext {
+            model,
+            problem,
+            spectra,
+            basis,
+            residual,
+            chi2,
+            amplitudes: (a.max(f64::MIN_POSITIVE), v.max(f64::MIN_POSITIVE)),
+        })
+    }
+
+    /// The model the effect is added to.
+    pub fn model(&self) -> &Model {
+        self.model
+    }
+
+    /// The model's residual per recording, in units of the noise.
+    pub fn residual(&self) -> &[Vec<Complex64>] {
+        &self.residual
+    }
+
+    /// The structure's viscous damping and its stiffness with the joint's
+    /// stick stiffness (as the FRF diagnosis's context gives them).
+    pub fn damping_and_stiffness(&self) -> (f64, f64) {
+        let (_, c, k) = self.model.linear.as_mck().unwrap_or((1.0, 1.0, 1.0));
+        (c, k + self.model.stick_stiffness())
+    }
+
+    /// The largest displacement and velocity amplitudes (a crest factor of
+    /// 3 over the RMS the lines give).
+    pub fn amplitudes(&self) -> (f64, f64) {
+        self.amplitudes
+    }
+
+    /// The model with `element` added as an effect.
+    pub fn with_element(&self, element: ElementSpec) -> Model {
+        self.model.with_effect(element)
+    }
+
+    /// `model`'s signature: its replayed lines less the context model's, in
+    /// units of the noise, without what the context model's own free
+    /// parameters can give (the part a refit would absorb; `None`: the
+    /// simulator rejects it).
+    pub fn signature(&self, model: &Model) -> Option<Vec<Vec<Complex64>>> {
+        let lines = replay_lines(self.problem, self.spectra, model).ok()?;
+        let sig: Vec<Vec<Complex64>> = self
+            .spectra
+            .iter()
+            .zip(&lines)
+            .zip(&self.residual)
+            .map(|((s, l), r)| {
+                // (Ŷ_c − Ŷ)/σ = r − r_c
+                r.iter().zip(s.residual(l)).map(|(r, rc)| r - rc).collect()
+            })
+            .collect();
+        sig.iter()
+            .flatten()
+            .all(|v| v.re.is_finite() && v.im.is_finite())
+            .then(|| orthogonal(&sig, &self.basis))
+    }
+
+    /// `χ²` of `model` on the lines (`None`: the simulator rejects it).
+    pub fn chi2_of(&self, model: &Model) -> Option<f64> {
+        let lines = replay_lines(self.problem, self.spectra, model).ok()?;
+        let chi2: f64 = self
+            .spectra
+            .iter()
+            .zip(&lines)
+            .map(|(s, l)| s.residual(l).iter().map(|v| v.norm_sqr()).sum::<f64>())
+            .sum();
+        chi2.is_finite().then_some(chi2)
+    }
+
+    /// The model with an element of one size parameter added at the size
+    /// the Gauss–Newton step along a probe at `probe` gives (`signed`: of
+    /// either sign; else none where the step is negative, the residual
+    /// asking for less than nothing). Empty where the probe is rejected.
+    pub fn sized_starts(
+        &self,
+        with: &dyn Fn(f64) -> ElementSpec,
+        probe: f64,
+        signed: bool,
+    ) -> Vec<Model> {
+        let Some(delta) = self.signature(&self.with_element(with(probe))) else {
+            return Vec::new();
+        };
+        let (dot, dd) = projection(&self.residual, &delta);
+        if dd <= 0.0 || !dot.is_finite() || (!signed && dot <= 0.0) {
+            return Vec::new();
+        }
+        let size = probe * dot / dd;
+        let m = self.with_element(with(size));
+        if m.validate().is_err() {
+            return Vec::new();
+        }
+        vec![m]
+    }
+
+    /// Of `models`, the one with the lowest `χ²` on the lines, with it.
+    pub fn best_as_it_stands(&self, models: impl Iterator<Item = Model>) -> Option<(f64, Model)> {
+        models
+            .filter_map(|m| Some((self.chi2_of(&m)?, m)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+}
+
+/// `model`'s replayed lines on every recording of `problem` (those of
+/// `spectra`, in order).
+pub fn replay_lines(
+    problem: &TimeProblem<'_>,
+    spectra: &[PeriodicSpectra],
+    model: &Model,
+) -> Result<Vec<Vec<Complex64>>> {
+    let replays = problem.replays_of(model)?;
+    Ok(spectra
+        .iter()
+        .zip(&replays)
+        .map(|(s, r)| s.replayed(r))
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harmonics::Quantity;
+
+    /// A record of `periods` periods of a three-line multisine through a
+    /// linear filter `y = 2u` plus an odd distortion at line 9 (`u` excites
+    /// 3, 4 and 5 of 64) and a small deterministic "noise".
+    fn record(periods: usize) -> TimeRecord {
+        let n = 64;
+        let u: Vec<f64> = (0..n * periods)
+            .map(|i| {
+                let t = (i % n) as f64 / n as f64 * std::f64::consts::TAU;
+                (3.0 * t).cos() + (4.0 * t + 1.0).cos() + (5.0 * t + 2.0).cos()
+            })
+            .collect();
+        let y: Vec<f64> = u
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let t = (i % n) as f64 / n as f64 * std::f64::consts::TAU;
+                // noise that differs per period, of RMS ~1e-3
+                let e = 1e-3 * ((i as f64 * 12.9898).sin() * 43758.5453).fract();
+                2.0 * v + 0.1 * (9.0 * t).cos() + e
+            })
+            .collect();
+        TimeRecord {
+            name: "r".into(),
+            reference: u,
+            reference_quantity: Quantity::Force,
+            response: y,
+            sample_rate_hz: 64.0,
+            quantity: Quantity::Displacement,
+            window: n..n * periods,
+            segments: (1..periods).map(|p| p * n..(p + 1) * n).collect(),
+            band_hz: None,
+        }
+    }
+
+    #[test]
+    fn the_lines_are_classed_and_the_distortion_is_where_it_was_put() {
+        let r = record(5);
+        let s = PeriodicSpectra::of(&r).unwrap();
+        // judged to three times the highest excited line, 15
+        assert_eq!(s.bins, (1..=15).collect::<Vec<_>>());
+        let class = |k: usize| s.class[k - 1];
+        assert_eq!(class(3), LineClass::Excited);
+        assert_eq!(class(5), LineClass::Excited);
+        assert_eq!(class(9), LineClass::OddNotExcited);
+        assert_eq!(class(10), LineClass::EvenNotExcited);
+        // the mean spectrum: 2 U at the excited lines, N/2 · 0.1 at line 9
+        for k in [3, 4, 5] {
+            let i = k - 1;
+            assert!((s.measured[i] - 2.0 * s.reference[i]).norm() < 1e-2 * s.measured[i].norm());
+        }
+        assert!(
+            (s.measured[8].norm() - 3.2).abs() < 0.01,
+            "{}",
+            s.measured[8]
+        );
+        // a replay of the linear part alone leaves the distortion at line
+        // 9, odd and not excited, far above the noise
+        let replay: Vec<f64> = r.reference.iter().map(|v| 2.0 * v).collect();
+        let res = s.residual(&s.replayed(&replay));
+        let f = line_residual(std::slice::from_ref(&s), std::slice::from_ref(&res));
+        assert_eq!(f.strongest[0].class, LineClass::OddNotExcited);
+        assert!((f.strongest[0].frequency_hz - 9.0).abs() < 1e-12);
+        let odd = f
+            .by_class
+            .iter()
+            .find(|c| c.class == LineClass::OddNotExcited)
+            .unwrap();
+        assert!(odd.share > 0.99, "{odd:?}");
+        // a signature along the distortion explains all of it; one at an
+        // excited line none of it
+        let mut along = vec![Complex64::new(0.0, 0.0); res.len()];
+        along[8] = res[8] * 0.5;
+        assert!(
+            (share_explained(std::slice::from_ref(&res), std::slice::from_ref(&along)) - 1.0).abs()
+                < 0.01
+        );
+        let mut across = vec![Complex64::new(0.0, 0.0); res.len()];
+        across[3] = Complex64::new(1.0, 0.0);
+        assert!(share_explained(std::slice::from_ref(&res), &[across]) < 1e-3);
+    }
+
+    #[test]
+    fn one_steady_period_is_refused_by_name() {
+        let e = PeriodicSpectra::of(&record(2)).unwrap_err().to_string();
+        assert!(
+            e.contains("r: periods") && e.contains("at least two"),
+            "{e}"
+        );
+    }
+}
