@@ -352,6 +352,23 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
         "cubic: selected {selected:?}, traced first {first}, misfit {before:.2} -> {after:.2} %, k3 {:+.2} %",
         100.0 * (k3_fit / k3 - 1.0)
     );
+    let share = 100.0 * d["rounds"][0]["traced"][0]["share"].as_f64().unwrap();
+    let chi2 = |r: &Value| r["chi2_per_line"].as_f64().unwrap();
+    let (chi2_before, chi2_after) = (chi2(&d["rounds"][0]["residual"]), chi2(&d["residual"]));
+    let figures = [
+        share,
+        100.0 * (k3_fit / k3 - 1.0),
+        chi2_before,
+        chi2_after,
+        before,
+        after,
+    ];
+    let shown =
+        crate::common::readme_figures("An undeclared cubic stiffness at the multisine's lines:")
+            .expect("the README's line");
+    for (i, (value, shown)) in figures.into_iter().zip(shown).enumerate() {
+        crate::common::assert_readme_figure(&format!("multisine cubic, figure {i}"), value, shown);
+    }
     assert_eq!(selected, ["cubic_stiffness"]);
     assert_eq!(first, "cubic_stiffness");
     assert!(
@@ -360,8 +377,6 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
     );
     // the residual per line from several times the noise to the noise
     // (chi2 per line 1); the misfit to the responses' 2 % noise
-    let chi2 = |r: &Value| r["chi2_per_line"].as_f64().unwrap();
-    let (chi2_before, chi2_after) = (chi2(&d["rounds"][0]["residual"]), chi2(&d["residual"]));
     eprintln!("chi2 per line {chi2_before:.2} -> {chi2_after:.2}");
     assert!(
         chi2_before >= 4.0 && chi2_after <= 1.2,
