@@ -433,6 +433,8 @@ pub(crate) struct LineContext<'a> {
     pub chi2: f64,
     /// The largest displacement and velocity amplitudes of the responses.
     amplitudes: (f64, f64),
+    /// The responses' quantity.
+    quantity: crate::harmonics::Quantity,
 }
 
 /// A multisine's peak over its RMS taken for the amplitudes a candidate is
@@ -523,6 +525,7 @@ impl<'a> LineContext<'a> {
             residual,
             chi2,
             amplitudes: (a.max(f64::MIN_POSITIVE), v.max(f64::MIN_POSITIVE)),
+            quantity,
         })
     }
 
@@ -574,6 +577,48 @@ impl<'a> LineContext<'a> {
             .flatten()
             .all(|v| v.re.is_finite() && v.im.is_finite())
             .then(|| orthogonal(&sig, &self.basis))
+    }
+
+    /// The residual at the excited lines as a displacement receptance
+    /// (frequency, `(Ȳ − Ŷ)/U` in displacement per force, its standard
+    /// error), every recording's lines in order of frequency, with the
+    /// model's bending there: its receptance's sensitivities to a
+    /// single mode's stiffness, mass and damping (`−H²`, `ω²H²`, `−iωH²`,
+    /// `H = Ŷ/U`), as the FRF diagnosis's
+    /// [`super::features::common_receptance_background`] gives them.
+    #[allow(clippy::type_complexity)]
+    pub fn receptance_residual(&self) -> (Vec<(f64, Complex64, f64)>, Vec<Vec<Complex64>>) {
+        let mut points: Vec<(f64, Complex64, f64, Complex64)> = Vec::new();
+        for (s, r) in self.spectra.iter().zip(&self.residual) {
+            for i in 0..s.bins.len() {
+                let u = s.reference[i];
+                if s.class[i] != LineClass::Excited || u.norm() == 0.0 {
+                    continue;
+                }
+                let f = s.frequency_hz(i);
+                let conv = self.quantity.from_displacement(crate::harmonics::omega(f)) * u;
+                let diff = r[i] * s.sigma[i];
+                let replayed = s.measured[i] - diff;
+                points.push((f, diff / conv, s.sigma[i] / conv.norm(), replayed / conv));
+            }
+        }
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let background = (0..3)
+            .map(|j| {
+                points
+                    .iter()
+                    .map(|&(f, _, _, h)| {
+                        let w = crate::harmonics::omega(f);
+                        let h2 = h * h;
+                        [-h2, w * w * h2, -Complex64::i() * w * h2][j]
+                    })
+                    .collect()
+            })
+            .collect();
+        (
+            points.into_iter().map(|(f, d, e, _)| (f, d, e)).collect(),
+            background,
+        )
     }
 
     /// `χ²` of `model` on the lines (`None`: the simulator rejects it).

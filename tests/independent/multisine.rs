@@ -233,6 +233,40 @@ fn two_modes_and_a_joint_are_fitted_to_multisines() {
     for (what, e, tol) in errors {
         assert!(e.abs() <= tol, "{what}: {e:+.3} % (tolerance {tol} %)");
     }
+    // the one-mode fit diagnosed at the lines: the missing mode traced,
+    // added and placed (diagnose's default single mode)
+    let (d, text) = diagnose(&recordings, &dir.join("diagnosed"));
+    let q = |n: &str| {
+        d["refit"]["parameters"][n]["value"]
+            .as_f64()
+            .unwrap_or(f64::NAN)
+    };
+    let chi2 = |r: &Value| r["chi2_per_line"].as_f64().unwrap();
+    let diagnosed = [
+        100.0 * d["rounds"][0]["traced"][0]["share"].as_f64().unwrap(),
+        100.0 * (q("second_mode.frequency_hz") / 95.0 - 1.0),
+        100.0 * (q("second_mode.residue") * 3.0 - 1.0),
+        chi2(&d["rounds"][0]["residual"]),
+        chi2(&d["residual"]),
+        misfit(&d["baseline"]),
+        misfit(&d["refit"]),
+    ];
+    eprintln!("{text}\ndiagnosed: {diagnosed:?}");
+    let shown = crate::common::readme_figures("A missing mode at the multisine's lines:")
+        .expect("the README's line");
+    for (i, (value, shown)) in diagnosed.iter().zip(shown).enumerate() {
+        crate::common::assert_readme_figure(&format!("multisine mode, figure {i}"), *value, shown);
+    }
+    assert_eq!(d["selected"], json!(["second_mode"]), "{text}");
+    assert_eq!(
+        d["rounds"][0]["traced"][0]["effect"], "second_mode",
+        "{text}"
+    );
+    assert!(
+        diagnosed[1].abs() <= 0.1 && diagnosed[2].abs() <= 1.0,
+        "{diagnosed:?}"
+    );
+    assert!(diagnosed[6] <= 2.1, "{diagnosed:?}");
     // at the noise: its 2 % of the response's RMS, and 5 % more at most
     for (a, s) in after.iter().zip(&sdof) {
         assert!(*a <= 2.1, "two modes leave {a:.2} %");

@@ -4,6 +4,7 @@
 //! sees of it (a residual flexibility above, a residual mass below).
 
 use super::{Candidate, Context};
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect, features, fmt_value};
 use crate::error::Result;
 use crate::fit::params::{BandSide, ZETA_MAX, band_side};
@@ -40,49 +41,12 @@ impl Candidate for SecondMode {
         let model = cx.model();
         let d = features::common_receptance_residual(cx.data, cx.pred());
         let background = features::common_receptance_background(cx.data, cx.pred());
-        let existing: Vec<f64> = model.linear.modes.iter().map(|m| m.frequency_hz).collect();
         let with = |mode| {
             let mut m = model.clone();
             m.linear.modes.push(mode);
             m
         };
-        let mut modes = Vec::new();
-        modes.extend(crate::fit::linear::locate_mode_in(&d, &existing));
-        let fmin = d.iter().map(|p| p.0).fold(f64::MAX, f64::min);
-        let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
-        let (below, above) = ((0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax));
-        for (lo, hi) in [below, above] {
-            modes.extend(crate::fit::linear::locate_mode_between(
-                &d, &existing, lo, hi,
-            ));
-        }
-        // the same sides with the baseline's own bending projected out (see
-        // `locate_mode_against`), near and far apart: the best far mode can
-        // hide a near one, and a refit does not cross from one to the other
-        for (lo, hi) in [
-            (below.0, 0.3 * fmin),
-            (0.3 * fmin, below.1),
-            (above.0, 3.0 * fmax),
-            (3.0 * fmax, above.1),
-        ] {
-            modes.extend(crate::fit::linear::locate_mode_against(
-                &d,
-                &background,
-                &existing,
-                lo,
-                hi,
-            ));
-        }
-        // one refit per distinct start
-        let mut kept: Vec<crate::model::Mode> = Vec::new();
-        for m in modes {
-            if !kept.iter().any(|k| {
-                (k.frequency_hz / m.frequency_hz - 1.0).abs() < 0.05
-                    && (k.damping_ratio / m.damping_ratio - 1.0).abs() < 0.5
-            }) {
-                kept.push(m);
-            }
-        }
+        let kept = located_modes(model, &d, &background);
         let mut starts: Vec<Model> = kept.into_iter().map(with).collect();
         let linear = model.linear.modes.iter().filter(|m| !m.is_hysteretic());
         if cx.astray()
@@ -96,6 +60,22 @@ impl Candidate for SecondMode {
             starts.push(m);
         }
         Ok(starts)
+    }
+
+    /// The modes the excited lines' receptance residual shows (the same
+    /// searches as on the FRFs, the model's bending taken from its replayed
+    /// receptance); no identification afresh (none reads a multisine).
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        let model = cx.model();
+        let (d, background) = cx.receptance_residual();
+        located_modes(model, &d, &background)
+            .into_iter()
+            .map(|mode| {
+                let mut m = model.clone();
+                m.linear.modes.push(mode);
+                m
+            })
+            .collect()
     }
 
     fn size_parameters(&self) -> &'static [&'static str] {
@@ -242,6 +222,52 @@ impl Candidate for SecondMode {
             format!("the residual's shape over frequency matched a further linear mode{at}")
         }
     }
+}
+
+/// The modes the receptance residual `d` (frequency, residual, its standard
+/// error) shows away from `model`'s: the best anywhere, below and above the
+/// points' band, and on either side near and far with `background` (the
+/// model's own bending) projected out; one per distinct start.
+fn located_modes(
+    model: &Model,
+    d: &[(f64, num_complex::Complex64, f64)],
+    background: &[Vec<num_complex::Complex64>],
+) -> Vec<crate::model::Mode> {
+    let existing: Vec<f64> = model.linear.modes.iter().map(|m| m.frequency_hz).collect();
+    let mut modes = Vec::new();
+    modes.extend(crate::fit::linear::locate_mode_in(d, &existing));
+    let fmin = d.iter().map(|p| p.0).fold(f64::MAX, f64::min);
+    let fmax = d.iter().map(|p| p.0).fold(0.0, f64::max);
+    let (below, above) = ((0.05 * fmin, 0.9 * fmin), (1.1 * fmax, 20.0 * fmax));
+    for (lo, hi) in [below, above] {
+        modes.extend(crate::fit::linear::locate_mode_between(
+            d, &existing, lo, hi,
+        ));
+    }
+    // the same sides with the baseline's own bending projected out (see
+    // `locate_mode_against`), near and far apart: the best far mode can
+    // hide a near one, and a refit does not cross from one to the other
+    for (lo, hi) in [
+        (below.0, 0.3 * fmin),
+        (0.3 * fmin, below.1),
+        (above.0, 3.0 * fmax),
+        (3.0 * fmax, above.1),
+    ] {
+        modes.extend(crate::fit::linear::locate_mode_against(
+            d, background, &existing, lo, hi,
+        ));
+    }
+    // one refit per distinct start
+    let mut kept: Vec<crate::model::Mode> = Vec::new();
+    for m in modes {
+        if !kept.iter().any(|k| {
+            (k.frequency_hz / m.frequency_hz - 1.0).abs() < 0.05
+                && (k.damping_ratio / m.damping_ratio - 1.0).abs() < 0.5
+        }) {
+            kept.push(m);
+        }
+    }
+    kept
 }
 
 #[cfg(test)]
