@@ -41,6 +41,7 @@ __all__ = [
     "Model",
     "Simulation",
     "diagnose",
+    "diagnose_time",
     "extract",
     "fit_coil",
     "identify",
@@ -55,7 +56,7 @@ OUTPUTS = ("displacement", "velocity", "acceleration", "element_force")
 
 #: The calls that can take long (:func:`simulate`, :func:`virtual_test`,
 #: :func:`extract`, :func:`identify`, :func:`identify_time`,
-#: :func:`diagnose`, :func:`validate`) take ``progress``: a callable given
+#: :func:`diagnose`, :func:`diagnose_time`, :func:`validate`) take ``progress``: a callable given
 #: one dict per event, as the command's progress line draws them:
 #: ``{"stage": "dwell", "level_index", "frequency_hz"}`` from the test bench,
 #: ``{"stage": "fit", "evaluation", "cost"}`` from a fit,
@@ -449,6 +450,49 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, progress=None, **k
         None if fit is None else json.dumps(fit),
         None if candidates is None else list(candidates),
         progress,
+    )
+    return json.loads(text)
+
+
+def diagnose_time(
+    recordings,
+    *,
+    candidates=None,
+    time_proposals=0,
+    min_samples_per_period=40.0,
+    options=None,
+    progress=None,
+    replay="band_limited",
+    **kwargs,
+):
+    """Diagnoses multisine recordings on the lines of their period, as
+    ``hystid diagnose --domain time`` does on multisines: the joint of
+    ``element`` on their linear estimate fitted in the time domain, its
+    residual read at the lines (excited, odd and even not excited, in units
+    of the noise the periods' scatter gives), every candidate traced there,
+    the best refitted and added (the ``diagnosis.json`` dict, whose
+    ``model`` is the final model).
+
+    ``recordings``: as in :func:`identify_time`. ``candidates``: as in
+    :func:`diagnose`. ``time_proposals``: the traced candidates refitted per
+    round (0: 3). Fit options as in :func:`identify` (``element``,
+    ``modes``). ``progress``: see :data:`PROGRESS`.
+    """
+    if replay not in ("band_limited", "continuous", "ramp"):
+        raise ValueError(
+            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
+        )
+    if isinstance(recordings, dict):
+        recordings = [recordings]
+    parts = list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
+    text = _hystid.diagnose_time(
+        *[list(p) for p in parts],
+        _options(options, kwargs),
+        None if candidates is None else list(candidates),
+        int(time_proposals),
+        float(min_samples_per_period),
+        progress,
+        replay,
     )
     return json.loads(text)
 

@@ -1102,6 +1102,109 @@ fn identify_time<'py>(
     Ok(text)
 }
 
+/// A diagnosis of multisine recordings on the lines of their period
+/// (diagnosis.json, as `hystid diagnose --domain time` on multisines): the
+/// joint of `options`' element on their linear estimate fitted in time,
+/// then the loop closed on the residual per line. One entry per recording
+/// in each list.
+#[pyfunction]
+#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited")))]
+#[allow(clippy::too_many_arguments)]
+fn diagnose_time<'py>(
+    py: Python<'py>,
+    references: Vec<PyReadonlyArray1<'py, f64>>,
+    reference_quantities: Vec<String>,
+    responses: Vec<PyReadonlyArray1<'py, f64>>,
+    response_quantities: Vec<String>,
+    sample_rates: Vec<f64>,
+    excitations: Vec<String>,
+    names: Vec<String>,
+    options: String,
+    candidates: Option<Vec<String>>,
+    time_proposals: usize,
+    min_samples_per_period: f64,
+    progress: Option<Py<PyAny>>,
+    replay: String,
+) -> PyResult<String> {
+    let progress = Progress::new(progress);
+    let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
+    let n = references.len();
+    if [
+        reference_quantities.len(),
+        responses.len(),
+        response_quantities.len(),
+        sample_rates.len(),
+        excitations.len(),
+        names.len(),
+    ]
+    .iter()
+    .any(|&m| m != n)
+        || n == 0
+    {
+        return Err(fail(
+            "recordings: give at least one, each with its force and response",
+        ));
+    }
+    let loaded = (0..n)
+        .map(|i| {
+            loaded(
+                &references[i],
+                &reference_quantities[i],
+                &responses[i],
+                &response_quantities[i],
+                sample_rates[i],
+                &excitations[i],
+            )
+        })
+        .collect::<PyResult<Vec<Loaded>>>()?;
+    let fit_opts = fit_options(&options)?;
+    let mut d = DiagnoseOptions::default();
+    if let Some(c) = candidates {
+        d.candidates = Effect::parse_list(&c).map_err(|e| match e {
+            hystid::error::Error::InvalidPlan { message, .. } => {
+                fail(format!("candidates: {message}"))
+            }
+            e => fail(e.to_string()),
+        })?;
+    }
+    let d = DiagnoseOptions {
+        band_hz: fit_opts.band_hz,
+        fit: fit_opts.clone(),
+        time_proposals,
+        ..d
+    };
+    let time_options = TimeFitOptions {
+        min_samples_per_period,
+        input,
+        ..TimeFitOptions::default()
+    };
+    let outcome = progress.run(py, || {
+        let t0 = std::time::Instant::now();
+        let named: Vec<(&str, &Loaded)> = names.iter().map(String::as_str).zip(&loaded).collect();
+        let Some(p) =
+            hystid::analysis::periodic_start_of(&named, fit_opts.element, fit_opts.modes)?
+        else {
+            return Err(hystid::Error::input(
+                "recordings",
+                "not multisines (a force that repeats, with at least 3 lines excited): diagnose stepped or swept sines through their FRFs (diagnose)",
+            ));
+        };
+        let mut diagnosis = hystid::analysis::multisine::diagnose_multisine(
+            &p.start,
+            &p.records,
+            &time_options,
+            &d,
+            &progress,
+        )?;
+        diagnosis.start = p.note;
+        Ok((diagnosis, t0.elapsed().as_secs_f64()))
+    });
+    let (diagnosis, seconds) = outcome?;
+    to_json(&hystid::analysis::multisine::MultisineReport::new(
+        &diagnosis, names, seconds, None,
+    ))
+}
+
 #[pymodule]
 fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HystidError", m.py().get_type::<HystidError>())?;
@@ -1120,6 +1223,7 @@ fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(identify_time, m)?)?;
+    m.add_function(wrap_pyfunction!(diagnose_time, m)?)?;
     m.add_function(wrap_pyfunction!(fit_coil, m)?)?;
     Ok(())
 }

@@ -19,8 +19,10 @@
 //!    explains;
 //! 4. those that explain the most (at most `--time-proposals`, above
 //!    [`MIN_TRACED_SHARE`]) refitted in time with every parameter free; the
-//!    best that lowers the misfit by more than [`CONFIRMATION_RISE`] is
-//!    added and refitted in full, and the loop repeats on the new residual,
+//!    best that lowers the misfit by more than [`CONFIRMATION_RISE`] (against
+//!    the model as it stands refitted with the same budget: a fit stopped
+//!    short of its optimum gains from any further parameter) is added and
+//!    refitted in full, and the loop repeats on the new residual,
 //!    until no candidate earns its place, the residual is within twice the
 //!    noise, or [`crate::diagnose::DiagnoseOptions::max_effects`] are in.
 //!
@@ -62,6 +64,11 @@ pub struct LineRound {
     pub residual: LineResidual,
     /// Each candidate traced in it, the largest share first.
     pub traced: Vec<TracedCandidate>,
+    /// The model as it stands refitted with a proposal's budget, where that
+    /// lowered its misfit: what the proposals' gains are measured from
+    /// (else from the model's own misfit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub control_misfit: Option<f64>,
     /// The candidates refitted in time, and which was added.
     pub proposals: Vec<TimeProposal>,
 }
@@ -183,8 +190,22 @@ pub fn diagnose_multisine(
             let key = |t: &TracedCandidate| if t.share.is_nan() { -1.0 } else { t.share };
             key(b).total_cmp(&key(a)).then(a.effect.cmp(&b.effect))
         });
+        // the model as it stands refitted with a proposal's budget from
+        // where it is: a proposal must beat what that budget alone gains (a
+        // fit stopped short of its optimum lowers the misfit with any
+        // further parameter, or none)
+        let control = match fit(&current.model, &proposal_options) {
+            Ok(r) if misfit(&r.after) < misfit(&current.after) => Some(r),
+            Ok(_) => None,
+            Err(Error::Cancelled) => return Err(Error::Cancelled),
+            // no evidence either way: the proposals are judged against the
+            // model as it stands
+            Err(_) => None,
+        };
+        let with = control
+            .as_ref()
+            .map_or(misfit(&current.after), |r| misfit(&r.after));
         // the best-traced refitted briefly; the best that earns it added
-        let with = misfit(&current.after);
         let mut proposals: Vec<TimeProposal> = Vec::new();
         let mut best: Option<(usize, Model)> = None;
         let put: Vec<Effect> = traced
@@ -237,10 +258,19 @@ pub fn diagnose_multisine(
             },
             None => false,
         };
+        let control_misfit = control.as_ref().map(|r| misfit(&r.after));
+        if !added && let Some(r) = control {
+            // no effect earned its place: the model as it stands, further
+            // refitted, is the final one
+            let before = current.after.clone();
+            current = r;
+            current.before = before;
+        }
         rounds.push(LineRound {
             round: rounds.len() + 1,
             residual,
             traced,
+            control_misfit,
             proposals,
         });
         if !added {
@@ -295,10 +325,11 @@ fn explain(
     let named: Vec<String> = selected
         .iter()
         .map(|e| {
+            // its share in the round it was added in
             let share = rounds
                 .iter()
-                .flat_map(|r| &r.traced)
-                .find(|t| t.effect == *e)
+                .find(|r| r.proposals.iter().any(|p| p.kept && p.effect == *e))
+                .and_then(|r| r.traced.iter().find(|t| t.effect == *e))
                 .map_or(f64::NAN, |t| t.share);
             format!(
                 "{} (it explained {:.0} % of the residual per line)",
@@ -347,6 +378,30 @@ pub struct MultisineReport<'a> {
     pub diagnosis: &'a MultisineDiagnosis,
 }
 
+impl<'a> MultisineReport<'a> {
+    /// The report of `d`, diagnosed on `recordings` in `seconds`.
+    pub fn new(
+        d: &'a MultisineDiagnosis,
+        recordings: Vec<String>,
+        seconds: f64,
+        reference_channel: Option<&'a str>,
+    ) -> MultisineReport<'a> {
+        MultisineReport {
+            command: "diagnose",
+            version: super::VERSION,
+            domain: "time",
+            excitation: "multisine",
+            recordings,
+            seconds,
+            model: &d.refit.model,
+            response_sign: d.refit.response_sign,
+            reference_quantity: d.refit.reference_quantity,
+            reference_channel,
+            diagnosis: d,
+        }
+    }
+}
+
 /// Writes `diagnosis.json`, `diagnosis.md` and the residual per line before
 /// and after (`residual_lines.png`/`.svg`) into `dir`; returns the files.
 pub fn write_multisine_diagnosis(
@@ -357,21 +412,10 @@ pub fn write_multisine_diagnosis(
     reference_channel: Option<&str>,
 ) -> Result<Vec<PathBuf>> {
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
+    let names = records.iter().map(|r| r.name.clone()).collect();
     super::write_json(
         &files[0],
-        &MultisineReport {
-            command: "diagnose",
-            version: super::VERSION,
-            domain: "time",
-            excitation: "multisine",
-            recordings: records.iter().map(|r| r.name.clone()).collect(),
-            seconds,
-            model: &d.refit.model,
-            response_sign: d.refit.response_sign,
-            reference_quantity: d.refit.reference_quantity,
-            reference_channel,
-            diagnosis: d,
-        },
+        &MultisineReport::new(d, names, seconds, reference_channel),
     )?;
     crate::atomic::write_bytes(&files[1], markdown(d, seconds).as_bytes())?;
     files.extend(residual_figure(dir, d, records)?);

@@ -393,7 +393,7 @@ const MULTISINE_SEARCH: usize = 1 << 20;
 /// [`MULTISINE_SEARCH`] frames): a dwell search would cut it into
 /// meaningless "dwells". A stepped sine's reference repeats only within a
 /// dwell, at one line.
-fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
+pub(crate) fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
     if rec.meta.excitation.kind != ExcitationKind::Unknown || !rec.meta.excitation.steps.is_empty()
     {
         return Ok(());

@@ -338,7 +338,11 @@ pub fn validate_loaded(
             ),
         ));
     }
-    let reduction = if settings.frf && !settings.periodic {
+    // a multisine (excitation not stated, a reference that repeats) has no
+    // nonlinear FRFs to compare: its time error is the whole validation
+    let multisine = settings.reduction.excitation.is_none()
+        && super::recording::refuse_a_multisine(rec, loaded.response).is_err();
+    let reduction = if settings.frf && !settings.periodic && !multisine {
         Some(
             match excitation_of(&rec.meta, settings.reduction.excitation) {
                 Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),

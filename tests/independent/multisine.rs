@@ -420,6 +420,24 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
     for f in ["diagnosis.md", "residual_lines.png", "residual_lines.svg"] {
         assert!(dir.join("cubic").join(f).is_file(), "{f} not written");
     }
+    // `validate` reads the diagnosis's final model and takes a multisine
+    // as it is (no FRF comparison to fail on): the loud level at the noise,
+    // replayed at the fit's rate (at validate's default 20 samples per
+    // period of the stuck mode: 2.40 %)
+    let o = std::process::Command::new(hystid_bin())
+        .args(["validate", "-q", "--min-samples-per-period", "40", "--out"])
+        .arg(dir.join("validated"))
+        .arg(dir.join("cubic").join("diagnosis.json"))
+        .arg(&with[1])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("validated").join("validate.json")).unwrap(),
+    )
+    .unwrap();
+    let relative = 100.0 * v["recordings"][0]["whole"]["relative"].as_f64().unwrap();
+    assert!(relative <= 2.1, "validated at {relative:.2} %");
     let (d, text) = diagnose(&without, &dir.join("plain"));
     eprintln!("{text}");
     assert_eq!(d["selected"].as_array().unwrap().len(), 0, "{text}");
