@@ -772,6 +772,37 @@ fn unesp_single_sines_are_one_level() {
     );
 }
 
+/// Imports the Bouc-Wen benchmark's sets named in `which` (`est`: the
+/// estimation multisine, `sweep` and `multisine`: the test sets) into
+/// `dir` as NAME.wav / NAME.json.
+fn import_bouc_wen(data: &Path, dir: &Path, which: &[&str]) {
+    let mat = data.join("bouc-wen.mat");
+    for (name, u, y, excitation) in [
+        ("est", "u", "y", "unknown"),
+        ("sweep", "uval_sinesweep", "yval_sinesweep", "swept"),
+        ("multisine", "uval_multisine", "yval_multisine", "unknown"),
+    ] {
+        if !which.contains(&name) {
+            continue;
+        }
+        run_ok(&[
+            "import",
+            s(&mat),
+            "--out",
+            s(&dir.join(name)),
+            "-c",
+            &format!("force={u}:force"),
+            "-c",
+            &format!("y={y}:displacement"),
+            "--rate",
+            "750",
+            "--excitation",
+            excitation,
+            "-q",
+        ]);
+    }
+}
+
 /// The README's Bouc-Wen walkthrough through the binary: `identify --domain
 /// time --element bouc_wen --fix nu` on the estimation multisine with no
 /// start given (the multisine's period and linear estimate found by
@@ -790,28 +821,7 @@ fn bouc_wen_fitted_through_the_binary_validates_on_both_test_sets() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let mat = data.join("bouc-wen.mat");
-    for (name, u, y, excitation) in [
-        ("est", "u", "y", "unknown"),
-        ("sweep", "uval_sinesweep", "yval_sinesweep", "swept"),
-        ("multisine", "uval_multisine", "yval_multisine", "unknown"),
-    ] {
-        run_ok(&[
-            "import",
-            s(&mat),
-            "--out",
-            s(&dir.path().join(name)),
-            "-c",
-            &format!("force={u}:force"),
-            "-c",
-            &format!("y={y}:displacement"),
-            "--rate",
-            "750",
-            "--excitation",
-            excitation,
-            "-q",
-        ]);
-    }
+    import_bouc_wen(&data, dir.path(), &["est", "sweep", "multisine"]);
     let est = dir.path().join("est.json");
     let start = dir.path().join("start.toml");
     std::fs::write(
@@ -1691,27 +1701,7 @@ fn bouc_wen_benchmark_diagnosed_at_its_lines_finds_its_law() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let mat = data.join("bouc-wen.mat");
-    for (name, u, y, excitation) in [
-        ("est", "u", "y", "unknown"),
-        ("sweep", "uval_sinesweep", "yval_sinesweep", "swept"),
-    ] {
-        run_ok(&[
-            "import",
-            s(&mat),
-            "--out",
-            s(&dir.path().join(name)),
-            "-c",
-            &format!("force={u}:force"),
-            "-c",
-            &format!("y={y}:displacement"),
-            "--rate",
-            "750",
-            "--excitation",
-            excitation,
-            "-q",
-        ]);
-    }
+    import_bouc_wen(&data, dir.path(), &["est", "sweep"]);
     let out = dir.path().join("diag");
     let printed = run_ok(&[
         "diagnose",

@@ -368,6 +368,18 @@ def _time_record(r, i):
     )
 
 
+def _time_records(recordings, replay):
+    """The recordings of a time-domain call as the binding's seven lists,
+    `replay` checked."""
+    if replay not in ("band_limited", "continuous", "ramp"):
+        raise ValueError(
+            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
+        )
+    if isinstance(recordings, dict):
+        recordings = [recordings]
+    return list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
+
+
 def identify_time(
     recordings,
     *,
@@ -405,13 +417,7 @@ def identify_time(
     ``starts=N`` is ``--starts N`` (descend from N starts spread about the
     given one, keep the lowest misfit; ``time_domain.starts`` lists them).
     """
-    if replay not in ("band_limited", "continuous", "ramp"):
-        raise ValueError(
-            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
-        )
-    if isinstance(recordings, dict):
-        recordings = [recordings]
-    parts = list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
+    parts = _time_records(recordings, replay)
     model_start = None if start is None else _as_model(start)
     text = _hystid.identify_time(
         *[list(p) for p in parts],
@@ -478,13 +484,7 @@ def diagnose_time(
     round (0: 3). Fit options as in :func:`identify` (``element``,
     ``modes``). ``progress``: see :data:`PROGRESS`.
     """
-    if replay not in ("band_limited", "continuous", "ramp"):
-        raise ValueError(
-            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
-        )
-    if isinstance(recordings, dict):
-        recordings = [recordings]
-    parts = list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
+    parts = _time_records(recordings, replay)
     text = _hystid.diagnose_time(
         *[list(p) for p in parts],
         _options(options, kwargs),

@@ -949,6 +949,49 @@ fn fit_coil<'py>(
     to_json(&coil)
 }
 
+/// The recordings of a time-domain call, one per entry of each list (all
+/// of one length, `names` among them, at least one).
+#[allow(clippy::too_many_arguments)]
+fn loaded_all(
+    references: &[PyReadonlyArray1<'_, f64>],
+    reference_quantities: &[String],
+    responses: &[PyReadonlyArray1<'_, f64>],
+    response_quantities: &[String],
+    sample_rates: &[f64],
+    excitations: &[String],
+    names: usize,
+) -> PyResult<Vec<Loaded>> {
+    let n = references.len();
+    if [
+        reference_quantities.len(),
+        responses.len(),
+        response_quantities.len(),
+        sample_rates.len(),
+        excitations.len(),
+        names,
+    ]
+    .iter()
+    .any(|&m| m != n)
+        || n == 0
+    {
+        return Err(fail(
+            "recordings: give at least one, each with its force and response",
+        ));
+    }
+    (0..n)
+        .map(|i| {
+            loaded(
+                &references[i],
+                &reference_quantities[i],
+                &responses[i],
+                &response_quantities[i],
+                sample_rates[i],
+                &excitations[i],
+            )
+        })
+        .collect()
+}
+
 /// A time-domain fit (fit.json, as `hystid identify --domain time`): of
 /// an FRF fit's model (`fit`, fit.json, refined as the command refines it),
 /// of a model written down (`start`, as `--start`), or with neither of
@@ -981,35 +1024,15 @@ fn identify_time<'py>(
     }
     let progress = Progress::new(progress);
     let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
-    let n = references.len();
-    if [
-        reference_quantities.len(),
-        responses.len(),
-        response_quantities.len(),
-        sample_rates.len(),
-        excitations.len(),
+    let loaded = loaded_all(
+        &references,
+        &reference_quantities,
+        &responses,
+        &response_quantities,
+        &sample_rates,
+        &excitations,
         names.len(),
-    ]
-    .iter()
-    .any(|&m| m != n)
-        || n == 0
-    {
-        return Err(fail(
-            "recordings: give at least one, each with its force and response",
-        ));
-    }
-    let loaded = (0..n)
-        .map(|i| {
-            loaded(
-                &references[i],
-                &reference_quantities[i],
-                &responses[i],
-                &response_quantities[i],
-                sample_rates[i],
-                &excitations[i],
-            )
-        })
-        .collect::<PyResult<Vec<Loaded>>>()?;
+    )?;
     let fit_opts = fit_options(&options)?;
     let band = fit_opts.band_hz;
     let records = |window_s: Option<(f64, f64)>| {
@@ -1128,35 +1151,15 @@ fn diagnose_time<'py>(
 ) -> PyResult<String> {
     let progress = Progress::new(progress);
     let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
-    let n = references.len();
-    if [
-        reference_quantities.len(),
-        responses.len(),
-        response_quantities.len(),
-        sample_rates.len(),
-        excitations.len(),
+    let loaded = loaded_all(
+        &references,
+        &reference_quantities,
+        &responses,
+        &response_quantities,
+        &sample_rates,
+        &excitations,
         names.len(),
-    ]
-    .iter()
-    .any(|&m| m != n)
-        || n == 0
-    {
-        return Err(fail(
-            "recordings: give at least one, each with its force and response",
-        ));
-    }
-    let loaded = (0..n)
-        .map(|i| {
-            loaded(
-                &references[i],
-                &reference_quantities[i],
-                &responses[i],
-                &response_quantities[i],
-                sample_rates[i],
-                &excitations[i],
-            )
-        })
-        .collect::<PyResult<Vec<Loaded>>>()?;
+    )?;
     let fit_opts = fit_options(&options)?;
     let mut d = DiagnoseOptions::default();
     if let Some(c) = candidates {

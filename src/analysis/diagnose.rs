@@ -396,27 +396,8 @@ pub fn refine_in_time(
             }
         };
         let p = time_parameters(&start, options.refine_linear, band_hz);
-        match identify_time(&start, p, sign, records, &proposal_options, None) {
-            Ok(r) => {
-                let gain = with / misfit(&r.after).max(f64::MIN_POSITIVE) - 1.0;
-                if gain > CONFIRMATION_RISE
-                    && best.as_ref().is_none_or(|(i, _)| gain > proposals[*i].gain)
-                {
-                    best = Some((proposals.len(), r.model));
-                }
-                proposals.push(TimeProposal {
-                    effect,
-                    with: r.after,
-                    gain,
-                    kept: false,
-                    failed: None,
-                });
-            }
-            Err(e) => proposals.push(TimeProposal::failed(
-                effect,
-                format!("its time refit failed: {e}"),
-            )),
-        }
+        let refit = identify_time(&start, p, sign, records, &proposal_options, None);
+        judge_proposal(effect, refit, with, &mut proposals, &mut best)?;
     }
     if let Some((i, start)) = best {
         let effect = proposals[i].effect;
@@ -566,6 +547,42 @@ fn grafted(
         }
     }
     out
+}
+
+/// Adds `effect`'s time refit to `proposals`, its gain measured against the
+/// misfit `with`, and keeps in `best` the refitted model of the largest gain
+/// above [`CONFIRMATION_RISE`]; a refit that failed is reported as such,
+/// one cancelled stops the caller.
+pub(crate) fn judge_proposal(
+    effect: Effect,
+    refit: Result<TimeFitResult>,
+    with: f64,
+    proposals: &mut Vec<TimeProposal>,
+    best: &mut Option<(usize, crate::model::Model)>,
+) -> Result<()> {
+    match refit {
+        Ok(r) => {
+            let gain = with / misfit(&r.after).max(f64::MIN_POSITIVE) - 1.0;
+            if gain > CONFIRMATION_RISE
+                && best.as_ref().is_none_or(|(i, _)| gain > proposals[*i].gain)
+            {
+                *best = Some((proposals.len(), r.model));
+            }
+            proposals.push(TimeProposal {
+                effect,
+                with: r.after,
+                gain,
+                kept: false,
+                failed: None,
+            });
+        }
+        Err(crate::error::Error::Cancelled) => return Err(crate::error::Error::Cancelled),
+        Err(e) => proposals.push(TimeProposal::failed(
+            effect,
+            format!("its time refit failed: {e}"),
+        )),
+    }
+    Ok(())
 }
 
 impl TimeProposal {

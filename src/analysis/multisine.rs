@@ -30,7 +30,7 @@
 //! for each recording.
 
 use super::diagnose::{
-    CONFIRMATION_RISE, MIN_TRACED_SHARE, PROPOSAL_PATIENCE, TimeProposal, misfit,
+    CONFIRMATION_RISE, MIN_TRACED_SHARE, PROPOSAL_PATIENCE, TimeProposal, judge_proposal, misfit,
 };
 use crate::diagnose::lines::{
     LineContext, LineResidual, PeriodicSpectra, line_residual, share_explained,
@@ -217,28 +217,13 @@ pub fn diagnose_multisine(
         for effect in put {
             let start = &starts.iter().find(|(e, _)| *e == effect).expect("traced").1;
             tried.push(effect);
-            match fit(start, &proposal_options) {
-                Ok(r) => {
-                    let gain = with / misfit(&r.after).max(f64::MIN_POSITIVE) - 1.0;
-                    if gain > CONFIRMATION_RISE
-                        && best.as_ref().is_none_or(|(i, _)| gain > proposals[*i].gain)
-                    {
-                        best = Some((proposals.len(), r.model));
-                    }
-                    proposals.push(TimeProposal {
-                        effect,
-                        with: r.after,
-                        gain,
-                        kept: false,
-                        failed: None,
-                    });
-                }
-                Err(Error::Cancelled) => return Err(Error::Cancelled),
-                Err(e) => proposals.push(TimeProposal::failed(
-                    effect,
-                    format!("its time refit failed: {e}"),
-                )),
-            }
+            judge_proposal(
+                effect,
+                fit(start, &proposal_options),
+                with,
+                &mut proposals,
+                &mut best,
+            )?;
         }
         let added = match best {
             // the one added refitted with the full budget

@@ -76,6 +76,8 @@ const NOISE_NEIGHBOURS: usize = 8;
 pub struct PeriodicSpectra {
     /// The recording.
     pub name: String,
+    /// What its reference is (a force, or a shaker's voltage).
+    pub reference_quantity: crate::harmonics::Quantity,
     /// Samples per second.
     pub sample_rate_hz: f64,
     /// Samples per period.
@@ -169,6 +171,7 @@ impl PeriodicSpectra {
             .collect();
         Ok(PeriodicSpectra {
             name: record.name.clone(),
+            reference_quantity: record.reference_quantity,
             sample_rate_hz: record.sample_rate_hz,
             period,
             reference: bins.iter().map(|&k| u[k]).collect(),
@@ -532,6 +535,13 @@ impl<'a> LineContext<'a> {
     /// The model the effect is added to.
     pub fn model(&self) -> &Model {
         self.model
+    }
+
+    /// What the recordings' reference is (the first's: a fit's are alike).
+    pub fn reference_quantity(&self) -> crate::harmonics::Quantity {
+        self.spectra
+            .first()
+            .map_or(crate::harmonics::Quantity::Force, |s| s.reference_quantity)
     }
 
     /// The model's residual per recording, in units of the noise.

@@ -7,7 +7,7 @@
 //! two-mode linear estimate at the excited lines and recover the structure
 //! and the joint; the SDOF start (`--modes 1`) cannot.
 
-use super::kit::refsim::{Multisine, RefEffect, RefJoint, RefMode, RefSystem};
+use super::kit::refsim::{Multisine, RefCoil, RefEffect, RefJoint, RefMode, RefSystem};
 use super::kit::score::hystid_bin;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -82,6 +82,12 @@ fn write_described(
         .iter()
         .map(|x| x + noise.sample(&mut rng))
         .collect();
+    // through a coil the reference is the amplifier's voltage
+    let reference = if sys.coil.is_some() {
+        ("voltage", "V")
+    } else {
+        ("force", "N")
+    };
     let scale = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs())) * 1.01;
     let scales = [scale(&out.force), scale(&y)];
     std::fs::create_dir_all(dir).unwrap();
@@ -102,7 +108,7 @@ fn write_described(
         "format": "hystid.recording.v1",
         "sample_rate_hz": FS,
         "channels": [
-            {"name": "force", "quantity": "force", "unit": "N", "scale": scales[0]},
+            {"name": reference.0, "quantity": reference.0, "unit": reference.1, "scale": scales[0]},
             {"name": "response", "quantity": "displacement", "unit": "m", "scale": scales[1]},
         ],
         "excitation": {"kind": "unknown"},
@@ -441,4 +447,88 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
     let (d, text) = diagnose(&without, &dir.join("plain"));
     eprintln!("{text}");
     assert_eq!(d["selected"].as_array().unwrap().len(), 0, "{text}");
+}
+
+/// The one-mode system with its Jenkins joint driven through a shaker's
+/// coil nobody declared (2 ohm, a lag `ω L/R = 0.3` at the mode, back-EMF
+/// damping `Bl²/R` equal to the structure's own), the amplifier's voltage
+/// the reference: `diagnose --domain time` on the multisines finds the
+/// shaker at the lines and its coil's time constant `L/R`.
+#[test]
+fn a_shaker_nobody_declared_is_found_at_the_multisines_lines() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("independent-multisine-shaker");
+    let (mut sys, _) = one_mode_system(Vec::new());
+    let mode = RefMode::from_hz(30.0, 0.015, 2.0);
+    let c = 2.0 * mode.zeta * mode.omega * 2.0;
+    let r = 2.0;
+    let coil = RefCoil {
+        r,
+        l: 0.3 * r / mode.omega,
+        bl: (c * r).sqrt(),
+    };
+    sys.coil = Some(coil);
+    // voltages whose blocked forces `(Bl/R) e` are the force-driven levels,
+    // doubled for what the back-EMF takes at resonance
+    let volts = |rms: f64| 2.0 * rms * r / coil.bl;
+    let what = "one mode and a Jenkins joint driven through a coil";
+    let recordings = [
+        write_described(&dir, "quiet", &sys, &multisine(volts(5.0), 2), 31, what),
+        write_described(&dir, "loud", &sys, &multisine(volts(20.0), 1), 32, what),
+    ];
+    let (d, text) = diagnose(&recordings, &dir.join("diagnosed"));
+    eprintln!("{text}");
+    let te = d["refit"]["parameters"]["shaker.te"]["value"]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    let te_error = 100.0 * (te / (coil.l / coil.r) - 1.0);
+    // in the drive's unit the force is F R/Bl, so ce = Bl²/R becomes Bl,
+    // and the structure's damping c becomes c R/Bl (= Bl here): the two
+    // dampings trade on two multisine levels (their sum is resolved, each
+    // within its interval)
+    let p = &d["refit"]["parameters"];
+    let value = |n: &str| p[n]["value"].as_f64().unwrap_or(f64::NAN);
+    let ce = value("shaker.ce");
+    let ce_error = 100.0 * (ce / coil.bl - 1.0);
+    let sum_error = 100.0 * ((ce + value("damping")) / (2.0 * coil.bl) - 1.0);
+    let ci = |n: &str| {
+        let b = &p[n]["ci95"];
+        (b[0].as_f64().unwrap(), b[1].as_f64().unwrap())
+    };
+    let chi2 = |r: &Value| r["chi2_per_line"].as_f64().unwrap();
+    let (lo, hi) = ci("shaker.ce");
+    let figures = [
+        100.0 * d["rounds"][0]["traced"][0]["share"].as_f64().unwrap(),
+        te_error,
+        ce_error,
+        100.0 * (lo / coil.bl - 1.0),
+        100.0 * (hi / coil.bl - 1.0),
+        sum_error,
+        chi2(&d["rounds"][0]["residual"]),
+        chi2(&d["residual"]),
+        misfit(&d["baseline"]),
+        misfit(&d["refit"]),
+    ];
+    eprintln!("shaker: {figures:?}");
+    let shown = crate::common::readme_figures("A shaker nobody declared at the multisine's lines:")
+        .expect("the README's line");
+    for (i, (value, shown)) in figures.iter().zip(shown).enumerate() {
+        crate::common::assert_readme_figure(
+            &format!("multisine shaker, figure {i}"),
+            *value,
+            shown,
+        );
+    }
+    assert_eq!(d["selected"], json!(["shaker"]), "{text}");
+    assert_eq!(d["rounds"][0]["traced"][0]["effect"], "shaker", "{text}");
+    assert!(te_error.abs() <= 5.0, "te {te_error:+.2} %");
+    assert!(
+        lo <= coil.bl && coil.bl <= hi,
+        "ce {ce} [{lo}, {hi}], Bl {}",
+        coil.bl
+    );
+    assert!(
+        sum_error.abs() <= 2.0,
+        "the dampings' sum {sum_error:+.2} %"
+    );
+    assert!(figures[7] <= 1.2 && figures[9] <= 2.1, "{figures:?}");
 }

@@ -5,6 +5,7 @@
 //! the same at every level.
 
 use super::{Candidate, Context, best_as_it_stands};
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect};
 use crate::error::Result;
 use crate::harmonics::Quantity;
@@ -39,28 +40,22 @@ impl Candidate for Shaker {
         if cx.frf.reference != Quantity::Voltage {
             return Ok(Vec::new());
         }
-        let model = cx.model();
-        let Some(first) = model.linear.modes.iter().position(|m| !m.is_hysteretic()) else {
-            return Ok(Vec::new());
-        };
-        let mode = model.linear.modes[first];
-        let (w, c) = (mode.omega(), mode.modal_damping());
-        if !(w > 0.0 && c.is_finite() && c > 0.0) {
-            return Ok(Vec::new());
-        }
-        let mut base = model.clone();
-        base.linear.modes[first].damping_ratio *= 0.5;
-        let starts = LAGS.iter().map(|&wt| {
-            base.with_effect(ElementSpec::Shaker {
-                ce: 0.5 * c,
-                te: wt / w,
-                gain: 1.0,
-            })
-        });
-        Ok(best_as_it_stands(cx, starts)
+        Ok(best_as_it_stands(cx, lagged(cx.model()).into_iter())
             .map(|(_, m)| m)
             .into_iter()
             .collect())
+    }
+
+    /// The same coils, the one of lowest `χ²` on a multisine's lines, for a
+    /// voltage reference only.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        if cx.reference_quantity() != Quantity::Voltage {
+            return Vec::new();
+        }
+        cx.best_as_it_stands(lagged(cx.model()).into_iter())
+            .map(|(_, m)| m)
+            .into_iter()
+            .collect()
     }
 
     fn size_parameters(&self) -> &'static [&'static str] {
@@ -80,4 +75,28 @@ impl Candidate for Shaker {
              amplifier or the sensor lags alike)"
         )
     }
+}
+/// `model` with a shaker at each lag of [`LAGS`] at its first mode, the
+/// back-EMF taking half the mode's damping (empty where the model has no
+/// such mode).
+fn lagged(model: &Model) -> Vec<Model> {
+    let Some(first) = model.linear.modes.iter().position(|m| !m.is_hysteretic()) else {
+        return Vec::new();
+    };
+    let mode = model.linear.modes[first];
+    let (w, c) = (mode.omega(), mode.modal_damping());
+    if !(w > 0.0 && c.is_finite() && c > 0.0) {
+        return Vec::new();
+    }
+    let mut base = model.clone();
+    base.linear.modes[first].damping_ratio *= 0.5;
+    LAGS.iter()
+        .map(|&wt| {
+            base.with_effect(ElementSpec::Shaker {
+                ce: 0.5 * c,
+                te: wt / w,
+                gain: 1.0,
+            })
+        })
+        .collect()
 }
