@@ -537,6 +537,18 @@ impl<'a> LineContext<'a> {
         self.model
     }
 
+    /// Each recording's reference peak (its RMS over a period, from the
+    /// lines, times the multisine's crest factor).
+    pub fn reference_peaks(&self) -> Vec<f64> {
+        self.spectra
+            .iter()
+            .map(|s| {
+                let sum: f64 = s.reference.iter().map(|u| u.norm_sqr()).sum();
+                CREST_FACTOR * (2.0 * sum).sqrt() / s.period as f64
+            })
+            .collect()
+    }
+
     /// What the recordings' reference is (the first's: a fit's are alike).
     pub fn reference_quantity(&self) -> crate::harmonics::Quantity {
         self.spectra

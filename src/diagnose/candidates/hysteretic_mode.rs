@@ -14,6 +14,7 @@
 
 use super::second_mode::SecondMode;
 use super::{Candidate, Context, best_as_it_stands};
+use crate::diagnose::lines::LineContext;
 use crate::diagnose::{ResidualFeatures, SelectedEffect, fmt_value};
 use crate::error::Result;
 use crate::fit::{Estimate, FitData};
@@ -53,55 +54,41 @@ impl Candidate for HystereticMode {
     }
 
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>> {
-        let levels: Vec<f64> = cx
+        let levels = cx
             .data
             .series
             .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.force_amplitude))
-            .filter(|f| f.is_finite() && *f > 0.0)
-            .collect();
-        let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = levels.iter().copied().fold(0.0, f64::max);
-        if !(lo.is_finite() && hi > 0.0) {
+            .flat_map(|s| s.points.iter().map(|p| p.force_amplitude));
+        let Some(slips) = slips(levels) else {
             return Ok(Vec::new());
-        }
-        let top = SLIP_REACH * hi;
-        let slips: Vec<f64> = (0..SLIP_STEPS)
-            .map(|i| lo * (top / lo).powf(i as f64 / (SLIP_STEPS - 1) as f64))
-            .collect();
+        };
         let n = cx.model().linear.modes.len();
         let mut starts = Vec::new();
         for located in SecondMode.starts(cx)? {
-            // the further mode the linear candidate added (the last)
-            let Some(&mode) = located
-                .linear
-                .modes
-                .get(n)
-                .filter(|_| located.linear.modes.len() == n + 1)
-            else {
-                continue;
-            };
-            let shapes = [1.0, std::f64::consts::FRAC_1_SQRT_2]
-                .into_iter()
-                .flat_map(|bare| slips.iter().map(move |&fd| (bare, fd)))
-                .map(|(bare, fd)| {
-                    let mut m = located.clone();
-                    let mut hm = Mode {
-                        frequency_hz: mode.frequency_hz * bare,
-                        ..mode
-                    };
-                    // a joint as stiff as the bare mode: stuck, the mode rings
-                    // √2 above its bare frequency
-                    let kd = hm.modal_stiffness().abs();
-                    hm.joint = Some(ElementSpec::Jenkins { kd, fd });
-                    m.linear.modes[n] = hm;
-                    m
-                });
-            if let Some((_, m)) = best_as_it_stands(cx, shapes) {
+            if let Some((_, m)) = jointed(&located, n, &slips)
+                .and_then(|shapes| best_as_it_stands(cx, shapes.into_iter()))
+            {
                 starts.push(m);
             }
         }
         Ok(starts)
+    }
+
+    /// The same, on a multisine's lines: the modes the second mode finds
+    /// there, the slips spread over the recordings' force peaks.
+    fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {
+        let Some(slips) = slips(cx.reference_peaks().into_iter()) else {
+            return Vec::new();
+        };
+        let n = cx.model().linear.modes.len();
+        SecondMode
+            .line_starts(cx)
+            .iter()
+            .filter_map(|located| {
+                let shapes = jointed(located, n, &slips)?;
+                cx.best_as_it_stands(shapes.into_iter()).map(|(_, m)| m)
+            })
+            .collect()
     }
 
     /// Its modal constant (a mode above the band is fitted by its
@@ -172,4 +159,54 @@ impl Candidate for HystereticMode {
             f.growth_with_level
         )
     }
+}
+/// Slip forces from the lowest force level to [`SLIP_REACH`] times the
+/// highest, [`SLIP_STEPS`] of them evenly in the logarithm (`None` without
+/// a positive level).
+fn slips(levels: impl Iterator<Item = f64>) -> Option<Vec<f64>> {
+    let (lo, hi) = levels
+        .filter(|f| f.is_finite() && *f > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), f| {
+            (lo.min(f), hi.max(f))
+        });
+    if !(lo.is_finite() && hi > 0.0) {
+        return None;
+    }
+    let top = SLIP_REACH * hi;
+    Some(
+        (0..SLIP_STEPS)
+            .map(|i| lo * (top / lo).powf(i as f64 / (SLIP_STEPS - 1) as f64))
+            .collect(),
+    )
+}
+
+/// The further mode `located` added (its mode `n`, the last) given a
+/// Jenkins joint as stiff as its bare mode, at its frequency or `1/√2` of
+/// it (the located mode may be the stuck one) and each slip force of
+/// `slips` (`None`: `located` did not add one mode).
+fn jointed(located: &Model, n: usize, slips: &[f64]) -> Option<Vec<Model>> {
+    let mode = *located
+        .linear
+        .modes
+        .get(n)
+        .filter(|_| located.linear.modes.len() == n + 1)?;
+    Some(
+        [1.0, std::f64::consts::FRAC_1_SQRT_2]
+            .into_iter()
+            .flat_map(|bare| slips.iter().map(move |&fd| (bare, fd)))
+            .map(|(bare, fd)| {
+                let mut m = located.clone();
+                let mut hm = Mode {
+                    frequency_hz: mode.frequency_hz * bare,
+                    ..mode
+                };
+                // a joint as stiff as the bare mode: stuck, the mode rings
+                // √2 above its bare frequency
+                let kd = hm.modal_stiffness().abs();
+                hm.joint = Some(ElementSpec::Jenkins { kd, fd });
+                m.linear.modes[n] = hm;
+                m
+            })
+            .collect(),
+    )
 }
