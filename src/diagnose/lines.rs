@@ -612,14 +612,14 @@ impl<'a> LineContext<'a> {
     pub fn receptance_residual(&self) -> (Vec<(f64, Complex64, f64)>, Vec<Vec<Complex64>>) {
         let mut points: Vec<(f64, Complex64, f64, Complex64)> = Vec::new();
         for (s, r) in self.spectra.iter().zip(&self.residual) {
-            for i in 0..s.bins.len() {
+            for (i, r) in r.iter().enumerate() {
                 let u = s.reference[i];
                 if s.class[i] != LineClass::Excited || u.norm() == 0.0 {
                     continue;
                 }
                 let f = s.frequency_hz(i);
                 let conv = self.quantity.from_displacement(crate::harmonics::omega(f)) * u;
-                let diff = r[i] * s.sigma[i];
+                let diff = r * s.sigma[i];
                 let replayed = s.measured[i] - diff;
                 points.push((f, diff / conv, s.sigma[i] / conv.norm(), replayed / conv));
             }

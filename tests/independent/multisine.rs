@@ -265,8 +265,18 @@ fn two_modes_and_a_joint_are_fitted_to_multisines() {
             .unwrap_or(f64::NAN)
     };
     let chi2 = |r: &Value| r["chi2_per_line"].as_f64().unwrap();
+    let share = |effect: &str| {
+        d["rounds"][0]["traced"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|t| t["effect"] == effect)
+            .and_then(|t| t["share"].as_f64())
+            .map_or(f64::NAN, |s| 100.0 * s)
+    };
     let diagnosed = [
-        100.0 * d["rounds"][0]["traced"][0]["share"].as_f64().unwrap(),
+        share("second_mode"),
+        share("hysteretic_mode"),
         100.0 * (q("second_mode.frequency_hz") / 95.0 - 1.0),
         100.0 * (q("second_mode.residue") * 3.0 - 1.0),
         chi2(&d["rounds"][0]["residual"]),
@@ -280,16 +290,16 @@ fn two_modes_and_a_joint_are_fitted_to_multisines() {
     for (i, (value, shown)) in diagnosed.iter().zip(shown).enumerate() {
         crate::common::assert_readme_figure(&format!("multisine mode, figure {i}"), *value, shown);
     }
+    // the mode is put to the refits (a hysteretic mode's start, which can
+    // stick, explains more of the residual as it stands; refitted, the
+    // linear mode wins)
     assert_eq!(d["selected"], json!(["second_mode"]), "{text}");
-    assert_eq!(
-        d["rounds"][0]["traced"][0]["effect"], "second_mode",
-        "{text}"
-    );
+    assert!(diagnosed[0] > 1.0, "{diagnosed:?}");
     assert!(
-        diagnosed[1].abs() <= 0.1 && diagnosed[2].abs() <= 1.0,
+        diagnosed[2].abs() <= 0.1 && diagnosed[3].abs() <= 1.0,
         "{diagnosed:?}"
     );
-    assert!(diagnosed[6] <= 2.1, "{diagnosed:?}");
+    assert!(diagnosed[7] <= 2.1, "{diagnosed:?}");
     // at the noise: its 2 % of the response's RMS, and 5 % more at most
     for (a, s) in after.iter().zip(&sdof) {
         assert!(*a <= 2.1, "two modes leave {a:.2} %");
