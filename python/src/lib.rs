@@ -765,6 +765,21 @@ fn identify_declared<'py>(
     to_json(&report)
 }
 
+/// The diagnosis options with `candidates` (names as `--candidates` takes
+/// them) when given.
+fn diagnose_options(candidates: Option<Vec<String>>) -> PyResult<DiagnoseOptions> {
+    let mut d = DiagnoseOptions::default();
+    if let Some(c) = candidates {
+        d.candidates = Effect::parse_list(&c).map_err(|e| match e {
+            hystid::error::Error::InvalidPlan { message, .. } => {
+                fail(format!("candidates: {message}"))
+            }
+            e => fail(e.to_string()),
+        })?;
+    }
+    Ok(d)
+}
+
 /// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
 /// `options`, as `hystid diagnose` does): diagnosis.json.
 #[pyfunction]
@@ -779,15 +794,7 @@ fn diagnose<'py>(
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let fit_opts = fit_options(&options)?;
-    let mut d = DiagnoseOptions::default();
-    if let Some(c) = candidates {
-        d.candidates = Effect::parse_list(&c).map_err(|e| match e {
-            hystid::error::Error::InvalidPlan { message, .. } => {
-                fail(format!("candidates: {message}"))
-            }
-            e => fail(e.to_string()),
-        })?;
-    }
+    let d = diagnose_options(candidates)?;
     let fit = match fit {
         Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),
         None => None,
@@ -1161,15 +1168,7 @@ fn diagnose_time<'py>(
         names.len(),
     )?;
     let fit_opts = fit_options(&options)?;
-    let mut d = DiagnoseOptions::default();
-    if let Some(c) = candidates {
-        d.candidates = Effect::parse_list(&c).map_err(|e| match e {
-            hystid::error::Error::InvalidPlan { message, .. } => {
-                fail(format!("candidates: {message}"))
-            }
-            e => fail(e.to_string()),
-        })?;
-    }
+    let d = diagnose_options(candidates)?;
     let d = DiagnoseOptions {
         band_hz: fit_opts.band_hz,
         fit: fit_opts.clone(),

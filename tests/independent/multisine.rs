@@ -135,34 +135,41 @@ fn write_signals(
     js
 }
 
-/// `identify --domain time` with `modes` modes: the fit.json.
+/// `identify --domain time --element jenkins` with `modes` modes: the
+/// fit.json.
 fn identify(recordings: &[PathBuf], out: &Path, modes: &str) -> Value {
-    let mut args = vec!["identify".to_string()];
-    args.extend(recordings.iter().map(|p| p.display().to_string()));
-    args.extend(
-        [
-            "--out",
-            &out.display().to_string(),
-            "--domain",
-            "time",
-            "--element",
-            "jenkins",
-            "--modes",
-            modes,
-            "-q",
-        ]
-        .map(String::from),
-    );
+    run_time_command(
+        "identify",
+        recordings,
+        out,
+        &["--modes", modes, "-q"],
+        "fit.json",
+    )
+    .0
+}
+
+/// `hystid COMMAND RECORDINGS --out OUT --domain time --element jenkins
+/// EXTRA`: the JSON file `written` in OUT and what it printed.
+fn run_time_command(
+    command: &str,
+    recordings: &[PathBuf],
+    out: &Path,
+    extra: &[&str],
+    written: &str,
+) -> (Value, String) {
     let o = std::process::Command::new(hystid_bin())
-        .args(&args)
+        .arg(command)
+        .args(recordings)
+        .arg("--out")
+        .arg(out)
+        .args(["--domain", "time", "--element", "jenkins"])
+        .args(extra)
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
-    assert!(
-        o.status.success(),
-        "identify --modes {modes} failed: {text}"
-    );
-    serde_json::from_str(&std::fs::read_to_string(out.join("fit.json")).unwrap()).unwrap()
+    assert!(o.status.success(), "{command} {extra:?} failed: {text}");
+    let v = serde_json::from_str(&std::fs::read_to_string(out.join(written)).unwrap()).unwrap();
+    (v, text)
 }
 
 #[test]
@@ -340,28 +347,7 @@ fn one_mode_system(effects: Vec<RefEffect>) -> (RefSystem, Multisine) {
 /// `diagnose --domain time --element jenkins` on `recordings`: its
 /// diagnosis.json and what it printed.
 fn diagnose(recordings: &[PathBuf], out: &Path) -> (Value, String) {
-    let mut args = vec!["diagnose".to_string()];
-    args.extend(recordings.iter().map(|p| p.display().to_string()));
-    args.extend(
-        [
-            "--out",
-            &out.display().to_string(),
-            "--domain",
-            "time",
-            "--element",
-            "jenkins",
-        ]
-        .map(String::from),
-    );
-    let o = std::process::Command::new(hystid_bin())
-        .args(&args)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "diagnose failed: {text}");
-    let d = serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap())
-        .unwrap();
-    (d, text)
+    run_time_command("diagnose", recordings, out, &[], "diagnosis.json")
 }
 
 /// The per-period misfit (relative e_RMS, RMS over the periods and the
