@@ -466,7 +466,8 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
 /// coil nobody declared (2 ohm, a lag `ω L/R = 0.3` at the mode, back-EMF
 /// damping `Bl²/R` equal to the structure's own), the amplifier's voltage
 /// the reference: `diagnose --domain time` on the multisines finds the
-/// shaker at the lines and its coil's time constant `L/R`.
+/// shaker at the lines and its coil's time constant `L/R`, and gives the
+/// same diagnosis on one thread as on all.
 #[test]
 fn a_shaker_nobody_declared_is_found_at_the_multisines_lines() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("independent-multisine-shaker");
@@ -490,6 +491,20 @@ fn a_shaker_nobody_declared_is_found_at_the_multisines_lines() {
     ];
     let (d, text) = diagnose(&recordings, &dir.join("diagnosed"));
     eprintln!("{text}");
+    // the same on one thread, but for the wall time
+    let (one, _) = run_time_command(
+        "diagnose",
+        &recordings,
+        &dir.join("one-thread"),
+        &["--threads", "1", "-q"],
+        "diagnosis.json",
+    );
+    let without_time = |v: &Value| {
+        let mut v = v.clone();
+        v.as_object_mut().unwrap().remove("seconds");
+        v
+    };
+    assert_eq!(without_time(&one), without_time(&d), "one thread differs");
     let te = d["refit"]["parameters"]["shaker.te"]["value"]
         .as_f64()
         .unwrap_or(f64::NAN);
