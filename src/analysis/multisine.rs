@@ -388,13 +388,15 @@ impl<'a> MultisineReport<'a> {
 }
 
 /// Writes `diagnosis.json`, `diagnosis.md` and the residual per line before
-/// and after (`residual_lines.png`/`.svg`) into `dir`; returns the files.
+/// and after (`residual_lines.png`/`.svg`, the models replayed as the
+/// diagnosis replayed them, `options`) into `dir`; returns the files.
 pub fn write_multisine_diagnosis(
     dir: &Path,
     d: &MultisineDiagnosis,
     records: &[TimeRecord],
     seconds: f64,
     reference_channel: Option<&str>,
+    options: &TimeFitOptions,
 ) -> Result<Vec<PathBuf>> {
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
     let names = records.iter().map(|r| r.name.clone()).collect();
@@ -403,7 +405,7 @@ pub fn write_multisine_diagnosis(
         &MultisineReport::new(d, names, seconds, reference_channel),
     )?;
     crate::atomic::write_bytes(&files[1], markdown(d, seconds).as_bytes())?;
-    files.extend(residual_figure(dir, d, records)?);
+    files.extend(residual_figure(dir, d, records, options)?);
     Ok(files)
 }
 
@@ -413,6 +415,7 @@ fn residual_figure(
     dir: &Path,
     d: &MultisineDiagnosis,
     records: &[TimeRecord],
+    options: &TimeFitOptions,
 ) -> Result<Vec<PathBuf>> {
     let spectra = records
         .iter()
@@ -420,14 +423,7 @@ fn residual_figure(
         .collect::<Result<Vec<_>>>()?;
     let panel = |heading: String, model: &Model| -> Result<ResidualPanel> {
         let params = time_parameters(model, false, None);
-        let problem = TimeProblem::new(
-            model.clone(),
-            params,
-            records,
-            1.0,
-            TimeFitOptions::default(),
-            None,
-        )?;
+        let problem = TimeProblem::new(model.clone(), params, records, 1.0, options.clone(), None)?;
         let lines = crate::diagnose::lines::replay_lines(&problem, &spectra, model)?;
         Ok(ResidualPanel {
             heading,

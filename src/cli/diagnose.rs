@@ -225,14 +225,15 @@ fn diagnose_multisine_command(
     let _out = create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
     let pb = progress::spinner("diagnosing on the multisine's lines", quiet);
+    let time_options = hystid::fit::TimeFitOptions {
+        input: args.replay.into(),
+        min_samples_per_period: args.min_samples_per_period,
+        ..Default::default()
+    };
     let mut d = hystid::analysis::multisine::diagnose_multisine(
         &p.start,
         &p.records,
-        &hystid::fit::TimeFitOptions {
-            input: args.replay.into(),
-            min_samples_per_period: args.min_samples_per_period,
-            ..Default::default()
-        },
+        &time_options,
         options,
         &progress::Drawn(&pb),
     )?;
@@ -244,6 +245,7 @@ fn diagnose_multisine_command(
         &p.records,
         t0.elapsed().as_secs_f64(),
         args.reference.as_deref(),
+        &time_options,
     )?;
     if !quiet {
         say!("hystid diagnose: {}", d.explanation);
