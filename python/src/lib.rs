@@ -908,7 +908,7 @@ fn validate<'py>(
         &excitation,
     )?;
     let progress = Progress::new(progress);
-    let mut v = progress.run(py, || validate_loaded(&fit, &loaded, &settings, &progress))?;
+    let mut v = progress.run(py, || validate_loaded(&fit, &recording_name, &loaded, &settings, &progress))?;
     let simulated = std::mem::take(&mut v.simulated);
     let response = loaded.recording.meta.channels[loaded.response].name.clone();
     let report = ValidateReport {

@@ -209,6 +209,16 @@ def test_a_multisine_is_diagnosed_at_its_lines_as_the_command_does(tmp_path):
     assert "second_mode" in traced
     f = got["refit"]["parameters"]["second_mode.frequency_hz"]["value"]
     assert f == pytest.approx(95.0, rel=0.001)
+    # `validate` judges the final model at the lines of the period as the
+    # command does (three steady periods: the noise from their scatter)
+    run_cli("validate", "diag/diagnosis.json", "m.json", "--out", "val",
+            "--min-samples-per-period", "40", cwd=tmp_path)
+    cli = json.loads((tmp_path / "val" / "validate.json").read_text())["recordings"][0]
+    v = hystid.validate(got, samples[:, 0], samples[:, 1], fs,
+                        min_samples_per_period=40.0, recording="m.json")
+    assert v["recordings"][0]["lines"] == cli["lines"]
+    assert cli["lines"]["steady_periods"] == 3
+    assert cli["lines"]["chi2_per_line"] < 1.2
     with pytest.raises(hystid.HystidError, match="not multisines"):
         hystid.diagnose_time([{"force": np.sin(0.01 * np.arange(3000) ** 1.5),
                                "response": np.zeros(3000), "sample_rate_hz": 1000.0}])

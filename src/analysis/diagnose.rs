@@ -167,7 +167,9 @@ pub fn misfit(errors: &[RecordError]) -> f64 {
 /// refitted without it, see [`crate::diagnose::without_effect`]), the least
 /// needed first, and the rest are checked again. Where a plain replay
 /// without the effect already stays within the threshold, no refit is run
-/// (a refit could only lower the misfit). `patience` is the FRF refit's.
+/// (a refit could only lower the misfit). `patience` is the FRF refit's;
+/// `options.starts` the first refit's starts (every later one starts from
+/// a fitted model).
 #[allow(clippy::too_many_arguments)]
 pub fn refine_in_time(
     d: &mut Diagnosis,
@@ -190,6 +192,12 @@ pub fn refine_in_time(
         options,
         Some(observer),
     )?;
+    // the first refit descends from `options.starts` starts; every later
+    // one starts next to a fitted model, from one
+    let options = &TimeFitOptions {
+        starts: 1,
+        ..options.clone()
+    };
     let sign = d.response_sign;
     let replay = |model: &crate::model::Model| -> Result<Vec<RecordError>> {
         TimeProblem::new(

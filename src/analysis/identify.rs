@@ -439,6 +439,27 @@ pub fn periodic_start(
     periodic_start_of(&named, kind, modes)
 }
 
+/// `rec` judged over its steady periods of `period` samples: its whole
+/// periods after the first (the model's replay starts from rest), one
+/// segment each, as a multisine's time fit, its diagnosis and its
+/// validation judge it. `None` when it holds fewer than two.
+pub fn steady_periods(
+    name: &str,
+    rec: &crate::signals::Recording,
+    response: usize,
+    period: usize,
+) -> Result<Option<TimeRecord>> {
+    let periods = rec.frames() / period.max(1);
+    if period == 0 || periods < 2 {
+        return Ok(None);
+    }
+    let mut r =
+        TimeRecord::from_recording(name, rec, response, Some(period..periods * period), None)?;
+    r.segments = (1..periods).map(|k| k * period..(k + 1) * period).collect();
+    r.check()?;
+    Ok(Some(r))
+}
+
 /// [`periodic_start`] of recordings in memory, each with its name.
 pub fn periodic_start_of(
     recordings: &[(&str, &super::Loaded)],
@@ -467,6 +488,15 @@ pub fn periodic_start_of(
         if found.len() < MULTISINE_LINES {
             return Ok(None);
         }
+        let Some(r) = steady_periods(name, rec, l.response, period)? else {
+            return Err(Error::input(
+                format!("{name}: periods"),
+                format!(
+                    "one period of {period} samples: a time fit judges the periods after the \
+                     first (the replay starts from rest); record at least two"
+                ),
+            ));
+        };
         let q = rec.meta.channels[l.response].quantity;
         if quantity.is_some_and(|was| was != q) {
             return Err(Error::input(
@@ -476,15 +506,6 @@ pub fn periodic_start_of(
         }
         quantity = Some(q);
         let periods = rec.frames() / period;
-        let mut r = TimeRecord::from_recording(
-            name,
-            rec,
-            l.response,
-            Some(period..periods * period),
-            None,
-        )?;
-        r.segments = (1..periods).map(|k| k * period..(k + 1) * period).collect();
-        r.check()?;
         notes.push(format!(
             "{name}: {periods} periods of {period} samples, {} lines excited ({:.4}-{:.4} Hz)",
             found.len(),

@@ -97,7 +97,8 @@ pub struct MultisineDiagnosis {
 
 /// Diagnoses the time-domain fit of `start` to the multisine `records`
 /// (each judged over its steady periods, one segment per period; see the
-/// module docs), telling `observer` how it goes.
+/// module docs), telling `observer` how it goes. `options.starts`: the
+/// baseline's starts (every later fit starts from a fitted model).
 pub fn diagnose_multisine(
     start: &Model,
     records: &[TimeRecord],
@@ -118,7 +119,13 @@ pub fn diagnose_multisine(
         let p = time_parameters(m, o.refine_linear, band);
         identify_time(m, p, 1.0, records, o, Some(observer))
     };
+    // the baseline descends from `options.starts` starts; every later fit
+    // starts next to a fitted model, from one
     let baseline = fit(start, options)?;
+    let options = &TimeFitOptions {
+        starts: 1,
+        ..options.clone()
+    };
     let proposal_options = TimeFitOptions {
         patience: options.patience.min(PROPOSAL_PATIENCE),
         ..options.clone()

@@ -311,9 +311,10 @@ pub fn unique_stem(path: &Path, used: &mut Vec<String>) -> String {
 
 /// Validates `fit` on a loaded recording, its progress told to `observer`
 /// (which may stop it): [`validate_on`] without the
-/// figures.
+/// figures. `name` names the recording in a multisine's strongest lines.
 pub fn validate_loaded(
     fit: &FitModel,
+    name: &str,
     loaded: &Loaded,
     settings: &ValidationSettings,
     observer: &dyn crate::observe::Observer,
@@ -366,14 +367,42 @@ pub fn validate_loaded(
         periodic: settings.periodic,
         input: settings.input,
     };
-    validate_recording_observed(
+    let mut v = validate_recording_observed(
         &fit.model,
         fit.response_sign,
         rec,
         loaded.response,
         &opts,
         observer,
-    )
+    )?;
+    if multisine && !settings.periodic {
+        v.lines = lines_of(name, rec, loaded.response, &v.simulated)?;
+    }
+    Ok(v)
+}
+
+/// A multisine's residual at the lines of its period
+/// ([`crate::diagnose::lines::validate_at_lines`]); `None` where fewer than
+/// two steady periods give no noise to judge it by.
+fn lines_of(
+    name: &str,
+    rec: &crate::signals::Recording,
+    response: usize,
+    simulated: &[f64],
+) -> Result<Option<crate::diagnose::lines::LineValidation>> {
+    let Some(reference) = rec.reference_channel() else {
+        return Ok(None);
+    };
+    let Some(period) = crate::extract::find_period(&rec.channels[reference]) else {
+        return Ok(None);
+    };
+    let Some(record) = super::identify::steady_periods(name, rec, response, period)? else {
+        return Ok(None);
+    };
+    if record.segments.len() < 2 {
+        return Ok(None);
+    }
+    crate::diagnose::lines::validate_at_lines(&record, simulated).map(Some)
 }
 
 /// Validates `fit` on the recording loaded from `path` and writes its
@@ -391,7 +420,8 @@ pub fn validate_on(
     observer: &dyn crate::observe::Observer,
 ) -> Result<(RecordingValidation, Vec<PathBuf>)> {
     let rec = &loaded.recording;
-    let v = match validate_loaded(fit, loaded, settings, observer)
+    let shown = path.display().to_string();
+    let v = match validate_loaded(fit, &shown, loaded, settings, observer)
         .map_err(|e| Error::context(format!("validating on {}", path.display()), e))
     {
         Ok(v) => v,
@@ -496,6 +526,33 @@ pub fn validate_on(
                 &series,
             )?);
         }
+    }
+    if let Some(l) = &v.lines {
+        let (frequency_hz, residual) = l.per_line.iter().copied().unzip();
+        files.extend(plot::write_residual_plot(
+            &dir.join(format!("{stem}_lines")),
+            &format!(
+                "{name}: residual at the lines of the period ({} model), chi2 per line {:.3}",
+                fit.kind, l.residual.chi2_per_line
+            ),
+            "|Y - Y_model| / noise",
+            &[plot::ResidualPanel {
+                heading: format!(
+                    "{} steady periods of {} samples, the noise from their scatter",
+                    l.steady_periods, l.period_samples
+                ),
+                series: vec![plot::ResidualSeries {
+                    label: name.clone(),
+                    group: 0,
+                    frequency_hz,
+                    residual,
+                }],
+            }],
+            Some(&plot::NoiseLevel {
+                value: 2.0,
+                label: "2x the noise".into(),
+            }),
+        )?);
     }
     let entry = RecordingValidation {
         recording: path.display().to_string(),

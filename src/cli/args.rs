@@ -420,6 +420,12 @@ pub struct DiagnoseArgs {
     /// `identify --domain time` takes it).
     #[arg(long, default_value_t = 40.0)]
     pub min_samples_per_period: f64,
+    /// With `--domain time`: the first time-domain fit (a multisine's
+    /// baseline, or the refit of the FRF diagnosis's model) descends from N
+    /// starts, the given one and N-1 spread about it, as `identify --domain
+    /// time --starts` does; every later fit starts from a fitted model.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub starts: u32,
 }
 
 /// `hystid run`.

@@ -56,6 +56,11 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                 "--replay: only the time-domain refit replays the models; add --domain time"
             );
         }
+        if args.starts > 1 {
+            anyhow::bail!(
+                "--starts: the time-domain fit descends from several starts; add --domain time"
+            );
+        }
     }
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;
@@ -109,6 +114,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                         &hystid::fit::TimeFitOptions {
                             input: args.replay.into(),
                             min_samples_per_period: args.min_samples_per_period,
+                            starts: args.starts as usize,
                             ..Default::default()
                         },
                         options.band_hz,
@@ -228,6 +234,7 @@ fn diagnose_multisine_command(
     let time_options = hystid::fit::TimeFitOptions {
         input: args.replay.into(),
         min_samples_per_period: args.min_samples_per_period,
+        starts: args.starts as usize,
         ..Default::default()
     };
     let mut d = hystid::analysis::multisine::diagnose_multisine(

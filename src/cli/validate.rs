@@ -182,6 +182,30 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
         );
         print_by_frequency(w);
     }
+    if let Some(l) = &v.lines {
+        let r = &l.residual;
+        let classes: Vec<String> = r
+            .by_class
+            .iter()
+            .map(|c| format!("{} {:.2}", c.class.words(), c.chi2_per_line))
+            .collect();
+        say!(
+            "  at the lines of its period ({} steady periods, the noise from their scatter): chi2 per \
+             line {:.3} over {} lines ({}; about 1 where only noise is left)",
+            l.steady_periods,
+            r.chi2_per_line,
+            r.lines,
+            classes.join(", ")
+        );
+        if let Some(s) = r.strongest.first() {
+            say!(
+                "    largest at {:.4} Hz ({}), {:.1}x the noise",
+                s.frequency_hz,
+                s.class.words(),
+                s.in_noise
+            );
+        }
+    }
     if let Some(c) = &v.frf {
         for l in &c.levels {
             let peak = |p: &Option<hystid::validate::Peak>| {

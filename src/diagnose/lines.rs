@@ -688,6 +688,53 @@ impl<'a> LineContext<'a> {
     }
 }
 
+/// A model's response replayed on a held-out multisine, judged at the
+/// lines of its period against the noise the periods' scatter measures
+/// (`validate`'s figure for a multisine: about 1 per line where the model
+/// leaves only noise).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LineValidation {
+    /// Steady periods judged (the first, a transient, left out).
+    pub steady_periods: usize,
+    /// Samples per period.
+    pub period_samples: usize,
+    /// The residual's features.
+    #[serde(flatten)]
+    pub residual: LineResidual,
+    /// Each line's frequency (Hz) and `|r_k|` (the figure's).
+    #[serde(skip)]
+    pub per_line: Vec<(f64, f64)>,
+}
+
+/// `replay` (the model's response at every sample of `record`, driven from
+/// rest) judged at the lines of `record`'s steady periods. Errors as
+/// [`PeriodicSpectra::of`] (fewer than two steady periods).
+pub fn validate_at_lines(record: &TimeRecord, replay: &[f64]) -> Result<LineValidation> {
+    let spectra = PeriodicSpectra::of(record)?;
+    if replay.len() < record.response.len() {
+        return Err(Error::input(
+            format!("{}: replay", record.name),
+            format!(
+                "{} samples against the recording's {}",
+                replay.len(),
+                record.response.len()
+            ),
+        ));
+    }
+    let r = spectra.residual(&spectra.replayed(replay));
+    let per_line = r
+        .iter()
+        .enumerate()
+        .map(|(i, v)| (spectra.frequency_hz(i), v.norm()))
+        .collect();
+    Ok(LineValidation {
+        steady_periods: spectra.periods.len(),
+        period_samples: spectra.period,
+        residual: line_residual(std::slice::from_ref(&spectra), &[r]),
+        per_line,
+    })
+}
+
 /// `model`'s replayed lines on every recording of `problem` (those of
 /// `spectra`, in order).
 pub fn replay_lines(

@@ -675,6 +675,10 @@ pub struct Validation {
     /// The FRF comparison, if asked for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frf: Option<FrfComparison>,
+    /// On a multisine of at least two steady periods: the residual at the
+    /// lines of its period, in units of the noise (written, not read back).
+    #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
+    pub lines: Option<crate::diagnose::lines::LineValidation>,
     /// The simulated response, at the recording's samples.
     #[serde(skip)]
     pub simulated: Vec<f64>,
@@ -823,6 +827,7 @@ pub fn validate_recording_observed(
         whole,
         window,
         frf,
+        lines: None,
         simulated: sim.values,
     })
 }

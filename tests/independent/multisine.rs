@@ -312,6 +312,25 @@ fn two_modes_and_a_joint_are_fitted_to_multisines() {
         assert!(*a <= 2.1, "two modes leave {a:.2} %");
         assert!(*s >= 5.0 * a, "one mode leaves {s:.2} % against {a:.2} %");
     }
+    // `--starts 2`: the baseline descends from the given start and one
+    // spread about it, keeps the lower misfit (so none above the single
+    // start's), and the diagnosis ends where it did
+    let (d2, text) = run_time_command(
+        "diagnose",
+        &recordings,
+        &dir.join("diagnosed-two-starts"),
+        &["--starts", "2"],
+        "diagnosis.json",
+    );
+    let starts = d2["baseline"]["starts"].as_array().map_or(0, Vec::len);
+    assert_eq!(starts, 2, "{text}");
+    assert!(
+        misfit(&d2["baseline"]) <= misfit(&d["baseline"]) * (1.0 + 1e-9),
+        "two starts {:.3} %, one {:.3} %",
+        misfit(&d2["baseline"]),
+        misfit(&d["baseline"])
+    );
+    assert_eq!(d2["selected"], json!(["second_mode"]), "{text}");
 }
 
 /// One mode (30 Hz, 1.5 %, 2 kg) with a Jenkins joint as stiff as it,
@@ -457,6 +476,71 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
     .unwrap();
     let relative = 100.0 * v["recordings"][0]["whole"]["relative"].as_f64().unwrap();
     assert!(relative <= 2.1, "validated at {relative:.2} %");
+    // held out: a third multisine (other phases, 12 N RMS) judged at the
+    // lines of its period against the noise of its periods' scatter, the
+    // final model and the baseline (the diagnosis's joint alone, put in the
+    // final model's place)
+    let held_out = write_described(
+        &dir,
+        "cubic-held-out",
+        &cubic,
+        &multisine(12.0, 3),
+        25,
+        what,
+    );
+    let mut baseline = d.clone();
+    baseline["model"] = d["baseline"]["model"].clone();
+    let baseline_file = dir.join("baseline.json");
+    std::fs::write(&baseline_file, baseline.to_string()).unwrap();
+    let at_lines = |fit: &Path, out: &str| -> Value {
+        let o = std::process::Command::new(hystid_bin())
+            .args(["validate", "--min-samples-per-period", "40", "--out"])
+            .arg(dir.join(out))
+            .arg(fit)
+            .arg(&held_out)
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            said.contains("at the lines of its period (3 steady periods"),
+            "{said}"
+        );
+        assert!(dir.join(out).join("cubic-held-out_lines.png").is_file());
+        let v: Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(out).join("validate.json")).unwrap(),
+        )
+        .unwrap();
+        v["recordings"][0]["lines"].clone()
+    };
+    let (final_lines, baseline_lines) = (
+        at_lines(&dir.join("cubic").join("diagnosis.json"), "held-out"),
+        at_lines(&baseline_file, "held-out-baseline"),
+    );
+    let chi2_final = chi2(&final_lines);
+    let chi2_baseline = chi2(&baseline_lines);
+    let excited_share = |l: &Value| {
+        l["by_class"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["class"] == "excited")
+            .map_or(f64::NAN, |c| 100.0 * c["share"].as_f64().unwrap())
+    };
+    let shown = crate::common::readme_figures("Validated at the lines of a held-out multisine:")
+        .expect("the README's line");
+    let figures = [chi2_final, chi2_baseline, excited_share(&baseline_lines)];
+    for (i, (value, shown)) in figures.into_iter().zip(shown).enumerate() {
+        crate::common::assert_readme_figure(&format!("held-out lines, figure {i}"), value, shown);
+    }
+    // the final model leaves the noise (chi2 per line about 1: the noise
+    // estimate from three periods' scatter, smoothed over 17 lines, biases
+    // it up by a few %); the joint alone several times it
+    assert_eq!(final_lines["steady_periods"], 3);
+    assert!(
+        (0.8..=1.25).contains(&chi2_final) && chi2_baseline >= 4.0,
+        "final {chi2_final:.3}, baseline {chi2_baseline:.3}"
+    );
     let (d, text) = diagnose(&without, &dir.join("plain"));
     eprintln!("{text}");
     assert_eq!(d["selected"].as_array().unwrap().len(), 0, "{text}");
