@@ -4,6 +4,7 @@
 
 use super::identify::FitReport;
 use super::recording::{Excitation, Loaded, ReductionOptions, excitation_of, stepped_options};
+use crate::diagnose::lines::LineClass;
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use crate::model::{ModalModel, Model};
@@ -528,7 +529,36 @@ pub fn validate_on(
         }
     }
     if let Some(l) = &v.lines {
-        let (frequency_hz, residual) = l.per_line.iter().copied().unzip();
+        // one series per class of line, as a multisine user reads them
+        let series = [
+            LineClass::Excited,
+            LineClass::OddNotExcited,
+            LineClass::EvenNotExcited,
+        ]
+        .into_iter()
+        .enumerate()
+        .filter_map(|(g, class)| {
+            // joined along neighbouring lines only: a gap (NaN) where the
+            // class skips lines
+            let (mut frequency_hz, mut residual) = (Vec::new(), Vec::new());
+            let mut last = None;
+            for (i, p) in l.per_line.iter().enumerate().filter(|(_, p)| p.2 == class) {
+                if last.is_some_and(|j| j + 1 != i) {
+                    frequency_hz.push(p.0);
+                    residual.push(f64::NAN);
+                }
+                frequency_hz.push(p.0);
+                residual.push(p.1);
+                last = Some(i);
+            }
+            (!frequency_hz.is_empty()).then(|| plot::ResidualSeries {
+                label: format!("{} lines", class.words()),
+                group: g,
+                frequency_hz,
+                residual,
+            })
+        })
+        .collect();
         files.extend(plot::write_residual_plot(
             &dir.join(format!("{stem}_lines")),
             &format!(
@@ -541,12 +571,7 @@ pub fn validate_on(
                     "{} steady periods of {} samples, the noise from their scatter",
                     l.steady_periods, l.period_samples
                 ),
-                series: vec![plot::ResidualSeries {
-                    label: name.clone(),
-                    group: 0,
-                    frequency_hz,
-                    residual,
-                }],
+                series,
             }],
             Some(&plot::NoiseLevel {
                 value: 2.0,

@@ -701,9 +701,9 @@ pub struct LineValidation {
     /// The residual's features.
     #[serde(flatten)]
     pub residual: LineResidual,
-    /// Each line's frequency (Hz) and `|r_k|` (the figure's).
+    /// Each line's frequency (Hz), `|r_k|` and class (the figure's).
     #[serde(skip)]
-    pub per_line: Vec<(f64, f64)>,
+    pub per_line: Vec<(f64, f64, LineClass)>,
 }
 
 /// `replay` (the model's response at every sample of `record`, driven from
@@ -725,7 +725,7 @@ pub fn validate_at_lines(record: &TimeRecord, replay: &[f64]) -> Result<LineVali
     let per_line = r
         .iter()
         .enumerate()
-        .map(|(i, v)| (spectra.frequency_hz(i), v.norm()))
+        .map(|(i, v)| (spectra.frequency_hz(i), v.norm(), spectra.class[i]))
         .collect();
     Ok(LineValidation {
         steady_periods: spectra.periods.len(),
