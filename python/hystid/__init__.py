@@ -469,6 +469,7 @@ def diagnose_time(
     options=None,
     progress=None,
     replay="band_limited",
+    starts=1,
     **kwargs,
 ):
     """Diagnoses multisine recordings on the lines of their period, as
@@ -481,8 +482,10 @@ def diagnose_time(
 
     ``recordings``: as in :func:`identify_time`. ``candidates``: as in
     :func:`diagnose`. ``time_proposals``: the traced candidates refitted per
-    round (0: 3). Fit options as in :func:`identify` (``element``,
-    ``modes``). ``progress``: see :data:`PROGRESS`.
+    round (0: 3). ``starts``: the baseline's starts (``--starts``: the given
+    one and ``starts - 1`` spread about it). Fit options as in
+    :func:`identify` (``element``, ``modes``). ``progress``: see
+    :data:`PROGRESS`.
     """
     parts = _time_records(recordings, replay)
     text = _hystid.diagnose_time(
@@ -493,6 +496,7 @@ def diagnose_time(
         float(min_samples_per_period),
         progress,
         replay,
+        int(starts),
     )
     return json.loads(text)
 

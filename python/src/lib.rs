@@ -1138,7 +1138,7 @@ fn identify_time<'py>(
 /// then the loop closed on the residual per line. One entry per recording
 /// in each list.
 #[pyfunction]
-#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited")))]
+#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose_time<'py>(
     py: Python<'py>,
@@ -1155,9 +1155,15 @@ fn diagnose_time<'py>(
     min_samples_per_period: f64,
     progress: Option<Py<PyAny>>,
     replay: String,
+    starts: usize,
 ) -> PyResult<String> {
     let progress = Progress::new(progress);
     let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
+    if !(1..=64).contains(&starts) {
+        return Err(PyValueError::new_err(format!(
+            "starts: expected 1 to 64, got {starts}"
+        )));
+    }
     let loaded = loaded_all(
         &references,
         &reference_quantities,
@@ -1178,6 +1184,7 @@ fn diagnose_time<'py>(
     let time_options = TimeFitOptions {
         min_samples_per_period,
         input,
+        starts,
         ..TimeFitOptions::default()
     };
     let outcome = progress.run(py, || {
