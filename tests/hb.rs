@@ -588,6 +588,66 @@ fn a_point_by_point_walk_is_predicted_and_keeps_its_branch() {
     }
 }
 
+/// The same walk with each guess the neighbour's solution found another
+/// way (a sweep of the same curve, as the speed bench and a caller holding
+/// an earlier curve pass it): equal to the solver's own last solution to
+/// the tolerance, not to the bit, it is predicted as the solver's own walk
+/// is (before, bit-equality was asked and every such point started from the
+/// guess itself).
+#[test]
+fn a_walk_from_neighbours_solved_elsewhere_is_predicted_too() {
+    let linear = paper_linear();
+    let opts = HbOptions {
+        harmonics: (0..=7).collect(),
+        samples_per_period: 512,
+        ..HbOptions::default()
+    };
+    let freqs = grid(150.0, 350.0, 121);
+    let mut j = Jenkins::new(KD, FD).unwrap();
+    let swept = hb::sweep(&linear, &mut j, &freqs, 1000.0, &opts).unwrap();
+    let mut walk = |from_sweep: bool, fresh: bool| {
+        let mut solver = HbSolver::new(&opts).unwrap();
+        let (mut last, mut points, mut evaluations) = (None::<Vec<Complex64>>, vec![], 0);
+        for (i, &f) in freqs.iter().enumerate() {
+            if fresh {
+                evaluations += solver.evaluations();
+                solver = HbSolver::new(&opts).unwrap();
+            }
+            let guess = if from_sweep && i > 0 {
+                Some(swept.points[i - 1].x.clone())
+            } else {
+                last.clone()
+            };
+            let p = solver
+                .solve_point(&linear, &mut j, f, 1000.0, guess.as_deref())
+                .unwrap();
+            assert!(p.converged, "{f} Hz: {:?}", p.failure);
+            last = Some(p.x.clone());
+            points.push(p);
+        }
+        (points, evaluations + solver.evaluations())
+    };
+    let (own, e_own) = walk(false, false);
+    let (elsewhere, e_elsewhere) = walk(true, false);
+    let (_, e_plain) = walk(true, true);
+    let worst = own
+        .iter()
+        .zip(&elsewhere)
+        .map(|(p, q)| rel(p.frf(1).unwrap(), q.frf(1).unwrap()))
+        .fold(0.0, f64::max);
+    eprintln!(
+        "own walk {e_own} evaluations, from the sweep's solutions {e_elsewhere}, each from its \
+         guess alone {e_plain}; H1 within {worst:.1e}"
+    );
+    assert!(worst < 1e-6, "H1 differs by {worst:.1e}");
+    // predicted as the own walk (a point's guess differs from the held
+    // solution by the tolerance, so its path may differ by an evaluation)
+    assert!(
+        (e_elsewhere as f64) <= 1.05 * e_own as f64 && (e_elsewhere as f64) < 0.75 * e_plain as f64,
+        "{e_elsewhere} evaluations against {e_own} (own walk) and {e_plain} (unpredicted)"
+    );
+}
+
 #[test]
 fn options_read_from_toml_with_defaults_and_reject_unknown_keys() {
     let o: HbOptions =
