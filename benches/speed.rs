@@ -241,21 +241,23 @@ fn harmonic_balance(c: &mut Criterion<ThreadCpu>) {
         } else {
             model.element_set().unwrap()
         };
-        let mut solver = HbSolver::new(&opts).unwrap();
-        // the work per point, free of the machine's load: AFT evaluations
-        for (l, &level) in levels.iter().enumerate() {
-            for i in 1..freqs.len() {
-                solver
-                    .solve_point(
-                        &model.linear,
-                        &mut elements,
-                        freqs[i],
-                        level,
-                        Some(&x[l][i - 1]),
-                    )
-                    .unwrap();
+        // every point of the grid but each level's first, from its
+        // neighbour's solution; how many did not converge
+        let walk = |solver: &mut HbSolver, elements: &mut ElementSet<AnyElement>| {
+            let mut unconverged = 0;
+            for (l, &level) in levels.iter().enumerate() {
+                for i in 1..freqs.len() {
+                    let p = solver
+                        .solve_point(&model.linear, elements, freqs[i], level, Some(&x[l][i - 1]))
+                        .unwrap();
+                    unconverged += !p.converged as usize;
+                }
             }
-        }
+            unconverged
+        };
+        // the work per point, free of the machine's load: AFT evaluations
+        let mut solver = HbSolver::new(&opts).unwrap();
+        walk(&mut solver, &mut elements);
         eprintln!(
             "hb/point_warm/{name}/{n}: {:.2} AFT evaluations per point",
             solver.evaluations() as f64 / points as f64
@@ -263,22 +265,7 @@ fn harmonic_balance(c: &mut Criterion<ThreadCpu>) {
         let mut solver = HbSolver::new(&opts).unwrap();
         let mut unconverged = 0;
         g.bench_function(BenchmarkId::new(format!("point_warm/{name}"), n), |b| {
-            b.iter(|| {
-                for (l, &level) in levels.iter().enumerate() {
-                    for i in 1..freqs.len() {
-                        let p = solver
-                            .solve_point(
-                                &model.linear,
-                                &mut elements,
-                                freqs[i],
-                                level,
-                                Some(&x[l][i - 1]),
-                            )
-                            .unwrap();
-                        unconverged += !p.converged as usize;
-                    }
-                }
-            })
+            b.iter(|| unconverged += walk(&mut solver, &mut elements))
         });
         assert_eq!(unconverged, 0, "warm-started points converge");
         if formula {
