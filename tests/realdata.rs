@@ -260,6 +260,55 @@ fn validation_upsamples_a_coarse_recording() {
     assert!(errors[2].1 < 1e-3, "{:?}", errors[2]);
 }
 
+/// A model whose further mode lies far above what the recording shows (a
+/// broad background a time fit drove to 8 kHz beside a 90 Hz mode, at 1024
+/// samples per second) is replayed on the finest grid there is, as the fit
+/// replays it, not refused: its steady response to a 90 Hz sine is the
+/// closed-form receptance's, the background's flexibility included.
+#[test]
+fn a_mode_far_above_the_recording_is_replayed_on_the_finest_grid() {
+    let model = Model::new(
+        ModalModel::new(vec![
+            hystid::model::Mode::from_modal_mass(90.0, 0.01, 1.0).unwrap(),
+            hystid::model::Mode::from_modal_mass(8000.0, 0.9, 1e-4).unwrap(),
+        ])
+        .unwrap(),
+        Vec::new(),
+    )
+    .unwrap();
+    let (fs, f, n) = (1024.0, 92.0, 8192);
+    let force: Vec<f64> = (0..n)
+        .map(|i| (2.0 * PI * f * i as f64 / fs).sin())
+        .collect();
+    assert_eq!(
+        hystid::validate::upsampling_factor(&model, fs, 20.0).unwrap(),
+        64,
+        "capped at the finest grid (the 8 kHz mode would ask for 157)"
+    );
+    let x = simulate_response(&model, &force, fs, Quantity::Displacement, 1.0, 20.0)
+        .unwrap()
+        .values;
+    // the amplitude over the last second, long after the 90 Hz mode's
+    // transient (time constant 0.18 s) has died
+    let tail = &x[n - 1024..];
+    let amplitude = (2.0 * tail.iter().map(|v| v * v).sum::<f64>() / tail.len() as f64).sqrt();
+    let h = model.linear.receptance(omega(f)).norm();
+    let background = model.linear.modes[1].residue / omega(8000.0).powi(2);
+    eprintln!(
+        "amplitude {amplitude:.6e}, |H| {h:.6e} (the background's static flexibility {:.2} % of it)",
+        100.0 * background / h
+    );
+    assert!(
+        background / h > 0.03,
+        "the background must matter to the check"
+    );
+    // the band-limited replay of a sine 11 samples per period: within 0.3 %
+    assert!(
+        (amplitude / h - 1.0).abs() < 3e-3,
+        "{amplitude} against {h}"
+    );
+}
+
 /// The simulation refuses what it cannot do, naming the problem.
 #[test]
 fn validation_errors_are_clear() {

@@ -156,7 +156,17 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
         "{}: `{response}` simulated at {} Hz{}: e_RMS {:.4e} {unit} ({:.1} % of the measured RMS {:.4e} {unit})",
         path.display(),
         v.sample_rate_hz * v.upsampling as f64,
-        if v.upsampling > 1 {
+        if v.upsampling >= hystid::validate::resample::MAX_FACTOR {
+            // capped: the model's top mode lies far above what was recorded
+            format!(
+                " (upsampled x{}, the most: {:.1} samples per period of its highest linearised \
+                 frequency {:.4} Hz, which the recording does not show; its flexibility in the \
+                 band is kept)",
+                v.upsampling,
+                v.sample_rate_hz * v.upsampling as f64 / v.highest_frequency_hz,
+                v.highest_frequency_hz
+            )
+        } else if v.upsampling > 1 {
             format!(
                 " (upsampled x{}: {:.1} samples per period of {:.4} Hz at the recording's rate)",
                 v.upsampling,

@@ -720,17 +720,25 @@ impl Model {
     /// when a hysteresis element stiffens it. Sample rates are counted against
     /// it, not against the drive: the filter must resolve the stick mode.
     pub fn highest_linearised_frequency_hz(&self) -> f64 {
+        self.linearised_frequencies_hz().fold(0.0, f64::max)
+    }
+
+    /// The lowest of the modes' linearised frequencies, Hz (as
+    /// [`Model::highest_linearised_frequency_hz`] counts them).
+    pub fn lowest_linearised_frequency_hz(&self) -> f64 {
+        self.linearised_frequencies_hz()
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Each mode's frequency with the joints stuck, Hz.
+    fn linearised_frequencies_hz(&self) -> impl Iterator<Item = f64> + '_ {
         let kd = self.stick_stiffness();
-        self.linear
-            .modes
-            .iter()
-            .map(|m| {
-                // a hysteretic mode is stiffened by its own joint alone
-                let k = m.joint.as_ref().map_or(kd, ElementSpec::stick_stiffness);
-                let w2 = m.omega().powi(2) + k * m.residue.abs();
-                w2.sqrt() / (2.0 * std::f64::consts::PI)
-            })
-            .fold(0.0, f64::max)
+        self.linear.modes.iter().map(move |m| {
+            // a hysteretic mode is stiffened by its own joint alone
+            let k = m.joint.as_ref().map_or(kd, ElementSpec::stick_stiffness);
+            let w2 = m.omega().powi(2) + k * m.residue.abs();
+            w2.sqrt() / (2.0 * std::f64::consts::PI)
+        })
     }
 
     /// Every law in the model: the joint, the effects, and the hysteretic

@@ -312,28 +312,37 @@ pub fn simulate_prepared(
 }
 
 /// The upsampling that gives `model`'s highest linearised frequency at
-/// least `min_samples_per_period` samples per period (at least 1); an error
-/// where that is more than [`resample::MAX_FACTOR`].
+/// least `min_samples_per_period` samples per period (at least 1), at most
+/// [`resample::MAX_FACTOR`]: a further mode far above what the recording
+/// shows (a broad background a time fit drove upwards: it replays such a
+/// model on its finest grid too, see `fit::time`) is replayed with fewer
+/// samples per period, its flexibility in the band kept (a mode's digital
+/// filter keeps its static gain). An error where even the lowest mode
+/// would need more: nothing of the model is within the recording's reach.
 pub fn upsampling_factor(
     model: &Model,
     sample_rate_hz: f64,
     min_samples_per_period: f64,
 ) -> Result<usize> {
-    let top = model.highest_linearised_frequency_hz();
-    let needed = (min_samples_per_period * top / sample_rate_hz).ceil();
-    let factor = if needed <= 1.0 { 1 } else { needed as usize };
-    if factor > resample::MAX_FACTOR {
+    let needs = |f: f64| (min_samples_per_period * f / sample_rate_hz).ceil();
+    let needed = needs(model.highest_linearised_frequency_hz());
+    if needed <= 1.0 {
+        return Ok(1);
+    }
+    let lowest = model.lowest_linearised_frequency_hz();
+    if needs(lowest) > resample::MAX_FACTOR as f64 {
         return Err(Error::model(
             "model",
             format!(
-                "its highest linearised frequency {top:.6} Hz would need {factor} times the \
+                "its lowest linearised frequency {lowest:.6} Hz would need {} times the \
                  recording's {sample_rate_hz} Hz (at most {}): the model is far stiffer than the \
                  measurement can show",
+                needs(lowest),
                 resample::MAX_FACTOR
             ),
         ));
     }
-    Ok(factor)
+    Ok((needed as usize).min(resample::MAX_FACTOR))
 }
 
 /// [`simulate_prepared`] at a given upsampling `factor` (a fit keeps one
