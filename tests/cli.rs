@@ -733,6 +733,12 @@ fn time_domain_options_are_refused_without_the_time_domain() {
         ),
         ("identify", &["--replay", "continuous"][..], "--replay"),
         ("diagnose", &["--replay", "continuous"][..], "--replay"),
+        ("diagnose", &["--starts", "2"][..], "--starts"),
+        (
+            "diagnose",
+            &["--starts", "0", "--domain", "time"][..],
+            "--starts",
+        ),
     ] {
         let mut a = vec![
             command,
