@@ -236,6 +236,25 @@ fn fail(message: impl Into<String>) -> PyErr {
     HystidError::new_err(message.into())
 }
 
+/// The time-domain fits' options the bindings take: how the model is
+/// replayed, the fewest samples per period and the starts (1 to 64, as the
+/// command's `--starts`).
+fn time_fit_options(
+    min_samples_per_period: f64,
+    replay: &str,
+    starts: usize,
+) -> PyResult<TimeFitOptions> {
+    if !(1..=64).contains(&starts) {
+        return Err(fail(format!("starts: expected 1 to 64, got {starts}")));
+    }
+    Ok(TimeFitOptions {
+        min_samples_per_period,
+        input: from_json("replay", &format!("\"{replay}\""))?,
+        starts,
+        ..TimeFitOptions::default()
+    })
+}
+
 fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
     serde_json::to_string(value).map_err(|e| fail(format!("cannot serialise the result: {e}")))
 }
@@ -1026,11 +1045,8 @@ fn identify_time<'py>(
     replay: String,
     starts: usize,
 ) -> PyResult<String> {
-    if !(1..=64).contains(&starts) {
-        return Err(fail(format!("starts: expected 1 to 64, got {starts}")));
-    }
+    let time_options = time_fit_options(min_samples_per_period, &replay, starts)?;
     let progress = Progress::new(progress);
-    let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
     let loaded = loaded_all(
         &references,
         &reference_quantities,
@@ -1053,12 +1069,6 @@ fn identify_time<'py>(
                 TimeRecord::from_recording(name, &l.recording, l.response, window, band)
             })
             .collect::<hystid::Result<Vec<TimeRecord>>>()
-    };
-    let time_options = TimeFitOptions {
-        min_samples_per_period,
-        input,
-        starts,
-        ..TimeFitOptions::default()
     };
     let recording = names.join(", ");
     let text = match (fit, start) {
@@ -1157,13 +1167,8 @@ fn diagnose_time<'py>(
     replay: String,
     starts: usize,
 ) -> PyResult<String> {
+    let time_options = time_fit_options(min_samples_per_period, &replay, starts)?;
     let progress = Progress::new(progress);
-    let input: hystid::validate::DriveInput = from_json("replay", &format!("\"{replay}\""))?;
-    if !(1..=64).contains(&starts) {
-        return Err(PyValueError::new_err(format!(
-            "starts: expected 1 to 64, got {starts}"
-        )));
-    }
     let loaded = loaded_all(
         &references,
         &reference_quantities,
@@ -1180,12 +1185,6 @@ fn diagnose_time<'py>(
         fit: fit_opts.clone(),
         time_proposals,
         ..d
-    };
-    let time_options = TimeFitOptions {
-        min_samples_per_period,
-        input,
-        starts,
-        ..TimeFitOptions::default()
     };
     let outcome = progress.run(py, || {
         let t0 = std::time::Instant::now();

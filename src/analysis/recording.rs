@@ -387,45 +387,53 @@ fn sweep_options_by(
 /// Frames at the start of a recording searched for a repeating reference.
 const MULTISINE_SEARCH: usize = 1 << 20;
 
-/// An error when a recording that states no excitation is a periodic
-/// multisine (its reference repeats, with at least
-/// [`super::MULTISINE_LINES`] excited lines, in its first
-/// [`MULTISINE_SEARCH`] frames): a dwell search would cut it into
-/// meaningless "dwells". A stepped sine's reference repeats only within a
-/// dwell, at one line.
-pub(crate) fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
+/// A recording that states no excitation, read as a periodic multisine:
+/// its period (samples) and the excited lines (Hz, lowest and highest, and
+/// how many), found in its first [`MULTISINE_SEARCH`] frames; `None` where
+/// its reference does not repeat with at least [`super::MULTISINE_LINES`]
+/// excited lines (a stepped sine's repeats only within a dwell, at one
+/// line).
+pub(crate) fn multisine_period(
+    rec: &Recording,
+    response: usize,
+) -> Option<(usize, f64, f64, usize)> {
     if rec.meta.excitation.kind != ExcitationKind::Unknown || !rec.meta.excitation.steps.is_empty()
     {
-        return Ok(());
+        return None;
     }
-    let Some(reference) = rec.reference_channel() else {
-        return Ok(());
-    };
+    let reference = rec.reference_channel()?;
     let (u, y) = (&rec.channels[reference], &rec.channels[response]);
     // unequal lengths are the reduction's to refuse, naming the channels
     let n = u.len().min(y.len()).min(MULTISINE_SEARCH);
     let u = &u[..n];
-    let Some(period) = crate::extract::find_period(u) else {
-        return Ok(());
-    };
+    let period = crate::extract::find_period(u)?;
     let fs = rec.meta.sample_rate_hz;
     let lines = crate::extract::periodic_frf(u, &y[..n], fs, period);
     if lines.len() < super::MULTISINE_LINES {
-        return Ok(());
+        return None;
     }
     let (lo, hi) = lines.iter().fold((f64::INFINITY, 0.0f64), |(a, b), l| {
         (a.min(l.frequency_hz), b.max(l.frequency_hz))
     });
+    Some((period, lo, hi, lines.len()))
+}
+
+/// An error when a recording is a periodic multisine
+/// ([`multisine_period`]): a dwell search would cut it into meaningless
+/// "dwells".
+pub(crate) fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
+    let Some((period, lo, hi, lines)) = multisine_period(rec, response) else {
+        return Ok(());
+    };
     Err(Error::input(
         "recording",
         format!(
-            "its reference is a multisine (a period of {period} samples repeated, {} excited \
+            "its reference is a multisine (a period of {period} samples repeated, {lines} excited \
              lines over {lo:.4}-{hi:.4} Hz), which nonlinear FRFs are not read from (they need \
              stepped or swept sines): fit it in the time domain (`identify --domain time`, \
              which starts from its linear FRF at the excited lines; `diagnose --domain time` \
              diagnoses it at the lines of its period), or state `--excitation \
-             stepped` if it is one",
-            lines.len()
+             stepped` if it is one"
         ),
     ))
 }

@@ -342,9 +342,14 @@ pub fn validate_loaded(
     }
     // a multisine (excitation not stated, a reference that repeats) has no
     // nonlinear FRFs to compare: its time error is the whole validation
-    let multisine = settings.reduction.excitation.is_none()
-        && super::recording::refuse_a_multisine(rec, loaded.response).is_err();
-    let reduction = if settings.frf && !settings.periodic && !multisine {
+    let multisine = settings
+        .reduction
+        .excitation
+        .is_none()
+        .then(|| super::recording::multisine_period(rec, loaded.response))
+        .flatten()
+        .map(|m| m.0);
+    let reduction = if settings.frf && !settings.periodic && multisine.is_none() {
         Some(
             match excitation_of(&rec.meta, settings.reduction.excitation) {
                 Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
@@ -376,34 +381,19 @@ pub fn validate_loaded(
         &opts,
         observer,
     )?;
-    if multisine && !settings.periodic {
-        v.lines = lines_of(name, rec, loaded.response, &v.simulated)?;
+    if let Some(period) = multisine.filter(|_| !settings.periodic) {
+        // judged at the lines of its period where two steady periods or
+        // more give the noise to judge it by
+        if let Some(record) = super::identify::steady_periods(name, rec, loaded.response, period)?
+            && record.segments.len() >= 2
+        {
+            v.lines = Some(crate::diagnose::lines::validate_at_lines(
+                &record,
+                &v.simulated,
+            )?);
+        }
     }
     Ok(v)
-}
-
-/// A multisine's residual at the lines of its period
-/// ([`crate::diagnose::lines::validate_at_lines`]); `None` where fewer than
-/// two steady periods give no noise to judge it by.
-fn lines_of(
-    name: &str,
-    rec: &crate::signals::Recording,
-    response: usize,
-    simulated: &[f64],
-) -> Result<Option<crate::diagnose::lines::LineValidation>> {
-    let Some(reference) = rec.reference_channel() else {
-        return Ok(None);
-    };
-    let Some(period) = crate::extract::find_period(&rec.channels[reference]) else {
-        return Ok(None);
-    };
-    let Some(record) = super::identify::steady_periods(name, rec, response, period)? else {
-        return Ok(None);
-    };
-    if record.segments.len() < 2 {
-        return Ok(None);
-    }
-    crate::diagnose::lines::validate_at_lines(&record, simulated).map(Some)
 }
 
 /// Validates `fit` on the recording loaded from `path` and writes its

@@ -458,23 +458,33 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
     for f in ["diagnosis.md", "residual_lines.png", "residual_lines.svg"] {
         assert!(dir.join("cubic").join(f).is_file(), "{f} not written");
     }
+    // `validate` of `fit` on `recording` at the fit's rate, into `out`: its
+    // entry in validate.json and what it printed
+    let validated = |fit: &Path, recording: &Path, out: &str| -> (Value, String) {
+        let o = std::process::Command::new(hystid_bin())
+            .args(["validate", "--min-samples-per-period", "40", "--out"])
+            .arg(dir.join(out))
+            .arg(fit)
+            .arg(recording)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(out).join("validate.json")).unwrap(),
+        )
+        .unwrap();
+        (
+            v["recordings"][0].clone(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+        )
+    };
+    let diagnosis = dir.join("cubic").join("diagnosis.json");
     // `validate` reads the diagnosis's final model and takes a multisine
     // as it is (no FRF comparison to fail on): the loud level at the noise,
     // replayed at the fit's rate (at validate's default 20 samples per
     // period of the stuck mode: 2.40 %)
-    let o = std::process::Command::new(hystid_bin())
-        .args(["validate", "-q", "--min-samples-per-period", "40", "--out"])
-        .arg(dir.join("validated"))
-        .arg(dir.join("cubic").join("diagnosis.json"))
-        .arg(&with[1])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let v: Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.join("validated").join("validate.json")).unwrap(),
-    )
-    .unwrap();
-    let relative = 100.0 * v["recordings"][0]["whole"]["relative"].as_f64().unwrap();
+    let (v, _) = validated(&diagnosis, &with[1], "validated");
+    let relative = 100.0 * v["whole"]["relative"].as_f64().unwrap();
     assert!(relative <= 2.1, "validated at {relative:.2} %");
     // held out: a third multisine (other phases, 12 N RMS) judged at the
     // lines of its period against the noise of its periods' scatter, the
@@ -493,28 +503,16 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
     let baseline_file = dir.join("baseline.json");
     std::fs::write(&baseline_file, baseline.to_string()).unwrap();
     let at_lines = |fit: &Path, out: &str| -> Value {
-        let o = std::process::Command::new(hystid_bin())
-            .args(["validate", "--min-samples-per-period", "40", "--out"])
-            .arg(dir.join(out))
-            .arg(fit)
-            .arg(&held_out)
-            .output()
-            .unwrap();
-        let said = String::from_utf8_lossy(&o.stdout);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (v, said) = validated(fit, &held_out, out);
         assert!(
             said.contains("at the lines of its period (3 steady periods"),
             "{said}"
         );
         assert!(dir.join(out).join("cubic-held-out_lines.png").is_file());
-        let v: Value = serde_json::from_str(
-            &std::fs::read_to_string(dir.join(out).join("validate.json")).unwrap(),
-        )
-        .unwrap();
-        v["recordings"][0]["lines"].clone()
+        v["lines"].clone()
     };
     let (final_lines, baseline_lines) = (
-        at_lines(&dir.join("cubic").join("diagnosis.json"), "held-out"),
+        at_lines(&diagnosis, "held-out"),
         at_lines(&baseline_file, "held-out-baseline"),
     );
     let chi2_final = chi2(&final_lines);
