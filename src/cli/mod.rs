@@ -46,6 +46,7 @@ pub fn fit_exit_code(status: hystid::fit::FitStatus) -> u8 {
         FitStatus::Converged
         | FitStatus::IterationLimit
         | FitStatus::Stopped
+        | FitStatus::Abandoned
         | FitStatus::Unknown => EXIT_OK,
     }
 }

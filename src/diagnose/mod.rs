@@ -38,6 +38,7 @@ use candidates::Context;
 
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
+use crate::fit::optimise::{FitStatus, Race};
 use crate::fit::{
     Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, ParameterSet, Prediction,
     Transform, Weighting,
@@ -398,6 +399,32 @@ fn refit_within(
     budgets: usize,
     observed: Option<Observed<'_>>,
 ) -> Result<Refit> {
+    let budget = Budget {
+        patience,
+        runs: budgets,
+        race: None,
+    };
+    refit_counted(model, data, predictor, warm, budget, observed).map(|(r, _)| r)
+}
+
+/// A refit's Levenberg–Marquardt runs: at most `runs` of `patience` each,
+/// given up where `race` says (over all the runs).
+#[derive(Clone, Copy)]
+struct Budget {
+    patience: usize,
+    runs: usize,
+    race: Option<Race>,
+}
+
+/// [`refit_within`] within `budget`, with the residual evaluations it took.
+fn refit_counted(
+    model: &Model,
+    data: &FitData,
+    predictor: &HbPredictor,
+    warm: Option<&Prediction>,
+    budget: Budget,
+    observed: Option<Observed<'_>>,
+) -> Result<(Refit, usize)> {
     let mut params = model_parameters(model, data.band_hz());
     // a parameter at its bound (the joint's N → ∞ for Jenkins-like data) is
     // held there: its penalty row would mislead a derivative-based step
@@ -421,21 +448,35 @@ fn refit_within(
     }
     let mut theta = params.theta_of(model)?;
     let mut cost = problem.cost(&theta)?;
+    let mut used = 0;
     // Levenberg–Marquardt stops on its evaluation budget as often as on its
     // tolerance: restart it from where it ended while that still pays (a
     // start far from the optimum, as a scanned effect size can be, needs
     // more than one budget)
-    for _ in 0..budgets {
-        match crate::fit::optimise::levenberg_marquardt_to(
+    for _ in 0..budget.runs {
+        // a start already ahead of the one it races runs on unhindered
+        let race = budget
+            .race
+            .filter(|r| cost >= r.cost_to_beat)
+            .map(|r| Race {
+                after: r.after.saturating_sub(used),
+                ..r
+            });
+        let run = crate::fit::optimise::levenberg_marquardt_racing(
             &problem,
             &theta,
-            patience,
+            budget.patience,
             REFIT_TOLERANCE,
-        ) {
+            race,
+        );
+        if let Ok(r) = &run {
+            used += r.evaluations;
+        }
+        match run {
             Ok(r) if r.cost < cost => {
                 let gain = (cost - r.cost) / cost.max(f64::MIN_POSITIVE);
                 (theta, cost) = (r.theta, r.cost);
-                if r.converged || gain < 1e-3 {
+                if r.converged || gain < 1e-3 || r.status == FitStatus::Abandoned {
                     break;
                 }
             }
@@ -444,7 +485,7 @@ fn refit_within(
     }
     let (model, pred, _) = problem.evaluate(&theta)?;
     let chi2 = crate::fit::problem::chi_square(data, &pred);
-    Ok(Refit { model, pred, chi2 })
+    Ok((Refit { model, pred, chi2 }, used))
 }
 
 /// The best refit seen of each set of kept effects (the baseline's: none).
@@ -788,6 +829,41 @@ const POLISHED_STARTS: usize = 2;
 /// start settle into its basin, a fraction of a full refit.
 const SCREEN_PATIENCE: usize = 1;
 
+/// Makes the identifications afresh that the starts of `effects` from
+/// `currents` will read (see [`candidates::Candidate::identifications`]),
+/// before the candidates are refitted side by side.
+#[allow(clippy::too_many_arguments)]
+fn identify_beforehand(
+    effects: &[Effect],
+    currents: &[&Refit],
+    frf: &NonlinearFrf,
+    data: &FitData,
+    options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+    identified: &candidates::Identified,
+    expected_chi2: f64,
+) {
+    let wanted: Vec<usize> = currents
+        .iter()
+        .flat_map(|&current| {
+            let cx = Context {
+                current,
+                data,
+                frf,
+                options,
+                predictor,
+                identified,
+                expected_chi2,
+            };
+            effects
+                .iter()
+                .flat_map(|e| e.candidate().identifications(&cx))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    candidates::identify_beforehand(identified, &wanted, frf, options, predictor);
+}
+
 /// One candidate's refit: its start(s) from the residual of each current
 /// model (the baseline, and in the first round the lower levels' joint),
 /// each refitted, the best kept (`None` when no start exists).
@@ -846,13 +922,32 @@ fn try_candidate(
         if order.is_empty() {
             screened
         } else {
-            order
-                .par_iter()
-                .map(|&i| {
-                    let r = screened[i].as_ref().expect("screened start kept");
-                    refit(&r.model, data, predictor, Some(&r.pred), patience)
-                })
-                .collect()
+            // one after the other, from the best screened: each later start
+            // races the best polished so far, and is given up once it has
+            // taken twice that one's evaluations without coming below it
+            // (decided by evaluation counts, so the result does not depend on
+            // the thread count; each refit runs its series in parallel)
+            let mut leader: Option<(f64, usize)> = None;
+            let mut polished = Vec::with_capacity(order.len());
+            for &i in &order {
+                let r = screened[i].as_ref().expect("screened start kept");
+                let budget = Budget {
+                    patience,
+                    runs: 3,
+                    race: leader.map(|(chi2, used)| Race {
+                        after: 2 * used,
+                        cost_to_beat: chi2,
+                    }),
+                };
+                let q = refit_counted(&r.model, data, predictor, Some(&r.pred), budget, None);
+                if let Ok((q, used)) = &q
+                    && leader.is_none_or(|(chi2, _)| q.chi2 < chi2)
+                {
+                    leader = Some((q.chi2, *used));
+                }
+                polished.push(q.map(|(q, _)| q));
+            }
+            polished
         }
     };
     let mut best: Option<Refit> = None;
@@ -1090,26 +1185,38 @@ pub fn diagnose_observed(
             .map(|(i, &(effect, _))| (i, effect))
             .collect();
         by_size.sort_by_key(|&(i, e)| (std::cmp::Reverse(e.candidate().size()), i));
+        // the identifications afresh the candidates' starts read, made
+        // first with every thread (see `Candidate::identifications`)
+        let mut currents = vec![&current];
+        if round == 1
+            && let Some(low) = &lower
+        {
+            currents.push(low);
+        }
+        let effects: Vec<Effect> = ranked.iter().map(|&(e, _)| e).collect();
+        identify_beforehand(
+            &effects,
+            &currents,
+            frf,
+            &data,
+            options,
+            predictor,
+            &identified,
+            expected,
+        );
         let slots: Vec<std::sync::Mutex<Option<Result<Option<Refit>>>>> =
             ranked.iter().map(|_| Default::default()).collect();
         rayon::scope_fifo(|s| {
             for &(i, effect) in &by_size {
-                let (slots, current, lower, data, identified) =
-                    (&slots, &current, &lower, &data, &identified);
+                let (slots, currents, data, identified) = (&slots, &currents, &data, &identified);
                 s.spawn_fifo(move |_| {
                     if cancelled() {
                         *slots[i].lock().unwrap_or_else(|e| e.into_inner()) =
                             Some(Err(Error::Cancelled));
                         return;
                     }
-                    let mut currents = vec![current];
-                    if round == 1
-                        && let Some(low) = lower
-                    {
-                        currents.push(low);
-                    }
                     let r = try_candidate(
-                        effect, &currents, frf, data, options, predictor, identified, expected,
+                        effect, currents, frf, data, options, predictor, identified, expected,
                     );
                     observer(DiagnoseEvent::Candidate { round, effect });
                     *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
@@ -1512,6 +1619,16 @@ pub fn candidates_on_final(
     let current = refit(&d.model, &data, predictor, None, options.patience)?;
     let identified = candidates::Identified::default();
     let expected = crate::fit::problem::expected_chi_square(&data);
+    identify_beforehand(
+        effects,
+        &[&current],
+        frf,
+        &data,
+        options,
+        predictor,
+        &identified,
+        expected,
+    );
     Ok(effects
         .par_iter()
         .map(|&effect| {

@@ -78,6 +78,10 @@ pub enum FitStatus {
     /// optimum, whatever the optimiser's own status (the fit's notes say how
     /// many): those points are missing from the fit's error.
     ModelNotConverged,
+    /// A start racing others of the same fit, given up: after the
+    /// evaluations its [`Race`] allowed it had not come below the cost
+    /// another start had already reached (the result is its best point).
+    Abandoned,
     /// Not recorded: a result written before the status was.
     #[default]
     Unknown,
@@ -272,11 +276,29 @@ pub fn forward_difference(
     Ok(jac)
 }
 
+/// A start racing another of the same fit that has already ended: it is
+/// given up once it has made `after` residual evaluations without coming
+/// below `cost_to_beat` (the other's cost). A start that needs far more work
+/// than the winner to catch up with it costs the most and changes nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Race {
+    /// Residual evaluations allowed before it must be winning.
+    pub after: usize,
+    /// The cost it must be below by then.
+    pub cost_to_beat: f64,
+}
+
 struct Lm<'a, P: ?Sized> {
     problem: &'a P,
     theta: DVector<f64>,
     residuals: std::cell::RefCell<Option<(DVector<f64>, Vec<f64>)>>,
     error: std::cell::RefCell<Option<Error>>,
+    race: Option<Race>,
+    /// Residual evaluations made (cached ones not counted).
+    calls: std::cell::Cell<usize>,
+    /// The lowest cost evaluated and where.
+    best: std::cell::RefCell<Option<(f64, DVector<f64>)>>,
+    abandoned: std::cell::Cell<bool>,
 }
 
 impl<P: Objective + ?Sized> Lm<'_, P> {
@@ -286,8 +308,25 @@ impl<P: Objective + ?Sized> Lm<'_, P> {
         {
             return Some(r.clone());
         }
+        if let Some(race) = self.race
+            && self.calls.get() >= race.after
+            && self
+                .best
+                .borrow()
+                .as_ref()
+                .is_some_and(|(c, _)| *c >= race.cost_to_beat)
+        {
+            self.abandoned.set(true);
+            return None;
+        }
+        self.calls.set(self.calls.get() + 1);
         match self.problem.residuals(self.theta.as_slice()) {
             Ok(r) => {
+                let cost = r.iter().map(|v| v * v).sum::<f64>();
+                let mut best = self.best.borrow_mut();
+                if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                    *best = Some((cost, self.theta.clone()));
+                }
                 *self.residuals.borrow_mut() = Some((self.theta.clone(), r.clone()));
                 Some(r)
             }
@@ -351,12 +390,28 @@ pub fn levenberg_marquardt_to<P: Objective + ?Sized>(
     patience: usize,
     tolerance: f64,
 ) -> Result<OptimiserRun> {
+    levenberg_marquardt_racing(problem, theta0, patience, tolerance, None)
+}
+
+/// [`levenberg_marquardt_to`] in a [`Race`]: a run given up ends with
+/// [`FitStatus::Abandoned`] at the best point it evaluated.
+pub fn levenberg_marquardt_racing<P: Objective + ?Sized>(
+    problem: &P,
+    theta0: &[f64],
+    patience: usize,
+    tolerance: f64,
+    race: Option<Race>,
+) -> Result<OptimiserRun> {
     let start = problem.evaluations();
     let lm = Lm {
         problem,
         theta: DVector::from_column_slice(theta0),
         residuals: Default::default(),
         error: Default::default(),
+        race,
+        calls: Default::default(),
+        best: Default::default(),
+        abandoned: Default::default(),
     };
     let (lm, report) = levenberg_marquardt::LevenbergMarquardt::new()
         .with_patience(patience)
@@ -365,6 +420,20 @@ pub fn levenberg_marquardt_to<P: Objective + ?Sized>(
         .minimize(lm);
     if let Some(e) = lm.error.into_inner() {
         return Err(e);
+    }
+    if lm.abandoned.get() {
+        let calls = lm.calls.get();
+        let (cost, theta) = lm.best.into_inner().expect("abandoned after evaluations");
+        return Ok(OptimiserRun {
+            method: Optimiser::LevenbergMarquardt,
+            theta: theta.as_slice().to_vec(),
+            cost,
+            iterations: calls as u64,
+            evaluations: problem.evaluations() - start + calls,
+            converged: false,
+            status: FitStatus::Abandoned,
+            termination: "abandoned: another start was ahead".into(),
+        });
     }
     let theta = lm.theta.as_slice().to_vec();
     let cost = problem.cost(&theta)?;
@@ -490,5 +559,68 @@ mod tests {
             "{:?}",
             r.theta
         );
+    }
+
+    /// Rosenbrock's valley as residuals, above a floor: `Σ r²` is 0.01 at
+    /// (1, 1), its least.
+    struct Valley(std::sync::atomic::AtomicUsize);
+
+    impl super::Objective for Valley {
+        fn residuals(&self, t: &[f64]) -> crate::Result<Vec<f64>> {
+            self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            // the last row is the penalty row, which the Jacobian leaves out
+            Ok(vec![10.0 * (t[1] - t[0] * t[0]), 1.0 - t[0], 0.1, 0.0])
+        }
+        fn cost(&self, t: &[f64]) -> crate::Result<f64> {
+            Ok(self.residuals(t)?.iter().map(|r| r * r).sum())
+        }
+        fn evaluations(&self) -> usize {
+            self.0.load(std::sync::atomic::Ordering::Relaxed)
+        }
+    }
+
+    /// A start racing one that reached a cost it cannot reach is given up
+    /// after the evaluations it was allowed, at the best point it
+    /// evaluated; one already below the cost to beat runs as if alone.
+    #[test]
+    fn a_start_that_cannot_catch_up_is_abandoned_at_its_best_point() {
+        use super::{FitStatus, Objective, Race, levenberg_marquardt_racing};
+        let start = [-1.2, 1.0];
+        let alone =
+            levenberg_marquardt_racing(&Valley(Default::default()), &start, 100, 1e-12, None)
+                .unwrap();
+        assert_eq!(alone.status, FitStatus::Converged);
+        assert!((alone.theta[0] - 1.0).abs() < 1e-6 && (alone.cost - 0.01).abs() < 1e-10);
+        // Rosenbrock's valley takes LM more than five evaluations
+        assert!(alone.iterations > 10, "{}", alone.iterations);
+
+        let v = Valley(Default::default());
+        let unreachable = Race {
+            after: 5,
+            cost_to_beat: 0.005,
+        };
+        let given_up =
+            levenberg_marquardt_racing(&v, &start, 100, 1e-12, Some(unreachable)).unwrap();
+        assert_eq!(given_up.status, FitStatus::Abandoned);
+        assert!(!given_up.converged);
+        assert_eq!(given_up.iterations, 5);
+        // its cost is that of the point it returns, below the start's
+        assert_eq!(given_up.cost, v.cost(&given_up.theta).unwrap());
+        assert!(given_up.cost < v.cost(&start).unwrap());
+
+        let ahead = Race {
+            after: 5,
+            cost_to_beat: 1e9,
+        };
+        let unhindered = levenberg_marquardt_racing(
+            &Valley(Default::default()),
+            &start,
+            100,
+            1e-12,
+            Some(ahead),
+        )
+        .unwrap();
+        assert_eq!(unhindered.theta, alone.theta);
+        assert_eq!(unhindered.status, FitStatus::Converged);
     }
 }

@@ -74,6 +74,11 @@ impl Candidate for HystereticMode {
         Ok(starts)
     }
 
+    /// The second mode's (its starts are made from that candidate's).
+    fn identifications(&self, cx: &Context<'_>) -> Vec<usize> {
+        SecondMode.identifications(cx)
+    }
+
     /// The same, on a multisine's lines: the modes the second mode finds
     /// there, the slips spread over the recordings' force peaks.
     fn line_starts(&self, cx: &LineContext<'_>) -> Vec<Model> {

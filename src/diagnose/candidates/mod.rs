@@ -50,6 +50,58 @@ pub(crate) struct Context<'a> {
 /// to nor the round, and one takes seconds.
 pub(crate) type Identified = std::sync::Mutex<BTreeMap<usize, Option<Model>>>;
 
+/// The recording identified afresh with `modes` modes and the user's fit
+/// options (`None`: it failed): only a start, polished by the refit, so no
+/// bootstrap, no second optimiser, and a third of the simplex's iterations.
+fn identify_afresh(
+    frf: &NonlinearFrf,
+    options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+    modes: usize,
+) -> Option<Model> {
+    let opts = crate::fit::FitOptions {
+        modes,
+        band_hz: options.band_hz.or(options.fit.band_hz),
+        bootstrap: 0,
+        second_optimiser: false,
+        max_iterations: options.fit.max_iterations.div_ceil(3),
+        ..options.fit.clone()
+    };
+    crate::fit::identify(frf, &opts, predictor, None)
+        .ok()
+        .map(|f| f.model)
+}
+
+/// Makes the identifications afresh that `modes` asks for and `identified`
+/// does not hold yet, side by side.
+pub(crate) fn identify_beforehand(
+    identified: &Identified,
+    modes: &[usize],
+    frf: &NonlinearFrf,
+    options: &DiagnoseOptions,
+    predictor: &HbPredictor,
+) {
+    use rayon::prelude::*;
+    let mut missing: Vec<usize> = {
+        let cache = identified.lock().unwrap_or_else(|e| e.into_inner());
+        modes
+            .iter()
+            .copied()
+            .filter(|m| !cache.contains_key(m))
+            .collect()
+    };
+    missing.sort_unstable();
+    missing.dedup();
+    let made: Vec<(usize, Option<Model>)> = missing
+        .into_par_iter()
+        .map(|m| (m, identify_afresh(frf, options, predictor, m)))
+        .collect();
+    identified
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .extend(made);
+}
+
 impl Context<'_> {
     /// The model the effect is added to.
     pub fn model(&self) -> &Model {
@@ -117,27 +169,20 @@ impl Context<'_> {
     /// The recording identified afresh with `modes` modes and the user's
     /// fit options (`None`: it failed), computed once per diagnosis.
     pub fn identified_with_modes(&self, modes: usize) -> Option<Model> {
-        // held while identifying: a second caller waits for the result
-        // rather than computing it again
+        let cached = |i: &Identified| {
+            let cache = i.lock().unwrap_or_else(|e| e.into_inner());
+            cache.get(&modes).cloned()
+        };
+        if let Some(m) = cached(self.identified) {
+            return m;
+        }
+        // not held while identifying: the identification runs in parallel
+        // itself, and a thread waiting in it may take up another candidate
+        // that asks for the same (made beforehand, see
+        // [`Candidate::identifications`]; made twice here at worst, equal)
+        let m = identify_afresh(self.frf, self.options, self.predictor, modes);
         let mut cache = self.identified.lock().unwrap_or_else(|e| e.into_inner());
-        cache
-            .entry(modes)
-            .or_insert_with(|| {
-                // only a start, polished by the refit: no bootstrap, no
-                // second optimiser, and a third of the simplex's iterations
-                let opts = crate::fit::FitOptions {
-                    modes,
-                    band_hz: self.options.band_hz.or(self.options.fit.band_hz),
-                    bootstrap: 0,
-                    second_optimiser: false,
-                    max_iterations: self.options.fit.max_iterations.div_ceil(3),
-                    ..self.options.fit.clone()
-                };
-                crate::fit::identify(self.frf, &opts, self.predictor, None)
-                    .ok()
-                    .map(|f| f.model)
-            })
-            .clone()
+        cache.entry(modes).or_insert(m).clone()
     }
 
     /// The model with `element` added as an effect.
@@ -277,6 +322,16 @@ pub(crate) trait Candidate: Sync {
     /// The models it is refitted from, each the current model with the
     /// effect added; empty when the residual offers no start.
     fn starts(&self, cx: &Context<'_>) -> Result<Vec<Model>>;
+
+    /// The identifications afresh (by number of modes) its [`starts`] from
+    /// `cx` would read: the diagnosis makes them before the candidates are
+    /// refitted in parallel, with every thread, instead of one candidate
+    /// making one while others wait for it.
+    ///
+    /// [`starts`]: Candidate::starts
+    fn identifications(&self, _cx: &Context<'_>) -> Vec<usize> {
+        Vec::new()
+    }
 
     /// The models it is refitted from on a multisine's time-domain fit,
     /// each the current model with the effect added, sized on the residual

@@ -48,9 +48,8 @@ impl Candidate for SecondMode {
         };
         let kept = located_modes(model, &d, &background);
         let mut starts: Vec<Model> = kept.into_iter().map(with).collect();
-        let linear = model.linear.modes.iter().filter(|m| !m.is_hysteretic());
-        if cx.astray()
-            && let Some(mut m) = cx.identified_with_modes(linear.count() + 1)
+        if let Some(&modes) = self.identifications(cx).first()
+            && let Some(mut m) = cx.identified_with_modes(modes)
         {
             // the new modes with the user's joint refitted, and the effects
             // and hysteretic modes found so far
@@ -60,6 +59,22 @@ impl Candidate for SecondMode {
             starts.push(m);
         }
         Ok(starts)
+    }
+
+    /// Where the model may have gone astray: the recording identified
+    /// afresh with one more mode than its own (not counting hysteretic ones).
+    fn identifications(&self, cx: &Context<'_>) -> Vec<usize> {
+        let linear = cx
+            .model()
+            .linear
+            .modes
+            .iter()
+            .filter(|m| !m.is_hysteretic());
+        if cx.astray() {
+            vec![linear.count() + 1]
+        } else {
+            Vec::new()
+        }
     }
 
     /// The modes the excited lines' receptance residual shows (the same
