@@ -829,39 +829,53 @@ const POLISHED_STARTS: usize = 2;
 /// start settle into its basin, a fraction of a full refit.
 const SCREEN_PATIENCE: usize = 1;
 
-/// Makes the identifications afresh that the starts of `effects` from
-/// `currents` will read (see [`candidates::Candidate::identifications`]),
-/// before the candidates are refitted side by side.
-#[allow(clippy::too_many_arguments)]
-fn identify_beforehand(
-    effects: &[Effect],
-    currents: &[&Refit],
-    frf: &NonlinearFrf,
-    data: &FitData,
-    options: &DiagnoseOptions,
-    predictor: &HbPredictor,
-    identified: &candidates::Identified,
+/// What the trials of a round's candidates share: everything their starts
+/// are made from but the model each is added to.
+struct Trials<'a> {
+    frf: &'a NonlinearFrf,
+    data: &'a FitData,
+    options: &'a DiagnoseOptions,
+    predictor: &'a HbPredictor,
+    identified: &'a candidates::Identified,
     expected_chi2: f64,
-) {
-    let wanted: Vec<usize> = currents
-        .iter()
-        .flat_map(|&current| {
-            let cx = Context {
-                current,
-                data,
-                frf,
-                options,
-                predictor,
-                identified,
-                expected_chi2,
-            };
-            effects
-                .iter()
-                .flat_map(|e| e.candidate().identifications(&cx))
-                .collect::<Vec<_>>()
-        })
-        .collect();
-    candidates::identify_beforehand(identified, &wanted, frf, options, predictor);
+}
+
+impl<'a> Trials<'a> {
+    /// A candidate's context: `current` the model it is added to.
+    fn context(&self, current: &'a Refit) -> Context<'a> {
+        Context {
+            current,
+            data: self.data,
+            frf: self.frf,
+            options: self.options,
+            predictor: self.predictor,
+            identified: self.identified,
+            expected_chi2: self.expected_chi2,
+        }
+    }
+
+    /// Makes the identifications afresh that the starts of `effects` from
+    /// `currents` will read (see [`candidates::Candidate::identifications`]),
+    /// before the candidates are refitted side by side.
+    fn identify_beforehand(&self, effects: &[Effect], currents: &[&'a Refit]) {
+        let wanted: Vec<usize> = currents
+            .iter()
+            .flat_map(|&current| {
+                let cx = self.context(current);
+                effects
+                    .iter()
+                    .flat_map(|e| e.candidate().identifications(&cx))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        candidates::identify_beforehand(
+            self.identified,
+            &wanted,
+            self.frf,
+            self.options,
+            self.predictor,
+        );
+    }
 }
 
 /// One candidate's refit: its start(s) from the residual of each current
@@ -872,29 +886,16 @@ fn identify_beforehand(
 /// to eight per current model, most of them far from the optimum): each is
 /// refitted briefly, and only the best [`POLISHED_STARTS`] are refitted in
 /// full, so that the candidate costs a few refits, not one per start.
-#[allow(clippy::too_many_arguments)]
-fn try_candidate(
+fn try_candidate<'a>(
     effect: Effect,
-    currents: &[&Refit],
-    frf: &NonlinearFrf,
-    data: &FitData,
-    options: &DiagnoseOptions,
-    predictor: &HbPredictor,
-    identified: &candidates::Identified,
-    expected_chi2: f64,
+    currents: &[&'a Refit],
+    trials: &Trials<'a>,
 ) -> Result<Option<Refit>> {
+    let (data, predictor, options) = (trials.data, trials.predictor, trials.options);
     let mut starts: Vec<(Model, &Prediction)> = Vec::new();
     let mut last_error = None;
     for &current in currents {
-        let cx = Context {
-            current,
-            data,
-            frf,
-            options,
-            predictor,
-            identified,
-            expected_chi2,
-        };
+        let cx = trials.context(current);
         match effect.candidate().starts(&cx) {
             Ok(s) => starts.extend(s.into_iter().map(|m| (m, &current.pred))),
             Err(e) => last_error = Some(e),
@@ -1193,31 +1194,28 @@ pub fn diagnose_observed(
         {
             currents.push(low);
         }
-        let effects: Vec<Effect> = ranked.iter().map(|&(e, _)| e).collect();
-        identify_beforehand(
-            &effects,
-            &currents,
+        let trials = Trials {
             frf,
-            &data,
+            data: &data,
             options,
             predictor,
-            &identified,
-            expected,
-        );
+            identified: &identified,
+            expected_chi2: expected,
+        };
+        let effects: Vec<Effect> = ranked.iter().map(|&(e, _)| e).collect();
+        trials.identify_beforehand(&effects, &currents);
         let slots: Vec<std::sync::Mutex<Option<Result<Option<Refit>>>>> =
             ranked.iter().map(|_| Default::default()).collect();
         rayon::scope_fifo(|s| {
             for &(i, effect) in &by_size {
-                let (slots, currents, data, identified) = (&slots, &currents, &data, &identified);
+                let (slots, currents, trials) = (&slots, &currents, &trials);
                 s.spawn_fifo(move |_| {
                     if cancelled() {
                         *slots[i].lock().unwrap_or_else(|e| e.into_inner()) =
                             Some(Err(Error::Cancelled));
                         return;
                     }
-                    let r = try_candidate(
-                        effect, currents, frf, data, options, predictor, identified, expected,
-                    );
+                    let r = try_candidate(effect, currents, trials);
                     observer(DiagnoseEvent::Candidate { round, effect });
                     *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
                 });
@@ -1619,31 +1617,18 @@ pub fn candidates_on_final(
     let current = refit(&d.model, &data, predictor, None, options.patience)?;
     let identified = candidates::Identified::default();
     let expected = crate::fit::problem::expected_chi_square(&data);
-    identify_beforehand(
-        effects,
-        &[&current],
+    let trials = Trials {
         frf,
-        &data,
+        data: &data,
         options,
         predictor,
-        &identified,
-        expected,
-    );
+        identified: &identified,
+        expected_chi2: expected,
+    };
+    trials.identify_beforehand(effects, &[&current]);
     Ok(effects
         .par_iter()
-        .map(|&effect| {
-            try_candidate(
-                effect,
-                &[&current],
-                frf,
-                &data,
-                options,
-                predictor,
-                &identified,
-                expected,
-            )
-            .map(|r| r.map(|r| r.model))
-        })
+        .map(|&effect| try_candidate(effect, &[&current], &trials).map(|r| r.map(|r| r.model)))
         .collect())
 }
 
