@@ -841,6 +841,24 @@ struct Trials<'a> {
 }
 
 impl<'a> Trials<'a> {
+    /// The trials on `data`, judged against the `χ²` its noise alone gives.
+    fn new(
+        frf: &'a NonlinearFrf,
+        data: &'a FitData,
+        options: &'a DiagnoseOptions,
+        predictor: &'a HbPredictor,
+        identified: &'a candidates::Identified,
+    ) -> Self {
+        Trials {
+            frf,
+            data,
+            options,
+            predictor,
+            identified,
+            expected_chi2: crate::fit::problem::expected_chi_square(data),
+        }
+    }
+
     /// A candidate's context: `current` the model it is added to.
     fn context(&self, current: &'a Refit) -> Context<'a> {
         Context {
@@ -1146,6 +1164,7 @@ pub fn diagnose_observed(
         chi2: base.chi2,
     };
     let identified = candidates::Identified::default();
+    let trials = Trials::new(frf, &data, options, predictor, &identified);
     let mut remaining = options.candidates.clone();
     let mut reports = Vec::new();
     let mut chosen: Vec<Effect> = Vec::new();
@@ -1194,14 +1213,6 @@ pub fn diagnose_observed(
         {
             currents.push(low);
         }
-        let trials = Trials {
-            frf,
-            data: &data,
-            options,
-            predictor,
-            identified: &identified,
-            expected_chi2: expected,
-        };
         let effects: Vec<Effect> = ranked.iter().map(|&(e, _)| e).collect();
         trials.identify_beforehand(&effects, &currents);
         let slots: Vec<std::sync::Mutex<Option<Result<Option<Refit>>>>> =
@@ -1616,15 +1627,7 @@ pub fn candidates_on_final(
         .with_transfer(options.fit.transfer || d.response_sign < 0.0);
     let current = refit(&d.model, &data, predictor, None, options.patience)?;
     let identified = candidates::Identified::default();
-    let expected = crate::fit::problem::expected_chi_square(&data);
-    let trials = Trials {
-        frf,
-        data: &data,
-        options,
-        predictor,
-        identified: &identified,
-        expected_chi2: expected,
-    };
+    let trials = Trials::new(frf, &data, options, predictor, &identified);
     trials.identify_beforehand(effects, &[&current]);
     Ok(effects
         .par_iter()
