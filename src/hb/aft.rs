@@ -107,11 +107,9 @@ impl Layout {
 pub(crate) struct Aft {
     pub layout: Layout,
     samples: usize,
-    /// Odd harmonics only and an even sample count: half-wave symmetry can
-    /// hold.
-    odd_only: bool,
-    r2c: Arc<dyn RealToComplex<f64>>,
-    c2r: Arc<dyn ComplexToReal<f64>>,
+    /// The plans and tables every workspace of this harmonic set and
+    /// sample count shares (read only).
+    tables: Arc<Tables>,
     spectrum: Vec<Complex64>,
     scratch_r2c: Vec<Complex64>,
     scratch_c2r: Vec<Complex64>,
@@ -121,10 +119,6 @@ pub(crate) struct Aft {
     pub g: Vec<f64>,
     /// FFT input copy (realfft uses its input as scratch).
     buf: Vec<f64>,
-    /// `∂x_j/∂p_k`, sample-major (`n` per sample).
-    basis_x: Vec<f64>,
-    /// `∂v_j/∂p_k` per unit ω, sample-major.
-    basis_v: Vec<f64>,
     /// Per-sample scratch: `∂v/∂p` at the current ω, `∂g/∂p`.
     dv: Vec<f64>,
     dg_sample: Vec<f64>,
@@ -142,10 +136,6 @@ pub(crate) struct Aft {
     /// `∂x/∂p`, `∂v/∂p` at an extremum.
     dx_extremum: Vec<f64>,
     dv_extremum: Vec<f64>,
-    /// The analysis rows `w_j` (`G = Σ_j w_j g_j`), sample-major.
-    analysis: Vec<f64>,
-    /// Each unknown's harmonic and unit `u` (its basis is `Re(u e^{ihθ})`).
-    units: Vec<(usize, Complex64)>,
     /// Whether this evaluation carries its sensitivities in structured form
     /// ([`SensitivityTerms`]) rather than as dense rows.
     structured: bool,
@@ -181,18 +171,58 @@ enum Target {
     Slope,
 }
 
-impl Aft {
-    /// A workspace. `samples` must exceed twice the highest harmonic (checked
-    /// by [`super::HbOptions::validate`]).
-    pub fn new(harmonics: &[usize], samples: usize) -> Aft {
-        let layout = Layout::new(harmonics);
+/// What every AFT workspace of one harmonic set and sample count shares:
+/// the FFT plans and the basis and analysis tables. Built once per process
+/// (a fit builds a solver per series per model evaluation, and the tables'
+/// `samples × n` sines and cosines cost as much as a few balanced points).
+pub(crate) struct Tables {
+    odd_only: bool,
+    r2c: Arc<dyn RealToComplex<f64>>,
+    c2r: Arc<dyn ComplexToReal<f64>>,
+    /// `∂x_j/∂p_k`, sample-major (`n` per sample).
+    basis_x: Vec<f64>,
+    /// `∂v_j/∂p_k` per unit ω, sample-major.
+    basis_v: Vec<f64>,
+    /// The analysis rows `w_j` (`G = Σ_j w_j g_j`), sample-major.
+    analysis: Vec<f64>,
+    /// Each unknown's harmonic and unit `u` (its basis is `Re(u e^{ihθ})`).
+    units: Vec<(usize, Complex64)>,
+}
+
+/// Harmonic sets and sample counts seen so far; few in any run (the cache is
+/// emptied if a caller cycles through many).
+type TableCache = std::collections::HashMap<(Vec<usize>, usize), Arc<Tables>>;
+static TABLES: std::sync::Mutex<Option<TableCache>> = std::sync::Mutex::new(None);
+const TABLES_KEPT: usize = 64;
+
+impl Tables {
+    /// The shared tables of `layout` at `samples` per period.
+    fn of(layout: &Layout, samples: usize) -> Arc<Tables> {
+        let key = (layout.harmonics.clone(), samples);
+        if let Some(t) = TABLES
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get_or_insert_with(Default::default)
+            .get(&key)
+        {
+            return t.clone();
+        }
+        // built outside the lock (two threads may both build the same
+        // tables: identical, one is kept)
+        let t = Arc::new(Tables::new(layout, samples));
+        let mut cache = TABLES.lock().unwrap_or_else(|e| e.into_inner());
+        let cache = cache.get_or_insert_with(Default::default);
+        if cache.len() >= TABLES_KEPT {
+            cache.clear();
+        }
+        cache.entry(key).or_insert(t).clone()
+    }
+
+    fn new(layout: &Layout, samples: usize) -> Tables {
         let n = layout.len;
         let mut planner = RealFftPlanner::<f64>::new();
         let r2c = planner.plan_fft_forward(samples);
         let c2r = planner.plan_fft_inverse(samples);
-        let spectrum = r2c.make_output_vec();
-        let scratch_r2c = r2c.make_scratch_vec();
-        let scratch_c2r = c2r.make_scratch_vec();
         let mut basis_x = vec![0.0; samples * n];
         let mut basis_v = vec![0.0; samples * n];
         for j in 0..samples {
@@ -232,12 +262,32 @@ impl Aft {
             .chunks_exact(n)
             .flat_map(|row| row.iter().zip(&weight).map(|(b, w)| b * w))
             .collect();
-        Aft {
-            layout,
-            samples,
+        Tables {
             odd_only,
             r2c,
             c2r,
+            basis_x,
+            basis_v,
+            analysis,
+            units,
+        }
+    }
+}
+
+impl Aft {
+    /// A workspace. `samples` must exceed twice the highest harmonic (checked
+    /// by [`super::HbOptions::validate`]).
+    pub fn new(harmonics: &[usize], samples: usize) -> Aft {
+        let layout = Layout::new(harmonics);
+        let n = layout.len;
+        let tables = Tables::of(&layout, samples);
+        let spectrum = tables.r2c.make_output_vec();
+        let scratch_r2c = tables.r2c.make_scratch_vec();
+        let scratch_c2r = tables.c2r.make_scratch_vec();
+        Aft {
+            layout,
+            samples,
+            tables,
             spectrum,
             scratch_r2c,
             scratch_c2r,
@@ -245,8 +295,6 @@ impl Aft {
             v: vec![0.0; samples],
             g: vec![0.0; samples],
             buf: vec![0.0; samples],
-            basis_x,
-            basis_v,
             dv: vec![0.0; n],
             dg_sample: vec![0.0; n],
             dg_rows: vec![0.0; samples * n],
@@ -255,8 +303,6 @@ impl Aft {
             extremum_at: vec![NONE; samples],
             dx_extremum: vec![0.0; n],
             dv_extremum: vec![0.0; n],
-            analysis,
-            units,
             structured: false,
             #[cfg(test)]
             dense_only: false,
@@ -297,7 +343,8 @@ impl Aft {
             Target::Slope => &mut self.xp,
         };
         // lengths and the zero imaginary DC/Nyquist parts hold by construction
-        self.c2r
+        self.tables
+            .c2r
             .process_with_scratch(&mut self.spectrum, out, &mut self.scratch_c2r)
             .expect("inverse real FFT on buffers of the planned length");
     }
@@ -387,7 +434,8 @@ impl Aft {
     /// Forward transform of `buf` into harmonic rows of `out` (`n` reals,
     /// stride `stride`, column offset `col`).
     fn analyse_buf(&mut self, out: &mut [f64], stride: usize, col: usize) {
-        self.r2c
+        self.tables
+            .r2c
             .process_with_scratch(&mut self.buf, &mut self.spectrum, &mut self.scratch_r2c)
             .expect("forward real FFT on buffers of the planned length");
         let inv = 1.0 / self.samples as f64;
@@ -456,7 +504,7 @@ impl Aft {
         } else {
             0
         };
-        let mut half = odd_law && self.odd_only && !(memory && method == PeriodicLoop::TwoPeriods);
+        let mut half = odd_law && self.tables.odd_only && !(memory && method == PeriodicLoop::TwoPeriods);
         let (first, count) = if !memory {
             (0, if half { ns / 2 } else { ns })
         } else {
@@ -681,7 +729,7 @@ impl Aft {
             return;
         }
         if velocity {
-            for (d, &b) in self.dv.iter_mut().zip(&self.basis_v[j * n..(j + 1) * n]) {
+            for (d, &b) in self.dv.iter_mut().zip(&self.tables.basis_v[j * n..(j + 1) * n]) {
                 *d = omega * b;
             }
         }
@@ -689,11 +737,11 @@ impl Aft {
             let f = elements.commit_sensitivity_terms(
                 self.x[j],
                 self.v[j],
-                &self.basis_x[j * n..(j + 1) * n],
+                &self.tables.basis_x[j * n..(j + 1) * n],
                 &self.dv,
                 &mut self.terms,
             );
-            let w = store.then(|| &self.analysis[j * n..(j + 1) * n]);
+            let w = store.then(|| &self.tables.analysis[j * n..(j + 1) * n]);
             let (k, c) = self.terms.end_sample(w);
             if store {
                 self.g[j] = f.force;
@@ -711,7 +759,7 @@ impl Aft {
         let f = elements.commit_sensitivity(
             self.x[j],
             self.v[j],
-            &self.basis_x[j * n..(j + 1) * n],
+            &self.tables.basis_x[j * n..(j + 1) * n],
             &self.dv,
             dg,
         );
@@ -802,7 +850,8 @@ impl Aft {
                 continue;
             }
             self.buf.copy_from_slice(tangent);
-            self.r2c
+            self.tables
+            .r2c
                 .process_with_scratch(
                     &mut self.buf,
                     &mut self.tangent_spectrum,
@@ -811,7 +860,7 @@ impl Aft {
                 .expect("forward real FFT on buffers of the planned length");
             // `S(q) = Σ_j k_j e^{iqθ_j}` for `|q| ≤ 2 h_max` from the
             // spectrum `Σ_j k_j e^{−iqθ_j}` (periodic in `q` over `N`)
-            let top = 2 * self.units.last().map_or(0, |u| u.0) as i64;
+            let top = 2 * self.tables.units.last().map_or(0, |u| u.0) as i64;
             self.harmonic_sums.clear();
             for q in -top..=top {
                 let m = q.rem_euclid(ns as i64) as usize;
@@ -823,9 +872,9 @@ impl Aft {
             }
             let sums = &self.harmonic_sums;
             let s_at = |q: i64| sums[(q + top) as usize];
-            for (r, &(a, v)) in self.units.iter().enumerate() {
+            for (r, &(a, v)) in self.tables.units.iter().enumerate() {
                 let scale = if a == 0 { 1.0 } else { 2.0 } / ns as f64;
-                for (t, &(b, u)) in self.units.iter().enumerate() {
+                for (t, &(b, u)) in self.tables.units.iter().enumerate() {
                     // the velocity basis: `∂v/∂p = Re(u jbω e^{ibθ})`
                     let u = if of_velocity {
                         u * Complex64::new(0.0, b as f64 * omega)
