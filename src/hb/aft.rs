@@ -190,10 +190,11 @@ pub(crate) struct Tables {
 }
 
 /// Harmonic sets and sample counts seen so far; few in any run (the cache is
-/// emptied if a caller cycles through many).
+/// emptied if a caller cycles through so many that their tables pass
+/// [`TABLES_KEPT_BYTES`]).
 type TableCache = std::collections::HashMap<(Vec<usize>, usize), Arc<Tables>>;
 static TABLES: std::sync::Mutex<Option<TableCache>> = std::sync::Mutex::new(None);
-const TABLES_KEPT: usize = 64;
+const TABLES_KEPT_BYTES: usize = 64 << 20;
 
 impl Tables {
     /// The shared tables of `layout` at `samples` per period.
@@ -212,10 +213,16 @@ impl Tables {
         let t = Arc::new(Tables::new(layout, samples));
         let mut cache = TABLES.lock().unwrap_or_else(|e| e.into_inner());
         let cache = cache.get_or_insert_with(Default::default);
-        if cache.len() >= TABLES_KEPT {
+        let bytes: usize = cache.values().map(|t| t.bytes()).sum();
+        if bytes + t.bytes() > TABLES_KEPT_BYTES {
             cache.clear();
         }
         cache.entry(key).or_insert(t).clone()
+    }
+
+    /// The tables' size (the plans aside).
+    fn bytes(&self) -> usize {
+        8 * (self.basis_x.len() + self.basis_v.len() + self.analysis.len())
     }
 
     fn new(layout: &Layout, samples: usize) -> Tables {
@@ -504,7 +511,8 @@ impl Aft {
         } else {
             0
         };
-        let mut half = odd_law && self.tables.odd_only && !(memory && method == PeriodicLoop::TwoPeriods);
+        let mut half =
+            odd_law && self.tables.odd_only && !(memory && method == PeriodicLoop::TwoPeriods);
         let (first, count) = if !memory {
             (0, if half { ns / 2 } else { ns })
         } else {
@@ -729,7 +737,11 @@ impl Aft {
             return;
         }
         if velocity {
-            for (d, &b) in self.dv.iter_mut().zip(&self.tables.basis_v[j * n..(j + 1) * n]) {
+            for (d, &b) in self
+                .dv
+                .iter_mut()
+                .zip(&self.tables.basis_v[j * n..(j + 1) * n])
+            {
                 *d = omega * b;
             }
         }
@@ -851,7 +863,7 @@ impl Aft {
             }
             self.buf.copy_from_slice(tangent);
             self.tables
-            .r2c
+                .r2c
                 .process_with_scratch(
                     &mut self.buf,
                     &mut self.tangent_spectrum,
@@ -1320,6 +1332,55 @@ mod tests {
         .unwrap();
         assert_eq!(g1, g2);
         assert_eq!(d1, d2);
+    }
+
+    /// Workspaces of one harmonic set and sample count share one set of
+    /// tables, built once and never written: a workspace made after another
+    /// has evaluated gives the same bits, and the shared tables are those
+    /// built afresh.
+    #[test]
+    fn workspaces_share_tables_that_evaluations_leave_as_built() {
+        let harmonics = [1, 3, 5, 7];
+        let mut first = Aft::new(&harmonics, 48);
+        let xs = test_x(&first.layout);
+        let n = first.layout.len;
+        let mut e = ElementSpec::Masing {
+            kd: 2.4e7,
+            fd: 246.048,
+            n: 5.0,
+        }
+        .build()
+        .unwrap();
+        let mut run = |aft: &mut Aft| {
+            let (mut g, mut d) = (vec![0.0; n], vec![0.0; n * n]);
+            aft.evaluate(
+                &xs,
+                1.0,
+                &mut e,
+                PeriodicLoop::MaxAmplitude,
+                true,
+                &mut g,
+                Some(&mut d),
+            )
+            .unwrap();
+            (g, d)
+        };
+        let a = run(&mut first);
+        let mut second = Aft::new(&harmonics, 48);
+        assert!(Arc::ptr_eq(&first.tables, &second.tables));
+        assert!(!Arc::ptr_eq(
+            &first.tables,
+            &Aft::new(&harmonics, 64).tables
+        ));
+        assert!(!Arc::ptr_eq(&first.tables, &Aft::new(&[1, 3], 48).tables));
+        assert_eq!(a, run(&mut second));
+        let fresh = Tables::new(&first.layout, 48);
+        let shared = &second.tables;
+        assert_eq!(fresh.basis_x, shared.basis_x);
+        assert_eq!(fresh.basis_v, shared.basis_v);
+        assert_eq!(fresh.analysis, shared.analysis);
+        assert_eq!(fresh.units, shared.units);
+        assert_eq!(fresh.odd_only, shared.odd_only);
     }
 }
 
