@@ -927,7 +927,9 @@ fn validate<'py>(
         &excitation,
     )?;
     let progress = Progress::new(progress);
-    let mut v = progress.run(py, || validate_loaded(&fit, &recording_name, &loaded, &settings, &progress))?;
+    let mut v = progress.run(py, || {
+        validate_loaded(&fit, &recording_name, &loaded, &settings, &progress)
+    })?;
     let simulated = std::mem::take(&mut v.simulated);
     let response = loaded.recording.meta.channels[loaded.response].name.clone();
     let report = ValidateReport {
@@ -1082,10 +1084,17 @@ fn identify_time<'py>(
             let mut report = from_json::<FitReport>("fit", &text)?;
             let t = progress.run(py, || {
                 let records = records(None)?;
+                // the replay and the starts as given; the upsampling
+                // threshold is the start's and multisines' only, as on the
+                // command line
                 hystid::analysis::run_time_fit(
                     &report.fit,
                     &records,
-                    &TimeFitOptions::default(),
+                    &TimeFitOptions {
+                        input: time_options.input,
+                        starts: time_options.starts,
+                        ..TimeFitOptions::default()
+                    },
                     band,
                     &progress,
                 )

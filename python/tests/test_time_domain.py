@@ -47,6 +47,31 @@ def test_refining_an_frf_fit_is_identify_domain_time(cli):
     same_fit(fit, ref)
 
 
+def test_an_frf_fits_refinement_takes_the_replay_and_the_starts(cli):
+    """`fit=` refined with `replay` and `starts` is `identify --domain time
+    --replay continuous --starts 2` (they were ignored: the default replay
+    from one start)."""
+    d = cli["dir"]
+    run_cli("identify", "sim/recording.json", "--out", "fit_time_c2", "--domain", "time",
+            "--replay", "continuous", "--starts", "2", cwd=d)
+    ref = json.loads((d / "fit_time_c2" / "fit.json").read_text())
+    samples = read_wav_f32(d / "sim" / "recording.wav").astype(np.float64)
+    meta = cli["recording"]
+    record = {
+        "force": samples[:, 0],
+        "response": samples[:, 1],
+        "sample_rate_hz": meta["sample_rate_hz"],
+        "steps": meta["excitation"]["steps"],
+        "name": "sim/recording.json",
+    }
+    fit = json.loads((d / "fit" / "fit.json").read_text())
+    refined = hystid.identify_time([record], fit=fit, replay="continuous", starts=2)
+    notes = " ".join(refined["time_domain"]["notes"])
+    assert "--replay continuous" in notes and "descended from 2 starts" in notes
+    assert len(refined["time_domain"]["starts"]) == 2
+    assert refined["time_domain"] == ref["time_domain"]
+
+
 def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     """A Jenkins SDOF driven by 4 periods of a multisine (lines 5-60 Hz of a
     1 s period at 2 kHz), written to CSV and imported: the command and the
