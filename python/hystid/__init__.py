@@ -434,7 +434,21 @@ def identify_time(
     return json.loads(text)
 
 
-def diagnose(frf, fit=None, *, candidates=None, options=None, progress=None, **kwargs):
+def diagnose(
+    frf,
+    fit=None,
+    *,
+    candidates=None,
+    options=None,
+    progress=None,
+    recordings=None,
+    reduction=None,
+    time_proposals=0,
+    replay="band_limited",
+    starts=1,
+    min_samples_per_period=40.0,
+    **kwargs,
+):
     """Traces a fit's residual to missing effects, adds them and refits, as
     ``hystid diagnose`` does: the ``diagnosis.json`` dict.
 
@@ -449,13 +463,54 @@ def diagnose(frf, fit=None, *, candidates=None, options=None, progress=None, **k
     reference and the structure, for a voltage reference only;
     ``bouc_wen_joint``, a Bouc-Wen joint in its place, is tried when named;
     ``"all"`` names every one). ``progress``: see :data:`PROGRESS`.
+
+    ``recordings`` (a list as :func:`identify_time` takes, the stepped or
+    swept sines ``frf`` was reduced from): the final model is then refined
+    on their time histories, as ``diagnose --domain time`` does (the dict's
+    ``time_domain``): each kept effect confirmed there, the time residual
+    read in the FRFs' plane with the recordings reduced again as
+    ``reduction`` says (:func:`extract`'s keywords: ``max_harmonic``,
+    ``compensation``, ``hop_periods``, ``window_periods``, ``excitation``),
+    and ``time_proposals``, ``replay``, ``starts`` and
+    ``min_samples_per_period`` as the command's ``--time-proposals``,
+    ``--replay``, ``--starts`` and ``--min-samples-per-period``.
     """
+    time = None
+    if recordings is None:
+        given = {
+            "time_proposals": time_proposals != 0,
+            "replay": replay != "band_limited",
+            "starts": starts != 1,
+            "reduction": reduction is not None,
+        }
+        named = [k for k, v in given.items() if v]
+        if named:
+            raise HystidError(
+                f"{named[0]}: applies to the refit on the time histories; give recordings=[...]"
+            )
+    else:
+        red = {"hop_periods": 1.0, "window_periods": 4}
+        red.update(reduction or {})
+        lists = [list(p) for p in _time_records(recordings, replay)]
+        time = dict(
+            zip(
+                ("references", "reference_quantities", "responses", "response_quantities",
+                 "sample_rates", "excitations", "names"),
+                lists,
+            ),
+            reduction=json.dumps(red),
+            replay=replay,
+            starts=int(starts),
+            min_samples_per_period=float(min_samples_per_period),
+            time_proposals=int(time_proposals),
+        )
     text = _hystid.diagnose(
         json.dumps(frf),
         _options(options, kwargs),
         None if fit is None else json.dumps(fit),
         None if candidates is None else list(candidates),
         progress,
+        time,
     )
     return json.loads(text)
 

@@ -9,7 +9,8 @@
 //! released while the library works. Errors are `hystid.HystidError`
 //! (a `ValueError`) with the message the command line prints.
 
-use hystid::analysis::diagnose::DiagnosisReport;
+use hystid::analysis::diagnose::{DiagnosisReport, TimeOutcome, refine_in_time};
+use hystid::analysis::recording::ReplayReduction;
 use hystid::analysis::run::FinalModel;
 use hystid::analysis::validate::{
     FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
@@ -799,10 +800,34 @@ fn diagnose_options(candidates: Option<Vec<String>>) -> PyResult<DiagnoseOptions
     Ok(d)
 }
 
+/// The recordings a diagnosis refines its final model on in the time domain
+/// (`diagnose --domain time` on stepped and swept sines), one entry per
+/// recording in each list, and how: the reduction their replays are read
+/// with (extract's), the replay, the first refit's starts, the upsampling
+/// threshold and the candidates put to the time histories.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct TimeRecordings<'py> {
+    references: Vec<PyReadonlyArray1<'py, f64>>,
+    reference_quantities: Vec<String>,
+    responses: Vec<PyReadonlyArray1<'py, f64>>,
+    response_quantities: Vec<String>,
+    sample_rates: Vec<f64>,
+    excitations: Vec<String>,
+    names: Vec<String>,
+    reduction: String,
+    replay: String,
+    starts: usize,
+    min_samples_per_period: f64,
+    time_proposals: usize,
+}
+
 /// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
-/// `options`, as `hystid diagnose` does): diagnosis.json.
+/// `options`, as `hystid diagnose` does): diagnosis.json. With `time`, the
+/// diagnosis's final model is then refined on the recordings' time
+/// histories, as `diagnose --domain time` does.
 #[pyfunction]
-#[pyo3(signature = (frf, options, fit = None, candidates = None, progress = None))]
+#[pyo3(signature = (frf, options, fit = None, candidates = None, progress = None, time = None))]
 fn diagnose<'py>(
     py: Python<'py>,
     frf: String,
@@ -810,6 +835,7 @@ fn diagnose<'py>(
     fit: Option<String>,
     candidates: Option<Vec<String>>,
     progress: Option<Py<PyAny>>,
+    time: Option<TimeRecordings<'py>>,
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let fit_opts = fit_options(&options)?;
@@ -823,7 +849,37 @@ fn diagnose<'py>(
     let d = DiagnoseOptions {
         band_hz: fit_opts.band_hz,
         fit: fit_opts.clone(),
+        time_proposals: time.as_ref().map_or(0, |t| t.time_proposals),
         ..d
+    };
+    // the recordings as the time refit takes them, and how it replays
+    let time = match &time {
+        None => None,
+        Some(t) => {
+            let loaded = loaded_all(
+                &t.references,
+                &t.reference_quantities,
+                &t.responses,
+                &t.response_quantities,
+                &t.sample_rates,
+                &t.excitations,
+                t.names.len(),
+            )?;
+            let named: Vec<(std::path::PathBuf, Loaded)> = t
+                .names
+                .iter()
+                .map(std::path::PathBuf::from)
+                .zip(loaded)
+                .collect();
+            let reduction = from_json::<ReductionJson>("reduction", &t.reduction)?.options()?;
+            let options = TimeFitOptions {
+                input: from_json("replay", &format!("\"{}\"", t.replay))?,
+                min_samples_per_period: t.min_samples_per_period,
+                starts: time_fit_options(t.min_samples_per_period, &t.replay, t.starts)?.starts,
+                ..TimeFitOptions::default()
+            };
+            Some((named, reduction, options))
+        }
     };
     let progress = Progress::new(progress);
     let outcome = progress.run(py, || {
@@ -832,8 +888,36 @@ fn diagnose<'py>(
             Some(f) => f,
             None => hystid::analysis::run_fit(&frf, &fit_opts, &progress, None)?.0,
         };
-        let (diagnosis, predictor) =
+        let (mut diagnosis, predictor) =
             hystid::analysis::diagnose::run_diagnosis(&frf, &fit, &d, &progress)?;
+        // a refit that fails leaves the FRF diagnosis standing, with why
+        // (as the command's); an interrupt stops the call
+        let time = match time {
+            None => None,
+            Some((named, reduction, options)) => {
+                let refined = ReplayReduction::from_loaded(named, &reduction).and_then(|replays| {
+                    let records = replays.time_records(d.band_hz)?;
+                    refine_in_time(
+                        &mut diagnosis,
+                        &frf,
+                        &records,
+                        &options,
+                        d.band_hz,
+                        &d,
+                        &predictor,
+                        Some(&replays),
+                        &progress,
+                    )
+                });
+                Some(match refined {
+                    Ok(t) => TimeOutcome::Refined(Box::new(t)),
+                    Err(hystid::Error::Cancelled) => return Err(hystid::Error::Cancelled),
+                    Err(e) => TimeOutcome::Failed {
+                        failed: e.to_string(),
+                    },
+                })
+            }
+        };
         // the final model as reported, with its flags, as the command states it
         let final_model = FinalModel::of(
             &frf,
@@ -844,11 +928,12 @@ fn diagnose<'py>(
             None,
             &predictor,
         )?;
-        Ok((diagnosis, final_model, t0.elapsed().as_secs_f64()))
+        Ok((diagnosis, final_model, time, t0.elapsed().as_secs_f64()))
     });
-    let (diagnosis, final_model, seconds) = outcome?;
+    let (diagnosis, final_model, time, seconds) = outcome?;
     to_json(&DiagnosisReport {
         final_model: Some(&final_model),
+        time_domain: time.as_ref(),
         ..DiagnosisReport::new(&diagnosis, frf.reference, seconds)
     })
 }

@@ -72,6 +72,32 @@ def test_an_frf_fits_refinement_takes_the_replay_and_the_starts(cli):
     assert refined["time_domain"] == ref["time_domain"]
 
 
+def test_a_diagnosis_refined_in_time_is_diagnose_domain_time(cli):
+    """`diagnose(frf, recordings=[...])` is `diagnose --domain time` on the
+    small test's stepped sine: the FRF diagnosis, its final model refitted
+    on the time histories, each kept effect confirmed there and the time
+    residual read in the FRFs' plane, to the bit but for the wall time."""
+    d = cli["dir"]
+    run_cli("diagnose", "sim/recording.json", "--out", "diag_time", "--domain", "time", cwd=d)
+    ref = json.loads((d / "diag_time" / "diagnosis.json").read_text())
+    samples = read_wav_f32(d / "sim" / "recording.wav").astype(np.float64)
+    meta = cli["recording"]
+    fs, steps = meta["sample_rate_hz"], meta["excitation"]["steps"]
+    record = {
+        "force": samples[:, 0],
+        "response": samples[:, 1],
+        "sample_rate_hz": fs,
+        "steps": steps,
+        "name": "sim/recording.json",
+    }
+    frf = hystid.extract(samples[:, 0], samples[:, 1], fs, steps=steps)
+    with pytest.raises(hystid.HystidError, match="starts: applies to the refit on the time histories"):
+        hystid.diagnose(frf, starts=2)
+    diagnosis = hystid.diagnose(frf, recordings=[record])
+    assert "refit" in diagnosis["time_domain"]
+    assert without(diagnosis, "seconds") == without(ref, "seconds")
+
+
 def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     """A Jenkins SDOF driven by 4 periods of a multisine (lines 5-60 Hz of a
     1 s period at 2 kHz), written to CSV and imported: the command and the

@@ -799,11 +799,26 @@ impl ReplayReduction {
         choice: ChannelChoice,
         reduction: &ReductionOptions,
     ) -> Result<ReplayReduction> {
+        let loaded = recordings
+            .iter()
+            .map(|path| {
+                let at = |e| Error::context(format!("reducing {}", path.display()), e);
+                Ok((path.clone(), load_recording(path, choice).map_err(at)?))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        ReplayReduction::from_loaded(loaded, reduction)
+    }
+
+    /// [`ReplayReduction::new`] of recordings already loaded (from a
+    /// library's arrays), each with the name its time record takes.
+    pub fn from_loaded(
+        recordings: Vec<(PathBuf, Loaded)>,
+        reduction: &ReductionOptions,
+    ) -> Result<ReplayReduction> {
         let mut sources = Vec::with_capacity(recordings.len());
         let mut sets = Vec::with_capacity(recordings.len());
-        for path in recordings {
+        for (path, loaded) in recordings {
             let at = |e| Error::context(format!("reducing {}", path.display()), e);
-            let loaded = load_recording(path, choice).map_err(at)?;
             let red = reduce(&loaded, reduction).map_err(at)?;
             let fixed = ReductionOptions {
                 excitation: Some(red.excitation),
