@@ -23,11 +23,10 @@ def same_fit(py, cli):
         )
 
 
-def test_refining_an_frf_fit_is_identify_domain_time(cli):
-    d = cli["dir"]
-    run_cli("identify", "sim/recording.json", "--out", "fit_time", "--domain", "time", cwd=d)
-    ref = json.loads((d / "fit_time" / "fit.json").read_text())
-    samples = read_wav_f32(d / "sim" / "recording.wav").astype(np.float64)
+def small_record(cli):
+    """The small test's recording as a time-domain call takes it, named as
+    the command names it, and its FRFs reduced as the command reduces it."""
+    samples = read_wav_f32(cli["dir"] / "sim" / "recording.wav").astype(np.float64)
     meta = cli["recording"]
     fs, steps = meta["sample_rate_hz"], meta["excitation"]["steps"]
     record = {
@@ -37,8 +36,14 @@ def test_refining_an_frf_fit_is_identify_domain_time(cli):
         "steps": steps,
         "name": "sim/recording.json",
     }
-    # the recording reduced as identify reduces it
-    frf = hystid.extract(samples[:, 0], samples[:, 1], fs, steps=steps)
+    return record, hystid.extract(samples[:, 0], samples[:, 1], fs, steps=steps)
+
+
+def test_refining_an_frf_fit_is_identify_domain_time(cli):
+    d = cli["dir"]
+    run_cli("identify", "sim/recording.json", "--out", "fit_time", "--domain", "time", cwd=d)
+    ref = json.loads((d / "fit_time" / "fit.json").read_text())
+    record, frf = small_record(cli)
     fit = hystid.identify(
         frf, recording="sim/recording.json", reference=SMALL,
         domain="time", recordings=[record],
@@ -55,15 +60,7 @@ def test_an_frf_fits_refinement_takes_the_replay_and_the_starts(cli):
     run_cli("identify", "sim/recording.json", "--out", "fit_time_c2", "--domain", "time",
             "--replay", "continuous", "--starts", "2", cwd=d)
     ref = json.loads((d / "fit_time_c2" / "fit.json").read_text())
-    samples = read_wav_f32(d / "sim" / "recording.wav").astype(np.float64)
-    meta = cli["recording"]
-    record = {
-        "force": samples[:, 0],
-        "response": samples[:, 1],
-        "sample_rate_hz": meta["sample_rate_hz"],
-        "steps": meta["excitation"]["steps"],
-        "name": "sim/recording.json",
-    }
+    record, _ = small_record(cli)
     fit = json.loads((d / "fit" / "fit.json").read_text())
     refined = hystid.identify_time([record], fit=fit, replay="continuous", starts=2)
     notes = " ".join(refined["time_domain"]["notes"])
@@ -80,17 +77,7 @@ def test_a_diagnosis_refined_in_time_is_diagnose_domain_time(cli):
     d = cli["dir"]
     run_cli("diagnose", "sim/recording.json", "--out", "diag_time", "--domain", "time", cwd=d)
     ref = json.loads((d / "diag_time" / "diagnosis.json").read_text())
-    samples = read_wav_f32(d / "sim" / "recording.wav").astype(np.float64)
-    meta = cli["recording"]
-    fs, steps = meta["sample_rate_hz"], meta["excitation"]["steps"]
-    record = {
-        "force": samples[:, 0],
-        "response": samples[:, 1],
-        "sample_rate_hz": fs,
-        "steps": steps,
-        "name": "sim/recording.json",
-    }
-    frf = hystid.extract(samples[:, 0], samples[:, 1], fs, steps=steps)
+    record, frf = small_record(cli)
     with pytest.raises(hystid.HystidError, match="starts: applies to the refit on the time histories"):
         hystid.diagnose(frf, starts=2)
     diagnosis = hystid.diagnose(frf, recordings=[record])
