@@ -368,16 +368,23 @@ def _time_record(r, i):
     )
 
 
+_RECORDING_LISTS = (
+    "references", "reference_quantities", "responses", "response_quantities",
+    "sample_rates", "excitations", "names",
+)
+
+
 def _time_records(recordings, replay):
-    """The recordings of a time-domain call as the binding's seven lists,
-    `replay` checked."""
+    """The recordings of a time-domain call as the binding takes them (a
+    dict of seven lists, one entry per recording), `replay` checked."""
     if replay not in ("band_limited", "continuous", "ramp"):
         raise ValueError(
             f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
         )
     if isinstance(recordings, dict):
         recordings = [recordings]
-    return list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
+    lists = list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
+    return {k: list(v) for k, v in zip(_RECORDING_LISTS, lists)}
 
 
 def identify_time(
@@ -420,7 +427,7 @@ def identify_time(
     parts = _time_records(recordings, replay)
     model_start = None if start is None else _as_model(start)
     text = _hystid.identify_time(
-        *[list(p) for p in parts],
+        parts,
         _options(options, kwargs),
         None if fit is None else json.dumps(fit),
         model_start,
@@ -491,13 +498,8 @@ def diagnose(
     else:
         red = {"hop_periods": 1.0, "window_periods": 4}
         red.update(reduction or {})
-        lists = [list(p) for p in _time_records(recordings, replay)]
         time = dict(
-            zip(
-                ("references", "reference_quantities", "responses", "response_quantities",
-                 "sample_rates", "excitations", "names"),
-                lists,
-            ),
+            recordings=_time_records(recordings, replay),
             reduction=json.dumps(red),
             replay=replay,
             starts=int(starts),
@@ -544,7 +546,7 @@ def diagnose_time(
     """
     parts = _time_records(recordings, replay)
     text = _hystid.diagnose_time(
-        *[list(p) for p in parts],
+        parts,
         _options(options, kwargs),
         None if candidates is None else list(candidates),
         int(time_proposals),

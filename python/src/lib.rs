@@ -801,20 +801,14 @@ fn diagnose_options(candidates: Option<Vec<String>>) -> PyResult<DiagnoseOptions
 }
 
 /// The recordings a diagnosis refines its final model on in the time domain
-/// (`diagnose --domain time` on stepped and swept sines), one entry per
-/// recording in each list, and how: the reduction their replays are read
-/// with (extract's), the replay, the first refit's starts, the upsampling
-/// threshold and the candidates put to the time histories.
+/// (`diagnose --domain time` on stepped and swept sines), and how: the
+/// reduction their replays are read with (extract's), the replay, the first
+/// refit's starts, the upsampling threshold and the candidates put to the
+/// time histories.
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 struct TimeRecordings<'py> {
-    references: Vec<PyReadonlyArray1<'py, f64>>,
-    reference_quantities: Vec<String>,
-    responses: Vec<PyReadonlyArray1<'py, f64>>,
-    response_quantities: Vec<String>,
-    sample_rates: Vec<f64>,
-    excitations: Vec<String>,
-    names: Vec<String>,
+    recordings: Recordings<'py>,
     reduction: String,
     replay: String,
     starts: usize,
@@ -856,16 +850,9 @@ fn diagnose<'py>(
     let time = match &time {
         None => None,
         Some(t) => {
-            let loaded = loaded_all(
-                &t.references,
-                &t.reference_quantities,
-                &t.responses,
-                &t.response_quantities,
-                &t.sample_rates,
-                &t.excitations,
-                t.names.len(),
-            )?;
+            let loaded = t.recordings.loaded()?;
             let named: Vec<(std::path::PathBuf, Loaded)> = t
+                .recordings
                 .names
                 .iter()
                 .map(std::path::PathBuf::from)
@@ -1062,59 +1049,11 @@ fn fit_coil<'py>(
     to_json(&coil)
 }
 
-/// The recordings of a time-domain call, one per entry of each list (all
-/// of one length, `names` among them, at least one).
-#[allow(clippy::too_many_arguments)]
-fn loaded_all(
-    references: &[PyReadonlyArray1<'_, f64>],
-    reference_quantities: &[String],
-    responses: &[PyReadonlyArray1<'_, f64>],
-    response_quantities: &[String],
-    sample_rates: &[f64],
-    excitations: &[String],
-    names: usize,
-) -> PyResult<Vec<Loaded>> {
-    let n = references.len();
-    if [
-        reference_quantities.len(),
-        responses.len(),
-        response_quantities.len(),
-        sample_rates.len(),
-        excitations.len(),
-        names,
-    ]
-    .iter()
-    .any(|&m| m != n)
-        || n == 0
-    {
-        return Err(fail(
-            "recordings: give at least one, each with its force and response",
-        ));
-    }
-    (0..n)
-        .map(|i| {
-            loaded(
-                &references[i],
-                &reference_quantities[i],
-                &responses[i],
-                &response_quantities[i],
-                sample_rates[i],
-                &excitations[i],
-            )
-        })
-        .collect()
-}
-
-/// A time-domain fit (fit.json, as `hystid identify --domain time`): of
-/// an FRF fit's model (`fit`, fit.json, refined as the command refines it),
-/// of a model written down (`start`, as `--start`), or with neither of
-/// multisine recordings from their linear estimate. One entry per recording
-/// in each list.
-#[pyfunction]
-#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
-#[allow(clippy::too_many_arguments)]
-fn identify_time<'py>(
-    py: Python<'py>,
+/// The recordings of a time-domain call: one per entry of each list (a
+/// dict of the lists, as the package's `_time_records` makes it).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct Recordings<'py> {
     references: Vec<PyReadonlyArray1<'py, f64>>,
     reference_quantities: Vec<String>,
     responses: Vec<PyReadonlyArray1<'py, f64>>,
@@ -1122,6 +1061,53 @@ fn identify_time<'py>(
     sample_rates: Vec<f64>,
     excitations: Vec<String>,
     names: Vec<String>,
+}
+
+impl Recordings<'_> {
+    /// Each recording loaded (the lists all of one length, at least one).
+    fn loaded(&self) -> PyResult<Vec<Loaded>> {
+        let n = self.references.len();
+        if [
+            self.reference_quantities.len(),
+            self.responses.len(),
+            self.response_quantities.len(),
+            self.sample_rates.len(),
+            self.excitations.len(),
+            self.names.len(),
+        ]
+        .iter()
+        .any(|&m| m != n)
+            || n == 0
+        {
+            return Err(fail(
+                "recordings: give at least one, each with its force and response",
+            ));
+        }
+        (0..n)
+            .map(|i| {
+                loaded(
+                    &self.references[i],
+                    &self.reference_quantities[i],
+                    &self.responses[i],
+                    &self.response_quantities[i],
+                    self.sample_rates[i],
+                    &self.excitations[i],
+                )
+            })
+            .collect()
+    }
+}
+
+/// A time-domain fit (fit.json, as `hystid identify --domain time`): of
+/// an FRF fit's model (`fit`, fit.json, refined as the command refines it),
+/// of a model written down (`start`, as `--start`), or with neither of
+/// multisine recordings from their linear estimate.
+#[pyfunction]
+#[pyo3(signature = (recordings, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
+#[allow(clippy::too_many_arguments)]
+fn identify_time<'py>(
+    py: Python<'py>,
+    recordings: Recordings<'py>,
     options: String,
     fit: Option<String>,
     start: Option<PyRef<'py, PyModel>>,
@@ -1134,15 +1120,8 @@ fn identify_time<'py>(
 ) -> PyResult<String> {
     let time_options = time_fit_options(min_samples_per_period, &replay, starts)?;
     let progress = Progress::new(progress);
-    let loaded = loaded_all(
-        &references,
-        &reference_quantities,
-        &responses,
-        &response_quantities,
-        &sample_rates,
-        &excitations,
-        names.len(),
-    )?;
+    let loaded = recordings.loaded()?;
+    let names = recordings.names;
     let fit_opts = fit_options(&options)?;
     let band = fit_opts.band_hz;
     let records = |window_s: Option<(f64, f64)>| {
@@ -1239,20 +1218,13 @@ fn identify_time<'py>(
 /// A diagnosis of multisine recordings on the lines of their period
 /// (diagnosis.json, as `hystid diagnose --domain time` on multisines): the
 /// joint of `options`' element on their linear estimate fitted in time,
-/// then the loop closed on the residual per line. One entry per recording
-/// in each list.
+/// then the loop closed on the residual per line.
 #[pyfunction]
-#[pyo3(signature = (references, reference_quantities, responses, response_quantities, sample_rates, excitations, names, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
+#[pyo3(signature = (recordings, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose_time<'py>(
     py: Python<'py>,
-    references: Vec<PyReadonlyArray1<'py, f64>>,
-    reference_quantities: Vec<String>,
-    responses: Vec<PyReadonlyArray1<'py, f64>>,
-    response_quantities: Vec<String>,
-    sample_rates: Vec<f64>,
-    excitations: Vec<String>,
-    names: Vec<String>,
+    recordings: Recordings<'py>,
     options: String,
     candidates: Option<Vec<String>>,
     time_proposals: usize,
@@ -1263,15 +1235,8 @@ fn diagnose_time<'py>(
 ) -> PyResult<String> {
     let time_options = time_fit_options(min_samples_per_period, &replay, starts)?;
     let progress = Progress::new(progress);
-    let loaded = loaded_all(
-        &references,
-        &reference_quantities,
-        &responses,
-        &response_quantities,
-        &sample_rates,
-        &excitations,
-        names.len(),
-    )?;
+    let loaded = recordings.loaded()?;
+    let names = recordings.names;
     let fit_opts = fit_options(&options)?;
     let d = diagnose_options(candidates)?;
     let d = DiagnoseOptions {
