@@ -496,11 +496,9 @@ def diagnose(
                 f"{named[0]}: applies to the refit on the time histories; give recordings=[...]"
             )
     else:
-        red = {"hop_periods": 1.0, "window_periods": 4}
-        red.update(reduction or {})
         time = dict(
             recordings=_time_records(recordings, replay),
-            reduction=json.dumps(red),
+            reduction=json.dumps(reduction or {}),
             replay=replay,
             starts=int(starts),
             min_samples_per_period=float(min_samples_per_period),

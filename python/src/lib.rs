@@ -859,12 +859,7 @@ fn diagnose<'py>(
                 .zip(loaded)
                 .collect();
             let reduction = from_json::<ReductionJson>("reduction", &t.reduction)?.options()?;
-            let options = TimeFitOptions {
-                input: from_json("replay", &format!("\"{}\"", t.replay))?,
-                min_samples_per_period: t.min_samples_per_period,
-                starts: time_fit_options(t.min_samples_per_period, &t.replay, t.starts)?.starts,
-                ..TimeFitOptions::default()
-            };
+            let options = time_fit_options(t.min_samples_per_period, &t.replay, t.starts)?;
             Some((named, reduction, options))
         }
     };
