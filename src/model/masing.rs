@@ -168,7 +168,7 @@ impl PowerBackbone {
     /// not cover (below ~0.15) the formula is used.
     pub fn tabulated(kd: f64, fd: f64, n: f64) -> Result<PowerBackbone> {
         let mut b = PowerBackbone::new(kd, fd, n)?;
-        b.table = BackboneTable::build(n, b.r_linear, b.r_saturated).map(Arc::new);
+        b.table = BackboneTable::shared(n, b.r_linear, b.r_saturated);
         Ok(b)
     }
 
@@ -294,7 +294,44 @@ const TABLE_MAX_SEGMENTS: u64 = 4096;
 const TABLE_MAX_CELLS: usize = 1 << 14;
 const TABLE_MAX_SPLIT: u32 = 20;
 
+/// The tables of the exponents used last, newest at the end: a fit builds
+/// its model afresh at every evaluation (per series, per Jacobian column),
+/// mostly at an exponent it has just used, and a table costs as much as a
+/// few balanced points. Keyed by the exponent's bits (the table depends on
+/// nothing else); a table that could not be built is remembered too.
+type BackboneTables = Vec<(u64, Option<Arc<BackboneTable>>)>;
+static BACKBONE_TABLES: std::sync::Mutex<BackboneTables> = std::sync::Mutex::new(Vec::new());
+/// Enough for a fit's columns and its parallel candidates; at most
+/// `TABLE_MAX_CELLS` cells (0.8 MB) each.
+const BACKBONE_TABLES_KEPT: usize = 16;
+
 impl BackboneTable {
+    /// [`BackboneTable::build`] for exponent `n`, or the same table built
+    /// before (shared).
+    fn shared(n: f64, r_linear: f64, r_saturated: f64) -> Option<Arc<BackboneTable>> {
+        let key = n.to_bits();
+        let lookup = |cache: &mut BackboneTables| {
+            let i = cache.iter().position(|(k, _)| *k == key)?;
+            let hit = cache.remove(i);
+            let table = hit.1.clone();
+            cache.push(hit);
+            Some(table)
+        };
+        if let Some(t) = lookup(&mut BACKBONE_TABLES.lock().unwrap_or_else(|e| e.into_inner())) {
+            return t;
+        }
+        // built outside the lock (two threads may build the same table:
+        // identical, the later one kept)
+        let t = Self::build(n, r_linear, r_saturated).map(Arc::new);
+        let mut cache = BACKBONE_TABLES.lock().unwrap_or_else(|e| e.into_inner());
+        cache.retain(|(k, _)| *k != key);
+        if cache.len() == BACKBONE_TABLES_KEPT {
+            cache.remove(0);
+        }
+        cache.push((key, t.clone()));
+        t
+    }
+
     fn node(r: f64, n: f64, above: bool) -> TableNode {
         let ln_r = r.ln();
         if !above {
@@ -495,6 +532,11 @@ pub struct Masing<B: Backbone = PowerBackbone> {
     sens_dim: usize,
     prev_sens: Vec<f64>,
     stack_sens: Vec<f64>,
+    /// Whether `prev_sens`'s `∂F` is still to be formed from its `∂x`, the
+    /// tangent `k_prev` and the branch origin: it is needed only when the
+    /// sample becomes a turning point, so the structured march does not
+    /// form it at every sample.
+    prev_force_sens_pending: bool,
     /// Whether [`Element::commit_sensitivity_terms`] has stated the current
     /// branch origin's sensitivities as its memory terms.
     origin_stated: bool,
@@ -674,6 +716,7 @@ impl<B: Backbone> Masing<B> {
             anchor: Cell::new(None),
             sens_dim: 0,
             prev_sens: Vec::new(),
+            prev_force_sens_pending: false,
             origin_stated: false,
             stack_sens: Vec::new(),
         }
@@ -805,9 +848,32 @@ impl<B: Backbone> Masing<B> {
 const SOLVE_STEPS: usize = 4;
 
 impl<B: Backbone> Masing<B> {
+    /// The previous sample's `∂F = ∂F_r + k (∂x − ∂x_r)` on its branch from
+    /// the origin `r` (the stack's top, unchanged since), `k ∂x` on the
+    /// backbone, into `prev_sens` if not formed yet.
+    fn form_prev_force_sensitivity(&mut self) {
+        if !self.prev_force_sens_pending {
+            return;
+        }
+        self.prev_force_sens_pending = false;
+        let (n, k, open) = (self.sens_dim, self.k_prev, self.stack.len());
+        let (dx, df) = self.prev_sens.split_at_mut(n);
+        if open == 0 {
+            for (p, &d) in df.iter_mut().zip(&*dx) {
+                *p = k * d;
+            }
+        } else {
+            let r = &self.stack_sens[2 * n * (open - 1)..2 * n * open];
+            for i in 0..n {
+                df[i] = r[n + i] + k * (dx[i] - r[i]);
+            }
+        }
+    }
+
     /// Commits `x` and carries the sensitivities through the history:
-    /// `prev_sens` holds this sample's `(∂x, ∂F)` after it. Also whether the
-    /// branch's origin (the stack's top) changed at this sample.
+    /// `prev_sens` holds this sample's `∂x` after it, and its `∂F` once
+    /// [`Masing::form_prev_force_sensitivity`] has formed it. Also whether
+    /// the branch's origin (the stack's top) changed at this sample.
     fn carry_sensitivity(&mut self, x: f64, dx: &[f64]) -> (ElementForce, bool) {
         let n = dx.len();
         if self.sens_dim != n {
@@ -819,11 +885,13 @@ impl<B: Backbone> Masing<B> {
             self.stack_sens.clear();
             self.stack_sens.resize(2 * n * self.stack.len(), 0.0);
             self.origin_stated = false;
+            self.prev_force_sens_pending = false;
         }
         let at = self.locate(x);
         let f = self.force_at(x, at, false);
         let before = self.stack.len();
         let changed = if at.push && at.open > before {
+            self.form_prev_force_sensitivity();
             self.stack.push((self.x_prev, self.f_prev));
             self.stack_sens.extend_from_slice(&self.prev_sens);
             true
@@ -832,19 +900,8 @@ impl<B: Backbone> Masing<B> {
             self.stack_sens.truncate(2 * n * at.open);
             at.open != before
         };
-        // the branch's origin is now the top of the stack
-        let k = f.stiffness;
-        if at.open == 0 {
-            for (p, &d) in self.prev_sens[n..].iter_mut().zip(dx) {
-                *p = k * d;
-            }
-        } else {
-            let r = &self.stack_sens[2 * n * (at.open - 1)..2 * n * at.open];
-            for i in 0..n {
-                self.prev_sens[n + i] = r[n + i] + k * (dx[i] - r[i]);
-            }
-        }
         copy_short(&mut self.prev_sens[..n], dx);
+        self.prev_force_sens_pending = true;
         self.direction = at.direction;
         self.x_prev = x;
         self.f_prev = f.force;
@@ -887,6 +944,7 @@ impl<B: Backbone> Element for Masing<B> {
         self.anchor.set(None);
         self.sens_dim = 0;
         self.prev_sens.clear();
+        self.prev_force_sens_pending = false;
         self.stack_sens.clear();
     }
 
@@ -904,6 +962,7 @@ impl<B: Backbone> Element for Masing<B> {
     ) -> ElementForce {
         let n = dx.len();
         let (f, _) = self.carry_sensitivity(x, dx);
+        self.form_prev_force_sensitivity();
         for (d, &p) in df.iter_mut().zip(&self.prev_sens[n..]) {
             *d += p;
         }
@@ -1116,6 +1175,38 @@ mod tests {
     /// The formula's `(f, f', f'')` (the reference for the table).
     fn formula(n: f64) -> PowerBackbone {
         PowerBackbone::new(KD, FD, n).unwrap()
+    }
+
+    #[test]
+    fn backbones_of_one_exponent_share_the_table_built_for_the_first() {
+        // exponents no other test uses, so that the first call builds
+        let (a, b) = (
+            PowerBackbone::tabulated(KD, FD, 5.4321).unwrap(),
+            PowerBackbone::tabulated(2.0 * KD, 0.5 * FD, 5.4321).unwrap(),
+        );
+        let (ta, tb) = (a.table.as_ref().unwrap(), b.table.as_ref().unwrap());
+        assert!(Arc::ptr_eq(ta, tb), "one exponent, one table");
+        let fresh = BackboneTable::build(5.4321, a.r_linear, a.r_saturated).unwrap();
+        assert!(**ta == fresh, "the shared table is the one built afresh");
+        let other = PowerBackbone::tabulated(KD, FD, 5.4322).unwrap();
+        assert!(!Arc::ptr_eq(ta, other.table.as_ref().unwrap()));
+        // more exponents than are kept: the first is built again, the same
+        for i in 0..=BACKBONE_TABLES_KEPT {
+            PowerBackbone::tabulated(KD, FD, 6.0 + 0.001 * i as f64).unwrap();
+        }
+        let again = PowerBackbone::tabulated(KD, FD, 5.4321).unwrap();
+        assert!(**again.table.as_ref().unwrap() == fresh);
+        // a table the exponent does not allow is remembered as none
+        assert!(
+            !PowerBackbone::tabulated(KD, FD, 0.05)
+                .unwrap()
+                .is_tabulated()
+        );
+        assert!(
+            !PowerBackbone::tabulated(KD, FD, 0.05)
+                .unwrap()
+                .is_tabulated()
+        );
     }
 
     #[test]
