@@ -914,6 +914,7 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
     let chi2 = chi_square(problem.data, pred);
     let values = params.values(theta);
     let at_bound = params.at_bounds(&values);
+    let unfelt = optimise::unfelt_columns(&jac, &at_bound);
     let cov = optimise::covariance(&jac, &variances, chi2, &at_bound);
     let (cov, reduced) = match cov {
         Some(c) => c,
@@ -926,8 +927,8 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
     for (j, p) in params.parameters.iter().enumerate() {
         let value = values[j];
         let sd = cov[(j, j)].sqrt();
-        if at_bound[j] {
-            // the far end of the 95 % region, away from the bound
+        if at_bound[j] || unfelt[j] {
+            // the far end of the 95 % region, away from the (nearer) bound
             let lower = one_sided_range(problem, theta, j, reduced)?;
             let shape = matches!(p.transform, Transform::Reciprocal);
             let jenkins_limit = shape && value >= 0.99 * p.bounds[1];
@@ -946,9 +947,14 @@ pub fn confidence(problem: &FitProblem, theta: &[f64], pred: &Prediction) -> Res
                         "{} ran to its bound {}: the loops cannot be told from the law's limit (a Jenkins element for the Masing curvature) within the noise; any value ≳ {lower:.3} fits as well (95 %)",
                         p.name, p.bounds[1]
                     )
-                } else {
+                } else if at_bound[j] {
                     format!(
                         "{} sits at its bound; the data allow it {direction} to {lower:.4e}",
+                        p.name
+                    )
+                } else {
+                    format!(
+                        "{} has no effect on the prediction at this value (its derivative is nil); the data allow it {direction} to {lower:.4e}",
                         p.name
                     )
                 }),

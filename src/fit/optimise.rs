@@ -449,8 +449,30 @@ pub fn levenberg_marquardt_racing<P: Objective + ?Sized>(
     })
 }
 
+/// A Jacobian column below this fraction of the largest one is a parameter
+/// the data do not feel.
+const UNFELT: f64 = 1e-9;
+
+/// Which columns of `jac` the data do not feel: below [`UNFELT`] of the
+/// largest column not `excluded` (an exactly zero one: a damping driven to
+/// 1e-18 beside a joint that gives all the damping, a step in it leaving
+/// the prediction the same to the bit). Such a column makes `JᵀJ` singular
+/// and would leave every parameter without an interval.
+pub fn unfelt_columns(jac: &DMatrix<f64>, excluded: &[bool]) -> Vec<bool> {
+    let norm = |j: usize| jac.column(j).norm();
+    let largest = (0..jac.ncols())
+        .filter(|&j| !excluded[j])
+        .map(norm)
+        .fold(0.0, f64::max);
+    (0..jac.ncols())
+        .map(|j| !excluded[j] && !(norm(j) > UNFELT * largest))
+        .collect()
+}
+
 /// Covariance of the optimiser coordinates at `theta` (free parameters
-/// only: `fixed[j]` excludes parameter `j`, e.g. one sitting at a bound).
+/// only: `fixed[j]` excludes parameter `j`, e.g. one sitting at a bound;
+/// a column the data do not feel, [`unfelt_columns`], is left out too, its
+/// row and column NaN).
 ///
 /// `variances[i]` is the measurement variance of residual row `i` as fitted
 /// (1 for rows already scaled by their standard error). Returns the
@@ -461,7 +483,10 @@ pub fn covariance(
     residual_chi2: f64,
     fixed: &[bool],
 ) -> Option<(DMatrix<f64>, f64)> {
-    let free: Vec<usize> = (0..jac.ncols()).filter(|&j| !fixed[j]).collect();
+    let unfelt = unfelt_columns(jac, fixed);
+    let free: Vec<usize> = (0..jac.ncols())
+        .filter(|&j| !fixed[j] && !unfelt[j])
+        .collect();
     let m = jac.nrows();
     let jf = DMatrix::from_fn(m, free.len(), |i, k| jac[(i, free[k])]);
     let a = jf.transpose() * &jf;
@@ -506,6 +531,47 @@ mod tests {
             serde_json::to_string(&FitStatus::IterationLimit).unwrap(),
             "\"iteration_limit\""
         );
+    }
+
+    /// A column the data do not feel (exactly zero: a step in its parameter
+    /// leaves the prediction the same to the bit) is left out of the
+    /// covariance, which the others then have (with it, `JᵀJ` is singular
+    /// and every interval was lost); a parameter at a bound stays out too.
+    #[test]
+    fn an_unfelt_column_is_left_out_of_the_covariance() {
+        let jac = nalgebra::DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                1.0, 0.0, 0.5, 3.0, //
+                0.0, 0.0, 1.0, 1.0, //
+                2.0, 1e-12, 0.0, 0.0, //
+                1.0, 0.0, 1.0, 2.0,
+            ],
+        );
+        let fixed = [false, false, false, true];
+        assert_eq!(
+            super::unfelt_columns(&jac, &fixed),
+            vec![false, true, false, false]
+        );
+        let (cov, reduced) = super::covariance(&jac, &[1.0; 4], 2.0, &fixed).expect("invertible");
+        // dof = 4 rows − 2 free columns: the reduced χ² 1 leaves s² = 1
+        assert_eq!(reduced, 1.0);
+        // the two felt free columns' (JᵀJ)⁻¹ (variances 1: the sandwich
+        // is the plain inverse), by hand: JᵀJ = [[6, 1.5], [1.5, 2.25]]
+        let det = 6.0 * 2.25 - 1.5 * 1.5;
+        for ((i, j), want) in [
+            ((0, 0), 2.25 / det),
+            ((0, 2), -1.5 / det),
+            ((2, 2), 6.0 / det),
+        ] {
+            assert!(
+                (cov[(i, j)] - want).abs() < 1e-12,
+                "({i}, {j}): {}",
+                cov[(i, j)]
+            );
+        }
+        assert!(cov[(1, 1)].is_nan() && cov[(3, 3)].is_nan() && cov[(0, 1)].is_nan());
     }
 
     /// A quadratic bowl that fails from its `fail_at`-th cost on.

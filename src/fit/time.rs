@@ -1230,10 +1230,6 @@ pub fn identify_time(
     })
 }
 
-/// A Jacobian column below this fraction of the largest one is a parameter
-/// the recordings do not feel (see [`time_confidence`]).
-const UNFELT: f64 = 1e-9;
-
 /// `s² (JᵀJ)⁻¹` over the columns of `jac` that are free (not `at_bound`)
 /// and felt, with those columns' indices.
 ///
@@ -1249,13 +1245,9 @@ fn felt_covariance(
     at_bound: &[bool],
     s2: f64,
 ) -> (Vec<usize>, Option<nalgebra::DMatrix<f64>>) {
-    let norm = |j: usize| jac.column(j).norm();
-    let largest = (0..jac.ncols())
-        .filter(|&j| !at_bound[j])
-        .map(norm)
-        .fold(0.0, f64::max);
+    let unfelt = optimise::unfelt_columns(jac, at_bound);
     let free: Vec<usize> = (0..jac.ncols())
-        .filter(|&j| !at_bound[j] && norm(j) > UNFELT * largest)
+        .filter(|&j| !at_bound[j] && !unfelt[j])
         .collect();
     let jf = nalgebra::DMatrix::from_fn(jac.nrows(), free.len(), |i, k| jac[(i, free[k])]);
     let cov = (jf.transpose() * &jf).try_inverse().map(|a| a * s2);
