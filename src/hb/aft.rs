@@ -595,7 +595,16 @@ impl Aft {
             );
             if settle > 0 {
                 let residual = elements.close_period(half);
-                let scale = (0..count).fold(0.0f64, |m, s| m.max(self.g[(start + s) % ns].abs()));
+                // the pass's samples: every sample, or a stretch that wraps
+                // at most once; a maximum does not depend on the order
+                let (head, tail) = if count >= ns {
+                    (&self.g[..], &self.g[..0])
+                } else if start + count <= ns {
+                    (&self.g[start..start + count], &self.g[..0])
+                } else {
+                    (&self.g[start..], &self.g[..start + count - ns])
+                };
+                let scale = head.iter().chain(tail).fold(0.0f64, |m, g| m.max(g.abs()));
                 // a law run away: its non-finite force is reported below
                 let stalled = residual > 0.5 * last_residual;
                 if residual <= SETTLED * scale
@@ -614,19 +623,32 @@ impl Aft {
             }
         }
         if half {
+            // sample j and its mirror half a period on, both wrapping (no
+            // remainder per sample: two divisions were most of this loop)
             let period = ns / 2;
-            for s in 0..period {
-                let j = (start + s) % ns;
-                let jm = (j + period) % ns;
+            let wrap = |i: usize| if i + 1 == ns { 0 } else { i + 1 };
+            let (mut j, mut jm) = (start % ns, (start + period) % ns);
+            for _ in 0..period {
                 self.g[jm] = -self.g[j];
-                if self.structured {
+                j = wrap(j);
+                jm = wrap(jm);
+            }
+            let (mut j, mut jm) = (start % ns, (start + period) % ns);
+            if self.structured {
+                for _ in 0..period {
                     self.tangent_x[jm] = self.tangent_x[j];
                     self.tangent_v[jm] = self.tangent_v[j];
-                } else if want {
+                    j = wrap(j);
+                    jm = wrap(jm);
+                }
+            } else if want {
+                for _ in 0..period {
                     self.dg_rows.copy_within(j * n..(j + 1) * n, jm * n);
                     self.dg_rows[jm * n..(jm + 1) * n]
                         .iter_mut()
                         .for_each(|d| *d = -*d);
+                    j = wrap(j);
+                    jm = wrap(jm);
                 }
             }
         }
