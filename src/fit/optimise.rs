@@ -465,7 +465,11 @@ pub fn unfelt_columns(jac: &DMatrix<f64>, excluded: &[bool]) -> Vec<bool> {
         .map(norm)
         .fold(0.0, f64::max);
     (0..jac.ncols())
-        .map(|j| !excluded[j] && !(norm(j) > UNFELT * largest))
+        .map(|j| {
+            // a NaN column is not felt either
+            let felt = norm(j) > UNFELT * largest;
+            !excluded[j] && !felt
+        })
         .collect()
 }
 
