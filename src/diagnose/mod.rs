@@ -19,7 +19,9 @@
 //!    the fit is still worse than the noise, and if its own size is resolved
 //!    (an interval that excludes zero, not at a bound, a mode of positive
 //!    modal mass below the largest damping ratio); an effect kept earlier
-//!    that loses its resolution when a later one comes in is dropped again;
+//!    that loses its resolution when a later one comes in is dropped again,
+//!    unless the newcomer then loses its own: that round is undone (the
+//!    model before it is the one whose every effect is resolved);
 //!    then the loop repeats with the rest. A candidate whose refit fails is
 //!    reported as failed, with the reason, and the diagnosis goes on.
 //!
@@ -1340,6 +1342,9 @@ pub fn diagnose_observed(
             break;
         };
         let added_now = round_results[i].0.effect;
+        // the model before this round's addition, restored if the addition
+        // does not hold (see `drop_cascade`)
+        let before = (chosen.clone(), current.clone(), current_intervals.take());
         for (j, (mut rep, r)) in round_results.into_iter().enumerate() {
             if j == i {
                 rep.accepted = true;
@@ -1356,35 +1361,51 @@ pub fn diagnose_observed(
         // drop it, refit, and look again. The intervals are the model's,
         // computed once for every effect it holds (the kept candidate's
         // from its check above)
-        let mut at_current = Ok(intervals);
-        loop {
-            let why_of = |e: Effect, at: &Result<Intervals>| match at {
-                Ok(i) => unresolved_in(e, &current, i, &data),
+        let cascade = drop_cascade(
+            (current, Ok(intervals)),
+            &chosen,
+            added_now,
+            |e, (model, at): &(Refit, Result<Intervals>)| match at {
+                Ok(i) => unresolved_in(e, model, i, &data),
                 Err(_) => Some("its intervals could not be computed".into()),
-            };
-            let Some((gone, why)) = chosen
-                .iter()
-                .find_map(|&e| why_of(e, &at_current).map(|why| (e, why)))
-            else {
-                break;
-            };
-            let Some(without) = gone.candidate().remove(&current.model) else {
-                break;
-            };
-            let Ok(r) = refit(&without, &data, predictor, None, options.patience) else {
-                break;
-            };
-            chosen.retain(|&e| e != gone);
-            current = seen.better(&chosen, r);
-            at_current = Intervals::at(&current, &data, predictor);
-            mark_dropped(&mut reports, gone, Verdict::DroppedLater, |kept_in| {
-                format!(
-                    "kept in round {kept_in}, dropped in round {round}: once {} was added, {why}",
-                    added_now.name()
-                )
-            });
+            },
+            |gone, (model, _), left| {
+                let without = gone.candidate().remove(&model.model)?;
+                let r = refit(&without, &data, predictor, None, options.patience).ok()?;
+                let model = seen.better(left, r);
+                let at = Intervals::at(&model, &data, predictor);
+                Some((model, at))
+            },
+        );
+        match cascade {
+            Cascade::Settled {
+                state: (model, at),
+                chosen: left,
+                dropped,
+            } => {
+                current = model;
+                chosen = left;
+                current_intervals = at.ok();
+                for (gone, why) in dropped {
+                    mark_dropped(&mut reports, gone, Verdict::DroppedLater, |kept_in| {
+                        format!(
+                            "kept in round {kept_in}, dropped in round {round}: once {} was added, {why}",
+                            added_now.name()
+                        )
+                    });
+                }
+            }
+            Cascade::Reverted { displaced, why } => {
+                (chosen, current, current_intervals) = before;
+                let displaced: Vec<&str> = displaced.iter().map(|e| e.name()).collect();
+                mark_dropped(&mut reports, added_now, Verdict::DroppedLater, |kept_in| {
+                    format!(
+                        "kept in round {kept_in}, dropped in round {round}: once {} had gone beside it, {why}; the model before it was kept",
+                        displaced.join(" and ")
+                    )
+                });
+            }
         }
-        current_intervals = at_current.ok();
     }
     conclude(Conclusion {
         harmonics,
@@ -1668,6 +1689,68 @@ pub fn with_effect(
     reconcluded(d, reports, chosen, current, &data, predictor)
 }
 
+/// How the drop cascade after an addition ended.
+#[derive(Debug, PartialEq)]
+enum Cascade<S> {
+    /// Every effect left is resolved: the model (`state`), its effects, and
+    /// those dropped on the way with why.
+    Settled {
+        state: S,
+        chosen: Vec<Effect>,
+        dropped: Vec<(Effect, String)>,
+    },
+    /// The addition itself lost its resolution once the effects it
+    /// displaced had gone: it does not hold, and the model before it stands.
+    Reverted { displaced: Vec<Effect>, why: String },
+}
+
+/// After `added` came in (`chosen` holds it, `state` is the model with it):
+/// an effect kept earlier may have lost its reason to be there (a quadratic
+/// damping that stood in for a mode). Drops, one at a time, the first of
+/// `chosen` that `unresolved` names, refitted without it by `without`
+/// (given the effects left; `None`: it cannot be removed or refitted, and
+/// the cascade stops there), until every effect left is resolved.
+///
+/// If that would drop `added` itself, the round is undone instead: the
+/// effects it displaced were resolved without it, and it is not resolved
+/// without them, so the model of the round before is the one whose every
+/// effect the data resolve (a second mode that displaced a cubic stiffness
+/// and then lost its own resolution ended, before this rule, with neither,
+/// below both the round before and the round it was added in).
+fn drop_cascade<S>(
+    mut state: S,
+    chosen: &[Effect],
+    added: Effect,
+    unresolved: impl Fn(Effect, &S) -> Option<String>,
+    mut without: impl FnMut(Effect, &S, &[Effect]) -> Option<S>,
+) -> Cascade<S> {
+    let mut chosen = chosen.to_vec();
+    let mut dropped: Vec<(Effect, String)> = Vec::new();
+    while let Some((gone, why)) = chosen
+        .iter()
+        .find_map(|&e| unresolved(e, &state).map(|why| (e, why)))
+    {
+        if gone == added {
+            return Cascade::Reverted {
+                displaced: dropped.into_iter().map(|(e, _)| e).collect(),
+                why,
+            };
+        }
+        let left: Vec<Effect> = chosen.iter().copied().filter(|&e| e != gone).collect();
+        let Some(next) = without(gone, &state, &left) else {
+            break;
+        };
+        state = next;
+        chosen = left;
+        dropped.push((gone, why));
+    }
+    Cascade::Settled {
+        state,
+        chosen,
+        dropped,
+    }
+}
+
 /// Turns the latest accepted report of `effect` into a dropped one: the
 /// verdict says why it went, the note (given the round it was kept in) the
 /// figures.
@@ -1819,6 +1902,85 @@ fn capitalise(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The drop cascade on a toy model (its state: the effects it holds,
+    /// a refit without one always possible), `added` last in `chosen`.
+    fn cascade_of(
+        chosen: &[Effect],
+        unresolved: impl Fn(Effect, &Vec<Effect>) -> Option<String>,
+    ) -> Cascade<Vec<Effect>> {
+        let added = *chosen.last().expect("an addition");
+        drop_cascade(
+            chosen.to_vec(),
+            chosen,
+            added,
+            unresolved,
+            |gone, state, left| {
+                assert!(state.contains(&gone) && !left.contains(&gone));
+                Some(left.to_vec())
+            },
+        )
+    }
+
+    /// A cubic stiffness kept in round 2 loses its resolution once a second
+    /// mode comes in (round 3), and without it the mode loses its own: the
+    /// round is undone (the model of round 2, with the cubic stiffness,
+    /// stands), where the cascade used to end with neither.
+    #[test]
+    fn an_addition_that_loses_its_resolution_without_what_it_displaced_is_undone() {
+        use Effect::{CubicStiffness as Cubic, SecondMode as Mode, Shaker};
+        let undone = cascade_of(&[Shaker, Cubic, Mode], |e, state| match e {
+            Cubic if state.contains(&Mode) => Some("k3 straddles zero".into()),
+            Mode if !state.contains(&Cubic) => Some("its flexibility straddles zero".into()),
+            _ => None,
+        });
+        assert_eq!(
+            undone,
+            Cascade::Reverted {
+                displaced: vec![Cubic],
+                why: "its flexibility straddles zero".into()
+            }
+        );
+        // the same, but the mode holds without the cubic stiffness: it
+        // replaces it
+        let replaced = cascade_of(&[Shaker, Cubic, Mode], |e, state| {
+            (e == Cubic && state.contains(&Mode)).then(|| "k3 straddles zero".to_string())
+        });
+        assert_eq!(
+            replaced,
+            Cascade::Settled {
+                state: vec![Shaker, Mode],
+                chosen: vec![Shaker, Mode],
+                dropped: vec![(Cubic, "k3 straddles zero".into())],
+            }
+        );
+        // nothing unresolved: nothing dropped; a refit that fails stops the
+        // cascade where it is
+        let kept = cascade_of(&[Shaker, Cubic], |_, _| None);
+        assert_eq!(
+            kept,
+            Cascade::Settled {
+                state: vec![Shaker, Cubic],
+                chosen: vec![Shaker, Cubic],
+                dropped: vec![],
+            }
+        );
+        let stuck = drop_cascade(
+            vec![Shaker, Cubic, Mode],
+            &[Shaker, Cubic, Mode],
+            Mode,
+            |e, _: &Vec<Effect>| (e == Cubic).then(|| "unresolved".to_string()),
+            |_, _, _| None,
+        );
+        assert_eq!(
+            stuck,
+            Cascade::Settled {
+                state: vec![Shaker, Cubic, Mode],
+                chosen: vec![Shaker, Cubic, Mode],
+                dropped: vec![],
+            }
+        );
+    }
 
     fn refit(chi2: f64, mass: f64) -> Refit {
         Refit {
