@@ -1398,10 +1398,14 @@ pub fn diagnose_observed(
             Cascade::Reverted { displaced, why } => {
                 (chosen, current, current_intervals) = before;
                 let displaced: Vec<&str> = displaced.iter().map(|e| e.name()).collect();
+                let once = if displaced.is_empty() {
+                    String::new()
+                } else {
+                    format!("once {} had gone beside it, ", displaced.join(" and "))
+                };
                 mark_dropped(&mut reports, added_now, Verdict::DroppedLater, |kept_in| {
                     format!(
-                        "kept in round {kept_in}, dropped in round {round}: once {} had gone beside it, {why}; the model before it was kept",
-                        displaced.join(" and ")
+                        "kept in round {kept_in}, dropped in round {round}: {once}{why}; the model before it was kept"
                     )
                 });
             }

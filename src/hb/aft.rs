@@ -152,6 +152,19 @@ pub(crate) struct Aft {
     harmonic_sums: Vec<Complex64>,
 }
 
+/// The half period marched from sample `start` and its mirror half a
+/// period on, `(j, j + N/2)` with both wrapping at `ns` samples: by
+/// increments (a remainder per sample was most of the mirror's time).
+fn mirror_pairs(start: usize, ns: usize) -> impl Iterator<Item = (usize, usize)> {
+    let half = ns / 2;
+    let wrap = move |i: usize| if i + 1 == ns { 0 } else { i + 1 };
+    (0..half).scan((start % ns, (start + half) % ns), move |at, _| {
+        let pair = *at;
+        *at = (wrap(at.0), wrap(at.1));
+        Some(pair)
+    })
+}
+
 /// A displacement extremum between two samples: a turning point.
 #[derive(Clone, Copy, Debug)]
 struct Extremum {
@@ -623,32 +636,16 @@ impl Aft {
             }
         }
         if half {
-            // sample j and its mirror half a period on, both wrapping (no
-            // remainder per sample: two divisions were most of this loop)
-            let period = ns / 2;
-            let wrap = |i: usize| if i + 1 == ns { 0 } else { i + 1 };
-            let (mut j, mut jm) = (start % ns, (start + period) % ns);
-            for _ in 0..period {
+            for (j, jm) in mirror_pairs(start, ns) {
                 self.g[jm] = -self.g[j];
-                j = wrap(j);
-                jm = wrap(jm);
-            }
-            let (mut j, mut jm) = (start % ns, (start + period) % ns);
-            if self.structured {
-                for _ in 0..period {
+                if self.structured {
                     self.tangent_x[jm] = self.tangent_x[j];
                     self.tangent_v[jm] = self.tangent_v[j];
-                    j = wrap(j);
-                    jm = wrap(jm);
-                }
-            } else if want {
-                for _ in 0..period {
+                } else if want {
                     self.dg_rows.copy_within(j * n..(j + 1) * n, jm * n);
                     self.dg_rows[jm * n..(jm + 1) * n]
                         .iter_mut()
                         .for_each(|d| *d = -*d);
-                    j = wrap(j);
-                    jm = wrap(jm);
                 }
             }
         }
