@@ -88,8 +88,7 @@ pub fn replay_prediction(data: &FitData, replayed: &FitData) -> Prediction {
         .collect();
     Prediction {
         h,
-        solves: 0,
-        states: Vec::new(),
+        ..Prediction::default()
     }
 }
 
@@ -196,8 +195,7 @@ mod tests {
         let measured = data(&[(10.0, c(1.0, 0.0)), (11.0, c(0.0, 2.0))]);
         let replay_of = |h: &[Complex64]| Prediction {
             h: vec![h.iter().map(|&v| Some(vec![v])).collect()],
-            solves: 0,
-            states: Vec::new(),
+            ..Prediction::default()
         };
         let replayed = replay_of(&[c(0.0, 0.0), c(0.0, 0.0)]);
         let without = replay_of(&[c(5.0, 5.0), c(5.0, 5.0)]);
@@ -214,8 +212,7 @@ mod tests {
         // a point the replay lacks is left out of every sum
         let gap = Prediction {
             h: vec![vec![Some(vec![c(0.0, 0.0)]), None]],
-            solves: 0,
-            states: Vec::new(),
+            ..Prediction::default()
         };
         assert!((share_explained(&measured, &gap, &without, &half) - 1.0).abs() < 1e-12);
     }

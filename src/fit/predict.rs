@@ -26,7 +26,10 @@ impl HbPredictor {
     /// The harmonic-balance options used for `model` and `data`: at least
     /// `{1, 3, 5}`, every fitted odd harmonic, and the even ones and DC when
     /// the model is asymmetric; as many time samples as the laws ask for their
-    /// kinks.
+    /// kinks, or, when every law is smooth enough to state its own count
+    /// ([`crate::model::Description::smooth_samples`]) and the predictor's
+    /// count is the default, the largest they state (eq. (10) at `N <= 3.5`:
+    /// 128, half the default).
     pub fn options_for(&self, model: &Model, data: &FitData) -> HbOptions {
         let top = data.harmonics.iter().copied().max().unwrap_or(1).max(5);
         // a symmetric model's even harmonics and DC are zero by symmetry: they
@@ -49,8 +52,15 @@ impl HbPredictor {
         set.sort_unstable();
         set.dedup();
         o.harmonics = set;
-        // a law with kinks says how many samples a period resolves them
-        o.samples_per_period = o.samples_per_period.max(model.samples_per_period());
+        // a law with kinks says how many samples a period resolves them; a
+        // model of smooth laws alone takes the fewer its laws state, unless
+        // the predictor was given a count of its own
+        o.samples_per_period = match model.smooth_samples_per_period() {
+            Some(smooth) if o.samples_per_period == HbOptions::default().samples_per_period => {
+                smooth.max(16)
+            }
+            _ => o.samples_per_period.max(model.samples_per_period()),
+        };
         while o.samples_per_period <= 4 * o.harmonics.last().copied().unwrap_or(1) {
             o.samples_per_period *= 2;
         }
@@ -97,7 +107,17 @@ impl HbPredictor {
             .iter()
             .map(|(_, m)| m.element_set())
             .collect::<Result<Vec<_>>>()?;
-        let opts = self.options_for(model, data);
+        let mut opts = self.options_for(model, data);
+        // a Jacobian's column is balanced with its base's samples: a count
+        // that changed with the parameter (a smooth law's, see
+        // `options_for`) would put the quadratures' difference in it
+        if let Some(ns) = start
+            .filter(|_| near)
+            .map(|p| p.samples_per_period)
+            .filter(|&ns| ns > 0)
+        {
+            opts.samples_per_period = ns;
+        }
         let nh = opts.harmonics.len();
         // each series gets its own element state (the elements are Send, not Sync)
         let starts: Vec<Option<&Vec<Option<Vec<Complex64>>>>> = (0..data.series.len())
@@ -189,7 +209,10 @@ impl HbPredictor {
                 Ok((out, states, s.points.len()))
             })
             .collect();
-        let mut pred = Prediction::default();
+        let mut pred = Prediction {
+            samples_per_period: opts.samples_per_period,
+            ..Prediction::default()
+        };
         for s in series {
             let (h, states, n) = s?;
             pred.h.push(h);
@@ -197,5 +220,108 @@ impl HbPredictor {
             pred.solves += n;
         }
         Ok(pred)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extract::Direction;
+    use crate::fit::problem::{MeasuredPoint, MeasuredSeries};
+    use crate::harmonics::Quantity;
+    use crate::model::{ElementSpec, ModalModel};
+
+    /// One point of the paper's SDOF at 250 Hz and 300 N, where its joint
+    /// slips (only the harmonics matter to the options).
+    fn data() -> FitData {
+        FitData {
+            response: Quantity::Displacement,
+            harmonics: vec![1, 3],
+            series: vec![MeasuredSeries {
+                level: 300.0,
+                direction: Direction::Up,
+                points: vec![MeasuredPoint {
+                    frequency_hz: 250.0,
+                    force_amplitude: 300.0,
+                    h: vec![Complex64::new(1e-7, 0.0); 2],
+                    std_error: vec![1e-9; 2],
+                    blocks: 0,
+                }],
+            }],
+            response_sign: 1.0,
+            transfer: false,
+            unusable_points: 0,
+        }
+    }
+
+    fn paper_with(laws: Vec<ElementSpec>) -> Model {
+        Model::new(ModalModel::sdof(10.0, 200.0, 1e7).unwrap(), laws).unwrap()
+    }
+
+    fn masing(n: f64) -> ElementSpec {
+        ElementSpec::Masing {
+            kd: 2.4e7,
+            fd: 246.048,
+            n,
+        }
+    }
+
+    /// A model whose every law states a count (`Description::smooth_samples`)
+    /// is balanced with the largest they state; one law that states none
+    /// keeps the default, a law with kinks its own, and a count the
+    /// predictor was given stands.
+    #[test]
+    fn a_model_of_smooth_laws_is_balanced_with_the_fewer_samples_they_state() {
+        let p = HbPredictor::default();
+        let ns = |laws| p.options_for(&paper_with(laws), &data()).samples_per_period;
+        assert_eq!(ns(vec![masing(2.0)]), 128);
+        assert_eq!(ns(vec![masing(3.5)]), 128);
+        assert_eq!(
+            ns(vec![masing(2.0), ElementSpec::CubicStiffness { k3: 1e12 }]),
+            128
+        );
+        assert_eq!(ns(vec![masing(4.0)]), 256);
+        assert_eq!(
+            ns(vec![masing(2.0), ElementSpec::QuadraticDamping { c2: 1.0 }]),
+            256
+        );
+        assert_eq!(
+            ns(vec![ElementSpec::Jenkins {
+                kd: 2.4e7,
+                fd: 246.048
+            }]),
+            512
+        );
+        let own = HbPredictor {
+            options: HbOptions {
+                samples_per_period: 1024,
+                ..HbOptions::default()
+            },
+        };
+        let model = paper_with(vec![masing(2.0)]);
+        assert_eq!(own.options_for(&model, &data()).samples_per_period, 1024);
+    }
+
+    /// A Jacobian's column (`predict_near`) is balanced with its base's
+    /// samples even where its own parameters would state another count:
+    /// the base at N = 4 (256), the column at N = 3.5 (128 of its own).
+    #[test]
+    fn a_jacobian_column_keeps_its_bases_samples() {
+        let p = HbPredictor::default();
+        let base = p
+            .predict_from(&paper_with(vec![masing(4.0)]), &data(), None)
+            .unwrap();
+        assert_eq!(base.samples_per_period, 256);
+        let column = paper_with(vec![masing(3.5)]);
+        let near = p.predict_near(&column, &data(), &base).unwrap();
+        assert_eq!(near.samples_per_period, 256);
+        let own = p.predict_from(&column, &data(), Some(&base)).unwrap();
+        assert_eq!(own.samples_per_period, 128);
+        // the two quadratures differ, by far less than the point's response
+        let (a, b) = (
+            near.h[0][0].as_ref().unwrap()[0],
+            own.h[0][0].as_ref().unwrap()[0],
+        );
+        assert!(a != b && (a - b).norm() < 1e-4 * a.norm(), "{a} vs {b}");
     }
 }

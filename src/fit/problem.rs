@@ -215,6 +215,9 @@ pub struct Prediction {
     /// The solver's state per point (its displacement harmonics), for warm
     /// starts of the next prediction; empty if the predictor keeps none.
     pub states: Vec<Vec<Option<Vec<Complex64>>>>,
+    /// The harmonic balance's samples per period (0: not balanced), which
+    /// a Jacobian's columns keep (see [`FrfPredictor::predict_near`]).
+    pub samples_per_period: usize,
 }
 
 impl Prediction {
@@ -229,6 +232,7 @@ impl Prediction {
                 .collect(),
             solves: 0,
             states: Vec::new(),
+            samples_per_period: 0,
         }
     }
 

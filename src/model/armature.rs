@@ -111,6 +111,7 @@ impl Law for Armature {
         memory: false,
         odd: true,
         samples_per_period: 0,
+        smooth_samples: Some(|_| 0),
         example: &[2.0, 2e5, 30.0],
     };
 

@@ -58,6 +58,7 @@ impl Law for BilinearStiffness {
         memory: false,
         odd: false,
         samples_per_period: 0,
+        smooth_samples: None,
         example: &[5e6],
     };
 

@@ -76,6 +76,7 @@ impl Law for Clearance {
         memory: false,
         odd: true,
         samples_per_period: 0,
+        smooth_samples: None,
         example: &[5e6, 5e-6],
     };
 

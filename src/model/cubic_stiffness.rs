@@ -57,6 +57,7 @@ impl Law for CubicStiffness {
         memory: false,
         odd: true,
         samples_per_period: 0,
+        smooth_samples: Some(|_| 0),
         example: &[1e15],
     };
 

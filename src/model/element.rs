@@ -827,6 +827,13 @@ pub struct Description {
     /// Samples per period harmonic balance needs at least to resolve the
     /// law's kinks (0: no own need).
     pub samples_per_period: usize,
+    /// For a law smooth enough that a fit's harmonic balance needs fewer
+    /// samples than its default count: the count these parameter values
+    /// need (0: none beyond what the harmonics ask). `None`: the default
+    /// count, or `samples_per_period` if more. A model's fits take the
+    /// smaller count only when every law it holds states one
+    /// ([`crate::model::Model::smooth_samples_per_period`]).
+    pub smooth_samples: Option<fn(&[f64]) -> usize>,
     /// Parameter values at the paper's system's scale (displacements ~10 µm,
     /// forces ~100 N): what the element checks run every law with.
     pub example: &'static [f64],

@@ -187,6 +187,7 @@ impl Law for Masing<Iwan4Backbone> {
         // the slope drops from S to 0 at φ_max: a corner, as the Jenkins
         // element's
         samples_per_period: 512,
+        smooth_samples: None,
         example: &[246.048, 2.4e7, -0.5, 0.5],
     };
 

@@ -144,6 +144,7 @@ impl Law for Jenkins {
         // the loop's corners are kinks: 512 samples a period put the
         // prediction's aliasing below the 10 % test's noise
         samples_per_period: 512,
+        smooth_samples: None,
         example: &[2.4e7, 246.048],
     };
 

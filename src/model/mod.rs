@@ -766,6 +766,21 @@ impl Model {
             .unwrap_or(0)
     }
 
+    /// The samples per period a fit's harmonic balance needs when every law
+    /// the model holds is smooth enough to state its own count
+    /// ([`Description::smooth_samples`]): the largest they state (0: none
+    /// beyond what the harmonics ask). `None` when a law states none, or
+    /// there is no law: the default count then stands.
+    pub fn smooth_samples_per_period(&self) -> Option<usize> {
+        let mut most = None;
+        for e in self.laws() {
+            let values: Vec<f64> = e.parameters().iter().map(|&(_, v)| v).collect();
+            let need = e.description().smooth_samples?(&values);
+            most = Some(most.map_or(need, |m: usize| m.max(need)));
+        }
+        most
+    }
+
     /// The model as uncoupled parts whose responses add (see
     /// [`modal`](crate::model::modal)): the point structure with the joint
     /// and effects (sign 1), then each hysteretic mode as its own SDOF with

@@ -65,6 +65,7 @@ impl Law for QuadraticDamping {
         memory: false,
         odd: true,
         samples_per_period: 0,
+        smooth_samples: None,
         example: &[50.0],
     };
 

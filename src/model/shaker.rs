@@ -265,6 +265,7 @@ impl Law for Shaker {
         memory: false,
         odd: true,
         samples_per_period: 0,
+        smooth_samples: Some(|_| 0),
         example: &[50.0, 2e-4, 1.0],
     };
 

@@ -57,6 +57,7 @@ impl Law for ViscousDamping {
         memory: false,
         odd: true,
         samples_per_period: 0,
+        smooth_samples: Some(|_| 0),
         example: &[20.0],
     };
 

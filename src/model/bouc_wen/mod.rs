@@ -638,6 +638,7 @@ impl Law for BoucWen {
         memory: true,
         odd: true,
         samples_per_period: 256,
+        smooth_samples: None,
         // softening to z_max = α/(β(γ+δ)) = 240 N at the paper's scale
         example: &[2.4e7, 1e5, 0.5, 0.5, 1.0],
     };
