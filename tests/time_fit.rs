@@ -932,3 +932,87 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     assert!(text(&o).contains("--time-proposals") && text(&o).contains("add --domain time"));
     assert!(!dir.path().join("refused").exists());
 }
+
+/// A fit that would judge more samples than `max_judged_samples` judges the
+/// responses low-passed at a lower rate: on the independent recording above
+/// (85 545 samples, whose rate allows a third: 8 samples a period of the
+/// model's highest linearised frequency) asked to
+/// judge at most a third, it judges one sample in three of the filtered
+/// responses and lands where the fit judging every sample does, within the
+/// spread the fewer samples add, with intervals between as wide (the noise
+/// the filter removes lies above what the model makes and carries no
+/// information on it) and sqrt(3) as wide (as a plain stride would leave
+/// them: this recording's noise lies mostly inside the filter's band, 1.8x
+/// measured) that still cover the truth. The errors reported stay over
+/// every sample.
+#[test]
+fn a_long_record_is_judged_low_passed_at_a_lower_rate_as_at_its_own() {
+    let (case, rec) = jenkins_case();
+    let rec = record(case, rec);
+    let n: usize = rec.segments.iter().map(|s| s.len()).sum();
+    let truth = truth(case);
+    let mut start = truth.clone();
+    start.joint = Some(ElementSpec::Jenkins {
+        kd: 1.1 * case.kd,
+        fd: 0.9 * case.fd,
+    });
+    start.linear = ModalModel::sdof(case.mass, 1.2 * case.damping, 1.01 * case.stiffness).unwrap();
+    let params = time_parameters(&start, true, None);
+    let records = [rec];
+    let every = TimeFitOptions::default();
+    let third = TimeFitOptions {
+        max_judged_samples: n.div_ceil(3),
+        ..TimeFitOptions::default()
+    };
+    let problem = TimeProblem::new(
+        start.clone(),
+        params.clone(),
+        &records,
+        1.0,
+        third.clone(),
+        None,
+    )
+    .unwrap();
+    assert_eq!(problem.judging_factors(), vec![3]);
+    let judged: usize = problem.judged_samples().iter().sum();
+    assert!(judged <= n.div_ceil(3) && judged + records[0].segments.len() >= n / 3);
+    let full = identify_time(&start, params.clone(), 1.0, &records, &every, None).unwrap();
+    let low = identify_time(&start, params, 1.0, &records, &third, None).unwrap();
+    assert_eq!((full.samples, low.samples), (n, judged));
+    assert!(
+        low.notes.iter().any(|m| m.contains("one sample in 3")),
+        "{:?}",
+        low.notes
+    );
+    for k in ["kd", "fd", "mass", "damping", "stiffness"] {
+        let (a, b) = (&full.parameters[k], &low.parameters[k]);
+        let (ha, hb) = (0.5 * (a.ci95[1] - a.ci95[0]), 0.5 * (b.ci95[1] - b.ci95[0]));
+        eprintln!(
+            "{k}: every sample {:.7e} ± {ha:.3e}, one in three {:.7e} ± {hb:.3e}",
+            a.value, b.value
+        );
+        // the fit on fewer, filtered samples of the same record: the two
+        // differ by the spread the lower rate adds, `var_low − var_full` for
+        // estimators on nested data (95 %), plus a tenth of the full's
+        let apart = (hb * hb - ha * ha).max(0.0).sqrt() + 0.1 * ha;
+        assert!((a.value - b.value).abs() < apart, "{k}: {apart}");
+        // between as wide (white noise above the filter's band: removed
+        // with the information it did not carry) and sqrt(3) as wide (all
+        // of it inside: judged one sample in three, as a stride would),
+        // 10 % for the residual's own scatter
+        assert!(
+            (0.9..=1.1 * 3f64.sqrt()).contains(&(hb / ha)),
+            "{k}: {hb} against {ha}"
+        );
+    }
+    for (k, t) in [("kd", case.kd), ("fd", case.fd)] {
+        let ci = low.parameters[k].ci95;
+        assert!(ci[0] <= t && t <= ci[1], "{k} {t} outside {ci:?}");
+    }
+    // the errors reported are over every sample: the same figures' scale
+    let (a, b) = (
+        full.after[0].segment_relative,
+        low.after[0].segment_relative,
+    );
+    assert!((a - b).abs() < 1e-3 * a, "{a} against {b}");
+}

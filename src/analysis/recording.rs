@@ -58,6 +58,31 @@ pub struct Loaded {
 }
 
 impl Loaded {
+    /// The recording with only its reference and response channels (in that
+    /// order): all that a replay and its reduction read. A recording's other
+    /// channels (the bench's displacement, velocity and acceleration beside
+    /// the one analysed) are as long as these, and a time-domain diagnosis
+    /// holds its recordings from the refit to the replays' reduction.
+    pub fn with_only_reference_and_response(mut self) -> Loaded {
+        let rec = &mut self.recording;
+        let Some(reference) = rec.reference_channel() else {
+            return self;
+        };
+        let response = self.response;
+        if rec.channels.len() <= 2 || reference == response {
+            return self;
+        }
+        let keep = [reference, response];
+        rec.channels = keep
+            .iter()
+            .map(|&c| std::mem::take(&mut rec.channels[c]))
+            .collect();
+        rec.meta.channels = keep.iter().map(|&c| rec.meta.channels[c].clone()).collect();
+        rec.meta.chosen_reference = Some(0);
+        self.response = 1;
+        self
+    }
+
     /// A recording of a reference signal (`reference_quantity`: a force or
     /// a voltage) and one response (a motion), sampled at `sample_rate_hz`,
     /// as a script holds them: the channels named after their quantities,
@@ -820,6 +845,7 @@ impl ReplayReduction {
         for (path, loaded) in recordings {
             let at = |e| Error::context(format!("reducing {}", path.display()), e);
             let red = reduce(&loaded, reduction).map_err(at)?;
+            let loaded = loaded.with_only_reference_and_response();
             let fixed = ReductionOptions {
                 excitation: Some(red.excitation),
                 compensation: match red.sweep {

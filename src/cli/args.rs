@@ -139,6 +139,13 @@ pub struct IdentifyArgs {
     /// basin. Each start costs about as much as the fit.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub starts: u32,
+    /// With `--domain time`: most samples the fit judges over all the
+    /// recordings (its Jacobian holds a row per sample judged); a fit that
+    /// would judge more judges the responses low-passed at a lower rate, never
+    /// below 8 samples a period of the model's highest frequency. The errors
+    /// reported are over every sample.
+    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1000..))]
+    pub max_judged_samples: usize,
 }
 
 /// How a model is replayed on a measured reference.
@@ -426,6 +433,10 @@ pub struct DiagnoseArgs {
     /// time --starts` does; every later fit starts from a fitted model.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub starts: u32,
+    /// With `--domain time`: most samples a time-domain fit judges (as
+    /// `identify --domain time --max-judged-samples` takes it).
+    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1000..))]
+    pub max_judged_samples: usize,
 }
 
 /// `hystid run`.

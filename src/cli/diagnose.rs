@@ -115,6 +115,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                             input: args.replay.into(),
                             min_samples_per_period: args.min_samples_per_period,
                             starts: args.starts as usize,
+                            max_judged_samples: args.max_judged_samples,
                             ..Default::default()
                         },
                         options.band_hz,
@@ -235,6 +236,7 @@ fn diagnose_multisine_command(
         input: args.replay.into(),
         min_samples_per_period: args.min_samples_per_period,
         starts: args.starts as usize,
+        max_judged_samples: args.max_judged_samples,
         ..Default::default()
     };
     let mut d = hystid::analysis::multisine::diagnose_multisine(

@@ -338,6 +338,7 @@ fn fit_in_time(
         min_samples_per_period: args.min_samples_per_period,
         input: args.replay.into(),
         starts: args.starts as usize,
+        max_judged_samples: args.max_judged_samples,
         ..Default::default()
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
@@ -439,6 +440,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
                 &hystid::fit::TimeFitOptions {
                     input: args.replay.into(),
                     starts: args.starts as usize,
+                    max_judged_samples: args.max_judged_samples,
                     ..Default::default()
                 },
                 options.band_hz,

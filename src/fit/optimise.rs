@@ -29,6 +29,23 @@ pub trait Objective: Sync {
     fn jacobian(&self, theta: &[f64], r0: &[f64], step: f64) -> Result<DMatrix<f64>> {
         forward_difference(theta, r0, step, |t| self.residuals(t))
     }
+    /// [`Objective::jacobian`] with the penalty row's derivative (zero
+    /// inside the bounds) as its last row: what Levenberg–Marquardt takes.
+    /// The default copies the Jacobian into one a row taller; a problem of
+    /// many residuals (a time-domain fit of a long recording, where the
+    /// Jacobian is the largest thing the fit holds) writes it there at once.
+    fn jacobian_with_penalty_row(
+        &self,
+        theta: &[f64],
+        r0: &[f64],
+        step: f64,
+    ) -> Result<DMatrix<f64>> {
+        let j = self.jacobian(theta, r0, step)?;
+        let m = j.nrows();
+        let mut full = DMatrix::zeros(m + 1, j.ncols());
+        full.rows_mut(0, m).copy_from(&j);
+        Ok(full)
+    }
 }
 
 impl Objective for FitProblem<'_> {
@@ -255,24 +272,44 @@ pub fn forward_difference(
     step: f64,
     residuals: impl Fn(&[f64]) -> Result<Vec<f64>> + Sync,
 ) -> Result<DMatrix<f64>> {
+    forward_difference_padded(theta, r0, step, 0, residuals)
+}
+
+/// [`forward_difference`] with `pad` rows of zeros below the columns
+/// (Levenberg–Marquardt's penalty row: see
+/// [`Objective::jacobian_with_penalty_row`]). Each column is written into
+/// the matrix as its residuals come (the matrix is column-major), so the
+/// Jacobian is held once, not once as columns and again as a matrix.
+pub fn forward_difference_padded(
+    theta: &[f64],
+    r0: &[f64],
+    step: f64,
+    pad: usize,
+    residuals: impl Fn(&[f64]) -> Result<Vec<f64>> + Sync,
+) -> Result<DMatrix<f64>> {
     let m = r0.len() - 1;
-    let cols: Vec<Result<Vec<f64>>> = (0..theta.len())
-        .into_par_iter()
-        .map(|j| {
+    let rows = m + pad;
+    let mut jac = DMatrix::zeros(rows, theta.len());
+    if rows == 0 {
+        return Ok(jac);
+    }
+    // every column computed, the first error by column returned (as the
+    // columns' order, not the threads', decides)
+    let done: Vec<Result<()>> = jac
+        .as_mut_slice()
+        .par_chunks_mut(rows)
+        .enumerate()
+        .map(|(j, column)| {
             let mut t = theta.to_vec();
             t[j] += step;
             let r = residuals(&t)?;
-            Ok(r[..m]
-                .iter()
-                .zip(&r0[..m])
-                .map(|(a, b)| (a - b) / step)
-                .collect())
+            for ((d, a), b) in column[..m].iter_mut().zip(&r[..m]).zip(&r0[..m]) {
+                *d = (a - b) / step;
+            }
+            Ok(())
         })
         .collect();
-    let mut jac = DMatrix::zeros(m, theta.len());
-    for (j, c) in cols.into_iter().enumerate() {
-        jac.set_column(j, &DVector::from_vec(c?));
-    }
+    done.into_iter().collect::<Result<()>>()?;
     Ok(jac)
 }
 
@@ -354,14 +391,12 @@ impl<P: Objective + ?Sized> levenberg_marquardt::LeastSquaresProblem<f64, Dyn, D
     }
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let r = self.current()?;
-        match self.problem.jacobian(self.theta.as_slice(), &r, 1e-6) {
-            Ok(j) => {
-                // the penalty row's derivative: zero inside the bounds
-                let m = j.nrows();
-                let mut full = DMatrix::zeros(m + 1, j.ncols());
-                full.rows_mut(0, m).copy_from(&j);
-                Some(full)
-            }
+        // the penalty row's derivative: zero inside the bounds
+        match self
+            .problem
+            .jacobian_with_penalty_row(self.theta.as_slice(), &r, 1e-6)
+        {
+            Ok(full) => Some(full),
             Err(e) => {
                 *self.error.borrow_mut() = Some(e);
                 None

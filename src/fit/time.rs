@@ -38,7 +38,7 @@ use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::Silent;
-use crate::validate::resample::MAX_FACTOR;
+use crate::validate::resample::{MAX_FACTOR, decimate_with};
 use crate::validate::{
     DriveInput, ErrorMetrics, PreparedDrive, error_metrics, simulate_prepared_at, upsampling_factor,
 };
@@ -299,6 +299,26 @@ pub struct TimeFitOptions {
     /// it starts.
     #[serde(default = "one")]
     pub starts: usize,
+    /// Most samples the fit judges, over all its recordings. Levenberg–
+    /// Marquardt holds a Jacobian of a row per judged sample and a column
+    /// per parameter, and each residual vector a value per sample: judged
+    /// at every one of the default test's 8.2 M frames, 66 MB a vector and
+    /// 330 MB a Jacobian of five parameters. A fit that would judge more
+    /// judges its recordings at `1/k` of their rate, `k` the smallest
+    /// factor that brings it within this (never one that leaves fewer than
+    /// [`MIN_JUDGED_PER_PERIOD`] samples a period of the start model's
+    /// highest linearised frequency): the measured and simulated responses
+    /// low-passed alike (a windowed sinc) and kept at every `k`-th sample.
+    /// What the model makes lies well inside the pass band, so the misfit
+    /// is the same but for the measurement noise above it, which carries
+    /// no information on the model; the replays, and every error reported,
+    /// are still over every sample.
+    #[serde(default = "max_judged")]
+    pub max_judged_samples: usize,
+}
+
+fn max_judged() -> usize {
+    MAX_JUDGED_SAMPLES
 }
 
 fn one() -> usize {
@@ -313,6 +333,7 @@ impl Default for TimeFitOptions {
             refine_linear: true,
             input: DriveInput::BandLimited,
             starts: 1,
+            max_judged_samples: MAX_JUDGED_SAMPLES,
         }
     }
 }
@@ -474,6 +495,104 @@ fn descend(
     }
 }
 
+/// Most samples a time-domain fit judges by default, over all its
+/// recordings (see [`TimeFitOptions::max_judged_samples`]).
+pub const MAX_JUDGED_SAMPLES: usize = 1 << 20;
+
+/// Fewest judged samples per period of the model's highest linearised
+/// frequency that judging at a lower rate leaves (see
+/// [`TimeFitOptions::max_judged_samples`]).
+pub const MIN_JUDGED_PER_PERIOD: f64 = 8.0;
+
+/// Half-width of the low-pass filter before a lower judging rate, in
+/// samples of that rate (see [`crate::validate::resample::decimate_with`]):
+/// what is judged lies below a quarter of its Nyquist frequency (at least
+/// [`MIN_JUDGED_PER_PERIOD`] samples a period), well inside the pass band
+/// of even a short filter.
+const JUDGING_HALF_WIDTH: usize = 8;
+
+/// Each record's judging factor `k` (see
+/// [`TimeFitOptions::max_judged_samples`]), for a model whose highest
+/// linearised frequency is `top_hz`: the smallest that brings the judged
+/// samples within `most`, but never one that leaves fewer than
+/// [`MIN_JUDGED_PER_PERIOD`] judged samples a period of `top_hz`, nor more
+/// than [`MAX_FACTOR`].
+pub fn judging_factors(records: &[TimeRecord], top_hz: f64, most: usize) -> Vec<usize> {
+    let total: usize = records
+        .iter()
+        .map(|r| r.segments.iter().map(|s| s.len()).sum::<usize>())
+        .sum();
+    let wanted = total.div_ceil(most.max(1)).max(1);
+    records
+        .iter()
+        .map(|r| {
+            let coarsest = if top_hz.is_finite() && top_hz > 0.0 {
+                (r.sample_rate_hz / (MIN_JUDGED_PER_PERIOD * top_hz)).floor()
+            } else {
+                1.0
+            };
+            wanted.min(coarsest.max(1.0) as usize).min(MAX_FACTOR)
+        })
+        .collect()
+}
+
+/// How a record is judged: at its own rate, or low-passed and kept at every
+/// `factor`-th sample.
+struct Judging {
+    factor: usize,
+    /// The measured response at the judging rate (`None`: the record's own).
+    response: Option<Vec<f64>>,
+    /// The segments in samples of the judging rate.
+    segments: Vec<Range<usize>>,
+    /// `RMS_s · √N_s` of each segment at the judging rate: the residual's
+    /// divisor.
+    scale: Vec<f64>,
+}
+
+impl Judging {
+    /// `r` judged at `1/factor` of its rate (`scale`: its segments'
+    /// divisors at its own rate).
+    fn of(r: &TimeRecord, scale: &[f64], factor: usize) -> Result<Judging> {
+        if factor <= 1 {
+            return Ok(Judging {
+                factor: 1,
+                response: None,
+                segments: r.segments.clone(),
+                scale: scale.to_vec(),
+            });
+        }
+        let response = decimate_with(&r.response, factor, JUDGING_HALF_WIDTH)?;
+        // sample q of the judging rate is sample q·factor of the record's
+        let segments: Vec<Range<usize>> = r
+            .segments
+            .iter()
+            .map(|s| s.start.div_ceil(factor)..s.end.div_ceil(factor).min(response.len()))
+            .collect();
+        let scale = segments
+            .iter()
+            .map(|s| {
+                let w = &response[s.clone()];
+                (w.iter().map(|v| v * v).sum::<f64>()).sqrt()
+            })
+            .collect();
+        Ok(Judging {
+            factor,
+            response: Some(response),
+            segments,
+            scale,
+        })
+    }
+
+    /// A replay at the judging rate.
+    fn judged(&self, replay: Vec<f64>) -> Result<Vec<f64>> {
+        if self.factor == 1 {
+            Ok(replay)
+        } else {
+            decimate_with(&replay, self.factor, JUDGING_HALF_WIDTH)
+        }
+    }
+}
+
 /// The replay of recordings through a model whose free parameters are
 /// varied.
 pub struct TimeProblem<'a> {
@@ -482,8 +601,11 @@ pub struct TimeProblem<'a> {
     records: &'a [TimeRecord],
     sign: f64,
     options: TimeFitOptions,
-    /// `RMS_s · √N_s` per segment of each recording: the residual's divisor.
+    /// `RMS_s · √N_s` per segment of each recording: the reported errors'
+    /// divisor.
     scale: Vec<Vec<f64>>,
+    /// How each recording is judged (see [`TimeFitOptions::max_judged_samples`]).
+    judging: Vec<Judging>,
     /// Each recording's force, prepared once per upsampling factor.
     drives: Vec<PreparedDrive<'a>>,
     /// Each recording's replay grid, as its upsampling factor; `None`: the
@@ -513,7 +635,7 @@ impl<'a> TimeProblem<'a> {
         for r in records {
             r.check()?;
         }
-        let scale = records
+        let scale: Vec<Vec<f64>> = records
             .iter()
             .map(|r| {
                 r.segments
@@ -526,10 +648,22 @@ impl<'a> TimeProblem<'a> {
             .iter()
             .map(|r| PreparedDrive::new(&r.reference, options.input))
             .collect();
+        let factors = judging_factors(
+            records,
+            base.highest_linearised_frequency_hz(),
+            options.max_judged_samples,
+        );
+        let judging = records
+            .iter()
+            .zip(&scale)
+            .zip(factors)
+            .map(|((r, scale), k)| Judging::of(r, scale, k))
+            .collect::<Result<_>>()?;
         Ok(TimeProblem {
             replay_factor: vec![None; records.len()],
             rate_notes: Vec::new(),
             drives,
+            judging,
             base,
             parameters,
             records,
@@ -756,16 +890,18 @@ impl<'a> TimeProblem<'a> {
     }
 
     fn residuals_of(&self, model: &Model, outside: f64) -> Result<Vec<f64>> {
-        let mut out = Vec::with_capacity(self.records.iter().map(|r| r.window.len()).sum());
-        for (i, (r, scale)) in self.records.iter().zip(&self.scale).enumerate() {
+        let judged: usize = self.judged_samples().iter().sum();
+        let mut out = Vec::with_capacity(judged + 1);
+        for (i, (r, judging)) in self.records.iter().zip(&self.judging).enumerate() {
             let sim = match self.replay(model, i) {
-                Ok(sim) => Some(sim),
+                Ok(sim) => Some(judging.judged(sim)?),
                 // a model the simulator rejects: worse than predicting nothing
                 Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => None,
                 Err(e) => return Err(e),
             };
-            for (seg, &sc) in r.segments.iter().zip(scale) {
-                let measured = &r.response[seg.clone()];
+            let response = judging.response.as_deref().unwrap_or(&r.response);
+            for (seg, &sc) in judging.segments.iter().zip(&judging.scale) {
+                let measured = &response[seg.clone()];
                 match &sim {
                     Some(sim) => out.extend(
                         measured
@@ -792,6 +928,21 @@ impl<'a> TimeProblem<'a> {
     /// What choosing the replay rates found (one note per coarser rate).
     pub fn replay_notes(&self) -> &[String] {
         &self.rate_notes
+    }
+
+    /// Each recording's judged samples (see
+    /// [`TimeFitOptions::max_judged_samples`]).
+    pub fn judged_samples(&self) -> Vec<usize> {
+        self.judging
+            .iter()
+            .map(|j| j.segments.iter().map(|s| s.len()).sum())
+            .collect()
+    }
+
+    /// Each recording's judging factor: its response judged at `1/k` of its
+    /// rate (1: every sample; see [`TimeFitOptions::max_judged_samples`]).
+    pub fn judging_factors(&self) -> Vec<usize> {
+        self.judging.iter().map(|j| j.factor).collect()
     }
 
     /// How many residual vectors (replays of every recording) were
@@ -834,6 +985,17 @@ impl Objective for TimeProblem<'_> {
     }
     fn evaluations(&self) -> usize {
         self.evaluations.load(Ordering::Relaxed)
+    }
+    /// Written into its final matrix: a long recording's Jacobian (a column
+    /// per parameter, a row per judged sample) is the largest thing the fit
+    /// holds.
+    fn jacobian_with_penalty_row(
+        &self,
+        theta: &[f64],
+        r0: &[f64],
+        step: f64,
+    ) -> Result<nalgebra::DMatrix<f64>> {
+        optimise::forward_difference_padded(theta, r0, step, 1, |t| self.residuals(t))
     }
 }
 
@@ -1188,6 +1350,26 @@ pub fn identify_time(
              {resumed} time(s)"
         ));
     }
+    let every: usize = records
+        .iter()
+        .flat_map(|r| r.segments.iter().map(|s| s.len()))
+        .sum();
+    let samples: usize = problem.judged_samples().iter().sum();
+    if samples < every {
+        let factors: Vec<String> = problem
+            .judging_factors()
+            .iter()
+            .map(|k| k.to_string())
+            .collect();
+        notes.push(format!(
+            "judged on {samples} of the {every} samples: the responses low-passed and judged \
+             at one sample in {} (by recording), for at most {} judged (--max-judged-samples; \
+             the Jacobian holds a row per sample judged); the errors reported are over every \
+             sample",
+            factors.join("/"),
+            options.max_judged_samples
+        ));
+    }
     let after = problem.errors_by_frequency(&model)?;
     let parameters = time_confidence(&problem, &run.theta)?;
     let set = &problem.parameters;
@@ -1199,10 +1381,6 @@ pub fn identify_time(
         .map(|(p, _)| p.name.clone())
         .collect();
     at_bound.sort();
-    let samples = records
-        .iter()
-        .flat_map(|r| r.segments.iter().map(|s| s.len()))
-        .sum();
     let worse = before
         .iter()
         .zip(&after)
@@ -1408,6 +1586,44 @@ mod tests {
                 "{lo} {hi} {mean}"
             );
         }
+    }
+
+    /// The judging factor: the smallest that brings the samples within the
+    /// bound, over all the recordings; none below 8 samples a period of the
+    /// model's highest frequency, nor above the resampling limit.
+    #[test]
+    fn a_fit_judges_at_the_lowest_rate_its_bound_asks_and_its_model_allows() {
+        let rec = |fs: f64, n: usize| TimeRecord {
+            name: "r".into(),
+            reference: vec![1.0; n],
+            reference_quantity: Quantity::Force,
+            response: vec![1.0; n],
+            sample_rate_hz: fs,
+            quantity: Quantity::Displacement,
+            window: 0..n,
+            segments: vec![0..n / 2, n / 2..n],
+            band_hz: None,
+        };
+        let two = [rec(30_000.0, 6_000_000), rec(30_000.0, 2_230_473)];
+        // 8 230 473 over 2^20: 8; 30 kHz allows 12 at 293 Hz, 3 at 1 kHz
+        assert_eq!(judging_factors(&two, 293.0, MAX_JUDGED_SAMPLES), vec![8, 8]);
+        assert_eq!(
+            judging_factors(&two, 1000.0, MAX_JUDGED_SAMPLES),
+            vec![3, 3]
+        );
+        // within the bound, or no frequency to go by: every sample
+        assert_eq!(judging_factors(&two, 293.0, 1 << 24), vec![1, 1]);
+        assert_eq!(judging_factors(&two, f64::NAN, 1000), vec![1, 1]);
+        // a slow recording beside a fast one keeps its own floor
+        let mixed = [rec(30_000.0, 8_000_000), rec(2_000.0, 1_000_000)];
+        assert_eq!(
+            judging_factors(&mixed, 100.0, MAX_JUDGED_SAMPLES),
+            vec![9, 2]
+        );
+        assert_eq!(
+            judging_factors(&mixed, 1.0, 1000),
+            vec![MAX_FACTOR, MAX_FACTOR]
+        );
     }
 
     fn recording(fs: f64, force: Vec<f64>, excitation: Excitation) -> Recording {

@@ -277,10 +277,15 @@ impl<'a> PreparedDrive<'a> {
         {
             return Ok(d.clone());
         }
-        let mut drive = resample::interpolate(self.reference, factor)?;
-        if self.input != DriveInput::Ramp {
-            drive = pre_emphasis(&drive);
-        }
+        let drive = match (factor, self.input) {
+            // the samples themselves, not a copy to be pre-emphasised
+            (1, DriveInput::BandLimited | DriveInput::Continuous) => {
+                resample::check(1, self.reference, "signal")?;
+                pre_emphasis(self.reference)
+            }
+            (_, DriveInput::Ramp) => resample::interpolate(self.reference, factor)?,
+            _ => pre_emphasis(&resample::interpolate(self.reference, factor)?),
+        };
         let drive = std::sync::Arc::new(drive);
         self.cache
             .lock()
@@ -396,7 +401,14 @@ pub fn simulate_prepared_at(
             ),
         });
     }
-    let mut values = resample::decimate(&fine, factor)?;
+    // at the recording's own rate the replay is the values (decimating by 1
+    // would copy them: a long recording's replay is the largest vector a
+    // time fit makes)
+    let mut values = if factor == 1 {
+        fine
+    } else {
+        resample::decimate(&fine, factor)?
+    };
     values.truncate(reference.len());
     if sign < 0.0 {
         values.iter_mut().for_each(|v| *v = -*v);

@@ -56,9 +56,14 @@ fn sinc(u: f64) -> f64 {
 /// centred on index `HALF_WIDTH·factor`, with DC gain `factor` (the
 /// interpolator's; the decimator divides by `factor`).
 fn prototype(factor: usize) -> Vec<f64> {
-    let reach = (HALF_WIDTH * factor) as f64;
+    prototype_of(factor, HALF_WIDTH)
+}
+
+/// [`prototype`] reaching `half_width` original samples on each side.
+fn prototype_of(factor: usize, half_width: usize) -> Vec<f64> {
+    let reach = (half_width * factor) as f64;
     let i0b = bessel_i0(KAISER_BETA);
-    (0..=2 * HALF_WIDTH * factor)
+    (0..=2 * half_width * factor)
         .map(|i| {
             let t = i as f64 - reach;
             let r = t / reach;
@@ -68,7 +73,7 @@ fn prototype(factor: usize) -> Vec<f64> {
         .collect()
 }
 
-fn check(factor: usize, x: &[f64], what: &str) -> Result<()> {
+pub(crate) fn check(factor: usize, x: &[f64], what: &str) -> Result<()> {
     if factor == 0 || factor > MAX_FACTOR {
         return Err(Error::input(
             "resampling factor",
@@ -122,15 +127,24 @@ pub fn interpolate(x: &[f64], factor: usize) -> Result<Vec<f64>> {
 /// [`CUTOFF`] of the target Nyquist frequency and keeps every `factor`-th
 /// sample, starting with the first: `ceil(y.len()/factor)` samples.
 pub fn decimate(y: &[f64], factor: usize) -> Result<Vec<f64>> {
+    decimate_with(y, factor, HALF_WIDTH)
+}
+
+/// [`decimate`] with a filter reaching `half_width` samples of the target
+/// rate on each side ([`HALF_WIDTH`] for [`decimate`]): a shorter one costs
+/// less and has a wider transition band, enough where what matters lies
+/// well below the target Nyquist frequency (a time fit's judging, see
+/// `fit::time::MAX_JUDGED_SAMPLES`).
+pub fn decimate_with(y: &[f64], factor: usize, half_width: usize) -> Result<Vec<f64>> {
     check(factor, y, "signal")?;
     if factor == 1 {
         return Ok(y.to_vec());
     }
-    let g: Vec<f64> = prototype(factor)
+    let g: Vec<f64> = prototype_of(factor, half_width)
         .into_iter()
         .map(|v| v / factor as f64)
         .collect();
-    let centre = (HALF_WIDTH * factor) as isize;
+    let centre = (half_width * factor) as isize;
     let n = y.len() as isize;
     let out = y.len().div_ceil(factor);
     Ok((0..out)
