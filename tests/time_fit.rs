@@ -162,6 +162,18 @@ fn truth(case: &Case) -> Model {
     .unwrap()
 }
 
+/// The Jenkins case's truth moved off: kd +10 %, Fd −10 %, damping +20 %,
+/// stiffness +1 %.
+fn jenkins_start(case: &Case) -> Model {
+    let mut start = truth(case);
+    start.joint = Some(ElementSpec::Jenkins {
+        kd: 1.1 * case.kd,
+        fd: 0.9 * case.fd,
+    });
+    start.linear = ModalModel::sdof(case.mass, 1.2 * case.damping, 1.01 * case.stiffness).unwrap();
+    start
+}
+
 fn relative(a: f64, b: f64) -> f64 {
     (a - b) / b
 }
@@ -313,12 +325,7 @@ fn time_fit_recovers_a_jenkins_joint_from_an_independent_recording() {
     let rec = record(case, rec);
     eprintln!("{} ({} samples)", case.summary(), rec.response.len());
     let truth = truth(case);
-    let mut start = truth.clone();
-    start.joint = Some(ElementSpec::Jenkins {
-        kd: 1.1 * case.kd,
-        fd: 0.9 * case.fd,
-    });
-    start.linear = ModalModel::sdof(case.mass, 1.2 * case.damping, 1.01 * case.stiffness).unwrap();
+    let start = jenkins_start(case);
     let params = time_parameters(&start, true, None);
     let options = TimeFitOptions::default();
     // the floor: the recording's own noise, from the reference's clean
@@ -950,13 +957,7 @@ fn a_long_record_is_judged_low_passed_at_a_lower_rate_as_at_its_own() {
     let (case, rec) = jenkins_case();
     let rec = record(case, rec);
     let n: usize = rec.segments.iter().map(|s| s.len()).sum();
-    let truth = truth(case);
-    let mut start = truth.clone();
-    start.joint = Some(ElementSpec::Jenkins {
-        kd: 1.1 * case.kd,
-        fd: 0.9 * case.fd,
-    });
-    start.linear = ModalModel::sdof(case.mass, 1.2 * case.damping, 1.01 * case.stiffness).unwrap();
+    let start = jenkins_start(case);
     let params = time_parameters(&start, true, None);
     let records = [rec];
     let every = TimeFitOptions::default();
