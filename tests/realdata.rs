@@ -262,11 +262,12 @@ fn validation_upsamples_a_coarse_recording() {
 
 /// A model whose further mode lies far above what the recording shows (a
 /// broad background a time fit drove to 8 kHz beside a 90 Hz mode, at 1024
-/// samples per second) is replayed on the finest grid there is, as the fit
-/// replays it, not refused: its steady response to a 90 Hz sine is the
-/// closed-form receptance's, the background's flexibility included.
+/// samples per second) is replayed, not refused, and not upsampled for it:
+/// the mode, above twice the rate, is taken quasi-static, and the steady
+/// response to a 90 Hz sine is the closed-form receptance's, the
+/// background's flexibility included.
 #[test]
-fn a_mode_far_above_the_recording_is_replayed_on_the_finest_grid() {
+fn a_mode_far_above_the_recording_is_replayed_by_its_flexibility() {
     let model = Model::new(
         ModalModel::new(vec![
             hystid::model::Mode::from_modal_mass(90.0, 0.01, 1.0).unwrap(),
@@ -282,8 +283,8 @@ fn a_mode_far_above_the_recording_is_replayed_on_the_finest_grid() {
         .collect();
     assert_eq!(
         hystid::validate::upsampling_factor(&model, fs, 20.0).unwrap(),
-        64,
-        "capped at the finest grid (the 8 kHz mode would ask for 157)"
+        2,
+        "the 90 Hz mode's rate (resolving the 8 kHz mode would ask for 157 times)"
     );
     let x = simulate_response(&model, &force, fs, Quantity::Displacement, 1.0, 20.0)
         .unwrap()
@@ -302,9 +303,13 @@ fn a_mode_far_above_the_recording_is_replayed_on_the_finest_grid() {
         background / h > 0.03,
         "the background must matter to the check"
     );
-    // the band-limited replay of a sine 11 samples per period: within 0.3 %
+    // the band-limited replay of a sine 22 samples per period: 1.07e-3
+    // measured, the quasi-static flexibility taking the drive's
+    // pre-emphasis (θ²/12 = 0.66 % here), which only the resolved modes'
+    // sinc² loss asks for, on its 6.6 % share (resolved at 64 times the
+    // rate: 2e-5)
     assert!(
-        (amplitude / h - 1.0).abs() < 3e-3,
+        (amplitude / h - 1.0).abs() < 1.5e-3,
         "{amplitude} against {h}"
     );
 }

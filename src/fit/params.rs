@@ -359,6 +359,55 @@ impl ParameterSet {
         self
     }
 
+    /// The set as a replay of recordings can fit it, with a note per mode
+    /// held: a linear mode of `model` above `quasi_static_above_hz` is
+    /// replayed quasi-statically (see
+    /// [`crate::validate::QUASI_STATIC_ABOVE_RATE`]), so its frequency and
+    /// damping ratio do not change the replay and are held (its flexibility
+    /// or modal constant stays free); a free frequency of any other linear
+    /// mode is bounded by it, so that no step takes the mode across.
+    pub fn for_replay(
+        mut self,
+        model: &Model,
+        quasi_static_above_hz: f64,
+    ) -> (ParameterSet, Vec<String>) {
+        let quasi_static = |mode: usize| {
+            model
+                .linear
+                .modes
+                .get(mode)
+                .is_some_and(|m| !m.is_hysteretic() && m.frequency_hz > quasi_static_above_hz)
+        };
+        let mut notes = Vec::new();
+        for (i, m) in model.linear.modes.iter().enumerate() {
+            let held = self.parameters.iter().any(|p| {
+                matches!(p.target, Target::Frequency { mode } | Target::DampingRatio { mode } if mode == i)
+            });
+            if quasi_static(i) && held {
+                notes.push(format!(
+                    "{} at {:.6} Hz is above {:.6} Hz, twice the slowest recording's sample rate: replayed \
+                     quasi-statically (its flexibility alone), its frequency and damping ratio \
+                     held",
+                    model.linear.label(i),
+                    m.frequency_hz,
+                    quasi_static_above_hz
+                ));
+            }
+        }
+        self.parameters.retain(|p| match p.target {
+            Target::Frequency { mode } | Target::DampingRatio { mode } => !quasi_static(mode),
+            _ => true,
+        });
+        for p in &mut self.parameters {
+            if let Target::Frequency { mode } = p.target
+                && model.linear.modes.get(mode).is_some_and(|m| !m.is_hysteretic())
+            {
+                p.bounds[1] = p.bounds[1].min(quasi_static_above_hz);
+            }
+        }
+        (self, notes)
+    }
+
     /// The viscous damping of an SDOF mode as a free parameter.
     pub fn for_sdof_damping(mode: usize) -> ParameterSet {
         ParameterSet {

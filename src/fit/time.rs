@@ -40,7 +40,8 @@ use crate::model::Model;
 use crate::observe::Silent;
 use crate::validate::resample::{MAX_FACTOR, decimate_with};
 use crate::validate::{
-    DriveInput, ErrorMetrics, PreparedDrive, error_metrics, simulate_prepared_at, upsampling_factor,
+    DriveInput, ErrorMetrics, PreparedDrive, error_metrics, quasi_static_above_hz,
+    simulate_prepared_at, upsampling_factor,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -648,9 +649,17 @@ impl<'a> TimeProblem<'a> {
             .iter()
             .map(|r| PreparedDrive::new(&r.reference, options.input))
             .collect();
+        // a mode above twice the slowest recording's rate is replayed
+        // quasi-statically in every one (see `validate`): held
+        let slowest = records
+            .iter()
+            .map(|r| r.sample_rate_hz)
+            .fold(f64::INFINITY, f64::min);
+        let quasi_static = quasi_static_above_hz(slowest);
+        let (parameters, rate_notes) = parameters.for_replay(&base, quasi_static);
         let factors = judging_factors(
             records,
-            base.highest_linearised_frequency_hz(),
+            base.highest_replayed_frequency_hz(quasi_static),
             options.max_judged_samples,
         );
         let judging = records
@@ -661,7 +670,7 @@ impl<'a> TimeProblem<'a> {
             .collect::<Result<_>>()?;
         Ok(TimeProblem {
             replay_factor: vec![None; records.len()],
-            rate_notes: Vec::new(),
+            rate_notes,
             drives,
             judging,
             base,
@@ -738,8 +747,8 @@ impl<'a> TimeProblem<'a> {
     fn coarsest_grid(&self, model: &Model, i: usize, which: &str) -> (usize, Option<String>) {
         const LADDER: [f64; 4] = [2.5, 5.0, 10.0, 20.0];
         let sure = self.options.min_samples_per_period;
-        let top = model.highest_linearised_frequency_hz();
         let r = &self.records[i];
+        let top = model.highest_replayed_frequency_hz(quasi_static_above_hz(r.sample_rate_hz));
         let factor =
             |spp: f64| ((spp * top / r.sample_rate_hz).ceil().max(1.0) as usize).min(MAX_FACTOR);
         let replay = |f: usize| {
@@ -1284,6 +1293,12 @@ pub fn identify_time(
         options.clone(),
         observer,
     )?;
+    if problem.parameters.is_empty() {
+        return Err(Error::plan(
+            "parameters",
+            "none free that the replay feels: nothing to fit",
+        ));
+    }
     problem.choose_replay_rates();
     let before = problem.errors(start)?;
     let theta0 = problem.parameters.theta_of(start)?;

@@ -723,6 +723,20 @@ impl Model {
         self.linearised_frequencies_hz().fold(0.0, f64::max)
     }
 
+    /// [`Model::highest_linearised_frequency_hz`] without the linear modes
+    /// above `quasi_static_above_hz`, which a replay takes quasi-static
+    /// (see [`crate::validate::QUASI_STATIC_ABOVE_RATE`]): the frequency a
+    /// replay's rate must resolve. Zero when every mode is quasi-static.
+    pub fn highest_replayed_frequency_hz(&self, quasi_static_above_hz: f64) -> f64 {
+        self.linear
+            .modes
+            .iter()
+            .zip(self.linearised_frequencies_hz())
+            .filter(|(m, _)| m.is_hysteretic() || m.frequency_hz <= quasi_static_above_hz)
+            .map(|(_, f)| f)
+            .fold(0.0, f64::max)
+    }
+
     /// The lowest of the modes' linearised frequencies, Hz (as
     /// [`Model::highest_linearised_frequency_hz`] counts them).
     pub fn lowest_linearised_frequency_hz(&self) -> f64 {

@@ -115,6 +115,41 @@ impl ModeFilter {
             acceleration,
         }
     }
+
+    /// The filters of `mode` taken quasi-static at sample interval `t`: its
+    /// static flexibility `s = R/ω_r²` alone, for a mode far above every
+    /// frequency the samples can carry.
+    ///
+    /// The displacement `s u[n]` is [`ModeFilter::new`]'s limit as
+    /// `ω_r → ∞` at fixed `s` (the mode follows the piecewise-linear input
+    /// at once). That limit's velocity, the slope of the sample just ended,
+    /// lags by half a sample (15 % of the mode's part at 20 samples a
+    /// period), and its acceleration is zero at the samples; a band-limited
+    /// recording shows `s u̇` and `s ü`. So the velocity is the second-order
+    /// backward difference `s (3u[n] − 4u[n−1] + u[n−2])/(2T)` (no lag; its
+    /// gain `1 + θ²/3` at `θ = ωT` rad a sample), and the acceleration the
+    /// second difference `s (u[n] − 2u[n−1] + u[n−2])/T²` (a sample's lag,
+    /// the best three samples give). A lightly damped mode above the
+    /// Nyquist frequency run through [`ModeFilter::new`] instead rings at
+    /// its alias inside the band (its exact sampled response to the ramps),
+    /// which a recording's anti-alias filter never shows.
+    pub fn quasi_static(mode: &Mode, t: f64) -> ModeFilter {
+        let s = mode.static_flexibility();
+        ModeFilter {
+            displacement: Section {
+                b: [s, 0.0, 0.0],
+                a: [0.0, 0.0],
+            },
+            velocity: Section {
+                b: [1.5 * s / t, -2.0 * s / t, 0.5 * s / t],
+                a: [0.0, 0.0],
+            },
+            acceleration: Section {
+                b: [s / (t * t), -2.0 * s / (t * t), s / (t * t)],
+                a: [0.0, 0.0],
+            },
+        }
+    }
 }
 
 #[cfg(test)]
@@ -190,6 +225,64 @@ mod tests {
                 "f={f}"
             );
         }
+    }
+
+    /// The quasi-static displacement is the exact filter's limit: a mode at
+    /// 10⁴ times the sample rate, damped enough that each kink's transient
+    /// dies within the sample, gives the same output to 1e-3 of its size
+    /// on a random piecewise-linear input (the mode's lag `2ζ/ω_r` is 2e-5
+    /// of a sample), and its acceleration is zero at the samples. The
+    /// velocity and acceleration sections are the derivatives of a sine to
+    /// their stated orders: `1 + θ²/3` and a sample's lag.
+    #[test]
+    fn a_quasi_static_mode_is_the_exact_filters_limit_far_above_the_rate() {
+        let t = 1.0 / 16384.0;
+        let mode = Mode::from_modal_mass(1e4 / t, 0.5, 2.5e-3).unwrap();
+        let s = mode.static_flexibility();
+        let (exact, limit) = (ModeFilter::new(&mode, t), ModeFilter::quasi_static(&mode, t));
+        let run = |f: &Section, u: &[f64]| {
+            let mut y = vec![0.0; u.len()];
+            for n in 0..u.len() {
+                let at = |k: usize| if n >= k { u[n - k] } else { 0.0 };
+                let past = |k: usize| if n >= k { y[n - k] } else { 0.0 };
+                y[n] = f.b[0] * at(0) + f.b[1] * at(1) + f.b[2] * at(2)
+                    - f.a[0] * past(1)
+                    - f.a[1] * past(2);
+            }
+            y
+        };
+        // a deterministic pseudo-random input
+        let mut state = 12345u64;
+        let u: Vec<f64> = (0..2000)
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let (ye, yl) = (run(&exact.displacement, &u), run(&limit.displacement, &u));
+        let size = yl.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let diff = ye.iter().zip(&yl).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+        assert!(diff < 1e-3 * size, "{diff} of {size}");
+        assert!((limit.displacement.static_gain() / s - 1.0).abs() < 1e-12);
+        // the exact acceleration at the samples: zero to the rounding of
+        // `R u − ω_r² x`, far below the second difference's `s u/T²`
+        let peak = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let ya = run(&exact.acceleration, &u);
+        assert!(peak(&ya) * t * t < 1e-3 * peak(&yl), "{}", peak(&ya) * t * t / peak(&yl));
+        // a sine of θ = 0.2 rad a sample: the velocity's gain 1 + θ²/3, no
+        // lag; the acceleration's lag one sample
+        for theta in [0.05, 0.2] {
+            let w = theta / t;
+            let v = limit.velocity.response(theta) / (s * Complex64::new(0.0, w));
+            assert!((v.norm() - (1.0 + theta * theta / 3.0)).abs() < 0.1 * theta * theta, "{v}");
+            assert!(v.arg().abs() < 0.1 * theta * theta, "{v}");
+            let a = limit.acceleration.response(theta) / (-s * w * w);
+            assert!((a.arg() + theta).abs() < 1e-12, "{a}");
+            assert!((a.norm() - 1.0).abs() < theta * theta / 12.0 * 1.01, "{a}");
+        }
+        assert_eq!(limit.acceleration.b.iter().sum::<f64>(), 0.0);
     }
 
     /// Σ_k H(f + k fs) sinc²(f/fs + k): the exact response of a ramp-invariant filter.

@@ -209,9 +209,31 @@ impl<E: Element> Simulator<E> {
     ///
     /// Errors if the sample rate is not finite and above twice the highest
     /// mode (the filters would alias the modes themselves).
-    pub fn new(linear: &ModalModel, mut elements: E, sample_rate_hz: f64) -> Result<Self> {
+    pub fn new(linear: &ModalModel, elements: E, sample_rate_hz: f64) -> Result<Self> {
+        Simulator::with_quasi_static_above(linear, elements, sample_rate_hz, f64::INFINITY)
+    }
+
+    /// A simulator at rest whose linear modes above `quasi_static_above_hz`
+    /// are taken quasi-static, their flexibility alone
+    /// ([`ModeFilter::quasi_static`]): how a replay of a recording carries a
+    /// mode the recording cannot show, at any rate (see
+    /// [`crate::validate::QUASI_STATIC_ABOVE_RATE`]). The rate must exceed
+    /// twice every other mode.
+    pub fn with_quasi_static_above(
+        linear: &ModalModel,
+        mut elements: E,
+        sample_rate_hz: f64,
+        quasi_static_above_hz: f64,
+    ) -> Result<Self> {
         linear.validate()?;
-        let top = linear.highest_frequency_hz();
+        let quasi_static =
+            |m: &crate::model::Mode| !m.is_hysteretic() && m.frequency_hz > quasi_static_above_hz;
+        let top = linear
+            .modes
+            .iter()
+            .filter(|m| !quasi_static(m))
+            .map(|m| m.frequency_hz)
+            .fold(0.0, f64::max);
         if !(sample_rate_hz.is_finite() && sample_rate_hz > 2.0 * top) {
             return Err(Error::model(
                 "sample_rate_hz",
@@ -251,7 +273,13 @@ impl<E: Element> Simulator<E> {
             .modes
             .iter()
             .filter(|m| !m.is_hysteretic())
-            .map(|m| ModeFilter::new(m, t))
+            .map(|m| {
+                if quasi_static(m) {
+                    ModeFilter::quasi_static(m, t)
+                } else {
+                    ModeFilter::new(m, t)
+                }
+            })
             .collect();
         let b0 = filters.iter().fold([0.0; 3], |acc, f| {
             [

@@ -26,6 +26,14 @@
 //! interpolated by the smallest integer factor that does, and the response
 //! decimated back ([`resample`]). Nothing else is resampled: the comparison is
 //! at the recording's own samples.
+//!
+//! A linear mode above [`QUASI_STATIC_ABOVE_RATE`] times the recording's
+//! sample rate is replayed quasi-statically, its flexibility alone
+//! ([`crate::sim::ModeFilter::quasi_static`]), and does not count towards
+//! the rate: the recording cannot show its dynamics, and resolving them
+//! would replay at up to 64 times the rate for nothing (a further mode a
+//! fit places far above the band, only its flexibility seen, at 67.6 kHz
+//! beside a 16 kHz recording).
 
 pub mod resample;
 
@@ -318,19 +326,21 @@ pub fn simulate_prepared(
 
 /// The upsampling that gives `model`'s highest linearised frequency at
 /// least `min_samples_per_period` samples per period (at least 1), at most
-/// [`resample::MAX_FACTOR`]: a further mode far above what the recording
-/// shows (a broad background a time fit drove upwards: it replays such a
-/// model on its finest grid too, see `fit::time`) is replayed with fewer
-/// samples per period, its flexibility in the band kept (a mode's digital
-/// filter keeps its static gain). An error where even the lowest mode
-/// would need more: nothing of the model is within the recording's reach.
+/// [`resample::MAX_FACTOR`]. A linear mode above
+/// [`QUASI_STATIC_ABOVE_RATE`] times the rate is replayed quasi-statically
+/// and not counted; one below that but beyond the finest grid's reach (a
+/// broad background a time fit drove upwards: it replays such a model on
+/// its finest grid too, see `fit::time`) is replayed with fewer samples
+/// per period, its flexibility in the band kept (a mode's digital filter
+/// keeps its static gain). An error where even the lowest mode would need
+/// more: nothing of the model is within the recording's reach.
 pub fn upsampling_factor(
     model: &Model,
     sample_rate_hz: f64,
     min_samples_per_period: f64,
 ) -> Result<usize> {
     let needs = |f: f64| (min_samples_per_period * f / sample_rate_hz).ceil();
-    let needed = needs(model.highest_linearised_frequency_hz());
+    let needed = needs(model.highest_replayed_frequency_hz(quasi_static_above_hz(sample_rate_hz)));
     if needed <= 1.0 {
         return Ok(1);
     }
@@ -350,6 +360,19 @@ pub fn upsampling_factor(
     Ok((needed as usize).min(resample::MAX_FACTOR))
 }
 
+/// A linear mode above this multiple of a recording's sample rate (four
+/// times its Nyquist frequency) is replayed quasi-statically (see the
+/// module docs). Its dynamic amplification below the Nyquist frequency,
+/// `1/(1 − (f/f_r)²)`, is then at most 1/15 of its part of the response,
+/// and a fraction of that below the band's top.
+pub const QUASI_STATIC_ABOVE_RATE: f64 = 2.0;
+
+/// The frequency above which a replay of a recording sampled at
+/// `sample_rate_hz` takes a linear mode quasi-static, Hz.
+pub fn quasi_static_above_hz(sample_rate_hz: f64) -> f64 {
+    QUASI_STATIC_ABOVE_RATE * sample_rate_hz
+}
+
 /// [`simulate_prepared`] at a given upsampling `factor` (a fit keeps one
 /// grid while its parameters move: see `fit::time`), its progress told to
 /// `observer` (which may stop it).
@@ -367,13 +390,17 @@ pub fn simulate_prepared_at(
         return Err(Error::input("reference", "holds no samples"));
     }
     model.validate()?;
-    let top = model.highest_linearised_frequency_hz();
+    // against the recording's rate, whatever the replay's: a fit compares
+    // replays at several rates
+    let quasi_static = quasi_static_above_hz(sample_rate_hz);
+    let top = model.highest_replayed_frequency_hz(quasi_static);
     let input = drive.input;
     let drive = drive.at(factor)?;
-    let mut sim = Simulator::new(
+    let mut sim = Simulator::with_quasi_static_above(
         &model.linear,
         model.element_set()?,
         sample_rate_hz * factor as f64,
+        quasi_static,
     )?;
     // the joint's force on the structure taken as band-limited too: the
     // continuous model, not the bench's ramp-invariant sketch of it
