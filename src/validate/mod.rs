@@ -341,9 +341,8 @@ pub fn upsampling_factor(
 ) -> Result<usize> {
     let needs = |f: f64| (min_samples_per_period * f / sample_rate_hz).ceil();
     let needed = needs(model.highest_replayed_frequency_hz(quasi_static_above_hz(sample_rate_hz)));
-    if needed <= 1.0 {
-        return Ok(1);
-    }
+    // every mode counted here, the quasi-static ones too: a model none of
+    // whose modes the recording reaches is refused, not replayed as a spring
     let lowest = model.lowest_linearised_frequency_hz();
     if needs(lowest) > resample::MAX_FACTOR as f64 {
         return Err(Error::model(
@@ -357,7 +356,7 @@ pub fn upsampling_factor(
             ),
         ));
     }
-    Ok((needed as usize).min(resample::MAX_FACTOR))
+    Ok((needed as usize).clamp(1, resample::MAX_FACTOR))
 }
 
 /// A linear mode above this multiple of a recording's sample rate (four
