@@ -400,7 +400,11 @@ impl ParameterSet {
         });
         for p in &mut self.parameters {
             if let Target::Frequency { mode } = p.target
-                && model.linear.modes.get(mode).is_some_and(|m| !m.is_hysteretic())
+                && model
+                    .linear
+                    .modes
+                    .get(mode)
+                    .is_some_and(|m| !m.is_hysteretic())
             {
                 p.bounds[1] = p.bounds[1].min(quasi_static_above_hz);
             }

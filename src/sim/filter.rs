@@ -239,7 +239,10 @@ mod tests {
         let t = 1.0 / 16384.0;
         let mode = Mode::from_modal_mass(1e4 / t, 0.5, 2.5e-3).unwrap();
         let s = mode.static_flexibility();
-        let (exact, limit) = (ModeFilter::new(&mode, t), ModeFilter::quasi_static(&mode, t));
+        let (exact, limit) = (
+            ModeFilter::new(&mode, t),
+            ModeFilter::quasi_static(&mode, t),
+        );
         let run = |f: &Section, u: &[f64]| {
             let mut y = vec![0.0; u.len()];
             for n in 0..u.len() {
@@ -263,20 +266,32 @@ mod tests {
             .collect();
         let (ye, yl) = (run(&exact.displacement, &u), run(&limit.displacement, &u));
         let size = yl.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let diff = ye.iter().zip(&yl).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+        let diff = ye
+            .iter()
+            .zip(&yl)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
         assert!(diff < 1e-3 * size, "{diff} of {size}");
         assert!((limit.displacement.static_gain() / s - 1.0).abs() < 1e-12);
         // the exact acceleration at the samples: zero to the rounding of
         // `R u − ω_r² x`, far below the second difference's `s u/T²`
         let peak = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let ya = run(&exact.acceleration, &u);
-        assert!(peak(&ya) * t * t < 1e-3 * peak(&yl), "{}", peak(&ya) * t * t / peak(&yl));
+        assert!(
+            peak(&ya) * t * t < 1e-3 * peak(&yl),
+            "{}",
+            peak(&ya) * t * t / peak(&yl)
+        );
         // a sine of θ = 0.2 rad a sample: the velocity's gain 1 + θ²/3, no
         // lag; the acceleration's lag one sample
         for theta in [0.05, 0.2] {
             let w = theta / t;
             let v = limit.velocity.response(theta) / (s * Complex64::new(0.0, w));
-            assert!((v.norm() - (1.0 + theta * theta / 3.0)).abs() < 0.1 * theta * theta, "{v}");
+            assert!(
+                (v.norm() - (1.0 + theta * theta / 3.0)).abs() < 0.1 * theta * theta,
+                "{v}"
+            );
             assert!(v.arg().abs() < 0.1 * theta * theta, "{v}");
             let a = limit.acceleration.response(theta) / (-s * w * w);
             assert!((a.arg() + theta).abs() < 1e-12, "{a}");
