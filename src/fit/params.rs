@@ -320,11 +320,30 @@ impl ParameterSet {
         let Ok(e) = model.element(at) else {
             return ParameterSet::default();
         };
+        // a hysteretic mode's own joint: stuck, the mode rings at most
+        // MAX_STUCK_RATIO times its bare frequency
+        let stiffest = match at {
+            ElementAt::ModeJoint(i) => model
+                .linear
+                .modes
+                .get(i)
+                .map(|m| (MAX_STUCK_RATIO * MAX_STUCK_RATIO - 1.0) * m.modal_stiffness().abs()),
+            _ => None,
+        };
         let parameters = e
             .parameters()
             .into_iter()
             .map(|(name, value)| {
-                let (transform, bounds) = default_coordinates(e, name, value);
+                let (transform, mut bounds) = default_coordinates(e, name, value);
+                let stick = e
+                    .description()
+                    .parameters
+                    .iter()
+                    .any(|q| q.name == name && q.role == Role::StickStiffness);
+                if let Some(top) = stiffest.filter(|_| stick) {
+                    // never below the start: a start outside would be clamped
+                    bounds[1] = bounds[1].min(top.max(value));
+                }
                 Parameter {
                     name: if prefix.is_empty() {
                         name.to_string()
@@ -504,6 +523,17 @@ impl ParameterSet {
     }
 }
 
+/// The highest ratio of a hysteretic mode's stuck frequency to its bare
+/// one a fit may reach: its joint's stick stiffness is bounded by
+/// `(r² − 1)` times the mode's own stiffness at the start. Jointed modes
+/// stiffen by a few per cent to tens of per cent when they stick (the
+/// F-16's 6.2-6.6 Hz mode, a lap joint's first mode); a joint a fit drives
+/// far stiffer makes a mode that vanishes while stuck, and its stuck mode,
+/// far above what a recording resolves, is replayed at up to 64 times the
+/// rate for it (an independent recording at 65.5 kHz: a joint at 19 400
+/// times its mode's stiffness, stuck at 921 kHz).
+pub const MAX_STUCK_RATIO: f64 = 10.0;
+
 /// A further mode counts as outside the measured band when its frequency
 /// is beyond the band's edge by more than this factor.
 pub const BAND_MARGIN: f64 = 1.05;
@@ -584,6 +614,49 @@ fn default_coordinates(e: &ElementSpec, name: &str, value: f64) -> (Transform, [
 mod tests {
     use super::*;
     use crate::model::ModalModel;
+
+    /// A hysteretic mode's joint may stiffen it, stuck, to at most ten
+    /// times its bare frequency: kd ≤ 99 k_mode (checked on the model the
+    /// bound makes: its stuck frequency, √(ω² + kd R)); the slip force and
+    /// the drive point's joint keep their six decades.
+    #[test]
+    fn a_hysteretic_modes_joint_is_bounded_by_its_stuck_frequency() {
+        let mut mode = Mode::from_modal_mass(6600.0, 0.01, 50.0).unwrap();
+        let k = mode.modal_stiffness();
+        mode.joint = Some(ElementSpec::Jenkins { kd: k, fd: 40.0 });
+        let mut linear = ModalModel::sdof(7.5, 4500.0, 8.3e8).unwrap();
+        linear.modes.push(mode);
+        let model = Model::new(
+            linear,
+            vec![ElementSpec::Jenkins {
+                kd: 3.1e8,
+                fd: 413.0,
+            }],
+        )
+        .unwrap();
+        let own =
+            ParameterSet::for_element(&model, ElementAt::ModeJoint(1), "hysteretic_mode.joint");
+        let bound = |set: &ParameterSet, name: &str| {
+            set.parameters
+                .iter()
+                .find(|p| p.name.ends_with(name))
+                .unwrap()
+                .bounds
+        };
+        let top = bound(&own, ".kd")[1];
+        assert!(
+            (top / (99.0 * k) - 1.0).abs() < 1e-12,
+            "{top} against {}",
+            99.0 * k
+        );
+        let mut stiffest = model.clone();
+        stiffest.linear.modes[1].joint = Some(ElementSpec::Jenkins { kd: top, fd: 40.0 });
+        let stuck = stiffest.highest_linearised_frequency_hz();
+        assert!((stuck / 66_000.0 - 1.0).abs() < 1e-9, "{stuck}");
+        assert_eq!(bound(&own, ".fd"), [40.0 * 1e-6, 40.0 * 1e6]);
+        let drive_point = ParameterSet::for_element(&model, ElementAt::Joint, "");
+        assert_eq!(bound(&drive_point, "kd"), [3.1e8 * 1e-6, 3.1e8 * 1e6]);
+    }
 
     #[test]
     fn parameters_read_and_write_the_model() {
