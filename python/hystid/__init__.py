@@ -399,6 +399,7 @@ def identify_time(
     progress=None,
     replay="band_limited",
     starts=1,
+    max_judged_samples=2**20,
     **kwargs,
 ):
     """Fits a model to recorded time histories, as ``hystid identify
@@ -423,6 +424,10 @@ def identify_time(
     ``replay="continuous"`` is ``--replay continuous`` (see :func:`validate`);
     ``starts=N`` is ``--starts N`` (descend from N starts spread about the
     given one, keep the lowest misfit; ``time_domain.starts`` lists them).
+    ``max_judged_samples`` is ``--max-judged-samples`` (at least 1000): a
+    fit that would judge more samples judges the responses low-passed at a
+    lower rate, never below 8 samples a period of the model's highest
+    frequency; ``time_domain.samples`` is the count judged.
     """
     parts = _time_records(recordings, replay)
     model_start = None if start is None else _as_model(start)
@@ -437,6 +442,7 @@ def identify_time(
         progress,
         replay,
         int(starts),
+        int(max_judged_samples),
     )
     return json.loads(text)
 

@@ -1098,7 +1098,7 @@ impl Recordings<'_> {
 /// of a model written down (`start`, as `--start`), or with neither of
 /// multisine recordings from their linear estimate.
 #[pyfunction]
-#[pyo3(signature = (recordings, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
+#[pyo3(signature = (recordings, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES))]
 #[allow(clippy::too_many_arguments)]
 fn identify_time<'py>(
     py: Python<'py>,
@@ -1112,8 +1112,18 @@ fn identify_time<'py>(
     progress: Option<Py<PyAny>>,
     replay: String,
     starts: usize,
+    max_judged_samples: usize,
 ) -> PyResult<String> {
-    let time_options = time_fit_options(min_samples_per_period, &replay, starts)?;
+    // as `--max-judged-samples` takes it
+    if max_judged_samples < 1000 {
+        return Err(fail(format!(
+            "max_judged_samples: expected at least 1000, got {max_judged_samples}"
+        )));
+    }
+    let time_options = TimeFitOptions {
+        max_judged_samples,
+        ..time_fit_options(min_samples_per_period, &replay, starts)?
+    };
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
@@ -1152,6 +1162,7 @@ fn identify_time<'py>(
                     &TimeFitOptions {
                         input: time_options.input,
                         starts: time_options.starts,
+                        max_judged_samples: time_options.max_judged_samples,
                         ..TimeFitOptions::default()
                     },
                     band,

@@ -153,6 +153,27 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     assert q["fd"]["value"] == pytest.approx(8.0, rel=0.005)
     with pytest.raises(hystid.HystidError, match="starts"):
         hystid.identify_time([{"force": force, "response": y, "sample_rate_hz": fs}], starts=0)
+    # judged at a lower rate (`--max-judged-samples 1000`): the command's
+    # fit; one sample in 5 (not the 6 the bound alone asks: 8 samples a
+    # period of the 45 Hz stuck mode at 2 kHz is the floor), 1200 of the
+    # 6000 the fit judges (the first period is the start's transient); the
+    # joint as found
+    run_cli("identify", "m.json", "--out", "fitj", "--domain", "time", "--element", "jenkins",
+            "--max-judged-samples", "1000", cwd=tmp_path, expect=None)
+    refj = json.loads((tmp_path / "fitj" / "fit.json").read_text())
+    judged = hystid.identify_time(
+        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
+        element="jenkins", max_judged_samples=1000,
+    )
+    same_fit(judged, refj)
+    assert judged["time_domain"]["samples"] == 1200
+    assert any("judged on 1200 of the 6000 samples" in n for n in judged["time_domain"]["notes"])
+    q = judged["time_domain"]["parameters"]
+    assert q["kd"]["value"] == pytest.approx(4.0e4, rel=0.01)
+    assert q["fd"]["value"] == pytest.approx(8.0, rel=0.01)
+    with pytest.raises(hystid.HystidError, match="max_judged_samples"):
+        hystid.identify_time([{"force": force, "response": y, "sample_rate_hz": fs}],
+                             max_judged_samples=999)
 
 
 def two_modes_driven(fs, period):
