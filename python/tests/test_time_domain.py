@@ -107,15 +107,19 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     (tmp_path / "m.csv").write_text("\n".join(lines) + "\n")
     run_cli("import", "m.csv", "--out", "m", "-c", "force:force", "-c", "y:displacement",
             "--excitation", "unknown", cwd=tmp_path)
-    run_cli("identify", "m.json", "--out", "fit", "--domain", "time", "--element", "jenkins",
-            cwd=tmp_path, expect=None)
-    ref = json.loads((tmp_path / "fit" / "fit.json").read_text())
     samples = read_wav_f32(tmp_path / "m.wav").astype(np.float64)
-    fit = hystid.identify_time(
-        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
-        element="jenkins",
-    )
-    same_fit(fit, ref)
+    record = [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}]
+
+    def as_the_command(out, flags, **kwargs):
+        """The package's fit with ``kwargs``, the command's with ``flags``: the same."""
+        run_cli("identify", "m.json", "--out", out, "--domain", "time", "--element", "jenkins",
+                *flags, cwd=tmp_path, expect=None)
+        ref = json.loads((tmp_path / out / "fit.json").read_text())
+        fit = hystid.identify_time(record, element="jenkins", **kwargs)
+        same_fit(fit, ref)
+        return fit
+
+    fit = as_the_command("fit", [])
     assert "4 periods of 2000 samples" in fit["time_domain"]["notes"][0]
     p = fit["time_domain"]["parameters"]
     assert p["kd"]["value"] == pytest.approx(4.0e4, rel=0.005)
@@ -124,10 +128,7 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     # notes; the recording was made by the ramp-invariant simulator, whose
     # stuck joint the compensation stiffens by kd (omega T)^2/12, 0.2 % at
     # its 45 Hz, so the joint comes back within 1 %
-    continuous = hystid.identify_time(
-        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
-        element="jenkins", replay="continuous",
-    )
+    continuous = hystid.identify_time(record, element="jenkins", replay="continuous")
     assert any("continuous model" in n for n in continuous["time_domain"]["notes"])
     q = continuous["time_domain"]["parameters"]
     assert q["kd"]["value"] == pytest.approx(4.0e4, rel=0.01)
@@ -136,14 +137,7 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
         hystid.identify_time([{"force": force, "response": y, "sample_rate_hz": fs}], replay="smooth")
     # from three starts (`--starts 3`): the command's fit, every start
     # listed with its misfit, the kept one the lowest, the joint as found
-    run_cli("identify", "m.json", "--out", "fit3", "--domain", "time", "--element", "jenkins",
-            "--starts", "3", cwd=tmp_path, expect=None)
-    ref3 = json.loads((tmp_path / "fit3" / "fit.json").read_text())
-    three = hystid.identify_time(
-        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
-        element="jenkins", starts=3,
-    )
-    same_fit(three, ref3)
+    three = as_the_command("fit3", ["--starts", "3"], starts=3)
     listed = three["time_domain"]["starts"]
     assert [s["start"] for s in listed] == [0, 1, 2]
     best = min(listed, key=lambda s: s["misfit"])
@@ -158,14 +152,7 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     # period of the 45 Hz stuck mode at 2 kHz is the floor), 1200 of the
     # 6000 the fit judges (the first period is the start's transient); the
     # joint as found
-    run_cli("identify", "m.json", "--out", "fitj", "--domain", "time", "--element", "jenkins",
-            "--max-judged-samples", "1000", cwd=tmp_path, expect=None)
-    refj = json.loads((tmp_path / "fitj" / "fit.json").read_text())
-    judged = hystid.identify_time(
-        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
-        element="jenkins", max_judged_samples=1000,
-    )
-    same_fit(judged, refj)
+    judged = as_the_command("fitj", ["--max-judged-samples", "1000"], max_judged_samples=1000)
     assert judged["time_domain"]["samples"] == 1200
     assert any("judged on 1200 of the 6000 samples" in n for n in judged["time_domain"]["notes"])
     q = judged["time_domain"]["parameters"]
