@@ -395,7 +395,7 @@ impl ParameterSet {
                 .linear
                 .modes
                 .get(mode)
-                .is_some_and(|m| !m.is_hysteretic() && m.frequency_hz > quasi_static_above_hz)
+                .is_some_and(|m| m.is_quasi_static_above(quasi_static_above_hz))
         };
         let mut notes = Vec::new();
         for (i, m) in model.linear.modes.iter().enumerate() {

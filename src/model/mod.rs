@@ -732,7 +732,7 @@ impl Model {
             .modes
             .iter()
             .zip(self.linearised_frequencies_hz())
-            .filter(|(m, _)| m.is_hysteretic() || m.frequency_hz <= quasi_static_above_hz)
+            .filter(|(m, _)| !m.is_quasi_static_above(quasi_static_above_hz))
             .map(|(_, f)| f)
             .fold(0.0, f64::max)
     }

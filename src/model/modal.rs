@@ -134,6 +134,13 @@ impl Mode {
         self.joint.is_some()
     }
 
+    /// Whether a replay whose threshold is `above_hz` takes this mode
+    /// quasi-static, its flexibility alone: a linear mode above it (see
+    /// [`crate::validate::QUASI_STATIC_ABOVE_RATE`]).
+    pub fn is_quasi_static_above(&self, above_hz: f64) -> bool {
+        !self.is_hysteretic() && self.frequency_hz > above_hz
+    }
+
     /// Undamped natural angular frequency ω_r, rad/s.
     pub fn omega(&self) -> f64 {
         omega(self.frequency_hz)

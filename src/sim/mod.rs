@@ -226,8 +226,7 @@ impl<E: Element> Simulator<E> {
         quasi_static_above_hz: f64,
     ) -> Result<Self> {
         linear.validate()?;
-        let quasi_static =
-            |m: &crate::model::Mode| !m.is_hysteretic() && m.frequency_hz > quasi_static_above_hz;
+        let quasi_static = |m: &crate::model::Mode| m.is_quasi_static_above(quasi_static_above_hz);
         let top = linear
             .modes
             .iter()
