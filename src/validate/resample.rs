@@ -140,33 +140,114 @@ pub fn decimate_with(y: &[f64], factor: usize, half_width: usize) -> Result<Vec<
     if factor == 1 {
         return Ok(y.to_vec());
     }
-    let g: Vec<f64> = prototype_of(factor, half_width)
-        .into_iter()
-        .map(|v| v / factor as f64)
-        .collect();
-    let centre = (half_width * factor) as isize;
-    let n = y.len() as isize;
-    let out = y.len().div_ceil(factor);
-    Ok((0..out)
-        .map(|q| {
-            let m0 = (q * factor) as isize;
-            if m0 - centre >= 0 && m0 + centre < n {
-                // inside: every tap, summed in the same order as below
-                let a = (m0 - centre) as usize;
-                return y[a..a + g.len()]
-                    .iter()
-                    .zip(&g)
-                    .fold(0.0, |acc, (v, c)| acc + c * v);
-            }
-            let lo = (m0 - centre).max(0);
-            let hi = (m0 + centre).min(n - 1);
-            let mut acc = 0.0;
-            for m in lo..=hi {
-                acc += g[(m - m0 + centre) as usize] * y[m as usize];
-            }
-            acc
+    let mut d = Decimator::new(factor, half_width, y.len())?;
+    let mut out = Vec::with_capacity(d.outputs());
+    // the samples where they are, not pushed (a copy)
+    d.emit(y, 0, &mut out);
+    Ok(out)
+}
+
+/// [`decimate_with`] a stretch at a time: the samples of a signal whose
+/// length is known in advance are pushed as they come (a replay is made a
+/// stretch at a time) and each output is made as soon as the filter's reach
+/// has arrived, every one equal to the bit to [`decimate_with`]'s (the same
+/// taps summed in the same order). Holds the filter's reach, not the
+/// signal.
+#[derive(Clone, Debug)]
+pub struct Decimator {
+    g: Vec<f64>,
+    factor: usize,
+    centre: usize,
+    /// Samples of the whole signal.
+    total: usize,
+    /// Samples from `held_from` on, pushed and still in some output's reach.
+    held: Vec<f64>,
+    held_from: usize,
+    /// The next output's index.
+    next: usize,
+}
+
+impl Decimator {
+    /// A decimator by `factor` (1 passes the samples on) with a filter
+    /// reaching `half_width` output samples on each side, for a signal of
+    /// `total` samples.
+    pub fn new(factor: usize, half_width: usize, total: usize) -> Result<Decimator> {
+        check(factor, &[], "signal")?;
+        let g = if factor == 1 {
+            Vec::new()
+        } else {
+            prototype_of(factor, half_width)
+                .into_iter()
+                .map(|v| v / factor as f64)
+                .collect()
+        };
+        Ok(Decimator {
+            g,
+            factor,
+            centre: half_width * factor,
+            total,
+            held: Vec::new(),
+            held_from: 0,
+            next: 0,
         })
-        .collect())
+    }
+
+    /// Outputs of the whole signal: `ceil(total/factor)`.
+    pub fn outputs(&self) -> usize {
+        self.total.div_ceil(self.factor)
+    }
+
+    /// Pushes the next samples (at most up to the signal's length) and
+    /// appends every output whose reach they complete.
+    pub fn push(&mut self, x: &[f64], out: &mut Vec<f64>) {
+        if self.factor == 1 {
+            out.extend_from_slice(x);
+            self.next += x.len();
+            return;
+        }
+        self.held.extend_from_slice(x);
+        let held = std::mem::take(&mut self.held);
+        self.emit(&held, self.held_from, out);
+        self.held = held;
+        // what no later output reaches
+        let keep_from = (self.next * self.factor).saturating_sub(self.centre);
+        if keep_from > self.held_from {
+            let drop = (keep_from - self.held_from).min(self.held.len());
+            self.held.drain(..drop);
+            self.held_from += drop;
+        }
+    }
+
+    /// Appends every output not yet made whose reach `x` (the signal's
+    /// samples from `from` on) holds.
+    fn emit(&mut self, x: &[f64], from: usize, out: &mut Vec<f64>) {
+        let received = from + x.len();
+        let (factor, centre, n) = (self.factor, self.centre, self.total);
+        while self.next < self.outputs() {
+            let m0 = self.next * factor;
+            let hi = (m0 + centre).min(n - 1);
+            if hi >= received {
+                break;
+            }
+            let acc = if m0 >= centre && m0 + centre < n {
+                // inside: every tap, summed in the same order as below
+                let a = m0 - centre - from;
+                x[a..a + self.g.len()]
+                    .iter()
+                    .zip(&self.g)
+                    .fold(0.0, |acc, (v, c)| acc + c * v)
+            } else {
+                let lo = m0.saturating_sub(centre);
+                let mut acc = 0.0;
+                for m in lo..=hi {
+                    acc += self.g[m + centre - m0] * x[m - from];
+                }
+                acc
+            };
+            out.push(acc);
+            self.next += 1;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -219,6 +300,19 @@ mod tests {
             .fold(0.0, f64::max);
         assert!(worst < 2e-4, "{worst}");
         assert!(decimate(&[1.0, f64::NAN], 2).is_err());
+        // a stretch at a time, in stretches of any length: the same samples
+        // to the bit
+        for half_width in [8, HALF_WIDTH] {
+            let whole = decimate_with(&y, factor, half_width).unwrap();
+            for stretch in [1, 7, 64, 1000, 5000] {
+                let mut d = Decimator::new(factor, half_width, y.len()).unwrap();
+                let mut parts = Vec::new();
+                for c in y.chunks(stretch) {
+                    d.push(c, &mut parts);
+                }
+                assert_eq!(parts, whole, "stretch {stretch}, half width {half_width}");
+            }
+        }
         assert!(interpolate(&[1.0], 0).is_err());
     }
 }
