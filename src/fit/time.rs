@@ -38,10 +38,10 @@ use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::Silent;
-use crate::validate::resample::{MAX_FACTOR, decimate_with};
+use crate::validate::resample::{Decimator, MAX_FACTOR, decimate_with};
 use crate::validate::{
-    DriveInput, ErrorMetrics, PreparedDrive, error_metrics, quasi_static_above_hz,
-    simulate_prepared_at, upsampling_factor,
+    DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window,
+    quasi_static_above_hz, replay_streamed, simulate_prepared_at, upsampling_factor,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -177,26 +177,76 @@ impl TimeRecord {
         window: Option<Range<usize>>,
         band_hz: Option<(f64, f64)>,
     ) -> Result<TimeRecord> {
-        let reference = rec.reference_channel().ok_or_else(|| {
+        let reference = Self::reference_of(name, &rec.meta, response)?;
+        let channels = (
+            rec.channels[reference].clone(),
+            rec.channels[response].clone(),
+        );
+        Self::from_channels(name, &rec.meta, response, channels, window, band_hz)
+    }
+
+    /// [`TimeRecord::from_recording`] taking the recording's reference and
+    /// response channels over, not copying them (a long recording's
+    /// channels are the largest thing a time fit holds).
+    pub fn from_owned_recording(
+        name: &str,
+        mut rec: crate::signals::Recording,
+        response: usize,
+        window: Option<Range<usize>>,
+        band_hz: Option<(f64, f64)>,
+    ) -> Result<TimeRecord> {
+        let reference = Self::reference_of(name, &rec.meta, response)?;
+        let measured = if response == reference {
+            rec.channels[response].clone()
+        } else {
+            std::mem::take(&mut rec.channels[response])
+        };
+        let channels = (std::mem::take(&mut rec.channels[reference]), measured);
+        Self::from_channels(name, &rec.meta, response, channels, window, band_hz)
+    }
+
+    /// The reference channel of a recording described by `meta`, checked
+    /// with its `response` channel.
+    fn reference_of(
+        name: &str,
+        meta: &crate::signals::RecordingMeta,
+        response: usize,
+    ) -> Result<usize> {
+        let reference = meta.reference_channel().ok_or_else(|| {
             Error::input(
                 format!("{name}: channels"),
                 "no force or voltage channel to drive the model with",
             )
         })?;
-        let channel = rec.meta.channels.get(response).ok_or_else(|| {
-            Error::input(
+        if response >= meta.channels.len() {
+            return Err(Error::input(
                 format!("{name}: response channel"),
-                format!("{response} is not one of the {}", rec.meta.channels.len()),
-            )
-        })?;
-        let n = rec.frames();
+                format!("{response} is not one of the {}", meta.channels.len()),
+            ));
+        }
+        Ok(reference)
+    }
+
+    /// The record of a recording described by `meta` whose reference and
+    /// response (channel `response_channel`) samples are `(reference,
+    /// response)` (see [`TimeRecord::from_recording`]).
+    fn from_channels(
+        name: &str,
+        meta: &crate::signals::RecordingMeta,
+        response_channel: usize,
+        (reference, response): (Vec<f64>, Vec<f64>),
+        window: Option<Range<usize>>,
+        band_hz: Option<(f64, f64)>,
+    ) -> Result<TimeRecord> {
+        let reference_channel = meta.reference_channel().expect("checked by reference_of");
+        let n = reference.len();
         let mut window = window.unwrap_or(0..n);
-        let fs = rec.meta.sample_rate_hz;
-        let stated = &rec.meta.excitation.steps;
-        let swept = rec.meta.excitation.kind == crate::signals::ExcitationKind::SweptSine;
+        let fs = meta.sample_rate_hz;
+        let stated = &meta.excitation.steps;
+        let swept = meta.excitation.kind == crate::signals::ExcitationKind::SweptSine;
         if let (Some(band), true, true) = (band_hz, swept, stated.is_empty()) {
             let sweep = crate::extract::find_sweep(
-                &rec.channels[reference],
+                &reference,
                 fs,
                 &crate::extract::SweepOptions::default(),
             )
@@ -219,20 +269,16 @@ impl TimeRecord {
         } else if swept {
             Vec::new()
         } else {
-            crate::extract::find_dwells(
-                &rec.channels[reference],
-                fs,
-                &crate::extract::DwellOptions::default(),
-            )
-            .unwrap_or_default()
+            crate::extract::find_dwells(&reference, fs, &crate::extract::DwellOptions::default())
+                .unwrap_or_default()
         };
         let mut r = TimeRecord {
             name: name.to_string(),
-            reference: rec.channels[reference].clone(),
-            reference_quantity: rec.meta.channels[reference].quantity,
-            response: rec.channels[response].clone(),
+            reference,
+            reference_quantity: meta.channels[reference_channel].quantity,
+            response,
             sample_rate_hz: fs,
-            quantity: channel.quantity,
+            quantity: meta.channels[response_channel].quantity,
             segments: TimeRecord::segments_at(window.clone(), &steps),
             window,
             band_hz,
@@ -583,15 +629,6 @@ impl Judging {
             scale,
         })
     }
-
-    /// A replay at the judging rate.
-    fn judged(&self, replay: Vec<f64>) -> Result<Vec<f64>> {
-        if self.factor == 1 {
-            Ok(replay)
-        } else {
-            decimate_with(&replay, self.factor, JUDGING_HALF_WIDTH)
-        }
-    }
 }
 
 /// The replay of recordings through a model whose free parameters are
@@ -810,25 +847,72 @@ impl<'a> TimeProblem<'a> {
         self.parameters.model_at(&self.base, theta)
     }
 
+    /// Record `i`'s replay grid for `model`, as its upsampling factor.
+    fn replay_factor_of(&self, model: &Model, i: usize) -> Result<usize> {
+        match self.replay_factor[i] {
+            Some(f) => Ok(f),
+            None => {
+                let r = &self.records[i];
+                upsampling_factor(model, r.sample_rate_hz, self.options.min_samples_per_period)
+            }
+        }
+    }
+
     /// `model`'s simulated response to record `i`, every sample.
     fn replay(&self, model: &Model, i: usize) -> Result<Vec<f64>> {
         let r = &self.records[i];
-        let factor = match self.replay_factor[i] {
-            Some(f) => f,
-            None => {
-                upsampling_factor(model, r.sample_rate_hz, self.options.min_samples_per_period)?
-            }
-        };
         Ok(simulate_prepared_at(
             model,
             &self.drives[i],
             r.sample_rate_hz,
             r.quantity,
             self.sign,
-            factor,
+            self.replay_factor_of(model, i)?,
             &Silent,
         )?
         .values)
+    }
+
+    /// Record `i`'s residuals for `model` (its judged samples inside its
+    /// segments, in order) written into `out`: the replay low-passed and
+    /// decimated to the judging rate as it is made, and compared as it
+    /// comes (no replay held whole, see
+    /// [`crate::validate::replay_streamed`]); the same residuals to the bit
+    /// as the whole replay decimated and compared.
+    fn judged_residuals_into(&self, model: &Model, i: usize, out: &mut [f64]) -> Result<()> {
+        let r = &self.records[i];
+        let judging = &self.judging[i];
+        let measured = judging.response.as_deref().unwrap_or(&r.response);
+        let segments = &judging.segments;
+        let mut decimator = Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?;
+        let mut judged = Vec::new();
+        // the next judged sample, the segment it may lie in, the residual
+        let (mut q, mut k, mut p) = (0, 0, 0);
+        replay_streamed(
+            model,
+            &self.drives[i],
+            (r.sample_rate_hz, self.replay_factor_of(model, i)?),
+            r.quantity,
+            self.sign,
+            &Silent,
+            &mut |stretch| {
+                judged.clear();
+                decimator.push(stretch, &mut judged);
+                for &s in &judged {
+                    while k < segments.len() && segments[k].end <= q {
+                        k += 1;
+                    }
+                    if k < segments.len() && segments[k].start <= q {
+                        out[p] = (s - measured[q]) / judging.scale[k];
+                        p += 1;
+                    }
+                    q += 1;
+                }
+                Ok(())
+            },
+        )?;
+        debug_assert_eq!(p, out.len());
+        Ok(())
     }
 
     /// `model`'s simulated response to every recording, every sample (in
@@ -851,28 +935,60 @@ impl<'a> TimeProblem<'a> {
         self.errors_with(model, true)
     }
 
+    /// Each recording's replay is compared as it is made, a stretch at a
+    /// time (a copy of the response each, two at once, was most of what a
+    /// time fit of a long recording held), but where its error is split by
+    /// frequency (an FFT of the window, which needs it whole).
     fn errors_with(&self, model: &Model, split: bool) -> Result<Vec<RecordError>> {
+        // the sums start where `Iterator::sum` starts them: the same bits
+        // as summing the whole replay
+        let zero = std::iter::empty::<f64>().sum::<f64>();
         self.records
             .iter()
             .zip(&self.scale)
             .enumerate()
             .map(|(i, (r, scale))| {
-                let sim = self.replay(model, i)?;
-                let mut sum = 0.0;
-                for (seg, sc) in r.segments.iter().zip(scale) {
-                    sum += seg
-                        .clone()
-                        .map(|i| ((sim[i] - r.response[i]) / sc).powi(2))
-                        .sum::<f64>();
-                }
-                let mut window =
-                    error_metrics(&r.response, &sim, r.sample_rate_hz, r.window.clone())?;
+                let split = split && r.band_hz.is_some();
+                let (a, b) = error_window(r.window.clone(), r.response.len())?;
+                let mut whole = Vec::with_capacity(if split { r.response.len() } else { 0 });
+                // by segment, and over the window
+                let mut segments = vec![zero; r.segments.len()];
+                let mut window = zero;
+                let mut at = 0;
+                replay_streamed(
+                    model,
+                    &self.drives[i],
+                    (r.sample_rate_hz, self.replay_factor_of(model, i)?),
+                    r.quantity,
+                    self.sign,
+                    &Silent,
+                    &mut |stretch| {
+                        let end = at + stretch.len();
+                        for ((seg, sc), sum) in r.segments.iter().zip(scale).zip(&mut segments) {
+                            let (lo, hi) = (seg.start.max(at), seg.end.min(end));
+                            *sum = (lo..hi).fold(*sum, |acc, j| {
+                                acc + ((stretch[j - at] - r.response[j]) / sc).powi(2)
+                            });
+                        }
+                        let (lo, hi) = (a.max(at), b.min(end));
+                        window = (lo..hi).fold(window, |acc, j| {
+                            acc + (stretch[j - at] - r.response[j]).powi(2)
+                        });
+                        if split {
+                            whole.extend_from_slice(stretch);
+                        }
+                        at = end;
+                        Ok(())
+                    },
+                )?;
+                let sum = segments.iter().fold(zero, |acc, s| acc + s);
+                let mut window = error_metrics_of_sum(&r.response, window, r.sample_rate_hz, a..b);
                 if let (true, Some(band)) = (split, r.band_hz)
                     && window.measured_rms > 0.0
                 {
                     window.by_frequency = Some(crate::validate::error_by_frequency(
                         &r.response,
-                        &sim,
+                        &whole,
                         r.sample_rate_hz,
                         r.window.clone(),
                         band,
@@ -900,31 +1016,62 @@ impl<'a> TimeProblem<'a> {
 
     fn residuals_of(&self, model: &Model, outside: f64) -> Result<Vec<f64>> {
         let judged: usize = self.judged_samples().iter().sum();
-        let mut out = Vec::with_capacity(judged + 1);
-        for (i, (r, judging)) in self.records.iter().zip(&self.judging).enumerate() {
-            let sim = match self.replay(model, i) {
-                Ok(sim) => Some(judging.judged(sim)?),
-                // a model the simulator rejects: worse than predicting nothing
-                Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => None,
-                Err(e) => return Err(e),
-            };
-            let response = judging.response.as_deref().unwrap_or(&r.response);
-            for (seg, &sc) in judging.segments.iter().zip(&judging.scale) {
-                let measured = &response[seg.clone()];
-                match &sim {
-                    Some(sim) => out.extend(
-                        measured
-                            .iter()
-                            .zip(&sim[seg.clone()])
-                            .map(|(m, s)| (s - m) / sc),
-                    ),
-                    None => out.extend(measured.iter().map(|m| -2.0 * m / sc)),
-                }
-            }
-        }
-        let rms = (out.iter().map(|v| v * v).sum::<f64>() / out.len().max(1) as f64).sqrt();
-        out.push(outside * 10.0 * rms * (out.len() as f64).sqrt());
+        let mut out = vec![0.0; judged + 1];
+        self.residuals_of_into(model, outside, &mut out)?;
         Ok(out)
+    }
+
+    /// [`TimeProblem::residuals_of`] written into `out` (as long as the
+    /// judged samples, and the penalty row).
+    fn residuals_of_into(&self, model: &Model, outside: f64, out: &mut [f64]) -> Result<()> {
+        let mut at = 0;
+        for (i, (r, judging)) in self.records.iter().zip(&self.judging).enumerate() {
+            let n: usize = judging.segments.iter().map(|s| s.len()).sum();
+            let block = &mut out[at..at + n];
+            match self.judged_residuals_into(model, i, block) {
+                Ok(()) => {}
+                // a model the simulator rejects: worse than predicting nothing
+                Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
+                    let response = judging.response.as_deref().unwrap_or(&r.response);
+                    let mut p = 0;
+                    for (seg, &sc) in judging.segments.iter().zip(&judging.scale) {
+                        for m in &response[seg.clone()] {
+                            block[p] = -2.0 * m / sc;
+                            p += 1;
+                        }
+                    }
+                }
+                Err(e) => return Err(e),
+            }
+            at += n;
+        }
+        let rms = (out[..at].iter().map(|v| v * v).sum::<f64>() / at.max(1) as f64).sqrt();
+        out[at] = outside * 10.0 * rms * (at as f64).sqrt();
+        Ok(())
+    }
+
+    /// [`Objective::residuals`] written into `out` (as long as the judged
+    /// samples and the penalty row). Every set of replays is shown to the
+    /// observer (Levenberg–Marquardt and its Jacobian ask for residuals
+    /// only, and a fit of long recordings spends minutes there), numbered
+    /// by [`TimeProblem::replays`]; the optimiser's count of evaluations
+    /// stays its own.
+    fn residuals_into(&self, theta: &[f64], out: &mut [f64]) -> Result<()> {
+        if self.observer.is_some_and(|o| o.cancelled()) {
+            return Err(Error::Cancelled);
+        }
+        let (model, outside) = self.model_at(theta)?;
+        self.residuals_of_into(&model, outside, out)?;
+        let replay = self.replays.fetch_add(1, Ordering::Relaxed) + 1;
+        if let Some(o) = self.observer {
+            let entry = super::problem::TraceEntry {
+                evaluation: replay,
+                cost: out.iter().map(|v| v * v).sum::<f64>(),
+                parameters: self.parameters.values(theta),
+            };
+            o.observe(crate::observe::Event::Cost(&entry));
+        }
+        Ok(())
     }
 
     /// Each recording's replay grid as its upsampling factor (`None`: the
@@ -967,25 +1114,11 @@ impl<'a> TimeProblem<'a> {
 }
 
 impl Objective for TimeProblem<'_> {
-    /// Every set of replays is shown to the observer (Levenberg–Marquardt
-    /// and its Jacobian ask for residuals only, and a fit of long recordings
-    /// spends minutes there), numbered by [`TimeProblem::replays`]; the
-    /// optimiser's count of evaluations stays its own.
+    /// See [`TimeProblem::residuals_into`].
     fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
-        if self.observer.is_some_and(|o| o.cancelled()) {
-            return Err(Error::Cancelled);
-        }
-        let (model, outside) = self.model_at(theta)?;
-        let r = self.residuals_of(&model, outside)?;
-        let replay = self.replays.fetch_add(1, Ordering::Relaxed) + 1;
-        if let Some(o) = self.observer {
-            let entry = super::problem::TraceEntry {
-                evaluation: replay,
-                cost: r.iter().map(|v| v * v).sum::<f64>(),
-                parameters: self.parameters.values(theta),
-            };
-            o.observe(crate::observe::Event::Cost(&entry));
-        }
+        let judged: usize = self.judged_samples().iter().sum();
+        let mut r = vec![0.0; judged + 1];
+        self.residuals_into(theta, &mut r)?;
         Ok(r)
     }
     fn cost(&self, theta: &[f64]) -> Result<f64> {
@@ -1004,7 +1137,11 @@ impl Objective for TimeProblem<'_> {
         r0: &[f64],
         step: f64,
     ) -> Result<nalgebra::DMatrix<f64>> {
-        optimise::forward_difference_padded(theta, r0, step, 1, |t| self.residuals(t))
+        // each column's residuals written into it (a residual vector per
+        // column in flight was as large as the column)
+        optimise::forward_difference_in_place(theta, r0, step, |t, column| {
+            self.residuals_into(t, column)
+        })
     }
 }
 
@@ -1442,8 +1579,15 @@ fn felt_covariance(
     let free: Vec<usize> = (0..jac.ncols())
         .filter(|&j| !at_bound[j] && !unfelt[j])
         .collect();
-    let jf = nalgebra::DMatrix::from_fn(jac.nrows(), free.len(), |i, k| jac[(i, free[k])]);
-    let cov = (jf.transpose() * &jf).try_inverse().map(|a| a * s2);
+    // `JᵀJ` without the transpose made (a copy as large as the Jacobian),
+    // of the Jacobian itself where every column is free (the common case)
+    let jtj = if free.len() == jac.ncols() {
+        jac.tr_mul(jac)
+    } else {
+        let jf = nalgebra::DMatrix::from_fn(jac.nrows(), free.len(), |i, k| jac[(i, free[k])]);
+        jf.tr_mul(&jf)
+    };
+    let cov = jtj.try_inverse().map(|a| a * s2);
     (free, cov)
 }
 
@@ -1453,7 +1597,9 @@ fn felt_covariance(
 fn time_confidence(problem: &TimeProblem, theta: &[f64]) -> Result<BTreeMap<String, Estimate>> {
     let params = &problem.parameters;
     let r0 = problem.residuals(theta)?;
-    let jac = optimise::jacobian(problem, theta, &r0, 1e-5)?;
+    // written in place (a residual vector per column in flight was as large
+    // as the column), its penalty row zero: `JᵀJ` the same
+    let jac = problem.jacobian_with_penalty_row(theta, &r0, 1e-5)?;
     let values = params.values(theta);
     let at_bound = params.at_bounds(&values);
     let m = r0.len() - 1;
