@@ -1176,3 +1176,51 @@ fn streaming_writer_equals_the_whole_write_and_leaves_nothing_when_dropped() {
         .collect();
     assert!(names.iter().all(|n| n.starts_with("s.")), "{names:?}");
 }
+
+/// `load_reference_and_response` keeps, to the bit, what
+/// `load_recording(..).with_only_reference_and_response()` keeps while
+/// reading the others a stretch at a time and dropping them: on a run
+/// file, on a three-channel WAV recording (the default response and a
+/// chosen one) and on a two-channel one (kept whole), each longer than a
+/// stretch read.
+#[test]
+fn only_the_reference_and_response_are_loaded_as_load_recording_keeps_them() {
+    use hystid::analysis::{ChannelChoice, load_recording, load_reference_and_response};
+    let dir = tempfile::tempdir().unwrap();
+    let same = |path: &Path, choice: ChannelChoice| {
+        let whole = load_recording(path, choice)
+            .unwrap()
+            .with_only_reference_and_response();
+        let kept = load_reference_and_response(path, choice).unwrap();
+        assert_eq!(kept.recording, whole.recording, "{}", path.display());
+        assert_eq!(
+            (kept.response, kept.truncated, kept.truth.is_some()),
+            (whole.response, whole.truncated, whole.truth.is_some())
+        );
+        kept
+    };
+    let fs = 5000.0;
+    let run = virtual_run(fs, vec![(40.0, 10.0, 40_000), (41.0, 20.0, 30_001)], 5);
+    let mcap = dir.path().join("run.mcap");
+    record_run(&mcap, &run_info(fs), &run, 1);
+    let kept = same(&mcap, ChannelChoice::default());
+    assert_eq!(kept.recording.channels.len(), 2);
+    assert_eq!(kept.recording.frames(), 70_001);
+
+    let rec = sample_recording(70_001, 3);
+    let wav = dir.path().join("three.wav");
+    write_recording(&wav, &rec, SampleFormat::Float32).unwrap();
+    let kept = same(&wav, ChannelChoice::default());
+    assert_eq!(kept.recording.meta.channels[1].name, "response");
+    let kept = same(&wav, ChannelChoice::response(Some("accel")));
+    assert_eq!(kept.recording.meta.channels[1].name, "accel");
+    assert!(kept.recording.channels[1] == read_recording(&wav).unwrap().channels[2]);
+
+    let mut two = rec.clone();
+    two.channels.truncate(2);
+    two.meta.channels.truncate(2);
+    let wav = dir.path().join("two.wav");
+    write_recording(&wav, &two, SampleFormat::Pcm24).unwrap();
+    let kept = same(&wav, ChannelChoice::default());
+    assert_eq!(kept.recording.channels.len(), 2);
+}

@@ -708,15 +708,13 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     report.verdict = Verdict::BelowCriterion;
     report.note = None;
     assert!(d.selected.is_empty() && d.model.effects.is_empty());
-    let records =
-        hystid::analysis::time_records(std::slice::from_ref(&path), Default::default(), None)
-            .unwrap();
-    let replays = hystid::analysis::recording::ReplayReduction::new(
+    let mut replays = hystid::analysis::recording::ReplayReduction::new(
         &[path],
         Default::default(),
         &Default::default(),
     )
     .unwrap();
+    let records = replays.take_time_records(None).unwrap();
     let t = refine_in_time(
         &mut d,
         &reduced.frf,
@@ -774,7 +772,7 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     )
     .unwrap();
     let replayed = replays
-        .replayed(&problem.replays_of(&truth_model).unwrap())
+        .replayed(&records, problem.replays_of(&truth_model).unwrap())
         .unwrap();
     let judged = |frf| {
         hystid::fit::FitData::from_frf(frf, &d.harmonics, d.band_hz, None)
@@ -803,7 +801,7 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     )
     .unwrap();
     let continuous_frf = replays
-        .replayed(&continuous.replays_of(&truth_model).unwrap())
+        .replayed(&records, continuous.replays_of(&truth_model).unwrap())
         .unwrap();
     let (continuous_residual, _) = hystid::diagnose::time_residual::time_residual(
         &judged(replays.measured()),
@@ -812,7 +810,7 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     let continuous_chi2 = continuous_residual.features.chi2_per_dof_by_harmonic[&1];
     let continuous_misfit = continuous.errors(&truth_model).unwrap()[0].segment_relative;
     let clean = replays
-        .replayed(std::slice::from_ref(&rec.clean_response))
+        .replayed(&records, vec![rec.clean_response.clone()])
         .unwrap();
     let (clean_residual, _) = hystid::diagnose::time_residual::time_residual(
         &judged(replays.measured()),

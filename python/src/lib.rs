@@ -877,8 +877,8 @@ fn diagnose<'py>(
         let time = match time {
             None => None,
             Some((named, reduction, options)) => {
-                let refined = ReplayReduction::from_loaded(named, &reduction).and_then(|replays| {
-                    let records = replays.time_records(d.band_hz)?;
+                let refined = ReplayReduction::from_loaded(named, &reduction).and_then(|mut replays| {
+                    let records = replays.take_time_records(d.band_hz)?;
                     refine_in_time(
                         &mut diagnosis,
                         &frf,

@@ -381,13 +381,13 @@ pub fn time_records_in(
     recordings
         .iter()
         .map(|p| {
-            let l = super::load_recording(p, choice)?;
+            let l = super::load_reference_and_response(p, choice)?;
             let fs = l.recording.meta.sample_rate_hz;
             let window =
                 window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
-            TimeRecord::from_recording(
+            TimeRecord::from_owned_recording(
                 &p.display().to_string(),
-                &l.recording,
+                l.recording,
                 l.response,
                 window,
                 band_hz,
@@ -431,9 +431,19 @@ pub fn periodic_start(
     kind: crate::model::ElementKind,
     modes: usize,
 ) -> Result<Option<PeriodicStart>> {
+    // a recording that states its excitation is no multisine: known from
+    // its description, before its samples are read
+    for p in recordings {
+        if super::recording::stated_excitation(p)? != crate::signals::ExcitationKind::Unknown {
+            return Ok(None);
+        }
+    }
     let loaded = recordings
         .iter()
-        .map(|p| Ok((p.display().to_string(), super::load_recording(p, choice)?)))
+        .map(|p| {
+            let l = super::load_reference_and_response(p, choice)?;
+            Ok((p.display().to_string(), l))
+        })
         .collect::<Result<Vec<_>>>()?;
     let named: Vec<(&str, &super::Loaded)> = loaded.iter().map(|(n, l)| (n.as_str(), l)).collect();
     periodic_start_of(&named, kind, modes)

@@ -283,6 +283,102 @@ pub fn load_recording(path: &Path, choice: ChannelChoice) -> Result<Loaded> {
     })
 }
 
+/// [`load_recording`]`(path, choice)?`[`.with_only_reference_and_response()`](Loaded::with_only_reference_and_response),
+/// the same to the bit, without the other channels ever read into memory:
+/// the file is read a stretch at a time and only the reference and the
+/// response are kept (a bench's recording holds four channels, and a time
+/// fit or a replay reads two: read whole, 264 MB of a 8.2 M frame
+/// recording for the 132 MB kept).
+pub fn load_reference_and_response(path: &Path, choice: ChannelChoice) -> Result<Loaded> {
+    if is_mcap(path) {
+        let reader = crate::record::McapRunReader::open(path)?;
+        let text = reader.run().info.test_definition.clone();
+        let truncated = reader.run().truncated;
+        read_reference_and_response(path, reader, Some(text), truncated, choice)
+    } else {
+        let reader = crate::record::RecordingReader::open(path)?;
+        let text = recorded_truth(reader.meta());
+        read_reference_and_response(path, reader, text, false, choice)
+    }
+}
+
+/// The excitation the recording at `path` states (its description read,
+/// not its samples).
+pub fn stated_excitation(path: &Path) -> Result<ExcitationKind> {
+    Ok(if is_mcap(path) {
+        crate::record::McapRunReader::open(path)?
+            .meta()
+            .excitation
+            .kind
+    } else {
+        crate::record::RecordingReader::open(path)?
+            .meta()
+            .excitation
+            .kind
+    })
+}
+
+/// Frames read at a time by [`load_reference_and_response`].
+const LOAD_STRETCH: usize = 1 << 16;
+
+fn read_reference_and_response(
+    path: &Path,
+    mut source: impl FrameSource,
+    toml_text: Option<String>,
+    truncated: bool,
+    choice: ChannelChoice,
+) -> Result<Loaded> {
+    let truth =
+        toml_text.and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
+    let mut meta = source.meta().clone();
+    choice.apply(path, &mut meta)?;
+    let response = response_channel(path, &meta, choice.response, truth.as_ref())?;
+    let reference = meta
+        .reference_channel()
+        .expect("checked by response_channel");
+    // as `Loaded::with_only_reference_and_response` keeps them
+    let trimmed = meta.channels.len() > 2 && reference != response;
+    let keep: Vec<usize> = if trimmed {
+        vec![reference, response]
+    } else {
+        (0..meta.channels.len()).collect()
+    };
+    let frames = source.frames();
+    let mut stretch = vec![Vec::new(); meta.channels.len()];
+    let mut channels: Vec<Vec<f64>> = keep.iter().map(|_| Vec::with_capacity(frames)).collect();
+    let mut at = 0;
+    while at < frames {
+        let got = source.read_at(at, LOAD_STRETCH, &mut stretch)?;
+        if got == 0 {
+            break;
+        }
+        for (kept, &c) in channels.iter_mut().zip(&keep) {
+            kept.extend_from_slice(&stretch[c]);
+        }
+        at += got;
+    }
+    if channels[keep.iter().position(|&c| c == reference).expect("kept")]
+        .iter()
+        .all(|&v| v == 0.0)
+    {
+        return Err(flat_reference(path, &meta.channels[reference].name));
+    }
+    let mut recording = Recording { meta, channels };
+    let mut response = response;
+    if trimmed {
+        let m = &mut recording.meta;
+        m.channels = keep.iter().map(|&c| m.channels[c].clone()).collect();
+        m.chosen_reference = Some(0);
+        response = 1;
+    }
+    Ok(Loaded {
+        recording,
+        response,
+        truth,
+        truncated,
+    })
+}
+
 /// How a recording is reduced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Excitation {
@@ -828,7 +924,8 @@ impl ReplayReduction {
             .iter()
             .map(|path| {
                 let at = |e| Error::context(format!("reducing {}", path.display()), e);
-                Ok((path.clone(), load_recording(path, choice).map_err(at)?))
+                let loaded = load_reference_and_response(path, choice).map_err(at)?;
+                Ok((path.clone(), loaded))
             })
             .collect::<Result<Vec<_>>>()?;
         ReplayReduction::from_loaded(loaded, reduction)
@@ -875,14 +972,35 @@ impl ReplayReduction {
     }
 
     /// The held recordings as the time-domain fit takes them (as
-    /// [`super::time_records`] reads them, without reading them again).
-    pub fn time_records(&self, band_hz: Option<(f64, f64)>) -> Result<Vec<crate::fit::TimeRecord>> {
+    /// [`super::time_records`] reads them, without reading them again). The
+    /// samples move to the records, not copied (a long recording's channel
+    /// is the largest thing a time-domain diagnosis holds): the replays'
+    /// reduction takes the references from them
+    /// ([`ReplayReduction::replayed`]). Once only: a second call errors.
+    pub fn take_time_records(
+        &mut self,
+        band_hz: Option<(f64, f64)>,
+    ) -> Result<Vec<crate::fit::TimeRecord>> {
         self.sources
-            .iter()
+            .iter_mut()
             .map(|(path, l, _)| {
-                crate::fit::TimeRecord::from_recording(
+                let rec = &mut l.recording;
+                let reference = rec.reference_channel();
+                let taken = Recording {
+                    meta: rec.meta.clone(),
+                    channels: (0..rec.channels.len())
+                        .map(|c| {
+                            if Some(c) == reference || c == l.response {
+                                std::mem::take(&mut rec.channels[c])
+                            } else {
+                                Vec::new()
+                            }
+                        })
+                        .collect(),
+                };
+                crate::fit::TimeRecord::from_owned_recording(
                     &path.display().to_string(),
-                    &l.recording,
+                    taken,
                     l.response,
                     None,
                     band_hz,
@@ -892,39 +1010,57 @@ impl ReplayReduction {
     }
 
     /// The FRFs of `responses` (one per recording, in order, every sample:
-    /// a model's replay) reduced as the measured ones were.
-    pub fn replayed(&self, responses: &[Vec<f64>]) -> Result<NonlinearFrf> {
-        if responses.len() != self.sources.len() {
-            return Err(Error::input(
-                "replays",
-                format!(
-                    "{} given for {} recordings",
-                    responses.len(),
-                    self.sources.len()
-                ),
-            ));
-        }
-        let mut sets = Vec::with_capacity(responses.len());
-        for ((path, loaded, options), response) in self.sources.iter().zip(responses) {
-            let rec = &loaded.recording;
-            if response.len() != rec.frames() {
+    /// a model's replay) reduced as the measured ones were, each recording's
+    /// reference taken from its time record in `records` (the same
+    /// recordings, in order: [`ReplayReduction::take_time_records`] moved
+    /// the samples there).
+    pub fn replayed(
+        &self,
+        records: &[crate::fit::TimeRecord],
+        responses: Vec<Vec<f64>>,
+    ) -> Result<NonlinearFrf> {
+        for (what, n) in [
+            ("replays", responses.len()),
+            ("time records", records.len()),
+        ] {
+            if n != self.sources.len() {
                 return Err(Error::input(
-                    format!("{}: replay", path.display()),
-                    format!("{} samples for {} frames", response.len(), rec.frames()),
+                    what,
+                    format!("{n} given for {} recordings", self.sources.len()),
                 ));
             }
+        }
+        let mut sets = Vec::with_capacity(responses.len());
+        for (((path, loaded, options), record), response) in
+            self.sources.iter().zip(records).zip(responses)
+        {
+            let rec = &loaded.recording;
+            let frames = record.reference.len();
+            if record.name != path.display().to_string() || response.len() != frames {
+                return Err(Error::input(
+                    format!("{}: replay", path.display()),
+                    format!(
+                        "{} samples for the {frames} frames of the time record {}",
+                        response.len(),
+                        record.name
+                    ),
+                ));
+            }
+            // the replay taken over, the reference copied from the record
+            // (a recording held here has only those two channels)
+            let reference = rec.reference_channel();
+            let mut response = Some(response);
             let replay = Loaded {
                 recording: Recording {
                     meta: rec.meta.clone(),
-                    channels: rec
-                        .channels
-                        .iter()
-                        .enumerate()
-                        .map(|(c, v)| {
+                    channels: (0..rec.channels.len())
+                        .map(|c| {
                             if c == loaded.response {
-                                response.clone()
+                                response.take().unwrap_or_default()
+                            } else if Some(c) == reference {
+                                record.reference.clone()
                             } else {
-                                v.clone()
+                                rec.channels[c].clone()
                             }
                         })
                         .collect(),

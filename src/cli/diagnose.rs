@@ -45,6 +45,9 @@ pub fn run_diagnosis(
 
 /// `hystid diagnose`.
 pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
+    if args.domain == Domain::Time {
+        super::return_large_blocks();
+    }
     if args.domain != Domain::Time {
         if args.time_proposals > 0 {
             anyhow::bail!(
@@ -105,8 +108,8 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             // and held to reduce the refitted model's replay as they were
             // reduced (its residual in the FRFs' plane)
             let t = ReplayReduction::new(&args.recordings, args.channels(), &reduction).and_then(
-                |replays| {
-                    let records = replays.time_records(options.band_hz)?;
+                |mut replays| {
+                    let records = replays.take_time_records(options.band_hz)?;
                     refine_in_time(
                         &mut d,
                         &frf,

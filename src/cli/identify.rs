@@ -375,6 +375,9 @@ fn fit_in_time(
 
 /// `hystid identify`.
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
+    if args.domain == Domain::Time {
+        super::return_large_blocks();
+    }
     if args.domain != Domain::Time {
         if args.starts > 1 {
             bail!("--starts: the time-domain fit descends from several starts; add --domain time");

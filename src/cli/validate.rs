@@ -5,7 +5,7 @@ use super::args::ValidateArgs;
 use super::identify::reduction_options;
 use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
-use hystid::analysis::load_recording;
+use hystid::analysis::load_reference_and_response;
 use hystid::analysis::validate::{
     ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
 };
@@ -30,6 +30,7 @@ pub(super) fn parse_range(text: &str, flag: &str, unit: &str) -> Result<(f64, f6
 
 /// `hystid validate`.
 pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
+    super::return_large_blocks();
     let fit = read_fit(&args.fit, args.linear)?;
     let settings = ValidationSettings {
         input: args.replay.into(),
@@ -70,7 +71,8 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             response: args.response.as_deref().or(fit.response.as_deref()),
             reference: args.reference.as_deref().or(fit.reference.as_deref()),
         };
-        let loaded = load_recording(path, channels)?;
+        // only the reference and the response are replayed and compared
+        let loaded = load_reference_and_response(path, channels)?;
         if loaded.truncated {
             pb.suspend(|| {
                 eprintln!(
