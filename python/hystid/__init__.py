@@ -460,6 +460,7 @@ def diagnose(
     replay="band_limited",
     starts=1,
     min_samples_per_period=40.0,
+    max_judged_samples=2**20,
     **kwargs,
 ):
     """Traces a fit's residual to missing effects, adds them and refits, as
@@ -484,9 +485,11 @@ def diagnose(
     read in the FRFs' plane with the recordings reduced again as
     ``reduction`` says (:func:`extract`'s keywords: ``max_harmonic``,
     ``compensation``, ``hop_periods``, ``window_periods``, ``excitation``),
-    and ``time_proposals``, ``replay``, ``starts`` and
-    ``min_samples_per_period`` as the command's ``--time-proposals``,
-    ``--replay``, ``--starts`` and ``--min-samples-per-period``.
+    and ``time_proposals``, ``replay``, ``starts``,
+    ``min_samples_per_period`` and ``max_judged_samples`` as the command's
+    ``--time-proposals``, ``--replay``, ``--starts``,
+    ``--min-samples-per-period`` and ``--max-judged-samples`` (see
+    :func:`identify_time`).
     """
     time = None
     if recordings is None:
@@ -495,6 +498,7 @@ def diagnose(
             "replay": replay != "band_limited",
             "starts": starts != 1,
             "reduction": reduction is not None,
+            "max_judged_samples": max_judged_samples != 2**20,
         }
         named = [k for k, v in given.items() if v]
         if named:
@@ -509,6 +513,7 @@ def diagnose(
             starts=int(starts),
             min_samples_per_period=float(min_samples_per_period),
             time_proposals=int(time_proposals),
+            max_judged_samples=int(max_judged_samples),
         )
     text = _hystid.diagnose(
         json.dumps(frf),
@@ -531,6 +536,7 @@ def diagnose_time(
     progress=None,
     replay="band_limited",
     starts=1,
+    max_judged_samples=2**20,
     **kwargs,
 ):
     """Diagnoses multisine recordings on the lines of their period, as
@@ -546,7 +552,8 @@ def diagnose_time(
     round (0: 3). ``starts``: the baseline's starts (``--starts``: the given
     one and ``starts - 1`` spread about it). Fit options as in
     :func:`identify` (``element``, ``modes``). ``progress``: see
-    :data:`PROGRESS`.
+    :data:`PROGRESS`. ``max_judged_samples``: as in :func:`identify_time`
+    (``--max-judged-samples``), for every fit the diagnosis makes.
     """
     parts = _time_records(recordings, replay)
     text = _hystid.diagnose_time(
@@ -558,6 +565,7 @@ def diagnose_time(
         progress,
         replay,
         int(starts),
+        int(max_judged_samples),
     )
     return json.loads(text)
 

@@ -244,14 +244,22 @@ fn time_fit_options(
     min_samples_per_period: f64,
     replay: &str,
     starts: usize,
+    max_judged_samples: usize,
 ) -> PyResult<TimeFitOptions> {
     if !(1..=64).contains(&starts) {
         return Err(fail(format!("starts: expected 1 to 64, got {starts}")));
+    }
+    // as `--max-judged-samples` takes it
+    if max_judged_samples < 1000 {
+        return Err(fail(format!(
+            "max_judged_samples: expected at least 1000, got {max_judged_samples}"
+        )));
     }
     Ok(TimeFitOptions {
         min_samples_per_period,
         input: from_json("replay", &format!("\"{replay}\""))?,
         starts,
+        max_judged_samples,
         ..TimeFitOptions::default()
     })
 }
@@ -803,8 +811,8 @@ fn diagnose_options(candidates: Option<Vec<String>>) -> PyResult<DiagnoseOptions
 /// The recordings a diagnosis refines its final model on in the time domain
 /// (`diagnose --domain time` on stepped and swept sines), and how: the
 /// reduction their replays are read with (extract's), the replay, the first
-/// refit's starts, the upsampling threshold and the candidates put to the
-/// time histories.
+/// refit's starts, the upsampling threshold, the candidates put to the
+/// time histories and the most samples a fit judges.
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 struct TimeRecordings<'py> {
@@ -814,6 +822,7 @@ struct TimeRecordings<'py> {
     starts: usize,
     min_samples_per_period: f64,
     time_proposals: usize,
+    max_judged_samples: usize,
 }
 
 /// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
@@ -859,7 +868,12 @@ fn diagnose<'py>(
                 .zip(loaded)
                 .collect();
             let reduction = from_json::<ReductionJson>("reduction", &t.reduction)?.options()?;
-            let options = time_fit_options(t.min_samples_per_period, &t.replay, t.starts)?;
+            let options = time_fit_options(
+                t.min_samples_per_period,
+                &t.replay,
+                t.starts,
+                t.max_judged_samples,
+            )?;
             Some((named, reduction, options))
         }
     };
@@ -877,20 +891,21 @@ fn diagnose<'py>(
         let time = match time {
             None => None,
             Some((named, reduction, options)) => {
-                let refined = ReplayReduction::from_loaded(named, &reduction).and_then(|mut replays| {
-                    let records = replays.take_time_records(d.band_hz)?;
-                    refine_in_time(
-                        &mut diagnosis,
-                        &frf,
-                        &records,
-                        &options,
-                        d.band_hz,
-                        &d,
-                        &predictor,
-                        Some(&replays),
-                        &progress,
-                    )
-                });
+                let refined =
+                    ReplayReduction::from_loaded(named, &reduction).and_then(|mut replays| {
+                        let records = replays.take_time_records(d.band_hz)?;
+                        refine_in_time(
+                            &mut diagnosis,
+                            &frf,
+                            &records,
+                            &options,
+                            d.band_hz,
+                            &d,
+                            &predictor,
+                            Some(&replays),
+                            &progress,
+                        )
+                    });
                 Some(match refined {
                     Ok(t) => TimeOutcome::Refined(Box::new(t)),
                     Err(hystid::Error::Cancelled) => return Err(hystid::Error::Cancelled),
@@ -1114,16 +1129,8 @@ fn identify_time<'py>(
     starts: usize,
     max_judged_samples: usize,
 ) -> PyResult<String> {
-    // as `--max-judged-samples` takes it
-    if max_judged_samples < 1000 {
-        return Err(fail(format!(
-            "max_judged_samples: expected at least 1000, got {max_judged_samples}"
-        )));
-    }
-    let time_options = TimeFitOptions {
-        max_judged_samples,
-        ..time_fit_options(min_samples_per_period, &replay, starts)?
-    };
+    let time_options =
+        time_fit_options(min_samples_per_period, &replay, starts, max_judged_samples)?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
@@ -1226,7 +1233,7 @@ fn identify_time<'py>(
 /// joint of `options`' element on their linear estimate fitted in time,
 /// then the loop closed on the residual per line.
 #[pyfunction]
-#[pyo3(signature = (recordings, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1))]
+#[pyo3(signature = (recordings, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose_time<'py>(
     py: Python<'py>,
@@ -1238,8 +1245,10 @@ fn diagnose_time<'py>(
     progress: Option<Py<PyAny>>,
     replay: String,
     starts: usize,
+    max_judged_samples: usize,
 ) -> PyResult<String> {
-    let time_options = time_fit_options(min_samples_per_period, &replay, starts)?;
+    let time_options =
+        time_fit_options(min_samples_per_period, &replay, starts, max_judged_samples)?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;

@@ -265,16 +265,22 @@ def test_a_multisine_is_diagnosed_at_its_lines_as_the_command_does(tmp_path):
     assert v["recordings"][0]["lines"] == cli["lines"]
     assert cli["lines"]["steady_periods"] == 3
     assert cli["lines"]["chi2_per_line"] < 1.2
-    # from two starts, as `diagnose --starts 2` does
+    # from two starts and judging at most 12 000 samples, as `diagnose
+    # --starts 2 --max-judged-samples 12000` does: the 24 576 samples of
+    # the three steady periods judged one in 3 (8 192)
     run_cli("diagnose", "m.json", "--out", "diag2", "--domain", "time", "--element", "jenkins",
-            "--starts", "2", cwd=tmp_path, expect=None)
+            "--starts", "2", "--max-judged-samples", "12000", cwd=tmp_path, expect=None)
     ref2 = json.loads((tmp_path / "diag2" / "diagnosis.json").read_text())
-    got2 = hystid.diagnose_time(
-        [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs, "name": "m.json"}],
-        element="jenkins", starts=2,
-    )
+    recording = [{"force": samples[:, 0], "response": samples[:, 1], "sample_rate_hz": fs,
+                  "name": "m.json"}]
+    got2 = hystid.diagnose_time(recording, element="jenkins", starts=2, max_judged_samples=12000)
     assert without(got2, "seconds") == without(ref2, "seconds")
     assert len(got2["baseline"]["starts"]) == 2
+    assert got2["baseline"]["samples"] == 8192
+    with pytest.raises(hystid.HystidError, match="max_judged_samples"):
+        hystid.diagnose_time(recording, max_judged_samples=999)
+    with pytest.raises(hystid.HystidError, match="max_judged_samples"):
+        hystid.diagnose(got, max_judged_samples=5000)
     with pytest.raises(hystid.HystidError, match="not multisines"):
         hystid.diagnose_time([{"force": np.sin(0.01 * np.arange(3000) ** 1.5),
                                "response": np.zeros(3000), "sample_rate_hz": 1000.0}])
