@@ -305,13 +305,10 @@ impl<'a> PreparedDrive<'a> {
         {
             return Ok(d.clone());
         }
-        let drive = match (factor, self.input) {
-            // the samples themselves, not a copy to be pre-emphasised
-            (1, DriveInput::BandLimited | DriveInput::Continuous) => {
-                resample::check(1, self.reference, "signal")?;
-                pre_emphasis(self.reference)
-            }
-            (_, DriveInput::Ramp) => resample::interpolate(self.reference, factor)?,
+        // (a replay at the recording's own rate makes its drive as it goes:
+        // see `replay_streamed`)
+        let drive = match self.input {
+            DriveInput::Ramp => resample::interpolate(self.reference, factor)?,
             _ => pre_emphasis(&resample::interpolate(self.reference, factor)?),
         };
         let drive = std::sync::Arc::new(drive);
