@@ -288,29 +288,13 @@ pub fn forward_difference_padded(
     residuals: impl Fn(&[f64]) -> Result<Vec<f64>> + Sync,
 ) -> Result<DMatrix<f64>> {
     let m = r0.len() - 1;
-    let rows = m + pad;
-    let mut jac = DMatrix::zeros(rows, theta.len());
-    if rows == 0 {
-        return Ok(jac);
-    }
-    // every column computed, the first error by column returned (as the
-    // columns' order, not the threads', decides)
-    let done: Vec<Result<()>> = jac
-        .as_mut_slice()
-        .par_chunks_mut(rows)
-        .enumerate()
-        .map(|(j, column)| {
-            let mut t = theta.to_vec();
-            t[j] += step;
-            let r = residuals(&t)?;
-            for ((d, a), b) in column[..m].iter_mut().zip(&r[..m]).zip(&r0[..m]) {
-                *d = (a - b) / step;
-            }
-            Ok(())
-        })
-        .collect();
-    done.into_iter().collect::<Result<()>>()?;
-    Ok(jac)
+    by_columns(m + pad, theta, step, |t, column| {
+        let r = residuals(t)?;
+        for ((d, a), b) in column[..m].iter_mut().zip(&r[..m]).zip(&r0[..m]) {
+            *d = (a - b) / step;
+        }
+        Ok(())
+    })
 }
 
 /// [`forward_difference_padded`] with one row of padding, each column's
@@ -324,26 +308,40 @@ pub fn forward_difference_in_place(
     step: f64,
     residuals_into: impl Fn(&[f64], &mut [f64]) -> Result<()> + Sync,
 ) -> Result<DMatrix<f64>> {
-    let rows = r0.len();
+    let m = r0.len() - 1;
+    by_columns(r0.len(), theta, step, |t, column| {
+        residuals_into(t, column)?;
+        for (d, b) in column[..m].iter_mut().zip(&r0[..m]) {
+            *d = (*d - b) / step;
+        }
+        // the penalty row's derivative: zero inside the bounds
+        column[m] = 0.0;
+        Ok(())
+    })
+}
+
+/// A matrix of `rows` rows, column `j` written by `column(θ + step e_j,
+/// column)` (zeros given), the columns in parallel; every column computed,
+/// the first error by column returned (as the columns' order, not the
+/// threads', decides).
+fn by_columns(
+    rows: usize,
+    theta: &[f64],
+    step: f64,
+    column: impl Fn(&[f64], &mut [f64]) -> Result<()> + Sync,
+) -> Result<DMatrix<f64>> {
     let mut jac = DMatrix::zeros(rows, theta.len());
-    if rows <= 1 {
+    if rows == 0 {
         return Ok(jac);
     }
-    let m = rows - 1;
     let done: Vec<Result<()>> = jac
         .as_mut_slice()
         .par_chunks_mut(rows)
         .enumerate()
-        .map(|(j, column)| {
+        .map(|(j, c)| {
             let mut t = theta.to_vec();
             t[j] += step;
-            residuals_into(&t, column)?;
-            for (d, b) in column[..m].iter_mut().zip(&r0[..m]) {
-                *d = (*d - b) / step;
-            }
-            // the penalty row's derivative: zero inside the bounds
-            column[m] = 0.0;
-            Ok(())
+            column(&t, c)
         })
         .collect();
     done.into_iter().collect::<Result<()>>()?;

@@ -860,17 +860,35 @@ impl<'a> TimeProblem<'a> {
 
     /// `model`'s simulated response to record `i`, every sample.
     fn replay(&self, model: &Model, i: usize) -> Result<Vec<f64>> {
+        let mut whole = Vec::with_capacity(self.records[i].response.len());
+        self.replay_by_stretch(model, i, &mut |stretch| {
+            whole.extend_from_slice(stretch);
+            Ok(())
+        })?;
+        Ok(whole)
+    }
+
+    /// `model`'s simulated response to record `i` handed to `sink` a
+    /// stretch at a time, on the record's replay grid (see
+    /// [`crate::validate::replay_streamed`]).
+    fn replay_by_stretch(
+        &self,
+        model: &Model,
+        i: usize,
+        sink: &mut dyn FnMut(&[f64]) -> Result<()>,
+    ) -> Result<()> {
         let r = &self.records[i];
-        Ok(simulate_prepared_at(
+        let rate = (r.sample_rate_hz, self.replay_factor_of(model, i)?);
+        replay_streamed(
             model,
             &self.drives[i],
-            r.sample_rate_hz,
+            rate,
             r.quantity,
             self.sign,
-            self.replay_factor_of(model, i)?,
             &Silent,
-        )?
-        .values)
+            sink,
+        )?;
+        Ok(())
     }
 
     /// Record `i`'s residuals for `model` (its judged samples inside its
@@ -888,29 +906,21 @@ impl<'a> TimeProblem<'a> {
         let mut judged = Vec::new();
         // the next judged sample, the segment it may lie in, the residual
         let (mut q, mut k, mut p) = (0, 0, 0);
-        replay_streamed(
-            model,
-            &self.drives[i],
-            (r.sample_rate_hz, self.replay_factor_of(model, i)?),
-            r.quantity,
-            self.sign,
-            &Silent,
-            &mut |stretch| {
-                judged.clear();
-                decimator.push(stretch, &mut judged);
-                for &s in &judged {
-                    while k < segments.len() && segments[k].end <= q {
-                        k += 1;
-                    }
-                    if k < segments.len() && segments[k].start <= q {
-                        out[p] = (s - measured[q]) / judging.scale[k];
-                        p += 1;
-                    }
-                    q += 1;
+        self.replay_by_stretch(model, i, &mut |stretch| {
+            judged.clear();
+            decimator.push(stretch, &mut judged);
+            for &s in &judged {
+                while k < segments.len() && segments[k].end <= q {
+                    k += 1;
                 }
-                Ok(())
-            },
-        )?;
+                if k < segments.len() && segments[k].start <= q {
+                    out[p] = (s - measured[q]) / judging.scale[k];
+                    p += 1;
+                }
+                q += 1;
+            }
+            Ok(())
+        })?;
         debug_assert_eq!(p, out.len());
         Ok(())
     }
@@ -955,32 +965,24 @@ impl<'a> TimeProblem<'a> {
                 let mut segments = vec![zero; r.segments.len()];
                 let mut window = zero;
                 let mut at = 0;
-                replay_streamed(
-                    model,
-                    &self.drives[i],
-                    (r.sample_rate_hz, self.replay_factor_of(model, i)?),
-                    r.quantity,
-                    self.sign,
-                    &Silent,
-                    &mut |stretch| {
-                        let end = at + stretch.len();
-                        for ((seg, sc), sum) in r.segments.iter().zip(scale).zip(&mut segments) {
-                            let (lo, hi) = (seg.start.max(at), seg.end.min(end));
-                            *sum = (lo..hi).fold(*sum, |acc, j| {
-                                acc + ((stretch[j - at] - r.response[j]) / sc).powi(2)
-                            });
-                        }
-                        let (lo, hi) = (a.max(at), b.min(end));
-                        window = (lo..hi).fold(window, |acc, j| {
-                            acc + (stretch[j - at] - r.response[j]).powi(2)
+                self.replay_by_stretch(model, i, &mut |stretch| {
+                    let end = at + stretch.len();
+                    for ((seg, sc), sum) in r.segments.iter().zip(scale).zip(&mut segments) {
+                        let (lo, hi) = (seg.start.max(at), seg.end.min(end));
+                        *sum = (lo..hi).fold(*sum, |acc, j| {
+                            acc + ((stretch[j - at] - r.response[j]) / sc).powi(2)
                         });
-                        if split {
-                            whole.extend_from_slice(stretch);
-                        }
-                        at = end;
-                        Ok(())
-                    },
-                )?;
+                    }
+                    let (lo, hi) = (a.max(at), b.min(end));
+                    window = (lo..hi).fold(window, |acc, j| {
+                        acc + (stretch[j - at] - r.response[j]).powi(2)
+                    });
+                    if split {
+                        whole.extend_from_slice(stretch);
+                    }
+                    at = end;
+                    Ok(())
+                })?;
                 let sum = segments.iter().fold(zero, |acc, s| acc + s);
                 let mut window = error_metrics_of_sum(&r.response, window, r.sample_rate_hz, a..b);
                 if let (true, Some(band)) = (split, r.band_hz)
