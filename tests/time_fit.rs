@@ -715,6 +715,9 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     )
     .unwrap();
     let records = replays.take_time_records(None).unwrap();
+    // the samples moved: a second call says so
+    let again = replays.take_time_records(None).unwrap_err().to_string();
+    assert!(again.contains("taken by an earlier call"), "{again}");
     let t = refine_in_time(
         &mut d,
         &reduced.frf,

@@ -986,6 +986,12 @@ impl ReplayReduction {
             .map(|(path, l, _)| {
                 let rec = &mut l.recording;
                 let reference = rec.reference_channel();
+                if rec.channels[l.response].is_empty() {
+                    return Err(Error::input(
+                        format!("{}: time records", path.display()),
+                        "its samples were taken by an earlier call",
+                    ));
+                }
                 let taken = Recording {
                     meta: rec.meta.clone(),
                     channels: (0..rec.channels.len())
