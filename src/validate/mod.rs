@@ -285,11 +285,7 @@ impl<'a> PreparedDrive<'a> {
             .not_finite
             .get_or_init(|| x.iter().position(|v| !v.is_finite()))
         {
-            // as `resample::check` says it
-            Some(i) => Err(Error::input(
-                format!("signal sample {i}"),
-                format!("must be finite, got {}", x[*i]),
-            )),
+            Some(i) => Err(resample::not_finite("signal", x, *i)),
             None => Ok(()),
         }
     }

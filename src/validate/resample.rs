@@ -80,13 +80,18 @@ pub(crate) fn check(factor: usize, x: &[f64], what: &str) -> Result<()> {
             format!("must be 1..={MAX_FACTOR}, got {factor}"),
         ));
     }
-    if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-        return Err(Error::input(
-            format!("{what} sample {i}"),
-            format!("must be finite, got {}", x[i]),
-        ));
+    match x.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(not_finite(what, x, i)),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// The error [`check`] gives for sample `i` of `x`, which is not finite.
+pub(crate) fn not_finite(what: &str, x: &[f64], i: usize) -> Error {
+    Error::input(
+        format!("{what} sample {i}"),
+        format!("must be finite, got {}", x[i]),
+    )
 }
 
 /// Interpolates `x` by `factor`: `factor·x.len()` samples at `factor` times
