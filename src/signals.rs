@@ -264,3 +264,308 @@ impl FrameSource for InMemoryFrames<'_> {
         Ok(end - start)
     }
 }
+
+/// One channel's samples, held at the precision they were recorded in.
+///
+/// A file stores each sample as a 32-bit float or a 16/24-bit integer times
+/// the channel's `scale` (and a run file as a 32-bit float): in physical
+/// units as `f64` that is twice the memory the information needs, and a
+/// time-domain fit holds its recordings' reference and response whole for
+/// as long as it runs (they are replayed). Where every sample is exactly an
+/// `f32` times one unit, [`Samples::recorded`] keeps the `f32`s and the
+/// unit; each sample read back is then the same `f64` to the bit (`unit ·
+/// stored`, as the readers compute it). Anything else (a binding's
+/// `float64` array, a sum of channels) is kept as it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Samples(Held);
+
+#[derive(Clone, Debug, PartialEq)]
+enum Held {
+    Exact(Vec<f64>),
+    Units { stored: Vec<f32>, unit: f64 },
+}
+
+/// Samples converted to `f64` at a time by [`SamplesView::for_each_stretch`].
+const STRETCH: usize = 1 << 14;
+
+impl Samples {
+    /// `values` held as stored `f32`s of one of `units` (tried in order)
+    /// where that gives back every sample to the bit, else as they are.
+    pub fn recorded(values: Vec<f64>, units: &[f64]) -> Samples {
+        let mut b = SamplesBuilder::new(values.len(), units);
+        b.extend(&values);
+        b.finish()
+    }
+
+    /// The samples, borrowed.
+    pub fn view(&self) -> SamplesView<'_> {
+        match &self.0 {
+            Held::Exact(v) => SamplesView::Exact(v),
+            Held::Units { stored, unit } => SamplesView::Units(stored, *unit),
+        }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.view().len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Sample `i`, in physical units.
+    #[inline]
+    pub fn get(&self, i: usize) -> f64 {
+        self.view().get(i)
+    }
+
+    /// See [`SamplesView::range`].
+    pub fn range(&self, range: std::ops::Range<usize>) -> std::borrow::Cow<'_, [f64]> {
+        self.view().range(range)
+    }
+
+    /// See [`SamplesView::values`].
+    pub fn values(&self) -> std::borrow::Cow<'_, [f64]> {
+        self.view().values()
+    }
+
+    /// See [`SamplesView::for_each_stretch`].
+    pub fn for_each_stretch(&self, range: std::ops::Range<usize>, f: impl FnMut(usize, &[f64])) {
+        self.view().for_each_stretch(range, f)
+    }
+
+    /// The samples in physical units, taken over.
+    pub fn into_values(self) -> Vec<f64> {
+        match self.0 {
+            Held::Exact(v) => v,
+            Held::Units { stored, unit } => stored.iter().map(|&s| s as f64 * unit).collect(),
+        }
+    }
+
+    /// Bytes the samples take.
+    pub fn bytes(&self) -> usize {
+        match &self.0 {
+            Held::Exact(v) => 8 * v.len(),
+            Held::Units { stored, .. } => 4 * stored.len(),
+        }
+    }
+}
+
+/// Samples borrowed: physical values, or [`Samples`]' stored units.
+#[derive(Clone, Copy, Debug)]
+pub enum SamplesView<'a> {
+    /// Physical values.
+    Exact(&'a [f64]),
+    /// Stored values and the unit each is of.
+    Units(&'a [f32], f64),
+}
+
+impl<'a> SamplesView<'a> {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        match self {
+            SamplesView::Exact(v) => v.len(),
+            SamplesView::Units(s, _) => s.len(),
+        }
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Sample `i`, in physical units.
+    #[inline]
+    pub fn get(&self, i: usize) -> f64 {
+        match self {
+            SamplesView::Exact(v) => v[i],
+            SamplesView::Units(s, unit) => s[i] as f64 * unit,
+        }
+    }
+
+    /// Samples `range` in physical units: borrowed where they are held as
+    /// such, else converted.
+    pub fn range(&self, range: std::ops::Range<usize>) -> std::borrow::Cow<'a, [f64]> {
+        match *self {
+            SamplesView::Exact(v) => std::borrow::Cow::Borrowed(&v[range]),
+            SamplesView::Units(s, unit) => {
+                std::borrow::Cow::Owned(s[range].iter().map(|&s| s as f64 * unit).collect())
+            }
+        }
+    }
+
+    /// Every sample in physical units (a copy where they are held as
+    /// stored units: for what needs the whole channel at once).
+    pub fn values(&self) -> std::borrow::Cow<'a, [f64]> {
+        self.range(0..self.len())
+    }
+
+    /// `f` on `range` a stretch at a time, in order, each stretch in
+    /// physical units with the index of its first sample (no copy of the
+    /// whole range).
+    pub fn for_each_stretch(
+        &self,
+        range: std::ops::Range<usize>,
+        mut f: impl FnMut(usize, &[f64]),
+    ) {
+        match self {
+            SamplesView::Exact(v) => f(range.start, &v[range]),
+            SamplesView::Units(..) => {
+                let mut at = range.start;
+                while at < range.end {
+                    let end = (at + STRETCH).min(range.end);
+                    f(at, &self.range(at..end));
+                    at = end;
+                }
+            }
+        }
+    }
+}
+
+impl<'a> From<&'a [f64]> for SamplesView<'a> {
+    fn from(v: &'a [f64]) -> SamplesView<'a> {
+        SamplesView::Exact(v)
+    }
+}
+
+impl<'a> From<&'a Vec<f64>> for SamplesView<'a> {
+    fn from(v: &'a Vec<f64>) -> SamplesView<'a> {
+        SamplesView::Exact(v)
+    }
+}
+
+impl<'a> From<&'a Samples> for SamplesView<'a> {
+    fn from(s: &'a Samples) -> SamplesView<'a> {
+        s.view()
+    }
+}
+
+/// [`Samples`] made as they are read, a stretch at a time: held as stored
+/// `f32`s of the first of the units that gives back every sample of the
+/// first stretch, until a sample that unit does not give back (then as
+/// they are, from the start).
+#[derive(Debug)]
+pub struct SamplesBuilder {
+    units: Vec<f64>,
+    capacity: usize,
+    held: Option<Held>,
+    /// Whether a sample was not zero.
+    nonzero: bool,
+}
+
+/// `v` as an `f32` of `unit`, where that gives it back to the bit.
+fn stored_as(v: f64, unit: f64) -> Option<f32> {
+    let s = (v / unit) as f32;
+    (s as f64 * unit == v).then_some(s)
+}
+
+impl SamplesBuilder {
+    /// A builder for about `capacity` samples trying `units` in order.
+    pub fn new(capacity: usize, units: &[f64]) -> SamplesBuilder {
+        SamplesBuilder {
+            units: units
+                .iter()
+                .copied()
+                .filter(|u| u.is_finite() && *u != 0.0)
+                .collect(),
+            capacity,
+            held: None,
+            nonzero: false,
+        }
+    }
+
+    /// Appends `x`.
+    pub fn extend(&mut self, x: &[f64]) {
+        self.nonzero = self.nonzero || x.iter().any(|&v| v != 0.0);
+        let held = self.held.get_or_insert_with(|| {
+            let fits = |u: f64| x.iter().all(|&v| stored_as(v, u).is_some());
+            match self.units.iter().copied().find(|&u| fits(u)) {
+                Some(unit) => Held::Units {
+                    stored: Vec::with_capacity(self.capacity),
+                    unit,
+                },
+                None => Held::Exact(Vec::with_capacity(self.capacity)),
+            }
+        });
+        if let Held::Units { stored, unit } = held {
+            let at = stored.len();
+            stored.extend(x.iter().map_while(|&v| stored_as(v, *unit)));
+            if stored.len() == at + x.len() {
+                return;
+            }
+            // a sample the unit does not give back: every sample as it is
+            let mut exact = Vec::with_capacity(self.capacity.max(at + x.len()));
+            exact.extend(stored[..at].iter().map(|&s| s as f64 * *unit));
+            *held = Held::Exact(exact);
+        }
+        if let Held::Exact(v) = held {
+            v.extend_from_slice(x);
+        }
+    }
+
+    /// Whether every sample so far is zero.
+    pub fn all_zero(&self) -> bool {
+        !self.nonzero
+    }
+
+    /// The samples.
+    pub fn finish(self) -> Samples {
+        Samples(self.held.unwrap_or(Held::Exact(Vec::new())))
+    }
+}
+
+impl From<Vec<f64>> for Samples {
+    /// Held as they are.
+    fn from(values: Vec<f64>) -> Samples {
+        Samples(Held::Exact(values))
+    }
+}
+
+#[cfg(test)]
+mod samples_tests {
+    use super::Samples;
+
+    /// 24-bit integers times a scale, float32 values times another, and a
+    /// run file's floats: each held as `f32`s (half the bytes) and read
+    /// back to the bit; a value no `f32` of the unit gives keeps the
+    /// channel as it is.
+    #[test]
+    fn recorded_samples_are_held_as_stored_and_read_back_to_the_bit() {
+        let pcm24: Vec<f64> = (0..5000)
+            .map(|i| ((i * 7919) % 16_777_216) as f64 - 8_388_608.0)
+            .map(|k| k * (3.7e-4 / 8_388_608.0))
+            .collect();
+        let float32: Vec<f64> = (0..5000)
+            .map(|i| ((i as f32 * 0.37).sin() * 1.3e-3) as f64 * 1000.0)
+            .collect();
+        for (values, scale) in [(pcm24, 3.7e-4), (float32, 1000.0)] {
+            let s = Samples::recorded(values.clone(), &[scale, 1.0]);
+            assert_eq!(s.bytes(), 4 * values.len());
+            assert!((0..values.len()).all(|i| s.get(i).to_bits() == values[i].to_bits()));
+            assert_eq!(*s.values(), values[..]);
+            let mut seen = Vec::new();
+            s.for_each_stretch(3..values.len() - 2, |at, x| {
+                assert_eq!(at, 3 + seen.len());
+                seen.extend_from_slice(x);
+            });
+            assert_eq!(seen, values[3..values.len() - 2]);
+            assert_eq!(s.into_values(), values);
+        }
+        // read a stretch at a time, a sample no f32 of the unit gives back
+        // late in the channel: every sample kept as it is
+        let mut late: Vec<f64> = (0..1000).map(|i| i as f64 * 0.5).collect();
+        late[900] = 0.1;
+        let mut b = super::SamplesBuilder::new(1000, &[1.0]);
+        late.chunks(64).for_each(|c| b.extend(c));
+        let s = b.finish();
+        assert_eq!(s.bytes(), 8 * late.len());
+        assert_eq!(s.into_values(), late);
+        let mut doubles: Vec<f64> = (0..100).map(|i| i as f64 * 0.25).collect();
+        doubles[57] = 0.1; // not an f32
+        let s = Samples::recorded(doubles.clone(), &[1.0]);
+        assert_eq!(s.bytes(), 8 * doubles.len());
+        assert_eq!(s.into_values(), doubles);
+    }
+}

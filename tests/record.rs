@@ -1224,3 +1224,54 @@ fn only_the_reference_and_response_are_loaded_as_load_recording_keeps_them() {
     let kept = same(&wav, ChannelChoice::default());
     assert_eq!(kept.recording.channels.len(), 2);
 }
+
+/// A time record (what `identify` / `diagnose --domain time` replay) holds
+/// its reference and response as the file stored them: four bytes a sample
+/// for a run file and for float32, 16- and 24-bit WAV files, every sample
+/// read back the same `f64` to the bit as `load_recording` gives it, and
+/// the same record when the file is read straight into that precision
+/// (`load_time_record`); a 32-bit integer file's samples are no `f32`s and
+/// are held as they are.
+#[test]
+fn a_time_record_holds_its_channels_as_the_file_stored_them() {
+    use hystid::analysis::{
+        ChannelChoice, load_recording, load_reference_and_response, load_time_record,
+    };
+    use hystid::fit::TimeRecord;
+    let dir = tempfile::tempdir().unwrap();
+    let check = |path: &Path, bytes_per_sample: usize| {
+        let whole = load_recording(path, ChannelChoice::default()).unwrap();
+        let reference = whole.recording.reference_channel().unwrap();
+        let kept = load_reference_and_response(path, ChannelChoice::default()).unwrap();
+        let name = path.display().to_string();
+        let r = TimeRecord::from_owned_recording(&name, kept.recording, kept.response, None, None)
+            .unwrap();
+        // read straight into that precision, never held as f64s: the same
+        let read = load_time_record(path, ChannelChoice::default(), None, None).unwrap();
+        assert!(read == r, "{name}");
+        for (held, channel) in [(&r.reference, reference), (&r.response, whole.response)] {
+            let values = &whole.recording.channels[channel];
+            assert_eq!(held.bytes(), bytes_per_sample * values.len(), "{name}");
+            assert!(
+                (0..values.len()).all(|i| held.get(i).to_bits() == values[i].to_bits()),
+                "{name}"
+            );
+        }
+    };
+    let fs = 5000.0;
+    let run = virtual_run(fs, vec![(40.0, 10.0, 40_000), (41.0, 20.0, 30_001)], 5);
+    let mcap = dir.path().join("run.mcap");
+    record_run(&mcap, &run_info(fs), &run, 1);
+    check(&mcap, 4);
+    let rec = sample_recording(20_000, 3);
+    for (format, bytes) in [
+        (SampleFormat::Float32, 4),
+        (SampleFormat::Pcm16, 4),
+        (SampleFormat::Pcm24, 4),
+        (SampleFormat::Pcm32, 8),
+    ] {
+        let wav = dir.path().join(format!("{format:?}.wav"));
+        write_recording(&wav, &rec, format).unwrap();
+        check(&wav, bytes);
+    }
+}

@@ -40,13 +40,13 @@ fn record(case: &Case, rec: &Recording) -> TimeRecord {
     let n = rec.response.len();
     TimeRecord {
         name: case.name.clone(),
-        reference: rec.force,
+        reference: rec.force.into(),
         reference_quantity: if case.coil.is_some() {
             Quantity::Voltage
         } else {
             Quantity::Force
         },
-        response: rec.response,
+        response: rec.response.into(),
         sample_rate_hz: case.sample_rate as f64,
         quantity: match case.quantity {
             KitQuantity::Displacement => Quantity::Displacement,
@@ -233,7 +233,7 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
     let judged = problem.errors(&model).unwrap()[0].segment_relative;
     let fine = hystid::validate::simulate_response(
         &model,
-        &record.reference,
+        &record.reference.values(),
         fs,
         record.quantity,
         1.0,
@@ -245,8 +245,8 @@ fn a_far_mode_is_replayed_at_the_rate_its_effect_needs() {
     for seg in &record.segments {
         let (mut e2, mut y2) = (0.0, 0.0);
         for i in seg.clone() {
-            e2 += (fine.values[i] - record.response[i]).powi(2);
-            y2 += record.response[i].powi(2);
+            e2 += (fine.values[i] - record.response.get(i)).powi(2);
+            y2 += record.response.get(i).powi(2);
         }
         sum += e2 / y2;
     }
@@ -295,10 +295,14 @@ fn the_replay_grid_is_fixed_until_the_optimum_asks_for_a_finer_one() {
     .unwrap()
     .values;
     let judged = problem.errors(&stiff).unwrap()[0].window.e_rms;
-    let direct =
-        hystid::validate::error_metrics(&record.response, &on_grid, fs, record.window.clone())
-            .unwrap()
-            .e_rms;
+    let direct = hystid::validate::error_metrics(
+        &record.response.values(),
+        &on_grid,
+        fs,
+        record.window.clone(),
+    )
+    .unwrap()
+    .e_rms;
     assert_eq!(judged, direct);
     assert!(
         problem.fix_replay_grid(&stiff, "fitted"),
@@ -335,8 +339,8 @@ fn time_fit_recovers_a_jenkins_joint_from_an_independent_recording() {
         for seg in &rec.segments {
             let (mut e2, mut m2) = (0.0, 0.0);
             for i in seg.clone() {
-                e2 += (jenkins_case().1.clean_response[i] - rec.response[i]).powi(2);
-                m2 += rec.response[i].powi(2);
+                e2 += (jenkins_case().1.clean_response[i] - rec.response.get(i)).powi(2);
+                m2 += rec.response.get(i).powi(2);
             }
             sum += e2 / m2;
         }

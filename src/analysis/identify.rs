@@ -380,19 +380,7 @@ pub fn time_records_in(
 ) -> Result<Vec<TimeRecord>> {
     recordings
         .iter()
-        .map(|p| {
-            let l = super::load_reference_and_response(p, choice)?;
-            let fs = l.recording.meta.sample_rate_hz;
-            let window =
-                window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
-            TimeRecord::from_owned_recording(
-                &p.display().to_string(),
-                l.recording,
-                l.response,
-                window,
-                band_hz,
-            )
-        })
+        .map(|p| super::load_time_record(p, choice, window_s, band_hz))
         .collect()
 }
 

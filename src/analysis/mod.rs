@@ -32,8 +32,9 @@ pub use identify::{
 };
 pub use recording::{
     ChannelChoice, Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited,
-    combine_recordings, excitation_of, load_recording, load_reference_and_response, reduce,
-    reduce_observed, reduce_path, reduce_recordings, response_channel, sweep_options,
+    combine_recordings, excitation_of, load_recording, load_reference_and_response,
+    load_time_record, reduce, reduce_observed, reduce_path, reduce_recordings, response_channel,
+    sweep_options,
 };
 
 use crate::error::{Error, Result};

@@ -10,6 +10,7 @@ use crate::extract::{
 };
 use crate::harmonics::Quantity;
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
+use crate::signals::{SamplesBuilder, SamplesView};
 use crate::testbench::TestDefinition;
 use std::path::{Path, PathBuf};
 
@@ -290,15 +291,30 @@ pub fn load_recording(path: &Path, choice: ChannelChoice) -> Result<Loaded> {
 /// fit or a replay reads two: read whole, 264 MB of a 8.2 M frame
 /// recording for the 132 MB kept).
 pub fn load_reference_and_response(path: &Path, choice: ChannelChoice) -> Result<Loaded> {
+    let (kept, truncated) = open_kept::<Vec<f64>>(path, choice)?;
+    Ok(Loaded {
+        recording: Recording {
+            meta: kept.meta,
+            channels: kept.channels,
+        },
+        response: kept.response,
+        truth: kept.truth,
+        truncated,
+    })
+}
+
+/// [`read_kept`] of the recording at `path`, and whether it is a run file
+/// cut short.
+fn open_kept<K: Keep>(path: &Path, choice: ChannelChoice) -> Result<(Kept<K>, bool)> {
     if is_mcap(path) {
         let reader = crate::record::McapRunReader::open(path)?;
         let text = reader.run().info.test_definition.clone();
         let truncated = reader.run().truncated;
-        read_reference_and_response(path, reader, Some(text), truncated, choice)
+        Ok((read_kept(path, reader, Some(text), choice)?, truncated))
     } else {
         let reader = crate::record::RecordingReader::open(path)?;
         let text = recorded_truth(reader.meta());
-        read_reference_and_response(path, reader, text, false, choice)
+        Ok((read_kept(path, reader, text, choice)?, false))
     }
 }
 
@@ -321,13 +337,59 @@ pub fn stated_excitation(path: &Path) -> Result<ExcitationKind> {
 /// Frames read at a time by [`load_reference_and_response`].
 const LOAD_STRETCH: usize = 1 << 16;
 
-fn read_reference_and_response(
+/// How a loader keeps a channel's samples as it reads them.
+trait Keep {
+    /// For `frames` samples of a channel of `scale`.
+    fn for_channel(frames: usize, scale: f64) -> Self;
+    /// Appends `x`.
+    fn append(&mut self, x: &[f64]);
+    /// Whether every sample is zero.
+    fn all_zero(&self) -> bool;
+}
+
+impl Keep for Vec<f64> {
+    fn for_channel(frames: usize, _: f64) -> Self {
+        Vec::with_capacity(frames)
+    }
+    fn append(&mut self, x: &[f64]) {
+        self.extend_from_slice(x);
+    }
+    fn all_zero(&self) -> bool {
+        self.iter().all(|&v| v == 0.0)
+    }
+}
+
+impl Keep for SamplesBuilder {
+    fn for_channel(frames: usize, scale: f64) -> Self {
+        // a WAV file's samples are f32s (or 16/24-bit integers) of its
+        // scale, a run file's f32s
+        SamplesBuilder::new(frames, &[scale, 1.0])
+    }
+    fn append(&mut self, x: &[f64]) {
+        self.extend(x);
+    }
+    fn all_zero(&self) -> bool {
+        SamplesBuilder::all_zero(self)
+    }
+}
+
+/// A recording's reference and response as a loader kept them.
+struct Kept<K> {
+    /// Trimmed to the channels kept.
+    meta: RecordingMeta,
+    channels: Vec<K>,
+    response: usize,
+    truth: Option<TestDefinition>,
+}
+
+/// Reads `source` a stretch at a time keeping only its reference and
+/// response (every channel where it has no more than those two).
+fn read_kept<K: Keep>(
     path: &Path,
     mut source: impl FrameSource,
     toml_text: Option<String>,
-    truncated: bool,
     choice: ChannelChoice,
-) -> Result<Loaded> {
+) -> Result<Kept<K>> {
     let truth =
         toml_text.and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
     let mut meta = source.meta().clone();
@@ -345,7 +407,10 @@ fn read_reference_and_response(
     };
     let frames = source.frames();
     let mut stretch = vec![Vec::new(); meta.channels.len()];
-    let mut channels: Vec<Vec<f64>> = keep.iter().map(|_| Vec::with_capacity(frames)).collect();
+    let mut channels: Vec<K> = keep
+        .iter()
+        .map(|&c| K::for_channel(frames, meta.channels[c].scale))
+        .collect();
     let mut at = 0;
     while at < frames {
         let got = source.read_at(at, LOAD_STRETCH, &mut stretch)?;
@@ -353,30 +418,60 @@ fn read_reference_and_response(
             break;
         }
         for (kept, &c) in channels.iter_mut().zip(&keep) {
-            kept.extend_from_slice(&stretch[c]);
+            kept.append(&stretch[c]);
         }
         at += got;
     }
-    if channels[keep.iter().position(|&c| c == reference).expect("kept")]
-        .iter()
-        .all(|&v| v == 0.0)
-    {
+    if channels[keep.iter().position(|&c| c == reference).expect("kept")].all_zero() {
         return Err(flat_reference(path, &meta.channels[reference].name));
     }
-    let mut recording = Recording { meta, channels };
     let mut response = response;
     if trimmed {
-        let m = &mut recording.meta;
-        m.channels = keep.iter().map(|&c| m.channels[c].clone()).collect();
-        m.chosen_reference = Some(0);
+        meta.channels = keep.iter().map(|&c| meta.channels[c].clone()).collect();
+        meta.chosen_reference = Some(0);
         response = 1;
     }
-    Ok(Loaded {
-        recording,
+    Ok(Kept {
+        meta,
+        channels,
         response,
         truth,
-        truncated,
     })
+}
+
+/// A time-domain fit's record of the recording at `path` (see
+/// [`crate::fit::TimeRecord::from_recording`]), its reference and
+/// response read a stretch at a time into the precision the file stored
+/// them in ([`crate::signals::Samples`]): the fit holds them for as long as
+/// it runs, and they were never held as `f64`s (8 MB a million frames,
+/// not 16). Judged over `window_s` (seconds from the first sample) where
+/// given.
+pub fn load_time_record(
+    path: &Path,
+    choice: ChannelChoice,
+    window_s: Option<(f64, f64)>,
+    band_hz: Option<(f64, f64)>,
+) -> Result<crate::fit::TimeRecord> {
+    let (kept, _) = open_kept::<SamplesBuilder>(path, choice)?;
+    let fs = kept.meta.sample_rate_hz;
+    let window = window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
+    let mut channels: Vec<Option<SamplesBuilder>> = kept.channels.into_iter().map(Some).collect();
+    let reference = kept.meta.reference_channel().expect("checked when read");
+    let mut take = |c: usize| channels[c].take().map(SamplesBuilder::finish);
+    let reference_samples = take(reference).expect("kept");
+    let response = match take(kept.response) {
+        Some(r) => r,
+        // the reference judged against itself
+        None => reference_samples.clone(),
+    };
+    crate::fit::TimeRecord::from_held(
+        &path.display().to_string(),
+        &kept.meta,
+        kept.response,
+        (reference_samples, response),
+        window,
+        band_hz,
+    )
 }
 
 /// How a recording is reduced.
@@ -629,6 +724,42 @@ pub fn reduce_observed(
         streamed: false,
         truncated: loaded.truncated,
     })
+}
+
+/// Channels held in memory read as a file is ([`FrameSource`]): a replay
+/// beside the reference its time record holds, for the stepped reduction
+/// that reads a dwell at a time.
+struct HeldFrames<'a> {
+    meta: &'a RecordingMeta,
+    channels: Vec<SamplesView<'a>>,
+    name: String,
+}
+
+impl FrameSource for HeldFrames<'_> {
+    fn meta(&self) -> &RecordingMeta {
+        self.meta
+    }
+    fn frames(&self) -> usize {
+        self.channels.first().map_or(0, SamplesView::len)
+    }
+    fn source_name(&self) -> String {
+        self.name.clone()
+    }
+    fn read_at(&mut self, start: usize, count: usize, out: &mut [Vec<f64>]) -> Result<usize> {
+        let frames = self.frames();
+        if start > frames {
+            return Err(Error::input(
+                &self.name,
+                format!("frame {start} is beyond its {frames} frames"),
+            ));
+        }
+        let end = start.saturating_add(count).min(frames);
+        for (o, c) in out.iter_mut().zip(&self.channels) {
+            o.clear();
+            o.extend_from_slice(&c.range(start..end));
+        }
+        Ok(end - start)
+    }
 }
 
 /// How a swept-sine recording was read into FRF points.
@@ -973,9 +1104,10 @@ impl ReplayReduction {
 
     /// The held recordings as the time-domain fit takes them (as
     /// [`super::time_records`] reads them, without reading them again). The
-    /// samples move to the records, not copied (a long recording's channel
-    /// is the largest thing a time-domain diagnosis holds): the replays'
-    /// reduction takes the references from them
+    /// samples move to the records, held there as the file stored them (a
+    /// long recording's channel is the largest thing a time-domain
+    /// diagnosis holds): the replays' reduction takes the references from
+    /// them
     /// ([`ReplayReduction::replayed`]). Once only: a second call errors.
     pub fn take_time_records(
         &mut self,
@@ -1052,9 +1184,43 @@ impl ReplayReduction {
                     ),
                 ));
             }
+            // as the measured recording was reduced (its excitation settled
+            // then: not searched for again)
+            let options = ReductionOptions {
+                excitation: Some(excitation_of(&rec.meta, options.excitation)),
+                ..options.clone()
+            };
+            let reference = rec.reference_channel();
+            // a stepped sine whose steps are stated is read a dwell at a
+            // time from the record's reference as it holds it and the
+            // replay (no copy of the reference; the same FRFs as reduced
+            // whole)
+            let stepped = options.excitation == Some(Excitation::Stepped)
+                && !rec.meta.excitation.steps.is_empty();
+            if let (true, Some(reference)) = (stepped, reference) {
+                let mut channels: Vec<SamplesView> = rec.channels.iter().map(Into::into).collect();
+                channels[reference] = record.reference.view();
+                channels[loaded.response] = (&response).into();
+                if channels.iter().all(|c| c.len() == frames) {
+                    let mut source = HeldFrames {
+                        meta: &rec.meta,
+                        channels,
+                        name: format!("the replay of {}", path.display()),
+                    };
+                    let stepped = ReduceOptions {
+                        reference_channel: Some(reference),
+                        ..stepped_options(&options)
+                    };
+                    let red = reduce_stepped_stream(&mut source, loaded.response, &stepped)
+                        .map_err(|e| {
+                            Error::context(format!("reducing the replay of {}", path.display()), e)
+                        })?;
+                    sets.push((path.clone(), red.frf));
+                    continue;
+                }
+            }
             // the replay taken over, the reference copied from the record
             // (a recording held here has only those two channels)
-            let reference = rec.reference_channel();
             let mut response = Some(response);
             let replay = Loaded {
                 recording: Recording {
@@ -1064,7 +1230,7 @@ impl ReplayReduction {
                             if c == loaded.response {
                                 response.take().unwrap_or_default()
                             } else if Some(c) == reference {
-                                record.reference.clone()
+                                record.reference.values().into_owned()
                             } else {
                                 rec.channels[c].clone()
                             }
@@ -1074,12 +1240,6 @@ impl ReplayReduction {
                 response: loaded.response,
                 truth: None,
                 truncated: loaded.truncated,
-            };
-            // as the measured recording was reduced (its excitation settled
-            // then: not searched for again)
-            let options = ReductionOptions {
-                excitation: Some(excitation_of(&rec.meta, options.excitation)),
-                ..options.clone()
             };
             let red = reduce(&replay, &options).map_err(|e| {
                 Error::context(format!("reducing the replay of {}", path.display()), e)

@@ -127,8 +127,8 @@ impl PeriodicSpectra {
                 })
                 .collect()
         };
-        let us = spectra(&record.reference);
-        let ys = spectra(&record.response);
+        let us = spectra(&record.reference.values());
+        let ys = spectra(&record.response.values());
         let mean = |s: &[Vec<Complex64>], k: usize| {
             s.iter().map(|b| b[k]).sum::<Complex64>() / s.len() as f64
         };
@@ -778,9 +778,9 @@ mod tests {
             .collect();
         TimeRecord {
             name: "r".into(),
-            reference: u,
+            reference: u.into(),
             reference_quantity: Quantity::Force,
-            response: y,
+            response: y.into(),
             sample_rate_hz: 64.0,
             quantity: Quantity::Displacement,
             window: n..n * periods,
@@ -812,7 +812,7 @@ mod tests {
         );
         // a replay of the linear part alone leaves the distortion at line
         // 9, odd and not excited, far above the noise
-        let replay: Vec<f64> = r.reference.iter().map(|v| 2.0 * v).collect();
+        let replay: Vec<f64> = r.reference.values().iter().map(|v| 2.0 * v).collect();
         let res = s.residual(&s.replayed(&replay));
         let f = line_residual(std::slice::from_ref(&s), std::slice::from_ref(&res));
         assert_eq!(f.strongest[0].class, LineClass::OddNotExcited);

@@ -38,6 +38,7 @@ use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::Silent;
+use crate::signals::{Samples, SamplesView};
 use crate::validate::resample::{Decimator, MAX_FACTOR, decimate_with};
 use crate::validate::{
     DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window,
@@ -54,12 +55,12 @@ pub struct TimeRecord {
     /// A name for reports (the file).
     pub name: String,
     /// The measured force driving the model, N (or the voltage driving a
-    /// shaker).
-    pub reference: Vec<f64>,
+    /// shaker), held as recorded (see [`Samples`]).
+    pub reference: Samples,
     /// What the reference is: a force, or a voltage.
     pub reference_quantity: Quantity,
-    /// The measured response, in `quantity`.
-    pub response: Vec<f64>,
+    /// The measured response, in `quantity`, held as recorded.
+    pub response: Samples,
     /// Samples per second.
     pub sample_rate_hz: f64,
     /// The response's quantity (a motion).
@@ -182,7 +183,7 @@ impl TimeRecord {
             rec.channels[reference].clone(),
             rec.channels[response].clone(),
         );
-        Self::from_channels(name, &rec.meta, response, channels, window, band_hz)
+        Self::from_values(name, &rec.meta, response, channels, window, band_hz)
     }
 
     /// [`TimeRecord::from_recording`] taking the recording's reference and
@@ -202,7 +203,39 @@ impl TimeRecord {
             std::mem::take(&mut rec.channels[response])
         };
         let channels = (std::mem::take(&mut rec.channels[reference]), measured);
-        Self::from_channels(name, &rec.meta, response, channels, window, band_hz)
+        Self::from_values(name, &rec.meta, response, channels, window, band_hz)
+    }
+
+    /// [`TimeRecord::from_values`] of samples already held (see
+    /// [`crate::analysis::load_time_record`]).
+    pub fn from_held(
+        name: &str,
+        meta: &crate::signals::RecordingMeta,
+        response: usize,
+        channels: (Samples, Samples),
+        window: Option<Range<usize>>,
+        band_hz: Option<(f64, f64)>,
+    ) -> Result<TimeRecord> {
+        Self::reference_of(name, meta, response)?;
+        Self::from_channels(name, meta, response, channels, window, band_hz)
+    }
+
+    /// The record of values in physical units, held as the file stored
+    /// them where they are its values (half the bytes, the same values).
+    fn from_values(
+        name: &str,
+        meta: &crate::signals::RecordingMeta,
+        response: usize,
+        (reference, measured): (Vec<f64>, Vec<f64>),
+        window: Option<Range<usize>>,
+        band_hz: Option<(f64, f64)>,
+    ) -> Result<TimeRecord> {
+        let reference_channel = meta.reference_channel().expect("checked by reference_of");
+        let held = |samples, channel: usize| {
+            Samples::recorded(samples, &[meta.channels[channel].scale, 1.0])
+        };
+        let channels = (held(reference, reference_channel), held(measured, response));
+        Self::from_channels(name, meta, response, channels, window, band_hz)
     }
 
     /// The reference channel of a recording described by `meta`, checked
@@ -234,7 +267,7 @@ impl TimeRecord {
         name: &str,
         meta: &crate::signals::RecordingMeta,
         response_channel: usize,
-        (reference, response): (Vec<f64>, Vec<f64>),
+        (reference, response): (Samples, Samples),
         window: Option<Range<usize>>,
         band_hz: Option<(f64, f64)>,
     ) -> Result<TimeRecord> {
@@ -246,7 +279,7 @@ impl TimeRecord {
         let swept = meta.excitation.kind == crate::signals::ExcitationKind::SweptSine;
         if let (Some(band), true, true) = (band_hz, swept, stated.is_empty()) {
             let sweep = crate::extract::find_sweep(
-                &reference,
+                &reference.values(),
                 fs,
                 &crate::extract::SweepOptions::default(),
             )
@@ -269,30 +302,24 @@ impl TimeRecord {
         } else if swept {
             Vec::new()
         } else {
-            crate::extract::find_dwells(&reference, fs, &crate::extract::DwellOptions::default())
-                .unwrap_or_default()
+            crate::extract::find_dwells(
+                &reference.values(),
+                fs,
+                &crate::extract::DwellOptions::default(),
+            )
+            .unwrap_or_default()
         };
-        let mut r = TimeRecord {
-            name: name.to_string(),
-            reference,
-            reference_quantity: meta.channels[reference_channel].quantity,
-            response,
-            sample_rate_hz: fs,
-            quantity: meta.channels[response_channel].quantity,
-            segments: TimeRecord::segments_at(window.clone(), &steps),
-            window,
-            band_hz,
-        };
+        let mut segments = TimeRecord::segments_at(window.clone(), &steps);
         if let (Some((lo, hi)), false) = (band_hz, steps.is_empty()) {
             // each segment is judged as the dwell it starts in
             let mut by_start: Vec<&crate::signals::Step> = steps.iter().collect();
             by_start.sort_by_key(|s| s.start);
-            r.segments.retain(|seg| {
+            segments.retain(|seg| {
                 let k = by_start.partition_point(|s| s.start <= seg.start);
                 let f = by_start[k.saturating_sub(1)].frequency_hz;
                 (lo..=hi).contains(&f)
             });
-            if r.segments.is_empty() {
+            if segments.is_empty() {
                 return Err(Error::input(
                     format!("{name}: band"),
                     format!("no dwell of the record is inside {lo}-{hi} Hz"),
@@ -302,14 +329,21 @@ impl TimeRecord {
         // a dwell whose response the converter resolved to a few steps (a
         // quiet level in a 16-bit file) has no scale to be judged on: left
         // out, as the FRF reduction leaves it out
-        let segments = std::mem::take(&mut r.segments);
-        r.segments = segments
-            .into_iter()
-            .filter(|s| {
-                r.measured_rms(s.clone()) > 0.0
-                    && !crate::extract::below_resolution(&r.response[s.clone()])
-            })
-            .collect();
+        segments.retain(|s| {
+            rms_of(response.view(), s.clone()) > 0.0
+                && !crate::extract::below_resolution(&response.range(s.clone()))
+        });
+        let r = TimeRecord {
+            name: name.to_string(),
+            reference,
+            reference_quantity: meta.channels[reference_channel].quantity,
+            response,
+            sample_rate_hz: fs,
+            quantity: meta.channels[response_channel].quantity,
+            segments,
+            window,
+            band_hz,
+        };
         r.check()?;
         Ok(r)
     }
@@ -317,9 +351,22 @@ impl TimeRecord {
     /// RMS of the measured response over `range` (about zero: the model's
     /// response has the same static part to match).
     fn measured_rms(&self, range: Range<usize>) -> f64 {
-        let w = &self.response[range];
-        (w.iter().map(|v| v * v).sum::<f64>() / w.len() as f64).sqrt()
+        rms_of(self.response.view(), range)
     }
+}
+
+/// The sum `Iterator::sum` starts from (a sum folded stretch by stretch
+/// from it is the same to the bit as the whole summed at once).
+fn zero() -> f64 {
+    std::iter::empty::<f64>().sum::<f64>()
+}
+
+/// RMS of `x` over `range`, about zero.
+fn rms_of(x: SamplesView, range: Range<usize>) -> f64 {
+    let n = range.len() as f64;
+    let mut sum = zero();
+    x.for_each_stretch(range, |_, w| sum = w.iter().fold(sum, |acc, v| acc + v * v));
+    (sum / n).sqrt()
 }
 
 /// Options of [`identify_time`].
@@ -805,19 +852,19 @@ impl<'a> TimeProblem<'a> {
         let Some(fine) = (sure_factor > 1).then(|| replay(sure_factor)).flatten() else {
             return (sure_factor, None);
         };
-        let weighted = |a: &[f64], b: &[f64]| {
+        let weighted = |a: SamplesView, b: SamplesView| {
             r.segments
                 .iter()
                 .zip(&self.scale[i])
                 .map(|(seg, sc)| {
                     seg.clone()
-                        .map(|j| ((a[j] - b[j]) / sc).powi(2))
+                        .map(|j| ((a.get(j) - b.get(j)) / sc).powi(2))
                         .sum::<f64>()
                 })
                 .sum::<f64>()
                 .sqrt()
         };
-        let misfit = weighted(&fine, &r.response);
+        let misfit = weighted((&fine).into(), r.response.view());
         let mut tried = 0;
         for spp in LADDER.into_iter().filter(|&spp| spp < sure) {
             // the same factor as one tried already, or as the sure one:
@@ -828,7 +875,7 @@ impl<'a> TimeProblem<'a> {
             }
             tried = f;
             let Some(coarse) = replay(f) else { continue };
-            let change = weighted(&coarse, &fine);
+            let change = weighted((&coarse).into(), (&fine).into());
             if change <= 0.002 * misfit {
                 let note = format!(
                     "{}: replayed at {f} times its rate, not {sure_factor}: that changes the \
@@ -900,7 +947,10 @@ impl<'a> TimeProblem<'a> {
     fn judged_residuals_into(&self, model: &Model, i: usize, out: &mut [f64]) -> Result<()> {
         let r = &self.records[i];
         let judging = &self.judging[i];
-        let measured = judging.response.as_deref().unwrap_or(&r.response);
+        let measured = judging
+            .response
+            .as_ref()
+            .map_or(r.response.view(), SamplesView::from);
         let segments = &judging.segments;
         let mut decimator = Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?;
         let mut judged = Vec::new();
@@ -914,7 +964,7 @@ impl<'a> TimeProblem<'a> {
                     k += 1;
                 }
                 if k < segments.len() && segments[k].start <= q {
-                    out[p] = (s - measured[q]) / judging.scale[k];
+                    out[p] = (s - measured.get(q)) / judging.scale[k];
                     p += 1;
                 }
                 q += 1;
@@ -970,12 +1020,12 @@ impl<'a> TimeProblem<'a> {
                     for ((seg, sc), sum) in r.segments.iter().zip(scale).zip(&mut segments) {
                         let (lo, hi) = (seg.start.max(at), seg.end.min(end));
                         *sum = (lo..hi).fold(*sum, |acc, j| {
-                            acc + ((stretch[j - at] - r.response[j]) / sc).powi(2)
+                            acc + ((stretch[j - at] - r.response.get(j)) / sc).powi(2)
                         });
                     }
                     let (lo, hi) = (a.max(at), b.min(end));
                     window = (lo..hi).fold(window, |acc, j| {
-                        acc + (stretch[j - at] - r.response[j]).powi(2)
+                        acc + (stretch[j - at] - r.response.get(j)).powi(2)
                     });
                     if split {
                         whole.extend_from_slice(stretch);
@@ -989,7 +1039,7 @@ impl<'a> TimeProblem<'a> {
                     && window.measured_rms > 0.0
                 {
                     window.by_frequency = Some(crate::validate::error_by_frequency(
-                        &r.response,
+                        &r.response.values(),
                         &whole,
                         r.sample_rate_hz,
                         r.window.clone(),
@@ -1034,10 +1084,13 @@ impl<'a> TimeProblem<'a> {
                 Ok(()) => {}
                 // a model the simulator rejects: worse than predicting nothing
                 Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
-                    let response = judging.response.as_deref().unwrap_or(&r.response);
+                    let response = judging
+                        .response
+                        .as_ref()
+                        .map_or(r.response.view(), SamplesView::from);
                     let mut p = 0;
                     for (seg, &sc) in judging.segments.iter().zip(&judging.scale) {
-                        for m in &response[seg.clone()] {
+                        for m in seg.clone().map(|j| response.get(j)) {
                             block[p] = -2.0 * m / sc;
                             p += 1;
                         }
@@ -1758,9 +1811,9 @@ mod tests {
     fn a_fit_judges_at_the_lowest_rate_its_bound_asks_and_its_model_allows() {
         let rec = |fs: f64, n: usize| TimeRecord {
             name: "r".into(),
-            reference: vec![1.0; n],
+            reference: vec![1.0; n].into(),
             reference_quantity: Quantity::Force,
-            response: vec![1.0; n],
+            response: vec![1.0; n].into(),
             sample_rate_hz: fs,
             quantity: Quantity::Displacement,
             window: 0..n,

@@ -46,6 +46,7 @@ use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::{Observer, Silent};
 use crate::record::{Recording, Step};
+use crate::signals::SamplesView;
 use crate::sim::Simulator;
 use serde::{Deserialize, Serialize};
 
@@ -260,7 +261,7 @@ pub fn simulate_response_with(
 /// factor a model asks for and pre-emphasised as its [`DriveInput`] says,
 /// once per factor (a fit replays the same recording through many models).
 pub struct PreparedDrive<'a> {
-    reference: &'a [f64],
+    reference: SamplesView<'a>,
     input: DriveInput,
     cache: std::sync::Mutex<Vec<(usize, std::sync::Arc<Vec<f64>>)>>,
     /// The reference's first sample that is not finite, looked for once.
@@ -269,9 +270,9 @@ pub struct PreparedDrive<'a> {
 
 impl<'a> PreparedDrive<'a> {
     /// `reference` as `input` says it is between samples.
-    pub fn new(reference: &'a [f64], input: DriveInput) -> PreparedDrive<'a> {
+    pub fn new(reference: impl Into<SamplesView<'a>>, input: DriveInput) -> PreparedDrive<'a> {
         PreparedDrive {
-            reference,
+            reference: reference.into(),
             input,
             cache: Default::default(),
             not_finite: Default::default(),
@@ -283,7 +284,7 @@ impl<'a> PreparedDrive<'a> {
         let x = self.reference;
         match self
             .not_finite
-            .get_or_init(|| x.iter().position(|v| !v.is_finite()))
+            .get_or_init(|| (0..x.len()).position(|i| !x.get(i).is_finite()))
         {
             Some(i) => Err(resample::not_finite("signal", x, *i)),
             None => Ok(()),
@@ -303,9 +304,10 @@ impl<'a> PreparedDrive<'a> {
         }
         // (a replay at the recording's own rate makes its drive as it goes:
         // see `replay_streamed`)
+        let reference = self.reference.values();
         let drive = match self.input {
-            DriveInput::Ramp => resample::interpolate(self.reference, factor)?,
-            _ => pre_emphasis(&resample::interpolate(self.reference, factor)?),
+            DriveInput::Ramp => resample::interpolate(&reference, factor)?,
+            _ => pre_emphasis(&resample::interpolate(&reference, factor)?),
         };
         let drive = std::sync::Arc::new(drive);
         self.cache
@@ -487,10 +489,16 @@ pub fn replay_streamed(
         let fine = &mut fine[..end - done];
         match (&whole, input) {
             (Some(w), _) => sim.run_output(&w[done..end], output, fine)?,
-            (None, DriveInput::Ramp) => sim.run_output(&reference[done..end], output, fine)?,
+            (None, DriveInput::Ramp) => {
+                sim.run_output(&reference.range(done..end), output, fine)?
+            }
             (None, _) => {
+                // with a neighbour each side where there is one: the same
+                // drive as the whole reference pre-emphasised
+                let lo = done.saturating_sub(1);
+                let x = reference.range(lo..(end + 1).min(reference.len()));
                 force.clear();
-                force.extend((done..end).map(|i| pre_emphasised(reference, i)));
+                force.extend((done..end).map(|i| pre_emphasised(&x, i - lo)));
                 sim.run_output(&force, output, fine)?;
             }
         }
@@ -681,17 +689,26 @@ pub(crate) fn error_window(range: std::ops::Range<usize>, n: usize) -> Result<(u
 /// [`error_metrics`] over `a..b` (clipped by [`error_window`]) given the
 /// sum of the squared errors there, `Σ (y_sim − y_meas)²` in the samples'
 /// order (a replay handed on a stretch at a time sums it as it comes).
-pub(crate) fn error_metrics_of_sum(
-    measured: &[f64],
+pub(crate) fn error_metrics_of_sum<'a>(
+    measured: impl Into<SamplesView<'a>>,
     squared_errors: f64,
     sample_rate_hz: f64,
     std::ops::Range { start: a, end: b }: std::ops::Range<usize>,
 ) -> ErrorMetrics {
-    let m = &measured[a..b];
+    let m = measured.into();
     let len = (b - a) as f64;
     let e2 = squared_errors / len;
-    let mean = m.iter().sum::<f64>() / len;
-    let v = m.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / len;
+    // folded in order a stretch at a time from where `Iterator::sum`
+    // starts: the same bits as summing the window at once
+    let zero = std::iter::empty::<f64>().sum::<f64>();
+    let mut sum = zero;
+    m.for_each_stretch(a..b, |_, w| sum = w.iter().fold(sum, |acc, x| acc + x));
+    let mean = sum / len;
+    let mut squares = zero;
+    m.for_each_stretch(a..b, |_, w| {
+        squares = w.iter().fold(squares, |acc, x| acc + (x - mean).powi(2))
+    });
+    let v = squares / len;
     let (e_rms, measured_rms) = (e2.sqrt(), v.sqrt());
     ErrorMetrics {
         start_s: a as f64 / sample_rate_hz,
@@ -1087,7 +1104,9 @@ mod tests {
     /// 250 Hz puts about 780 N on the stuck joint, which slips at 246 N:
     /// its state crosses the stretches), over more samples than a stretch, at
     /// the recording's own rate and at three times it, for each way the
-    /// force is taken between samples.
+    /// force is taken between samples; and the same from the force held as
+    /// a file stores it (`f32`s of a unit, see [`crate::signals::Samples`]),
+    /// whose stretches are converted as they are replayed.
     #[test]
     fn a_replay_made_a_stretch_at_a_time_is_the_replay_made_whole() {
         use crate::model::ElementSpec;
@@ -1105,23 +1124,31 @@ mod tests {
         let force: Vec<f64> = (0..n)
             .map(|i| {
                 let t = i as f64 / fs;
-                300.0 * (2.0 * PI * 250.0 * t).sin() + 120.0 * (2.0 * PI * 1130.0 * t).cos()
+                let f =
+                    300.0 * (2.0 * PI * 250.0 * t).sin() + 120.0 * (2.0 * PI * 1130.0 * t).cos();
+                // a float32 file's value of a unit of 0.25 N
+                (f / 0.25) as f32 as f64 * 0.25
             })
             .collect();
+        let held = crate::signals::Samples::recorded(force.clone(), &[0.25]);
+        assert_eq!(held.bytes(), 4 * n);
         for input in [DriveInput::BandLimited, DriveInput::Ramp] {
             for factor in [1, 3] {
-                let drive = PreparedDrive::new(&force, input);
-                let streamed = simulate_prepared_at(
-                    &model,
-                    &drive,
-                    fs,
-                    Quantity::Velocity,
-                    -1.0,
-                    factor,
-                    &Silent,
-                )
-                .unwrap()
-                .values;
+                let streamed_from = |drive: PreparedDrive| {
+                    simulate_prepared_at(
+                        &model,
+                        &drive,
+                        fs,
+                        Quantity::Velocity,
+                        -1.0,
+                        factor,
+                        &Silent,
+                    )
+                    .unwrap()
+                    .values
+                };
+                let streamed = streamed_from(PreparedDrive::new(&force, input));
+                assert!(streamed_from(PreparedDrive::new(&held, input)) == streamed);
                 let fine_drive = match input {
                     DriveInput::Ramp => resample::interpolate(&force, factor).unwrap(),
                     _ => pre_emphasis(&resample::interpolate(&force, factor).unwrap()),

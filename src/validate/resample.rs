@@ -15,6 +15,7 @@
 //! treated as if they did).
 
 use crate::error::{Error, Result};
+use crate::signals::SamplesView;
 use std::f64::consts::PI;
 
 /// Cut-off of both filters as a fraction of the original Nyquist frequency.
@@ -87,10 +88,10 @@ pub(crate) fn check(factor: usize, x: &[f64], what: &str) -> Result<()> {
 }
 
 /// The error [`check`] gives for sample `i` of `x`, which is not finite.
-pub(crate) fn not_finite(what: &str, x: &[f64], i: usize) -> Error {
+pub(crate) fn not_finite<'a>(what: &str, x: impl Into<SamplesView<'a>>, i: usize) -> Error {
     Error::input(
         format!("{what} sample {i}"),
-        format!("must be finite, got {}", x[i]),
+        format!("must be finite, got {}", x.into().get(i)),
     )
 }
 
@@ -140,7 +141,31 @@ pub fn decimate(y: &[f64], factor: usize) -> Result<Vec<f64>> {
 /// less and has a wider transition band, enough where what matters lies
 /// well below the target Nyquist frequency (a time fit's judging, see
 /// `fit::time::MAX_JUDGED_SAMPLES`).
-pub fn decimate_with(y: &[f64], factor: usize, half_width: usize) -> Result<Vec<f64>> {
+pub fn decimate_with<'a>(
+    y: impl Into<SamplesView<'a>>,
+    factor: usize,
+    half_width: usize,
+) -> Result<Vec<f64>> {
+    let y = match y.into() {
+        SamplesView::Exact(y) => y,
+        // converted and pushed a stretch at a time (no copy of the whole)
+        held => {
+            check(factor, &[], "signal")?;
+            let mut d = Decimator::new(factor, half_width, held.len())?;
+            let mut out = Vec::with_capacity(d.outputs());
+            let mut bad = None;
+            held.for_each_stretch(0..held.len(), |at, x| {
+                if bad.is_none() {
+                    bad = x.iter().position(|v| !v.is_finite()).map(|i| at + i);
+                }
+                d.push(x, &mut out);
+            });
+            return match bad {
+                Some(i) => Err(not_finite("signal", held, i)),
+                None => Ok(out),
+            };
+        }
+    };
     check(factor, y, "signal")?;
     if factor == 1 {
         return Ok(y.to_vec());
