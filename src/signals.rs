@@ -224,15 +224,28 @@ pub trait FrameSource {
 /// that read one a stretch at a time (the coil's fit from arrays a binding
 /// hands over, say).
 pub struct InMemoryFrames<'a> {
-    recording: &'a Recording,
+    meta: &'a RecordingMeta,
+    channels: Vec<SamplesView<'a>>,
     name: String,
 }
 
 impl<'a> InMemoryFrames<'a> {
     /// `recording`, named `name` in errors.
     pub fn new(recording: &'a Recording, name: impl Into<String>) -> InMemoryFrames<'a> {
+        let channels = recording.channels.iter().map(Into::into).collect();
+        InMemoryFrames::of_channels(&recording.meta, channels, name)
+    }
+
+    /// The recording `meta` describes whose channels are `channels` (a
+    /// replay beside the reference a time record holds, say).
+    pub fn of_channels(
+        meta: &'a RecordingMeta,
+        channels: Vec<SamplesView<'a>>,
+        name: impl Into<String>,
+    ) -> InMemoryFrames<'a> {
         InMemoryFrames {
-            recording,
+            meta,
+            channels,
             name: name.into(),
         }
     }
@@ -240,10 +253,10 @@ impl<'a> InMemoryFrames<'a> {
 
 impl FrameSource for InMemoryFrames<'_> {
     fn meta(&self) -> &RecordingMeta {
-        &self.recording.meta
+        self.meta
     }
     fn frames(&self) -> usize {
-        self.recording.frames()
+        self.channels.first().map_or(0, SamplesView::len)
     }
     fn source_name(&self) -> String {
         self.name.clone()
@@ -257,9 +270,9 @@ impl FrameSource for InMemoryFrames<'_> {
             ));
         }
         let end = start.saturating_add(count).min(frames);
-        for (o, c) in out.iter_mut().zip(&self.recording.channels) {
+        for (o, c) in out.iter_mut().zip(&self.channels) {
             o.clear();
-            o.extend_from_slice(&c[start..end]);
+            o.extend_from_slice(&c.range(start..end));
         }
         Ok(end - start)
     }

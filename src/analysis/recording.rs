@@ -726,42 +726,6 @@ pub fn reduce_observed(
     })
 }
 
-/// Channels held in memory read as a file is ([`FrameSource`]): a replay
-/// beside the reference its time record holds, for the stepped reduction
-/// that reads a dwell at a time.
-struct HeldFrames<'a> {
-    meta: &'a RecordingMeta,
-    channels: Vec<SamplesView<'a>>,
-    name: String,
-}
-
-impl FrameSource for HeldFrames<'_> {
-    fn meta(&self) -> &RecordingMeta {
-        self.meta
-    }
-    fn frames(&self) -> usize {
-        self.channels.first().map_or(0, SamplesView::len)
-    }
-    fn source_name(&self) -> String {
-        self.name.clone()
-    }
-    fn read_at(&mut self, start: usize, count: usize, out: &mut [Vec<f64>]) -> Result<usize> {
-        let frames = self.frames();
-        if start > frames {
-            return Err(Error::input(
-                &self.name,
-                format!("frame {start} is beyond its {frames} frames"),
-            ));
-        }
-        let end = start.saturating_add(count).min(frames);
-        for (o, c) in out.iter_mut().zip(&self.channels) {
-            o.clear();
-            o.extend_from_slice(&c.range(start..end));
-        }
-        Ok(end - start)
-    }
-}
-
 /// How a swept-sine recording was read into FRF points.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SweptReading {
@@ -1202,11 +1166,11 @@ impl ReplayReduction {
                 channels[reference] = record.reference.view();
                 channels[loaded.response] = (&response).into();
                 if channels.iter().all(|c| c.len() == frames) {
-                    let mut source = HeldFrames {
-                        meta: &rec.meta,
+                    let mut source = crate::signals::InMemoryFrames::of_channels(
+                        &rec.meta,
                         channels,
-                        name: format!("the replay of {}", path.display()),
-                    };
+                        format!("the replay of {}", path.display()),
+                    );
                     let stepped = ReduceOptions {
                         reference_channel: Some(reference),
                         ..stepped_options(&options)

@@ -41,7 +41,7 @@ use crate::observe::Silent;
 use crate::signals::{Samples, SamplesView};
 use crate::validate::resample::{Decimator, MAX_FACTOR, decimate_with};
 use crate::validate::{
-    DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window,
+    DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window, sum_start,
     quasi_static_above_hz, replay_streamed, simulate_prepared_at, upsampling_factor,
 };
 use serde::{Deserialize, Serialize};
@@ -206,7 +206,8 @@ impl TimeRecord {
         Self::from_values(name, &rec.meta, response, channels, window, band_hz)
     }
 
-    /// [`TimeRecord::from_values`] of samples already held (see
+    /// [`TimeRecord::from_recording`] of a recording described by `meta`
+    /// whose reference and response are already held (see
     /// [`crate::analysis::load_time_record`]).
     pub fn from_held(
         name: &str,
@@ -355,16 +356,10 @@ impl TimeRecord {
     }
 }
 
-/// The sum `Iterator::sum` starts from (a sum folded stretch by stretch
-/// from it is the same to the bit as the whole summed at once).
-fn zero() -> f64 {
-    std::iter::empty::<f64>().sum::<f64>()
-}
-
 /// RMS of `x` over `range`, about zero.
 fn rms_of(x: SamplesView, range: Range<usize>) -> f64 {
     let n = range.len() as f64;
-    let mut sum = zero();
+    let mut sum = sum_start();
     x.for_each_stretch(range, |_, w| sum = w.iter().fold(sum, |acc, v| acc + v * v));
     (sum / n).sqrt()
 }
@@ -1002,7 +997,7 @@ impl<'a> TimeProblem<'a> {
     fn errors_with(&self, model: &Model, split: bool) -> Result<Vec<RecordError>> {
         // the sums start where `Iterator::sum` starts them: the same bits
         // as summing the whole replay
-        let zero = std::iter::empty::<f64>().sum::<f64>();
+        let zero = sum_start();
         self.records
             .iter()
             .zip(&self.scale)

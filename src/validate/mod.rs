@@ -686,6 +686,13 @@ pub(crate) fn error_window(range: std::ops::Range<usize>, n: usize) -> Result<(u
     Ok((a, b))
 }
 
+/// The value `Iterator::sum` starts an `f64` sum from: a sum folded in
+/// order from it, a stretch at a time, is the same to the bit as the whole
+/// summed at once.
+pub(crate) fn sum_start() -> f64 {
+    std::iter::empty::<f64>().sum::<f64>()
+}
+
 /// [`error_metrics`] over `a..b` (clipped by [`error_window`]) given the
 /// sum of the squared errors there, `Σ (y_sim − y_meas)²` in the samples'
 /// order (a replay handed on a stretch at a time sums it as it comes).
@@ -698,13 +705,12 @@ pub(crate) fn error_metrics_of_sum<'a>(
     let m = measured.into();
     let len = (b - a) as f64;
     let e2 = squared_errors / len;
-    // folded in order a stretch at a time from where `Iterator::sum`
-    // starts: the same bits as summing the window at once
-    let zero = std::iter::empty::<f64>().sum::<f64>();
-    let mut sum = zero;
+    // folded in order a stretch at a time: the same bits as summing the
+    // window at once
+    let mut sum = sum_start();
     m.for_each_stretch(a..b, |_, w| sum = w.iter().fold(sum, |acc, x| acc + x));
     let mean = sum / len;
-    let mut squares = zero;
+    let mut squares = sum_start();
     m.for_each_stretch(a..b, |_, w| {
         squares = w.iter().fold(squares, |acc, x| acc + (x - mean).powi(2))
     });
