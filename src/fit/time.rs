@@ -41,8 +41,8 @@ use crate::observe::Silent;
 use crate::signals::{Samples, SamplesView};
 use crate::validate::resample::{Decimator, MAX_FACTOR, decimate_with};
 use crate::validate::{
-    DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window, sum_start,
-    quasi_static_above_hz, replay_streamed, simulate_prepared_at, upsampling_factor,
+    DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window,
+    quasi_static_above_hz, replay_streamed, simulate_prepared_at, sum_start, upsampling_factor,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
