@@ -200,6 +200,46 @@ impl Recording {
     }
 }
 
+/// A recording's description and its channels borrowed, however they are
+/// held (a [`Recording`]'s `f64`s, or the [`Samples`] a file stored).
+#[derive(Clone, Debug)]
+pub struct RecordingView<'a> {
+    /// What the samples mean.
+    pub meta: &'a RecordingMeta,
+    /// `channels[c]`, one per channel of `meta`.
+    pub channels: Vec<SamplesView<'a>>,
+}
+
+impl Recording {
+    /// The recording borrowed as a [`RecordingView`].
+    pub fn view(&self) -> RecordingView<'_> {
+        RecordingView {
+            meta: &self.meta,
+            channels: self.channels.iter().map(Into::into).collect(),
+        }
+    }
+}
+
+impl RecordingView<'_> {
+    /// The channels `keep` (in that order) copied into a [`Recording`] of
+    /// `f64`s, with `meta` trimmed to them: for the stages that read a
+    /// recording whole (finding dwells, following a sweep).
+    pub fn to_recording(&self, keep: &[usize]) -> Recording {
+        let mut meta = self.meta.clone();
+        meta.channels = keep
+            .iter()
+            .map(|&c| self.meta.channels[c].clone())
+            .collect();
+        Recording {
+            meta,
+            channels: keep
+                .iter()
+                .map(|&c| self.channels[c].values().into_owned())
+                .collect(),
+        }
+    }
+}
+
 /// A recording read one stretch of frames at a time (a file larger than
 /// memory), for reductions that need one dwell at a time.
 pub trait FrameSource {

@@ -31,10 +31,10 @@ pub use identify::{
     run_time_fit_from_start_signed, time_records, time_records_in, write_fit_plots,
 };
 pub use recording::{
-    ChannelChoice, Compensation, Excitation, Loaded, Reduced, ReductionOptions, band_limited,
-    combine_recordings, excitation_of, load_recording, load_reference_and_response,
-    load_time_record, reduce, reduce_observed, reduce_path, reduce_recordings, response_channel,
-    sweep_options,
+    ChannelChoice, Compensation, Excitation, HeldRecording, Loaded, Reduced, ReductionOptions,
+    band_limited, combine_recordings, excitation_of, load_held_reference_and_response,
+    load_recording, load_reference_and_response, load_time_record, reduce, reduce_observed,
+    reduce_path, reduce_recordings, response_channel, sweep_options,
 };
 
 use crate::error::{Error, Result};

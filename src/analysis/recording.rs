@@ -10,7 +10,7 @@ use crate::extract::{
 };
 use crate::harmonics::Quantity;
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
-use crate::signals::{SamplesBuilder, SamplesView};
+use crate::signals::{RecordingView, SamplesBuilder, SamplesView};
 use crate::testbench::TestDefinition;
 use std::path::{Path, PathBuf};
 
@@ -299,6 +299,50 @@ pub fn load_reference_and_response(path: &Path, choice: ChannelChoice) -> Result
         },
         response: kept.response,
         truth: kept.truth,
+        truncated,
+    })
+}
+
+/// A recording's reference and response held as the file stored them
+/// ([`crate::signals::Samples`]: 4 bytes a sample where the file's are
+/// 32-bit floats or 16/24-bit integers), for the stages that replay a
+/// recording beside its measurement without holding it in `f64`s.
+pub struct HeldRecording {
+    /// Trimmed to the channels held.
+    pub meta: RecordingMeta,
+    /// One per channel of `meta`.
+    pub channels: Vec<crate::signals::Samples>,
+    /// The response channel.
+    pub response: usize,
+    /// An MCAP run file cut short: only its complete chunks were read.
+    pub truncated: bool,
+}
+
+impl HeldRecording {
+    /// The recording borrowed.
+    pub fn view(&self) -> RecordingView<'_> {
+        RecordingView {
+            meta: &self.meta,
+            channels: self.channels.iter().map(Into::into).collect(),
+        }
+    }
+}
+
+/// [`load_reference_and_response`] into the precision the file stored them
+/// in (half the memory of `f64`s).
+pub fn load_held_reference_and_response(
+    path: &Path,
+    choice: ChannelChoice,
+) -> Result<HeldRecording> {
+    let (kept, truncated) = open_kept::<SamplesBuilder>(path, choice)?;
+    Ok(HeldRecording {
+        meta: kept.meta,
+        channels: kept
+            .channels
+            .into_iter()
+            .map(SamplesBuilder::finish)
+            .collect(),
+        response: kept.response,
         truncated,
     })
 }
@@ -610,18 +654,19 @@ const MULTISINE_SEARCH: usize = 1 << 20;
 /// excited lines (a stepped sine's repeats only within a dwell, at one
 /// line).
 pub(crate) fn multisine_period(
-    rec: &Recording,
+    rec: &RecordingView,
     response: usize,
 ) -> Option<(usize, f64, f64, usize)> {
     if rec.meta.excitation.kind != ExcitationKind::Unknown || !rec.meta.excitation.steps.is_empty()
     {
         return None;
     }
-    let reference = rec.reference_channel()?;
+    let reference = rec.meta.reference_channel()?;
     let (u, y) = (&rec.channels[reference], &rec.channels[response]);
     // unequal lengths are the reduction's to refuse, naming the channels
     let n = u.len().min(y.len()).min(MULTISINE_SEARCH);
-    let u = &u[..n];
+    let (u, y) = (u.range(0..n), y.range(0..n));
+    let u = &u[..];
     let period = crate::extract::find_period(u)?;
     let fs = rec.meta.sample_rate_hz;
     let lines = crate::extract::periodic_frf(u, &y[..n], fs, period);
@@ -638,7 +683,7 @@ pub(crate) fn multisine_period(
 /// ([`multisine_period`]): a dwell search would cut it into meaningless
 /// "dwells".
 pub(crate) fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()> {
-    let Some((period, lo, hi, lines)) = multisine_period(rec, response) else {
+    let Some((period, lo, hi, lines)) = multisine_period(&rec.view(), response) else {
         return Ok(());
     };
     Err(Error::input(

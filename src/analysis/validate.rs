@@ -8,8 +8,9 @@ use crate::diagnose::lines::LineClass;
 use crate::error::{Error, Result};
 use crate::harmonics::Quantity;
 use crate::model::{ModalModel, Model};
-use crate::plot::{self, FrfSeries, SeriesStyle, TimeSignal};
-use crate::validate::{Reduction, ValidateOptions, Validation, validate_recording_observed};
+use crate::plot::{self, FrfSeries, SeriesStyle, TimeTrace, TimeTraceBuilder};
+use crate::signals::{RecordingView, SamplesView};
+use crate::validate::{Reduction, ReplayTap, ValidateOptions, Validation, validate_view};
 use num_complex::Complex64;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -311,8 +312,9 @@ pub fn unique_stem(path: &Path, used: &mut Vec<String>) -> String {
 }
 
 /// Validates `fit` on a loaded recording, its progress told to `observer`
-/// (which may stop it): [`validate_on`] without the
-/// figures. `name` names the recording in a multisine's strongest lines.
+/// (which may stop it): [`validate_on`] without the figures, the replay
+/// kept ([`Validation::simulated`]). `name` names the recording in a
+/// multisine's strongest lines.
 pub fn validate_loaded(
     fit: &FitModel,
     name: &str,
@@ -320,8 +322,31 @@ pub fn validate_loaded(
     settings: &ValidationSettings,
     observer: &dyn crate::observe::Observer,
 ) -> Result<Validation> {
-    let rec = &loaded.recording;
+    validate_held(
+        fit,
+        name,
+        (&loaded.recording.view(), loaded.response),
+        settings,
+        true,
+        observer,
+        &mut (),
+    )
+}
+
+/// [`validate_loaded`] on a recording however it is held, `keep_replay`
+/// saying whether the replay is kept whole and `tap` handed it as it is
+/// made (see [`crate::validate::validate_view`]).
+fn validate_held(
+    fit: &FitModel,
+    name: &str,
+    (rec, response): (&RecordingView, usize),
+    settings: &ValidationSettings,
+    keep_replay: bool,
+    observer: &dyn crate::observe::Observer,
+    tap: &mut dyn ReplayTap,
+) -> Result<Validation> {
     let reference = rec
+        .meta
         .reference_channel()
         .ok_or_else(|| Error::input("recording", "no reference channel"))?;
     let channel = &rec.meta.channels[reference];
@@ -346,16 +371,16 @@ pub fn validate_loaded(
         .reduction
         .excitation
         .is_none()
-        .then(|| super::recording::multisine_period(rec, loaded.response))
+        .then(|| super::recording::multisine_period(rec, response))
         .flatten()
         .map(|m| m.0);
     let reduction = if settings.frf && !settings.periodic && multisine.is_none() {
         Some(
-            match excitation_of(&rec.meta, settings.reduction.excitation) {
+            match excitation_of(rec.meta, settings.reduction.excitation) {
                 Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
                 Excitation::Swept => Reduction::Swept(super::recording::sweep_options(
-                    &rec.channels[reference],
-                    &rec.channels[loaded.response],
+                    &rec.channels[reference].values(),
+                    &rec.channels[response].values(),
                     rec.meta.sample_rate_hz,
                     &settings.reduction,
                 )?),
@@ -373,18 +398,22 @@ pub fn validate_loaded(
         periodic: settings.periodic,
         input: settings.input,
     };
-    let mut v = validate_recording_observed(
+    // a multisine's lines are read from its replay whole
+    let lines = multisine.filter(|_| !settings.periodic);
+    let mut v = validate_view(
         &fit.model,
-        fit.response_sign,
+        (fit.response_sign, keep_replay || lines.is_some()),
         rec,
-        loaded.response,
+        response,
         &opts,
         observer,
+        tap,
     )?;
-    if let Some(period) = multisine.filter(|_| !settings.periodic) {
+    if let Some(period) = lines {
         // judged at the lines of its period where two steady periods or
         // more give the noise to judge it by
-        if let Some(record) = super::identify::steady_periods(name, rec, loaded.response, period)?
+        let whole = rec.to_recording(&(0..rec.channels.len()).collect::<Vec<_>>());
+        if let Some(record) = super::identify::steady_periods(name, &whole, response, period)?
             && record.segments.len() >= 2
         {
             v.lines = Some(crate::diagnose::lines::validate_at_lines(
@@ -392,28 +421,103 @@ pub fn validate_loaded(
                 &v.simulated,
             )?);
         }
+        if !keep_replay {
+            v.simulated = Vec::new();
+        }
     }
     Ok(v)
 }
 
-/// Validates `fit` on the recording loaded from `path` and writes its
-/// figures into `dir` as `{stem}_time`, `{stem}_time_window`, `{stem}_frf`.
-/// A replay that does not converge (the model runs away under this drive)
-/// is the entry's `replay_failed`, with no figures; other errors are
-/// errors.
+/// The time figures' traces, made as the replay comes: the whole record's
+/// and the window's, measured, simulated and their difference.
+struct Traces<'a> {
+    measured: SamplesView<'a>,
+    sample_rate_hz: f64,
+    whole: Option<[TimeTraceBuilder; 3]>,
+    window: Option<(std::ops::Range<usize>, [TimeTraceBuilder; 3])>,
+}
+
+impl Traces<'_> {
+    fn builders(&self, range: std::ops::Range<usize>) -> [TimeTraceBuilder; 3] {
+        let (n, t0, fs) = (
+            range.len(),
+            range.start as f64 / self.sample_rate_hz,
+            self.sample_rate_hz,
+        );
+        let mut measured = TimeTraceBuilder::new("measured", n, t0, fs);
+        self.measured
+            .for_each_stretch(range, |_, w| measured.push(w));
+        [
+            measured,
+            TimeTraceBuilder::new("simulated", n, t0, fs),
+            TimeTraceBuilder::new("difference", n, t0, fs),
+        ]
+    }
+
+    fn finish(b: [TimeTraceBuilder; 3]) -> [TimeTrace; 3] {
+        b.map(TimeTraceBuilder::finish)
+    }
+}
+
+impl ReplayTap for Traces<'_> {
+    fn begin(&mut self, samples: usize, window: Option<std::ops::Range<usize>>) {
+        self.whole = Some(self.builders(0..samples));
+        self.window = window.map(|w| (w.clone(), self.builders(w)));
+    }
+
+    fn stretch(&mut self, at: usize, simulated: &[f64]) {
+        let measured = self.measured.range(at..at + simulated.len());
+        let difference: Vec<f64> = measured.iter().zip(simulated).map(|(a, b)| a - b).collect();
+        if let Some([_, s, d]) = &mut self.whole {
+            s.push(simulated);
+            d.push(&difference);
+        }
+        if let Some((w, [_, s, d])) = &mut self.window {
+            // the part of the stretch inside the window
+            let (a, b) = (at.max(w.start), (at + simulated.len()).min(w.end));
+            if a < b {
+                s.push(&simulated[a - at..b - at]);
+                d.push(&difference[a - at..b - at]);
+            }
+        }
+    }
+}
+
+/// Validates `fit` on the recording `rec` (its response channel `response`)
+/// loaded from `path`, and writes its figures into `dir` as
+/// `{stem}_time`, `{stem}_time_window`, `{stem}_frf`: the replay is never
+/// held whole where the recording's dwells can be read one at a time (see
+/// [`crate::validate::validate_view`]). A replay that does not converge
+/// (the model runs away under this drive) is the entry's
+/// `replay_failed`, with no figures; other errors are errors.
+#[allow(clippy::too_many_arguments)]
 pub fn validate_on(
     fit: &FitModel,
     path: &Path,
-    loaded: &Loaded,
+    (rec, response): (&RecordingView, usize),
     settings: &ValidationSettings,
     dir: &Path,
     stem: &str,
     observer: &dyn crate::observe::Observer,
 ) -> Result<(RecordingValidation, Vec<PathBuf>)> {
-    let rec = &loaded.recording;
     let shown = path.display().to_string();
-    let v = match validate_loaded(fit, &shown, loaded, settings, observer)
-        .map_err(|e| Error::context(format!("validating on {}", path.display()), e))
+    let fs = rec.meta.sample_rate_hz;
+    let mut traces = Traces {
+        measured: rec.channels[response],
+        sample_rate_hz: fs,
+        whole: None,
+        window: None,
+    };
+    let v = match validate_held(
+        fit,
+        &shown,
+        (rec, response),
+        settings,
+        false,
+        observer,
+        &mut traces,
+    )
+    .map_err(|e| Error::context(format!("validating on {}", path.display()), e))
     {
         Ok(v) => v,
         // the model ran away under this recording's drive: that is this
@@ -422,7 +526,7 @@ pub fn validate_on(
         Err(e) if matches!(e.root(), Error::NotConverged { .. }) => {
             let entry = RecordingValidation {
                 recording: path.display().to_string(),
-                response: rec.meta.channels[loaded.response].name.clone(),
+                response: rec.meta.channels[response].name.clone(),
                 validation: None,
                 replay_failed: Some(crate::error::one_line(&e)),
             };
@@ -436,38 +540,30 @@ pub fn validate_on(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let channel = &rec.meta.channels[loaded.response];
+    let channel = &rec.meta.channels[response];
     let y_label = format!("{} [{}]", channel.name, channel.unit.replace("^2", "²"));
-    let fs = rec.meta.sample_rate_hz;
-    let measured = &rec.channels[loaded.response];
-    let signal = |label: &str, values: &[f64], start: usize| TimeSignal {
-        label: label.into(),
-        start_s: start as f64 / fs,
-        sample_rate_hz: fs,
-        values: values.to_vec(),
-    };
-    files.extend(plot::write_time_overlay(
-        &dir.join(format!("{stem}_time")),
-        &format!(
-            "{name}: measured and simulated ({} model), e_RMS {:.4e}",
-            fit.kind, v.whole.e_rms
-        ),
-        &y_label,
-        &signal("measured", measured, 0),
-        &signal("simulated", &v.simulated, 0),
-    )?);
-    if let Some(w) = &v.window {
-        let a = (w.start_s * fs).round() as usize;
-        let b = a + w.samples;
-        files.extend(plot::write_time_overlay(
+    if let Some(whole) = traces.whole.take() {
+        let [m, s, d] = Traces::finish(whole);
+        files.extend(plot::write_time_overlay_traced(
+            &dir.join(format!("{stem}_time")),
+            &format!(
+                "{name}: measured and simulated ({} model), e_RMS {:.4e}",
+                fit.kind, v.whole.e_rms
+            ),
+            &y_label,
+            [&m, &s, &d],
+        )?);
+    }
+    if let (Some(w), Some((_, window))) = (&v.window, traces.window.take()) {
+        let [m, s, d] = Traces::finish(window);
+        files.extend(plot::write_time_overlay_traced(
             &dir.join(format!("{stem}_time_window")),
             &format!(
                 "{name}: {:.1}-{:.1} s, e_RMS {:.4e}",
                 w.start_s, w.end_s, w.e_rms
             ),
             &y_label,
-            &signal("measured", &measured[a..b], a),
-            &signal("simulated", &v.simulated[a..b], a),
+            [&m, &s, &d],
         )?);
     }
     if let Some(c) = &v.frf

@@ -5,7 +5,7 @@ use super::args::ValidateArgs;
 use super::identify::reduction_options;
 use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
 use anyhow::{Context, Result, bail};
-use hystid::analysis::load_reference_and_response;
+use hystid::analysis::load_held_reference_and_response;
 use hystid::analysis::validate::{
     ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
 };
@@ -71,8 +71,9 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             response: args.response.as_deref().or(fit.response.as_deref()),
             reference: args.reference.as_deref().or(fit.reference.as_deref()),
         };
-        // only the reference and the response are replayed and compared
-        let loaded = load_reference_and_response(path, channels)?;
+        // only the reference and the response are replayed and compared,
+        // held as the file stored them
+        let loaded = load_held_reference_and_response(path, channels)?;
         if loaded.truncated {
             pb.suspend(|| {
                 eprintln!(
@@ -91,8 +92,15 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
                 ));
             }
         };
-        let (entry, written) =
-            validate_on(&fit, path, &loaded, &settings, &args.out, &stem, &observer)?;
+        let (entry, written) = validate_on(
+            &fit,
+            path,
+            (&loaded.view(), loaded.response),
+            &settings,
+            &args.out,
+            &stem,
+            &observer,
+        )?;
         files.extend(written);
         if let Some(why) = &entry.replay_failed {
             pb.suspend(|| eprintln!("warning: {why}"));

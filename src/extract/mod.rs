@@ -29,7 +29,7 @@
 //! bias it low), with the standard error of
 //! [`DwellHarmonics::std_error`].
 
-mod analytic;
+pub(crate) mod analytic;
 mod coherent;
 mod compensation;
 mod estimator;

@@ -39,6 +39,7 @@
 mod decimate;
 mod render;
 
+use decimate::SignalTrace;
 pub use decimate::{ColumnExtremes, min_max_columns};
 
 use crate::error::{Error, Result};
@@ -928,6 +929,54 @@ pub struct TimeSignal {
 /// extent is exactly that of its samples.
 const TIME_COLUMNS: usize = FIGURE_WIDTH as usize;
 
+/// A uniformly sampled signal as it is drawn: the points of its trace
+/// (every sample, or each pixel column's extremes; see [`TimeTraceBuilder`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TimeTrace {
+    /// Legend text, e.g. `measured`.
+    pub label: String,
+    /// `(time s, value)`, NaN where the line breaks.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A [`TimeTrace`] made from a signal handed on a stretch at a time, its
+/// length known beforehand (a replay that is never held whole): the points
+/// [`write_time_overlay`] draws for the whole signal.
+#[derive(Clone, Debug)]
+pub struct TimeTraceBuilder {
+    label: String,
+    trace: SignalTrace,
+}
+
+impl TimeTraceBuilder {
+    /// A trace labelled `label` of `samples` samples from `start_s` at
+    /// `sample_rate_hz`.
+    pub fn new(
+        label: impl Into<String>,
+        samples: usize,
+        start_s: f64,
+        sample_rate_hz: f64,
+    ) -> TimeTraceBuilder {
+        TimeTraceBuilder {
+            label: label.into(),
+            trace: SignalTrace::new(samples, start_s, sample_rate_hz, TIME_COLUMNS),
+        }
+    }
+
+    /// Appends the next samples.
+    pub fn push(&mut self, values: &[f64]) {
+        self.trace.push(values);
+    }
+
+    /// The trace. Panics where fewer samples than announced were pushed.
+    pub fn finish(self) -> TimeTrace {
+        TimeTrace {
+            label: self.label,
+            points: self.trace.finish(),
+        }
+    }
+}
+
 /// Writes measured against simulated response over time (top) and their
 /// difference, measured − simulated (bottom), for validation (paper Fig.
 /// 4.5). Long signals are drawn from per-column minima and maxima
@@ -951,12 +1000,6 @@ pub fn write_time_overlay(
             );
             return Err(Error::input(name, msg));
         }
-        if !s.values.iter().any(|v| v.is_finite()) {
-            return Err(Error::input(
-                name,
-                "no plottable point: every sample is NaN/Inf",
-            ));
-        }
     }
     let fs = measured.sample_rate_hz;
     if (simulated.sample_rate_hz - fs).abs() > 1e-9 * fs
@@ -979,11 +1022,45 @@ pub fn write_time_overlay(
         .zip(&simulated.values)
         .map(|(a, b)| a - b)
         .collect();
-    let points = |v: &[f64]| decimate::signal_points(v, measured.start_s, fs, TIME_COLUMNS);
+    let trace = |label: &str, v: &[f64]| {
+        let mut t = TimeTraceBuilder::new(label, v.len(), measured.start_s, fs);
+        t.push(v);
+        t.finish()
+    };
+    write_time_overlay_traced(
+        stem,
+        title,
+        y_label,
+        [
+            &trace(&measured.label, &measured.values),
+            &trace(&simulated.label, &simulated.values),
+            &trace("difference", &difference),
+        ],
+    )
+}
+
+/// [`write_time_overlay`] of the traces of the measured and simulated
+/// responses and of their difference (its label is the legend's).
+///
+/// Errors: a measured or simulated trace with no finite point.
+pub fn write_time_overlay_traced(
+    stem: &Path,
+    title: &str,
+    y_label: &str,
+    [measured, simulated, difference]: [&TimeTrace; 3],
+) -> Result<Vec<PathBuf>> {
+    for (i, s) in [measured, simulated].into_iter().enumerate() {
+        if !s.points.iter().any(|p| p.1.is_finite()) {
+            return Err(Error::input(
+                series_name("time", i, &s.label),
+                "no plottable point: every sample is NaN/Inf",
+            ));
+        }
+    }
     let (m, s, d) = (
-        points(&measured.values),
-        points(&simulated.values),
-        points(&difference),
+        measured.points.clone(),
+        simulated.points.clone(),
+        difference.points.clone(),
     );
     let x = range_of(&[&m, &s], |p| p.0, false);
     let mut top = panel(y_label, x, range_of(&[&m, &s], |p| p.1, false), false, 3);
@@ -991,15 +1068,15 @@ pub fn write_time_overlay(
     let diff_y = axis_range(d.iter().map(|p| p.1), false).unwrap_or((-1.0, 1.0));
     let mut bottom = panel(y_label, x, diff_y, false, 2);
     bottom.heading = Some(format!(
-        "difference: {} − {}",
-        measured.label, simulated.label
+        "{}: {} − {}",
+        difference.label, measured.label, simulated.label
     ));
     bottom.x_label = "time [s]".into();
     bottom.shapes = vec![line(colour(3), 1, d)];
     let legend = [(&measured.label, 0), (&simulated.label, 1)]
         .into_iter()
         .filter_map(|(l, g)| legend_entry(l, colour(g), Sample::Line))
-        .chain(legend_entry("difference", colour(3), Sample::Line));
+        .chain(legend_entry(&difference.label, colour(3), Sample::Line));
     let figure = Figure {
         title: title.into(),
         panels: vec![top, bottom],
