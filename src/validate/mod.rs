@@ -267,6 +267,9 @@ pub fn simulate_response_with(
 pub struct PreparedDrive<'a> {
     reference: SamplesView<'a>,
     input: DriveInput,
+    /// Interpolated a stretch at a time by each replay, never whole (see
+    /// [`PreparedDrive::for_one_replay`]).
+    per_stretch: bool,
     cache: std::sync::Mutex<Vec<(usize, std::sync::Arc<Vec<f64>>)>>,
     /// The reference's first sample that is not finite, looked for once.
     not_finite: std::sync::OnceLock<Option<usize>>,
@@ -278,8 +281,23 @@ impl<'a> PreparedDrive<'a> {
         PreparedDrive {
             reference: reference.into(),
             input,
+            per_stretch: false,
             cache: Default::default(),
             not_finite: Default::default(),
+        }
+    }
+
+    /// `reference` for a single replay (a validation): where the replay is
+    /// upsampled, its drive is interpolated a stretch at a time as it goes
+    /// ([`resample::Interpolator`]: the same samples), not made whole and
+    /// kept for further replays (`factor` times the record in `f64`s).
+    pub fn for_one_replay(
+        reference: impl Into<SamplesView<'a>>,
+        input: DriveInput,
+    ) -> PreparedDrive<'a> {
+        PreparedDrive {
+            per_stretch: true,
+            ..PreparedDrive::new(reference, input)
         }
     }
 
@@ -459,8 +477,12 @@ pub fn replay_streamed(
 pub struct Replay<'d, 'a> {
     drive: &'d PreparedDrive<'a>,
     /// The drive whole where it is interpolated (made once, shared by the
-    /// replays), else `None`: the samples themselves.
+    /// replays), else `None`: the samples themselves, or interpolated a
+    /// stretch at a time by `interpolator`.
     whole: Option<std::sync::Arc<Vec<f64>>>,
+    interpolator: Option<resample::Interpolator>,
+    /// The interpolated stretch (with a sample each side).
+    interpolated: Vec<f64>,
     sim: Simulator<crate::model::ElementSet<crate::model::AnyElement>>,
     output: crate::sim::Output,
     decimator: resample::Decimator,
@@ -497,11 +519,15 @@ impl<'d, 'a> Replay<'d, 'a> {
         // compares replays at several rates
         let quasi_static = quasi_static_above_hz(sample_rate_hz);
         let top = model.highest_replayed_frequency_hz(quasi_static);
-        let whole = if factor == 1 {
+        let (whole, interpolator) = if factor == 1 {
             drive.check_finite()?;
-            None
+            (None, None)
+        } else if drive.per_stretch {
+            resample::check(factor, &[], "signal")?;
+            drive.check_finite()?;
+            (None, Some(resample::Interpolator::new(factor)))
         } else {
-            Some(drive.at(factor)?)
+            (Some(drive.at(factor)?), None)
         };
         let mut sim = Simulator::with_quasi_static_above(
             &model.linear,
@@ -532,6 +558,8 @@ impl<'d, 'a> Replay<'d, 'a> {
         Ok(Replay {
             drive,
             whole,
+            interpolator,
+            interpolated: Vec::new(),
             sim,
             output,
             decimator: resample::Decimator::new(factor, resample::HALF_WIDTH, total)?,
@@ -566,17 +594,19 @@ impl<'d, 'a> Replay<'d, 'a> {
         let reference = self.drive.reference;
         let end = (done + self.fine.len()).min(total);
         let fine = &mut self.fine[..end - done];
+        // the drive's samples `lo..hi` on the replay's grid
+        let (interpolator, buffer) = (self.interpolator.as_ref(), &mut self.interpolated);
         match (&self.whole, self.drive.input) {
             (Some(w), _) => self.sim.run_output(&w[done..end], self.output, fine)?,
             (None, DriveInput::Ramp) => {
-                self.sim
-                    .run_output(&reference.range(done..end), self.output, fine)?
+                let x = drive_on_grid(reference, interpolator, buffer, done..end);
+                self.sim.run_output(&x, self.output, fine)?
             }
             (None, _) => {
                 // with a neighbour each side where there is one: the same
                 // drive as the whole reference pre-emphasised
                 let lo = done.saturating_sub(1);
-                let x = reference.range(lo..(end + 1).min(reference.len()));
+                let x = drive_on_grid(reference, interpolator, buffer, lo..(end + 1).min(total));
                 self.force.clear();
                 self.force
                     .extend((done..end).map(|i| pre_emphasised(&x, i - lo)));
@@ -603,6 +633,24 @@ impl<'d, 'a> Replay<'d, 'a> {
         self.done = end;
         crate::observe::progress(observer, "simulating", end as u64, total as u64)?;
         Ok(Some(&self.out))
+    }
+}
+
+/// Samples `fine` of `reference` on a replay's grid: the samples
+/// themselves, or interpolated into `buffer` by `interpolator`.
+fn drive_on_grid<'c>(
+    reference: SamplesView<'c>,
+    interpolator: Option<&resample::Interpolator>,
+    buffer: &'c mut Vec<f64>,
+    fine: std::ops::Range<usize>,
+) -> std::borrow::Cow<'c, [f64]> {
+    match interpolator {
+        None => reference.range(fine),
+        Some(ip) => {
+            buffer.clear();
+            ip.fill(reference, fine, buffer);
+            std::borrow::Cow::Borrowed(&buffer[..])
+        }
     }
 }
 
@@ -999,7 +1047,7 @@ pub fn validate_view(
         1
     };
     let repeated = (repeats > 1).then(|| force.values().repeat(repeats));
-    let drive = PreparedDrive::new(
+    let drive = PreparedDrive::for_one_replay(
         repeated.as_ref().map_or(force, SamplesView::from),
         options.input,
     );
@@ -1410,7 +1458,8 @@ mod tests {
     /// the recording's own rate and at three times it, for each way the
     /// force is taken between samples; and the same from the force held as
     /// a file stores it (`f32`s of a unit, see [`crate::signals::Samples`]),
-    /// whose stretches are converted as they are replayed.
+    /// whose stretches are converted as they are replayed, and interpolated
+    /// a stretch at a time ([`PreparedDrive::for_one_replay`]).
     #[test]
     fn a_replay_made_a_stretch_at_a_time_is_the_replay_made_whole() {
         use crate::model::ElementSpec;
@@ -1453,6 +1502,8 @@ mod tests {
                 };
                 let streamed = streamed_from(PreparedDrive::new(&force, input));
                 assert!(streamed_from(PreparedDrive::new(&held, input)) == streamed);
+                // interpolated a stretch at a time, never whole
+                assert!(streamed_from(PreparedDrive::for_one_replay(&held, input)) == streamed);
                 let fine_drive = match input {
                     DriveInput::Ramp => resample::interpolate(&force, factor).unwrap(),
                     _ => pre_emphasis(&resample::interpolate(&force, factor).unwrap()),

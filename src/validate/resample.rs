@@ -103,30 +103,69 @@ pub fn interpolate(x: &[f64], factor: usize) -> Result<Vec<f64>> {
     if factor == 1 {
         return Ok(x.to_vec());
     }
-    let h = prototype(factor);
-    let centre = HALF_WIDTH * factor;
-    let n = x.len();
-    let mut y = vec![0.0; n * factor];
-    // polyphase: output m = q·factor + p sums x[k]·h(m − k·factor)
-    for p in 0..factor {
+    let mut y = Vec::with_capacity(x.len() * factor);
+    Interpolator::new(factor).fill(x.into(), 0..x.len() * factor, &mut y);
+    Ok(y)
+}
+
+/// [`interpolate`]'s filter, split into its `factor` phases: any stretch
+/// of the interpolated signal made on its own, from the original samples
+/// within the filter's reach, equal to the bit to the whole's (the same
+/// taps summed in the same order). A replay made once need not hold its
+/// drive interpolated whole (`factor` times the record in `f64`s).
+#[derive(Clone, Debug)]
+pub struct Interpolator {
+    factor: usize,
+    /// Per phase `p`: the first `j` its taps pair with (`x[q − j]`), and
+    /// the taps.
+    phases: Vec<(isize, Vec<f64>)>,
+}
+
+impl Interpolator {
+    /// The filter of [`interpolate`] by `factor` (at least 2).
+    pub fn new(factor: usize) -> Interpolator {
+        let h = prototype(factor);
+        let centre = HALF_WIDTH * factor;
+        // polyphase: output m = q·factor + p sums x[k]·h(m − k·factor);
         // taps of phase p: h[centre + p + j·factor] pairs with x[q − j]
-        let lo = -((centre + p) as isize / factor as isize);
-        let hi = ((h.len() - 1 - centre - p) / factor) as isize;
-        let taps: Vec<f64> = (lo..=hi)
-            .map(|j| h[(centre as isize + p as isize + j * factor as isize) as usize])
+        let phases = (0..factor)
+            .map(|p| {
+                let lo = -((centre + p) as isize / factor as isize);
+                let hi = ((h.len() - 1 - centre - p) / factor) as isize;
+                let taps = (lo..=hi)
+                    .map(|j| h[(centre as isize + p as isize + j * factor as isize) as usize])
+                    .collect();
+                (lo, taps)
+            })
             .collect();
-        for q in 0..n {
+        Interpolator { factor, phases }
+    }
+
+    /// Appends samples `fine` of `x` interpolated to `out` (samples beyond
+    /// the record's ends count as zero).
+    pub fn fill(&self, x: SamplesView, fine: std::ops::Range<usize>, out: &mut Vec<f64>) {
+        if fine.is_empty() {
+            return;
+        }
+        let (f, n) = (self.factor, x.len());
+        // the original samples within reach of the stretch
+        let reach = self.phases.iter().map(|(_, t)| t.len()).max().unwrap_or(0);
+        let first = (fine.start / f).saturating_sub(reach);
+        let last = ((fine.end - 1) / f + reach + 1).min(n);
+        let xs = x.range(first..last.max(first));
+        out.extend(fine.map(|m| {
+            let (q, p) = (m / f, m % f);
+            let (lo, taps) = &self.phases[p];
             let mut acc = 0.0;
             for (t, &c) in taps.iter().enumerate() {
                 let k = q as isize - (lo + t as isize);
                 if k >= 0 && (k as usize) < n {
-                    acc += c * x[k as usize];
+                    acc += c * xs[k as usize - first];
                 }
             }
-            y[q * factor + p] = acc;
-        }
+            acc
+        }));
     }
-    Ok(y)
 }
 
 /// Low-passes `y` (sampled at `factor` times the target rate) to
