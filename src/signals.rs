@@ -111,6 +111,25 @@ pub struct RecordingMeta {
 }
 
 impl RecordingMeta {
+    /// A v1 description of `channels` sampled at `sample_rate_hz`, driven
+    /// as `excitation` says, with nothing else stated.
+    pub fn new(
+        sample_rate_hz: f64,
+        channels: Vec<Channel>,
+        excitation: Excitation,
+    ) -> RecordingMeta {
+        RecordingMeta {
+            format: crate::record::FORMAT_V1.into(),
+            sample_rate_hz,
+            channels,
+            excitation,
+            description: String::new(),
+            metadata: Default::default(),
+            extra: Default::default(),
+            chosen_reference: None,
+        }
+    }
+
     /// Index of the reference (input) channel: the one chosen
     /// ([`RecordingMeta::choose_reference`]), else the first `force`
     /// channel, else the first `voltage` channel.

@@ -316,24 +316,19 @@ mod tests {
             scale: 1.0,
         };
         Recording {
-            meta: RecordingMeta {
-                format: crate::record::FORMAT_V1.into(),
-                sample_rate_hz: fs,
-                channels: vec![
+            meta: RecordingMeta::new(
+                fs,
+                vec![
                     channel("drive", Quantity::Voltage),
                     channel("force", Quantity::Force),
                     channel("velocity", Quantity::Velocity),
                 ],
-                excitation: Excitation {
+                Excitation {
                     kind: ExcitationKind::SteppedSine,
                     steps,
                     sweep: None,
                 },
-                description: String::new(),
-                metadata: Default::default(),
-                extra: Default::default(),
-                chosen_reference: None,
-            },
+            ),
             channels,
         }
     }

@@ -1592,23 +1592,18 @@ mod tests {
             scale: 1.0,
         };
         let rec = Recording {
-            meta: RecordingMeta {
-                format: crate::record::FORMAT_V1.into(),
-                sample_rate_hz: fs,
-                channels: vec![
+            meta: RecordingMeta::new(
+                fs,
+                vec![
                     channel("force", Quantity::Force),
                     channel("velocity", Quantity::Velocity),
                 ],
-                excitation: Excitation {
+                Excitation {
                     kind: ExcitationKind::SteppedSine,
                     steps,
                     sweep: None,
                 },
-                description: String::new(),
-                metadata: Default::default(),
-                extra: Default::default(),
-                chosen_reference: None,
-            },
+            ),
             channels: vec![force, measured],
         };
         (rec, model((2.0 * PI * 60.0f64).powi(2)))
