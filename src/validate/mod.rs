@@ -34,6 +34,16 @@
 //! would replay at up to 64 times the rate for nothing (a further mode a
 //! fit places far above the band, only its flexibility seen, at 67.6 kHz
 //! beside a 16 kHz recording).
+//!
+//! A validation replays the model once and holds none of the replay
+//! ([`validate_view`]): a [`Replay`] is made a stretch at a time, each
+//! stretch folded into the error sums ([`tally`]: the same bits as the
+//! whole signals' figures), handed to the caller's [`ReplayTap`] (the
+//! figures' traces) and, for a stepped sine, to the reduction reading it a
+//! dwell at a time beside the reference. An upsampled drive is interpolated
+//! a stretch at a time ([`resample::Interpolator`]). Only what needs the
+//! replay whole keeps it: a sweep (followed over the record), a multisine's
+//! lines, dwells stated out of order, and a caller that asks for it.
 
 pub mod resample;
 mod tally;
