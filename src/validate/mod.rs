@@ -976,9 +976,10 @@ pub fn validate_recording(
 }
 
 /// [`validate_recording`], telling `observer` how the replay and the
-/// FRF comparison progress (`simulating`, then [`REDUCING`]) and stopping
-/// where it asks ([`Error::Cancelled`]). The replay is kept
-/// ([`Validation::simulated`]).
+/// FRF comparison progress ([`REDUCING`] 0 and 1 of 2 around the measured
+/// response's reduction, `simulating` as the replay is made and reduced,
+/// then [`REDUCING`] 2 of 2) and stopping where it asks
+/// ([`Error::Cancelled`]). The replay is kept ([`Validation::simulated`]).
 pub fn validate_recording_observed(
     model: &Model,
     response_sign: f64,
