@@ -465,8 +465,7 @@ impl ReplayTap for Traces<'_> {
         self.window = window.map(|w| (w.clone(), self.builders(w)));
     }
 
-    fn stretch(&mut self, at: usize, simulated: &[f64]) {
-        let measured = self.measured.range(at..at + simulated.len());
+    fn stretch(&mut self, at: usize, measured: &[f64], simulated: &[f64]) {
         let difference: Vec<f64> = measured.iter().zip(simulated).map(|(a, b)| a - b).collect();
         if let Some([_, s, d]) = &mut self.whole {
             s.push(simulated);

@@ -943,8 +943,9 @@ pub struct Validation {
 pub trait ReplayTap {
     /// Before the first stretch: the samples compared and the window.
     fn begin(&mut self, _samples: usize, _window: Option<std::ops::Range<usize>>) {}
-    /// The simulated response from sample `at` on.
-    fn stretch(&mut self, _at: usize, _simulated: &[f64]) {}
+    /// The simulated response from sample `at` on, beside the measured one
+    /// there (as long).
+    fn stretch(&mut self, _at: usize, _measured: &[f64], _simulated: &[f64]) {}
 }
 
 impl ReplayTap for () {}
@@ -1227,7 +1228,7 @@ impl Pass<'_, '_> {
         if self.keep {
             self.kept.extend_from_slice(simulated);
         }
-        self.tap.stretch(at, simulated);
+        self.tap.stretch(at, &measured, simulated);
         let end = at + simulated.len();
         if end > self.floor {
             let from = at.max(self.floor);
@@ -1638,7 +1639,7 @@ mod tests {
             fn begin(&mut self, samples: usize, window: Option<std::ops::Range<usize>>) {
                 (self.1, self.2) = (samples, window);
             }
-            fn stretch(&mut self, at: usize, simulated: &[f64]) {
+            fn stretch(&mut self, at: usize, _: &[f64], simulated: &[f64]) {
                 assert_eq!(at, self.0.len(), "stretches in order, each once");
                 self.0.extend_from_slice(simulated);
             }
