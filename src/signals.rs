@@ -348,6 +348,12 @@ impl FrameSource for InMemoryFrames<'_> {
 /// unit; each sample read back is then the same `f64` to the bit (`unit ·
 /// stored`, as the readers compute it). Anything else (a binding's
 /// `float64` array, a sum of channels) is kept as it is.
+///
+/// A channel longer than a loader's bound ([`SamplesBuilder::spilling_above`])
+/// is not held in memory at all but in an unnamed scratch file (see
+/// [`Spilled`]): what a replay or a fit reads of it is read back a stretch
+/// at a time, the same values to the bit, and a recording's length no
+/// longer sets what the process holds.
 #[derive(Clone, Debug)]
 pub struct Samples(Held);
 
@@ -356,7 +362,10 @@ impl PartialEq for Samples {
     fn eq(&self, other: &Samples) -> bool {
         match (&self.0, &other.0) {
             (Held::Exact(a), Held::Exact(b)) => a == b,
-            _ => self.len() == other.len() && (0..self.len()).all(|i| self.get(i) == other.get(i)),
+            _ => {
+                let (mut a, mut b) = (self.view().cursor(), other.view().cursor());
+                self.len() == other.len() && (0..self.len()).all(|i| a.get(i) == b.get(i))
+            }
         }
     }
 }
@@ -365,6 +374,171 @@ impl PartialEq for Samples {
 enum Held {
     Exact(Vec<f64>),
     Units { stored: Vec<f32>, unit: f64 },
+    Spilled(std::sync::Arc<Spilled>),
+}
+
+/// Samples held in a scratch file: `f32`s of a unit where every sample is
+/// one (as [`Samples`] holds them in memory), else `f64`s, little-endian.
+/// The file has no name (it is gone when the last clone of the samples is
+/// dropped, or the process ends, however it ends); reads are positioned, so
+/// threads replaying the same channel read it at once without a lock. The
+/// operating system's page cache keeps what is read often; the process
+/// holds only the stretch it is reading.
+#[derive(Debug)]
+pub struct Spilled {
+    file: std::fs::File,
+    len: usize,
+    /// `Some(unit)`: stored as `f32`s of `unit`; `None`: as `f64`s.
+    unit: Option<f64>,
+}
+
+impl Spilled {
+    fn width(&self) -> usize {
+        if self.unit.is_some() { 4 } else { 8 }
+    }
+
+    /// Samples `range` in physical units, appended to `out`.
+    ///
+    /// Panics if the scratch file cannot be read back (a failing disk, as
+    /// an allocation that fails aborts: the file is the process's own).
+    fn read_into(&self, range: std::ops::Range<usize>, out: &mut Vec<f64>) {
+        let w = self.width();
+        let mut bytes = vec![0u8; w * range.len()];
+        if let Err(e) = read_exact_at(&self.file, &mut bytes, (w * range.start) as u64) {
+            panic!(
+                "reading back samples {}..{} of a channel held in a scratch file: {e}",
+                range.start, range.end
+            );
+        }
+        match self.unit {
+            Some(unit) => out.extend(
+                bytes
+                    .chunks_exact(4)
+                    .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64 * unit),
+            ),
+            None => out.extend(
+                bytes
+                    .chunks_exact(8)
+                    .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes"))),
+            ),
+        }
+    }
+}
+
+#[cfg(unix)]
+fn read_exact_at(file: &std::fs::File, buf: &mut [u8], offset: u64) -> std::io::Result<()> {
+    std::os::unix::fs::FileExt::read_exact_at(file, buf, offset)
+}
+
+#[cfg(windows)]
+fn read_exact_at(file: &std::fs::File, mut buf: &mut [u8], mut offset: u64) -> std::io::Result<()> {
+    use std::os::windows::fs::FileExt;
+    while !buf.is_empty() {
+        match file.seek_read(buf, offset) {
+            Ok(0) => return Err(std::io::ErrorKind::UnexpectedEof.into()),
+            Ok(n) => {
+                buf = &mut buf[n..];
+                offset += n as u64;
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
+}
+
+/// A channel being written to its scratch file (see [`Spilled`]).
+#[derive(Debug)]
+struct SpillWriter {
+    out: std::io::BufWriter<std::fs::File>,
+    len: usize,
+    unit: Option<f64>,
+}
+
+/// Where scratch files go: the system's temporary directory (`TMPDIR`).
+fn scratch_error(e: std::io::Error) -> Error {
+    Error::io(
+        std::env::temp_dir().join("(a scratch file holding a channel)"),
+        e,
+    )
+}
+
+impl SpillWriter {
+    /// A new scratch file holding `held`.
+    fn of(held: Held) -> Result<SpillWriter> {
+        let file = tempfile::tempfile().map_err(scratch_error)?;
+        let mut w = SpillWriter {
+            out: std::io::BufWriter::with_capacity(1 << 16, file),
+            len: 0,
+            unit: None,
+        };
+        match held {
+            Held::Exact(v) => w.write_exact(&v)?,
+            Held::Units { stored, unit } => {
+                w.unit = Some(unit);
+                w.write_stored(&stored)?;
+            }
+            Held::Spilled(_) => unreachable!("a builder never holds a spilled channel"),
+        }
+        Ok(w)
+    }
+
+    fn write_stored(&mut self, x: &[f32]) -> Result<()> {
+        use std::io::Write;
+        for v in x {
+            self.out
+                .write_all(&v.to_le_bytes())
+                .map_err(scratch_error)?;
+        }
+        self.len += x.len();
+        Ok(())
+    }
+
+    fn write_exact(&mut self, x: &[f64]) -> Result<()> {
+        use std::io::Write;
+        for v in x {
+            self.out
+                .write_all(&v.to_le_bytes())
+                .map_err(scratch_error)?;
+        }
+        self.len += x.len();
+        Ok(())
+    }
+
+    /// Appends `x`: as `f32`s of the unit while every sample is one, else
+    /// every sample as it is from the start (the file rewritten once).
+    fn extend(&mut self, x: &[f64]) -> Result<()> {
+        if let Some(unit) = self.unit {
+            let stored: Vec<f32> = x.iter().map_while(|&v| stored_as(v, unit)).collect();
+            if stored.len() == x.len() {
+                return self.write_stored(&stored);
+            }
+            let old =
+                std::mem::replace(self, SpillWriter::of(Held::Exact(Vec::new()))?).finish()?;
+            let mut v = Vec::with_capacity(STRETCH);
+            let mut at = 0;
+            while at < old.len {
+                let end = (at + STRETCH).min(old.len);
+                v.clear();
+                old.read_into(at..end, &mut v);
+                self.write_exact(&v)?;
+                at = end;
+            }
+        }
+        self.write_exact(x)
+    }
+
+    fn finish(self) -> Result<Spilled> {
+        let file = self
+            .out
+            .into_inner()
+            .map_err(|e| scratch_error(e.into_error()))?;
+        Ok(Spilled {
+            file,
+            len: self.len,
+            unit: self.unit,
+        })
+    }
 }
 
 /// Samples converted to `f64` at a time by [`SamplesView::for_each_stretch`].
@@ -375,8 +549,8 @@ impl Samples {
     /// where that gives back every sample to the bit, else as they are.
     pub fn recorded(values: Vec<f64>, units: &[f64]) -> Samples {
         let mut b = SamplesBuilder::new(values.len(), units);
-        b.extend(&values);
-        b.finish()
+        b.extend_held(&values);
+        Samples(b.held.unwrap_or(Held::Exact(Vec::new())))
     }
 
     /// The samples, borrowed.
@@ -384,7 +558,13 @@ impl Samples {
         match &self.0 {
             Held::Exact(v) => SamplesView::Exact(v),
             Held::Units { stored, unit } => SamplesView::Units(stored, *unit),
+            Held::Spilled(s) => SamplesView::Spilled(s),
         }
+    }
+
+    /// Whether the samples are held in a scratch file, not in memory.
+    pub fn is_spilled(&self) -> bool {
+        matches!(self.0, Held::Spilled(_))
     }
 
     /// Number of samples.
@@ -423,14 +603,21 @@ impl Samples {
         match self.0 {
             Held::Exact(v) => v,
             Held::Units { stored, unit } => stored.iter().map(|&s| s as f64 * unit).collect(),
+            Held::Spilled(s) => {
+                let mut v = Vec::with_capacity(s.len);
+                s.read_into(0..s.len, &mut v);
+                v
+            }
         }
     }
 
-    /// Bytes the samples take.
+    /// Bytes the samples take in memory (none when spilled to a scratch
+    /// file).
     pub fn bytes(&self) -> usize {
         match &self.0 {
             Held::Exact(v) => 8 * v.len(),
             Held::Units { stored, .. } => 4 * stored.len(),
+            Held::Spilled(_) => 0,
         }
     }
 }
@@ -442,6 +629,9 @@ pub enum SamplesView<'a> {
     Exact(&'a [f64]),
     /// Stored values and the unit each is of.
     Units(&'a [f32], f64),
+    /// Held in a scratch file (read a stretch at a time: see
+    /// [`SamplesView::cursor`] for reading sample by sample).
+    Spilled(&'a Spilled),
 }
 
 impl<'a> SamplesView<'a> {
@@ -450,6 +640,7 @@ impl<'a> SamplesView<'a> {
         match self {
             SamplesView::Exact(v) => v.len(),
             SamplesView::Units(s, _) => s.len(),
+            SamplesView::Spilled(s) => s.len,
         }
     }
 
@@ -458,12 +649,30 @@ impl<'a> SamplesView<'a> {
         self.len() == 0
     }
 
-    /// Sample `i`, in physical units.
+    /// Sample `i`, in physical units (a read of the file where the samples
+    /// are spilled: a loop over samples reads them through
+    /// [`SamplesView::cursor`]).
     #[inline]
     pub fn get(&self, i: usize) -> f64 {
         match self {
             SamplesView::Exact(v) => v[i],
             SamplesView::Units(s, unit) => s[i] as f64 * unit,
+            SamplesView::Spilled(s) => {
+                let mut v = Vec::with_capacity(1);
+                s.read_into(i..i + 1, &mut v);
+                v[0]
+            }
+        }
+    }
+
+    /// A reader of samples one at a time, in any order but best in runs
+    /// (a spilled channel is read back a stretch at a time around the
+    /// sample asked for).
+    pub fn cursor(&self) -> SampleCursor<'a> {
+        SampleCursor {
+            view: *self,
+            at: 0,
+            buffer: Vec::new(),
         }
     }
 
@@ -474,6 +683,12 @@ impl<'a> SamplesView<'a> {
             SamplesView::Exact(v) => std::borrow::Cow::Borrowed(&v[range]),
             SamplesView::Units(s, unit) => {
                 std::borrow::Cow::Owned(s[range].iter().map(|&s| s as f64 * unit).collect())
+            }
+            SamplesView::Spilled(s) => {
+                assert!(range.end <= s.len, "samples {range:?} of {}", s.len);
+                let mut v = Vec::with_capacity(range.len());
+                s.read_into(range, &mut v);
+                std::borrow::Cow::Owned(v)
             }
         }
     }
@@ -494,7 +709,7 @@ impl<'a> SamplesView<'a> {
     ) {
         match self {
             SamplesView::Exact(v) => f(range.start, &v[range]),
-            SamplesView::Units(..) => {
+            SamplesView::Units(..) | SamplesView::Spilled(_) => {
                 let mut at = range.start;
                 while at < range.end {
                     let end = (at + STRETCH).min(range.end);
@@ -503,6 +718,40 @@ impl<'a> SamplesView<'a> {
                 }
             }
         }
+    }
+}
+
+/// Samples read one at a time (see [`SamplesView::cursor`]): directly
+/// where they are held in memory, else from a stretch read around the one
+/// asked for.
+#[derive(Debug)]
+pub struct SampleCursor<'a> {
+    view: SamplesView<'a>,
+    /// The first sample in `buffer`.
+    at: usize,
+    buffer: Vec<f64>,
+}
+
+/// Samples a [`SampleCursor`] reads back at once from a spilled channel.
+const CURSOR_STRETCH: usize = 1 << 16;
+
+impl SampleCursor<'_> {
+    /// Sample `i`, in physical units.
+    #[inline]
+    pub fn get(&mut self, i: usize) -> f64 {
+        let SamplesView::Spilled(s) = self.view else {
+            return self.view.get(i);
+        };
+        if !(self.at..self.at + self.buffer.len()).contains(&i) {
+            // from a little before: a loop may step back a few samples
+            self.at = i.saturating_sub(CURSOR_STRETCH / 16);
+            self.buffer.clear();
+            s.read_into(
+                self.at..(self.at + CURSOR_STRETCH).min(s.len),
+                &mut self.buffer,
+            );
+        }
+        self.buffer[i - self.at]
     }
 }
 
@@ -535,6 +784,9 @@ pub struct SamplesBuilder {
     held: Option<Held>,
     /// Whether a sample was not zero.
     nonzero: bool,
+    /// More samples than this go to a scratch file.
+    spill_above: Option<usize>,
+    spilling: Option<SpillWriter>,
 }
 
 /// `v` as an `f32` of `unit`, where that gives it back to the bit.
@@ -555,12 +807,46 @@ impl SamplesBuilder {
             capacity,
             held: None,
             nonzero: false,
+            spill_above: None,
+            spilling: None,
+        }
+    }
+
+    /// The builder holding the samples in a scratch file (see [`Spilled`])
+    /// once there are more than `samples`: a loader's bound on what a
+    /// channel holds in memory, whatever the recording's length.
+    pub fn spilling_above(self, samples: usize) -> SamplesBuilder {
+        SamplesBuilder {
+            spill_above: Some(samples),
+            capacity: self.capacity.min(samples.saturating_add(1)),
+            ..self
         }
     }
 
     /// Appends `x`.
-    pub fn extend(&mut self, x: &[f64]) {
+    ///
+    /// Errors: a scratch file that cannot be made or written (only where
+    /// the builder spills).
+    pub fn extend(&mut self, x: &[f64]) -> Result<()> {
         self.nonzero = self.nonzero || x.iter().any(|&v| v != 0.0);
+        if let Some(w) = &mut self.spilling {
+            return w.extend(x);
+        }
+        self.extend_held(x);
+        let held = match &self.held {
+            Some(Held::Exact(v)) => v.len(),
+            Some(Held::Units { stored, .. }) => stored.len(),
+            _ => 0,
+        };
+        if self.spill_above.is_some_and(|n| held > n) {
+            let held = self.held.take().expect("samples held");
+            self.spilling = Some(SpillWriter::of(held)?);
+        }
+        Ok(())
+    }
+
+    /// Appends `x` to the samples held in memory.
+    fn extend_held(&mut self, x: &[f64]) {
         let held = self.held.get_or_insert_with(|| {
             let fits = |u: f64| x.iter().all(|&v| stored_as(v, u).is_some());
             match self.units.iter().copied().find(|&u| fits(u)) {
@@ -593,8 +879,14 @@ impl SamplesBuilder {
     }
 
     /// The samples.
-    pub fn finish(self) -> Samples {
-        Samples(self.held.unwrap_or(Held::Exact(Vec::new())))
+    ///
+    /// Errors: a scratch file that cannot be written (only where the
+    /// builder spills).
+    pub fn finish(self) -> Result<Samples> {
+        if let Some(w) = self.spilling {
+            return Ok(Samples(Held::Spilled(std::sync::Arc::new(w.finish()?))));
+        }
+        Ok(Samples(self.held.unwrap_or(Held::Exact(Vec::new()))))
     }
 }
 
@@ -608,6 +900,64 @@ impl From<Vec<f64>> for Samples {
 #[cfg(test)]
 mod samples_tests {
     use super::Samples;
+
+    /// A channel longer than its builder's bound is held in a scratch file
+    /// and read back to the bit, whichever way it is read: as `f32`s of its
+    /// unit, and as `f64`s from the start once a sample no `f32` of the
+    /// unit gives back arrives after it was spilled; a channel within the
+    /// bound stays in memory.
+    #[test]
+    fn a_long_channel_is_held_in_a_scratch_file_and_read_back_to_the_bit() {
+        let unit = 3.7e-4 / 8_388_608.0;
+        let pcm24: Vec<f64> = (0..200_000)
+            .map(|i| (((i * 7919) % 16_777_216) as f64 - 8_388_608.0) * unit)
+            .collect();
+        let mut late = pcm24.clone();
+        late[150_000] = 0.1; // after the spill: not an f32 of the unit
+        for (values, held_as) in [(&pcm24, 4), (&late, 8)] {
+            let mut b = super::SamplesBuilder::new(values.len(), &[unit]).spilling_above(5_000);
+            values.chunks(3_001).for_each(|c| b.extend(c).unwrap());
+            let s = b.finish().unwrap();
+            assert!(s.is_spilled());
+            assert_eq!(s.bytes(), 0);
+            let super::Held::Spilled(f) = &s.0 else {
+                unreachable!()
+            };
+            assert_eq!(f.width(), held_as);
+            assert_eq!(s.len(), values.len());
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&s.values()), bits(values));
+            assert_eq!(
+                bits(&s.range(70_000..140_003)),
+                bits(&values[70_000..140_003])
+            );
+            let mut seen = Vec::new();
+            s.for_each_stretch(11..values.len() - 5, |at, x| {
+                assert_eq!(at, 11 + seen.len());
+                seen.extend_from_slice(x);
+            });
+            assert_eq!(bits(&seen), bits(&values[11..values.len() - 5]));
+            // sample by sample: in runs, backwards, and jumping about
+            let view = s.view();
+            let mut cursor = view.cursor();
+            let order = (0..values.len())
+                .step_by(7)
+                .chain((0..values.len()).rev().step_by(13))
+                .chain((0..5000).map(|k| (k * 104_729) % values.len()));
+            for i in order {
+                assert_eq!(cursor.get(i).to_bits(), values[i].to_bits(), "{i}");
+            }
+            assert_eq!(s.get(123_457).to_bits(), values[123_457].to_bits());
+            assert!(s == Samples::from(values.clone()));
+            // the clone shares the file
+            assert_eq!(bits(&s.clone().into_values()), bits(values));
+        }
+        let mut b = super::SamplesBuilder::new(5_000, &[unit]).spilling_above(5_000);
+        b.extend(&pcm24[..5_000]).unwrap();
+        let s = b.finish().unwrap();
+        assert!(!s.is_spilled());
+        assert_eq!(s.bytes(), 4 * 5_000);
+    }
 
     /// 24-bit integers times a scale, float32 values times another, and a
     /// run file's floats: each held as `f32`s (half the bytes) and read
@@ -640,8 +990,8 @@ mod samples_tests {
         let mut late: Vec<f64> = (0..1000).map(|i| i as f64 * 0.5).collect();
         late[900] = 0.1;
         let mut b = super::SamplesBuilder::new(1000, &[1.0]);
-        late.chunks(64).for_each(|c| b.extend(c));
-        let s = b.finish();
+        late.chunks(64).for_each(|c| b.extend(c).unwrap());
+        let s = b.finish().unwrap();
         assert_eq!(s.bytes(), 8 * late.len());
         // equal by value, however held
         late[900] = 450.0;

@@ -781,6 +781,9 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
     let replayed = replays
         .replayed(&records, problem.replays_of(&truth_model).unwrap())
         .unwrap();
+    // reduced a dwell at a time as the replay is made (as the diagnosis
+    // reduces it, none held whole): the same FRFs to the bit
+    assert!(replays.replayed_as_made(&problem, &truth_model).unwrap() == replayed);
     let judged = |frf| {
         hystid::fit::FitData::from_frf(frf, &d.harmonics, d.band_hz, None)
             .unwrap()

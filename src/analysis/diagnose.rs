@@ -477,7 +477,7 @@ fn trace_time_residual(
         options.clone(),
         None,
     )?;
-    let replayed = replays.replayed(records, problem.replays_of(refined)?)?;
+    let replayed = replays.replayed_as_made(&problem, refined)?;
     let data = FitData::from_frf(replays.measured(), &d.harmonics, d.band_hz, None)?
         .with_sign(d.response_sign);
     let rdata =

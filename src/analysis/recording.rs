@@ -341,7 +341,7 @@ pub fn load_held_reference_and_response(
             .channels
             .into_iter()
             .map(SamplesBuilder::finish)
-            .collect(),
+            .collect::<Result<_>>()?,
         response: kept.response,
         truncated,
     })
@@ -378,6 +378,12 @@ pub fn stated_excitation(path: &Path) -> Result<ExcitationKind> {
     })
 }
 
+/// Samples of a channel a loader holds in memory (16 MiB as `f32`s); the
+/// rest of a longer channel is held in a scratch file
+/// ([`crate::signals::Spilled`]), so that the replays and time-domain fits
+/// of a recording of any length hold a bounded part of it.
+pub const HELD_UP_TO: usize = 1 << 22;
+
 /// Frames read at a time by [`load_reference_and_response`].
 const LOAD_STRETCH: usize = 1 << 16;
 
@@ -386,7 +392,7 @@ trait Keep {
     /// For `frames` samples of a channel of `scale`.
     fn for_channel(frames: usize, scale: f64) -> Self;
     /// Appends `x`.
-    fn append(&mut self, x: &[f64]);
+    fn append(&mut self, x: &[f64]) -> Result<()>;
     /// Whether every sample is zero.
     fn all_zero(&self) -> bool;
 }
@@ -395,8 +401,9 @@ impl Keep for Vec<f64> {
     fn for_channel(frames: usize, _: f64) -> Self {
         Vec::with_capacity(frames)
     }
-    fn append(&mut self, x: &[f64]) {
+    fn append(&mut self, x: &[f64]) -> Result<()> {
         self.extend_from_slice(x);
+        Ok(())
     }
     fn all_zero(&self) -> bool {
         self.iter().all(|&v| v == 0.0)
@@ -407,10 +414,10 @@ impl Keep for SamplesBuilder {
     fn for_channel(frames: usize, scale: f64) -> Self {
         // a WAV file's samples are f32s (or 16/24-bit integers) of its
         // scale, a run file's f32s
-        SamplesBuilder::new(frames, &[scale, 1.0])
+        SamplesBuilder::new(frames, &[scale, 1.0]).spilling_above(HELD_UP_TO)
     }
-    fn append(&mut self, x: &[f64]) {
-        self.extend(x);
+    fn append(&mut self, x: &[f64]) -> Result<()> {
+        self.extend(x)
     }
     fn all_zero(&self) -> bool {
         SamplesBuilder::all_zero(self)
@@ -462,7 +469,7 @@ fn read_kept<K: Keep>(
             break;
         }
         for (kept, &c) in channels.iter_mut().zip(&keep) {
-            kept.append(&stretch[c]);
+            kept.append(&stretch[c])?;
         }
         at += got;
     }
@@ -501,9 +508,9 @@ pub fn load_time_record(
     let window = window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
     let mut channels: Vec<Option<SamplesBuilder>> = kept.channels.into_iter().map(Some).collect();
     let reference = kept.meta.reference_channel().expect("checked when read");
-    let mut take = |c: usize| channels[c].take().map(SamplesBuilder::finish);
-    let reference_samples = take(reference).expect("kept");
-    let response = match take(kept.response) {
+    let mut take = |c: usize| channels[c].take().map(SamplesBuilder::finish).transpose();
+    let reference_samples = take(reference)?.expect("kept");
+    let response = match take(kept.response)? {
         Some(r) => r,
         // the reference judged against itself
         None => reference_samples.clone(),
@@ -800,9 +807,23 @@ pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> 
             "this is the data-quality report `hystid import` writes beside a recording, not a recording (a glob such as `*.json` picks it up: name the recordings)",
         ));
     }
+    if let Some(reduced) = reduce_path_streamed(path, choice, r)? {
+        return Ok(reduced);
+    }
+    let loaded = load_recording(path, choice)?;
+    reduce(&loaded, r)
+}
+
+/// [`reduce_path`] where it reads the file a stretch at a time (stated
+/// dwells, a long sweep); `None` where it would read it whole.
+fn reduce_path_streamed(
+    path: &Path,
+    choice: ChannelChoice,
+    r: &ReductionOptions,
+) -> Result<Option<Reduced>> {
     // stepped sines whose steps are stated are reduced one dwell at a time
     // from disk (memory bounded whatever the file's size)
-    let streamed = if is_mcap(path) {
+    Ok(if is_mcap(path) {
         let reader = crate::record::McapRunReader::open(path)?;
         let truth = TestDefinition::from_toml(
             &reader.run().info.test_definition,
@@ -816,12 +837,7 @@ pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> 
         let truth = recorded_truth(reader.meta())
             .and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
         reduce_streamed(path, reader, truth, false, choice, r)?
-    };
-    if let Some(reduced) = streamed {
-        return Ok(reduced);
-    }
-    let loaded = load_recording(path, choice)?;
-    reduce(&loaded, r)
+    })
 }
 
 /// The shaker's coil of the recording at `path` (a run file or a WAV
@@ -1047,28 +1063,84 @@ pub fn reduce_recordings(
 /// measured response. The difference of the two FRF sets is a time-domain
 /// residual in the plane the FRFs live in
 /// ([`crate::diagnose::time_residual`]).
+///
+/// What it holds does not grow with the recordings' length where their
+/// dwells are stated in order: the measured response is reduced from the
+/// file a dwell at a time ([`reduce_path`]), the reference and response are
+/// held as the file stored them (a long channel in a scratch file, see
+/// [`HELD_UP_TO`]) until the time records take them, and a model's replay
+/// is reduced a dwell at a time as it is made
+/// ([`ReplayReduction::replayed_as_made`]).
 pub struct ReplayReduction {
-    sources: Vec<(PathBuf, Loaded, ReductionOptions)>,
+    sources: Vec<ReplaySource>,
     measured: NonlinearFrf,
 }
 
+/// One recording of a [`ReplayReduction`].
+struct ReplaySource {
+    path: PathBuf,
+    /// Trimmed to the channels held (the reference and the response).
+    meta: RecordingMeta,
+    response: usize,
+    truncated: bool,
+    /// The reduction, its excitation and sweep compensation settled.
+    options: ReductionOptions,
+    /// The channels of `meta`, until the time records take them.
+    held: Option<Vec<crate::signals::Samples>>,
+}
+
+impl HeldRecording {
+    /// `loaded`'s reference and response held as [`load_held_reference_and_response`]
+    /// holds them.
+    fn of_loaded(loaded: Loaded) -> Result<HeldRecording> {
+        let loaded = loaded.with_only_reference_and_response();
+        let Recording { meta, channels } = loaded.recording;
+        let channels = channels
+            .into_iter()
+            .zip(&meta.channels)
+            .map(|(values, channel)| {
+                let mut b = SamplesBuilder::for_channel(values.len(), channel.scale);
+                for x in values.chunks(LOAD_STRETCH) {
+                    b.extend(x)?;
+                }
+                b.finish()
+            })
+            .collect::<Result<_>>()?;
+        Ok(HeldRecording {
+            meta,
+            channels,
+            response: loaded.response,
+            truncated: loaded.truncated,
+        })
+    }
+}
+
 impl ReplayReduction {
-    /// Loads and reduces each recording (whole: a replay needs every
-    /// sample anyway).
+    /// Reduces each recording and holds its reference and response: from
+    /// the file a dwell at a time where [`reduce_path`] can (stated dwells,
+    /// a long sweep), else loaded whole.
     pub fn new(
         recordings: &[PathBuf],
         choice: ChannelChoice,
         reduction: &ReductionOptions,
     ) -> Result<ReplayReduction> {
-        let loaded = recordings
-            .iter()
-            .map(|path| {
-                let at = |e| Error::context(format!("reducing {}", path.display()), e);
-                let loaded = load_reference_and_response(path, choice).map_err(at)?;
-                Ok((path.clone(), loaded))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        ReplayReduction::from_loaded(loaded, reduction)
+        let mut reduced = Vec::with_capacity(recordings.len());
+        for path in recordings {
+            let at = |e| Error::context(format!("reducing {}", path.display()), e);
+            let one = match reduce_path_streamed(path, choice, reduction).map_err(at)? {
+                Some(red) => (
+                    red,
+                    load_held_reference_and_response(path, choice).map_err(at)?,
+                ),
+                None => {
+                    let loaded = load_reference_and_response(path, choice).map_err(at)?;
+                    let red = reduce(&loaded, reduction).map_err(at)?;
+                    (red, HeldRecording::of_loaded(loaded)?)
+                }
+            };
+            reduced.push((path.clone(), one));
+        }
+        ReplayReduction::of_reduced(reduced, reduction)
     }
 
     /// [`ReplayReduction::new`] of recordings already loaded (from a
@@ -1077,13 +1149,23 @@ impl ReplayReduction {
         recordings: Vec<(PathBuf, Loaded)>,
         reduction: &ReductionOptions,
     ) -> Result<ReplayReduction> {
-        let mut sources = Vec::with_capacity(recordings.len());
-        let mut sets = Vec::with_capacity(recordings.len());
+        let mut reduced = Vec::with_capacity(recordings.len());
         for (path, loaded) in recordings {
             let at = |e| Error::context(format!("reducing {}", path.display()), e);
             let red = reduce(&loaded, reduction).map_err(at)?;
-            let loaded = loaded.with_only_reference_and_response();
-            let fixed = ReductionOptions {
+            reduced.push((path, (red, HeldRecording::of_loaded(loaded)?)));
+        }
+        ReplayReduction::of_reduced(reduced, reduction)
+    }
+
+    fn of_reduced(
+        recordings: Vec<(PathBuf, (Reduced, HeldRecording))>,
+        reduction: &ReductionOptions,
+    ) -> Result<ReplayReduction> {
+        let mut sources = Vec::with_capacity(recordings.len());
+        let mut sets = Vec::with_capacity(recordings.len());
+        for (path, (red, held)) in recordings {
+            let options = ReductionOptions {
                 excitation: Some(red.excitation),
                 compensation: match red.sweep {
                     Some(SweptReading {
@@ -1098,7 +1180,14 @@ impl ReplayReduction {
                 ..reduction.clone()
             };
             sets.push((path.clone(), red.frf));
-            sources.push((path.clone(), loaded, fixed));
+            sources.push(ReplaySource {
+                path,
+                meta: held.meta,
+                response: held.response,
+                truncated: held.truncated,
+                options,
+                held: Some(held.channels),
+            });
         }
         Ok(ReplayReduction {
             measured: combine_recordings(&sets)?,
@@ -1113,42 +1202,37 @@ impl ReplayReduction {
 
     /// The held recordings as the time-domain fit takes them (as
     /// [`super::time_records`] reads them, without reading them again). The
-    /// samples move to the records, held there as the file stored them (a
-    /// long recording's channel is the largest thing a time-domain
-    /// diagnosis holds): the replays' reduction takes the references from
-    /// them
-    /// ([`ReplayReduction::replayed`]). Once only: a second call errors.
+    /// samples move to the records (a long recording's channels are the
+    /// largest thing a time-domain diagnosis holds): the replays' reduction
+    /// takes the references from them ([`ReplayReduction::replayed`]). Once
+    /// only: a second call errors.
     pub fn take_time_records(
         &mut self,
         band_hz: Option<(f64, f64)>,
     ) -> Result<Vec<crate::fit::TimeRecord>> {
         self.sources
             .iter_mut()
-            .map(|(path, l, _)| {
-                let rec = &mut l.recording;
-                let reference = rec.reference_channel();
-                if rec.channels[l.response].is_empty() {
+            .map(|s| {
+                let name = s.path.display().to_string();
+                let Some(mut channels) = s.held.take() else {
                     return Err(Error::input(
-                        format!("{}: time records", path.display()),
+                        format!("{name}: time records"),
                         "its samples were taken by an earlier call",
                     ));
-                }
-                let taken = Recording {
-                    meta: rec.meta.clone(),
-                    channels: (0..rec.channels.len())
-                        .map(|c| {
-                            if Some(c) == reference || c == l.response {
-                                std::mem::take(&mut rec.channels[c])
-                            } else {
-                                Vec::new()
-                            }
-                        })
-                        .collect(),
                 };
-                crate::fit::TimeRecord::from_owned_recording(
-                    &path.display().to_string(),
-                    taken,
-                    l.response,
+                let reference = s.meta.reference_channel().expect("checked when read");
+                let measured = if s.response == reference {
+                    channels[reference].clone()
+                } else {
+                    std::mem::replace(&mut channels[s.response], Vec::<f64>::new().into())
+                };
+                let reference_samples =
+                    std::mem::replace(&mut channels[reference], Vec::<f64>::new().into());
+                crate::fit::TimeRecord::from_held(
+                    &name,
+                    &s.meta,
+                    s.response,
+                    (reference_samples, measured),
                     None,
                     band_hz,
                 )
@@ -1156,20 +1240,108 @@ impl ReplayReduction {
             .collect()
     }
 
+    /// Checks that `record` is source `s`'s time record.
+    fn check_record(
+        s: &ReplaySource,
+        record: &crate::fit::TimeRecord,
+        samples: usize,
+    ) -> Result<()> {
+        let frames = record.reference.len();
+        if record.name != s.path.display().to_string() || samples != frames {
+            return Err(Error::input(
+                format!("{}: replay", s.path.display()),
+                format!(
+                    "{samples} samples for the {frames} frames of the time record {}",
+                    record.name
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The options source `s`'s replay is reduced with (its excitation
+    /// settled when the measured recording was reduced: not searched for
+    /// again), and whether its dwells are stated in increasing order (then
+    /// a replay is reduced a dwell at a time as it is made).
+    fn replay_options(s: &ReplaySource) -> (ReductionOptions, bool) {
+        let options = ReductionOptions {
+            excitation: Some(excitation_of(&s.meta, s.options.excitation)),
+            ..s.options.clone()
+        };
+        let steps = &s.meta.excitation.steps;
+        let in_order = options.excitation == Some(Excitation::Stepped)
+            && !steps.is_empty()
+            && steps
+                .windows(2)
+                .all(|w| w[0].start + w[0].length <= w[1].start)
+            && s.meta.channels.len() == 2
+            && s.meta.reference_channel().is_some_and(|r| r != s.response);
+        (options, in_order)
+    }
+
     /// The FRFs of `responses` (one per recording, in order, every sample:
-    /// a model's replay) reduced as the measured ones were, each recording's
-    /// reference taken from its time record in `records` (the same
-    /// recordings, in order: [`ReplayReduction::take_time_records`] moved
-    /// the samples there).
+    /// a model's replay, or any response to those references) reduced as
+    /// the measured ones were, each recording's reference taken from its
+    /// time record in `records` (the same recordings, in order:
+    /// [`ReplayReduction::take_time_records`] moved the samples there).
     pub fn replayed(
         &self,
         records: &[crate::fit::TimeRecord],
         responses: Vec<Vec<f64>>,
     ) -> Result<NonlinearFrf> {
-        for (what, n) in [
-            ("replays", responses.len()),
-            ("time records", records.len()),
-        ] {
+        self.check_counts(records.len(), responses.len())?;
+        let mut sets = Vec::with_capacity(responses.len());
+        for ((s, record), response) in self.sources.iter().zip(records).zip(responses) {
+            Self::check_record(s, record, response.len())?;
+            sets.push((s.path.clone(), Self::reduce_whole(s, record, response)?));
+        }
+        combine_recordings(&sets)
+    }
+
+    /// [`ReplayReduction::replayed`] of `model`'s replays of `problem`'s
+    /// records (these recordings, in order), each reduced a dwell at a time
+    /// as it is made where its dwells are stated in order (no replay held
+    /// whole: the same FRFs to the bit), else replayed whole and reduced.
+    pub fn replayed_as_made(
+        &self,
+        problem: &crate::fit::time::TimeProblem,
+        model: &crate::model::Model,
+    ) -> Result<NonlinearFrf> {
+        let records = problem.records();
+        self.check_counts(records.len(), records.len())?;
+        let mut sets = Vec::with_capacity(records.len());
+        for (i, (s, record)) in self.sources.iter().zip(records).enumerate() {
+            let at = |e| Error::context(format!("reducing the replay of {}", s.path.display()), e);
+            let (options, in_order) = Self::replay_options(s);
+            let frf = if in_order {
+                Self::check_record(s, record, record.response.len())?;
+                let reference = s.meta.reference_channel().expect("checked");
+                let mut frames = crate::validate::ReplayBeside::new(
+                    &s.meta,
+                    (reference, s.response),
+                    record.reference.view(),
+                    problem.replay_of(model, i)?,
+                    &crate::observe::Silent,
+                )?;
+                let stepped = ReduceOptions {
+                    reference_channel: Some(reference),
+                    ..stepped_options(&options)
+                };
+                reduce_stepped_stream(&mut frames, s.response, &stepped)
+                    .map_err(at)?
+                    .frf
+            } else {
+                let response = problem.replay(model, i)?;
+                Self::check_record(s, record, response.len())?;
+                Self::reduce_whole(s, record, response)?
+            };
+            sets.push((s.path.clone(), frf));
+        }
+        combine_recordings(&sets)
+    }
+
+    fn check_counts(&self, records: usize, responses: usize) -> Result<()> {
+        for (what, n) in [("replays", responses), ("time records", records)] {
             if n != self.sources.len() {
                 return Err(Error::input(
                     what,
@@ -1177,85 +1349,63 @@ impl ReplayReduction {
                 ));
             }
         }
-        let mut sets = Vec::with_capacity(responses.len());
-        for (((path, loaded, options), record), response) in
-            self.sources.iter().zip(records).zip(responses)
-        {
-            let rec = &loaded.recording;
-            let frames = record.reference.len();
-            if record.name != path.display().to_string() || response.len() != frames {
-                return Err(Error::input(
-                    format!("{}: replay", path.display()),
-                    format!(
-                        "{} samples for the {frames} frames of the time record {}",
-                        response.len(),
-                        record.name
-                    ),
-                ));
+        Ok(())
+    }
+
+    /// Source `s`'s `response` reduced as its measured response was,
+    /// beside the reference its time record `record` holds.
+    fn reduce_whole(
+        s: &ReplaySource,
+        record: &crate::fit::TimeRecord,
+        response: Vec<f64>,
+    ) -> Result<NonlinearFrf> {
+        let at = |e| Error::context(format!("reducing the replay of {}", s.path.display()), e);
+        let (options, in_order) = Self::replay_options(s);
+        let reference = s.meta.reference_channel();
+        let frames = response.len();
+        // a stepped sine whose steps are stated is read a dwell at a time
+        // from the record's reference as it holds it and the response (no
+        // copy of the reference; the same FRFs as reduced whole)
+        if let (true, Some(reference)) = (in_order, reference) {
+            let mut channels: Vec<SamplesView> = vec![SamplesView::Exact(&[]); 2];
+            channels[reference] = record.reference.view();
+            channels[s.response] = (&response).into();
+            if channels.iter().all(|c| c.len() == frames) {
+                let mut source = crate::signals::InMemoryFrames::of_channels(
+                    &s.meta,
+                    channels,
+                    format!("the replay of {}", s.path.display()),
+                );
+                let stepped = ReduceOptions {
+                    reference_channel: Some(reference),
+                    ..stepped_options(&options)
+                };
+                let red = reduce_stepped_stream(&mut source, s.response, &stepped).map_err(at)?;
+                return Ok(red.frf);
             }
-            // as the measured recording was reduced (its excitation settled
-            // then: not searched for again)
-            let options = ReductionOptions {
-                excitation: Some(excitation_of(&rec.meta, options.excitation)),
-                ..options.clone()
-            };
-            let reference = rec.reference_channel();
-            // a stepped sine whose steps are stated is read a dwell at a
-            // time from the record's reference as it holds it and the
-            // replay (no copy of the reference; the same FRFs as reduced
-            // whole)
-            let stepped = options.excitation == Some(Excitation::Stepped)
-                && !rec.meta.excitation.steps.is_empty();
-            if let (true, Some(reference)) = (stepped, reference) {
-                let mut channels: Vec<SamplesView> = rec.channels.iter().map(Into::into).collect();
-                channels[reference] = record.reference.view();
-                channels[loaded.response] = (&response).into();
-                if channels.iter().all(|c| c.len() == frames) {
-                    let mut source = crate::signals::InMemoryFrames::of_channels(
-                        &rec.meta,
-                        channels,
-                        format!("the replay of {}", path.display()),
-                    );
-                    let stepped = ReduceOptions {
-                        reference_channel: Some(reference),
-                        ..stepped_options(&options)
-                    };
-                    let red = reduce_stepped_stream(&mut source, loaded.response, &stepped)
-                        .map_err(|e| {
-                            Error::context(format!("reducing the replay of {}", path.display()), e)
-                        })?;
-                    sets.push((path.clone(), red.frf));
-                    continue;
-                }
-            }
-            // the replay taken over, the reference copied from the record
-            // (a recording held here has only those two channels)
-            let mut response = Some(response);
-            let replay = Loaded {
-                recording: Recording {
-                    meta: rec.meta.clone(),
-                    channels: (0..rec.channels.len())
-                        .map(|c| {
-                            if c == loaded.response {
-                                response.take().unwrap_or_default()
-                            } else if Some(c) == reference {
-                                record.reference.values().into_owned()
-                            } else {
-                                rec.channels[c].clone()
-                            }
-                        })
-                        .collect(),
-                },
-                response: loaded.response,
-                truth: None,
-                truncated: loaded.truncated,
-            };
-            let red = reduce(&replay, &options).map_err(|e| {
-                Error::context(format!("reducing the replay of {}", path.display()), e)
-            })?;
-            sets.push((path.clone(), red.frf));
         }
-        combine_recordings(&sets)
+        // the response taken over, the reference copied from the record
+        let mut response = Some(response);
+        let replay = Loaded {
+            recording: Recording {
+                meta: s.meta.clone(),
+                channels: (0..s.meta.channels.len())
+                    .map(|c| {
+                        if c == s.response {
+                            response.take().unwrap_or_default()
+                        } else if Some(c) == reference {
+                            record.reference.values().into_owned()
+                        } else {
+                            Vec::new()
+                        }
+                    })
+                    .collect(),
+            },
+            response: s.response,
+            truth: None,
+            truncated: s.truncated,
+        };
+        Ok(reduce(&replay, &options).map_err(at)?.frf)
     }
 }
 

@@ -848,6 +848,7 @@ impl<'a> TimeProblem<'a> {
             return (sure_factor, None);
         };
         let weighted = |a: SamplesView, b: SamplesView| {
+            let (mut a, mut b) = (a.cursor(), b.cursor());
             r.segments
                 .iter()
                 .zip(&self.scale[i])
@@ -900,8 +901,21 @@ impl<'a> TimeProblem<'a> {
         }
     }
 
+    /// `model`'s replay of record `i`, made a stretch at a time as it is
+    /// pulled (see [`crate::validate::Replay`]), on the record's replay grid.
+    pub fn replay_of(&self, model: &Model, i: usize) -> Result<crate::validate::Replay<'_, 'a>> {
+        let r = &self.records[i];
+        let rate = (r.sample_rate_hz, self.replay_factor_of(model, i)?);
+        crate::validate::Replay::new(model, &self.drives[i], rate, r.quantity, self.sign)
+    }
+
+    /// The records, in order.
+    pub fn records(&self) -> &'a [TimeRecord] {
+        self.records
+    }
+
     /// `model`'s simulated response to record `i`, every sample.
-    fn replay(&self, model: &Model, i: usize) -> Result<Vec<f64>> {
+    pub fn replay(&self, model: &Model, i: usize) -> Result<Vec<f64>> {
         let mut whole = Vec::with_capacity(self.records[i].response.len());
         self.replay_by_stretch(model, i, &mut |stretch| {
             whole.extend_from_slice(stretch);
@@ -942,10 +956,11 @@ impl<'a> TimeProblem<'a> {
     fn judged_residuals_into(&self, model: &Model, i: usize, out: &mut [f64]) -> Result<()> {
         let r = &self.records[i];
         let judging = &self.judging[i];
-        let measured = judging
+        let mut measured = judging
             .response
             .as_ref()
-            .map_or(r.response.view(), SamplesView::from);
+            .map_or(r.response.view(), SamplesView::from)
+            .cursor();
         let segments = &judging.segments;
         let mut decimator = Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?;
         let mut judged = Vec::new();
@@ -1004,42 +1019,51 @@ impl<'a> TimeProblem<'a> {
             .enumerate()
             .map(|(i, (r, scale))| {
                 let split = split && r.band_hz.is_some();
-                let (a, b) = error_window(r.window.clone(), r.response.len())?;
-                let mut whole = Vec::with_capacity(if split { r.response.len() } else { 0 });
+                let n = r.response.len();
+                let (a, b) = error_window(r.window.clone(), n)?;
+                // the split tallied as the replay comes (an error making it
+                // is reported only where there is a response to split)
+                let mut by_frequency = r.band_hz.filter(|_| split).map(|band| {
+                    let w = r.window.start.min(n)..r.window.end.min(n);
+                    crate::validate::FrequencySplit::new(
+                        r.response.view(),
+                        r.sample_rate_hz,
+                        w,
+                        band,
+                    )
+                });
                 // by segment, and over the window
                 let mut segments = vec![zero; r.segments.len()];
                 let mut window = zero;
                 let mut at = 0;
                 self.replay_by_stretch(model, i, &mut |stretch| {
                     let end = at + stretch.len();
+                    // the measured stretch read once (a long channel is
+                    // held in a scratch file)
+                    let measured = r.response.range(at..end.min(n));
                     for ((seg, sc), sum) in r.segments.iter().zip(scale).zip(&mut segments) {
                         let (lo, hi) = (seg.start.max(at), seg.end.min(end));
                         *sum = (lo..hi).fold(*sum, |acc, j| {
-                            acc + ((stretch[j - at] - r.response.get(j)) / sc).powi(2)
+                            acc + ((stretch[j - at] - measured[j - at]) / sc).powi(2)
                         });
                     }
                     let (lo, hi) = (a.max(at), b.min(end));
                     window = (lo..hi).fold(window, |acc, j| {
-                        acc + (stretch[j - at] - r.response.get(j)).powi(2)
+                        acc + (stretch[j - at] - measured[j - at]).powi(2)
                     });
-                    if split {
-                        whole.extend_from_slice(stretch);
+                    if let Some(Ok(split)) = &mut by_frequency {
+                        let m = measured.len();
+                        split.push(at, &measured, &stretch[..m])?;
                     }
                     at = end;
                     Ok(())
                 })?;
                 let sum = segments.iter().fold(zero, |acc, s| acc + s);
                 let mut window = error_metrics_of_sum(&r.response, window, r.sample_rate_hz, a..b);
-                if let (true, Some(band)) = (split, r.band_hz)
+                if let Some(split) = by_frequency
                     && window.measured_rms > 0.0
                 {
-                    window.by_frequency = Some(crate::validate::error_by_frequency(
-                        &r.response.values(),
-                        &whole,
-                        r.sample_rate_hz,
-                        r.window.clone(),
-                        band,
-                    )?);
+                    window.by_frequency = Some(split?.finish());
                 }
                 Ok(RecordError {
                     recording: r.name.clone(),
@@ -1079,10 +1103,11 @@ impl<'a> TimeProblem<'a> {
                 Ok(()) => {}
                 // a model the simulator rejects: worse than predicting nothing
                 Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
-                    let response = judging
+                    let mut response = judging
                         .response
                         .as_ref()
-                        .map_or(r.response.view(), SamplesView::from);
+                        .map_or(r.response.view(), SamplesView::from)
+                        .cursor();
                     let mut p = 0;
                     for (seg, &sc) in judging.segments.iter().zip(&judging.scale) {
                         for m in seg.clone().map(|j| response.get(j)) {
@@ -1938,5 +1963,121 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("no dwell"), "{e}");
+    }
+
+    /// A record whose channels are held in scratch files (as a loader holds
+    /// a long recording's) is judged as the one held in memory, to the bit:
+    /// its residuals, its replays, its errors split by frequency and the
+    /// replay grid chosen for it, at the recording's rate and judged at
+    /// every sample, and upsampled (the drive interpolated a stretch at a
+    /// time rather than made whole) and judged at a lower rate.
+    #[test]
+    fn a_record_held_in_scratch_files_is_judged_as_the_one_held_in_memory() {
+        use crate::model::{ElementSpec, ModalModel};
+        use crate::signals::{SamplesBuilder, Step};
+        let fs = 4000.0;
+        let w = 2.0 * PI * 60.0;
+        let model = |kd: f64| {
+            Model::new(
+                ModalModel::sdof(1.0, 2.0 * 0.02 * w, w * w).unwrap(),
+                vec![ElementSpec::Jenkins { kd, fd: 40.0 }],
+            )
+            .unwrap()
+        };
+        let mut force = Vec::new();
+        let mut steps = Vec::new();
+        for (f, level) in [(52.0, 20.0), (60.0, 60.0), (71.0, 60.0)] {
+            force.extend(std::iter::repeat_n(0.0, 500));
+            steps.push(Step {
+                frequency_hz: f,
+                level,
+                start: force.len(),
+                settle: 4000,
+                length: 12_000,
+            });
+            force.extend((0..12_000).map(|i| level * (2.0 * PI * f * i as f64 / fs).sin()));
+        }
+        let truth = model(1.2 * w * w);
+        let measured = crate::validate::simulate_response(
+            &truth,
+            &force,
+            fs,
+            Quantity::Displacement,
+            1.0,
+            20.0,
+        )
+        .unwrap()
+        .values;
+        let mut rec = recording(
+            fs,
+            force,
+            Excitation {
+                kind: ExcitationKind::SteppedSine,
+                steps,
+                sweep: None,
+            },
+        );
+        rec.channels[1] = measured;
+        let held = |spill: bool| {
+            let samples = |x: &[f64]| {
+                let b = SamplesBuilder::new(x.len(), &[]);
+                let mut b = if spill { b.spilling_above(5_000) } else { b };
+                x.chunks(4_321).for_each(|c| b.extend(c).unwrap());
+                b.finish().unwrap()
+            };
+            let channels = (samples(&rec.channels[0]), samples(&rec.channels[1]));
+            assert_eq!(channels.0.is_spilled(), spill);
+            TimeRecord::from_held("dwells", &rec.meta, 1, channels, None, Some((55.0, 75.0)))
+                .unwrap()
+        };
+        let (in_memory, spilled) = ([held(false)], [held(true)]);
+        let start = model(w * w);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for options in [
+            TimeFitOptions::default(),
+            TimeFitOptions {
+                min_samples_per_period: 300.0,
+                max_judged_samples: 10_000,
+                ..TimeFitOptions::default()
+            },
+        ] {
+            let problem = |records| {
+                let mut p = TimeProblem::new(
+                    start.clone(),
+                    time_parameters(&start, true, None),
+                    records,
+                    1.0,
+                    options.clone(),
+                    None,
+                )
+                .unwrap();
+                p.choose_replay_rates();
+                p
+            };
+            let (a, b) = (problem(&in_memory), problem(&spilled));
+            // both paths taken: upsampled 7 times and judged at a third
+            let upsampled = options.max_judged_samples < MAX_JUDGED_SAMPLES;
+            let factors = if upsampled { (7, 3) } else { (1, 1) };
+            assert_eq!(a.replay_factors(), [Some(factors.0)]);
+            assert_eq!(a.judging_factors(), [factors.1]);
+            assert_eq!(a.replay_factors(), b.replay_factors());
+            assert_eq!(a.judging_factors(), b.judging_factors());
+            let theta: Vec<f64> = a
+                .parameters()
+                .theta_of(&start)
+                .unwrap()
+                .iter()
+                .map(|t| t + 0.01)
+                .collect();
+            assert_eq!(
+                bits(&a.residuals(&theta).unwrap()),
+                bits(&b.residuals(&theta).unwrap())
+            );
+            let truth_replays = a.replays_of(&truth).unwrap();
+            assert_eq!(truth_replays, b.replays_of(&truth).unwrap());
+            let errors = a.errors_by_frequency(&start).unwrap();
+            assert!(errors[0].window.by_frequency.is_some());
+            assert_eq!(errors, b.errors_by_frequency(&start).unwrap());
+        }
     }
 }

@@ -48,6 +48,7 @@
 pub mod resample;
 mod tally;
 
+pub(crate) use tally::FrequencySplit;
 pub use tally::SPLIT_BLOCK;
 
 use crate::error::{Error, Result};
@@ -288,10 +289,13 @@ pub struct PreparedDrive<'a> {
 impl<'a> PreparedDrive<'a> {
     /// `reference` as `input` says it is between samples.
     pub fn new(reference: impl Into<SamplesView<'a>>, input: DriveInput) -> PreparedDrive<'a> {
+        let reference = reference.into();
         PreparedDrive {
-            reference: reference.into(),
+            reference,
             input,
-            per_stretch: false,
+            // a reference too long to hold is not made whole at a higher
+            // rate either (`factor` times its length in `f64`s)
+            per_stretch: matches!(reference, SamplesView::Spilled(_)),
             cache: Default::default(),
             not_finite: Default::default(),
         }
@@ -314,10 +318,15 @@ impl<'a> PreparedDrive<'a> {
     /// Errors if a sample of the reference is not finite (checked once).
     fn check_finite(&self) -> Result<()> {
         let x = self.reference;
-        match self
-            .not_finite
-            .get_or_init(|| (0..x.len()).position(|i| !x.get(i).is_finite()))
-        {
+        match self.not_finite.get_or_init(|| {
+            let mut first = None;
+            x.for_each_stretch(0..x.len(), |at, w| {
+                if first.is_none() {
+                    first = w.iter().position(|v| !v.is_finite()).map(|i| at + i);
+                }
+            });
+            first
+        }) {
             Some(i) => Err(resample::not_finite("signal", x, *i)),
             None => Ok(()),
         }
@@ -1246,6 +1255,114 @@ impl Pass<'_, '_> {
     }
 }
 
+/// A model's replay beside the reference that drives it, read as a
+/// recording of `meta`'s two channels (the reference, and the replay in the
+/// response's place) a stretch at a time in increasing order (a stepped
+/// reduction's dwells, stated in order): the replay is made as far as each
+/// read needs, and only what the reads may still ask for is held (from the
+/// last read's first frame on). What a time-domain diagnosis reduces its
+/// model's replay with, as the measured recording was reduced, whatever the
+/// recording's length.
+pub(crate) struct ReplayBeside<'r, 'd, 'a> {
+    meta: &'r RecordingMeta,
+    /// The reference's and the response's channels in `meta`.
+    channels: (usize, usize),
+    reference: SamplesView<'a>,
+    replay: Replay<'d, 'a>,
+    /// Replayed samples made so far, and those held from `held_from` on.
+    made: usize,
+    held: Vec<f64>,
+    held_from: usize,
+    observer: &'r dyn Observer,
+}
+
+impl<'r, 'd, 'a> ReplayBeside<'r, 'd, 'a> {
+    /// `replay` (of a drive made from `reference`) beside `reference`, as
+    /// the recording `meta` of two channels (`reference`, `response`).
+    pub(crate) fn new(
+        meta: &'r RecordingMeta,
+        (reference_channel, response): (usize, usize),
+        reference: SamplesView<'a>,
+        replay: Replay<'d, 'a>,
+        observer: &'r dyn Observer,
+    ) -> Result<ReplayBeside<'r, 'd, 'a>> {
+        if meta.channels.len() != 2
+            || reference_channel == response
+            || reference_channel.max(response) > 1
+        {
+            return Err(Error::input(
+                "the replay",
+                format!(
+                    "read beside its reference as a recording of two channels, not {} \
+                     (reference {reference_channel}, response {response})",
+                    meta.channels.len()
+                ),
+            ));
+        }
+        Ok(ReplayBeside {
+            meta,
+            channels: (reference_channel, response),
+            reference,
+            replay,
+            made: 0,
+            held: Vec::new(),
+            held_from: 0,
+            observer,
+        })
+    }
+}
+
+impl FrameSource for ReplayBeside<'_, '_, '_> {
+    fn meta(&self) -> &RecordingMeta {
+        self.meta
+    }
+    fn frames(&self) -> usize {
+        self.reference.len()
+    }
+    fn source_name(&self) -> String {
+        "the replay".into()
+    }
+    fn read_at(&mut self, start: usize, count: usize, out: &mut [Vec<f64>]) -> Result<usize> {
+        let frames = self.frames();
+        if start < self.held_from || start > frames {
+            return Err(Error::input(
+                "the replay",
+                format!(
+                    "frame {start} is behind the {} let go, or beyond its {frames} frames: it \
+                     is read in increasing order",
+                    self.held_from
+                ),
+            ));
+        }
+        // what lies before `start` is not read again
+        let drop = (start - self.held_from).min(self.held.len());
+        self.held.drain(..drop);
+        self.held_from += drop;
+        let end = start.saturating_add(count).min(frames);
+        while self.made < end {
+            let Some(stretch) = self.replay.next_stretch(self.observer)? else {
+                break;
+            };
+            let first = self.made;
+            self.made += stretch.len();
+            let from = first.max(start);
+            if self.held.is_empty() {
+                self.held_from = from.min(self.made);
+            }
+            if from < self.made {
+                self.held.extend_from_slice(&stretch[from - first..]);
+            }
+        }
+        let end = end.min(self.made);
+        let (reference, response) = self.channels;
+        out[reference].clear();
+        out[reference].extend_from_slice(&self.reference.range(start..end));
+        out[response].clear();
+        out[response].extend_from_slice(&self.held[start - self.held_from..end - self.held_from]);
+        Ok(end - start)
+    }
+}
+
 /// The reference beside the replay, read as a two-channel recording a
 /// stretch at a time in increasing order (a stepped reduction's dwells):
 /// the replay is made as far as each read needs, and only what the reads
@@ -1631,7 +1748,8 @@ mod tests {
     /// in order; the replay is kept only when asked. Dwells stated in
     /// increasing order (read one at a time beside the replay), found on
     /// the reference (no steps stated) and stated out of order (the replay
-    /// then held) all give the reference's figures.
+    /// then held) all give the reference's figures, and so do the channels
+    /// held in scratch files (as a loader holds a long recording's).
     #[test]
     fn a_validation_that_never_holds_its_replay_gives_the_whole_replays_figures() {
         struct Collect(Vec<f64>, usize, Option<std::ops::Range<usize>>);
@@ -1685,18 +1803,25 @@ mod tests {
             let want_measured = reduce_stepped_report(&pair, 1, reduce).unwrap().frf;
             pair.channels[1] = simulated.clone();
             let want_simulated = reduce_stepped_report(&pair, 1, reduce).unwrap().frf;
-            for keep in [false, true] {
+            let spilled: Vec<crate::signals::Samples> = rec
+                .channels
+                .iter()
+                .map(|c| {
+                    let mut b =
+                        crate::signals::SamplesBuilder::new(c.len(), &[]).spilling_above(10_000);
+                    c.chunks(7_777).for_each(|x| b.extend(x).unwrap());
+                    b.finish().unwrap()
+                })
+                .collect();
+            assert!(spilled.iter().all(|c| c.is_spilled()));
+            let spilled = crate::signals::RecordingView {
+                meta: &rec.meta,
+                channels: spilled.iter().map(Into::into).collect(),
+            };
+            for (keep, view) in [(false, rec.view()), (true, rec.view()), (false, spilled)] {
                 let mut tap = Collect(Vec::new(), 0, None);
-                let v = validate_view(
-                    &model,
-                    (-1.0, keep),
-                    &rec.view(),
-                    1,
-                    &options,
-                    &Silent,
-                    &mut tap,
-                )
-                .unwrap();
+                let v = validate_view(&model, (-1.0, keep), &view, 1, &options, &Silent, &mut tap)
+                    .unwrap();
                 assert!(v.whole == metrics(0..n), "whole record");
                 assert!(v.window == Some(metrics(window.clone())), "window");
                 let frf = v.frf.as_ref().unwrap();
