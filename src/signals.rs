@@ -455,11 +455,15 @@ struct SpillWriter {
     unit: Option<f64>,
 }
 
-/// Where scratch files go: the system's temporary directory (`TMPDIR`).
+/// A scratch file that cannot be made or written: where scratch files go
+/// (the system's temporary directory, `TMPDIR`) and why.
 fn scratch_error(e: std::io::Error) -> Error {
-    Error::io(
-        std::env::temp_dir().join("(a scratch file holding a channel)"),
-        e,
+    Error::input(
+        format!(
+            "scratch file in {} (TMPDIR)",
+            std::env::temp_dir().display()
+        ),
+        format!("a channel too long to hold in memory is held there, but: {e}"),
     )
 }
 

@@ -1209,3 +1209,79 @@ fn validate_refuses_a_recording_driven_by_another_quantity_than_the_fit() {
     ]);
     assert!(o.status.success(), "{}", text(&o));
 }
+
+/// A recording longer than a channel is held in memory for
+/// (`analysis::HELD_UP_TO` samples) is held in a scratch file in `TMPDIR`:
+/// where that directory does not exist, `validate` says so, naming it, with
+/// exit code 2 and no output; given one, it validates and leaves nothing
+/// there (the files have no name).
+#[test]
+fn a_recording_too_long_to_hold_is_held_in_the_scratch_directory() {
+    use hystid::record::{Channel, Excitation, ExcitationKind, RecordingMeta, RecordingWriter};
+    use hystid::signals::Step;
+    let dir = tempfile::tempdir().unwrap();
+    let (fs, f) = (30_000.0, 200.0);
+    let n = hystid::analysis::recording::HELD_UP_TO + 30_000;
+    let w = 2.0 * std::f64::consts::PI * f / fs;
+    let force: Vec<f32> = (0..n)
+        .map(|i| (100.0 * (w * i as f64).sin()) as f32)
+        .collect();
+    // the small test's structure, stuck: 100 N / (k + kd)
+    let x: Vec<f32> = force.iter().map(|v| v / 3.4e7).collect();
+    let channel = |name: &str, quantity: hystid::harmonics::Quantity| Channel {
+        name: name.into(),
+        quantity,
+        unit: quantity.si_unit().into(),
+        scale: 1.0,
+    };
+    let meta = RecordingMeta::new(
+        fs,
+        vec![
+            channel("force", hystid::harmonics::Quantity::Force),
+            channel("x", hystid::harmonics::Quantity::Displacement),
+        ],
+        Excitation {
+            kind: ExcitationKind::SteppedSine,
+            steps: vec![Step {
+                frequency_hz: f,
+                level: 100.0,
+                start: 0,
+                settle: 30_000,
+                length: n,
+            }],
+            sweep: None,
+        },
+    );
+    let stem = dir.path().join("long");
+    let mut writer = RecordingWriter::create(&stem, meta).unwrap();
+    writer.write_frames(&[&force, &x]).unwrap();
+    writer.finish().unwrap();
+    let model = write_test(dir.path(), "model.toml", SMALL_TEST);
+    let scratch = dir.path().join("scratch");
+    let validate = |tmp: &Path, out: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_hystid"))
+            .args(["validate", "--quiet", "--out"])
+            .arg(out)
+            .arg(&model)
+            .arg(dir.path().join("long.json"))
+            .env_remove("CI")
+            .env("TMPDIR", tmp)
+            .output()
+            .unwrap()
+    };
+    let out = dir.path().join("refused");
+    let o = validate(&scratch, &out);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains(&format!("scratch file in {}", scratch.display())) && t.contains("TMPDIR"),
+        "{t}"
+    );
+    assert!(!out.join("validate.json").exists());
+    std::fs::create_dir(&scratch).unwrap();
+    let out = dir.path().join("validated");
+    let o = validate(&scratch, &out);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(out.join("validate.json").exists());
+    assert_eq!(std::fs::read_dir(&scratch).unwrap().count(), 0);
+}
