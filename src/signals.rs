@@ -487,26 +487,23 @@ impl SpillWriter {
         Ok(w)
     }
 
-    fn write_stored(&mut self, x: &[f32]) -> Result<()> {
+    /// Appends samples given as their little-endian bytes.
+    fn write<const N: usize>(&mut self, x: impl ExactSizeIterator<Item = [u8; N]>) -> Result<()> {
         use std::io::Write;
-        for v in x {
-            self.out
-                .write_all(&v.to_le_bytes())
-                .map_err(scratch_error)?;
+        let n = x.len();
+        for b in x {
+            self.out.write_all(&b).map_err(scratch_error)?;
         }
-        self.len += x.len();
+        self.len += n;
         Ok(())
     }
 
+    fn write_stored(&mut self, x: &[f32]) -> Result<()> {
+        self.write(x.iter().map(|v| v.to_le_bytes()))
+    }
+
     fn write_exact(&mut self, x: &[f64]) -> Result<()> {
-        use std::io::Write;
-        for v in x {
-            self.out
-                .write_all(&v.to_le_bytes())
-                .map_err(scratch_error)?;
-        }
-        self.len += x.len();
-        Ok(())
+        self.write(x.iter().map(|v| v.to_le_bytes()))
     }
 
     /// Appends `x`: as `f32`s of the unit while every sample is one, else
