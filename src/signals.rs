@@ -379,11 +379,11 @@ enum Held {
 
 /// Samples held in a scratch file: `f32`s of a unit where every sample is
 /// one (as [`Samples`] holds them in memory), else `f64`s, little-endian.
-/// The file has no name (it is gone when the last clone of the samples is
-/// dropped, or the process ends, however it ends); reads are positioned, so
-/// threads replaying the same channel read it at once without a lock. The
-/// operating system's page cache keeps what is read often; the process
-/// holds only the stretch it is reading.
+/// The file, in [`scratch_dir`], has no name (it is gone when the last
+/// clone of the samples is dropped, or the process ends, however it ends);
+/// reads are positioned, so threads replaying the same channel read it at
+/// once without a lock. The operating system's page cache keeps what is
+/// read often; the process holds only the stretch it is reading.
 #[derive(Debug)]
 pub struct Spilled {
     file: std::fs::File,
@@ -455,13 +455,27 @@ struct SpillWriter {
     unit: Option<f64>,
 }
 
-/// A scratch file that cannot be made or written: where scratch files go
-/// (the system's temporary directory, `TMPDIR`) and why.
+/// Where scratch files go: `TMPDIR` where it is set, else `/var/tmp` where
+/// there is one (on disk by convention, where `/tmp` is often a file system
+/// in memory: a channel spilled there would only move out of the process,
+/// not out of memory), else the system's temporary directory.
+pub fn scratch_dir() -> std::path::PathBuf {
+    if std::env::var_os("TMPDIR").is_some_and(|d| !d.is_empty()) {
+        return std::env::temp_dir();
+    }
+    let var_tmp = std::path::Path::new("/var/tmp");
+    if cfg!(unix) && var_tmp.is_dir() {
+        return var_tmp.to_path_buf();
+    }
+    std::env::temp_dir()
+}
+
+/// A scratch file that cannot be made or written: where, and why.
 fn scratch_error(e: std::io::Error) -> Error {
     Error::input(
         format!(
-            "scratch file in {} (TMPDIR)",
-            std::env::temp_dir().display()
+            "scratch file in {} (TMPDIR sets where)",
+            scratch_dir().display()
         ),
         format!("a channel too long to hold in memory is held there, but: {e}"),
     )
@@ -470,7 +484,7 @@ fn scratch_error(e: std::io::Error) -> Error {
 impl SpillWriter {
     /// A new scratch file holding `held`.
     fn of(held: Held) -> Result<SpillWriter> {
-        let file = tempfile::tempfile().map_err(scratch_error)?;
+        let file = tempfile::tempfile_in(scratch_dir()).map_err(scratch_error)?;
         let mut w = SpillWriter {
             out: std::io::BufWriter::with_capacity(1 << 16, file),
             len: 0,
