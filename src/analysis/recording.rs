@@ -1270,10 +1270,7 @@ impl ReplayReduction {
         };
         let steps = &s.meta.excitation.steps;
         let in_order = options.excitation == Some(Excitation::Stepped)
-            && !steps.is_empty()
-            && steps
-                .windows(2)
-                .all(|w| w[0].start + w[0].length <= w[1].start)
+            && crate::signals::Step::in_order(steps)
             && s.meta.channels.len() == 2
             && s.meta.reference_channel().is_some_and(|r| r != s.response);
         (options, in_order)

@@ -1862,6 +1862,15 @@ mod tests {
         );
     }
 
+    /// A stepped sine of `steps`, stated.
+    fn stepped(steps: Vec<Step>) -> Excitation {
+        Excitation {
+            kind: ExcitationKind::SteppedSine,
+            steps,
+            sweep: None,
+        }
+    }
+
     fn recording(fs: f64, force: Vec<f64>, excitation: Excitation) -> Recording {
         let channel = |name: &str, quantity: Quantity| Channel {
             name: name.into(),
@@ -1946,15 +1955,7 @@ mod tests {
         let force: Vec<f64> = (0..3000)
             .map(|i| (2.0 * PI * steps[i / 1000].frequency_hz * i as f64 / fs).sin())
             .collect();
-        let rec = recording(
-            fs,
-            force,
-            Excitation {
-                kind: ExcitationKind::SteppedSine,
-                steps,
-                sweep: None,
-            },
-        );
+        let rec = recording(fs, force, stepped(steps));
         let r = TimeRecord::from_recording("dwells", &rec, 1, None, Some((5.0, 7.0))).unwrap();
         assert_eq!(r.segments, vec![1000..2000]);
         let all = TimeRecord::from_recording("dwells", &rec, 1, None, None).unwrap();
@@ -2008,15 +2009,7 @@ mod tests {
         )
         .unwrap()
         .values;
-        let mut rec = recording(
-            fs,
-            force,
-            Excitation {
-                kind: ExcitationKind::SteppedSine,
-                steps,
-                sweep: None,
-            },
-        );
+        let mut rec = recording(fs, force, stepped(steps));
         rec.channels[1] = measured;
         let held = |spill: bool| {
             let samples = |x: &[f64]| {

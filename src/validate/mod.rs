@@ -1481,12 +1481,7 @@ impl MeasuredFrfs {
                 let stated = &meta.excitation.steps;
                 // stated dwells in order are read one at a time; else they
                 // are found on the pair held whole
-                let in_order = |steps: &[Step]| {
-                    !steps.is_empty()
-                        && steps
-                            .windows(2)
-                            .all(|w| w[0].start + w[0].length <= w[1].start)
-                };
+                let in_order = Step::in_order;
                 let first = if in_order(stated) {
                     reduce_stepped_stream(
                         &mut InMemoryFrames::of_channels(&meta, pair.clone(), "recording"),
