@@ -39,7 +39,7 @@ use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::Silent;
 use crate::signals::{Samples, SamplesView};
-use crate::validate::resample::{Decimator, MAX_FACTOR, decimate_with};
+use crate::validate::resample::{Decimator, MAX_FACTOR};
 use crate::validate::{
     DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window,
     quasi_static_above_hz, replay_streamed, simulate_prepared_at, sum_start, upsampling_factor,
@@ -400,8 +400,12 @@ pub struct TimeFitOptions {
     /// low-passed alike (a windowed sinc) and kept at every `k`-th sample.
     /// What the model makes lies well inside the pass band, so the misfit
     /// is the same but for the measurement noise above it, which carries
-    /// no information on the model; the replays, and every error reported,
-    /// are still over every sample.
+    /// no information on the model. Where that floor (or the largest
+    /// factor) leaves more than this, each segment is judged on its share
+    /// of it, in stretches spread over the segment (see
+    /// [`judged_stretches`]): the Jacobian stays within this whatever the
+    /// recording's length. The replays, and every error reported, are
+    /// still over every sample.
     #[serde(default = "max_judged")]
     pub max_judged_samples: usize,
 }
@@ -625,51 +629,165 @@ pub fn judging_factors(records: &[TimeRecord], top_hz: f64, most: usize) -> Vec<
         .collect()
 }
 
+/// Judged samples a judged stretch holds at most where a recording is judged
+/// only in part (see [`judged_stretches`]): 256 periods of the model's
+/// highest linearised frequency at the fewest judged samples a period.
+const JUDGED_STRETCH: usize = 2048;
+
+/// Which samples of each segment (in samples of the judging rate) are
+/// judged, where judging every one of them would judge more than `most`
+/// over all recordings (`total`): that share of each segment, as stretches
+/// of at most [`JUDGED_STRETCH`] samples, each at the end of its equal share
+/// of the segment (a single stretch is a dwell's last, most settled
+/// samples; several spread over it, its transient included). Every sample
+/// of every segment where `total <= most`. Returns the stretches in order
+/// with the segment each lies in.
+fn judged_stretches(
+    segments: &[Range<usize>],
+    total: usize,
+    most: usize,
+) -> Vec<(Range<usize>, usize)> {
+    if total <= most {
+        return segments
+            .iter()
+            .enumerate()
+            .map(|(k, s)| (s.clone(), k))
+            .collect();
+    }
+    let mut out = Vec::new();
+    for (k, s) in segments.iter().enumerate() {
+        let len = s.len();
+        // `len·most/total` in 128 bits: never more than `most` over all
+        let kept = (len as u128 * most as u128 / total as u128) as usize;
+        let blocks = kept.div_ceil(JUDGED_STRETCH);
+        for j in 0..blocks {
+            let end = s.start + len * (j + 1) / blocks;
+            let n = kept * (j + 1) / blocks - kept * j / blocks;
+            out.push((end - n..end, k));
+        }
+    }
+    out
+}
+
 /// How a record is judged: at its own rate, or low-passed and kept at every
-/// `factor`-th sample.
+/// `factor`-th sample; every sample of its segments at that rate, or
+/// stretches of them (see [`judged_stretches`]).
 struct Judging {
     factor: usize,
-    /// The measured response at the judging rate (`None`: the record's own).
-    response: Option<Vec<f64>>,
-    /// The segments in samples of the judging rate.
-    segments: Vec<Range<usize>>,
-    /// `RMS_s · √N_s` of each segment at the judging rate: the residual's
-    /// divisor.
+    /// The measured response at each judged sample, in order (`None`: every
+    /// sample of the segments at the record's own rate, read from it).
+    measured: Option<Vec<f64>>,
+    /// The judged stretches in samples of the judging rate, in order, each
+    /// with the segment it lies in.
+    stretches: Vec<(Range<usize>, usize)>,
+    /// `RMS_s · √N_s` of each segment over its judged samples: the
+    /// residual's divisor.
     scale: Vec<f64>,
 }
 
 impl Judging {
-    /// `r` judged at `1/factor` of its rate (`scale`: its segments'
-    /// divisors at its own rate).
-    fn of(r: &TimeRecord, scale: &[f64], factor: usize) -> Result<Judging> {
-        if factor <= 1 {
+    /// `r`'s segments in samples of `1/factor` of its rate.
+    fn segments_at(r: &TimeRecord, factor: usize) -> Vec<Range<usize>> {
+        // sample q of the judging rate is sample q·factor of the record's
+        let outputs = r.response.len().div_ceil(factor);
+        r.segments
+            .iter()
+            .map(|s| s.start.div_ceil(factor)..s.end.div_ceil(factor).min(outputs))
+            .collect()
+    }
+
+    /// `r` judged at `1/factor` of its rate at `stretches` (`scale`: its
+    /// segments' divisors at its own rate, every sample judged).
+    fn of(
+        r: &TimeRecord,
+        scale: &[f64],
+        factor: usize,
+        stretches: Vec<(Range<usize>, usize)>,
+    ) -> Result<Judging> {
+        let every = stretches.len() == r.segments.len()
+            && stretches.iter().zip(&r.segments).all(|((a, _), b)| a == b);
+        if factor <= 1 && every {
             return Ok(Judging {
                 factor: 1,
-                response: None,
-                segments: r.segments.clone(),
+                measured: None,
+                stretches,
                 scale: scale.to_vec(),
             });
         }
-        let response = decimate_with(&r.response, factor, JUDGING_HALF_WIDTH)?;
-        // sample q of the judging rate is sample q·factor of the record's
-        let segments: Vec<Range<usize>> = r
-            .segments
-            .iter()
-            .map(|s| s.start.div_ceil(factor)..s.end.div_ceil(factor).min(response.len()))
-            .collect();
-        let scale = segments
-            .iter()
-            .map(|s| {
-                let w = &response[s.clone()];
-                (w.iter().map(|v| v * v).sum::<f64>()).sqrt()
-            })
-            .collect();
+        // the response at the judging rate, made a stretch at a time and
+        // kept where judged (the same bits as `decimate_with` whole)
+        let mut decimator = Decimator::new(factor, JUDGING_HALF_WIDTH, r.response.len())?;
+        let judged: usize = stretches.iter().map(|(s, _)| s.len()).sum();
+        let mut measured = Vec::with_capacity(judged);
+        let mut made = Vec::new();
+        let (mut q, mut k) = (0, 0);
+        let mut bad = None;
+        r.response.for_each_stretch(0..r.response.len(), |at, x| {
+            if bad.is_none() {
+                bad = x.iter().position(|v| !v.is_finite()).map(|i| at + i);
+            }
+            made.clear();
+            decimator.push(x, &mut made);
+            for &v in &made {
+                while k < stretches.len() && stretches[k].0.end <= q {
+                    k += 1;
+                }
+                if k < stretches.len() && stretches[k].0.start <= q {
+                    measured.push(v);
+                }
+                q += 1;
+            }
+        });
+        if let Some(i) = bad {
+            return Err(crate::validate::resample::not_finite(
+                "signal",
+                r.response.view(),
+                i,
+            ));
+        }
+        let mut sums = vec![0.0; r.segments.len()];
+        let mut at = 0;
+        for (s, k) in &stretches {
+            let w = &measured[at..at + s.len()];
+            sums[*k] = w.iter().fold(sums[*k], |acc, v| acc + v * v);
+            at += s.len();
+        }
         Ok(Judging {
             factor,
-            response: Some(response),
-            segments,
-            scale,
+            measured: Some(measured),
+            stretches,
+            scale: sums.into_iter().map(f64::sqrt).collect(),
         })
+    }
+
+    /// Samples judged.
+    fn judged(&self) -> usize {
+        self.stretches.iter().map(|(s, _)| s.len()).sum()
+    }
+
+    /// The measured response at each judged sample, in order, read from
+    /// `r` where not held.
+    fn for_each_measured(&self, r: &TimeRecord, mut f: impl FnMut(usize, f64)) {
+        match &self.measured {
+            Some(m) => {
+                let mut at = 0;
+                for (s, k) in &self.stretches {
+                    for &v in &m[at..at + s.len()] {
+                        f(*k, v);
+                    }
+                    at += s.len();
+                }
+            }
+            None => {
+                for (s, k) in &self.stretches {
+                    r.response.for_each_stretch(s.clone(), |_, w| {
+                        for &v in w {
+                            f(*k, v);
+                        }
+                    });
+                }
+            }
+        }
     }
 }
 
@@ -741,11 +859,21 @@ impl<'a> TimeProblem<'a> {
             base.highest_replayed_frequency_hz(quasi_static),
             options.max_judged_samples,
         );
+        let at_rate: Vec<Vec<Range<usize>>> = records
+            .iter()
+            .zip(&factors)
+            .map(|(r, &k)| Judging::segments_at(r, k))
+            .collect();
+        let total = at_rate.iter().flatten().map(|s| s.len()).sum();
         let judging = records
             .iter()
             .zip(&scale)
             .zip(factors)
-            .map(|((r, scale), k)| Judging::of(r, scale, k))
+            .zip(&at_rate)
+            .map(|(((r, scale), k), segments)| {
+                let stretches = judged_stretches(segments, total, options.max_judged_samples);
+                Judging::of(r, scale, k, stretches)
+            })
             .collect::<Result<_>>()?;
         Ok(TimeProblem {
             replay_factor: vec![None; records.len()],
@@ -956,25 +1084,26 @@ impl<'a> TimeProblem<'a> {
     fn judged_residuals_into(&self, model: &Model, i: usize, out: &mut [f64]) -> Result<()> {
         let r = &self.records[i];
         let judging = &self.judging[i];
-        let mut measured = judging
-            .response
-            .as_ref()
-            .map_or(r.response.view(), SamplesView::from)
-            .cursor();
-        let segments = &judging.segments;
+        let mut measured = r.response.view().cursor();
+        let held = judging.measured.as_deref();
+        let stretches = &judging.stretches;
         let mut decimator = Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?;
         let mut judged = Vec::new();
-        // the next judged sample, the segment it may lie in, the residual
+        // the next judged sample, the stretch it may lie in, the residual
         let (mut q, mut k, mut p) = (0, 0, 0);
         self.replay_by_stretch(model, i, &mut |stretch| {
             judged.clear();
             decimator.push(stretch, &mut judged);
             for &s in &judged {
-                while k < segments.len() && segments[k].end <= q {
+                while k < stretches.len() && stretches[k].0.end <= q {
                     k += 1;
                 }
-                if k < segments.len() && segments[k].start <= q {
-                    out[p] = (s - measured.get(q)) / judging.scale[k];
+                if k < stretches.len() && stretches[k].0.start <= q {
+                    let m = match held {
+                        Some(m) => m[p],
+                        None => measured.get(q),
+                    };
+                    out[p] = (s - m) / judging.scale[stretches[k].1];
                     p += 1;
                 }
                 q += 1;
@@ -1097,24 +1226,17 @@ impl<'a> TimeProblem<'a> {
     fn residuals_of_into(&self, model: &Model, outside: f64, out: &mut [f64]) -> Result<()> {
         let mut at = 0;
         for (i, (r, judging)) in self.records.iter().zip(&self.judging).enumerate() {
-            let n: usize = judging.segments.iter().map(|s| s.len()).sum();
+            let n = judging.judged();
             let block = &mut out[at..at + n];
             match self.judged_residuals_into(model, i, block) {
                 Ok(()) => {}
                 // a model the simulator rejects: worse than predicting nothing
                 Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
-                    let mut response = judging
-                        .response
-                        .as_ref()
-                        .map_or(r.response.view(), SamplesView::from)
-                        .cursor();
                     let mut p = 0;
-                    for (seg, &sc) in judging.segments.iter().zip(&judging.scale) {
-                        for m in seg.clone().map(|j| response.get(j)) {
-                            block[p] = -2.0 * m / sc;
-                            p += 1;
-                        }
-                    }
+                    judging.for_each_measured(r, |k, m| {
+                        block[p] = -2.0 * m / judging.scale[k];
+                        p += 1;
+                    });
                 }
                 Err(e) => return Err(e),
             }
@@ -1164,10 +1286,19 @@ impl<'a> TimeProblem<'a> {
     /// Each recording's judged samples (see
     /// [`TimeFitOptions::max_judged_samples`]).
     pub fn judged_samples(&self) -> Vec<usize> {
-        self.judging
-            .iter()
-            .map(|j| j.segments.iter().map(|s| s.len()).sum())
-            .collect()
+        self.judging.iter().map(Judging::judged).collect()
+    }
+
+    /// Whether some recording is judged on stretches of its segments only
+    /// (see [`judged_stretches`]).
+    pub fn judged_in_part(&self) -> bool {
+        self.judging.iter().zip(self.records).any(|(j, r)| {
+            j.judged()
+                < Judging::segments_at(r, j.factor)
+                    .iter()
+                    .map(|s| s.len())
+                    .sum()
+        })
     }
 
     /// Each recording's judging factor: its response judged at `1/k` of its
@@ -1588,11 +1719,20 @@ pub fn identify_time(
             .iter()
             .map(|k| k.to_string())
             .collect();
+        let in_part = if problem.judged_in_part() {
+            format!(
+                ", each segment on its share in stretches of at most {JUDGED_STRETCH} spread \
+                 over it (the rate left at least {MIN_JUDGED_PER_PERIOD} samples a period of \
+                 the model's highest linearised frequency)"
+            )
+        } else {
+            String::new()
+        };
         notes.push(format!(
             "judged on {samples} of the {every} samples: the responses low-passed and judged \
-             at one sample in {} (by recording), for at most {} judged (--max-judged-samples; \
-             the Jacobian holds a row per sample judged); the errors reported are over every \
-             sample",
+             at one sample in {} (by recording){in_part}, for at most {} judged \
+             (--max-judged-samples; the Jacobian holds a row per sample judged); the errors \
+             reported are over every sample",
             factors.join("/"),
             options.max_judged_samples
         ));
@@ -1966,22 +2106,22 @@ mod tests {
         assert!(e.contains("no dwell"), "{e}");
     }
 
-    /// A record whose channels are held in scratch files (as a loader holds
-    /// a long recording's) is judged as the one held in memory, to the bit:
-    /// its residuals, its replays, its errors split by frequency and the
-    /// replay grid chosen for it, at the recording's rate and judged at
-    /// every sample, and upsampled (the drive interpolated a stretch at a
-    /// time rather than made whole) and judged at a lower rate.
-    #[test]
-    fn a_record_held_in_scratch_files_is_judged_as_the_one_held_in_memory() {
+    /// An SDOF at 60 Hz (1 kg, 2 % damping) with a Jenkins joint of slip
+    /// force 40 N and stick stiffness `kd` times the linear one, driven in
+    /// three stated dwells (52 Hz at 20 N, 60 and 71 Hz at 60 N; 12 000
+    /// samples each at 4 kHz after 500 of silence): the recording of the
+    /// joint at `kd` 1.2, noise-free; the model as a function of `kd`.
+    fn jenkins_dwells() -> (Recording, impl Fn(f64) -> Model, Model) {
         use crate::model::{ElementSpec, ModalModel};
-        use crate::signals::{SamplesBuilder, Step};
         let fs = 4000.0;
         let w = 2.0 * PI * 60.0;
-        let model = |kd: f64| {
+        let model = move |kd: f64| {
             Model::new(
                 ModalModel::sdof(1.0, 2.0 * 0.02 * w, w * w).unwrap(),
-                vec![ElementSpec::Jenkins { kd, fd: 40.0 }],
+                vec![ElementSpec::Jenkins {
+                    kd: kd * w * w,
+                    fd: 40.0,
+                }],
             )
             .unwrap()
         };
@@ -1998,7 +2138,7 @@ mod tests {
             });
             force.extend((0..12_000).map(|i| level * (2.0 * PI * f * i as f64 / fs).sin()));
         }
-        let truth = model(1.2 * w * w);
+        let truth = model(1.2);
         let measured = crate::validate::simulate_response(
             &truth,
             &force,
@@ -2011,6 +2151,111 @@ mod tests {
         .values;
         let mut rec = recording(fs, force, stepped(steps));
         rec.channels[1] = measured;
+        (rec, model, truth)
+    }
+
+    /// Where the floor of [`MIN_JUDGED_PER_PERIOD`] samples a period keeps
+    /// more samples than the bound, each dwell is judged on its share, in
+    /// stretches: the judged samples stay within the bound, every stretch
+    /// inside its dwell (a dwell of one stretch judged on its last
+    /// samples), each residual the one judging every sample at that rate
+    /// gives there but for the divisor (its dwell's RMS over what is
+    /// judged), and the fit still finds the joint (noise-free: to 1e-6).
+    #[test]
+    fn a_recording_the_floor_keeps_above_the_bound_is_judged_in_stretches_of_each_dwell() {
+        let (rec, model, truth) = jenkins_dwells();
+        let records = [TimeRecord::from_recording("dwells", &rec, 1, None, None).unwrap()];
+        let start = model(1.0);
+        let problem = |most: usize| {
+            let options = TimeFitOptions {
+                max_judged_samples: most,
+                ..TimeFitOptions::default()
+            };
+            let parameters = time_parameters(&start, false, None);
+            TimeProblem::new(start.clone(), parameters, &records, 1.0, options, None).unwrap()
+        };
+        // 37 500 samples; the stick mode at 60·√2.2 = 89 Hz allows at most
+        // 4000/(8·89) = 5.6: one in 5, 7 500 judged, more than 3 000
+        let (part, whole) = (problem(3_000), problem(7_500));
+        assert_eq!(part.judging_factors(), [5]);
+        assert_eq!(whole.judging_factors(), [5]);
+        assert!(part.judged_in_part() && !whole.judged_in_part());
+        let judged = part.judged_samples()[0];
+        assert!((2_997..=3_000).contains(&judged), "{judged}");
+        let (jp, jw) = (&part.judging[0], &whole.judging[0]);
+        let mut last_end = 0;
+        for (s, k) in &jp.stretches {
+            let segment = &jw.stretches[*k].0;
+            assert!(s.start >= segment.start && s.end <= segment.end && s.start >= last_end);
+            assert!(s.len() <= JUDGED_STRETCH);
+            last_end = s.end;
+        }
+        // 2 500 a dwell at 1/5 of 12 500: a share of 1 000, one stretch
+        for (k, segment) in jw.stretches.iter().enumerate() {
+            let mine: Vec<_> = jp.stretches.iter().filter(|(_, j)| *j == k).collect();
+            assert_eq!(mine.len(), 1);
+            assert_eq!(mine[0].0.end, segment.0.end);
+        }
+        let theta = part.parameters().theta_of(&start).unwrap();
+        let (rp, rw) = (
+            part.residuals(&theta).unwrap(),
+            whole.residuals(&theta).unwrap(),
+        );
+        let mut p = 0;
+        for (s, k) in &jp.stretches {
+            for q in s.clone() {
+                let at_whole = q - jw.stretches[*k].0.start
+                    + jw.stretches[..*k]
+                        .iter()
+                        .map(|(s, _)| s.len())
+                        .sum::<usize>();
+                let (a, b) = (rp[p] * jp.scale[*k], rw[at_whole] * jw.scale[*k]);
+                assert!(
+                    (a - b).abs() <= 1e-12 * b.abs().max(1e-9),
+                    "{q}: {a} against {b}"
+                );
+                p += 1;
+            }
+        }
+        assert_eq!(p, judged);
+        let options = TimeFitOptions {
+            max_judged_samples: 3_000,
+            refine_linear: false,
+            ..TimeFitOptions::default()
+        };
+        let fit = identify_time(
+            &start,
+            time_parameters(&start, false, None),
+            1.0,
+            &records,
+            &options,
+            None,
+        )
+        .unwrap();
+        assert_eq!(fit.samples, judged);
+        assert!(
+            fit.notes
+                .iter()
+                .any(|n| n.contains("in stretches of at most"))
+        );
+        let kd = |m: &Model| match m.elements().next() {
+            Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
+            _ => unreachable!(),
+        };
+        let error = kd(&fit.model) / kd(&truth) - 1.0;
+        assert!(error.abs() < 1e-6, "kd {error:e} off");
+    }
+
+    /// A record whose channels are held in scratch files (as a loader holds
+    /// a long recording's) is judged as the one held in memory, to the bit:
+    /// its residuals, its replays, its errors split by frequency and the
+    /// replay grid chosen for it, at the recording's rate and judged at
+    /// every sample, and upsampled (the drive interpolated a stretch at a
+    /// time rather than made whole) and judged at a lower rate.
+    #[test]
+    fn a_record_held_in_scratch_files_is_judged_as_the_one_held_in_memory() {
+        use crate::signals::SamplesBuilder;
+        let (rec, model, truth) = jenkins_dwells();
         let held = |spill: bool| {
             let samples = |x: &[f64]| {
                 let b = SamplesBuilder::new(x.len(), &[]);
@@ -2024,7 +2269,7 @@ mod tests {
                 .unwrap()
         };
         let (in_memory, spilled) = ([held(false)], [held(true)]);
-        let start = model(w * w);
+        let start = model(1.0);
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for options in [
             TimeFitOptions::default(),
