@@ -864,8 +864,10 @@ fn reduce_streamed(
 ) -> Result<Option<Reduced>> {
     let mut meta = source.meta().clone();
     let excitation = excitation_of(&meta, r.excitation);
-    let swept = excitation == Excitation::Swept && source.frames() > WHOLE_RECORD_FRAMES;
-    if !swept && (excitation != Excitation::Stepped || meta.excitation.steps.is_empty()) {
+    let long = source.frames() > WHOLE_RECORD_FRAMES;
+    let swept = excitation == Excitation::Swept && long;
+    let stepped = excitation == Excitation::Stepped && (!meta.excitation.steps.is_empty() || long);
+    if !swept && !stepped {
         return Ok(None);
     }
     choice.apply(path, &mut meta)?;
@@ -873,6 +875,18 @@ fn reduce_streamed(
     let reference = meta
         .reference_channel()
         .expect("checked by response_channel");
+    if stepped && meta.excitation.steps.is_empty() && r.excitation.is_none() {
+        // a multisine's periods would be cut into "dwells": say what it is,
+        // from its first frames as the whole path does
+        let n = source.frames().min(MULTISINE_SEARCH);
+        let mut buffers = vec![Vec::new(); source.meta().channels.len()];
+        source.read_at(0, n, &mut buffers)?;
+        let probe = Recording {
+            meta: meta.clone(),
+            channels: buffers,
+        };
+        refuse_a_multisine(&probe, ch)?;
+    }
     if swept {
         return reduce_swept_stream(path, source, truth, truncated, &meta, (reference, ch), r)
             .map(Some);

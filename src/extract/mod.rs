@@ -32,6 +32,7 @@
 pub(crate) mod analytic;
 mod coherent;
 mod compensation;
+mod dwell_blocks;
 mod estimator;
 mod lsq;
 pub mod naive;
@@ -44,6 +45,7 @@ mod sweep_blocks;
 
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
 pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
+pub use dwell_blocks::{find_dwells_held, find_dwells_stream};
 pub use noncoherent::{estimate_frequency, noncoherent};
 pub use periodic::{EXCITED_LINE, Line, PERIODIC_CORRELATION, find_period, periodic_frf};
 pub use stepped::{

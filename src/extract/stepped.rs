@@ -156,7 +156,7 @@ pub struct Settling {
     pub settled: bool,
 }
 
-fn check_rate(sample_rate_hz: f64) -> Result<()> {
+pub(super) fn check_rate(sample_rate_hz: f64) -> Result<()> {
     if sample_rate_hz.is_finite() && sample_rate_hz > 0.0 {
         Ok(())
     } else {
@@ -356,8 +356,8 @@ fn settle_blocks(
 
 /// One tracking window: fractional sample bounds, frequency and amplitude
 /// with their standard errors.
-#[derive(Clone, Copy, Debug)]
-struct Window {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Window {
     end: f64,
     frequency: f64,
     frequency_se: f64,
@@ -380,8 +380,7 @@ struct Window {
 /// reference is first divided by its local RMS over about two of its
 /// longest periods ([`normalise`]) and the phase taken from that unit-level
 /// signal; amplitudes are the normalised envelope times the local RMS.
-fn track(reference: &[f64], sample_rate_hz: f64, m: usize) -> Vec<Window> {
-    let n = reference.len();
+pub(super) fn track(reference: &[f64], sample_rate_hz: f64, m: usize) -> Vec<Window> {
     let (unit, rms) = normalise(reference);
     let mut a = analytic(&unit);
     for (e, r) in a.amplitude.iter_mut().zip(&rms) {
@@ -392,61 +391,126 @@ fn track(reference: &[f64], sample_rate_hz: f64, m: usize) -> Vec<Window> {
         .iter()
         .map(|p| p / (2.0 * std::f64::consts::PI))
         .collect();
-    let mut windows = Vec::new();
-    let mut idx = 1;
-    let mut prev: f64 = 0.0;
-    let mut j = 1;
-    loop {
-        let target = cycles[0] + (j * m) as f64;
-        while idx < n && cycles[idx] < target {
-            idx += 1;
+    let mut tracker = WindowTracker::new(sample_rate_hz, m);
+    tracker.push(&cycles, &a.amplitude);
+    tracker.windows
+}
+
+/// [`track`]'s windows cut as the phase (in cycles) and the envelope come,
+/// a stretch at a time: holds the samples since the current window's start,
+/// not the record (the same windows, to the bit, however the samples are
+/// split).
+pub(super) struct WindowTracker {
+    sample_rate_hz: f64,
+    m: usize,
+    /// The first sample's phase, cycles.
+    cycles0: Option<f64>,
+    /// The samples held, from `from` on.
+    cycles: Vec<f64>,
+    amplitude: Vec<f64>,
+    from: usize,
+    /// The next sample whose phase may reach the next window's end.
+    idx: usize,
+    /// The last window's end (fractional sample).
+    prev: f64,
+    /// The next window's number (from 1).
+    j: usize,
+    /// The windows cut so far.
+    pub windows: Vec<Window>,
+}
+
+impl WindowTracker {
+    pub(super) fn new(sample_rate_hz: f64, m: usize) -> WindowTracker {
+        WindowTracker {
+            sample_rate_hz,
+            m,
+            cycles0: None,
+            cycles: Vec::new(),
+            amplitude: Vec::new(),
+            from: 0,
+            idx: 1,
+            prev: 0.0,
+            j: 1,
+            windows: Vec::new(),
         }
-        if idx >= n {
-            break;
-        }
-        let (c0, c1) = (cycles[idx - 1], cycles[idx]);
-        let t = (idx - 1) as f64
-            + if c1 > c0 {
-                (target - c0) / (c1 - c0)
-            } else {
-                1.0
-            };
-        let lo = prev.ceil() as usize;
-        let hi = (t.floor() as usize).min(n - 1);
-        let mut w = Window {
-            end: t,
-            frequency: m as f64 * sample_rate_hz / (t - prev),
-            frequency_se: f64::INFINITY,
-            amplitude: a.amplitude[hi.min(lo)],
-            amplitude_se: f64::INFINITY,
-        };
-        if hi >= lo + 3 {
-            let count = (hi - lo + 1) as f64;
-            let mid = 0.5 * (lo + hi) as f64;
-            let (mut sxx, mut sxy, mut sy, mut sa) = (0.0, 0.0, 0.0, 0.0);
-            for i in lo..=hi {
-                let x = i as f64 - mid;
-                sxx += x * x;
-                sxy += x * cycles[i];
-                sy += cycles[i];
-                sa += a.amplitude[i];
-            }
-            let (slope, mean_c, mean_a) = (sxy / sxx, sy / count, sa / count);
-            let (mut rc, mut ra) = (0.0, 0.0);
-            for i in lo..=hi {
-                rc += (cycles[i] - mean_c - slope * (i as f64 - mid)).powi(2);
-                ra += (a.amplitude[i] - mean_a).powi(2);
-            }
-            w.frequency = slope * sample_rate_hz;
-            w.frequency_se = (rc / (count - 2.0) / sxx).sqrt() * sample_rate_hz;
-            w.amplitude = mean_a;
-            w.amplitude_se = (ra / (count - 1.0) / count).sqrt();
-        }
-        windows.push(w);
-        prev = t;
-        j += 1;
     }
-    windows
+
+    /// Pushes the next samples' phase (cycles) and envelope, and cuts every
+    /// window they complete.
+    pub(super) fn push(&mut self, cycles: &[f64], amplitude: &[f64]) {
+        if self.cycles0.is_none() {
+            self.cycles0 = cycles.first().copied();
+        }
+        self.cycles.extend_from_slice(cycles);
+        self.amplitude.extend_from_slice(amplitude);
+        let Some(cycles0) = self.cycles0 else {
+            return;
+        };
+        let (from, m) = (self.from, self.m);
+        // samples received: a window ends at the first sample whose phase
+        // reaches its target, which must have arrived
+        let received = from + self.cycles.len();
+        let c = |i: usize| self.cycles[i - from];
+        let a = |i: usize| self.amplitude[i - from];
+        loop {
+            let target = cycles0 + (self.j * m) as f64;
+            while self.idx < received && c(self.idx) < target {
+                self.idx += 1;
+            }
+            if self.idx >= received {
+                break;
+            }
+            let idx = self.idx;
+            let (c0, c1) = (c(idx - 1), c(idx));
+            let t = (idx - 1) as f64
+                + if c1 > c0 {
+                    (target - c0) / (c1 - c0)
+                } else {
+                    1.0
+                };
+            let lo = self.prev.ceil() as usize;
+            let hi = t.floor() as usize;
+            let mut w = Window {
+                end: t,
+                frequency: m as f64 * self.sample_rate_hz / (t - self.prev),
+                frequency_se: f64::INFINITY,
+                amplitude: a(hi.min(lo)),
+                amplitude_se: f64::INFINITY,
+            };
+            if hi >= lo + 3 {
+                let count = (hi - lo + 1) as f64;
+                let mid = 0.5 * (lo + hi) as f64;
+                let (mut sxx, mut sxy, mut sy, mut sa) = (0.0, 0.0, 0.0, 0.0);
+                for i in lo..=hi {
+                    let x = i as f64 - mid;
+                    sxx += x * x;
+                    sxy += x * c(i);
+                    sy += c(i);
+                    sa += a(i);
+                }
+                let (slope, mean_c, mean_a) = (sxy / sxx, sy / count, sa / count);
+                let (mut rc, mut ra) = (0.0, 0.0);
+                for i in lo..=hi {
+                    rc += (c(i) - mean_c - slope * (i as f64 - mid)).powi(2);
+                    ra += (a(i) - mean_a).powi(2);
+                }
+                w.frequency = slope * self.sample_rate_hz;
+                w.frequency_se = (rc / (count - 2.0) / sxx).sqrt() * self.sample_rate_hz;
+                w.amplitude = mean_a;
+                w.amplitude_se = (ra / (count - 1.0) / count).sqrt();
+            }
+            self.windows.push(w);
+            self.prev = t;
+            self.j += 1;
+        }
+        // what no later window reads: before the sample the last window
+        // ended in (a window shorter than a sample reads its envelope
+        // there) and before the sample ahead of the search
+        let keep = (self.prev.floor() as usize).min(self.idx - 1).max(from);
+        self.cycles.drain(..keep - from);
+        self.amplitude.drain(..keep - from);
+        self.from = keep;
+    }
 }
 
 /// The reference divided by its local RMS (mean removed), and that RMS:
@@ -454,7 +518,7 @@ fn track(reference: &[f64], sample_rate_hz: f64, m: usize) -> Vec<Window> {
 /// found from the gaps between its zero crossings (the 90th percentile of
 /// the half periods, so that noise crossings, which only shorten gaps, do
 /// not matter).
-fn normalise(reference: &[f64]) -> (Vec<f64>, Vec<f64>) {
+pub(super) fn normalise(reference: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let n = reference.len();
     let mean = reference.iter().sum::<f64>() / n as f64;
     let mut gaps: Vec<usize> = Vec::new();
@@ -664,7 +728,31 @@ pub fn find_dwells(
         ));
     }
     let windows = track(reference, sample_rate_hz, options.window_periods.max(1));
-    let segments = segment(&windows, options);
+    dwells_of_windows(
+        &windows,
+        reference.len(),
+        sample_rate_hz,
+        options,
+        &mut |r| Ok(std::borrow::Cow::Borrowed(&reference[r])),
+    )
+}
+
+/// A stretch of the reference, `frames` of it: borrowed where it is held,
+/// read where it is not.
+pub(super) type ReadReference<'a, 'r> =
+    dyn FnMut(std::ops::Range<usize>) -> Result<std::borrow::Cow<'r, [f64]>> + 'a;
+
+/// [`find_dwells`] from the reference's tracking windows: the dwells they
+/// hold, each read (`read`) as it is examined, of a reference of `frames`
+/// samples.
+pub(super) fn dwells_of_windows<'r>(
+    windows: &[Window],
+    frames: usize,
+    sample_rate_hz: f64,
+    options: &DwellOptions,
+    read: &mut ReadReference<'_, 'r>,
+) -> Result<Vec<Step>> {
+    let segments = segment(windows, options);
     // candidates: bounds, first frequency estimate, settling on the reference
     let mut candidates = Vec::with_capacity(segments.len());
     for (si, &(a, b)) in segments.iter().enumerate() {
@@ -672,9 +760,10 @@ pub fn find_dwells(
         // close to its end joins a run within the noise, so either may hold
         // samples of the neighbouring step
         let start = windows[a].end.ceil() as usize;
-        let end = (windows[b - 1].end.floor() as usize + 1).min(reference.len());
+        let end = (windows[b - 1].end.floor() as usize + 1).min(frames);
         let what = format!("found dwell {si} (samples {start}..{end})");
-        let segment = &reference[start..end];
+        let segment = read(start..end)?;
+        let segment = &segment[..];
         let Ok(f0) = estimate_frequency_named(segment, sample_rate_hz, &what) else {
             continue;
         };
@@ -692,7 +781,6 @@ pub fn find_dwells(
     let mut steps = Vec::new();
     for (ci, (start, end, f0, periods, mut s, what, rms)) in candidates.iter().cloned().enumerate()
     {
-        let segment = &reference[start..end];
         // a run followed by a run at the same frequency, which either never
         // settles or lies within a level's tolerance of it, is that dwell's
         // level still moving (a force amplitude ramping up or drifting in):
@@ -710,7 +798,8 @@ pub fn find_dwells(
             // half, as for a response that never settles
             s.settle = ((periods / 2) as f64 * sample_rate_hz / f0).floor() as usize;
         }
-        let settled = &segment[s.settle..];
+        let segment = read(start + s.settle..end)?;
+        let settled = &segment[..];
         let f = if s.settle > 0 {
             estimate_frequency_named(settled, sample_rate_hz, &what).unwrap_or(f0)
         } else {
@@ -898,6 +987,19 @@ pub fn reduce_stepped_observed(
     options: &ReduceOptions,
     observer: &dyn Observer,
 ) -> Result<SteppedReduction> {
+    reduce_stepped_as(rec, response_channel, options, observer, false)
+}
+
+/// [`reduce_stepped_observed`]; `as_found`: the steps the recording states
+/// were found in its reference (by [`super::find_dwells_stream`]), and are
+/// reduced as found ones are (the response's settling tested too).
+pub(super) fn reduce_stepped_as(
+    rec: &Recording,
+    response_channel: usize,
+    options: &ReduceOptions,
+    observer: &dyn Observer,
+    as_found: bool,
+) -> Result<SteppedReduction> {
     let reference_channel = options
         .reference_channel
         .or_else(|| rec.reference_channel())
@@ -951,8 +1053,8 @@ pub fn reduce_stepped_observed(
     check_finite(reference, &format!("channel `{ref_name}`"))?;
     check_finite(response, &format!("channel `{resp_name}`"))?;
     let frames = reference.len();
-    let dwells_found = rec.meta.excitation.steps.is_empty();
-    let steps = if dwells_found {
+    let dwells_found = as_found || rec.meta.excitation.steps.is_empty();
+    let steps = if rec.meta.excitation.steps.is_empty() {
         find_dwells(reference, fs, &options.dwell)?
     } else {
         rec.meta.excitation.steps.clone()

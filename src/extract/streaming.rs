@@ -1,38 +1,38 @@
 //! Stepped-sine reduction of a recording read one dwell at a time.
 //!
 //! [`reduce_stepped`](super::reduce_stepped) needs the whole recording in
-//! memory; a long test (a gigabyte of WAV) need not be. When the recording
-//! states the steps, each dwell is read on its own from a [`FrameSource`]
-//! (a file reader, e.g. `record::RecordingReader`), reduced exactly as the in-memory path reduces it
-//! (same settle, frequency check, blocks and phase origin: the dwell's first
-//! analysed sample), and the points are grouped into levels the same way.
-//! Memory is the largest dwell's samples, whatever the file size.
+//! memory; a long test (a gigabyte of WAV) need not be. Each dwell is read
+//! on its own from a [`FrameSource`] (a file reader, e.g.
+//! `record::RecordingReader`), reduced exactly as the in-memory path
+//! reduces it (same settle, frequency check, blocks and phase origin: the
+//! dwell's first analysed sample), and the points are grouped into levels
+//! the same way. The dwells are the recording's stated steps, or, where it
+//! states none, found in its reference a stretch at a time
+//! ([`super::find_dwells_stream`]). Memory is the largest dwell's samples
+//! and the dwell search's blocks, whatever the file size.
 
-use super::stepped::group_levels;
-use super::{NonlinearFrf, ReduceOptions, SteppedReduction, reduce_stepped_report};
+use super::stepped::{group_levels, reduce_stepped_as};
+use super::{NonlinearFrf, ReduceOptions, SteppedReduction};
 use crate::error::{Error, Result};
+use crate::observe::Silent;
 use crate::signals::{FrameSource, Recording, Step};
 
 /// Reduces the stepped-sine recording `source` into nonlinear FRFs of
 /// channel `response_channel`, reading one dwell at a time (see the module
-/// docs). The result equals [`reduce_stepped_report`] on the whole recording.
+/// docs). The result equals [`super::reduce_stepped_report`] on the whole
+/// recording where it states its steps; where it does not, the dwells are
+/// found a stretch at a time, as [`super::find_dwells`] finds them in the
+/// whole reference to within their windows (see
+/// [`super::find_dwells_stream`]).
 ///
-/// Errors: those of [`FrameSource::read_at`] and of the reduction, and a
-/// recording that states no steps (finding dwells needs the whole reference
-/// in memory: read the recording and use [`reduce_stepped_report`]).
+/// Errors: those of [`FrameSource::read_at`], of the dwell search and of the
+/// reduction.
 pub fn reduce_stepped_stream(
     source: &mut impl FrameSource,
     response_channel: usize,
     options: &ReduceOptions,
 ) -> Result<SteppedReduction> {
-    let meta = source.meta().clone();
-    if meta.excitation.steps.is_empty() {
-        return Err(Error::input(
-            format!("{} excitation.steps", source.source_name()),
-            "states no steps: a streaming reduction needs them (finding the dwells needs the \
-             whole reference in memory)",
-        ));
-    }
+    let mut meta = source.meta().clone();
     let reference = match options.reference_channel {
         Some(r) => r,
         None => {
@@ -56,6 +56,17 @@ pub fn reduce_stepped_stream(
                 format!("out of range: the recording has {nch} channels"),
             ));
         }
+    }
+    let dwells_found = meta.excitation.steps.is_empty();
+    if dwells_found {
+        if response_channel == reference {
+            return Err(Error::input(
+                format!("response channel {response_channel}"),
+                "is the reference channel",
+            ));
+        }
+        meta.excitation.steps =
+            super::find_dwells_stream(source, reference, response_channel, &options.dwell)?;
     }
     let frames = source.frames();
     let mut buffers = vec![Vec::new(); nch];
@@ -98,7 +109,8 @@ pub fn reduce_stepped_stream(
             ],
         };
         // errors name the step by its index in the whole recording
-        let mut r = reduce_stepped_report(&dwell, 1, &pair_options).map_err(|e| match e {
+        let reduced = reduce_stepped_as(&dwell, 1, &pair_options, &Silent, dwells_found);
+        let mut r = reduced.map_err(|e| match e {
             Error::InvalidInput { what, message } => Error::InvalidInput {
                 what: what
                     .replacen("steps[0]", &format!("steps[{i}]"), 1)
@@ -129,6 +141,6 @@ pub fn reduce_stepped_stream(
             levels,
         },
         dwells,
-        dwells_found: false,
+        dwells_found,
     })
 }

@@ -109,7 +109,7 @@ impl PairSource for InMemory<'_> {
 
 /// Two channels of a [`FrameSource`], read a stretch of at least
 /// [`Blocks::read`] frames at a time.
-struct FramePair<'s, S: FrameSource> {
+pub(super) struct FramePair<'s, S: FrameSource> {
     source: &'s mut S,
     /// Reference and response channels.
     channels: [usize; 2],
@@ -180,7 +180,7 @@ pub fn choose_compensation_stream(
     })
 }
 
-fn frame_pair<'s, S: FrameSource>(
+pub(super) fn frame_pair<'s, S: FrameSource>(
     source: &'s mut S,
     reference: usize,
     response: usize,

@@ -303,8 +303,8 @@ impl TimeRecord {
         } else if swept {
             Vec::new()
         } else {
-            crate::extract::find_dwells(
-                &reference.values(),
+            crate::extract::find_dwells_held(
+                reference.view(),
                 fs,
                 &crate::extract::DwellOptions::default(),
             )
