@@ -452,9 +452,9 @@ fn stepped(fs: f64) -> Recording {
 
 /// The streaming reduction (one dwell read at a time from the WAV file)
 /// gives exactly the FRFs and dwell reports of the in-memory reduction of
-/// the same file; without stated steps too (the dwells found a stretch at a
-/// time: a record within one block of the search is followed exactly as
-/// whole).
+/// the same file; without stated steps too (the dwells of a record this
+/// short found in its reference read whole, then reduced one at a time as
+/// found ones are).
 #[test]
 fn streaming_stepped_reduction_equals_the_in_memory_one() {
     let open = |p: &std::path::Path| RecordingReader::open(p).unwrap();

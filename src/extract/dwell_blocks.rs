@@ -193,9 +193,10 @@ pub(super) fn find_dwells_in_blocks(
     })
 }
 
-/// [`super::find_dwells`] of channel `reference` of `source`, read a
-/// stretch at a time with the library's block sizes (`response`: another
-/// channel, read beside it).
+/// [`super::find_dwells`] of channel `reference` of `source` (`response`:
+/// another channel, read beside it): read whole where the record is at most
+/// [`super::WHOLE_RECORD_FRAMES`] long (the same dwells as ever), a stretch
+/// at a time with the library's block sizes where it is longer.
 pub fn find_dwells_stream<S: FrameSource>(
     source: &mut S,
     reference: usize,
@@ -203,7 +204,12 @@ pub fn find_dwells_stream<S: FrameSource>(
     options: &DwellOptions,
 ) -> Result<Vec<Step>> {
     let fs = source.meta().sample_rate_hz;
+    let frames = source.frames();
     let mut pair = super::sweep_blocks::frame_pair(source, reference, response, &BLOCKS)?;
+    if frames <= BLOCKS.whole {
+        let (force, _) = pair.pair(0, frames)?;
+        return super::find_dwells(force, fs, options);
+    }
     find_dwells_in_blocks(&mut pair, fs, options, &BLOCKS)
 }
 

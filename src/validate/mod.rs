@@ -1479,10 +1479,11 @@ impl MeasuredFrfs {
                 ];
                 let pair = vec![rec.channels[reference], rec.channels[response]];
                 let stated = &meta.excitation.steps;
-                // stated dwells in order are read one at a time; else they
-                // are found on the pair held whole
+                // stated dwells in order, or dwells found (a stretch at a
+                // time where the record is long), are read one at a time;
+                // stated ones out of order on the pair held whole
                 let in_order = Step::in_order;
-                let first = if in_order(stated) {
+                let first = if stated.is_empty() || in_order(stated) {
                     reduce_stepped_stream(
                         &mut InMemoryFrames::of_channels(&meta, pair.clone(), "recording"),
                         1,
