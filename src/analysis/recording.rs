@@ -632,6 +632,19 @@ pub fn sweep_options(
     })
 }
 
+/// [`sweep_options`] of two held channels (in memory or in scratch files),
+/// read a stretch at a time rather than copied whole: the same options.
+pub fn sweep_options_held(
+    force: crate::signals::SamplesView,
+    response: crate::signals::SamplesView,
+    sample_rate_hz: f64,
+    r: &ReductionOptions,
+) -> Result<SweepOptions> {
+    sweep_options_by(r, &mut |opts| {
+        crate::extract::choose_compensation_held(force, response, sample_rate_hz, opts)
+    })
+}
+
 /// Sweep options, the automatic compensation chosen by `choose`.
 fn sweep_options_by(
     r: &ReductionOptions,

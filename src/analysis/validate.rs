@@ -378,9 +378,9 @@ fn validate_held(
         Some(
             match excitation_of(rec.meta, settings.reduction.excitation) {
                 Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
-                Excitation::Swept => Reduction::Swept(super::recording::sweep_options(
-                    &rec.channels[reference].values(),
-                    &rec.channels[response].values(),
+                Excitation::Swept => Reduction::Swept(super::recording::sweep_options_held(
+                    rec.channels[reference],
+                    rec.channels[response],
                     rec.meta.sample_rate_hz,
                     &settings.reduction,
                 )?),

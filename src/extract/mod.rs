@@ -58,7 +58,10 @@ pub use sweep::{
     MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep, reduce_sweep,
     reduce_sweep_recording,
 };
-pub use sweep_blocks::{WHOLE_RECORD_FRAMES, choose_compensation_stream, reduce_sweep_stream};
+pub use sweep_blocks::{
+    WHOLE_RECORD_FRAMES, choose_compensation_held, choose_compensation_stream, reduce_sweep_held,
+    reduce_sweep_stream,
+};
 
 use crate::harmonics::Quantity;
 use num_complex::Complex64;

@@ -47,9 +47,10 @@ use super::sweep::{
     gaussian_squared, kernel, reach, store, window_centres,
 };
 use crate::error::{Error, Result};
-use crate::signals::FrameSource;
+use crate::signals::{FrameSource, SamplesView};
 use num_complex::Complex64;
 use rustfft::FftPlanner;
+use std::borrow::Cow;
 use std::f64::consts::PI;
 
 /// Records of at most this many frames are reduced whole (2^21: 105 s at
@@ -105,6 +106,64 @@ impl PairSource for InMemory<'_> {
     fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
         Ok((&self.force[a..b], &self.response[a..b]))
     }
+}
+
+/// Two held channels (in memory or in scratch files), read a stretch at a
+/// time.
+struct HeldPair<'a> {
+    force: SamplesView<'a>,
+    response: SamplesView<'a>,
+    held: (Cow<'a, [f64]>, Cow<'a, [f64]>),
+}
+
+impl PairSource for HeldPair<'_> {
+    fn frames(&self) -> usize {
+        self.force.len()
+    }
+    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
+        self.held = (self.force.range(a..b), self.response.range(a..b));
+        Ok((&self.held.0, &self.held.1))
+    }
+}
+
+/// [`super::reduce_sweep`] of two held channels, read a stretch at a time
+/// where they are held in scratch files (never copied whole): the same
+/// reduction to the bit as of their values.
+pub fn reduce_sweep_held(
+    force: SamplesView,
+    response: SamplesView,
+    sample_rate_hz: f64,
+    options: &super::SweepOptions,
+) -> Result<super::SweepReduction> {
+    if force.len() != response.len() {
+        return Err(Error::input(
+            "response",
+            format!(
+                "has {} samples but the force has {}: they must be sampled together",
+                response.len(),
+                force.len()
+            ),
+        ));
+    }
+    let mut pair = HeldPair {
+        force,
+        response,
+        held: (Cow::Borrowed(&[]), Cow::Borrowed(&[])),
+    };
+    super::sweep::reduce_sweep_from(&mut pair, sample_rate_hz, options, &BLOCKS)
+}
+
+/// [`super::choose_compensation`] of two held channels, each reduction
+/// reading them a stretch at a time ([`reduce_sweep_held`]).
+pub fn choose_compensation_held(
+    force: SamplesView,
+    response: SamplesView,
+    sample_rate_hz: f64,
+    options: &super::SweepOptions,
+) -> Result<f64> {
+    super::compensation::choose_compensation_by(sample_rate_hz, options, &mut |o| {
+        reduce_sweep_held(force, response, sample_rate_hz, o)
+    })
 }
 
 /// Two channels of a [`FrameSource`], read a stretch of at least

@@ -55,7 +55,7 @@ use crate::error::{Error, Result};
 use crate::extract::reduce_stepped_stream;
 use crate::extract::{
     FrfPoint, NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, reduce_stepped_report,
-    reduce_sweep,
+    reduce_sweep_held,
 };
 use crate::harmonics::Quantity;
 use crate::model::Model;
@@ -1111,7 +1111,15 @@ pub fn validate_view(
         made: 0,
         whole: tally(0..compared)?,
         window: window.clone().map(tally).transpose()?,
-        kept: Vec::new(),
+        kept: {
+            let held = crate::analysis::recording::HELD_UP_TO;
+            let b = crate::signals::SamplesBuilder::new(compared.min(held), &[]);
+            if keep_replay {
+                b
+            } else {
+                b.spilling_above(held)
+            }
+        },
         // a sweep is followed over the record whole, and dwells not in
         // increasing order are reduced from the replay whole
         keep: keep_replay
@@ -1154,6 +1162,7 @@ pub fn validate_view(
         kept,
         ..
     } = pass;
+    let kept = kept.finish()?;
     let frf = match measured_frfs {
         None => None,
         Some(m) => {
@@ -1162,14 +1171,14 @@ pub fn validate_view(
                 (None, Some((meta, opts, _)), _) => {
                     let pair = Recording {
                         meta: meta.clone(),
-                        channels: vec![force.values().into_owned(), kept.clone()],
+                        channels: vec![force.values().into_owned(), kept.values().into_owned()],
                     };
                     reduce_stepped_report(&pair, 1, opts)?.frf
                 }
                 (None, None, Some(Reduction::Swept(opts))) => {
                     let q = rec.meta.channels[response_channel].quantity;
                     let r = rec.meta.channels[reference].quantity;
-                    reduce_sweep(&force.values(), &kept, fs, opts)?.into_frf(q, r)
+                    reduce_sweep_held(force, kept.view(), fs, opts)?.into_frf(q, r)
                 }
                 (None, None, _) => unreachable!("a measured reduction is stepped or swept"),
             };
@@ -1187,7 +1196,11 @@ pub fn validate_view(
         window: window.map(|w| w.finish(measured, fs)),
         frf,
         lines: None,
-        simulated: if keep_replay { kept } else { Vec::new() },
+        simulated: if keep_replay {
+            kept.into_values()
+        } else {
+            Vec::new()
+        },
     })
 }
 
@@ -1205,7 +1218,10 @@ struct Pass<'p, 'a> {
     whole: tally::RangeTally,
     window: Option<tally::RangeTally>,
     keep: bool,
-    kept: Vec<f64>,
+    /// The replay kept (held in a scratch file once it is longer than
+    /// [`crate::analysis::recording::HELD_UP_TO`] where the caller does not
+    /// take it).
+    kept: crate::signals::SamplesBuilder,
     /// The first compared sample a reduction still reads (`usize::MAX`:
     /// none), and those held for it from `pending_from` on.
     floor: usize,
@@ -1235,7 +1251,7 @@ impl Pass<'_, '_> {
             w.push(at, &measured, simulated)?;
         }
         if self.keep {
-            self.kept.extend_from_slice(simulated);
+            self.kept.extend(simulated)?;
         }
         self.tap.stretch(at, &measured, simulated);
         let end = at + simulated.len();
@@ -1451,12 +1467,8 @@ impl MeasuredFrfs {
         let fs = rec.meta.sample_rate_hz;
         match reduction {
             Reduction::Swept(opts) => {
-                let m = reduce_sweep(
-                    &rec.channels[reference].values(),
-                    &rec.channels[response].values(),
-                    fs,
-                    opts,
-                )?;
+                let m =
+                    reduce_sweep_held(rec.channels[reference], rec.channels[response], fs, opts)?;
                 let sweep = m.sweep;
                 Ok(MeasuredFrfs {
                     frf: m.into_frf(
