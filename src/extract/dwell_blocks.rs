@@ -30,13 +30,10 @@
 //! the frequencies to rounding (tested); records up to
 //! [`super::WHOLE_RECORD_FRAMES`] are read whole, as before.
 
-use super::analytic::{next_smooth, to_analytic};
 use super::stepped::{DwellOptions, WindowTracker, dwells_of_windows};
-use super::sweep_blocks::{BLOCKS, Blocks, PairSource};
+use super::sweep_blocks::{BLOCKS, BlockPhase, Blocks, PairSource};
 use crate::error::{Error, Result};
 use crate::signals::{FrameSource, SamplesView, Step};
-use num_complex::Complex64;
-use rustfft::FftPlanner;
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -106,11 +103,9 @@ pub(super) fn find_dwells_in_blocks(
     let half = (2 * half_period).min(n / 2).max(1);
 
     let mut tracker = WindowTracker::new(sample_rate_hz, options.window_periods.max(1));
-    let mut planner = FftPlanner::<f64>::new();
-    let mut buf: Vec<Complex64> = Vec::new();
-    let (mut cycles, mut envelope, mut rms) = (Vec::new(), Vec::new(), Vec::new());
-    let mut cum = Vec::new();
-    let mut carried: Option<f64> = None;
+    let mut block = BlockPhase::default();
+    let (mut cycles, mut envelope) = (Vec::new(), Vec::new());
+    let (mut cum, mut rms, mut unit) = (Vec::new(), Vec::new(), Vec::new());
     let mut a = 0;
     while a < n {
         let b = (a + blocks.analytic_block).min(n);
@@ -128,62 +123,24 @@ pub(super) fn find_dwells_in_blocks(
             acc += (v - mean) * (v - mean);
             cum.push(acc);
         }
-        let len = hi - lo;
-        let (rise, fall) = (a - lo, hi - b);
-        let nfft = next_smooth(len.max(2));
-        buf.clear();
-        buf.resize(nfft, Complex64::default());
         rms.clear();
-        let mut unit_sum = 0.0;
+        unit.clear();
         for i in lo..hi {
             let (wl, wh) = (i.saturating_sub(half), (i + half + 1).min(n));
             let r = ((cum[wh - r0] - cum[wl - r0]).max(0.0) / (wh - wl) as f64).sqrt();
             rms.push(r);
-            let u = if r > 0.0 {
+            unit.push(if r > 0.0 {
                 (force[i - r0] - mean) / r
             } else {
                 0.0
-            };
-            buf[i - lo] = Complex64::new(u, 0.0);
-            unit_sum += u;
+            });
         }
-        let unit_mean = unit_sum / len as f64;
-        for (k, z) in buf[..len].iter_mut().enumerate() {
-            let w = if k < rise {
-                0.5 - 0.5 * (PI * (k as f64 + 0.5) / rise as f64).cos()
-            } else if k >= len - fall {
-                0.5 - 0.5 * (PI * ((len - k) as f64 - 0.5) / fall as f64).cos()
-            } else {
-                1.0
-            };
-            *z = Complex64::new((z.re - unit_mean) * w, 0.0);
-        }
-        to_analytic(&mut planner, &mut buf);
-        let inv = 1.0 / nfft as f64;
-        // unwrapped from frame `a`, joined to the block before by whole turns
-        let first = buf[a - lo].arg();
-        let mut offset = carried.map_or(0.0, |p| 2.0 * PI * ((p - first) / (2.0 * PI)).round());
-        let mut last = first;
         cycles.clear();
         envelope.clear();
-        let through = if b < n { b } else { b - 1 };
-        for f in a..=through {
-            let z = buf[f - lo] * inv;
-            let arg = z.arg();
-            let step = arg - last;
-            if step > PI {
-                offset -= 2.0 * PI;
-            } else if step < -PI {
-                offset += 2.0 * PI;
-            }
-            last = arg;
-            if f == b {
-                carried = Some(arg + offset);
-            } else {
-                cycles.push((arg + offset) / (2.0 * PI));
-                envelope.push(z.norm() * rms[f - lo]);
-            }
-        }
+        block.follow(&unit, (lo, a, b, hi), n, |f, phase, z| {
+            cycles.push(phase / (2.0 * PI));
+            envelope.push(z.norm() * rms[f - lo]);
+        });
         tracker.push(&cycles, &envelope);
         a = b;
     }
@@ -252,24 +209,12 @@ pub fn find_dwells_held(
 #[cfg(test)]
 mod tests {
     use super::super::stepped::{normalise, track};
-    use super::super::sweep_blocks::InMemory;
+    use super::super::sweep_blocks::{InMemory, SMALL};
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
 
     const FS: f64 = 2000.0;
-
-    /// Blocks small enough that a record of 84 000 frames is read as a long
-    /// one is: analytic blocks of 16 384 frames with 8 192 either side (82
-    /// periods at the lowest dwell's 20 Hz), reads of 1 024.
-    const SMALL: Blocks = Blocks {
-        whole: 1 << 12,
-        analytic_block: 1 << 14,
-        analytic_margin: 1 << 13,
-        convolution: 1 << 12,
-        phase_points: 1 << 17,
-        read: 1 << 10,
-    };
 
     /// A stepped sine of three levels 70 dB apart (0.02, 1 and 60 N) at
     /// seven frequencies 20-80 Hz, 4 000 frames a dwell, the phase

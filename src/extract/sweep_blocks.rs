@@ -84,6 +84,20 @@ pub(super) const BLOCKS: Blocks = Blocks {
     read: 1 << 18,
 };
 
+/// Blocks small enough that the tests' records of some 10^5 frames are read
+/// as long ones are: analytic blocks of 16 384 frames with 8 192 either side
+/// (40 periods at the test sweep's lowest 5 Hz), FFTs of 4 096 at least,
+/// reads of 1 024.
+#[cfg(test)]
+pub(super) const SMALL: Blocks = Blocks {
+    whole: 1 << 12,
+    analytic_block: 1 << 14,
+    analytic_margin: 1 << 13,
+    convolution: 1 << 12,
+    phase_points: 1 << 17,
+    read: 1 << 10,
+};
+
 /// The force (reference) and response of a swept record, a stretch at a
 /// time.
 pub(super) trait PairSource {
@@ -265,6 +279,84 @@ pub(super) fn frame_pair<'s, S: FrameSource>(
     })
 }
 
+/// A record's phase followed a block at a time (module docs): each block's
+/// analytic signal behind half Hann tapers over its margins, the phase
+/// unwrapped from the block's first frame and joined to the block before by
+/// whole turns.
+pub(super) struct BlockPhase {
+    planner: FftPlanner<f64>,
+    buf: Vec<Complex64>,
+    /// The unwrapped phase at the first frame of the next block, as the
+    /// block before it saw it (in its margin).
+    carried: Option<f64>,
+}
+
+impl Default for BlockPhase {
+    fn default() -> BlockPhase {
+        BlockPhase {
+            planner: FftPlanner::new(),
+            buf: Vec::new(),
+            carried: None,
+        }
+    }
+}
+
+impl BlockPhase {
+    /// Follows block `a..b` of a record of `frames` frames, `x` holding its
+    /// frames `lo..hi` (the block and its margins): `each(frame, phase, z)`
+    /// for every frame of the block, `z` the analytic signal.
+    pub(super) fn follow(
+        &mut self,
+        x: &[f64],
+        (lo, a, b, hi): (usize, usize, usize, usize),
+        frames: usize,
+        mut each: impl FnMut(usize, f64, Complex64),
+    ) {
+        let n = hi - lo;
+        let (rise, fall) = (a - lo, hi - b);
+        let mean = x.iter().sum::<f64>() / n as f64;
+        let nfft = next_smooth(n.max(2));
+        let buf = &mut self.buf;
+        buf.clear();
+        buf.resize(nfft, Complex64::default());
+        for (i, (z, &v)) in buf.iter_mut().zip(x).enumerate() {
+            let w = if i < rise {
+                0.5 - 0.5 * (PI * (i as f64 + 0.5) / rise as f64).cos()
+            } else if i >= n - fall {
+                0.5 - 0.5 * (PI * ((n - i) as f64 - 0.5) / fall as f64).cos()
+            } else {
+                1.0
+            };
+            *z = Complex64::new((v - mean) * w, 0.0);
+        }
+        super::analytic::to_analytic(&mut self.planner, buf);
+        let inv = 1.0 / nfft as f64;
+        // unwrap from frame `a`, joined to the block before by whole turns
+        let first = buf[a - lo].arg();
+        let mut offset = self
+            .carried
+            .map_or(0.0, |p| 2.0 * PI * ((p - first) / (2.0 * PI)).round());
+        let mut last = first;
+        let through = if b < frames { b } else { b - 1 };
+        for f in a..=through {
+            let z = buf[f - lo] * inv;
+            let arg = z.arg();
+            let step = arg - last;
+            if step > PI {
+                offset -= 2.0 * PI;
+            } else if step < -PI {
+                offset += 2.0 * PI;
+            }
+            last = arg;
+            if f == b {
+                self.carried = Some(arg + offset);
+            } else {
+                each(f, arg + offset, z);
+            }
+        }
+    }
+}
+
 /// The sweep in a long record: the analytic signal a block at a time, the
 /// phase law fitted to every `D`-th frame (module docs). Checks that both
 /// channels are finite on the way.
@@ -276,13 +368,9 @@ pub(super) fn fit_sweep_in_blocks(
 ) -> Result<(PhaseLaw, SweepFit)> {
     let frames = src.frames();
     let d = frames.div_ceil(blocks.phase_points).max(1);
-    let mut phase = Vec::with_capacity(frames.div_ceil(d));
+    let mut phase_kept = Vec::with_capacity(frames.div_ceil(d));
     let mut amplitude = Vec::with_capacity(frames.div_ceil(d));
-    let mut planner = FftPlanner::<f64>::new();
-    let mut buf: Vec<Complex64> = Vec::new();
-    // the unwrapped phase at the first frame of the next block, as the
-    // block before it saw it (in its margin)
-    let mut carried: Option<f64> = None;
+    let mut block = BlockPhase::default();
     let mut a = 0;
     while a < frames {
         let b = (a + blocks.analytic_block).min(frames);
@@ -299,50 +387,19 @@ pub(super) fn fit_sweep_in_blocks(
                 ));
             }
         }
-        let n = hi - lo;
-        let (rise, fall) = (a - lo, hi - b);
-        let mean = force.iter().sum::<f64>() / n as f64;
-        let nfft = next_smooth(n.max(2));
-        buf.clear();
-        buf.resize(nfft, Complex64::default());
-        for (i, (z, &v)) in buf.iter_mut().zip(force).enumerate() {
-            let w = if i < rise {
-                0.5 - 0.5 * (PI * (i as f64 + 0.5) / rise as f64).cos()
-            } else if i >= n - fall {
-                0.5 - 0.5 * (PI * ((n - i) as f64 - 0.5) / fall as f64).cos()
-            } else {
-                1.0
-            };
-            *z = Complex64::new((v - mean) * w, 0.0);
-        }
-        super::analytic::to_analytic(&mut planner, &mut buf);
-        let inv = 1.0 / nfft as f64;
-        // unwrap from frame `a`, joined to the block before by whole turns
-        let first = buf[a - lo].arg();
-        let mut offset = carried.map_or(0.0, |p| 2.0 * PI * ((p - first) / (2.0 * PI)).round());
-        let mut last = first;
-        let through = if b < frames { b } else { b - 1 };
-        for f in a..=through {
-            let z = buf[f - lo] * inv;
-            let arg = z.arg();
-            let step = arg - last;
-            if step > PI {
-                offset -= 2.0 * PI;
-            } else if step < -PI {
-                offset += 2.0 * PI;
-            }
-            last = arg;
-            if f == b {
-                carried = Some(arg + offset);
-            } else if f % d == 0 {
-                phase.push(arg + offset);
+        block.follow(force, (lo, a, b, hi), frames, |f, phase, z| {
+            if f % d == 0 {
+                phase_kept.push(phase);
                 amplitude.push(z.norm());
             }
-        }
+        });
         a = b;
     }
     let (law, sweep) = fit_phase(
-        &super::analytic::Analytic { phase, amplitude },
+        &super::analytic::Analytic {
+            phase: phase_kept,
+            amplitude,
+        },
         sample_rate_hz / d as f64,
         options,
     )?;
@@ -518,19 +575,6 @@ mod tests {
 
     const FS: f64 = 1000.0;
 
-    /// Blocks small enough that a record of 2^17 frames is reduced as a
-    /// long one is: analytic blocks of 16 384 frames with 8 192 either side
-    /// (40 periods at the sweep's lowest 5 Hz), FFTs of 4 096 at least,
-    /// reads of 1 024.
-    const SMALL: Blocks = Blocks {
-        whole: 1 << 12,
-        analytic_block: 1 << 14,
-        analytic_margin: 1 << 13,
-        convolution: 1 << 12,
-        phase_points: 1 << 17,
-        read: 1 << 10,
-    };
-
     /// A 20 Hz mode (ζ 2 %, τ 0.4 s) swept 5 -> 45 Hz at 1 kHz, in a record
     /// of 131 s with `silence` seconds before and after the sweep.
     fn record(silence: f64) -> (Vec<f64>, Vec<f64>) {
@@ -662,6 +706,39 @@ mod tests {
         let end = coarse.f_end_hz - whole.f_end_hz - moved(whole.end, coarse.end);
         eprintln!("start {start:.1e} Hz, end {end:.1e} Hz");
         assert!(start.abs() < 1e-6 && end.abs() < 1e-6);
+    }
+
+    /// Held in scratch files (as a loader holds a long recording's
+    /// channels, and `validate` a long replay), the record reduces to the
+    /// same bits as its values in memory, and the automatic compensation
+    /// chosen from it is the same.
+    #[test]
+    fn channels_held_in_scratch_files_reduce_as_in_memory() {
+        let (force, x) = record(3.0);
+        let spilled = |v: &[f64]| {
+            let mut b = crate::signals::SamplesBuilder::new(v.len(), &[]).spilling_above(5_000);
+            v.chunks(7_777).for_each(|c| b.extend(c).unwrap());
+            let s = b.finish().unwrap();
+            assert!(s.is_spilled());
+            s
+        };
+        let (f, y) = (spilled(&force), spilled(&x));
+        let held = reduce_sweep_held(f.view(), y.view(), FS, &options()).unwrap();
+        let whole = super::super::reduce_sweep(&force, &x, FS, &options()).unwrap();
+        assert_eq!(held, whole);
+        let plain = SweepOptions {
+            compensation_s: None,
+            ..options()
+        };
+        assert_eq!(
+            choose_compensation_held(f.view(), y.view(), FS, &plain).unwrap(),
+            super::super::choose_compensation(&force, &x, FS, &plain).unwrap()
+        );
+        let short = spilled(&x[..x.len() - 1]);
+        let e = reduce_sweep_held(f.view(), short.view(), FS, &options())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("must be sampled together"), "{e}");
     }
 
     /// Read from a WAV file a stretch at a time, the record reduces to the
