@@ -44,18 +44,6 @@ pub struct Step {
     pub length: usize,
 }
 
-impl Step {
-    /// Whether `steps` are some dwells, each ending before the next starts:
-    /// what a reduction reading a recording (or a replay made as it is read)
-    /// a dwell at a time, forwards, needs.
-    pub fn in_order(steps: &[Step]) -> bool {
-        !steps.is_empty()
-            && steps
-                .windows(2)
-                .all(|w| w[0].start + w[0].length <= w[1].start)
-    }
-}
-
 /// A sweep's known parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sweep {

@@ -1288,19 +1288,19 @@ impl ReplayReduction {
 
     /// The options source `s`'s replay is reduced with (its excitation
     /// settled when the measured recording was reduced: not searched for
-    /// again), and whether its dwells are stated in increasing order (then
-    /// a replay is reduced a dwell at a time as it is made).
+    /// again), and whether its dwells are stated (then a replay is reduced
+    /// a dwell at a time as it is made, whatever order they are stated in).
     fn replay_options(s: &ReplaySource) -> (ReductionOptions, bool) {
         let options = ReductionOptions {
             excitation: Some(excitation_of(&s.meta, s.options.excitation)),
             ..s.options.clone()
         };
         let steps = &s.meta.excitation.steps;
-        let in_order = options.excitation == Some(Excitation::Stepped)
-            && crate::signals::Step::in_order(steps)
+        let by_dwell = options.excitation == Some(Excitation::Stepped)
+            && !steps.is_empty()
             && s.meta.channels.len() == 2
             && s.meta.reference_channel().is_some_and(|r| r != s.response);
-        (options, in_order)
+        (options, by_dwell)
     }
 
     /// The FRFs of `responses` (one per recording, in order, every sample:
@@ -1324,8 +1324,8 @@ impl ReplayReduction {
 
     /// [`ReplayReduction::replayed`] of `model`'s replays of `problem`'s
     /// records (these recordings, in order), each reduced a dwell at a time
-    /// as it is made where its dwells are stated in order (no replay held
-    /// whole: the same FRFs to the bit), else replayed whole and reduced.
+    /// as it is made where its dwells are stated (no replay held whole: the
+    /// same FRFs to the bit), else replayed whole and reduced.
     pub fn replayed_as_made(
         &self,
         problem: &crate::fit::time::TimeProblem,
@@ -1336,8 +1336,8 @@ impl ReplayReduction {
         let mut sets = Vec::with_capacity(records.len());
         for (i, (s, record)) in self.sources.iter().zip(records).enumerate() {
             let at = |e| Error::context(format!("reducing the replay of {}", s.path.display()), e);
-            let (options, in_order) = Self::replay_options(s);
-            let frf = if in_order {
+            let (options, by_dwell) = Self::replay_options(s);
+            let frf = if by_dwell {
                 Self::check_record(s, record, record.response.len())?;
                 let reference = s.meta.reference_channel().expect("checked");
                 let mut frames = crate::validate::ReplayBeside::new(
@@ -1384,13 +1384,13 @@ impl ReplayReduction {
         response: Vec<f64>,
     ) -> Result<NonlinearFrf> {
         let at = |e| Error::context(format!("reducing the replay of {}", s.path.display()), e);
-        let (options, in_order) = Self::replay_options(s);
+        let (options, by_dwell) = Self::replay_options(s);
         let reference = s.meta.reference_channel();
         let frames = response.len();
         // a stepped sine whose steps are stated is read a dwell at a time
         // from the record's reference as it holds it and the response (no
         // copy of the reference; the same FRFs as reduced whole)
-        if let (true, Some(reference)) = (in_order, reference) {
+        if let (true, Some(reference)) = (by_dwell, reference) {
             let mut channels: Vec<SamplesView> = vec![SamplesView::Exact(&[]); 2];
             channels[reference] = record.reference.view();
             channels[s.response] = (&response).into();

@@ -8,8 +8,11 @@
 //! dwell's first analysed sample), and the points are grouped into levels
 //! the same way. The dwells are the recording's stated steps, or, where it
 //! states none, found in its reference a stretch at a time
-//! ([`super::find_dwells_stream`]). Memory is the largest dwell's samples
-//! and the dwell search's blocks, whatever the file size.
+//! ([`super::find_dwells_stream`]). The dwells are read forwards, in the
+//! order they start, whatever order they are stated in (a replay made as
+//! it is read can only go forwards), and reported in the stated order.
+//! Memory is the largest dwell's samples and the dwell search's blocks,
+//! whatever the file size.
 
 use super::stepped::{group_levels, reduce_stepped_as};
 use super::{NonlinearFrf, ReduceOptions, SteppedReduction};
@@ -69,14 +72,8 @@ pub fn reduce_stepped_stream(
             super::find_dwells_stream(source, reference, response_channel, &options.dwell)?;
     }
     let frames = source.frames();
-    let mut buffers = vec![Vec::new(); nch];
-    let mut points = Vec::with_capacity(meta.excitation.steps.len());
-    let mut dwells = Vec::with_capacity(meta.excitation.steps.len());
-    let pair_options = ReduceOptions {
-        reference_channel: Some(0),
-        ..options.clone()
-    };
-    for (i, step) in meta.excitation.steps.iter().enumerate() {
+    let steps = &meta.excitation.steps;
+    for (i, step) in steps.iter().enumerate() {
         let end = step.start.saturating_add(step.length);
         if end > frames {
             return Err(Error::input(
@@ -87,6 +84,19 @@ pub fn reduce_stepped_stream(
                 ),
             ));
         }
+    }
+    // read forwards whatever order the steps are stated in (a replay made
+    // as it is read can only go forwards), reported in the stated order
+    let mut order: Vec<usize> = (0..steps.len()).collect();
+    order.sort_by_key(|&i| steps[i].start);
+    let mut buffers = vec![Vec::new(); nch];
+    let mut reduced = vec![None; steps.len()];
+    let pair_options = ReduceOptions {
+        reference_channel: Some(0),
+        ..options.clone()
+    };
+    for i in order {
+        let step = &steps[i];
         let got = source.read_at(step.start, step.length, &mut buffers)?;
         if got != step.length {
             return Err(Error::input(
@@ -109,8 +119,8 @@ pub fn reduce_stepped_stream(
             ],
         };
         // errors name the step by its index in the whole recording
-        let reduced = reduce_stepped_as(&dwell, 1, &pair_options, &Silent, dwells_found);
-        let mut r = reduced.map_err(|e| match e {
+        let r = reduce_stepped_as(&dwell, 1, &pair_options, &Silent, dwells_found);
+        let mut r = r.map_err(|e| match e {
             Error::InvalidInput { what, message } => Error::InvalidInput {
                 what: what
                     .replacen("steps[0]", &format!("steps[{i}]"), 1)
@@ -125,9 +135,9 @@ pub fn reduce_stepped_stream(
         let mut report = r.dwells.remove(0);
         report.step.start = step.start;
         let point = r.frf.levels.remove(0).points.remove(0);
-        points.push((step.level, point));
-        dwells.push(report);
+        reduced[i] = Some(((step.level, point), report));
     }
+    let (points, mut dwells): (Vec<_>, Vec<_>) = reduced.into_iter().flatten().unzip();
     let (levels, index) = group_levels(points);
     for (d, (l, p)) in dwells.iter_mut().zip(index) {
         d.level = l;

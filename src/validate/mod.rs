@@ -54,8 +54,7 @@ pub use tally::SPLIT_BLOCK;
 use crate::error::{Error, Result};
 use crate::extract::reduce_stepped_stream;
 use crate::extract::{
-    FrfPoint, NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, reduce_stepped_report,
-    reduce_sweep_held,
+    FrfPoint, NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, reduce_sweep_held,
 };
 use crate::harmonics::Quantity;
 use crate::model::Model;
@@ -1120,12 +1119,9 @@ pub fn validate_view(
                 b.spilling_above(held)
             }
         },
-        // a sweep is followed over the record whole, and dwells not in
-        // increasing order are reduced from the replay whole
-        keep: keep_replay
-            || measured_frfs
-                .as_ref()
-                .is_some_and(|m| !m.dwells.as_ref().is_some_and(|d| d.2)),
+        // a sweep is followed over the record whole (held in scratch
+        // files where it is long)
+        keep: keep_replay || measured_frfs.as_ref().is_some_and(|m| m.dwells.is_none()),
         floor: usize::MAX,
         pending: Vec::new(),
         pending_from: 0,
@@ -1137,7 +1133,7 @@ pub fn validate_view(
     // a stepped recording's replay reduced a dwell at a time as it comes
     let simulated_stepped = match &measured_frfs {
         Some(MeasuredFrfs {
-            dwells: Some((meta, opts, true)),
+            dwells: Some((meta, opts)),
             ..
         }) => {
             let mut frames = ReplayFrames {
@@ -1166,21 +1162,14 @@ pub fn validate_view(
     let frf = match measured_frfs {
         None => None,
         Some(m) => {
-            let simulated = match (simulated_stepped, &m.dwells, &options.reduction) {
-                (Some(s), _, _) => s,
-                (None, Some((meta, opts, _)), _) => {
-                    let pair = Recording {
-                        meta: meta.clone(),
-                        channels: vec![force.values().into_owned(), kept.values().into_owned()],
-                    };
-                    reduce_stepped_report(&pair, 1, opts)?.frf
-                }
-                (None, None, Some(Reduction::Swept(opts))) => {
+            let simulated = match (simulated_stepped, &options.reduction) {
+                (Some(s), _) => s,
+                (None, Some(Reduction::Swept(opts))) => {
                     let q = rec.meta.channels[response_channel].quantity;
                     let r = rec.meta.channels[reference].quantity;
                     reduce_sweep_held(force, kept.view(), fs, opts)?.into_frf(q, r)
                 }
-                (None, None, _) => unreachable!("a measured reduction is stepped or swept"),
+                (None, _) => unreachable!("a measured reduction is stepped or swept"),
             };
             report(REDUCING, 2, 2)?;
             Some(m.compared_with(simulated, options.band_hz))
@@ -1453,10 +1442,10 @@ struct MeasuredFrfs {
     /// The sweep fitted to the reference (swept sine).
     sweep: Option<SweepFit>,
     /// A stepped sine's two-channel description (the reference, then the
-    /// response) with the dwells reduced, the options, and whether the
-    /// dwells follow one another (they can then be read one at a time):
-    /// the simulated response is reduced on exactly those dwells.
-    dwells: Option<(RecordingMeta, ReduceOptions, bool)>,
+    /// response) with the dwells reduced and the options: the simulated
+    /// response is reduced on exactly those dwells, a dwell at a time as
+    /// it is made.
+    dwells: Option<(RecordingMeta, ReduceOptions)>,
 }
 
 impl MeasuredFrfs {
@@ -1490,25 +1479,18 @@ impl MeasuredFrfs {
                     rec.meta.channels[response].clone(),
                 ];
                 let pair = vec![rec.channels[reference], rec.channels[response]];
-                let stated = &meta.excitation.steps;
-                // stated dwells in order, or dwells found (a stretch at a
-                // time where the record is long), are read one at a time;
-                // stated ones out of order on the pair held whole
-                let in_order = Step::in_order;
-                let first = if stated.is_empty() || in_order(stated) {
-                    reduce_stepped_stream(
-                        &mut InMemoryFrames::of_channels(&meta, pair.clone(), "recording"),
-                        1,
-                        &opts,
-                    )?
-                } else {
-                    reduce_stepped_report(&rec.to_recording(&[reference, response]), 1, &opts)?
-                };
+                // the dwells, stated or found (a stretch at a time where
+                // the record is long), are read one at a time
+                let first = reduce_stepped_stream(
+                    &mut InMemoryFrames::of_channels(&meta, pair.clone(), "recording"),
+                    1,
+                    &opts,
+                )?;
                 // the simulated response on exactly the measured dwells
                 let steps: Vec<Step> = first.dwells.iter().map(|d| d.step).collect();
                 let frf = if steps == meta.excitation.steps {
                     first.frf
-                } else if in_order(&steps) {
+                } else {
                     meta.excitation.steps = steps;
                     reduce_stepped_stream(
                         &mut InMemoryFrames::of_channels(&meta, pair, "recording"),
@@ -1516,17 +1498,11 @@ impl MeasuredFrfs {
                         &opts,
                     )?
                     .frf
-                } else {
-                    meta.excitation.steps = steps;
-                    let mut whole = rec.to_recording(&[reference, response]);
-                    whole.meta.excitation.steps = meta.excitation.steps.clone();
-                    reduce_stepped_report(&whole, 1, &opts)?.frf
                 };
-                let streamed = in_order(&meta.excitation.steps);
                 Ok(MeasuredFrfs {
                     frf,
                     sweep: None,
-                    dwells: Some((meta, opts, streamed)),
+                    dwells: Some((meta, opts)),
                 })
             }
         }
@@ -1583,6 +1559,7 @@ const REDUCING: &str = "reducing the measured and simulated responses";
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::extract::reduce_stepped_report;
     use crate::model::ModalModel;
     use std::f64::consts::PI;
 
@@ -1754,9 +1731,9 @@ mod tests {
     /// recordings held whole (`reduce_stepped_report`), as validation did
     /// before it streamed. The tap is handed every simulated sample once,
     /// in order; the replay is kept only when asked. Dwells stated in
-    /// increasing order (read one at a time beside the replay), found on
-    /// the reference (no steps stated) and stated out of order (the replay
-    /// then held) all give the reference's figures, and so do the channels
+    /// increasing order, found on the reference (no steps stated) and
+    /// stated out of order (read forwards all the same, one at a time
+    /// beside the replay) all give the reference's figures, and so do the channels
     /// held in scratch files (as a loader holds a long recording's).
     #[test]
     fn a_validation_that_never_holds_its_replay_gives_the_whole_replays_figures() {
