@@ -398,34 +398,82 @@ fn validate_held(
         periodic: settings.periodic,
         input: settings.input,
     };
-    // a multisine's lines are read from its replay whole
-    let lines = multisine.filter(|_| !settings.periodic);
+    // a multisine is judged at the lines of its period where two steady
+    // periods or more (after the first, the replay's start from rest) give
+    // the noise to judge it by; the replay's lines made as it comes
+    let spectra = match multisine.filter(|_| !settings.periodic) {
+        Some(period) => steady_spectra(name, rec, response, period)?,
+        None => None,
+    };
+    let mut lines = spectra.as_ref().map(|s| s.replayed_lines());
     let mut v = validate_view(
         &fit.model,
-        (fit.response_sign, keep_replay || lines.is_some()),
+        (fit.response_sign, keep_replay),
         rec,
         response,
         &opts,
         observer,
-        tap,
+        &mut WithLines {
+            tap,
+            lines: lines.as_mut(),
+        },
     )?;
-    if let Some(period) = lines {
-        // judged at the lines of its period where two steady periods or
-        // more give the noise to judge it by
-        let whole = rec.to_recording(&(0..rec.channels.len()).collect::<Vec<_>>());
-        if let Some(record) = super::identify::steady_periods(name, &whole, response, period)?
-            && record.segments.len() >= 2
-        {
-            v.lines = Some(crate::diagnose::lines::validate_at_lines(
-                &record,
-                &v.simulated,
-            )?);
-        }
-        if !keep_replay {
-            v.simulated = Vec::new();
-        }
+    if let (Some(spectra), Some(lines)) = (&spectra, lines) {
+        v.lines = Some(crate::diagnose::lines::validate_lines(
+            spectra,
+            &lines.finish()?,
+        ));
     }
     Ok(v)
+}
+
+/// The spectra of a multisine recording's steady periods of `period`
+/// samples (all whole ones after the first), read from the channels as
+/// they are held; `None` where fewer than two follow the first.
+fn steady_spectra(
+    name: &str,
+    rec: &RecordingView,
+    response: usize,
+    period: usize,
+) -> Result<Option<crate::diagnose::lines::PeriodicSpectra>> {
+    let reference = rec
+        .meta
+        .reference_channel()
+        .ok_or_else(|| Error::input("recording", "no reference channel"))?;
+    let (u, y) = (rec.channels[reference], rec.channels[response]);
+    let periods = u.len().min(y.len()) / period.max(1);
+    if period == 0 || periods < 3 {
+        return Ok(None);
+    }
+    crate::diagnose::lines::PeriodicSpectra::of_channels(
+        name,
+        (
+            rec.meta.channels[reference].quantity,
+            rec.meta.sample_rate_hz,
+        ),
+        (u, y),
+        (1..periods).map(|k| k * period..(k + 1) * period).collect(),
+    )
+    .map(Some)
+}
+
+/// A replay tap that also hands the replay to a multisine's lines.
+struct WithLines<'t, 'l, 's> {
+    tap: &'t mut dyn ReplayTap,
+    lines: Option<&'l mut crate::diagnose::lines::ReplayedLines<'s>>,
+}
+
+impl ReplayTap for WithLines<'_, '_, '_> {
+    fn begin(&mut self, samples: usize, window: Option<std::ops::Range<usize>>) {
+        self.tap.begin(samples, window);
+    }
+
+    fn stretch(&mut self, at: usize, measured: &[f64], simulated: &[f64]) {
+        if let Some(lines) = &mut self.lines {
+            lines.push(at, simulated);
+        }
+        self.tap.stretch(at, measured, simulated);
+    }
 }
 
 /// The time figures' traces, made as the replay comes: the whole record's

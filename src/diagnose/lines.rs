@@ -39,6 +39,7 @@ use crate::error::{Error, Result};
 use crate::fit::TimeRecord;
 use crate::fit::time::TimeProblem;
 use crate::model::{ElementSpec, Model};
+use crate::signals::SamplesView;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
 use serde::Serialize;
@@ -100,8 +101,26 @@ impl PeriodicSpectra {
     /// The spectra of `record`, whose segments are its steady periods (as a
     /// multisine's time fit judges it): at least two, of equal length.
     pub fn of(record: &TimeRecord) -> Result<PeriodicSpectra> {
-        let at = |f: &str| format!("{}: {f}", record.name);
-        let periods = record.segments.clone();
+        Self::of_channels(
+            &record.name,
+            (record.reference_quantity, record.sample_rate_hz),
+            (record.reference.view(), record.response.view()),
+            record.segments.clone(),
+        )
+    }
+
+    /// [`PeriodicSpectra::of`] two channels held however they are, judged
+    /// over `periods` (at least two, of equal length, in order): each
+    /// period's spectrum is made and added in turn, never all held (the
+    /// response read twice: its mean, then its scatter about it), so a
+    /// recording of any length costs a period's samples.
+    pub fn of_channels(
+        name: &str,
+        (reference_quantity, sample_rate_hz): (crate::harmonics::Quantity, f64),
+        (reference, response): (SamplesView, SamplesView),
+        periods: Vec<Range<usize>>,
+    ) -> Result<PeriodicSpectra> {
+        let at = |f: &str| format!("{name}: {f}");
         let period = periods.first().map_or(0, |s| s.len());
         if periods.len() < 2 || period < 8 || periods.iter().any(|s| s.len() != period) {
             return Err(Error::input(
@@ -114,26 +133,26 @@ impl PeriodicSpectra {
             ));
         }
         let fft = FftPlanner::<f64>::new().plan_fft_forward(period);
-        let spectra = |x: &[f64]| -> Vec<Vec<Complex64>> {
-            periods
-                .iter()
-                .map(|p| {
-                    let mut b: Vec<Complex64> = x[p.clone()]
-                        .iter()
-                        .map(|&v| Complex64::new(v, 0.0))
-                        .collect();
-                    fft.process(&mut b);
-                    b
-                })
-                .collect()
+        // every period's spectrum at `bins`, handed in turn to `each`
+        let spectra = |x: SamplesView, bins: &[usize], each: &mut dyn FnMut(usize, Complex64)| {
+            for p in &periods {
+                let mut b: Vec<Complex64> = x
+                    .range(p.clone())
+                    .iter()
+                    .map(|&v| Complex64::new(v, 0.0))
+                    .collect();
+                fft.process(&mut b);
+                for (i, &k) in bins.iter().enumerate() {
+                    each(i, b[k]);
+                }
+            }
         };
-        let us = spectra(&record.reference.values());
-        let ys = spectra(&record.response.values());
-        let mean = |s: &[Vec<Complex64>], k: usize| {
-            s.iter().map(|b| b[k]).sum::<Complex64>() / s.len() as f64
-        };
+        let n = periods.len() as f64;
         let half = period.div_ceil(2);
-        let u: Vec<Complex64> = (0..half).map(|k| mean(&us, k)).collect();
+        let mut u = vec![Complex64::new(0.0, 0.0); half];
+        let all: Vec<usize> = (0..half).collect();
+        spectra(reference, &all, &mut |k, v| u[k] += v);
+        u.iter_mut().for_each(|v| *v /= n);
         let strongest = u[1..].iter().map(|v| v.norm()).fold(0.0, f64::max);
         let excited =
             |k: usize| strongest > 0.0 && u[k].norm() >= crate::extract::EXCITED_LINE * strongest;
@@ -151,13 +170,14 @@ impl PeriodicSpectra {
                 _ => LineClass::EvenNotExcited,
             })
             .collect();
-        let p = ys.len() as f64;
-        let measured: Vec<Complex64> = bins.iter().map(|&k| mean(&ys, k)).collect();
-        let scatter: Vec<f64> = bins
-            .iter()
-            .zip(&measured)
-            .map(|(&k, m)| ys.iter().map(|b| (b[k] - m).norm_sqr()).sum::<f64>() / (p * (p - 1.0)))
-            .collect();
+        let mut measured = vec![Complex64::new(0.0, 0.0); bins.len()];
+        spectra(response, &bins, &mut |i, v| measured[i] += v);
+        measured.iter_mut().for_each(|v| *v /= n);
+        let mut scatter = vec![0.0; bins.len()];
+        spectra(response, &bins, &mut |i, v| {
+            scatter[i] += (v - measured[i]).norm_sqr()
+        });
+        scatter.iter_mut().for_each(|v| *v /= n * (n - 1.0));
         // smoothed over the neighbours; held above the rounding of the
         // largest line, so that a noise-free record still scales
         let floor = (1e-12 * measured.iter().map(|v| v.norm()).fold(0.0, f64::max)).powi(2);
@@ -170,9 +190,9 @@ impl PeriodicSpectra {
             })
             .collect();
         Ok(PeriodicSpectra {
-            name: record.name.clone(),
-            reference_quantity: record.reference_quantity,
-            sample_rate_hz: record.sample_rate_hz,
+            name: name.to_string(),
+            reference_quantity,
+            sample_rate_hz,
             period,
             reference: bins.iter().map(|&k| u[k]).collect(),
             periods,
@@ -186,6 +206,18 @@ impl PeriodicSpectra {
     /// The frequency of line `i`, Hz.
     pub fn frequency_hz(&self, i: usize) -> f64 {
         self.bins[i] as f64 * self.sample_rate_hz / self.period as f64
+    }
+
+    /// A replay's mean spectrum at the lines made as the replay comes, a
+    /// stretch at a time ([`ReplayedLines`]).
+    pub fn replayed_lines(&self) -> ReplayedLines<'_> {
+        ReplayedLines {
+            spectra: self,
+            fft: FftPlanner::<f64>::new().plan_fft_forward(self.period),
+            next: 0,
+            held: Vec::with_capacity(self.period),
+            sum: vec![Complex64::new(0.0, 0.0); self.bins.len()],
+        }
     }
 
     /// A replay's mean spectrum over the same periods at the same lines.
@@ -226,6 +258,68 @@ impl PeriodicSpectra {
             })
             .sum();
         (2.0 * sum).sqrt() / self.period as f64
+    }
+}
+
+/// A replay's mean spectrum at the lines of [`PeriodicSpectra`], made from
+/// the replay handed a stretch at a time, in order: a period is held until
+/// it is complete, then its spectrum is added ([`PeriodicSpectra::replayed`]
+/// of the whole replay, to the bit, holding a period's samples).
+pub struct ReplayedLines<'a> {
+    spectra: &'a PeriodicSpectra,
+    fft: std::sync::Arc<dyn rustfft::Fft<f64>>,
+    /// The period being filled.
+    next: usize,
+    /// Its samples so far.
+    held: Vec<f64>,
+    sum: Vec<Complex64>,
+}
+
+impl ReplayedLines<'_> {
+    /// The replay's samples `at..at + replay.len()`, following those
+    /// pushed before.
+    pub fn push(&mut self, at: usize, replay: &[f64]) {
+        let end = at + replay.len();
+        let periods = &self.spectra.periods;
+        while let Some(p) = periods.get(self.next) {
+            // the sample the period needs next; a stretch handed twice or
+            // one skipped cannot fill it
+            let want = p.start + self.held.len();
+            if want >= end || want < at {
+                break;
+            }
+            let stop = p.end.min(end);
+            self.held.extend_from_slice(&replay[want - at..stop - at]);
+            if self.held.len() < p.len() {
+                break;
+            }
+            let mut b: Vec<Complex64> = self.held.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+            self.fft.process(&mut b);
+            for (s, &k) in self.sum.iter_mut().zip(&self.spectra.bins) {
+                *s += b[k];
+            }
+            self.held.clear();
+            self.next += 1;
+        }
+    }
+
+    /// The mean spectrum; an error where the replay ended before the last
+    /// period.
+    pub fn finish(self) -> Result<Vec<Complex64>> {
+        let periods = &self.spectra.periods;
+        if self.next < periods.len() {
+            return Err(Error::input(
+                format!("{}: replay", self.spectra.name),
+                format!(
+                    "ends inside period {} of {} (samples {:?})",
+                    self.next + 1,
+                    periods.len(),
+                    periods[self.next]
+                ),
+            ));
+        }
+        let n = periods.len() as f64;
+        Ok(self.sum.into_iter().map(|v| v / n).collect())
     }
 }
 
@@ -706,33 +800,21 @@ pub struct LineValidation {
     pub per_line: Vec<(f64, f64, LineClass)>,
 }
 
-/// `replay` (the model's response at every sample of `record`, driven from
-/// rest) judged at the lines of `record`'s steady periods. Errors as
-/// [`PeriodicSpectra::of`] (fewer than two steady periods).
-pub fn validate_at_lines(record: &TimeRecord, replay: &[f64]) -> Result<LineValidation> {
-    let spectra = PeriodicSpectra::of(record)?;
-    if replay.len() < record.response.len() {
-        return Err(Error::input(
-            format!("{}: replay", record.name),
-            format!(
-                "{} samples against the recording's {}",
-                replay.len(),
-                record.response.len()
-            ),
-        ));
-    }
-    let r = spectra.residual(&spectra.replayed(replay));
+/// A replay's lines `replayed` (its mean spectrum at the lines of
+/// `spectra`) judged against the measured ones.
+pub fn validate_lines(spectra: &PeriodicSpectra, replayed: &[Complex64]) -> LineValidation {
+    let r = spectra.residual(replayed);
     let per_line = r
         .iter()
         .enumerate()
         .map(|(i, v)| (spectra.frequency_hz(i), v.norm(), spectra.class[i]))
         .collect();
-    Ok(LineValidation {
+    LineValidation {
         steady_periods: spectra.periods.len(),
         period_samples: spectra.period,
-        residual: line_residual(std::slice::from_ref(&spectra), &[r]),
+        residual: line_residual(std::slice::from_ref(spectra), &[r]),
         per_line,
-    })
+    }
 }
 
 /// `model`'s replayed lines on every recording of `problem` (those of
@@ -834,6 +916,60 @@ mod tests {
         let mut across = vec![Complex64::new(0.0, 0.0); res.len()];
         across[3] = Complex64::new(1.0, 0.0);
         assert!(share_explained(std::slice::from_ref(&res), &[across]) < 1e-3);
+    }
+
+    /// The lines of a replay handed a stretch at a time (stretches of 1 to
+    /// 150 samples, across the periods' edges) are those of the whole
+    /// replay to the bit, and so are the measured spectra of channels held
+    /// in scratch files; a replay that ends inside a period is refused.
+    #[test]
+    fn a_replay_handed_in_stretches_has_the_whole_replays_lines() {
+        let r = record(7);
+        let s = PeriodicSpectra::of(&r).unwrap();
+        let replay: Vec<f64> = r
+            .response
+            .values()
+            .iter()
+            .enumerate()
+            .map(|(i, v)| 0.9 * v + 1e-3 * (i as f64 * 0.37).sin())
+            .collect();
+        let whole = s.replayed(&replay);
+        for step in [1, 7, 64, 150] {
+            let mut lines = s.replayed_lines();
+            let mut at = 0;
+            for (k, chunk) in replay.chunks(step).enumerate() {
+                // stretches of uneven length
+                let n = chunk.len().min(1 + k % step);
+                lines.push(at, &chunk[..n]);
+                lines.push(at + n, &chunk[n..]);
+                at += chunk.len();
+            }
+            assert!(lines.finish().unwrap() == whole, "stretches of {step}");
+        }
+        let mut short = s.replayed_lines();
+        short.push(0, &replay[..replay.len() - 1]);
+        let e = short.finish().unwrap_err().to_string();
+        assert!(
+            e.contains("r: replay") && e.contains("period 6 of 6"),
+            "{e}"
+        );
+        let spill = |x: &[f64]| {
+            let mut b = crate::signals::SamplesBuilder::new(x.len(), &[]).spilling_above(100);
+            b.extend(x).unwrap();
+            b.finish().unwrap()
+        };
+        let (u, y) = (spill(&r.reference.values()), spill(&r.response.values()));
+        assert!(u.is_spilled() && y.is_spilled());
+        let held = PeriodicSpectra::of_channels(
+            "r",
+            (r.reference_quantity, r.sample_rate_hz),
+            (u.view(), y.view()),
+            r.segments.clone(),
+        )
+        .unwrap();
+        assert!(
+            held.measured == s.measured && held.sigma == s.sigma && held.reference == s.reference
+        );
     }
 
     #[test]
