@@ -59,8 +59,8 @@ pub use sweep::{
     reduce_sweep_recording,
 };
 pub use sweep_blocks::{
-    WHOLE_RECORD_FRAMES, choose_compensation_held, choose_compensation_stream, reduce_sweep_held,
-    reduce_sweep_stream,
+    WHOLE_RECORD_FRAMES, choose_compensation_held, choose_compensation_stream, find_sweep_held,
+    reduce_sweep_held, reduce_sweep_stream,
 };
 
 use crate::harmonics::Quantity;

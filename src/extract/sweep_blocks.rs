@@ -180,6 +180,51 @@ pub fn choose_compensation_held(
     })
 }
 
+/// [`super::find_sweep`] of a reference held however it is (in scratch
+/// files where it is long): read whole up to [`Blocks::whole`] frames (the
+/// same sweep as of its values), a longer one a block at a time as the long
+/// sweep's reduction reads it (module docs), never copied whole.
+pub fn find_sweep_held(
+    reference: SamplesView,
+    sample_rate_hz: f64,
+    options: &super::SweepOptions,
+) -> Result<super::SweepFit> {
+    find_sweep_in(reference, sample_rate_hz, options, &BLOCKS)
+}
+
+fn find_sweep_in(
+    reference: SamplesView,
+    sample_rate_hz: f64,
+    options: &super::SweepOptions,
+    blocks: &Blocks,
+) -> Result<super::SweepFit> {
+    if reference.len() <= blocks.whole {
+        return super::find_sweep(&reference.values(), sample_rate_hz, options);
+    }
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(Error::input(
+            "sample rate",
+            format!("must be finite and > 0, got {sample_rate_hz}"),
+        ));
+    }
+    let mut only = ReferenceOnly(reference, Cow::Borrowed(&[]));
+    fit_sweep_in_blocks(&mut only, sample_rate_hz, options, blocks).map(|(_, s)| s)
+}
+
+/// A pair source of a reference alone, as both channels (read once a
+/// stretch).
+struct ReferenceOnly<'a>(SamplesView<'a>, Cow<'a, [f64]>);
+
+impl PairSource for ReferenceOnly<'_> {
+    fn frames(&self) -> usize {
+        self.0.len()
+    }
+    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
+        self.1 = self.0.range(a..b);
+        Ok((&self.1, &self.1))
+    }
+}
+
 /// Two channels of a [`FrameSource`], read a stretch of at least
 /// [`Blocks::read`] frames at a time.
 pub(super) struct FramePair<'s, S: FrameSource> {
@@ -634,6 +679,40 @@ mod tests {
         let centre = (whole.phase(mid as f64) - blocks.phase(mid as f64)).abs();
         eprintln!("phase laws apart by {apart:.1e} rad, {centre:.1e} at the middle");
         assert!(apart < 3e-5, "{apart}");
+    }
+
+    /// A long reference's sweep found a block at a time from scratch files
+    /// (as a time fit's `--band` finds it) is the one its blocks give in
+    /// memory, and the band's samples are those of the whole record's
+    /// sweep to within a sample; a short one is read whole (the same bits).
+    #[test]
+    fn a_held_references_sweep_is_found_a_block_at_a_time() {
+        let (force, x) = record(3.0);
+        let spilled = {
+            let mut b = crate::signals::SamplesBuilder::new(force.len(), &[]).spilling_above(1000);
+            b.extend(&force).unwrap();
+            b.finish().unwrap()
+        };
+        assert!(spilled.is_spilled() && force.len() > SMALL.whole);
+        let held = find_sweep_in(spilled.view(), FS, &options(), &SMALL).unwrap();
+        let mut src = InMemory {
+            force: &force,
+            response: &x,
+        };
+        let (_, blocks) = fit_sweep_in_blocks(&mut src, FS, &options(), &SMALL).unwrap();
+        assert_eq!(format!("{held:?}"), format!("{blocks:?}"));
+        let whole = super::super::find_sweep(&force, FS, &options()).unwrap();
+        for band in [(10.0, 20.0), (30.0, 44.0)] {
+            let (h, w) = (held.samples_in(band), whole.samples_in(band));
+            assert!(
+                h.start.abs_diff(w.start) <= 1 && h.end.abs_diff(w.end) <= 1,
+                "{band:?}: {h:?} against {w:?}"
+            );
+        }
+        let short = find_sweep_in(spilled.view(), FS, &options(), &BLOCKS).unwrap();
+        assert_eq!(format!("{short:?}"), format!("{whole:?}"));
+        let e = find_sweep_in(spilled.view(), 0.0, &options(), &SMALL).unwrap_err();
+        assert!(e.to_string().contains("sample rate"), "{e}");
     }
 
     /// The compensation by overlap-save in blocks of 4 096 against the

@@ -279,8 +279,8 @@ impl TimeRecord {
         let stated = &meta.excitation.steps;
         let swept = meta.excitation.kind == crate::signals::ExcitationKind::SweptSine;
         if let (Some(band), true, true) = (band_hz, swept, stated.is_empty()) {
-            let sweep = crate::extract::find_sweep(
-                &reference.values(),
+            let sweep = crate::extract::find_sweep_held(
+                reference.view(),
                 fs,
                 &crate::extract::SweepOptions::default(),
             )
