@@ -959,7 +959,7 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
 #[test]
 fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     use hystid::analysis::recording::{
-        ChannelChoice, ReductionOptions, load_recording, reduce, reduce_path,
+        ChannelChoice, ReductionOptions, load_recording, reduce, reduce_path_observed,
     };
     let fs = 2000.0;
     let model = ModalModel::new(vec![
@@ -994,8 +994,21 @@ fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     hystid::record::write_recording(&path, &rec, hystid::record::SampleFormat::Float32).unwrap();
     drop(rec);
     let options = ReductionOptions::default();
-    let streamed = reduce_path(&path, ChannelChoice::default(), &options).unwrap();
+    // its progress told: the dwell search's reads to their end, then each
+    // dwell reduced
+    let told = std::sync::Mutex::new(Vec::new());
+    let watch = |e: hystid::observe::Event<'_>| {
+        if let hystid::observe::Event::Progress { task, done, total } = e {
+            told.lock().unwrap().push((task, done, total));
+        }
+    };
+    let streamed = reduce_path_observed(&path, ChannelChoice::default(), &options, &watch).unwrap();
     assert!(streamed.streamed);
+    let told = told.into_inner().unwrap();
+    let last = |task: &str| told.iter().rev().find(|t| t.0 == task).copied();
+    let frames = 4 * extract::WHOLE_RECORD_FRAMES as u64;
+    assert!(matches!(last(extract::FINDING), Some((_, d, t)) if d == t && t > frames));
+    assert_eq!(last("reducing"), Some(("reducing", 32, 32)));
     let whole = reduce(
         &load_recording(&path, ChannelChoice::default()).unwrap(),
         &options,

@@ -34,7 +34,7 @@ pub use recording::{
     ChannelChoice, Compensation, Excitation, HeldRecording, Loaded, Reduced, ReductionOptions,
     band_limited, combine_recordings, excitation_of, load_held_reference_and_response,
     load_recording, load_reference_and_response, load_time_record, reduce, reduce_observed,
-    reduce_path, reduce_recordings, response_channel, sweep_options,
+    reduce_path, reduce_path_observed, reduce_recordings, response_channel, sweep_options,
 };
 
 use crate::error::{Error, Result};

@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, WHOLE_RECORD_FRAMES, choose_compensation,
     choose_compensation_stream, reduce_stepped_observed, reduce_stepped_stream,
-    reduce_sweep_recording, reduce_sweep_stream,
+    reduce_stepped_stream_observed, reduce_sweep_recording, reduce_sweep_stream,
 };
 use crate::harmonics::Quantity;
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
@@ -811,6 +811,18 @@ pub struct SweptReading {
 /// time (memory bounded whatever the file size); anything else is read
 /// whole.
 pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> Result<Reduced> {
+    reduce_path_observed(path, choice, r, &crate::observe::Silent)
+}
+
+/// [`reduce_path`], telling `observer` how it progresses (a dwell search's
+/// `finding dwells`; `reducing`: a stepped sine's dwells, a swept sine's
+/// whole reductions) and stopping where it asks ([`Error::Cancelled`]).
+pub fn reduce_path_observed(
+    path: &Path,
+    choice: ChannelChoice,
+    r: &ReductionOptions,
+    observer: &dyn crate::observe::Observer,
+) -> Result<Reduced> {
     if path
         .to_str()
         .is_some_and(|p| p.to_ascii_lowercase().ends_with(".quality.json"))
@@ -820,11 +832,11 @@ pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> 
             "this is the data-quality report `hystid import` writes beside a recording, not a recording (a glob such as `*.json` picks it up: name the recordings)",
         ));
     }
-    if let Some(reduced) = reduce_path_streamed(path, choice, r)? {
+    if let Some(reduced) = reduce_path_streamed(path, choice, r, observer)? {
         return Ok(reduced);
     }
     let loaded = load_recording(path, choice)?;
-    reduce(&loaded, r)
+    reduce_observed(&loaded, r, observer)
 }
 
 /// [`reduce_path`] where it reads the file a stretch at a time (stated
@@ -833,6 +845,7 @@ fn reduce_path_streamed(
     path: &Path,
     choice: ChannelChoice,
     r: &ReductionOptions,
+    observer: &dyn crate::observe::Observer,
 ) -> Result<Option<Reduced>> {
     // stepped sines whose steps are stated are reduced one dwell at a time
     // from disk (memory bounded whatever the file's size)
@@ -844,12 +857,12 @@ fn reduce_path_streamed(
         )
         .ok();
         let truncated = reader.run().truncated;
-        reduce_streamed(path, reader, truth, truncated, choice, r)?
+        reduce_streamed(path, reader, (truth, truncated), choice, r, observer)?
     } else {
         let reader = crate::record::RecordingReader::open(path)?;
         let truth = recorded_truth(reader.meta())
             .and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
-        reduce_streamed(path, reader, truth, false, choice, r)?
+        reduce_streamed(path, reader, (truth, false), choice, r, observer)?
     })
 }
 
@@ -870,10 +883,10 @@ pub fn coil_of_path(path: &Path) -> Result<Option<crate::fit::coil::CoilFit>> {
 fn reduce_streamed(
     path: &Path,
     mut source: impl FrameSource,
-    truth: Option<TestDefinition>,
-    truncated: bool,
+    (truth, truncated): (Option<TestDefinition>, bool),
     choice: ChannelChoice,
     r: &ReductionOptions,
+    observer: &dyn crate::observe::Observer,
 ) -> Result<Option<Reduced>> {
     let mut meta = source.meta().clone();
     let excitation = excitation_of(&meta, r.excitation);
@@ -901,17 +914,26 @@ fn reduce_streamed(
         refuse_a_multisine(&probe, ch)?;
     }
     if swept {
-        return reduce_swept_stream(path, source, truth, truncated, &meta, (reference, ch), r)
-            .map(Some);
+        return reduce_swept_stream(
+            path,
+            source,
+            (truth, truncated),
+            &meta,
+            (reference, ch),
+            r,
+            observer,
+        )
+        .map(Some);
     }
     let options = ReduceOptions {
         reference_channel: Some(reference),
         ..stepped_options(r)
     };
-    let red = match reduce_stepped_stream(&mut source, ch, &options) {
+    let red = match reduce_stepped_stream_observed(&mut source, ch, &options, observer) {
         Ok(red) => red,
         // a reference that is all zero fails the first dwell: say why, as
         // `load_recording` does (read through once more, only on failure)
+        Err(Error::Cancelled) => return Err(Error::Cancelled),
         Err(e) => {
             return Err(if is_flat(&mut source, reference)? {
                 flat_reference(path, &meta.channels[reference].name)
@@ -937,21 +959,34 @@ fn reduce_streamed(
 fn reduce_swept_stream(
     path: &Path,
     mut source: impl FrameSource,
-    truth: Option<TestDefinition>,
-    truncated: bool,
+    (truth, truncated): (Option<TestDefinition>, bool),
     meta: &RecordingMeta,
     (reference, ch): (usize, usize),
     r: &ReductionOptions,
+    observer: &dyn crate::observe::Observer,
 ) -> Result<Reduced> {
-    let reduced = sweep_options_by(r, &mut |opts| {
-        choose_compensation_stream(&mut source, reference, ch, opts)
-    })
-    .and_then(|opts| {
-        let red = reduce_sweep_stream(&mut source, reference, ch, &opts)?;
-        Ok((red, opts.compensation_s, opts.hop_periods))
-    });
+    // the automatic compensation is two reductions more
+    let total = if r.compensation == Compensation::Auto {
+        3
+    } else {
+        1
+    };
+    let report = |done| crate::observe::progress(observer, "reducing", done, total);
+    let reduced = report(0)
+        .and_then(|()| {
+            sweep_options_by(r, &mut |opts| {
+                choose_compensation_stream(&mut source, reference, ch, opts)
+            })
+        })
+        .and_then(|opts| {
+            report(total - 1)?;
+            let red = reduce_sweep_stream(&mut source, reference, ch, &opts)?;
+            report(total)?;
+            Ok((red, opts.compensation_s, opts.hop_periods))
+        });
     let (red, compensation, hop_asked) = match reduced {
         Ok(r) => r,
+        Err(Error::Cancelled) => return Err(Error::Cancelled),
         Err(e) => {
             return Err(if is_flat(&mut source, reference)? {
                 flat_reference(path, &meta.channels[reference].name)
@@ -1063,17 +1098,19 @@ pub fn combine_recordings(sets: &[(PathBuf, NonlinearFrf)]) -> Result<NonlinearF
 
 /// Reduces every recording and combines them into one FRF set (one level
 /// per file, or the levels each holds); also returns the first reduction.
-/// `on_reduced` sees each reduction as it is made.
+/// `on_reduced` sees each reduction as it is made, `observer` how each
+/// progresses ([`reduce_path_observed`]).
 pub fn reduce_recordings(
     recordings: &[PathBuf],
     choice: ChannelChoice,
     reduction: &ReductionOptions,
     on_reduced: &mut dyn FnMut(&Path, &Reduced),
+    observer: &dyn crate::observe::Observer,
 ) -> Result<(NonlinearFrf, Reduced)> {
     let mut sets = Vec::with_capacity(recordings.len());
     let mut first: Option<Reduced> = None;
     for path in recordings {
-        let red = reduce_path(path, choice, reduction)
+        let red = reduce_path_observed(path, choice, reduction, observer)
             .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
         on_reduced(path, &red);
         sets.push((path.clone(), red.frf.clone()));
@@ -1154,7 +1191,9 @@ impl ReplayReduction {
         let mut reduced = Vec::with_capacity(recordings.len());
         for path in recordings {
             let at = |e| Error::context(format!("reducing {}", path.display()), e);
-            let one = match reduce_path_streamed(path, choice, reduction).map_err(at)? {
+            let one = match reduce_path_streamed(path, choice, reduction, &crate::observe::Silent)
+                .map_err(at)?
+            {
                 Some(red) => (
                     red,
                     load_held_reference_and_response(path, choice).map_err(at)?,

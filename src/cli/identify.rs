@@ -218,7 +218,8 @@ pub fn reduce_recordings(
     };
     let pb = progress::spinner(&reducing(0), quiet);
     pb.enable_steady_tick(std::time::Duration::from_millis(150));
-    let mut done = 0;
+    // the recording being read, for the progress of its stages
+    let current = std::sync::atomic::AtomicUsize::new(0);
     let mut on_reduced = |path: &Path, red: &Reduced| {
         pb.suspend(|| {
             if red.truncated {
@@ -231,11 +232,27 @@ pub fn reduce_recordings(
                 print_reduced(path, red);
             }
         });
-        done += 1;
+        let done = current.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         pb.set_message(reducing(done));
     };
-    let reduced =
-        hystid::analysis::reduce_recordings(recordings, channels, &options, &mut on_reduced);
+    let stages = |event: hystid::observe::Event<'_>| {
+        if let hystid::observe::Event::Progress { task, done, total } = event {
+            let i = current.load(std::sync::atomic::Ordering::Relaxed);
+            // `reducing x.wav 42 %`, `reducing x.wav: finding dwells 42 %`
+            let stage = progress::progress_message(task, done, total);
+            pb.set_message(match stage.strip_prefix("reducing") {
+                Some(pct) => format!("{}{pct}", reducing(i)),
+                None => format!("{}: {stage}", reducing(i)),
+            });
+        }
+    };
+    let reduced = hystid::analysis::reduce_recordings(
+        recordings,
+        channels,
+        &options,
+        &mut on_reduced,
+        &stages,
+    );
     pb.finish_and_clear();
     Ok(reduced?)
 }

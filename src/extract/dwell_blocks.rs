@@ -31,20 +31,27 @@
 //! [`super::WHOLE_RECORD_FRAMES`] are read whole, as before.
 
 use super::stepped::{DwellOptions, WindowTracker, dwells_of_windows};
-use super::sweep_blocks::{BLOCKS, BlockPhase, Blocks, PairSource};
+use super::sweep_blocks::{BLOCKS, BlockPhase, Blocks, HeldReference, PairSource};
 use crate::error::{Error, Result};
+use crate::observe::{Observer, Silent, progress};
 use crate::signals::{FrameSource, SamplesView, Step};
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
+/// The progress task of a dwell search read a stretch at a time.
+pub const FINDING: &str = "finding dwells";
+
 /// [`super::find_dwells`] of the reference (`src`'s force) read a stretch at
-/// a time (see the module docs).
+/// a time (see the module docs), telling `observer` how far its four reads
+/// have come (`finding dwells`: the mean, the crossings, the phase, the
+/// dwells examined) and stopping where it asks.
 pub(super) fn find_dwells_in_blocks(
     src: &mut dyn PairSource,
     sample_rate_hz: f64,
     options: &DwellOptions,
     blocks: &Blocks,
+    observer: &dyn Observer,
 ) -> Result<Vec<Step>> {
     super::stepped::check_rate(sample_rate_hz)?;
     let n = src.frames();
@@ -54,6 +61,8 @@ pub(super) fn find_dwells_in_blocks(
             format!("{n} samples: too short to find dwells"),
         ));
     }
+    let total = 4 * n as u64;
+    let report = |read: usize, a: usize| progress(observer, FINDING, (read * n + a) as u64, total);
     // the mean, summed in the record's order, and every sample finite
     let mut sum = -0.0;
     let mut a = 0;
@@ -68,6 +77,7 @@ pub(super) fn find_dwells_in_blocks(
         }
         sum = force.iter().fold(sum, |acc, v| acc + v);
         a = b;
+        report(0, a)?;
     }
     let mean = sum / n as f64;
     // the gaps between crossings of the mean, counted by length
@@ -89,6 +99,7 @@ pub(super) fn find_dwells_in_blocks(
             below = Some(now);
         }
         a = b;
+        report(1, a)?;
     }
     let mut rank = count * 9 / 10;
     let mut half_period = None;
@@ -143,22 +154,31 @@ pub(super) fn find_dwells_in_blocks(
         });
         tracker.push(&cycles, &envelope);
         a = b;
+        report(2, a)?;
     }
-    dwells_of_windows(&tracker.windows, n, sample_rate_hz, options, &mut |r| {
+    // the dwells examined, each read as it is (the last read's progress:
+    // the furthest frame read)
+    let mut furthest = 0;
+    let found = dwells_of_windows(&tracker.windows, n, sample_rate_hz, options, &mut |r| {
+        furthest = furthest.max(r.end);
+        report(3, furthest)?;
         let (force, _) = src.pair(r.start, r.end)?;
         Ok(Cow::Owned(force.to_vec()))
-    })
+    })?;
+    report(4, 0)?;
+    Ok(found)
 }
 
 /// [`super::find_dwells`] of channel `reference` of `source` (`response`:
 /// another channel, read beside it): read whole where the record is at most
 /// [`super::WHOLE_RECORD_FRAMES`] long (the same dwells as ever), a stretch
-/// at a time with the library's block sizes where it is longer.
+/// at a time with the library's block sizes where it is longer, telling
+/// `observer` how far it has come ([`FINDING`]).
 pub fn find_dwells_stream<S: FrameSource>(
     source: &mut S,
-    reference: usize,
-    response: usize,
+    (reference, response): (usize, usize),
     options: &DwellOptions,
+    observer: &dyn Observer,
 ) -> Result<Vec<Step>> {
     let fs = source.meta().sample_rate_hz;
     let frames = source.frames();
@@ -167,24 +187,7 @@ pub fn find_dwells_stream<S: FrameSource>(
         let (force, _) = pair.pair(0, frames)?;
         return super::find_dwells(force, fs, options);
     }
-    find_dwells_in_blocks(&mut pair, fs, options, &BLOCKS)
-}
-
-/// A held channel as the force of a [`PairSource`] (the response: the same
-/// stretch), read a stretch at a time.
-struct HeldReference<'a> {
-    samples: SamplesView<'a>,
-    held: Cow<'a, [f64]>,
-}
-
-impl PairSource for HeldReference<'_> {
-    fn frames(&self) -> usize {
-        self.samples.len()
-    }
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        self.held = self.samples.range(a..b);
-        Ok((&self.held, &self.held))
-    }
+    find_dwells_in_blocks(&mut pair, fs, options, &BLOCKS, observer)
 }
 
 /// [`super::find_dwells`] of a held reference: read whole where it is at
@@ -199,11 +202,8 @@ pub fn find_dwells_held(
     if reference.len() <= BLOCKS.whole {
         return super::find_dwells(&reference.values(), sample_rate_hz, options);
     }
-    let mut src = HeldReference {
-        samples: reference,
-        held: Cow::Borrowed(&[]),
-    };
-    find_dwells_in_blocks(&mut src, sample_rate_hz, options, &BLOCKS)
+    let mut src = HeldReference::new(reference);
+    find_dwells_in_blocks(&mut src, sample_rate_hz, options, &BLOCKS, &Silent)
 }
 
 #[cfg(test)]
@@ -289,7 +289,39 @@ mod tests {
             force: &x,
             response: &response,
         };
-        let blocks = find_dwells_in_blocks(&mut src, FS, &options, &SMALL).unwrap();
+        // the search's progress: its four reads in steps to the end, never
+        // back, the same dwells found whether it is watched or not
+        let told = std::sync::Mutex::new(Vec::new());
+        let watch = |e: crate::observe::Event<'_>| {
+            if let crate::observe::Event::Progress { task, done, total } = e {
+                told.lock().unwrap().push((task, done, total));
+            }
+        };
+        let blocks = find_dwells_in_blocks(&mut src, FS, &options, &SMALL, &watch).unwrap();
+        let told = told.into_inner().unwrap();
+        let n = 4 * x.len() as u64;
+        assert!(told.len() > 3 * x.len() / SMALL.analytic_block + blocks.len());
+        assert!(told.iter().all(|&(t, _, total)| t == FINDING && total == n));
+        assert!(told.windows(2).all(|w| w[0].1 <= w[1].1) && told.last().unwrap().1 == n);
+        let mut src = InMemory {
+            force: &x,
+            response: &response,
+        };
+        assert!(find_dwells_in_blocks(&mut src, FS, &options, &SMALL, &Silent).unwrap() == blocks);
+        // a search asked to stop stops
+        struct Stop;
+        impl Observer for Stop {
+            fn observe(&self, _: crate::observe::Event<'_>) {}
+            fn cancelled(&self) -> bool {
+                true
+            }
+        }
+        let mut src = InMemory {
+            force: &x,
+            response: &response,
+        };
+        let e = find_dwells_in_blocks(&mut src, FS, &options, &SMALL, &Stop).unwrap_err();
+        assert!(matches!(e, Error::Cancelled), "{e}");
         for found in [&whole, &blocks] {
             assert_eq!(found.len(), truth.len());
             for (k, (s, &(f, level))) in found.iter().zip(&truth).enumerate() {
@@ -311,7 +343,7 @@ mod tests {
             force: &bad,
             response: &response,
         };
-        let e = find_dwells_in_blocks(&mut src, FS, &options, &SMALL)
+        let e = find_dwells_in_blocks(&mut src, FS, &options, &SMALL, &Silent)
             .unwrap_err()
             .to_string();
         assert!(e.contains("reference[70001]"), "{e}");

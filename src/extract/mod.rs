@@ -45,7 +45,7 @@ mod sweep_blocks;
 
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
 pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
-pub use dwell_blocks::{find_dwells_held, find_dwells_stream};
+pub use dwell_blocks::{FINDING, find_dwells_held, find_dwells_stream};
 pub use noncoherent::{estimate_frequency, noncoherent};
 pub use periodic::{EXCITED_LINE, Line, PERIODIC_CORRELATION, find_period, periodic_frf};
 pub use stepped::{
@@ -53,7 +53,7 @@ pub use stepped::{
     combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_observed,
     reduce_stepped_report, settling,
 };
-pub use streaming::reduce_stepped_stream;
+pub use streaming::{reduce_stepped_stream, reduce_stepped_stream_observed};
 pub use sweep::{
     MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep, reduce_sweep,
     reduce_sweep_recording,

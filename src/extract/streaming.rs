@@ -17,7 +17,7 @@
 use super::stepped::{group_levels, reduce_stepped_as};
 use super::{NonlinearFrf, ReduceOptions, SteppedReduction};
 use crate::error::{Error, Result};
-use crate::observe::Silent;
+use crate::observe::{Observer, Silent};
 use crate::signals::{FrameSource, Recording, Step};
 
 /// Reduces the stepped-sine recording `source` into nonlinear FRFs of
@@ -34,6 +34,19 @@ pub fn reduce_stepped_stream(
     source: &mut impl FrameSource,
     response_channel: usize,
     options: &ReduceOptions,
+) -> Result<SteppedReduction> {
+    reduce_stepped_stream_observed(source, response_channel, options, &Silent)
+}
+
+/// [`reduce_stepped_stream`], telling `observer` how it progresses (the
+/// dwell search's [`super::dwell_blocks::FINDING`] where it finds them,
+/// then `reducing` after each dwell) and stopping where it asks
+/// ([`Error::Cancelled`]).
+pub fn reduce_stepped_stream_observed(
+    source: &mut impl FrameSource,
+    response_channel: usize,
+    options: &ReduceOptions,
+    observer: &dyn Observer,
 ) -> Result<SteppedReduction> {
     let mut meta = source.meta().clone();
     let reference = match options.reference_channel {
@@ -68,8 +81,12 @@ pub fn reduce_stepped_stream(
                 "is the reference channel",
             ));
         }
-        meta.excitation.steps =
-            super::find_dwells_stream(source, reference, response_channel, &options.dwell)?;
+        meta.excitation.steps = super::find_dwells_stream(
+            source,
+            (reference, response_channel),
+            &options.dwell,
+            observer,
+        )?;
     }
     let frames = source.frames();
     let steps = &meta.excitation.steps;
@@ -95,7 +112,8 @@ pub fn reduce_stepped_stream(
         reference_channel: Some(0),
         ..options.clone()
     };
-    for i in order {
+    for (done, i) in order.into_iter().enumerate() {
+        crate::observe::progress(observer, "reducing", done as u64, steps.len() as u64)?;
         let step = &steps[i];
         let got = source.read_at(step.start, step.length, &mut buffers)?;
         if got != step.length {
@@ -137,6 +155,7 @@ pub fn reduce_stepped_stream(
         let point = r.frf.levels.remove(0).points.remove(0);
         reduced[i] = Some(((step.level, point), report));
     }
+    crate::observe::progress(observer, "reducing", steps.len() as u64, steps.len() as u64)?;
     let (points, mut dwells): (Vec<_>, Vec<_>) = reduced.into_iter().flatten().unzip();
     let (levels, index) = group_levels(points);
     for (d, (l, p)) in dwells.iter_mut().zip(index) {

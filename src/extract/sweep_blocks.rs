@@ -207,21 +207,33 @@ fn find_sweep_in(
             format!("must be finite and > 0, got {sample_rate_hz}"),
         ));
     }
-    let mut only = ReferenceOnly(reference, Cow::Borrowed(&[]));
+    let mut only = HeldReference::new(reference);
     fit_sweep_in_blocks(&mut only, sample_rate_hz, options, blocks).map(|(_, s)| s)
 }
 
-/// A pair source of a reference alone, as both channels (read once a
-/// stretch).
-struct ReferenceOnly<'a>(SamplesView<'a>, Cow<'a, [f64]>);
+/// A held channel as the force of a [`PairSource`] (the response: the same
+/// stretch), read a stretch at a time.
+pub(super) struct HeldReference<'a> {
+    samples: SamplesView<'a>,
+    held: Cow<'a, [f64]>,
+}
 
-impl PairSource for ReferenceOnly<'_> {
+impl<'a> HeldReference<'a> {
+    pub(super) fn new(samples: SamplesView<'a>) -> HeldReference<'a> {
+        HeldReference {
+            samples,
+            held: Cow::Borrowed(&[]),
+        }
+    }
+}
+
+impl PairSource for HeldReference<'_> {
     fn frames(&self) -> usize {
-        self.0.len()
+        self.samples.len()
     }
     fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        self.1 = self.0.range(a..b);
-        Ok((&self.1, &self.1))
+        self.held = self.samples.range(a..b);
+        Ok((&self.held, &self.held))
     }
 }
 
