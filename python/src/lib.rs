@@ -1136,15 +1136,17 @@ fn identify_time<'py>(
     let names = recordings.names;
     let fit_opts = fit_options(&options)?;
     let band = fit_opts.band_hz;
-    let records = |window_s: Option<(f64, f64)>| {
+    // the recordings' channels moved into their time records (the arrays
+    // were copied once, into the library; not again)
+    let records = |loaded: Vec<Loaded>, window_s: Option<(f64, f64)>| {
         loaded
-            .iter()
+            .into_iter()
             .zip(&names)
             .map(|(l, name)| {
                 let fs = l.recording.meta.sample_rate_hz;
                 let window =
                     window_s.map(|(a, b)| (a * fs).round() as usize..(b * fs).round() as usize);
-                TimeRecord::from_recording(name, &l.recording, l.response, window, band)
+                TimeRecord::from_owned_recording(name, l.recording, l.response, window, band)
             })
             .collect::<hystid::Result<Vec<TimeRecord>>>()
     };
@@ -1159,7 +1161,7 @@ fn identify_time<'py>(
             }
             let mut report = from_json::<FitReport>("fit", &text)?;
             let t = progress.run(py, || {
-                let records = records(None)?;
+                let records = records(loaded, None)?;
                 // the replay and the starts as given; the upsampling
                 // threshold is the start's and multisines' only, as on the
                 // command line
@@ -1183,7 +1185,7 @@ fn identify_time<'py>(
         (None, Some(start)) => {
             let start = start.inner.clone();
             let report = progress.run(py, || {
-                let records = records(window_s)?;
+                let records = records(loaded, window_s)?;
                 hystid::analysis::run_time_fit_from_start(
                     recording,
                     String::new(),
