@@ -406,9 +406,11 @@ fn validate_held(
         None => None,
     };
     let mut lines = spectra.as_ref().map(|s| s.replayed_lines());
+    // a periodic record is one period (short): its replay kept for the
+    // error at the period's lines
     let mut v = validate_view(
         &fit.model,
-        (fit.response_sign, keep_replay),
+        (fit.response_sign, keep_replay || settings.periodic),
         rec,
         response,
         &opts,
@@ -423,6 +425,18 @@ fn validate_held(
             spectra,
             &lines.finish()?,
         ));
+    }
+    if settings.periodic {
+        let n = v.simulated.len();
+        v.line_spectrum = crate::diagnose::lines::line_spectrum(
+            &rec.channels[reference].range(0..n.min(rec.channels[reference].len())),
+            &rec.channels[response].range(0..n.min(rec.channels[response].len())),
+            &v.simulated,
+            rec.meta.sample_rate_hz,
+        );
+        if !keep_replay {
+            v.simulated = Vec::new();
+        }
     }
     Ok(v)
 }
@@ -710,6 +724,41 @@ pub fn validate_on(
                 value: 2.0,
                 label: "2x the noise".into(),
             }),
+        )?);
+    }
+    if let Some(l) = &v.line_spectrum {
+        // measured, simulated and their difference along the lines
+        let series = ["measured", "simulated", "difference"]
+            .into_iter()
+            .enumerate()
+            .map(|(g, label)| plot::ResidualSeries {
+                label: label.into(),
+                group: g,
+                frequency_hz: l.per_line.iter().map(|p| p.0).collect(),
+                residual: l.per_line.iter().map(|p| p.2[g]).collect(),
+            })
+            .collect();
+        let excited = l
+            .by_class
+            .iter()
+            .find(|c| c.class == LineClass::Excited)
+            .map_or(f64::NAN, |c| c.relative);
+        files.extend(plot::write_residual_plot(
+            &dir.join(format!("{stem}_lines")),
+            &format!(
+                "{name}: lines of the period ({} model), difference {:.2} % at the excited",
+                fit.kind,
+                100.0 * excited
+            ),
+            &format!("{} at the line ({})", v.quantity, v.quantity.si_unit()),
+            &[plot::ResidualPanel {
+                heading: format!(
+                    "one period of {} samples, {} lines",
+                    l.period_samples, l.lines
+                ),
+                series,
+            }],
+            None,
         )?);
     }
     let entry = RecordingValidation {

@@ -226,6 +226,20 @@ fn print_validation(path: &Path, response: &str, v: &Validation) {
             );
         }
     }
+    if let Some(l) = &v.line_spectrum {
+        let classes: Vec<String> = l
+            .by_class
+            .iter()
+            .map(|c| format!("{} {:.2} %", c.class.words(), 100.0 * c.relative))
+            .collect();
+        say!(
+            "  at the lines of its period (one period: no noise to judge by): the difference {} of \
+             the measured there; {:.4e} RMS over its {} lines",
+            classes.join(", "),
+            l.error_rms_at_lines,
+            l.lines
+        );
+    }
     if let Some(c) = &v.frf {
         for l in &c.levels {
             let peak = |p: &Option<hystid::validate::Peak>| {

@@ -68,6 +68,136 @@ impl LineClass {
     }
 }
 
+/// The lines of a period judged, from the reference's spectrum `u` over
+/// the period (bins `0..⌈N/2⌉`): every bin from the first to three times
+/// the highest excited one (where a cubic law puts its harmonics), each
+/// with its class; `None` where no line is excited.
+fn lines_of(u: &[Complex64]) -> Option<(Vec<usize>, Vec<LineClass>)> {
+    let half = u.len();
+    let strongest = u.get(1..)?.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    let excited =
+        |k: usize| strongest > 0.0 && u[k].norm() >= crate::extract::EXCITED_LINE * strongest;
+    let highest = (1..half).filter(|&k| excited(k)).max()?;
+    let last = (3 * highest).min(half - 1);
+    let bins: Vec<usize> = (1..=last).collect();
+    let class = bins
+        .iter()
+        .map(|&k| match (excited(k), k % 2) {
+            (true, _) => LineClass::Excited,
+            (false, 1) => LineClass::OddNotExcited,
+            _ => LineClass::EvenNotExcited,
+        })
+        .collect();
+    Some((bins, class))
+}
+
+/// A model's error at the lines of a single period: a record with no
+/// second steady period to judge the noise by (`validate --periodic`, the
+/// record one period of a periodic steady state). Each line's amplitude
+/// measured, simulated and of their difference, and per class of line the
+/// difference relative to what was measured there: the output-error
+/// spectrum a benchmark reports beside e_RMS.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LineSpectrum {
+    /// Samples in the period.
+    pub period_samples: usize,
+    /// Lines judged (every bin up to three times the highest excited).
+    pub lines: usize,
+    /// The difference's RMS over the lines judged (Parseval), in the
+    /// response's unit: the part of e_RMS the period's lines hold.
+    pub error_rms_at_lines: f64,
+    /// Per class of line.
+    pub by_class: Vec<ClassError>,
+    /// Each line's frequency (Hz), class and amplitudes (measured,
+    /// simulated, difference; a sinusoid's amplitude, `2|X_k|/N`): the
+    /// figure's.
+    #[serde(skip)]
+    pub per_line: Vec<(f64, LineClass, [f64; 3])>,
+}
+
+/// A class of line's share of a [`LineSpectrum`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClassError {
+    /// The class.
+    pub class: LineClass,
+    /// Lines of it judged.
+    pub lines: usize,
+    /// `√(Σ|Y − Ŷ|² / Σ|Y|²)` over its lines (measured `Y`, simulated
+    /// `Ŷ`); infinite where nothing was measured there.
+    pub relative: f64,
+    /// Its share of the difference's power at the lines judged.
+    pub share: f64,
+}
+
+/// The [`LineSpectrum`] of `simulated` against `measured` over one period
+/// driven by `reference` (the same length, at `sample_rate_hz`); `None`
+/// where the reference excites no line or the period is shorter than 8
+/// samples.
+pub fn line_spectrum(
+    reference: &[f64],
+    measured: &[f64],
+    simulated: &[f64],
+    sample_rate_hz: f64,
+) -> Option<LineSpectrum> {
+    let n = reference.len();
+    if n < 8 || measured.len() != n || simulated.len() != n {
+        return None;
+    }
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(n);
+    let spectrum = |x: &[f64]| {
+        let mut b: Vec<Complex64> = x.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+        fft.process(&mut b);
+        b.truncate(n.div_ceil(2));
+        b
+    };
+    let (u, y, m) = (spectrum(reference), spectrum(measured), spectrum(simulated));
+    let (bins, class) = lines_of(&u)?;
+    let amplitude = |v: Complex64| 2.0 * v.norm() / n as f64;
+    let per_line: Vec<(f64, LineClass, [f64; 3])> = bins
+        .iter()
+        .zip(&class)
+        .map(|(&k, &c)| {
+            let f = k as f64 * sample_rate_hz / n as f64;
+            (
+                f,
+                c,
+                [amplitude(y[k]), amplitude(m[k]), amplitude(y[k] - m[k])],
+            )
+        })
+        .collect();
+    let power: f64 = per_line.iter().map(|l| l.2[2] * l.2[2]).sum();
+    let by_class = [
+        LineClass::Excited,
+        LineClass::OddNotExcited,
+        LineClass::EvenNotExcited,
+    ]
+    .into_iter()
+    .filter_map(|c| {
+        let of: Vec<&[f64; 3]> = per_line.iter().filter(|l| l.1 == c).map(|l| &l.2).collect();
+        let error: f64 = of.iter().map(|a| a[2] * a[2]).sum();
+        let measured: f64 = of.iter().map(|a| a[0] * a[0]).sum();
+        (!of.is_empty()).then(|| ClassError {
+            class: c,
+            lines: of.len(),
+            relative: if measured > 0.0 {
+                (error / measured).sqrt()
+            } else {
+                f64::INFINITY
+            },
+            share: if power > 0.0 { error / power } else { 0.0 },
+        })
+    })
+    .collect();
+    Some(LineSpectrum {
+        period_samples: n,
+        lines: bins.len(),
+        // a sinusoid of amplitude A has RMS A/√2
+        error_rms_at_lines: (power / 2.0).sqrt(),
+        by_class,
+        per_line,
+    })
+}
+
 /// Neighbouring lines on either side over which a line's noise is averaged.
 const NOISE_NEIGHBOURS: usize = 8;
 
@@ -153,23 +283,8 @@ impl PeriodicSpectra {
         let all: Vec<usize> = (0..half).collect();
         spectra(reference, &all, &mut |k, v| u[k] += v);
         u.iter_mut().for_each(|v| *v /= n);
-        let strongest = u[1..].iter().map(|v| v.norm()).fold(0.0, f64::max);
-        let excited =
-            |k: usize| strongest > 0.0 && u[k].norm() >= crate::extract::EXCITED_LINE * strongest;
-        let highest = (1..half)
-            .filter(|&k| excited(k))
-            .max()
+        let (bins, class) = lines_of(&u)
             .ok_or_else(|| Error::input(at("reference"), "no line of its period is excited"))?;
-        let last = (3 * highest).min(half - 1);
-        let bins: Vec<usize> = (1..=last).collect();
-        let class = bins
-            .iter()
-            .map(|&k| match (excited(k), k % 2) {
-                (true, _) => LineClass::Excited,
-                (false, 1) => LineClass::OddNotExcited,
-                _ => LineClass::EvenNotExcited,
-            })
-            .collect();
         let mut measured = vec![Complex64::new(0.0, 0.0); bins.len()];
         spectra(response, &bins, &mut |i, v| measured[i] += v);
         measured.iter_mut().for_each(|v| *v /= n);
@@ -970,6 +1085,42 @@ mod tests {
         assert!(
             held.measured == s.measured && held.sigma == s.sigma && held.reference == s.reference
         );
+    }
+
+    /// One period's lines against the closed form: the record's period of
+    /// three excited lines (3, 4, 5 of 64) through `y = 2u` with a
+    /// distortion of amplitude 0.1 at line 9, replayed by `2u` alone. The
+    /// excited lines are met (relative difference 0), the distortion is the
+    /// whole difference (amplitude 0.1 at 9 Hz, its class's relative
+    /// difference 1, all the power), and its RMS `0.1/√2` is the error's.
+    #[test]
+    fn one_periods_lines_hold_the_distortion_the_model_lacks() {
+        let r = record(2);
+        let u = r.reference.values();
+        let n = 64;
+        let period: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 / n as f64 * std::f64::consts::TAU;
+                2.0 * u[i] + 0.1 * (9.0 * t).cos()
+            })
+            .collect();
+        let replay: Vec<f64> = u[..n].iter().map(|v| 2.0 * v).collect();
+        let l = line_spectrum(&u[..n], &period, &replay, 64.0).unwrap();
+        assert_eq!((l.period_samples, l.lines), (64, 15));
+        let class = |c: LineClass| l.by_class.iter().find(|e| e.class == c).unwrap().clone();
+        assert!(class(LineClass::Excited).relative < 1e-14);
+        let odd = class(LineClass::OddNotExcited);
+        assert!((odd.relative - 1.0).abs() < 1e-12 && (odd.share - 1.0).abs() < 1e-12);
+        let nine = l.per_line[8];
+        assert_eq!((nine.0, nine.1), (9.0, LineClass::OddNotExcited));
+        assert!((nine.2[0] - 0.1).abs() < 1e-12 && nine.2[1] < 1e-14);
+        assert!((nine.2[2] - 0.1).abs() < 1e-12);
+        assert!((l.error_rms_at_lines - 0.1 / 2f64.sqrt()).abs() < 1e-12);
+        // the excited lines' amplitudes: 2 of the reference's unit lines
+        assert!((l.per_line[2].2[0] - 2.0).abs() < 1e-12);
+        // nothing excited, nothing to judge
+        assert!(line_spectrum(&[0.0; 64], &period, &replay, 64.0).is_none());
+        assert!(line_spectrum(&u[..n], &period[..10], &replay, 64.0).is_none());
     }
 
     #[test]

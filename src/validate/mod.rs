@@ -938,6 +938,11 @@ pub struct Validation {
     /// lines of its period, in units of the noise (written, not read back).
     #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
     pub lines: Option<crate::diagnose::lines::LineValidation>,
+    /// On a record of one period of a periodic steady state (`periodic`):
+    /// the error at the lines of that period, relative to what was
+    /// measured there (written, not read back).
+    #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
+    pub line_spectrum: Option<crate::diagnose::lines::LineSpectrum>,
     /// The simulated response, at the recording's samples, where it was
     /// asked to be kept (see [`validate_view`]); else empty.
     #[serde(skip)]
@@ -1185,6 +1190,7 @@ pub fn validate_view(
         window: window.map(|w| w.finish(measured, fs)),
         frf,
         lines: None,
+        line_spectrum: None,
         simulated: if keep_replay {
             kept.into_values()
         } else {
