@@ -751,13 +751,7 @@ pub fn reduce_observed(
             let reference = rec
                 .reference_channel()
                 .ok_or_else(|| Error::input("recording", "no reference channel"))?;
-            // the automatic compensation is two reductions more
-            let total = if r.compensation == Compensation::Auto {
-                3
-            } else {
-                1
-            };
-            let report = |done| crate::observe::progress(observer, "reducing", done, total);
+            let (total, report) = swept_stages(r, observer);
             report(0)?;
             let opts = sweep_options(
                 &rec.channels[reference],
@@ -788,6 +782,23 @@ pub fn reduce_observed(
         truth: loaded.truth.clone(),
         streamed: false,
         truncated: loaded.truncated,
+    })
+}
+
+/// A swept reduction's stages, and how to tell `observer` that `done` of
+/// them are (`reducing`): the automatic compensation is two reductions
+/// more than the one kept.
+fn swept_stages<'o>(
+    r: &ReductionOptions,
+    observer: &'o dyn crate::observe::Observer,
+) -> (u64, impl Fn(u64) -> Result<()> + 'o) {
+    let total = if r.compensation == Compensation::Auto {
+        3
+    } else {
+        1
+    };
+    (total, move |done| {
+        crate::observe::progress(observer, "reducing", done, total)
     })
 }
 
@@ -931,16 +942,7 @@ fn reduce_streamed(
     };
     let red = match reduce_stepped_stream_observed(&mut source, ch, &options, observer) {
         Ok(red) => red,
-        // a reference that is all zero fails the first dwell: say why, as
-        // `load_recording` does (read through once more, only on failure)
-        Err(Error::Cancelled) => return Err(Error::Cancelled),
-        Err(e) => {
-            return Err(if is_flat(&mut source, reference)? {
-                flat_reference(path, &meta.channels[reference].name)
-            } else {
-                e
-            });
-        }
+        Err(e) => return Err(why_failed(e, path, &mut source, &meta, reference)?),
     };
     Ok(Some(Reduced {
         frf: red.frf,
@@ -965,13 +967,7 @@ fn reduce_swept_stream(
     r: &ReductionOptions,
     observer: &dyn crate::observe::Observer,
 ) -> Result<Reduced> {
-    // the automatic compensation is two reductions more
-    let total = if r.compensation == Compensation::Auto {
-        3
-    } else {
-        1
-    };
-    let report = |done| crate::observe::progress(observer, "reducing", done, total);
+    let (total, report) = swept_stages(r, observer);
     let reduced = report(0)
         .and_then(|()| {
             sweep_options_by(r, &mut |opts| {
@@ -986,14 +982,7 @@ fn reduce_swept_stream(
         });
     let (red, compensation, hop_asked) = match reduced {
         Ok(r) => r,
-        Err(Error::Cancelled) => return Err(Error::Cancelled),
-        Err(e) => {
-            return Err(if is_flat(&mut source, reference)? {
-                flat_reference(path, &meta.channels[reference].name)
-            } else {
-                e
-            });
-        }
+        Err(e) => return Err(why_failed(e, path, &mut source, meta, reference)?),
     };
     let reading = SweptReading {
         sweep: red.sweep,
@@ -1014,6 +1003,23 @@ fn reduce_swept_stream(
         streamed: true,
         truncated,
     })
+}
+
+/// The error a streamed reduction of `path` failed with, said better where
+/// its reference channel is all zero (which fails the first dwell or the
+/// sweep's fit), as `load_recording` says it: read through once more, only
+/// on failure, and not when the user stopped it.
+fn why_failed(
+    e: Error,
+    path: &Path,
+    source: &mut impl FrameSource,
+    meta: &RecordingMeta,
+    reference: usize,
+) -> Result<Error> {
+    if !matches!(e, Error::Cancelled) && is_flat(source, reference)? {
+        return Ok(flat_reference(path, &meta.channels[reference].name));
+    }
+    Ok(e)
 }
 
 /// The error for a reference channel `name` of `path` that is all zero.

@@ -68,6 +68,13 @@ impl LineClass {
     }
 }
 
+/// The DFT of the real samples `x` (as long as `fft`).
+fn spectrum(fft: &dyn rustfft::Fft<f64>, x: &[f64]) -> Vec<Complex64> {
+    let mut b: Vec<Complex64> = x.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+    fft.process(&mut b);
+    b
+}
+
 /// The lines of a period judged, from the reference's spectrum `u` over
 /// the period (bins `0..⌈N/2⌉`): every bin from the first to three times
 /// the highest excited one (where a cubic law puts its harmonics), each
@@ -144,13 +151,12 @@ pub fn line_spectrum(
         return None;
     }
     let fft = FftPlanner::<f64>::new().plan_fft_forward(n);
-    let spectrum = |x: &[f64]| {
-        let mut b: Vec<Complex64> = x.iter().map(|&v| Complex64::new(v, 0.0)).collect();
-        fft.process(&mut b);
+    let half = |x: &[f64]| {
+        let mut b = spectrum(&*fft, x);
         b.truncate(n.div_ceil(2));
         b
     };
-    let (u, y, m) = (spectrum(reference), spectrum(measured), spectrum(simulated));
+    let (u, y, m) = (half(reference), half(measured), half(simulated));
     let (bins, class) = lines_of(&u)?;
     let amplitude = |v: Complex64| 2.0 * v.norm() / n as f64;
     let per_line: Vec<(f64, LineClass, [f64; 3])> = bins
@@ -266,12 +272,7 @@ impl PeriodicSpectra {
         // every period's spectrum at `bins`, handed in turn to `each`
         let spectra = |x: SamplesView, bins: &[usize], each: &mut dyn FnMut(usize, Complex64)| {
             for p in &periods {
-                let mut b: Vec<Complex64> = x
-                    .range(p.clone())
-                    .iter()
-                    .map(|&v| Complex64::new(v, 0.0))
-                    .collect();
-                fft.process(&mut b);
+                let b = spectrum(&*fft, &x.range(p.clone()));
                 for (i, &k) in bins.iter().enumerate() {
                     each(i, b[k]);
                 }
@@ -335,22 +336,15 @@ impl PeriodicSpectra {
         }
     }
 
-    /// A replay's mean spectrum over the same periods at the same lines.
+    /// A replay's mean spectrum over the same periods at the same lines
+    /// ([`ReplayedLines`] handed the whole replay). Panics where the replay
+    /// ends before the last period.
     pub fn replayed(&self, replay: &[f64]) -> Vec<Complex64> {
-        let fft = FftPlanner::<f64>::new().plan_fft_forward(self.period);
-        let mut sum = vec![Complex64::new(0.0, 0.0); self.bins.len()];
-        for p in &self.periods {
-            let mut b: Vec<Complex64> = replay[p.clone()]
-                .iter()
-                .map(|&v| Complex64::new(v, 0.0))
-                .collect();
-            fft.process(&mut b);
-            for (s, &k) in sum.iter_mut().zip(&self.bins) {
-                *s += b[k];
-            }
-        }
-        let n = self.periods.len() as f64;
-        sum.into_iter().map(|v| v / n).collect()
+        let mut lines = self.replayed_lines();
+        lines.push(0, replay);
+        lines
+            .finish()
+            .expect("a replay as long as the record it was made for")
     }
 
     /// The residual in units of the noise, `(Ȳ − Ŷ)/σ`, of a replay's lines.
@@ -408,8 +402,7 @@ impl ReplayedLines<'_> {
             if self.held.len() < p.len() {
                 break;
             }
-            let mut b: Vec<Complex64> = self.held.iter().map(|&v| Complex64::new(v, 0.0)).collect();
-            self.fft.process(&mut b);
+            let b = spectrum(&*self.fft, &self.held);
             for (s, &k) in self.sum.iter_mut().zip(&self.spectra.bins) {
                 *s += b[k];
             }
@@ -1033,9 +1026,10 @@ mod tests {
         assert!(share_explained(std::slice::from_ref(&res), &[across]) < 1e-3);
     }
 
-    /// The lines of a replay handed a stretch at a time (stretches of 1 to
-    /// 150 samples, across the periods' edges) are those of the whole
-    /// replay to the bit, and so are the measured spectra of channels held
+    /// The lines of a replay handed whole are the mean of each period's DFT
+    /// written out; handed a stretch at a time (stretches of 1 to 150
+    /// samples, across the periods' edges) they are the same to the bit,
+    /// and so are the measured spectra of channels held
     /// in scratch files; a replay that ends inside a period is refused.
     #[test]
     fn a_replay_handed_in_stretches_has_the_whole_replays_lines() {
@@ -1049,6 +1043,28 @@ mod tests {
             .map(|(i, v)| 0.9 * v + 1e-3 * (i as f64 * 0.37).sin())
             .collect();
         let whole = s.replayed(&replay);
+        // against the mean over the periods of each line's DFT sum written
+        // out (no FFT)
+        let n = s.period as f64;
+        for (i, &k) in s.bins.iter().enumerate() {
+            let mean = s
+                .periods
+                .iter()
+                .map(|p| {
+                    p.clone()
+                        .map(|t| {
+                            let phase = -std::f64::consts::TAU * (k * (t - p.start)) as f64 / n;
+                            replay[t] * Complex64::from_polar(1.0, phase)
+                        })
+                        .sum::<Complex64>()
+                })
+                .sum::<Complex64>()
+                / s.periods.len() as f64;
+            assert!(
+                (whole[i] - mean).norm() < 1e-12 * (1.0 + mean.norm()),
+                "line {k}"
+            );
+        }
         for step in [1, 7, 64, 150] {
             let mut lines = s.replayed_lines();
             let mut at = 0;

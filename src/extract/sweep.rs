@@ -554,12 +554,7 @@ pub fn find_sweep(
     sample_rate_hz: f64,
     options: &SweepOptions,
 ) -> Result<SweepFit> {
-    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
-        return Err(Error::input(
-            "sample rate",
-            format!("must be finite and > 0, got {sample_rate_hz}"),
-        ));
-    }
+    check_sweep_rate(sample_rate_hz)?;
     if let Some(i) = reference.iter().position(|v| !v.is_finite()) {
         return Err(Error::input(
             "reference",
@@ -567,6 +562,17 @@ pub fn find_sweep(
         ));
     }
     fit_sweep(reference, sample_rate_hz, options).map(|(_, s)| s)
+}
+
+/// A sweep's sample rate: finite and positive.
+pub(super) fn check_sweep_rate(sample_rate_hz: f64) -> Result<()> {
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(Error::input(
+            "sample rate",
+            format!("must be finite and > 0, got {sample_rate_hz}"),
+        ));
+    }
+    Ok(())
 }
 
 impl SweepFit {

@@ -201,12 +201,7 @@ fn find_sweep_in(
     if reference.len() <= blocks.whole {
         return super::find_sweep(&reference.values(), sample_rate_hz, options);
     }
-    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
-        return Err(Error::input(
-            "sample rate",
-            format!("must be finite and > 0, got {sample_rate_hz}"),
-        ));
-    }
+    super::sweep::check_sweep_rate(sample_rate_hz)?;
     let mut only = HeldReference::new(reference);
     fit_sweep_in_blocks(&mut only, sample_rate_hz, options, blocks).map(|(_, s)| s)
 }
