@@ -70,6 +70,7 @@ fn record(case: &Case, rec: &Recording) -> TimeRecord {
                 .collect::<Vec<_>>(),
         ),
         band_hz: None,
+        periodic: false,
     }
 }
 

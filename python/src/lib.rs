@@ -669,6 +669,20 @@ fn loaded(
     .map_err(err)
 }
 
+/// Recordings as a multisine's start reads them, each with its name: the
+/// reference and response held as a file's are (a long one in a scratch
+/// file, not in memory).
+fn held(
+    names: Vec<String>,
+    loaded: Vec<Loaded>,
+) -> hystid::Result<Vec<(String, hystid::analysis::HeldRecording)>> {
+    names
+        .into_iter()
+        .zip(loaded)
+        .map(|(name, l)| Ok((name, hystid::analysis::HeldRecording::of_loaded(l)?)))
+        .collect()
+}
+
 /// Nonlinear FRFs (frf.json) of a reference and a response.
 #[pyfunction]
 #[pyo3(signature = (reference, reference_quantity, response, response_quantity, sample_rate_hz, excitation, reduction, progress = None))]
@@ -1202,9 +1216,7 @@ fn identify_time<'py>(
         (None, None) => {
             let report = progress
                 .run(py, || {
-                    let named: Vec<(&str, &Loaded)> =
-                        names.iter().map(String::as_str).zip(&loaded).collect();
-                    let Some(p) = hystid::analysis::periodic_start_of(&named, fit_opts.element, fit_opts.modes)?
+                    let Some(p) = hystid::analysis::periodic_start_of(held(names.clone(), loaded)?, fit_opts.element, fit_opts.modes)?
                     else {
                         return Err(hystid::Error::input(
                             "recordings",
@@ -1264,9 +1276,11 @@ fn diagnose_time<'py>(
     };
     let outcome = progress.run(py, || {
         let t0 = std::time::Instant::now();
-        let named: Vec<(&str, &Loaded)> = names.iter().map(String::as_str).zip(&loaded).collect();
-        let Some(p) =
-            hystid::analysis::periodic_start_of(&named, fit_opts.element, fit_opts.modes)?
+        let Some(p) = hystid::analysis::periodic_start_of(
+            held(names.clone(), loaded)?,
+            fit_opts.element,
+            fit_opts.modes,
+        )?
         else {
             return Err(hystid::Error::input(
                 "recordings",

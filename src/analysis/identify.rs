@@ -426,41 +426,23 @@ pub fn periodic_start(
             return Ok(None);
         }
     }
-    let loaded = recordings
+    let held = recordings
         .iter()
         .map(|p| {
-            let l = super::load_reference_and_response(p, choice)?;
+            let l = super::load_held_reference_and_response(p, choice)?;
             Ok((p.display().to_string(), l))
         })
         .collect::<Result<Vec<_>>>()?;
-    let named: Vec<(&str, &super::Loaded)> = loaded.iter().map(|(n, l)| (n.as_str(), l)).collect();
-    periodic_start_of(&named, kind, modes)
+    periodic_start_of(held, kind, modes)
 }
 
-/// `rec` judged over its steady periods of `period` samples: its whole
-/// periods after the first (the model's replay starts from rest), one
-/// segment each, as a multisine's time fit, its diagnosis and its
-/// validation judge it. `None` when it holds fewer than two.
-pub fn steady_periods(
-    name: &str,
-    rec: &crate::signals::Recording,
-    response: usize,
-    period: usize,
-) -> Result<Option<TimeRecord>> {
-    let periods = rec.frames() / period.max(1);
-    if period == 0 || periods < 2 {
-        return Ok(None);
-    }
-    let mut r =
-        TimeRecord::from_recording(name, rec, response, Some(period..periods * period), None)?;
-    r.segments = (1..periods).map(|k| k * period..(k + 1) * period).collect();
-    r.check()?;
-    Ok(Some(r))
-}
-
-/// [`periodic_start`] of recordings in memory, each with its name.
+/// [`periodic_start`] of recordings read, each with its name: taken over
+/// (their reference and response become the time records' without a copy)
+/// and read a period at a time ([`crate::extract::find_period_held`],
+/// [`crate::extract::periodic_frf_held`]), so that a long recording spilled
+/// to a scratch file is never held whole.
 pub fn periodic_start_of(
-    recordings: &[(&str, &super::Loaded)],
+    recordings: Vec<(String, super::HeldRecording)>,
     kind: crate::model::ElementKind,
     modes: usize,
 ) -> Result<Option<PeriodicStart>> {
@@ -469,24 +451,43 @@ pub fn periodic_start_of(
     let mut spectra = Vec::new();
     let mut quantity = None;
     let mut notes = Vec::new();
-    for (name, l) in recordings {
-        let rec = &l.recording;
-        if rec.meta.excitation.kind != crate::signals::ExcitationKind::Unknown {
+    for (name, held) in recordings {
+        if held.meta.excitation.kind != crate::signals::ExcitationKind::Unknown {
             return Ok(None);
         }
-        let Some(reference) = rec.reference_channel() else {
+        let Some(reference) = held.meta.reference_channel() else {
             return Ok(None);
         };
-        let u = &rec.channels[reference];
-        let Some(period) = crate::extract::find_period(u) else {
+        let (u, y) = (
+            held.channels[reference].view(),
+            held.channels[held.response].view(),
+        );
+        let Some(period) = crate::extract::find_period_held(u) else {
             return Ok(None);
         };
-        let fs = rec.meta.sample_rate_hz;
-        let found = crate::extract::periodic_frf(u, &rec.channels[l.response], fs, period);
+        let fs = held.meta.sample_rate_hz;
+        let found = crate::extract::periodic_frf_held(u, y, fs, period);
         if found.len() < MULTISINE_LINES {
             return Ok(None);
         }
-        let Some(r) = steady_periods(name, rec, l.response, period)? else {
+        let periods = u.len().min(y.len()) / period;
+        let q = held.meta.channels[held.response].quantity;
+        let super::HeldRecording {
+            meta,
+            channels,
+            response,
+            ..
+        } = held;
+        let mut channels: Vec<Option<crate::signals::Samples>> =
+            channels.into_iter().map(Some).collect();
+        let reference_samples = channels[reference].take().expect("one channel each");
+        let response_samples = match channels[response].take() {
+            Some(r) => r,
+            // the reference judged against itself
+            None => reference_samples.clone(),
+        };
+        let held = (reference_samples, response_samples);
+        let Some(r) = TimeRecord::steady_periods(&name, &meta, response, held, period)? else {
             return Err(Error::input(
                 format!("{name}: periods"),
                 format!(
@@ -495,7 +496,6 @@ pub fn periodic_start_of(
                 ),
             ));
         };
-        let q = rec.meta.channels[l.response].quantity;
         if quantity.is_some_and(|was| was != q) {
             return Err(Error::input(
                 format!("{name}: response"),
@@ -503,7 +503,6 @@ pub fn periodic_start_of(
             ));
         }
         quantity = Some(q);
-        let periods = rec.frames() / period;
         notes.push(format!(
             "{name}: {periods} periods of {period} samples, {} lines excited ({:.4}-{:.4} Hz)",
             found.len(),

@@ -664,12 +664,9 @@ fn sweep_options_by(
     Ok(opts)
 }
 
-/// Frames at the start of a recording searched for a repeating reference.
-const MULTISINE_SEARCH: usize = 1 << 20;
-
 /// A recording that states no excitation, read as a periodic multisine:
 /// its period (samples) and the excited lines (Hz, lowest and highest, and
-/// how many), found in its first [`MULTISINE_SEARCH`] frames; `None` where
+/// how many), found in its first [`crate::extract::PERIOD_SEARCH`] frames; `None` where
 /// its reference does not repeat with at least [`super::MULTISINE_LINES`]
 /// excited lines (a stepped sine's repeats only within a dwell, at one
 /// line).
@@ -684,7 +681,7 @@ pub(crate) fn multisine_period(
     let reference = rec.meta.reference_channel()?;
     let (u, y) = (&rec.channels[reference], &rec.channels[response]);
     // unequal lengths are the reduction's to refuse, naming the channels
-    let n = u.len().min(y.len()).min(MULTISINE_SEARCH);
+    let n = u.len().min(y.len()).min(crate::extract::PERIOD_SEARCH);
     let (u, y) = (u.range(0..n), y.range(0..n));
     let u = &u[..];
     let period = crate::extract::find_period(u)?;
@@ -915,7 +912,7 @@ fn reduce_streamed(
     if stepped && meta.excitation.steps.is_empty() && r.excitation.is_none() {
         // a multisine's periods would be cut into "dwells": say what it is,
         // from its first frames as the whole path does
-        let n = source.frames().min(MULTISINE_SEARCH);
+        let n = source.frames().min(crate::extract::PERIOD_SEARCH);
         let mut buffers = vec![Vec::new(); source.meta().channels.len()];
         source.read_at(0, n, &mut buffers)?;
         let probe = Recording {
@@ -1162,7 +1159,7 @@ struct ReplaySource {
 impl HeldRecording {
     /// `loaded`'s reference and response held as [`load_held_reference_and_response`]
     /// holds them.
-    fn of_loaded(loaded: Loaded) -> Result<HeldRecording> {
+    pub fn of_loaded(loaded: Loaded) -> Result<HeldRecording> {
         let loaded = loaded.with_only_reference_and_response();
         let Recording { meta, channels } = loaded.recording;
         let channels = channels

@@ -976,6 +976,7 @@ mod tests {
             window: n..n * periods,
             segments: (1..periods).map(|p| p * n..(p + 1) * n).collect(),
             band_hz: None,
+            periodic: true,
         }
     }
 

@@ -47,7 +47,10 @@ pub use coherent::{HarmonicAnalyser, harmonics_agree};
 pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
 pub use dwell_blocks::{FINDING, find_dwells_held, find_dwells_stream};
 pub use noncoherent::{estimate_frequency, noncoherent};
-pub use periodic::{EXCITED_LINE, Line, PERIODIC_CORRELATION, find_period, periodic_frf};
+pub use periodic::{
+    EXCITED_LINE, Line, PERIOD_SEARCH, PERIODIC_CORRELATION, find_period, find_period_held,
+    periodic_frf, periodic_frf_held,
+};
 pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, below_resolution,
     combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_observed,

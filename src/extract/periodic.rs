@@ -11,6 +11,7 @@
 //! first (its transient), is the linear FRF a best linear approximation of
 //! the structure gives (Pintelon & Schoukens, *System Identification*, ch. 3).
 
+use crate::signals::SamplesView;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
 
@@ -99,6 +100,59 @@ pub fn find_period(reference: &[f64]) -> Option<usize> {
     None
 }
 
+/// Frames of a long reference in which [`find_period_held`] looks for its
+/// period (the autocorrelation's FFT over them holds 32 MiB): periods up to
+/// half of it are found.
+pub const PERIOD_SEARCH: usize = 1 << 20;
+
+/// [`find_period`] of a reference held however it is, without holding more
+/// than [`PERIOD_SEARCH`] of its samples: a reference up to that long is
+/// searched whole (the same period); a longer one in its first
+/// [`PERIOD_SEARCH`] frames, the period found there kept only if the whole
+/// record repeats at it (its autocorrelation `ρ` at that lag, over the
+/// whole record, read a stretch at a time, at least
+/// [`PERIODIC_CORRELATION`]): a record whose later part is another signal
+/// has no period.
+pub fn find_period_held(reference: SamplesView) -> Option<usize> {
+    let n = reference.len();
+    if n <= PERIOD_SEARCH {
+        return find_period(&reference.range(0..n));
+    }
+    let period = find_period(&reference.range(0..PERIOD_SEARCH))?;
+    (correlation_at(reference, period)? >= PERIODIC_CORRELATION).then_some(period)
+}
+
+/// The normalised autocorrelation `ρ(ℓ)` of `x` over the whole record (see
+/// the module docs), read in stretches of [`STRETCH`] and the lag beyond;
+/// `None` where a sample is not finite or an overlap is silent.
+fn correlation_at(x: SamplesView, lag: usize) -> Option<f64> {
+    let n = x.len();
+    let (mut cross, mut head, mut tail) = (0.0, 0.0, 0.0);
+    let mut a = 0;
+    while a < n {
+        let b = (a + STRETCH).min(n);
+        let v = x.range(a..(b + lag).min(n));
+        if v.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        for i in 0..b - a {
+            if a + i + lag < n {
+                cross += v[i] * v[i + lag];
+                head += v[i] * v[i];
+            }
+            if a + i >= lag {
+                tail += v[i] * v[i];
+            }
+        }
+        a = b;
+    }
+    let d = (head * tail).sqrt();
+    (d > 0.0).then(|| cross / d)
+}
+
+/// Samples read at a time from a held channel.
+const STRETCH: usize = 1 << 16;
+
 /// The FRF of `response` per `reference` at the excited lines of a periodic
 /// excitation of `period` samples, over the whole periods after the first
 /// (the transient's): H1 per line with its standard error from the scatter
@@ -107,6 +161,19 @@ pub fn find_period(reference: &[f64]) -> Option<usize> {
 pub fn periodic_frf(
     reference: &[f64],
     response: &[f64],
+    sample_rate_hz: f64,
+    period: usize,
+) -> Vec<Line> {
+    periodic_frf_held(reference.into(), response.into(), sample_rate_hz, period)
+}
+
+/// [`periodic_frf`] of channels held however they are: a period at a time
+/// (each period's spectra made twice, for the sums and then for the scatter
+/// about their estimate), so that a record of any length holds a period's
+/// samples and one spectrum per line.
+pub fn periodic_frf_held(
+    reference: SamplesView,
+    response: SamplesView,
     sample_rate_hz: f64,
     period: usize,
 ) -> Vec<Line> {
@@ -122,36 +189,49 @@ pub fn periodic_frf(
         fft.process(&mut b);
         b
     };
-    let (us, ys): (Vec<Vec<Complex64>>, Vec<Vec<Complex64>>) = (1..periods)
-        .map(|p| {
+    // each steady period's spectra, in order, handed to `each`
+    let each_period = |each: &mut dyn FnMut(&[Complex64], &[Complex64])| {
+        for p in 1..periods {
             let r = p * period..(p + 1) * period;
-            (spectrum(&reference[r.clone()]), spectrum(&response[r]))
-        })
-        .unzip();
+            each(
+                &spectrum(&reference.range(r.clone())),
+                &spectrum(&response.range(r)),
+            );
+        }
+    };
     let lines = period / 2;
-    let power: Vec<f64> = (0..lines)
-        .map(|l| us.iter().map(|u| u[l].norm_sqr()).sum::<f64>())
-        .collect();
+    let zero = Complex64::new(0.0, 0.0);
+    let (mut power, mut cross) = (vec![0.0; lines], vec![zero; lines]);
+    each_period(&mut |u, y| {
+        for l in 0..lines {
+            power[l] += u[l].norm_sqr();
+            cross[l] += y[l] * u[l].conj();
+        }
+    });
     let strongest = power[1..].iter().copied().fold(0.0, f64::max);
-    let used = us.len() as f64;
-    (1..lines)
+    let excited: Vec<usize> = (1..lines)
         .filter(|&l| strongest > 0.0 && power[l] >= EXCITED_LINE * EXCITED_LINE * strongest)
-        .map(|l| {
-            let cross: Complex64 = us.iter().zip(&ys).map(|(u, y)| y[l] * u[l].conj()).sum();
-            let h = cross / power[l];
-            let scatter: f64 = us
-                .iter()
-                .zip(&ys)
-                .map(|(u, y)| (y[l] - h * u[l]).norm_sqr())
-                .sum();
+        .collect();
+    let h: Vec<Complex64> = excited.iter().map(|&l| cross[l] / power[l]).collect();
+    let mut scatter = vec![0.0; excited.len()];
+    each_period(&mut |u, y| {
+        for (i, &l) in excited.iter().enumerate() {
+            scatter[i] += (y[l] - h[i] * u[l]).norm_sqr();
+        }
+    });
+    let used = (periods - 1) as f64;
+    excited
+        .iter()
+        .enumerate()
+        .map(|(i, &l)| {
             let std_error = if used > 1.0 {
-                (scatter / ((used - 1.0) * power[l])).sqrt()
+                (scatter[i] / ((used - 1.0) * power[l])).sqrt()
             } else {
                 0.0
             };
             Line {
                 frequency_hz: l as f64 * sample_rate_hz / period as f64,
-                h,
+                h: h[i],
                 std_error,
                 reference: (power[l] / used).sqrt(),
             }
@@ -201,6 +281,45 @@ mod tests {
         assert_eq!(find_period(&noise), None);
         // one period only: none
         assert_eq!(find_period(&multisine(1000, 1)), None);
+    }
+
+    /// A reference longer than [`PERIOD_SEARCH`] has the period its first
+    /// frames show where the whole record repeats at it, and none where its
+    /// later part is another signal; the FRF at the lines of channels held
+    /// in scratch files is the one of the channels in memory, to the bit.
+    #[test]
+    fn a_long_held_reference_has_its_period_and_its_lines() {
+        let period = 1000;
+        let long = multisine(period, PERIOD_SEARCH / period + 50);
+        assert_eq!(find_period_held((&long).into()), Some(period));
+        // as long again of noise as loud after the search: no period over
+        // the whole (ρ about 0.5)
+        let mut changed = multisine(period, 2 * PERIOD_SEARCH / period);
+        let rms = (long.iter().map(|v| v * v).sum::<f64>() / long.len() as f64).sqrt();
+        let mut state = 12345u64;
+        for v in &mut changed[PERIOD_SEARCH + 7..] {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v = rms * 3.46 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
+        }
+        assert_eq!(find_period(&changed[..PERIOD_SEARCH]), Some(period));
+        assert_eq!(find_period_held((&changed).into()), None);
+        // spilled: the same lines, to the bit
+        let spilled = |x: &[f64]| {
+            let mut b = crate::signals::SamplesBuilder::new(x.len(), &[]).spilling_above(5_000);
+            x.chunks(4_321).for_each(|c| b.extend(c).unwrap());
+            b.finish().unwrap()
+        };
+        let short = &long[..20 * period];
+        let response: Vec<f64> = short.iter().map(|v| 0.3 * v + 1e-3 * v * v).collect();
+        let (u, y) = (spilled(short), spilled(&response));
+        assert!(u.is_spilled() && y.is_spilled());
+        let held = periodic_frf_held(u.view(), y.view(), 1000.0, period);
+        let whole = periodic_frf(short, &response, 1000.0, period);
+        assert_eq!(held.len(), 30);
+        assert_eq!(held, whole);
+        assert_eq!(find_period_held(u.view()), Some(period));
     }
 
     /// A known linear filter's FRF at the lines: the response is the

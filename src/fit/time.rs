@@ -42,7 +42,7 @@ use crate::signals::{Samples, SamplesView};
 use crate::validate::resample::{Decimator, MAX_FACTOR};
 use crate::validate::{
     DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window,
-    quasi_static_above_hz, replay_streamed, simulate_prepared_at, sum_start, upsampling_factor,
+    quasi_static_above_hz, replay_streamed, sum_start, upsampling_factor,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -73,6 +73,11 @@ pub struct TimeRecord {
     /// The band judged, Hz (`--band`), about which the fit's final error is
     /// split by frequency ([`TimeProblem::errors_by_frequency`]).
     pub band_hz: Option<(f64, f64)>,
+    /// The segments are the steady periods of a periodic excitation (see
+    /// [`TimeRecord::steady_periods`]): alike, so a fit that judges the
+    /// record only in part judges its first periods whole and replays no
+    /// further (see [`TimeFitOptions::max_judged_samples`]).
+    pub periodic: bool,
 }
 
 impl TimeRecord {
@@ -221,6 +226,40 @@ impl TimeRecord {
         Self::from_channels(name, meta, response, channels, window, band_hz)
     }
 
+    /// A periodic record (a multisine played several times) judged over
+    /// its steady periods of `period` samples: its whole periods after the
+    /// first (the model's replay starts from rest), one segment each, as a
+    /// multisine's time fit, its diagnosis and its validation judge it.
+    /// `None` when it holds fewer than two. No dwell is looked for: a
+    /// multisine has none.
+    pub fn steady_periods(
+        name: &str,
+        meta: &crate::signals::RecordingMeta,
+        response_channel: usize,
+        (reference, response): (Samples, Samples),
+        period: usize,
+    ) -> Result<Option<TimeRecord>> {
+        let reference_channel = Self::reference_of(name, meta, response_channel)?;
+        let periods = reference.len().min(response.len()) / period.max(1);
+        if period == 0 || periods < 2 {
+            return Ok(None);
+        }
+        let r = TimeRecord {
+            name: name.to_string(),
+            reference,
+            reference_quantity: meta.channels[reference_channel].quantity,
+            response,
+            sample_rate_hz: meta.sample_rate_hz,
+            quantity: meta.channels[response_channel].quantity,
+            window: period..periods * period,
+            segments: (1..periods).map(|k| k * period..(k + 1) * period).collect(),
+            band_hz: None,
+            periodic: true,
+        };
+        r.check()?;
+        Ok(Some(r))
+    }
+
     /// The record of values in physical units, held as the file stored
     /// them where they are its values (half the bytes, the same values).
     fn from_values(
@@ -344,6 +383,7 @@ impl TimeRecord {
             segments,
             window,
             band_hz,
+            periodic: false,
         };
         r.check()?;
         Ok(r)
@@ -640,12 +680,15 @@ const JUDGED_STRETCH: usize = 2048;
 /// of at most [`JUDGED_STRETCH`] samples, each at the end of its equal share
 /// of the segment (a single stretch is a dwell's last, most settled
 /// samples; several spread over it, its transient included). Every sample
-/// of every segment where `total <= most`. Returns the stretches in order
-/// with the segment each lies in.
+/// of every segment where `total <= most`. The steady periods of a
+/// periodic record (`periodic`) are alike: its share is judged as its first
+/// periods whole (the last of them in part), so that its replays stop
+/// there. Returns the stretches in order with the segment each lies in.
 fn judged_stretches(
     segments: &[Range<usize>],
     total: usize,
     most: usize,
+    periodic: bool,
 ) -> Vec<(Range<usize>, usize)> {
     if total <= most {
         return segments
@@ -654,11 +697,25 @@ fn judged_stretches(
             .map(|(k, s)| (s.clone(), k))
             .collect();
     }
+    // `len·most/total` in 128 bits: never more than `most` over all
+    let share = |len: usize| (len as u128 * most as u128 / total as u128) as usize;
+    if periodic {
+        let mut left: usize = segments.iter().map(|s| share(s.len())).sum();
+        let mut out = Vec::new();
+        for (k, s) in segments.iter().enumerate() {
+            if left == 0 {
+                break;
+            }
+            let n = s.len().min(left);
+            out.push((s.start..s.start + n, k));
+            left -= n;
+        }
+        return out;
+    }
     let mut out = Vec::new();
     for (k, s) in segments.iter().enumerate() {
         let len = s.len();
-        // `len·most/total` in 128 bits: never more than `most` over all
-        let kept = (len as u128 * most as u128 / total as u128) as usize;
+        let kept = share(len);
         let blocks = kept.div_ceil(JUDGED_STRETCH);
         for j in 0..blocks {
             let end = s.start + len * (j + 1) / blocks;
@@ -871,7 +928,8 @@ impl<'a> TimeProblem<'a> {
             .zip(factors)
             .zip(&at_rate)
             .map(|(((r, scale), k), segments)| {
-                let stretches = judged_stretches(segments, total, options.max_judged_samples);
+                let stretches =
+                    judged_stretches(segments, total, options.max_judged_samples, r.periodic);
                 Judging::of(r, scale, k, stretches)
             })
             .collect::<Result<_>>()?;
@@ -923,8 +981,9 @@ impl<'a> TimeProblem<'a> {
     /// trifle. So `model` is replayed at that rate and at coarser ones (2.5,
     /// 5, 10, 20 samples per period), and the coarsest whose response
     /// differs from the sure one by at most 0.2 % of the model's own misfit
-    /// (both in the fit's segment weighting) is used. At 1 % a joint's stick
-    /// stiffness ended 2 % further from the truth than at the sure rate on
+    /// (both in the fit's segment weighting, over the samples it judges) is
+    /// used. At 1 % a joint's stick stiffness ended 2 % further from the
+    /// truth than at the sure rate on
     /// an independent recording (a Masing joint with kd 2.7 times the
     /// structure's stiffness, a further mode fitted at 5 times the band's
     /// top): the misfit is mostly noise, the discretisation's change is
@@ -958,37 +1017,21 @@ impl<'a> TimeProblem<'a> {
         let top = model.highest_replayed_frequency_hz(quasi_static_above_hz(r.sample_rate_hz));
         let factor =
             |spp: f64| ((spp * top / r.sample_rate_hz).ceil().max(1.0) as usize).min(MAX_FACTOR);
-        let replay = |f: usize| {
-            simulate_prepared_at(
-                model,
-                &self.drives[i],
-                r.sample_rate_hz,
-                r.quantity,
-                self.sign,
-                f,
-                &Silent,
-            )
-            .ok()
-            .map(|s| s.values)
+        // what the fit judges (its replays stop at the last judged sample;
+        // never a whole replay held)
+        let judged = self.judging[i].judged();
+        let residuals = |f: usize| {
+            let mut out = vec![0.0; judged];
+            self.judged_residuals_on(model, i, f, &mut out)
+                .ok()
+                .map(|()| out)
         };
         let sure_factor = factor(sure);
-        let Some(fine) = (sure_factor > 1).then(|| replay(sure_factor)).flatten() else {
+        let Some(fine) = (sure_factor > 1).then(|| residuals(sure_factor)).flatten() else {
             return (sure_factor, None);
         };
-        let weighted = |a: SamplesView, b: SamplesView| {
-            let (mut a, mut b) = (a.cursor(), b.cursor());
-            r.segments
-                .iter()
-                .zip(&self.scale[i])
-                .map(|(seg, sc)| {
-                    seg.clone()
-                        .map(|j| ((a.get(j) - b.get(j)) / sc).powi(2))
-                        .sum::<f64>()
-                })
-                .sum::<f64>()
-                .sqrt()
-        };
-        let misfit = weighted((&fine).into(), r.response.view());
+        let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|x| x * x).sum::<f64>().sqrt();
+        let misfit = norm(&mut fine.iter().copied());
         let mut tried = 0;
         for spp in LADDER.into_iter().filter(|&spp| spp < sure) {
             // the same factor as one tried already, or as the sure one:
@@ -998,8 +1041,8 @@ impl<'a> TimeProblem<'a> {
                 continue;
             }
             tried = f;
-            let Some(coarse) = replay(f) else { continue };
-            let change = weighted((&coarse).into(), (&fine).into());
+            let Some(coarse) = residuals(f) else { continue };
+            let change = norm(&mut coarse.iter().zip(&fine).map(|(c, f)| c - f));
             if change <= 0.002 * misfit {
                 let note = format!(
                     "{}: replayed at {f} times its rate, not {sure_factor}: that changes the \
@@ -1078,10 +1121,24 @@ impl<'a> TimeProblem<'a> {
     /// Record `i`'s residuals for `model` (its judged samples inside its
     /// segments, in order) written into `out`: the replay low-passed and
     /// decimated to the judging rate as it is made, and compared as it
-    /// comes (no replay held whole, see
-    /// [`crate::validate::replay_streamed`]); the same residuals to the bit
-    /// as the whole replay decimated and compared.
+    /// comes (no replay held whole, see [`crate::validate::Replay`]); the
+    /// same residuals to the bit as the whole replay decimated and
+    /// compared. The replay stops once the last judged sample is made (a
+    /// periodic record judged in part is judged on its first periods).
     fn judged_residuals_into(&self, model: &Model, i: usize, out: &mut [f64]) -> Result<()> {
+        let factor = self.replay_factor_of(model, i)?;
+        self.judged_residuals_on(model, i, factor, out)
+    }
+
+    /// [`TimeProblem::judged_residuals_into`] with record `i` replayed at
+    /// `replay_factor` times its rate, whatever grid it is fixed on.
+    fn judged_residuals_on(
+        &self,
+        model: &Model,
+        i: usize,
+        replay_factor: usize,
+        out: &mut [f64],
+    ) -> Result<()> {
         let r = &self.records[i];
         let judging = &self.judging[i];
         let mut measured = r.response.view().cursor();
@@ -1091,7 +1148,12 @@ impl<'a> TimeProblem<'a> {
         let mut judged = Vec::new();
         // the next judged sample, the stretch it may lie in, the residual
         let (mut q, mut k, mut p) = (0, 0, 0);
-        self.replay_by_stretch(model, i, &mut |stretch| {
+        let rate = (r.sample_rate_hz, replay_factor);
+        let mut replay =
+            crate::validate::Replay::new(model, &self.drives[i], rate, r.quantity, self.sign)?;
+        while p < out.len()
+            && let Some(stretch) = replay.next_stretch(&Silent)?
+        {
             judged.clear();
             decimator.push(stretch, &mut judged);
             for &s in &judged {
@@ -1108,8 +1170,7 @@ impl<'a> TimeProblem<'a> {
                 }
                 q += 1;
             }
-            Ok(())
-        })?;
+        }
         debug_assert_eq!(p, out.len());
         Ok(())
     }
@@ -1202,6 +1263,24 @@ impl<'a> TimeProblem<'a> {
                 })
             })
             .collect()
+    }
+
+    /// `model`'s misfit over what is judged: per recording, the mean over
+    /// its judged segments of each one's relative error squared, summed
+    /// over the recordings (with every sample judged, the sum of
+    /// [`RecordError::segment_relative`] squared). A start is chosen by it:
+    /// it is what the fit minimises, and a replay stops at the last sample
+    /// judged (a long periodic record's first periods).
+    pub fn judged_misfit(&self, model: &Model) -> Result<f64> {
+        let mut misfit = 0.0;
+        for (i, judging) in self.judging.iter().enumerate() {
+            let mut out = vec![0.0; judging.judged()];
+            self.judged_residuals_into(model, i, &mut out)?;
+            let mut segments: Vec<usize> = judging.stretches.iter().map(|(_, k)| *k).collect();
+            segments.dedup();
+            misfit += out.iter().map(|v| v * v).sum::<f64>() / segments.len().max(1) as f64;
+        }
+        Ok(misfit)
     }
 
     /// The misfit at `theta` without the bounds' penalty: `Σ r²` of the
@@ -1536,10 +1615,20 @@ pub fn periodic_starts_modal(
     Ok((starts, linear))
 }
 
+/// Most samples [`closest_start`] judges each start on (an eighth of
+/// [`MAX_JUDGED_SAMPLES`]): a grid of 180 starts replayed over a long
+/// multisine's million judged samples took minutes, and the starts differ
+/// by far more than a part of the record can hide.
+pub const START_JUDGED_SAMPLES: usize = MAX_JUDGED_SAMPLES / 8;
+
 /// The index of the start whose replay is closest to `records` (the fit's
-/// own misfit: each segment's squared relative e_RMS, summed), replayed at
-/// the options' rate; a start the simulator rejects is passed over, ties go
-/// to the first. `None` when the simulator rejects every one.
+/// own misfit over what it judges, [`TimeProblem::judged_misfit`]: each
+/// segment's squared relative e_RMS, summed; judged on at most
+/// [`START_JUDGED_SAMPLES`]), replayed on the coarsest grid
+/// that replays the start of the highest frequency as the options' rate
+/// does ([`TimeProblem::fix_replay_grid`]); a start the simulator rejects
+/// is passed over, ties go to the first. `None` when the simulator rejects
+/// every one.
 pub fn closest_start(
     starts: &[Model],
     records: &[TimeRecord],
@@ -1549,21 +1638,37 @@ pub fn closest_start(
     let Some(first) = starts.first() else {
         return Ok(None);
     };
-    // one problem: the drives are prepared (resampled) once for every start
-    let problem = TimeProblem::new(
+    // one problem: the drives are prepared (resampled) once for every start;
+    // a long record's starts told apart on a part of what the fit judges
+    let options = TimeFitOptions {
+        max_judged_samples: options.max_judged_samples.min(START_JUDGED_SAMPLES),
+        ..options.clone()
+    };
+    let mut problem = TimeProblem::new(
         first.clone(),
         ParameterSet::default(),
         records,
         1.0,
-        options.clone(),
+        options,
         None,
     )?;
+    // replayed on the grid the start with the highest frequency needs (see
+    // `fix_replay_grid`), not at the sure rate: a grid of starts replayed
+    // at 12 times a long multisine's rate took minutes
+    let slowest = records
+        .iter()
+        .map(|r| r.sample_rate_hz)
+        .fold(f64::INFINITY, f64::min);
+    let top = |m: &Model| m.highest_replayed_frequency_hz(quasi_static_above_hz(slowest));
+    let stiffest = starts
+        .iter()
+        .max_by(|a, b| top(a).total_cmp(&top(b)))
+        .expect("one start at least");
+    problem.fix_replay_grid(stiffest, "stiffest start");
     let misfits = starts
         .par_iter()
-        .map(|m| match problem.errors(m) {
-            Ok(e) => Ok(Some(
-                e.iter().map(|r| r.segment_relative.powi(2)).sum::<f64>(),
-            )),
+        .map(|m| match problem.judged_misfit(m) {
+            Ok(misfit) => Ok(Some(misfit)),
             Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => Ok(None),
             Err(e) => Err(e),
         })
@@ -1720,9 +1825,18 @@ pub fn identify_time(
             .map(|k| k.to_string())
             .collect();
         let in_part = if problem.judged_in_part() {
+            let how = if records.iter().all(|r| r.periodic) {
+                "each record on its share as its first steady periods (alike in a steady state; \
+                 the replays stop there)"
+                    .to_string()
+            } else {
+                format!(
+                    "each segment on its share in stretches of at most {JUDGED_STRETCH} spread \
+                     over it"
+                )
+            };
             format!(
-                ", each segment on its share in stretches of at most {JUDGED_STRETCH} spread \
-                 over it (the rate left at least {MIN_JUDGED_PER_PERIOD} samples a period of \
+                ", {how} (the rate left at least {MIN_JUDGED_PER_PERIOD} samples a period of \
                  the model's highest linearised frequency)"
             )
         } else {
@@ -1979,6 +2093,7 @@ mod tests {
             window: 0..n,
             segments: vec![0..n / 2, n / 2..n],
             band_hz: None,
+            periodic: false,
         };
         let two = [rec(30_000.0, 6_000_000), rec(30_000.0, 2_230_473)];
         // 8 230 473 over 2^20: 8; 30 kHz allows 12 at 293 Hz, 3 at 1 kHz
@@ -2238,6 +2353,128 @@ mod tests {
                 .iter()
                 .any(|n| n.contains("in stretches of at most"))
         );
+        let kd = |m: &Model| match m.elements().next() {
+            Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
+            _ => unreachable!(),
+        };
+        let error = kd(&fit.model) / kd(&truth) - 1.0;
+        assert!(error.abs() < 1e-6, "kd {error:e} off");
+    }
+
+    /// A periodic record judged in part is judged on its first steady
+    /// periods whole (the periods are alike), not on a share of each: the
+    /// judged samples within the bound, the stretches the first periods
+    /// (the last in part), each residual the one judging every steady
+    /// sample gives there but for the divisor, and the fit still finds the
+    /// joint (noise-free: to 1e-6). Its replays stop at the last judged
+    /// sample, which leaves the residuals as they were.
+    #[test]
+    fn a_periodic_record_judged_in_part_is_judged_on_its_first_periods() {
+        let (_, model, truth) = jenkins_dwells();
+        let fs = 4000.0;
+        // lines 40-80 Hz every 4 Hz (period 2 000 samples), Schroeder
+        // phases, 8 periods: the joint slips on the peaks
+        let (period, periods) = (2000, 8);
+        let lines: Vec<usize> = (20..=40).step_by(2).collect();
+        let force: Vec<f64> = (0..period * periods)
+            .map(|i| {
+                lines
+                    .iter()
+                    .enumerate()
+                    .map(|(j, &l)| {
+                        let phase = -PI * (j * (j + 1)) as f64 / lines.len() as f64;
+                        let t = (i % period) as f64 / period as f64;
+                        10.0 * (2.0 * PI * l as f64 * t + phase).cos()
+                    })
+                    .sum()
+            })
+            .collect();
+        let measured = crate::validate::simulate_response(
+            &truth,
+            &force,
+            fs,
+            Quantity::Displacement,
+            1.0,
+            20.0,
+        )
+        .unwrap()
+        .values;
+        let rec = recording(fs, force.clone(), Excitation::default());
+        let record = TimeRecord::steady_periods(
+            "multisine",
+            &rec.meta,
+            1,
+            (force.into(), measured.into()),
+            period,
+        )
+        .unwrap()
+        .unwrap();
+        assert!(record.periodic && record.segments.len() == periods - 1);
+        let records = [record];
+        let start = model(1.0);
+        let problem = |most: usize| {
+            let options = TimeFitOptions {
+                max_judged_samples: most,
+                ..TimeFitOptions::default()
+            };
+            let parameters = time_parameters(&start, false, None);
+            TimeProblem::new(start.clone(), parameters, &records, 1.0, options, None).unwrap()
+        };
+        // judged at one in 5 (the stick mode at 89 Hz): 400 a period, 2 800
+        // in all; a bound of 1 000 gives each period a share of 142: two
+        // periods whole and 194 samples of the third
+        let (part, whole) = (problem(1_000), problem(2_800));
+        assert_eq!(part.judging_factors(), [5]);
+        assert!(part.judged_in_part() && !whole.judged_in_part());
+        let (jp, jw) = (&part.judging[0], &whole.judging[0]);
+        let first = |k: usize, n: usize| {
+            let s = &jw.stretches[k].0;
+            (s.start..s.start + n, k)
+        };
+        assert_eq!(jp.stretches, [first(0, 400), first(1, 400), first(2, 194)]);
+        assert_eq!(part.judged_samples(), [994]);
+        let theta = part.parameters().theta_of(&start).unwrap();
+        let (rp, rw) = (
+            part.residuals(&theta).unwrap(),
+            whole.residuals(&theta).unwrap(),
+        );
+        // every sample judged: the misfit a start is chosen by is the sum
+        // of the segments' relative errors squared
+        let every = problem(14_000);
+        assert_eq!(every.judging_factors(), [1]);
+        let by_segment: f64 = every.errors(&start).unwrap()[0].segment_relative.powi(2);
+        let judged = every.judged_misfit(&start).unwrap();
+        assert!(
+            (judged - by_segment).abs() < 1e-12 * by_segment,
+            "{judged} {by_segment}"
+        );
+        // the judged samples', then the bounds' penalty row
+        assert_eq!(rp.len(), 994 + 1);
+        for (p, a) in rp[..994].iter().enumerate() {
+            let k = p / 400;
+            let (a, b) = (a * jp.scale[k], rw[p] * jw.scale[k]);
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1e-9),
+                "{p}: {a} against {b}"
+            );
+        }
+        let options = TimeFitOptions {
+            max_judged_samples: 1_000,
+            refine_linear: false,
+            ..TimeFitOptions::default()
+        };
+        let fit = identify_time(
+            &start,
+            time_parameters(&start, false, None),
+            1.0,
+            &records,
+            &options,
+            None,
+        )
+        .unwrap();
+        // the fit judges at the rate its own start model allows: within the bound
+        assert!((990..=1_000).contains(&fit.samples), "{}", fit.samples);
+        assert!(fit.notes.iter().any(|n| n.contains("first steady periods")));
         let kd = |m: &Model| match m.elements().next() {
             Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
             _ => unreachable!(),

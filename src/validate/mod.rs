@@ -136,9 +136,27 @@ pub enum DriveInput {
 }
 
 /// The samples pre-emphasised as [`DriveInput::BandLimited`] says (the
-/// ends held: a record starts and ends at rest).
+/// ends held: a record starts and ends at rest), sample by sample: the
+/// tests' reference for [`pre_emphasise`].
+#[cfg(test)]
 fn pre_emphasis(x: &[f64]) -> Vec<f64> {
     (0..x.len()).map(|i| pre_emphasised(x, i)).collect()
+}
+
+/// [`pre_emphasis`] in place (a drive held for replays is the largest
+/// thing a fit of a long recording makes: not twice).
+fn pre_emphasise(x: &mut [f64]) {
+    let n = x.len();
+    if n == 0 {
+        return;
+    }
+    // the sample before, as it was
+    let mut before = x[0];
+    for i in 0..n {
+        let (a, here, b) = (before, x[i], x[(i + 1).min(n - 1)]);
+        before = here;
+        x[i] = here + (2.0 * here - a - b) / 12.0;
+    }
 }
 
 /// Sample `i` of [`pre_emphasis`]`(x)`, made where it is needed (a replay
@@ -271,16 +289,30 @@ pub fn simulate_response_with(
     )
 }
 
+/// Samples of a drive on the replays' grids held for the replays that
+/// follow, over every upsampling factor (64 MiB of `f64`s): a long
+/// recording's drive is held up to there and interpolated a stretch at a
+/// time beyond, whatever its length and the factor.
+pub const DRIVE_HELD: usize = 1 << 23;
+
 /// A reference prepared for replays: interpolated to each upsampling
 /// factor a model asks for and pre-emphasised as its [`DriveInput`] says,
-/// once per factor (a fit replays the same recording through many models).
+/// once per factor (a fit replays the same recording through many models)
+/// for its first [`DRIVE_HELD`] samples on that grid; a replay interpolates
+/// the rest a stretch at a time ([`resample::Interpolator`]: the same
+/// samples). A fit of a long periodic record replays its first periods
+/// only, so what it replays is all held.
 pub struct PreparedDrive<'a> {
     reference: SamplesView<'a>,
     input: DriveInput,
-    /// Interpolated a stretch at a time by each replay, never whole (see
-    /// [`PreparedDrive::for_one_replay`]).
+    /// Interpolated a stretch at a time by each replay, none of it held
+    /// (see [`PreparedDrive::for_one_replay`]).
     per_stretch: bool,
+    /// The drive's first samples on each factor's grid, most recent last,
+    /// at most `held_at_most` in all.
     cache: std::sync::Mutex<Vec<(usize, std::sync::Arc<Vec<f64>>)>>,
+    /// [`DRIVE_HELD`] (less in tests).
+    held_at_most: usize,
     /// The reference's first sample that is not finite, looked for once.
     not_finite: std::sync::OnceLock<Option<usize>>,
 }
@@ -292,10 +324,9 @@ impl<'a> PreparedDrive<'a> {
         PreparedDrive {
             reference,
             input,
-            // a reference too long to hold is not made whole at a higher
-            // rate either (`factor` times its length in `f64`s)
-            per_stretch: matches!(reference, SamplesView::Spilled(_)),
+            per_stretch: false,
             cache: Default::default(),
+            held_at_most: DRIVE_HELD,
             not_finite: Default::default(),
         }
     }
@@ -311,6 +342,16 @@ impl<'a> PreparedDrive<'a> {
         PreparedDrive {
             per_stretch: true,
             ..PreparedDrive::new(reference, input)
+        }
+    }
+
+    /// The drive holding at most `samples` on the replays' grids (tests of
+    /// the stretches beyond).
+    #[cfg(test)]
+    fn holding_at_most(self, samples: usize) -> PreparedDrive<'a> {
+        PreparedDrive {
+            held_at_most: samples,
+            ..self
         }
     }
 
@@ -331,29 +372,37 @@ impl<'a> PreparedDrive<'a> {
         }
     }
 
-    /// The drive at `factor` times the rate.
+    /// The drive at `factor` (at least 2) times the rate, its first
+    /// [`DRIVE_HELD`] samples (the whole where it is shorter); the cache's
+    /// oldest factors dropped to keep it within that.
     fn at(&self, factor: usize) -> Result<std::sync::Arc<Vec<f64>>> {
-        if let Some((_, d)) = self
-            .cache
-            .lock()
-            .expect("drive cache")
-            .iter()
-            .find(|(f, _)| *f == factor)
-        {
+        // held while the drive is made: replays on other threads wait for it
+        // rather than make it again beside it
+        let mut cache = self.cache.lock().expect("drive cache");
+        if let Some((_, d)) = cache.iter().find(|(f, _)| *f == factor) {
             return Ok(d.clone());
         }
         // (a replay at the recording's own rate makes its drive as it goes:
         // see `replay_streamed`)
-        let reference = self.reference.values();
-        let drive = match self.input {
-            DriveInput::Ramp => resample::interpolate(&reference, factor)?,
-            _ => pre_emphasis(&resample::interpolate(&reference, factor)?),
-        };
+        let total = self.reference.len() * factor;
+        let held = self.held_at_most.min(total);
+        // with the neighbour past the end held that pre-emphasis reads
+        let made = (held + 1).min(total);
+        // the oldest factors' dropped first (a replay still using one keeps
+        // it)
+        while !cache.is_empty()
+            && cache.iter().map(|(_, d)| d.len()).sum::<usize>() + held > self.held_at_most
+        {
+            cache.remove(0);
+        }
+        let mut drive = Vec::with_capacity(made);
+        resample::Interpolator::new(factor).fill(self.reference, 0..made, &mut drive);
+        if self.input != DriveInput::Ramp {
+            pre_emphasise(&mut drive);
+        }
+        drive.truncate(held);
         let drive = std::sync::Arc::new(drive);
-        self.cache
-            .lock()
-            .expect("drive cache")
-            .push((factor, drive.clone()));
+        cache.push((factor, drive.clone()));
         Ok(drive)
     }
 }
@@ -494,10 +543,11 @@ pub fn replay_streamed(
 /// drive too is made a stretch at a time.
 pub struct Replay<'d, 'a> {
     drive: &'d PreparedDrive<'a>,
-    /// The drive whole where it is interpolated (made once, shared by the
-    /// replays), else `None`: the samples themselves, or interpolated a
-    /// stretch at a time by `interpolator`.
-    whole: Option<std::sync::Arc<Vec<f64>>>,
+    /// Where it is interpolated, the drive's first samples (made once,
+    /// shared by the replays: see [`PreparedDrive`]); beyond them, or
+    /// without them, the samples themselves or interpolated a stretch at a
+    /// time by `interpolator`.
+    held: Option<std::sync::Arc<Vec<f64>>>,
     interpolator: Option<resample::Interpolator>,
     /// The interpolated stretch (with a sample each side).
     interpolated: Vec<f64>,
@@ -537,15 +587,16 @@ impl<'d, 'a> Replay<'d, 'a> {
         // compares replays at several rates
         let quasi_static = quasi_static_above_hz(sample_rate_hz);
         let top = model.highest_replayed_frequency_hz(quasi_static);
-        let (whole, interpolator) = if factor == 1 {
-            drive.check_finite()?;
+        let total = reference.len() * factor;
+        drive.check_finite()?;
+        let (held, interpolator) = if factor == 1 {
             (None, None)
-        } else if drive.per_stretch {
-            resample::check(factor, &[], "signal")?;
-            drive.check_finite()?;
-            (None, Some(resample::Interpolator::new(factor)))
         } else {
-            (Some(drive.at(factor)?), None)
+            resample::check(factor, &[], "signal")?;
+            let held = (!drive.per_stretch).then(|| drive.at(factor)).transpose()?;
+            // beyond what is held, interpolated a stretch at a time
+            let beyond = held.as_ref().is_none_or(|h| h.len() < total);
+            (held, beyond.then(|| resample::Interpolator::new(factor)))
         };
         let mut sim = Simulator::with_quasi_static_above(
             &model.linear,
@@ -571,11 +622,10 @@ impl<'d, 'a> Replay<'d, 'a> {
                 ));
             }
         };
-        let total = reference.len() * factor;
         let stretch = REPLAY_STRETCH.min(total);
         Ok(Replay {
             drive,
-            whole,
+            held,
             interpolator,
             interpolated: Vec::new(),
             sim,
@@ -610,12 +660,17 @@ impl<'d, 'a> Replay<'d, 'a> {
             return Ok(None);
         }
         let reference = self.drive.reference;
-        let end = (done + self.fine.len()).min(total);
+        let mut end = (done + self.fine.len()).min(total);
+        // what is held, up to its end
+        let held = self.held.as_ref().filter(|h| done < h.len());
+        if let Some(h) = held {
+            end = end.min(h.len());
+        }
         let fine = &mut self.fine[..end - done];
         // the drive's samples `lo..hi` on the replay's grid
         let (interpolator, buffer) = (self.interpolator.as_ref(), &mut self.interpolated);
-        match (&self.whole, self.drive.input) {
-            (Some(w), _) => self.sim.run_output(&w[done..end], self.output, fine)?,
+        match (held, self.drive.input) {
+            (Some(h), _) => self.sim.run_output(&h[done..end], self.output, fine)?,
             (None, DriveInput::Ramp) => {
                 let x = drive_on_grid(reference, interpolator, buffer, done..end);
                 self.sim.run_output(&x, self.output, fine)?
@@ -1622,6 +1677,32 @@ mod tests {
                 };
                 let streamed = streamed_from(PreparedDrive::new(&force, input));
                 assert!(streamed_from(PreparedDrive::new(&held, input)) == streamed);
+                // held for the first 1 001 samples on the grid, interpolated
+                // a stretch at a time beyond; replayed again from what is
+                // held, and after a replay at another factor (which drops
+                // this factor's held samples)
+                let partly = PreparedDrive::new(&held, input).holding_at_most(1001);
+                let replay = |drive: &PreparedDrive, factor: usize| {
+                    simulate_prepared_at(
+                        &model,
+                        drive,
+                        fs,
+                        Quantity::Velocity,
+                        -1.0,
+                        factor,
+                        &Silent,
+                    )
+                    .unwrap()
+                    .values
+                };
+                assert!(replay(&partly, factor) == streamed);
+                assert!(replay(&partly, factor) == streamed);
+                if factor > 1 {
+                    let twice = replay(&PreparedDrive::new(&force, input), 2);
+                    assert!(replay(&partly, 2) == twice);
+                    assert_eq!(partly.cache.lock().unwrap().len(), 1);
+                    assert!(replay(&partly, factor) == streamed);
+                }
                 // interpolated a stretch at a time, never whole
                 assert!(streamed_from(PreparedDrive::for_one_replay(&held, input)) == streamed);
                 let fine_drive = match input {
