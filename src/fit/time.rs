@@ -2221,6 +2221,14 @@ mod tests {
         assert!(e.contains("no dwell"), "{e}");
     }
 
+    /// `model`'s displacement driven by `force` sampled at `fs` (20 samples
+    /// a period of its highest frequency, noise-free).
+    fn displacement_of(model: &Model, force: &[f64], fs: f64) -> Vec<f64> {
+        crate::validate::simulate_response(model, force, fs, Quantity::Displacement, 1.0, 20.0)
+            .unwrap()
+            .values
+    }
+
     /// An SDOF at 60 Hz (1 kg, 2 % damping) with a Jenkins joint of slip
     /// force 40 N and stick stiffness `kd` times the linear one, driven in
     /// three stated dwells (52 Hz at 20 N, 60 and 71 Hz at 60 N; 12 000
@@ -2254,19 +2262,46 @@ mod tests {
             force.extend((0..12_000).map(|i| level * (2.0 * PI * f * i as f64 / fs).sin()));
         }
         let truth = model(1.2);
-        let measured = crate::validate::simulate_response(
-            &truth,
-            &force,
-            fs,
-            Quantity::Displacement,
-            1.0,
-            20.0,
-        )
-        .unwrap()
-        .values;
+        let measured = displacement_of(&truth, &force, fs);
         let mut rec = recording(fs, force, stepped(steps));
         rec.channels[1] = measured;
         (rec, model, truth)
+    }
+
+    /// A problem of the joint's parameters from `start`, judging at most
+    /// `most` samples.
+    fn judged_within<'a>(start: &Model, records: &'a [TimeRecord], most: usize) -> TimeProblem<'a> {
+        let options = TimeFitOptions {
+            max_judged_samples: most,
+            ..TimeFitOptions::default()
+        };
+        let parameters = time_parameters(start, false, None);
+        TimeProblem::new(start.clone(), parameters, records, 1.0, options, None).unwrap()
+    }
+
+    /// The joint fitted from `start` judging at most `most` samples, its
+    /// stick stiffness checked against `truth`'s to `tolerance`.
+    fn fits_kd_within(
+        start: &Model,
+        records: &[TimeRecord],
+        most: usize,
+        truth: &Model,
+        tolerance: f64,
+    ) -> TimeFitResult {
+        let options = TimeFitOptions {
+            max_judged_samples: most,
+            refine_linear: false,
+            ..TimeFitOptions::default()
+        };
+        let parameters = time_parameters(start, false, None);
+        let fit = identify_time(start, parameters, 1.0, records, &options, None).unwrap();
+        let kd = |m: &Model| match m.elements().next() {
+            Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
+            _ => unreachable!(),
+        };
+        let error = kd(&fit.model) / kd(truth) - 1.0;
+        assert!(error.abs() < tolerance, "kd {error:e} off");
+        fit
     }
 
     /// Where the floor of [`MIN_JUDGED_PER_PERIOD`] samples a period keeps
@@ -2281,14 +2316,7 @@ mod tests {
         let (rec, model, truth) = jenkins_dwells();
         let records = [TimeRecord::from_recording("dwells", &rec, 1, None, None).unwrap()];
         let start = model(1.0);
-        let problem = |most: usize| {
-            let options = TimeFitOptions {
-                max_judged_samples: most,
-                ..TimeFitOptions::default()
-            };
-            let parameters = time_parameters(&start, false, None);
-            TimeProblem::new(start.clone(), parameters, &records, 1.0, options, None).unwrap()
-        };
+        let problem = |most: usize| judged_within(&start, &records, most);
         // 37 500 samples; the stick mode at 60·√2.2 = 89 Hz allows at most
         // 4000/(8·89) = 5.6: one in 5, 7 500 judged, more than 3 000
         let (part, whole) = (problem(3_000), problem(7_500));
@@ -2333,32 +2361,13 @@ mod tests {
             }
         }
         assert_eq!(p, judged);
-        let options = TimeFitOptions {
-            max_judged_samples: 3_000,
-            refine_linear: false,
-            ..TimeFitOptions::default()
-        };
-        let fit = identify_time(
-            &start,
-            time_parameters(&start, false, None),
-            1.0,
-            &records,
-            &options,
-            None,
-        )
-        .unwrap();
+        let fit = fits_kd_within(&start, &records, 3_000, &truth, 1e-6);
         assert_eq!(fit.samples, judged);
         assert!(
             fit.notes
                 .iter()
                 .any(|n| n.contains("in stretches of at most"))
         );
-        let kd = |m: &Model| match m.elements().next() {
-            Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
-            _ => unreachable!(),
-        };
-        let error = kd(&fit.model) / kd(&truth) - 1.0;
-        assert!(error.abs() < 1e-6, "kd {error:e} off");
     }
 
     /// A periodic record judged in part is judged on its first steady
@@ -2389,16 +2398,7 @@ mod tests {
                     .sum()
             })
             .collect();
-        let measured = crate::validate::simulate_response(
-            &truth,
-            &force,
-            fs,
-            Quantity::Displacement,
-            1.0,
-            20.0,
-        )
-        .unwrap()
-        .values;
+        let measured = displacement_of(&truth, &force, fs);
         let rec = recording(fs, force.clone(), Excitation::default());
         let record = TimeRecord::steady_periods(
             "multisine",
@@ -2412,14 +2412,7 @@ mod tests {
         assert!(record.periodic && record.segments.len() == periods - 1);
         let records = [record];
         let start = model(1.0);
-        let problem = |most: usize| {
-            let options = TimeFitOptions {
-                max_judged_samples: most,
-                ..TimeFitOptions::default()
-            };
-            let parameters = time_parameters(&start, false, None);
-            TimeProblem::new(start.clone(), parameters, &records, 1.0, options, None).unwrap()
-        };
+        let problem = |most: usize| judged_within(&start, &records, most);
         // judged at one in 5 (the stick mode at 89 Hz): 400 a period, 2 800
         // in all; a bound of 1 000 gives each period a share of 142: two
         // periods whole and 194 samples of the third
@@ -2458,29 +2451,10 @@ mod tests {
                 "{p}: {a} against {b}"
             );
         }
-        let options = TimeFitOptions {
-            max_judged_samples: 1_000,
-            refine_linear: false,
-            ..TimeFitOptions::default()
-        };
-        let fit = identify_time(
-            &start,
-            time_parameters(&start, false, None),
-            1.0,
-            &records,
-            &options,
-            None,
-        )
-        .unwrap();
+        let fit = fits_kd_within(&start, &records, 1_000, &truth, 1e-6);
         // the fit judges at the rate its own start model allows: within the bound
         assert!((990..=1_000).contains(&fit.samples), "{}", fit.samples);
         assert!(fit.notes.iter().any(|n| n.contains("first steady periods")));
-        let kd = |m: &Model| match m.elements().next() {
-            Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
-            _ => unreachable!(),
-        };
-        let error = kd(&fit.model) / kd(&truth) - 1.0;
-        assert!(error.abs() < 1e-6, "kd {error:e} off");
     }
 
     /// A record whose channels are held in scratch files (as a loader holds

@@ -1662,26 +1662,6 @@ mod tests {
         assert_eq!(held.bytes(), 4 * n);
         for input in [DriveInput::BandLimited, DriveInput::Ramp] {
             for factor in [1, 3] {
-                let streamed_from = |drive: PreparedDrive| {
-                    simulate_prepared_at(
-                        &model,
-                        &drive,
-                        fs,
-                        Quantity::Velocity,
-                        -1.0,
-                        factor,
-                        &Silent,
-                    )
-                    .unwrap()
-                    .values
-                };
-                let streamed = streamed_from(PreparedDrive::new(&force, input));
-                assert!(streamed_from(PreparedDrive::new(&held, input)) == streamed);
-                // held for the first 1 001 samples on the grid, interpolated
-                // a stretch at a time beyond; replayed again from what is
-                // held, and after a replay at another factor (which drops
-                // this factor's held samples)
-                let partly = PreparedDrive::new(&held, input).holding_at_most(1001);
                 let replay = |drive: &PreparedDrive, factor: usize| {
                     simulate_prepared_at(
                         &model,
@@ -1695,6 +1675,13 @@ mod tests {
                     .unwrap()
                     .values
                 };
+                let streamed = replay(&PreparedDrive::new(&force, input), factor);
+                assert!(replay(&PreparedDrive::new(&held, input), factor) == streamed);
+                // held for the first 1 001 samples on the grid, interpolated
+                // a stretch at a time beyond; replayed again from what is
+                // held, and after a replay at another factor (which drops
+                // this factor's held samples)
+                let partly = PreparedDrive::new(&held, input).holding_at_most(1001);
                 assert!(replay(&partly, factor) == streamed);
                 assert!(replay(&partly, factor) == streamed);
                 if factor > 1 {
@@ -1704,7 +1691,8 @@ mod tests {
                     assert!(replay(&partly, factor) == streamed);
                 }
                 // interpolated a stretch at a time, never whole
-                assert!(streamed_from(PreparedDrive::for_one_replay(&held, input)) == streamed);
+                let one = PreparedDrive::for_one_replay(&held, input);
+                assert!(replay(&one, factor) == streamed);
                 let fine_drive = match input {
                     DriveInput::Ramp => resample::interpolate(&force, factor).unwrap(),
                     _ => pre_emphasis(&resample::interpolate(&force, factor).unwrap()),
