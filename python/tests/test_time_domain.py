@@ -151,13 +151,13 @@ def test_a_multisine_is_fitted_from_its_linear_estimate(tmp_path):
     # fit; one sample in 5 (not the 6 the bound alone asks: 8 samples a
     # period of the 45 Hz stuck mode at 2 kHz is the floor), which leaves
     # 1200 of the 6000 the fit judges (the first period is the start's
-    # transient), more than the bound: each of the three periods is judged
-    # on its share, its last 333 samples at that rate, 999 in all; the
-    # joint as found
+    # transient), more than the bound: the periods alike, the record is
+    # judged on its share as its first steady periods, 999 samples at that
+    # rate in all (its replays stop there); the joint as found
     judged = as_the_command("fitj", ["--max-judged-samples", "1000"], max_judged_samples=1000)
     assert judged["time_domain"]["samples"] == 999
     notes = judged["time_domain"]["notes"]
-    assert any("judged on 999 of the 6000 samples" in n and "in stretches" in n for n in notes)
+    assert any("judged on 999 of the 6000 samples" in n and "first steady periods" in n for n in notes)
     q = judged["time_domain"]["parameters"]
     assert q["kd"]["value"] == pytest.approx(4.0e4, rel=0.01)
     assert q["fd"]["value"] == pytest.approx(8.0, rel=0.01)
