@@ -139,60 +139,66 @@ pub fn diagnose_multisine(
     let mut rounds = Vec::new();
     let mut tried: Vec<Effect> = Vec::new();
     let residual = loop {
-        let params = time_parameters(&current.model, options.refine_linear, band);
-        let mut problem = TimeProblem::new(
-            current.model.clone(),
-            params,
-            records,
-            1.0,
-            options.clone(),
-            None,
-        )?;
-        problem.choose_replay_rates();
-        let cx = LineContext::new(&current.model, &problem, &spectra, quantity)?;
-        let residual = line_residual(&spectra, cx.residual());
-        if residual.chi2_per_line <= NOISE_CHI2_PER_LINE
-            || selected.len() >= diagnose_options.max_effects
-        {
-            break residual;
-        }
-        // every candidate that may join, traced by its start's signature
-        let effects: Vec<Effect> = diagnose_options
-            .candidates
-            .iter()
-            .copied()
-            .filter(|e| e.candidate().applies_to(&current.model))
-            .filter(|e| !selected.contains(e) && !tried.contains(e))
-            .collect();
-        let mut traced = Vec::new();
-        let mut starts: Vec<(Effect, Model)> = Vec::new();
-        for (i, &effect) in effects.iter().enumerate() {
-            crate::observe::progress(observer, "tracing", i as u64, effects.len() as u64)?;
-            let best = effect
-                .candidate()
-                .line_starts(&cx)
-                .into_iter()
-                .filter_map(|m| {
-                    let sig = cx.signature(&m)?;
-                    Some((share_explained(cx.residual(), &sig), m))
-                })
-                .max_by(|a, b| a.0.total_cmp(&b.0));
-            traced.push(match best {
-                Some((share, m)) => {
-                    starts.push((effect, m));
-                    TracedCandidate {
-                        effect,
-                        share,
-                        failed: None,
+        // the residual at the lines and every candidate traced in it; the
+        // problem that replays them (its drive held on the replay grid) is
+        // let go before the refits, each of which holds its own
+        let (residual, mut traced, starts) = {
+            let params = time_parameters(&current.model, options.refine_linear, band);
+            let mut problem = TimeProblem::new(
+                current.model.clone(),
+                params,
+                records,
+                1.0,
+                options.clone(),
+                None,
+            )?;
+            problem.choose_replay_rates();
+            let cx = LineContext::new(&current.model, &problem, &spectra, quantity)?;
+            let residual = line_residual(&spectra, cx.residual());
+            if residual.chi2_per_line <= NOISE_CHI2_PER_LINE
+                || selected.len() >= diagnose_options.max_effects
+            {
+                break residual;
+            }
+            // every candidate that may join, traced by its start's signature
+            let effects: Vec<Effect> = diagnose_options
+                .candidates
+                .iter()
+                .copied()
+                .filter(|e| e.candidate().applies_to(&current.model))
+                .filter(|e| !selected.contains(e) && !tried.contains(e))
+                .collect();
+            let mut traced = Vec::new();
+            let mut starts: Vec<(Effect, Model)> = Vec::new();
+            for (i, &effect) in effects.iter().enumerate() {
+                crate::observe::progress(observer, "tracing", i as u64, effects.len() as u64)?;
+                let best = effect
+                    .candidate()
+                    .line_starts(&cx)
+                    .into_iter()
+                    .filter_map(|m| {
+                        let sig = cx.signature(&m)?;
+                        Some((share_explained(cx.residual(), &sig), m))
+                    })
+                    .max_by(|a, b| a.0.total_cmp(&b.0));
+                traced.push(match best {
+                    Some((share, m)) => {
+                        starts.push((effect, m));
+                        TracedCandidate {
+                            effect,
+                            share,
+                            failed: None,
+                        }
                     }
-                }
-                None => TracedCandidate {
-                    effect,
-                    share: f64::NAN,
-                    failed: Some("no start on the lines".into()),
-                },
-            });
-        }
+                    None => TracedCandidate {
+                        effect,
+                        share: f64::NAN,
+                        failed: Some("no start on the lines".into()),
+                    },
+                });
+            }
+            (residual, traced, starts)
+        };
         traced.sort_by(|a, b| {
             let key = |t: &TracedCandidate| if t.share.is_nan() { -1.0 } else { t.share };
             key(b).total_cmp(&key(a)).then(a.effect.cmp(&b.effect))

@@ -4,6 +4,11 @@
 //!   problem's log coordinates with an explicit initial simplex.
 //! * Levenberg–Marquardt (the MINPACK port in `levenberg-marquardt`), a
 //!   second, derivative-based optimiser that must land at the same optimum.
+//!   A problem of very many residuals (a time-domain fit of a long
+//!   recording) can hand it its Jacobian folded into the R factor of
+//!   `[r J]` instead ([`Objective::folds_jacobian`]): the trust-region step
+//!   is the same least-squares problem, so the optimiser holds `(n+1)²`
+//!   numbers where it held one row per residual.
 //! * Confidence intervals from the Jacobian at the optimum and the measured
 //!   noise: a sandwich covariance `A⁻¹ B A⁻¹` (`A = JᵀJ` of the residuals as
 //!   fitted, `B` the same with each row scaled by its measured variance),
@@ -45,6 +50,71 @@ pub trait Objective: Sync {
         let mut full = DMatrix::zeros(m + 1, j.ncols());
         full.rows_mut(0, m).copy_from(&j);
         Ok(full)
+    }
+    /// Whether Levenberg–Marquardt is to take this problem's Jacobian as
+    /// [`Objective::jacobian_r_factor`] gives it, never whole: for a problem
+    /// whose Jacobian would be the largest thing the fit holds.
+    fn folds_jacobian(&self) -> bool {
+        false
+    }
+    /// The upper-triangular `R` (`(n+1)×(n+1)`, `R₀₀ ≥ 0`) of the QR
+    /// factorisation of `[r₀ J]`: the residuals at `theta` (penalty row
+    /// included) beside their forward-difference Jacobian (whose penalty
+    /// row is zero). `‖r₀ + J δ‖ = ‖R (1, δ)‖` for every `δ`, which is all a
+    /// Gauss–Newton or Levenberg–Marquardt step needs of `J`, and `JᵀJ` is
+    /// `R`'s last `n` columns' own. The default folds the whole Jacobian; a
+    /// problem that can make its columns' rows a stretch at a time folds
+    /// them as they come and never holds `J`.
+    fn jacobian_r_factor(&self, theta: &[f64], r0: &[f64], step: f64) -> Result<DMatrix<f64>> {
+        let j = self.jacobian_with_penalty_row(theta, r0, step)?;
+        let mut fold = RowFold::new(theta.len() + 1);
+        fold.fold(&DMatrix::from_fn(r0.len(), theta.len() + 1, |i, k| {
+            if k == 0 { r0[i] } else { j[(i, k - 1)] }
+        }));
+        Ok(fold.finish())
+    }
+}
+
+/// The R factor of a tall matrix whose rows come a block at a time: each
+/// block is stacked under the R so far and factored again (Householder QR,
+/// the tall-skinny QR's fold), so that only `k×k` numbers are held however
+/// many rows there are. The rows' order changes `R` by rounding only.
+pub struct RowFold {
+    r: DMatrix<f64>,
+}
+
+impl RowFold {
+    /// A fold of rows of `columns` entries.
+    pub fn new(columns: usize) -> RowFold {
+        RowFold {
+            r: DMatrix::zeros(0, columns),
+        }
+    }
+
+    /// Folds `rows` (as many columns as the fold) in.
+    pub fn fold(&mut self, rows: &DMatrix<f64>) {
+        if rows.nrows() == 0 {
+            return;
+        }
+        let (held, k) = self.r.shape();
+        let mut stacked = DMatrix::zeros(held + rows.nrows(), k);
+        stacked.rows_mut(0, held).copy_from(&self.r);
+        stacked.rows_mut(held, rows.nrows()).copy_from(rows);
+        // `R` of the stacked rows: `min(rows, k) × k`
+        self.r = stacked.qr().r();
+    }
+
+    /// The `k×k` upper-triangular factor (zero rows below the rows folded,
+    /// if fewer than `k`), its first row turned so that `R₀₀ ≥ 0`.
+    pub fn finish(self) -> DMatrix<f64> {
+        let k = self.r.ncols();
+        let mut r = DMatrix::zeros(k, k);
+        let held = self.r.nrows().min(k);
+        r.rows_mut(0, held).copy_from(&self.r.rows(0, held));
+        if k > 0 && r[(0, 0)] < 0.0 {
+            r.row_mut(0).neg_mut();
+        }
+        r
     }
 }
 
@@ -422,16 +492,30 @@ impl<P: Objective + ?Sized> levenberg_marquardt::LeastSquaresProblem<f64, Dyn, D
         self.theta.clone()
     }
     fn residuals(&self) -> Option<DVector<f64>> {
-        self.current().map(DVector::from_vec)
+        let r = self.current()?;
+        if self.problem.folds_jacobian() {
+            // the residuals in the frame of `[r J]`'s QR: `(‖r‖, 0, …, 0)`,
+            // whose norm is the trial's and whose Jacobian is `R`'s last
+            // columns (see `Objective::jacobian_r_factor`)
+            let mut folded = DVector::zeros(self.theta.len() + 1);
+            folded[0] = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+            return Some(folded);
+        }
+        Some(DVector::from_vec(r))
     }
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let r = self.current()?;
+        let theta = self.theta.as_slice();
         // the penalty row's derivative: zero inside the bounds
-        match self
-            .problem
-            .jacobian_with_penalty_row(self.theta.as_slice(), &r, 1e-6)
-        {
-            Ok(full) => Some(full),
+        let jacobian = if self.problem.folds_jacobian() {
+            self.problem
+                .jacobian_r_factor(theta, &r, 1e-6)
+                .map(|rf| rf.columns(1, theta.len()).into_owned())
+        } else {
+            self.problem.jacobian_with_penalty_row(theta, &r, 1e-6)
+        };
+        match jacobian {
+            Ok(j) => Some(j),
             Err(e) => {
                 *self.error.borrow_mut() = Some(e);
                 None
@@ -529,15 +613,21 @@ const UNFELT: f64 = 1e-9;
 /// the prediction the same to the bit). Such a column makes `JᵀJ` singular
 /// and would leave every parameter without an interval.
 pub fn unfelt_columns(jac: &DMatrix<f64>, excluded: &[bool]) -> Vec<bool> {
-    let norm = |j: usize| jac.column(j).norm();
-    let largest = (0..jac.ncols())
+    let norms: Vec<f64> = jac.column_iter().map(|c| c.norm()).collect();
+    unfelt_of_norms(&norms, excluded)
+}
+
+/// [`unfelt_columns`] of a Jacobian known by its columns' norms (one folded
+/// into its R factor: see [`Objective::jacobian_r_factor`]).
+pub fn unfelt_of_norms(norms: &[f64], excluded: &[bool]) -> Vec<bool> {
+    let largest = (0..norms.len())
         .filter(|&j| !excluded[j])
-        .map(norm)
+        .map(|j| norms[j])
         .fold(0.0, f64::max);
-    (0..jac.ncols())
+    (0..norms.len())
         .map(|j| {
             // a NaN column is not felt either
-            let felt = norm(j) > UNFELT * largest;
+            let felt = norms[j] > UNFELT * largest;
             !excluded[j] && !felt
         })
         .collect()
@@ -762,6 +852,66 @@ mod tests {
         fn evaluations(&self) -> usize {
             self.0.load(std::sync::atomic::Ordering::Relaxed)
         }
+    }
+
+    /// Rosenbrock's valley with its Jacobian folded into the R factor of
+    /// `[r J]` (the default fold of the whole Jacobian).
+    struct FoldedValley(Valley);
+
+    impl super::Objective for FoldedValley {
+        fn residuals(&self, t: &[f64]) -> crate::Result<Vec<f64>> {
+            self.0.residuals(t)
+        }
+        fn cost(&self, t: &[f64]) -> crate::Result<f64> {
+            self.0.cost(t)
+        }
+        fn evaluations(&self) -> usize {
+            self.0.evaluations()
+        }
+        fn folds_jacobian(&self) -> bool {
+            true
+        }
+    }
+
+    /// The R factor folded a block of rows at a time is the whole matrix's
+    /// (`RᵀR = AᵀA` to rounding, upper triangular, `R₀₀ ≥ 0`, a short
+    /// matrix padded with zero rows), and Levenberg–Marquardt on a folded
+    /// Jacobian walks Rosenbrock's valley to the optimum the whole one
+    /// reaches, in the same evaluations.
+    #[test]
+    fn a_jacobian_folded_into_its_r_factor_reaches_the_same_optimum() {
+        use super::{Objective, RowFold, levenberg_marquardt_to};
+        let a = nalgebra::DMatrix::from_fn(1_000, 4, |i, j| {
+            ((i * 3 + j * 11) as f64 * 0.731).cos() + if i == j { 2.0 } else { 0.0 }
+        });
+        for block in [1, 7, 1_000] {
+            let mut fold = RowFold::new(4);
+            for start in (0..1_000).step_by(block) {
+                let rows = block.min(1_000 - start);
+                fold.fold(&a.rows(start, rows).into_owned());
+            }
+            let r = fold.finish();
+            assert!(r[(0, 0)] >= 0.0 && (0..4).all(|i| (0..i).all(|k| r[(i, k)] == 0.0)));
+            let worst = (r.tr_mul(&r) - a.tr_mul(&a)).amax();
+            assert!(worst < 1e-12 * a.tr_mul(&a).amax(), "{block}: {worst:e}");
+        }
+        let mut short = RowFold::new(3);
+        short.fold(&nalgebra::DMatrix::from_row_slice(1, 3, &[-3.0, 4.0, 0.0]));
+        assert_eq!(
+            short.finish(),
+            nalgebra::DMatrix::from_row_slice(3, 3, &[3.0, -4.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        );
+        let start = [-1.2, 1.0];
+        let whole = levenberg_marquardt_to(&Valley(Default::default()), &start, 100, 1e-12).unwrap();
+        let folded = FoldedValley(Valley(Default::default()));
+        assert!(folded.folds_jacobian());
+        let run = levenberg_marquardt_to(&folded, &start, 100, 1e-12).unwrap();
+        assert_eq!(run.status, whole.status);
+        assert_eq!(run.iterations, whole.iterations);
+        for (a, b) in run.theta.iter().zip(&whole.theta) {
+            assert!((a - b).abs() < 1e-9, "{:?} against {:?}", run.theta, whole.theta);
+        }
+        assert!((run.cost - 0.01).abs() < 1e-10);
     }
 
     /// A start racing one that reached a cost it cannot reach is given up

@@ -848,6 +848,279 @@ impl Judging {
     }
 }
 
+/// Record `i`'s judged residuals for one model, made as its replay comes
+/// and handed out a stretch at a time ([`JudgedResiduals::fill`]): the
+/// replay low-passed and decimated to the judging rate as it is made and
+/// compared at the judged samples, never held whole. The replay stops once
+/// the last judged sample is made (a periodic record judged in part is
+/// judged on its first periods). Filled whole it is
+/// [`TimeProblem::judged_residuals_into`]; filled a stretch at a time beside
+/// the replays of other models, the rows of a Jacobian are folded as they
+/// come ([`TimeProblem::jacobian_r_factor`]).
+struct JudgedResiduals<'p, 'a> {
+    judging: &'p Judging,
+    replay: crate::validate::Replay<'p, 'a>,
+    decimator: Decimator,
+    measured: crate::signals::SampleCursor<'a>,
+    /// The judging rate's samples of the replay's last stretch, and how many
+    /// of them have been read.
+    decimated: Vec<f64>,
+    read: usize,
+    /// The next sample of the judging rate, the stretch it may lie in, and
+    /// the residuals handed out so far.
+    q: usize,
+    k: usize,
+    p: usize,
+}
+
+impl<'p, 'a> JudgedResiduals<'p, 'a> {
+    fn new(
+        problem: &'p TimeProblem<'a>,
+        model: &Model,
+        i: usize,
+        replay_factor: usize,
+    ) -> Result<Self> {
+        let records: &'a [TimeRecord] = problem.records;
+        let r = &records[i];
+        let judging = &problem.judging[i];
+        Ok(JudgedResiduals {
+            judging,
+            replay: crate::validate::Replay::new(
+                model,
+                &problem.drives[i],
+                (r.sample_rate_hz, replay_factor),
+                r.quantity,
+                problem.sign,
+            )?,
+            decimator: Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?,
+            measured: r.response.view().cursor(),
+            decimated: Vec::new(),
+            read: 0,
+            q: 0,
+            k: 0,
+            p: 0,
+        })
+    }
+
+    /// Writes the next residuals into `out`, as many as it holds or as are
+    /// left; returns how many (fewer than `out.len()` only at the end).
+    fn fill(&mut self, out: &mut [f64]) -> Result<usize> {
+        let judging = self.judging;
+        let (held, stretches) = (judging.measured.as_deref(), &judging.stretches);
+        let total = judging.judged();
+        let mut written = 0;
+        loop {
+            while self.read < self.decimated.len() && written < out.len() && self.p < total {
+                let s = self.decimated[self.read];
+                self.read += 1;
+                let q = self.q;
+                while self.k < stretches.len() && stretches[self.k].0.end <= q {
+                    self.k += 1;
+                }
+                if self.k < stretches.len() && stretches[self.k].0.start <= q {
+                    let m = match held {
+                        Some(m) => m[self.p],
+                        None => self.measured.get(q),
+                    };
+                    out[written] = (s - m) / judging.scale[stretches[self.k].1];
+                    written += 1;
+                    self.p += 1;
+                }
+                self.q += 1;
+            }
+            if written == out.len() || self.p == total {
+                return Ok(written);
+            }
+            match self.replay.next_stretch(&Silent)? {
+                Some(stretch) => {
+                    self.decimated.clear();
+                    self.read = 0;
+                    self.decimator.push(stretch, &mut self.decimated);
+                }
+                None => return Ok(written),
+            }
+        }
+    }
+}
+
+/// Record `i`'s residuals where the simulator rejects the model, a stretch
+/// at a time: worse than predicting nothing (`−2 m/scale` at each judged
+/// sample, as [`TimeProblem::residuals_of_into`] writes them).
+struct RejectedResiduals<'p, 'a> {
+    judging: &'p Judging,
+    measured: crate::signals::SampleCursor<'a>,
+    /// The judged stretch, the offset in it, the residuals handed out.
+    stretch: usize,
+    offset: usize,
+    p: usize,
+}
+
+impl RejectedResiduals<'_, '_> {
+    fn fill(&mut self, out: &mut [f64]) -> usize {
+        let stretches = &self.judging.stretches;
+        let mut written = 0;
+        while written < out.len() && self.stretch < stretches.len() {
+            let (s, k) = &stretches[self.stretch];
+            if self.offset >= s.len() {
+                self.stretch += 1;
+                self.offset = 0;
+                continue;
+            }
+            let m = match &self.judging.measured {
+                Some(m) => m[self.p],
+                None => self.measured.get(s.start + self.offset),
+            };
+            out[written] = -2.0 * m / self.judging.scale[*k];
+            written += 1;
+            self.offset += 1;
+            self.p += 1;
+        }
+        written
+    }
+}
+
+/// One record's residuals for a model as they come.
+enum RecordResiduals<'p, 'a> {
+    Replayed(JudgedResiduals<'p, 'a>),
+    Rejected(RejectedResiduals<'p, 'a>),
+}
+
+/// Why a model's residuals a stretch at a time could not go on.
+enum StreamFailure {
+    /// The simulator rejected the model in record `i` after some of its
+    /// residuals had been handed out: they are to be made again, as
+    /// rejected from the record's start.
+    RejectedPartway(usize),
+    Error(Error),
+}
+
+/// A model's residuals over every record in turn (the residual vector's
+/// rows but its penalty), handed out a stretch at a time, a record the
+/// simulator rejects as [`TimeProblem::residuals_of_into`] writes it.
+struct ModelResiduals<'p, 'a> {
+    problem: &'p TimeProblem<'a>,
+    model: Model,
+    /// Records to be taken as rejected from their start.
+    rejected: Vec<bool>,
+    record: usize,
+    current: Option<RecordResiduals<'p, 'a>>,
+    /// Residuals of the current record handed out.
+    made: usize,
+    /// `Σ r²` of every residual handed out, in order.
+    sum_of_squares: f64,
+}
+
+impl<'p, 'a> ModelResiduals<'p, 'a> {
+    fn new(problem: &'p TimeProblem<'a>, model: Model, rejected: Vec<bool>) -> Self {
+        ModelResiduals {
+            problem,
+            model,
+            rejected,
+            record: 0,
+            current: None,
+            made: 0,
+            sum_of_squares: sum_start(),
+        }
+    }
+
+    fn rejected_stream(&self, i: usize) -> RecordResiduals<'p, 'a> {
+        let records: &'a [TimeRecord] = self.problem.records;
+        RecordResiduals::Rejected(RejectedResiduals {
+            judging: &self.problem.judging[i],
+            measured: records[i].response.view().cursor(),
+            stretch: 0,
+            offset: 0,
+            p: 0,
+        })
+    }
+
+    /// Writes the next residuals into `out`; returns how many (fewer than
+    /// `out.len()` only at the end).
+    fn fill(&mut self, out: &mut [f64]) -> std::result::Result<usize, StreamFailure> {
+        let problem = self.problem;
+        let mut written = 0;
+        while written < out.len() && self.record < problem.records.len() {
+            let i = self.record;
+            let judged = problem.judging[i].judged();
+            if self.current.is_none() {
+                self.current = Some(if self.rejected[i] {
+                    self.rejected_stream(i)
+                } else {
+                    let stream = problem
+                        .replay_factor_of(&self.model, i)
+                        .and_then(|factor| JudgedResiduals::new(problem, &self.model, i, factor))
+                        .map(|mut s| {
+                            // a replay beside every other column's: small buffers
+                            s.replay = s.replay.with_stretch(FOLDED_REPLAY_STRETCH);
+                            s
+                        });
+                    match stream {
+                        Ok(s) => RecordResiduals::Replayed(s),
+                        Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
+                            self.rejected_stream(i)
+                        }
+                        Err(e) => return Err(StreamFailure::Error(e)),
+                    }
+                });
+            }
+            let target = &mut out[written..];
+            let n = match self.current.as_mut().expect("opened") {
+                RecordResiduals::Replayed(s) => match s.fill(target) {
+                    Ok(n) => n,
+                    Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
+                        if self.made > 0 {
+                            return Err(StreamFailure::RejectedPartway(i));
+                        }
+                        self.current = Some(self.rejected_stream(i));
+                        continue;
+                    }
+                    Err(e) => return Err(StreamFailure::Error(e)),
+                },
+                RecordResiduals::Rejected(s) => s.fill(target),
+            };
+            self.sum_of_squares = target[..n]
+                .iter()
+                .fold(self.sum_of_squares, |acc, v| acc + v * v);
+            written += n;
+            self.made += n;
+            if self.made >= judged || n == 0 {
+                // a replay that ended short leaves its rows zero, as a
+                // residual vector made whole does
+                if self.made < judged {
+                    let short = (judged - self.made).min(out.len() - written);
+                    out[written..written + short].fill(0.0);
+                    written += short;
+                    self.made += short;
+                    if self.made < judged {
+                        continue;
+                    }
+                }
+                self.record += 1;
+                self.current = None;
+                self.made = 0;
+            }
+        }
+        Ok(written)
+    }
+}
+
+/// Judged rows of a Jacobian made and folded at a time
+/// ([`TimeProblem::jacobian_r_factor`]).
+const FOLDED_ROWS: usize = 4096;
+
+/// Samples of its grid each of the replays side by side in a folded
+/// Jacobian makes at a time: a replay's buffers are a few of its stretches,
+/// and a Jacobian holds one replay per parameter.
+const FOLDED_REPLAY_STRETCH: usize = 1 << 14;
+
+/// A time fit whose Jacobian would hold more entries than this (judged
+/// samples times parameters: 32 MiB) has it folded into the R factor of
+/// `[r J]` as its rows are made, never held (see
+/// [`Objective::folds_jacobian`]): a long recording's Jacobian was the
+/// largest thing its fit held, and grew with every parameter a diagnosis
+/// adds.
+pub const JACOBIAN_HELD_UP_TO: usize = 1 << 22;
+
 /// The replay of recordings through a model whose free parameters are
 /// varied.
 pub struct TimeProblem<'a> {
@@ -872,6 +1145,9 @@ pub struct TimeProblem<'a> {
     /// Residual vectors computed (each a replay of every recording).
     replays: AtomicUsize,
     observer: Option<&'a dyn crate::observe::Observer>,
+    /// A Jacobian of more entries is folded as it is made (see
+    /// [`JACOBIAN_HELD_UP_TO`]).
+    jacobian_held_up_to: usize,
 }
 
 impl<'a> TimeProblem<'a> {
@@ -947,7 +1223,114 @@ impl<'a> TimeProblem<'a> {
             evaluations: AtomicUsize::new(0),
             replays: AtomicUsize::new(0),
             observer,
+            jacobian_held_up_to: JACOBIAN_HELD_UP_TO,
         })
+    }
+
+    /// The problem with its Jacobian folded as it is made where it would
+    /// hold more than `entries` (see [`JACOBIAN_HELD_UP_TO`]; 0: always).
+    pub fn with_jacobian_held_up_to(mut self, entries: usize) -> Self {
+        self.jacobian_held_up_to = entries;
+        self
+    }
+
+    /// The upper-triangular R factor of `[r₀ J]` at `theta` (see
+    /// [`Objective::jacobian_r_factor`]), `J` never held: the models one
+    /// forward step along each coordinate are replayed side by side, a
+    /// stretch of [`FOLDED_ROWS`] judged samples at a time (the stretch's
+    /// columns made in parallel), and each stretch's rows `(r₀, (r_j −
+    /// r₀)/step)` folded in as they come; the penalty row's derivative is
+    /// zero. Each column's entries are those of the Jacobian made whole, to
+    /// the bit; only the fold's rounding differs from factoring it. A
+    /// record the simulator rejects partway through a column's replay is
+    /// made again for that column as rejected from its start.
+    pub fn jacobian_r_factor(
+        &self,
+        theta: &[f64],
+        r0: &[f64],
+        step: f64,
+    ) -> Result<nalgebra::DMatrix<f64>> {
+        use rayon::prelude::*;
+        let n = theta.len();
+        let m = r0.len() - 1;
+        let models = (0..n)
+            .map(|j| {
+                let mut t = theta.to_vec();
+                t[j] += step;
+                self.model_at(&t)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut rejected = vec![vec![false; self.records.len()]; n];
+        'again: loop {
+            let mut columns: Vec<ModelResiduals> = models
+                .iter()
+                .zip(&rejected)
+                .map(|((model, _), rejected)| {
+                    ModelResiduals::new(self, model.clone(), rejected.clone())
+                })
+                .collect();
+            let mut buffers = vec![vec![0.0; FOLDED_ROWS]; n];
+            let mut fold = optimise::RowFold::new(n + 1);
+            let mut at = 0;
+            while at < m {
+                if self.observer.is_some_and(|o| o.cancelled()) {
+                    return Err(Error::Cancelled);
+                }
+                let rows = FOLDED_ROWS.min(m - at);
+                let made: Vec<std::result::Result<usize, StreamFailure>> = columns
+                    .par_iter_mut()
+                    .zip(buffers.par_iter_mut())
+                    .map(|(c, b)| c.fill(&mut b[..rows]))
+                    .collect();
+                for (j, made) in made.into_iter().enumerate() {
+                    match made {
+                        Ok(k) if k == rows => {}
+                        Ok(k) => {
+                            return Err(Error::NotConverged {
+                                stage: "time-domain Jacobian",
+                                reason: format!(
+                                    "column {j} made {k} of the {rows} residuals from row {at}"
+                                ),
+                            });
+                        }
+                        Err(StreamFailure::RejectedPartway(i)) => {
+                            rejected[j][i] = true;
+                            continue 'again;
+                        }
+                        Err(StreamFailure::Error(e)) => return Err(e),
+                    }
+                }
+                let block = nalgebra::DMatrix::from_fn(rows, n + 1, |i, k| {
+                    let b = r0[at + i];
+                    if k == 0 { b } else { (buffers[k - 1][i] - b) / step }
+                });
+                fold.fold(&block);
+                at += rows;
+            }
+            // the penalty row: the residual's, its derivative zero inside
+            // the bounds
+            let mut penalty = nalgebra::DMatrix::zeros(1, n + 1);
+            penalty[(0, 0)] = r0[m];
+            fold.fold(&penalty);
+            // each column is a residual vector computed: counted and shown
+            // as `residuals_into` does
+            for (j, (c, (_, outside))) in columns.iter().zip(&models).enumerate() {
+                let replay = self.replays.fetch_add(1, Ordering::Relaxed) + 1;
+                if let Some(o) = self.observer {
+                    let rms = (c.sum_of_squares / m.max(1) as f64).sqrt();
+                    let pen = outside * 10.0 * rms * (m as f64).sqrt();
+                    let mut t = theta.to_vec();
+                    t[j] += step;
+                    let entry = super::problem::TraceEntry {
+                        evaluation: replay,
+                        cost: c.sum_of_squares + pen * pen,
+                        parameters: self.parameters.values(&t),
+                    };
+                    o.observe(crate::observe::Event::Cost(&entry));
+                }
+            }
+            return Ok(fold.finish());
+        }
     }
 
     /// Chooses each recording's replay rate by what it changes, measured on
@@ -1139,39 +1522,9 @@ impl<'a> TimeProblem<'a> {
         replay_factor: usize,
         out: &mut [f64],
     ) -> Result<()> {
-        let r = &self.records[i];
-        let judging = &self.judging[i];
-        let mut measured = r.response.view().cursor();
-        let held = judging.measured.as_deref();
-        let stretches = &judging.stretches;
-        let mut decimator = Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?;
-        let mut judged = Vec::new();
-        // the next judged sample, the stretch it may lie in, the residual
-        let (mut q, mut k, mut p) = (0, 0, 0);
-        let rate = (r.sample_rate_hz, replay_factor);
-        let mut replay =
-            crate::validate::Replay::new(model, &self.drives[i], rate, r.quantity, self.sign)?;
-        while p < out.len()
-            && let Some(stretch) = replay.next_stretch(&Silent)?
-        {
-            judged.clear();
-            decimator.push(stretch, &mut judged);
-            for &s in &judged {
-                while k < stretches.len() && stretches[k].0.end <= q {
-                    k += 1;
-                }
-                if k < stretches.len() && stretches[k].0.start <= q {
-                    let m = match held {
-                        Some(m) => m[p],
-                        None => measured.get(q),
-                    };
-                    out[p] = (s - m) / judging.scale[stretches[k].1];
-                    p += 1;
-                }
-                q += 1;
-            }
-        }
-        debug_assert_eq!(p, out.len());
+        let mut stream = JudgedResiduals::new(self, model, i, replay_factor)?;
+        let made = stream.fill(out)?;
+        debug_assert_eq!(made, out.len());
         Ok(())
     }
 
@@ -1427,6 +1780,21 @@ impl Objective for TimeProblem<'_> {
         optimise::forward_difference_in_place(theta, r0, step, |t, column| {
             self.residuals_into(t, column)
         })
+    }
+    /// Where the Jacobian would hold more than [`JACOBIAN_HELD_UP_TO`]
+    /// entries (or the problem says so: [`TimeProblem::with_jacobian_held_up_to`]).
+    fn folds_jacobian(&self) -> bool {
+        let judged: usize = self.judged_samples().iter().sum();
+        judged.saturating_mul(self.parameters.parameters.len()) > self.jacobian_held_up_to
+    }
+    /// See [`TimeProblem::jacobian_r_factor`].
+    fn jacobian_r_factor(
+        &self,
+        theta: &[f64],
+        r0: &[f64],
+        step: f64,
+    ) -> Result<nalgebra::DMatrix<f64>> {
+        TimeProblem::jacobian_r_factor(self, theta, r0, step)
     }
 }
 
@@ -1904,18 +2272,28 @@ fn felt_covariance(
     at_bound: &[bool],
     s2: f64,
 ) -> (Vec<usize>, Option<nalgebra::DMatrix<f64>>) {
-    let unfelt = optimise::unfelt_columns(jac, at_bound);
-    let free: Vec<usize> = (0..jac.ncols())
+    // `JᵀJ` of the Jacobian itself, neither its transpose nor its free
+    // columns copied (either as large as the Jacobian: a long recording's is
+    // the largest thing the fit holds); each entry is one column's dot
+    // product with another, so the free columns' entries are the same bits
+    // as those of their copy's `JᵀJ`
+    let norms: Vec<f64> = jac.column_iter().map(|c| c.norm()).collect();
+    felt_covariance_of_gram(&jac.tr_mul(jac), &norms, at_bound, s2)
+}
+
+/// [`felt_covariance`] from `JᵀJ` and the columns' norms (a Jacobian folded
+/// into its R factor has both, not the Jacobian).
+fn felt_covariance_of_gram(
+    gram: &nalgebra::DMatrix<f64>,
+    norms: &[f64],
+    at_bound: &[bool],
+    s2: f64,
+) -> (Vec<usize>, Option<nalgebra::DMatrix<f64>>) {
+    let unfelt = optimise::unfelt_of_norms(norms, at_bound);
+    let free: Vec<usize> = (0..norms.len())
         .filter(|&j| !at_bound[j] && !unfelt[j])
         .collect();
-    // `JᵀJ` without the transpose made (a copy as large as the Jacobian),
-    // of the Jacobian itself where every column is free (the common case)
-    let jtj = if free.len() == jac.ncols() {
-        jac.tr_mul(jac)
-    } else {
-        let jf = nalgebra::DMatrix::from_fn(jac.nrows(), free.len(), |i, k| jac[(i, free[k])]);
-        jf.tr_mul(&jf)
-    };
+    let jtj = nalgebra::DMatrix::from_fn(free.len(), free.len(), |a, b| gram[(free[a], free[b])]);
     let cov = jtj.try_inverse().map(|a| a * s2);
     (free, cov)
 }
@@ -1926,14 +2304,22 @@ fn felt_covariance(
 fn time_confidence(problem: &TimeProblem, theta: &[f64]) -> Result<BTreeMap<String, Estimate>> {
     let params = &problem.parameters;
     let r0 = problem.residuals(theta)?;
-    // written in place (a residual vector per column in flight was as large
-    // as the column), its penalty row zero: `JᵀJ` the same
-    let jac = problem.jacobian_with_penalty_row(theta, &r0, 1e-5)?;
     let values = params.values(theta);
     let at_bound = params.at_bounds(&values);
     let m = r0.len() - 1;
     let s2 = r0[..m].iter().map(|v| v * v).sum::<f64>() / (m as f64 - theta.len() as f64).max(1.0);
-    let (free, cov) = felt_covariance(&jac, &at_bound, s2);
+    let (free, cov) = if problem.folds_jacobian() {
+        // `JᵀJ` is the R factor's last columns' own
+        let rf = problem.jacobian_r_factor(theta, &r0, 1e-5)?;
+        let c = rf.columns(1, theta.len());
+        let norms: Vec<f64> = c.column_iter().map(|c| c.norm()).collect();
+        felt_covariance_of_gram(&c.tr_mul(&c), &norms, &at_bound, s2)
+    } else {
+        // written in place (a residual vector per column in flight was as
+        // large as the column), its penalty row zero: `JᵀJ` the same
+        let jac = problem.jacobian_with_penalty_row(theta, &r0, 1e-5)?;
+        felt_covariance(&jac, &at_bound, s2)
+    };
     let mut out = BTreeMap::new();
     for (j, p) in params.parameters.iter().enumerate() {
         let value = values[j];
@@ -2015,6 +2401,18 @@ mod tests {
         // with every column kept there is no inverse
         let all = (jac.transpose() * &jac).try_inverse();
         assert!(all.is_none());
+        // a tall Jacobian with a column at its bound: the free columns'
+        // `JᵀJ`, read from the whole one's, is the same bits as that of their
+        // copy (each entry one column's dot product with another)
+        let tall = nalgebra::DMatrix::from_fn(5_001, 4, |i, j| {
+            ((i * 7 + j * 13) as f64 * 0.37).sin() * (1.0 + j as f64)
+        });
+        let at_bound = [false, true, false, false];
+        let (free, cov) = felt_covariance(&tall, &at_bound, 1.5);
+        assert_eq!(free, vec![0, 2, 3]);
+        let copy = nalgebra::DMatrix::from_fn(tall.nrows(), 3, |i, k| tall[(i, free[k])]);
+        let want = copy.tr_mul(&copy).try_inverse().expect("invertible") * 1.5;
+        assert_eq!(cov.expect("invertible"), want);
     }
     use crate::signals::{Channel, Excitation, ExcitationKind, Recording, RecordingMeta, Step};
     use std::f64::consts::PI;
@@ -2455,6 +2853,101 @@ mod tests {
         // the fit judges at the rate its own start model allows: within the bound
         assert!((990..=1_000).contains(&fit.samples), "{}", fit.samples);
         assert!(fit.notes.iter().any(|n| n.contains("first steady periods")));
+    }
+
+    /// A Jacobian folded into the R factor of `[r₀ J]` as its rows are made
+    /// (a stretch of every column's replay at a time) is the whole one's:
+    /// `RᵀR = [r₀ J]ᵀ[r₀ J]` to rounding, `R₀₀ = ‖r₀‖`; a model's residuals
+    /// handed out in stretches of any length are the residual vector's to
+    /// the bit, and a record taken as rejected gives what the residual
+    /// vector gives a model the simulator rejects; Levenberg–Marquardt on
+    /// the folded Jacobian reaches the optimum it reaches on the whole one.
+    #[test]
+    fn a_jacobian_folded_as_it_is_made_is_the_whole_ones() {
+        let (rec, model, truth) = jenkins_dwells();
+        let records = [TimeRecord::from_recording("dwells", &rec, 1, None, None).unwrap()];
+        let start = model(1.0);
+        let make = |held: usize| {
+            let options = TimeFitOptions {
+                max_judged_samples: 20_000,
+                ..TimeFitOptions::default()
+            };
+            let parameters = time_parameters(&start, true, None);
+            let mut p = TimeProblem::new(start.clone(), parameters, &records, 1.0, options, None)
+                .unwrap()
+                .with_jacobian_held_up_to(held);
+            p.choose_replay_rates();
+            p
+        };
+        let (whole, folded) = (make(usize::MAX), make(0));
+        assert!(!whole.folds_jacobian() && folded.folds_jacobian());
+        let theta: Vec<f64> = whole
+            .parameters()
+            .theta_of(&start)
+            .unwrap()
+            .iter()
+            .map(|t| t + 0.01)
+            .collect();
+        let n = theta.len();
+        let r0 = whole.residuals(&theta).unwrap();
+        let m = r0.len() - 1;
+        assert!(m > 3 * FOLDED_ROWS, "{m} judged: the fold is to take several stretches");
+        eprintln!("{m} judged samples, {n} parameters");
+        let j = whole.jacobian_with_penalty_row(&theta, &r0, 1e-6).unwrap();
+        let rf = folded.jacobian_r_factor(&theta, &r0, 1e-6).unwrap();
+        assert_eq!(rf.shape(), (n + 1, n + 1));
+        let a = nalgebra::DMatrix::from_fn(m + 1, n + 1, |i, k| if k == 0 { r0[i] } else { j[(i, k - 1)] });
+        let (g, h) = (a.tr_mul(&a), rf.tr_mul(&rf));
+        let largest = g.amax();
+        let worst = (&g - &h).amax();
+        assert!(worst < 1e-12 * largest, "RᵀR off by {worst:e} of {largest:e}");
+        let norm = r0.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!((rf[(0, 0)] - norm).abs() < 1e-12 * norm);
+        assert!((0..=n).all(|i| (0..i).all(|k| rf[(i, k)] == 0.0)));
+        // stretches of any length: the residual vector's bits
+        let (probe, _) = whole.model_at(&theta).unwrap();
+        for chunk in [1, 777, 5_000] {
+            let mut stream = ModelResiduals::new(&whole, probe.clone(), vec![false]);
+            let mut got = Vec::new();
+            let mut buffer = vec![0.0; chunk];
+            loop {
+                let k = stream.fill(&mut buffer).ok().expect("made");
+                got.extend_from_slice(&buffer[..k]);
+                if k < chunk {
+                    break;
+                }
+            }
+            assert_eq!(got.len(), m);
+            assert!(got.iter().zip(&r0).all(|(a, b)| a.to_bits() == b.to_bits()), "{chunk}");
+        }
+        // a record taken as rejected: worse than predicting nothing
+        let mut rejected = ModelResiduals::new(&whole, probe, vec![true]);
+        let mut got = vec![0.0; m];
+        assert_eq!(rejected.fill(&mut got).ok(), Some(m));
+        let mut want = Vec::new();
+        whole.judging[0].for_each_measured(&records[0], |k, v| {
+            want.push(-2.0 * v / whole.judging[0].scale[k]);
+        });
+        assert_eq!(got, want);
+        // Levenberg–Marquardt on either: the same optimum, the truth's
+        let kd = |p: &TimeProblem, t: &[f64]| match p.model_at(t).unwrap().0.elements().next() {
+            Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
+            _ => unreachable!(),
+        };
+        let truth_kd = match truth.elements().next() {
+            Some(&crate::model::ElementSpec::Jenkins { kd, .. }) => kd,
+            _ => unreachable!(),
+        };
+        let fits: Vec<f64> = [&whole, &folded]
+            .iter()
+            .map(|p| {
+                let run = optimise::levenberg_marquardt_to(*p, &theta, 40, LM_TOLERANCE).unwrap();
+                kd(p, &run.theta)
+            })
+            .collect();
+        eprintln!("kd: whole {:e}, folded {:e}, truth {truth_kd:e}", fits[0], fits[1]);
+        assert!((fits[1] / fits[0] - 1.0).abs() < 1e-7, "{fits:?}");
+        assert!((fits[1] / truth_kd - 1.0).abs() < 1e-6, "{fits:?} against {truth_kd}");
     }
 
     /// A record whose channels are held in scratch files (as a loader holds

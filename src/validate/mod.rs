@@ -643,6 +643,18 @@ impl<'d, 'a> Replay<'d, 'a> {
         })
     }
 
+    /// The replay made `samples` of its grid at a time (at least one; the
+    /// default is [`crate::observe::SAMPLES_PER_REPORT`]): the same samples,
+    /// in smaller buffers, for many replays advanced side by side (the rows
+    /// of a time fit's Jacobian folded as they are made).
+    pub fn with_stretch(mut self, samples: usize) -> Self {
+        let stretch = samples.max(1).min(self.total);
+        self.force = Vec::with_capacity(stretch);
+        self.fine = vec![0.0; stretch];
+        self.out = Vec::with_capacity(stretch / self.factor + 1);
+        self
+    }
+
     /// The model's highest replayed frequency, Hz.
     pub fn highest_frequency_hz(&self) -> f64 {
         self.top
