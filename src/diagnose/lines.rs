@@ -926,18 +926,28 @@ pub fn validate_lines(spectra: &PeriodicSpectra, replayed: &[Complex64]) -> Line
 }
 
 /// `model`'s replayed lines on every recording of `problem` (those of
-/// `spectra`, in order).
+/// `spectra`, in order), each replay's periods taken as it is made (a
+/// period held at a time, never the replay: the same lines to the bit as
+/// the whole replay's, see [`ReplayedLines`]).
 pub fn replay_lines(
     problem: &TimeProblem<'_>,
     spectra: &[PeriodicSpectra],
     model: &Model,
 ) -> Result<Vec<Vec<Complex64>>> {
-    let replays = problem.replays_of(model)?;
-    Ok(spectra
+    spectra
         .iter()
-        .zip(&replays)
-        .map(|(s, r)| s.replayed(r))
-        .collect())
+        .enumerate()
+        .map(|(i, s)| {
+            let mut lines = s.replayed_lines();
+            let mut replay = problem.replay_of(model, i)?;
+            let mut at = 0;
+            while let Some(stretch) = replay.next_stretch(&crate::observe::Silent)? {
+                lines.push(at, stretch);
+                at += stretch.len();
+            }
+            lines.finish()
+        })
+        .collect()
 }
 
 #[cfg(test)]
