@@ -899,17 +899,27 @@ mod tests {
         short.fold(&nalgebra::DMatrix::from_row_slice(1, 3, &[-3.0, 4.0, 0.0]));
         assert_eq!(
             short.finish(),
-            nalgebra::DMatrix::from_row_slice(3, 3, &[3.0, -4.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+            nalgebra::DMatrix::from_row_slice(
+                3,
+                3,
+                &[3.0, -4.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+            )
         );
         let start = [-1.2, 1.0];
-        let whole = levenberg_marquardt_to(&Valley(Default::default()), &start, 100, 1e-12).unwrap();
+        let whole =
+            levenberg_marquardt_to(&Valley(Default::default()), &start, 100, 1e-12).unwrap();
         let folded = FoldedValley(Valley(Default::default()));
         assert!(folded.folds_jacobian());
         let run = levenberg_marquardt_to(&folded, &start, 100, 1e-12).unwrap();
         assert_eq!(run.status, whole.status);
         assert_eq!(run.iterations, whole.iterations);
         for (a, b) in run.theta.iter().zip(&whole.theta) {
-            assert!((a - b).abs() < 1e-9, "{:?} against {:?}", run.theta, whole.theta);
+            assert!(
+                (a - b).abs() < 1e-9,
+                "{:?} against {:?}",
+                run.theta,
+                whole.theta
+            );
         }
         assert!((run.cost - 0.01).abs() < 1e-10);
     }

@@ -981,7 +981,7 @@ impl RejectedResiduals<'_, '_> {
 
 /// One record's residuals for a model as they come.
 enum RecordResiduals<'p, 'a> {
-    Replayed(JudgedResiduals<'p, 'a>),
+    Replayed(Box<JudgedResiduals<'p, 'a>>),
     Rejected(RejectedResiduals<'p, 'a>),
 }
 
@@ -1055,7 +1055,7 @@ impl<'p, 'a> ModelResiduals<'p, 'a> {
                             s
                         });
                     match stream {
-                        Ok(s) => RecordResiduals::Replayed(s),
+                        Ok(s) => RecordResiduals::Replayed(Box::new(s)),
                         Err(Error::InvalidModel { .. } | Error::NotConverged { .. }) => {
                             self.rejected_stream(i)
                         }
@@ -1302,7 +1302,11 @@ impl<'a> TimeProblem<'a> {
                 }
                 let block = nalgebra::DMatrix::from_fn(rows, n + 1, |i, k| {
                     let b = r0[at + i];
-                    if k == 0 { b } else { (buffers[k - 1][i] - b) / step }
+                    if k == 0 {
+                        b
+                    } else {
+                        (buffers[k - 1][i] - b) / step
+                    }
                 });
                 fold.fold(&block);
                 at += rows;
@@ -2891,16 +2895,27 @@ mod tests {
         let n = theta.len();
         let r0 = whole.residuals(&theta).unwrap();
         let m = r0.len() - 1;
-        assert!(m > 3 * FOLDED_ROWS, "{m} judged: the fold is to take several stretches");
+        assert!(
+            m > 3 * FOLDED_ROWS,
+            "{m} judged: the fold is to take several stretches"
+        );
         eprintln!("{m} judged samples, {n} parameters");
         let j = whole.jacobian_with_penalty_row(&theta, &r0, 1e-6).unwrap();
         let rf = folded.jacobian_r_factor(&theta, &r0, 1e-6).unwrap();
         assert_eq!(rf.shape(), (n + 1, n + 1));
-        let a = nalgebra::DMatrix::from_fn(m + 1, n + 1, |i, k| if k == 0 { r0[i] } else { j[(i, k - 1)] });
+        let a =
+            nalgebra::DMatrix::from_fn(
+                m + 1,
+                n + 1,
+                |i, k| if k == 0 { r0[i] } else { j[(i, k - 1)] },
+            );
         let (g, h) = (a.tr_mul(&a), rf.tr_mul(&rf));
         let largest = g.amax();
         let worst = (&g - &h).amax();
-        assert!(worst < 1e-12 * largest, "RᵀR off by {worst:e} of {largest:e}");
+        assert!(
+            worst < 1e-12 * largest,
+            "RᵀR off by {worst:e} of {largest:e}"
+        );
         let norm = r0.iter().map(|v| v * v).sum::<f64>().sqrt();
         assert!((rf[(0, 0)] - norm).abs() < 1e-12 * norm);
         assert!((0..=n).all(|i| (0..i).all(|k| rf[(i, k)] == 0.0)));
@@ -2918,7 +2933,10 @@ mod tests {
                 }
             }
             assert_eq!(got.len(), m);
-            assert!(got.iter().zip(&r0).all(|(a, b)| a.to_bits() == b.to_bits()), "{chunk}");
+            assert!(
+                got.iter().zip(&r0).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{chunk}"
+            );
         }
         // a record taken as rejected: worse than predicting nothing
         let mut rejected = ModelResiduals::new(&whole, probe, vec![true]);
@@ -2945,9 +2963,15 @@ mod tests {
                 kd(p, &run.theta)
             })
             .collect();
-        eprintln!("kd: whole {:e}, folded {:e}, truth {truth_kd:e}", fits[0], fits[1]);
+        eprintln!(
+            "kd: whole {:e}, folded {:e}, truth {truth_kd:e}",
+            fits[0], fits[1]
+        );
         assert!((fits[1] / fits[0] - 1.0).abs() < 1e-7, "{fits:?}");
-        assert!((fits[1] / truth_kd - 1.0).abs() < 1e-6, "{fits:?} against {truth_kd}");
+        assert!(
+            (fits[1] / truth_kd - 1.0).abs() < 1e-6,
+            "{fits:?} against {truth_kd}"
+        );
     }
 
     /// A record whose channels are held in scratch files (as a loader holds
