@@ -1285,3 +1285,68 @@ fn a_recording_too_long_to_hold_is_held_in_the_scratch_directory() {
     assert!(out.join("validate.json").exists());
     assert_eq!(std::fs::read_dir(&scratch).unwrap().count(), 0);
 }
+
+/// A model file's `[acquisition]` reaches `validate`: the replay is put
+/// through the chain (the error moves, by the FIR's droop at the response's
+/// frequencies), `validate.json` names the chain, and a chain that is not
+/// one (a factor of 1, an even number of taps, an unknown key) is refused
+/// with exit code 2, naming the file and `acquisition`, nothing written.
+#[test]
+fn a_declared_acquisition_is_put_through_by_validate() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let run = dir.path().join("run");
+    simulated(&test, &run);
+    let recording = run.join("recording.json");
+    let validated = |name: &str, acquisition: &str| {
+        let model = write_test(
+            dir.path(),
+            &format!("{name}.toml"),
+            &format!("{SMALL_TEST}\n{acquisition}"),
+        );
+        let out = dir.path().join(name);
+        let o = hystid(&[
+            "validate",
+            "--quiet",
+            model.to_str().unwrap(),
+            recording.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        (o, out)
+    };
+    let report = |out: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(out.join("validate.json")).unwrap()).unwrap()
+    };
+    let e_rms = |v: &serde_json::Value| v["recordings"][0]["whole"]["e_rms"].as_f64().unwrap();
+    let (o, plain) = validated("plain", "");
+    assert!(o.status.success(), "{}", text(&o));
+    let (o, chained) = validated("chained", "[acquisition]\ndecimated_by = 4\n");
+    assert!(o.status.success(), "{}", text(&o));
+    let (plain, chained) = (report(&plain), report(&chained));
+    assert!(plain.get("acquisition").is_none());
+    assert_eq!(
+        chained["acquisition"],
+        serde_json::json!({"decimated_by": 4, "taps": 31})
+    );
+    let (a, b) = (e_rms(&plain), e_rms(&chained));
+    assert!(a.is_finite() && b.is_finite() && a != b, "{a} {b}");
+    for (i, bad) in [
+        "[acquisition]\ndecimated_by = 1\n",
+        "[acquisition]\ndecimated_by = 20\ntaps = 30\n",
+        "[acquisition]\ndecimate = 20\n",
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let name = format!("bad{i}");
+        let (o, out) = validated(&name, bad);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {t}");
+        assert!(
+            t.contains(&format!("{name}.toml")) && t.contains("acquisition"),
+            "{bad}: {t}"
+        );
+        assert!(!out.join("validate.json").exists());
+    }
+}

@@ -1035,6 +1035,7 @@ fn validate<'py>(
         model_kind: fit.kind,
         model: &fit.model,
         response_sign: fit.response_sign,
+        acquisition: fit.acquisition.as_ref(),
         recordings: vec![RecordingValidation {
             recording: recording_name,
             response,

@@ -31,6 +31,9 @@ pub struct FitModel {
     /// `fitted`, `fitted in the time domain`, `diagnosed`, `linear` or
     /// `declared`.
     pub kind: &'static str,
+    /// How the recorded response was decimated, where the model file says
+    /// (its `[acquisition]`): the replay is put through the same chain.
+    pub acquisition: Option<crate::validate::acquisition::Acquisition>,
 }
 
 /// Reads the model to validate: a fit.json's `model` (or, with `linear`,
@@ -53,7 +56,7 @@ pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
             ));
         }
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let (text, response_sign) = toml_response_sign(text, path)?;
+        let (text, response_sign, acquisition) = toml_measurement(text, path)?;
         let model = crate::testbench::model_from_toml(&text, &path.display().to_string())?;
         return Ok(FitModel {
             model,
@@ -62,36 +65,59 @@ pub fn read_fit(path: &Path, linear: bool) -> Result<FitModel> {
             reference: None,
             reference_quantity: None,
             kind: "declared",
+            acquisition,
         });
     }
     let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     FitModel::of_json(&text, linear, path)
 }
 
-/// A model file's top-level `response_sign` (1 when absent) and its text
-/// without it (the structure's own schema has no such key).
-fn toml_response_sign(text: String, path: &Path) -> Result<(String, f64)> {
+/// A model file's top-level `response_sign` (1 when absent) and
+/// `[acquisition]` (see [`crate::validate::acquisition`]), and its text
+/// without them (the structure's own schema has neither).
+fn toml_measurement(
+    text: String,
+    path: &Path,
+) -> Result<(
+    String,
+    f64,
+    Option<crate::validate::acquisition::Acquisition>,
+)> {
     let Ok(mut table) = text.parse::<toml::Table>() else {
         // the structure's parser names what is wrong
-        return Ok((text, 1.0));
+        return Ok((text, 1.0, None));
     };
-    let Some(value) = table.remove("response_sign") else {
-        return Ok((text, 1.0));
+    if !table.contains_key("acquisition") && !table.contains_key("response_sign") {
+        return Ok((text, 1.0, None));
+    }
+    let acquisition = table
+        .remove("acquisition")
+        .map(|v| {
+            let a: crate::validate::acquisition::Acquisition = v
+                .try_into()
+                .map_err(|e: toml::de::Error| Error::format(path, "acquisition", e.to_string()))?;
+            a.check()
+                .map_err(|e| Error::format(path, "acquisition", e.to_string()))?;
+            Ok::<_, Error>(a)
+        })
+        .transpose()?;
+    let sign = match table.remove("response_sign") {
+        None => 1.0,
+        Some(value) => value
+            .as_float()
+            .or_else(|| value.as_integer().map(|i| i as f64))
+            .filter(|s| *s == 1.0 || *s == -1.0)
+            .ok_or_else(|| {
+                Error::format(
+                    path,
+                    "response_sign",
+                    format!("expected 1 or -1, got {value}"),
+                )
+            })?,
     };
-    let sign = value
-        .as_float()
-        .or_else(|| value.as_integer().map(|i| i as f64))
-        .filter(|s| *s == 1.0 || *s == -1.0)
-        .ok_or_else(|| {
-            Error::format(
-                path,
-                "response_sign",
-                format!("expected 1 or -1, got {value}"),
-            )
-        })?;
     let text =
         toml::to_string(&table).map_err(|e| Error::format(path, "response_sign", e.to_string()))?;
-    Ok((text, sign))
+    Ok((text, sign, acquisition))
 }
 
 impl FitModel {
@@ -126,6 +152,7 @@ impl FitModel {
                 reference_quantity: serde_json::from_value(value["reference_quantity"].clone())
                     .ok(),
                 kind: "diagnosed",
+                acquisition: None,
             });
         }
         if let Some(value) = value
@@ -149,6 +176,7 @@ impl FitModel {
                 reference: report.reference_channel,
                 reference_quantity: report.reference_quantity,
                 kind: "fitted to the FRFs from a start",
+                acquisition: None,
             });
         }
         if let Some(value) = value.filter(super::identify::TimeFitReport::is_one) {
@@ -174,6 +202,7 @@ impl FitModel {
                 reference: report.reference_channel,
                 reference_quantity: t.reference_quantity,
                 kind: "fitted in the time domain",
+                acquisition: None,
             });
         }
         FitModel::of_report(FitReport::parse(path, text)?, linear, path)
@@ -212,6 +241,7 @@ impl FitModel {
                 reference,
                 reference_quantity,
                 kind: "linear",
+                acquisition: None,
             });
         }
         if final_sign != 1.0 && final_sign != -1.0 {
@@ -231,6 +261,7 @@ impl FitModel {
             reference,
             reference_quantity,
             kind,
+            acquisition: None,
         })
     }
 }
@@ -267,6 +298,10 @@ pub struct ValidateReport<'a> {
     pub model: &'a Model,
     /// The sign the simulated response was multiplied by.
     pub response_sign: f64,
+    /// The acquisition chain the simulated response was put through, where
+    /// the model file declares one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acquisition: Option<&'a crate::validate::acquisition::Acquisition>,
     /// Per recording.
     pub recordings: Vec<RecordingValidation>,
     /// Files written.
@@ -397,6 +432,7 @@ fn validate_held(
         reduction,
         periodic: settings.periodic,
         input: settings.input,
+        acquisition: fit.acquisition.clone(),
     };
     // a multisine is judged at the lines of its period where two steady
     // periods or more (after the first, the replay's start from rest) give

@@ -118,6 +118,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         model_kind: fit.kind,
         model: &fit.model,
         response_sign: fit.response_sign,
+        acquisition: fit.acquisition.as_ref(),
         recordings: entries,
         files,
     };

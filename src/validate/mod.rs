@@ -45,6 +45,7 @@
 //! replay whole keeps it: a sweep (followed over the record), a multisine's
 //! lines, dwells stated out of order, and a caller that asks for it.
 
+pub mod acquisition;
 pub mod resample;
 mod tally;
 
@@ -98,6 +99,9 @@ pub struct ValidateOptions {
     /// test set): the model is driven by it repeated until its slowest mode
     /// has settled (at least twice) and the last period is compared.
     pub periodic: bool,
+    /// The recorded response's acquisition chain, which the replay is put
+    /// through before it is compared (see [`acquisition`]).
+    pub acquisition: Option<acquisition::Acquisition>,
 }
 
 /// What a sampled force is between its samples when it drives the
@@ -176,6 +180,7 @@ impl Default for ValidateOptions {
             reduction: None,
             input: DriveInput::BandLimited,
             periodic: false,
+            acquisition: None,
         }
     }
 }
@@ -564,6 +569,9 @@ pub struct Replay<'d, 'a> {
     force: Vec<f64>,
     fine: Vec<f64>,
     out: Vec<f64>,
+    /// The response's acquisition chain, if declared, and its output.
+    acquisition: Option<acquisition::AcquisitionFilter>,
+    acquired: Vec<f64>,
 }
 
 impl<'d, 'a> Replay<'d, 'a> {
@@ -640,7 +648,20 @@ impl<'d, 'a> Replay<'d, 'a> {
             force: Vec::with_capacity(stretch),
             fine: vec![0.0; stretch],
             out: Vec::with_capacity(stretch / factor + 1),
+            acquisition: None,
+            acquired: Vec::new(),
         })
+    }
+
+    /// The replay put through the response's acquisition chain (see
+    /// [`acquisition`]): what the chain would have recorded of it.
+    ///
+    /// Errors: a chain the recording's rate cannot follow.
+    pub fn with_acquisition(mut self, chain: Option<&acquisition::Acquisition>) -> Result<Self> {
+        self.acquisition = chain
+            .map(|c| acquisition::AcquisitionFilter::new(c, self.drive.reference.len()))
+            .transpose()?;
+        Ok(self)
     }
 
     /// The replay made `samples` of its grid at a time (at least one; the
@@ -717,6 +738,11 @@ impl<'d, 'a> Replay<'d, 'a> {
         }
         self.done = end;
         crate::observe::progress(observer, "simulating", end as u64, total as u64)?;
+        if let Some(chain) = &mut self.acquisition {
+            self.acquired.clear();
+            chain.push(&self.out, &mut self.acquired);
+            return Ok(Some(&self.acquired));
+        }
         Ok(Some(&self.out))
     }
 }
@@ -1201,7 +1227,8 @@ pub fn validate_view(
     };
     pass.tap
         .begin(compared, pass.window.as_ref().map(|w| w.range()));
-    let mut replay = Replay::new(model, &drive, (fs, factor), quantity, response_sign)?;
+    let mut replay = Replay::new(model, &drive, (fs, factor), quantity, response_sign)?
+        .with_acquisition(options.acquisition.as_ref())?;
     // a stepped recording's replay reduced a dwell at a time as it comes
     let simulated_stepped = match &measured_frfs {
         Some(MeasuredFrfs {
