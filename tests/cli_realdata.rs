@@ -1642,7 +1642,10 @@ fn unesp_two_nonlinear_modes_are_the_readmes() {
             .flat_map(|l| [chirp("0to40", "m", l), chirp("70to110", "c", l)])
             .collect()
     };
-    let (fit, held) = (levels(["0p05", "0p15", "0p25"]), levels(["0p10", "0p20", "0p30"]));
+    let (fit, held) = (
+        levels(["0p05", "0p15", "0p25"]),
+        levels(["0p10", "0p20", "0p30"]),
+    );
     let start = Path::new(env!("CARGO_MANIFEST_DIR")).join("signals/unesp_two_modes_start.toml");
     // the same model, its first mode linear: at its stuck frequency, its
     // joint stuck and held
@@ -1655,15 +1658,25 @@ fn unesp_two_nonlinear_modes_are_the_readmes() {
     let linear = work.path().join("linear_first_mode.toml");
     std::fs::write(
         &linear,
-        text.replace(bare, "frequency_hz = 18.7")
-            .replace(iwan, r#"joint = { kind = "jenkins", kd = 1.0e-6, fd = 1.0e6 }"#),
+        text.replace(bare, "frequency_hz = 18.7").replace(
+            iwan,
+            r#"joint = { kind = "jenkins", kd = 1.0e-6, fd = 1.0e6 }"#,
+        ),
     )
     .unwrap();
     let fitted = |start: &Path, name: &str, extra: &[&str]| {
         let out = work.path().join(name);
         let mut args: Vec<&str> = vec!["identify"];
         args.extend(fit.iter().map(|p| s(p)));
-        args.extend(["--domain", "time", "--start", s(start), "-q", "--out", s(&out)]);
+        args.extend([
+            "--domain",
+            "time",
+            "--start",
+            s(start),
+            "-q",
+            "--out",
+            s(&out),
+        ]);
         args.extend(extra);
         run_ok(&args);
         out.join("fit.json")
@@ -1696,7 +1709,9 @@ fn unesp_two_nonlinear_modes_are_the_readmes() {
         &["--fix", "hysteretic_mode.joint.kd,hysteretic_mode.joint.fd"],
     );
     let [first_linear, second_linear] = validated(&lin, "linear");
-    eprintln!("first mode, 15-22 Hz: {first:.1?} % ({first_linear:.1?} % linear); second, 88-100 Hz: {second:.1?} % ({second_linear:.1?} %)");
+    eprintln!(
+        "first mode, 15-22 Hz: {first:.1?} % ({first_linear:.1?} % linear); second, 88-100 Hz: {second:.1?} % ({second_linear:.1?} %)"
+    );
     let f = json(&two);
     let p = &f["time_domain"]["parameters"];
     let value = |name: &str| p[name]["value"].as_f64().unwrap();
@@ -1712,8 +1727,14 @@ fn unesp_two_nonlinear_modes_are_the_readmes() {
     .collect();
     eprintln!("the first mode: {mode:?}");
     for (row, figures) in [
-        ("| the first mode, a hysteretic mode with an Iwan joint |", first.iter().chain(&second)),
-        ("| the first mode linear |", first_linear.iter().chain(&second_linear)),
+        (
+            "| the first mode, a hysteretic mode with an Iwan joint |",
+            first.iter().chain(&second),
+        ),
+        (
+            "| the first mode linear |",
+            first_linear.iter().chain(&second_linear),
+        ),
     ] {
         let shown = common::readme_figures(row).expect("README row");
         let figures: Vec<f64> = figures.copied().collect();
@@ -1723,7 +1744,11 @@ fn unesp_two_nonlinear_modes_are_the_readmes() {
         }
     }
     let line = common::readme_figures("The first mode's own joint, fitted:").expect("README line");
-    for ((what, v), shown) in ["bare frequency", "kt", "fs", "chi", "beta"].iter().zip(&mode).zip(line) {
+    for ((what, v), shown) in ["bare frequency", "kt", "fs", "chi", "beta"]
+        .iter()
+        .zip(&mode)
+        .zip(line)
+    {
         common::assert_readme_figure(what, *v, shown);
     }
     // the first mode closer at every validation level with its own joint,
@@ -1731,8 +1756,16 @@ fn unesp_two_nonlinear_modes_are_the_readmes() {
     for (k, (a, b)) in first.iter().zip(&first_linear).enumerate() {
         assert!(a < b, "level {k}: {a} % against {b} % linear");
     }
-    assert!(first[2] < 0.6 * first_linear[2], "{first:?} {first_linear:?}");
-    assert!(second.iter().zip(&second_linear).all(|(a, b)| (a - b).abs() < 2.0));
+    assert!(
+        first[2] < 0.6 * first_linear[2],
+        "{first:?} {first_linear:?}"
+    );
+    assert!(
+        second
+            .iter()
+            .zip(&second_linear)
+            .all(|(a, b)| (a - b).abs() < 2.0)
+    );
     assert!((-1.0..0.0).contains(&mode[3]), "chi {}", mode[3]);
 }
 

@@ -946,6 +946,28 @@ fn boucwen_sweep_validation() {
     assert!(v.whole.relative < 1.0 / 3.0);
 }
 
+/// The Bouc-Wen benchmark's published model (Noël & Schoukens 2016) as a
+/// structure with the `bouc_wen` joint.
+fn published_bouc_wen() -> Model {
+    hystid::testbench::model_from_toml(
+        "[system]\nmass = 2.0\ndamping = 10.0\nstiffness = 5.0e4\n\
+         [joint]\nkind = \"bouc_wen\"\nalpha = 5.0e4\nbeta = 1.0e3\ngamma = 0.8\ndelta = -1.1\nnu = 1.0\n",
+        "bouc-wen.toml",
+    )
+    .unwrap()
+}
+
+/// The RMS of `a − b` from sample `from` on.
+fn rms_from(a: &[f64], b: &[f64], from: usize) -> f64 {
+    (a[from..]
+        .iter()
+        .zip(&b[from..])
+        .map(|(x, y)| (x - y).powi(2))
+        .sum::<f64>()
+        / (a.len() - from) as f64)
+        .sqrt()
+}
+
 /// The Bouc-Wen benchmark's channels `u`, `y` at 750 Hz.
 fn boucwen_channels(u: &str, y: &str) -> ImportSpec {
     ImportSpec::new(
@@ -1045,23 +1067,9 @@ fn boucwen_published_model_reaches_the_floor() {
         return;
     };
     let t0 = std::time::Instant::now();
-    let model = hystid::testbench::model_from_toml(
-        "[system]\nmass = 2.0\ndamping = 10.0\nstiffness = 5.0e4\n\
-         [joint]\nkind = \"bouc_wen\"\nalpha = 5.0e4\nbeta = 1.0e3\ngamma = 0.8\ndelta = -1.1\nnu = 1.0\n",
-        "bouc-wen.toml",
-    )
-    .unwrap();
+    let model = published_bouc_wen();
     let (sweep, multisine, period) = boucwen_test_sets(&dir);
     let second = (period as f64 / 750.0, 2.0 * period as f64 / 750.0);
-    let rms_diff = |a: &[f64], b: &[f64], from: usize| {
-        (a[from..]
-            .iter()
-            .zip(&b[from..])
-            .map(|(x, y)| (x - y).powi(2))
-            .sum::<f64>()
-            / (a.len() - from) as f64)
-            .sqrt()
-    };
     for (name, rec, window, from) in [
         ("sine sweep", &sweep, None, 0),
         ("multisine", &multisine, Some(second), period),
@@ -1080,8 +1088,8 @@ fn boucwen_published_model_reaches_the_floor() {
         .unwrap();
         let e = v.window.as_ref().unwrap_or(&v.whole);
         let reference = boucwen_rk4(&rec.channels[0], 750.0, 40);
-        let data_vs_reference = rms_diff(&rec.channels[1], &reference, from);
-        let hystid_vs_reference = rms_diff(&v.simulated, &reference, from);
+        let data_vs_reference = rms_from(&rec.channels[1], &reference, from);
+        let hystid_vs_reference = rms_from(&v.simulated, &reference, from);
         eprintln!(
             "Bouc-Wen {name} (x{} upsampled): e_RMS {:.3e} m ({:.3} % of {:.3e} m); RK4 reference vs data {:.3e} m, vs hystid {:.3e} m",
             v.upsampling,
@@ -1144,22 +1152,8 @@ fn boucwen_published_model_through_the_test_sets_acquisition_is_within_2e_6() {
     let Some(dir) = common::dataset("boucwen_benchmark") else {
         return;
     };
-    let model = hystid::testbench::model_from_toml(
-        "[system]\nmass = 2.0\ndamping = 10.0\nstiffness = 5.0e4\n\
-         [joint]\nkind = \"bouc_wen\"\nalpha = 5.0e4\nbeta = 1.0e3\ngamma = 0.8\ndelta = -1.1\nnu = 1.0\n",
-        "bouc-wen.toml",
-    )
-    .unwrap();
+    let model = published_bouc_wen();
     let (sweep, multisine, period) = boucwen_test_sets(&dir);
-    let rms = |a: &[f64], b: &[f64], from: usize| {
-        (a[from..]
-            .iter()
-            .zip(&b[from..])
-            .map(|(x, y)| (x - y).powi(2))
-            .sum::<f64>()
-            / (a.len() - from) as f64)
-            .sqrt()
-    };
     // the reference: RK4 at 15 kHz through `decimate(y, 20, 'fir')`
     let fine = boucwen_rk4_fine(&sweep.channels[0], 750.0, 20);
     let b = lowpass(31, 1.0 / 20.0);
@@ -1178,8 +1172,8 @@ fn boucwen_published_model_through_the_test_sets_acquisition_is_within_2e_6() {
         .collect();
     let plain: Vec<f64> = fine.iter().step_by(20).copied().collect();
     let (reference, unfiltered) = (
-        rms(&decimated, &sweep.channels[1], 0),
-        rms(&plain, &sweep.channels[1], 0),
+        rms_from(&decimated, &sweep.channels[1], 0),
+        rms_from(&plain, &sweep.channels[1], 0),
     );
     eprintln!(
         "RK4 at 15 kHz vs the sweep test set: {unfiltered:.3e} m as integrated, {reference:.3e} m through the test set's decimation"
@@ -1221,7 +1215,7 @@ fn boucwen_published_model_through_the_test_sets_acquisition_is_within_2e_6() {
             // twenty times closer than any simulation without the chain, and
             // as close to the reference through it as hystid is to the
             // reference without it (its own discretisation, 1.2e-7 m)
-            let from_reference = rms(&v.simulated, &decimated, 0);
+            let from_reference = rms_from(&v.simulated, &decimated, 0);
             eprintln!("  hystid vs the reference through the decimation: {from_reference:.3e} m");
             assert!(e.e_rms <= 0.05 * unfiltered, "{name}: {:e}", e.e_rms);
             assert!(from_reference < 1.5e-7, "{name}: {from_reference:e}");
