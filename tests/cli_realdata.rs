@@ -978,6 +978,43 @@ fn bouc_wen_fitted_through_the_binary_validates_on_both_test_sets() {
             common::assert_readme_figure(&format!("Bouc-Wen lines: {what} (%)"), value, shown);
         }
     }
+    // the sweep test set's decimation declared (`--acquisition 20`): the
+    // fitted model put through it too, named in validate.json; a chain that
+    // is not one refused naming the flag
+    let val_dir = dir.path().join("val_sweep_acquired");
+    let rec = dir.path().join("sweep.json");
+    let mut a = vec!["validate", s(&found_json), s(&rec), "--out", s(&val_dir)];
+    a.extend([
+        "--min-samples-per-period",
+        "400",
+        "-q",
+        "--acquisition",
+        "20",
+    ]);
+    run_ok(&a);
+    let v = json(&val_dir.join("validate.json"));
+    assert_eq!(
+        v["acquisition"],
+        serde_json::json!({"decimated_by": 20, "taps": 31})
+    );
+    let e = v["recordings"][0]["whole"]["e_rms"].as_f64().unwrap();
+    eprintln!("Bouc-Wen sweep through its acquisition: e_RMS {e:.4e} m");
+    let shown = common::readme_figures("The fitted model through the sweep's acquisition:")
+        .expect("README line");
+    common::assert_readme_figure("the fitted model's e_RMS through the chain", e, shown[0]);
+    assert!(e <= 3e-7, "{e}");
+    let bad = dir.path().join("val_bad");
+    let o = hystid(&[
+        "validate",
+        s(&found_json),
+        s(&rec),
+        "--out",
+        s(&bad),
+        "--acquisition",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("--acquisition") && !bad.join("validate.json").exists());
 }
 
 /// The README's diagnosis figures of a real data set, read from the

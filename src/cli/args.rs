@@ -307,6 +307,16 @@ pub struct ValidateArgs {
     /// Skip the FRF comparison (time-domain figures only).
     #[arg(long)]
     pub no_frf: bool,
+    /// How the recorded response was decimated to the recording's rate,
+    /// put through by the replay too: the stages' factors, fastest first
+    /// (e.g. 20, or 2,2,5), each a Hamming-windowed-sinc FIR as MATLAB's
+    /// `decimate(y, r, 'fir')` makes it; in place of a model file's
+    /// `[acquisition]`.
+    #[arg(long, value_delimiter = ',')]
+    pub acquisition: Option<Vec<usize>>,
+    /// Taps of each `--acquisition` stage's FIR (odd).
+    #[arg(long, default_value_t = hystid::validate::acquisition::DEFAULT_TAPS, requires = "acquisition")]
+    pub acquisition_taps: usize,
     /// How both signals are reduced for the FRF comparison.
     #[command(flatten)]
     pub reduction: ReductionArgs,

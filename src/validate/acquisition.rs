@@ -31,6 +31,9 @@
 //! decimated_by = 20        # or stages in order, e.g. [2, 2, 5]
 //! taps = 31                # each stage's FIR (31: MATLAB's decimate, 'fir')
 //! ```
+//!
+//! or for the recordings validated, whatever the model, by `hystid validate
+//! --acquisition 20` (`--acquisition-taps`).
 
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
