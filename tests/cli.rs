@@ -1349,4 +1349,28 @@ fn a_declared_acquisition_is_put_through_by_validate() {
         );
         assert!(!out.join("validate.json").exists());
     }
+    // `identify` takes the chain for its time-domain fit only, and refuses
+    // one that is not a chain before it writes anything
+    for (flags, expected) in [
+        (&["--acquisition", "4"][..], "add --domain time"),
+        (
+            &["--domain", "time", "--acquisition", "1"][..],
+            "--acquisition",
+        ),
+    ] {
+        let out = dir.path().join("fit_refused");
+        let mut a = vec![
+            "identify",
+            "--quiet",
+            recording.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(flags);
+        let o = hystid(&a);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{flags:?}: {t}");
+        assert!(t.contains(expected), "{flags:?}: {t}");
+        assert!(!out.exists(), "{flags:?}: an output was left");
+    }
 }

@@ -202,7 +202,7 @@ impl FitModel {
                 reference: report.reference_channel,
                 reference_quantity: t.reference_quantity,
                 kind: "fitted in the time domain",
-                acquisition: None,
+                acquisition: t.acquisition,
             });
         }
         FitModel::of_report(FitReport::parse(path, text)?, linear, path)

@@ -146,6 +146,44 @@ pub struct IdentifyArgs {
     /// reported are over every sample.
     #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1000..))]
     pub max_judged_samples: usize,
+    /// With `--domain time`: the recorded response's decimation, put
+    /// through by every replay (a `--start` model file's `[acquisition]`
+    /// otherwise; fit.json keeps it for `validate`).
+    #[command(flatten)]
+    pub acquisition: AcquisitionArgs,
+}
+
+/// How the recorded response was decimated to the recording's rate
+/// (`validate`, `identify --domain time`).
+#[derive(Args, Debug, Clone)]
+pub struct AcquisitionArgs {
+    /// How the recorded response was decimated to the recording's rate,
+    /// put through by the replay too: the stages' factors, fastest first
+    /// (e.g. 20, or 2,2,5), each a Hamming-windowed-sinc FIR as MATLAB's
+    /// `decimate(y, r, 'fir')` makes it; in place of a model file's
+    /// `[acquisition]`.
+    #[arg(long, value_delimiter = ',')]
+    pub acquisition: Option<Vec<usize>>,
+    /// Taps of each `--acquisition` stage's FIR (odd).
+    #[arg(long, default_value_t = hystid::validate::acquisition::DEFAULT_TAPS, requires = "acquisition")]
+    pub acquisition_taps: usize,
+}
+
+impl AcquisitionArgs {
+    /// The chain asked for, checked (`None`: not asked for).
+    pub fn chain(&self) -> anyhow::Result<Option<hystid::validate::acquisition::Acquisition>> {
+        let Some(stages) = &self.acquisition else {
+            return Ok(None);
+        };
+        let chain = hystid::validate::acquisition::Acquisition {
+            decimated_by: stages.clone(),
+            taps: self.acquisition_taps,
+        };
+        chain
+            .check()
+            .map_err(|e| anyhow::anyhow!("--acquisition: {e}"))?;
+        Ok(Some(chain))
+    }
 }
 
 /// How a model is replayed on a measured reference.
@@ -307,16 +345,9 @@ pub struct ValidateArgs {
     /// Skip the FRF comparison (time-domain figures only).
     #[arg(long)]
     pub no_frf: bool,
-    /// How the recorded response was decimated to the recording's rate,
-    /// put through by the replay too: the stages' factors, fastest first
-    /// (e.g. 20, or 2,2,5), each a Hamming-windowed-sinc FIR as MATLAB's
-    /// `decimate(y, r, 'fir')` makes it; in place of a model file's
-    /// `[acquisition]`.
-    #[arg(long, value_delimiter = ',')]
-    pub acquisition: Option<Vec<usize>>,
-    /// Taps of each `--acquisition` stage's FIR (odd).
-    #[arg(long, default_value_t = hystid::validate::acquisition::DEFAULT_TAPS, requires = "acquisition")]
-    pub acquisition_taps: usize,
+    /// The recorded response's decimation.
+    #[command(flatten)]
+    pub acquisition: AcquisitionArgs,
     /// How both signals are reduced for the FRF comparison.
     #[command(flatten)]
     pub reduction: ReductionArgs,

@@ -274,10 +274,11 @@ fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result
     let band = fit_options(&args.fit)?.band_hz;
     let records =
         hystid::analysis::time_records_in(&args.recordings, args.channels(), window, band)?;
+    // the flag in place of the model file's own
+    let acquisition = args.acquisition.chain()?.or(start.acquisition);
     fit_in_time(
         args,
-        &start.model,
-        start.response_sign,
+        (&start.model, start.response_sign, acquisition),
         &records,
         None,
         quiet,
@@ -340,8 +341,11 @@ fn identify_declared(
 /// start written down, or `origin` (how the start was found, a note).
 fn fit_in_time(
     args: &IdentifyArgs,
-    model: &hystid::model::Model,
-    response_sign: f64,
+    (model, response_sign, acquisition): (
+        &hystid::model::Model,
+        f64,
+        Option<hystid::validate::acquisition::Acquisition>,
+    ),
     records: &[hystid::fit::TimeRecord],
     origin: Option<String>,
     quiet: bool,
@@ -356,6 +360,7 @@ fn fit_in_time(
         input: args.replay.into(),
         starts: args.starts as usize,
         max_judged_samples: args.max_judged_samples,
+        acquisition,
         ..Default::default()
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
@@ -402,7 +407,12 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         if args.replay != Replay::BandLimited {
             bail!("--replay: only the time-domain fit replays the model; add --domain time");
         }
+        if args.acquisition.acquisition.is_some() {
+            bail!("--acquisition: only the time-domain fit replays the model; add --domain time");
+        }
     }
+    // a chain that is not one refused before anything is written
+    args.acquisition.chain()?;
     if let Some(start) = &args.start {
         return identify_from_start(args, start, quiet);
     }
@@ -416,7 +426,14 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
             kind,
             args.fit.modes,
         )? {
-            return fit_in_time(args, &p.start, 1.0, &p.records, Some(p.note), quiet);
+            let chain = args.acquisition.chain()?;
+            return fit_in_time(
+                args,
+                (&p.start, 1.0, chain),
+                &p.records,
+                Some(p.note),
+                quiet,
+            );
         }
     }
     let options = fit_options(&args.fit)?;
@@ -461,6 +478,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
                     input: args.replay.into(),
                     starts: args.starts as usize,
                     max_judged_samples: args.max_judged_samples,
+                    acquisition: args.acquisition.chain()?,
                     ..Default::default()
                 },
                 options.band_hz,

@@ -32,14 +32,7 @@ pub(super) fn parse_range(text: &str, flag: &str, unit: &str) -> Result<(f64, f6
 pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     super::return_large_blocks();
     let mut fit = read_fit(&args.fit, args.linear)?;
-    if let Some(stages) = &args.acquisition {
-        let chain = hystid::validate::acquisition::Acquisition {
-            decimated_by: stages.clone(),
-            taps: args.acquisition_taps,
-        };
-        chain
-            .check()
-            .map_err(|e| anyhow::anyhow!("--acquisition: {e}"))?;
+    if let Some(chain) = args.acquisition.chain()? {
         fit.acquisition = Some(chain);
     }
     let settings = ValidationSettings {

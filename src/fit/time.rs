@@ -42,7 +42,7 @@ use crate::signals::{Samples, SamplesView};
 use crate::validate::resample::{Decimator, MAX_FACTOR};
 use crate::validate::{
     DriveInput, ErrorMetrics, PreparedDrive, error_metrics_of_sum, error_window,
-    quasi_static_above_hz, replay_streamed, sum_start, upsampling_factor,
+    quasi_static_above_hz, sum_start, upsampling_factor,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -448,6 +448,13 @@ pub struct TimeFitOptions {
     /// still over every sample.
     #[serde(default = "max_judged")]
     pub max_judged_samples: usize,
+    /// How the recorded response was decimated to the recording's rate
+    /// (see [`crate::validate::acquisition`]): every replay is put through
+    /// the same chain before it is compared, so that the fit does not bend
+    /// the parameters to the chain's droop near the recording's Nyquist
+    /// frequency. None: the response as recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acquisition: Option<crate::validate::acquisition::Acquisition>,
 }
 
 fn max_judged() -> usize {
@@ -467,6 +474,7 @@ impl Default for TimeFitOptions {
             input: DriveInput::BandLimited,
             starts: 1,
             max_judged_samples: MAX_JUDGED_SAMPLES,
+            acquisition: None,
         }
     }
 }
@@ -560,6 +568,11 @@ pub struct TimeFitResult {
     /// `validate` refuses a recording driven by the other.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference_quantity: Option<Quantity>,
+    /// The response's acquisition chain the replays were put through
+    /// ([`TimeFitOptions::acquisition`]): `validate` puts its replays
+    /// through it too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acquisition: Option<crate::validate::acquisition::Acquisition>,
 }
 
 /// How one start of a fit ended.
@@ -891,7 +904,8 @@ impl<'p, 'a> JudgedResiduals<'p, 'a> {
                 (r.sample_rate_hz, replay_factor),
                 r.quantity,
                 problem.sign,
-            )?,
+            )?
+            .with_acquisition(problem.options.acquisition.as_ref())?,
             decimator: Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?,
             measured: r.response.view().cursor(),
             decimated: Vec::new(),
@@ -1464,7 +1478,8 @@ impl<'a> TimeProblem<'a> {
     pub fn replay_of(&self, model: &Model, i: usize) -> Result<crate::validate::Replay<'_, 'a>> {
         let r = &self.records[i];
         let rate = (r.sample_rate_hz, self.replay_factor_of(model, i)?);
-        crate::validate::Replay::new(model, &self.drives[i], rate, r.quantity, self.sign)
+        crate::validate::Replay::new(model, &self.drives[i], rate, r.quantity, self.sign)?
+            .with_acquisition(self.options.acquisition.as_ref())
     }
 
     /// The records, in order.
@@ -1484,24 +1499,18 @@ impl<'a> TimeProblem<'a> {
 
     /// `model`'s simulated response to record `i` handed to `sink` a
     /// stretch at a time, on the record's replay grid (see
-    /// [`crate::validate::replay_streamed`]).
+    /// [`crate::validate::Replay`]; through the response's acquisition chain where one is declared).
     fn replay_by_stretch(
         &self,
         model: &Model,
         i: usize,
         sink: &mut dyn FnMut(&[f64]) -> Result<()>,
     ) -> Result<()> {
-        let r = &self.records[i];
-        let rate = (r.sample_rate_hz, self.replay_factor_of(model, i)?);
-        replay_streamed(
-            model,
-            &self.drives[i],
-            rate,
-            r.quantity,
-            self.sign,
-            &Silent,
-            sink,
-        )?;
+        // through the response's acquisition chain, if declared
+        let mut replay = self.replay_of(model, i)?;
+        while let Some(stretch) = replay.next_stretch(&Silent)? {
+            sink(stretch)?;
+        }
         Ok(())
     }
 
@@ -2258,6 +2267,7 @@ pub fn identify_time(
         notes,
         at_bound,
         reference_quantity: records.first().map(|r| r.reference_quantity),
+        acquisition: options.acquisition.clone(),
     })
 }
 
