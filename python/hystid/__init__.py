@@ -400,6 +400,7 @@ def identify_time(
     replay="band_limited",
     starts=1,
     max_judged_samples=2**20,
+    acquisition=None,
     **kwargs,
 ):
     """Fits a model to recorded time histories, as ``hystid identify
@@ -428,6 +429,11 @@ def identify_time(
     fit that would judge more samples judges the responses low-passed at a
     lower rate, never below 8 samples a period of the model's highest
     frequency; ``time_domain.samples`` is the count judged.
+    ``acquisition`` is ``--acquisition``: how the recorded response was
+    decimated to the recording's rate, put through by every replay (a
+    factor, a list of stages' factors such as ``[2, 2, 5]``, or a dict as
+    the model file's ``[acquisition]``: ``{"decimated_by": 20, "taps":
+    31}``); ``time_domain.acquisition`` keeps it for :func:`validate`.
     """
     parts = _time_records(recordings, replay)
     model_start = None if start is None else _as_model(start)
@@ -443,8 +449,21 @@ def identify_time(
         replay,
         int(starts),
         int(max_judged_samples),
+        _acquisition(acquisition),
     )
     return json.loads(text)
+
+
+def _acquisition(chain):
+    """A response's acquisition chain as the bindings take it (JSON), or
+    ``None``."""
+    if chain is None:
+        return None
+    if isinstance(chain, dict):
+        return json.dumps(chain)
+    if isinstance(chain, (int, np.integer)):
+        return json.dumps({"decimated_by": int(chain)})
+    return json.dumps({"decimated_by": [int(r) for r in chain]})
 
 
 def diagnose(
@@ -620,6 +639,7 @@ def validate(
     recording="",
     replay="band_limited",
     progress=None,
+    acquisition=None,
 ):
     """Drives a fitted model (a ``fit.json`` dict) with a measured force and
     compares the simulated response with the measured one, as ``hystid
@@ -636,7 +656,8 @@ def validate(
     ``--replay continuous`` (the joint's force taken as band-limited too, its
     ``sinc²`` loss inside the simulator's loop compensated). ``progress``:
     see :data:`PROGRESS` (``"simulating"``, then the FRF comparison's
-    reductions).
+    reductions). ``acquisition`` is ``--acquisition`` (as in
+    :func:`identify_time`), in place of the fit's own.
     """
     if replay not in ("band_limited", "continuous", "ramp"):
         raise ValueError(
@@ -651,6 +672,9 @@ def validate(
         "periodic": bool(periodic),
         "reduction": _reduction(excitation, max_harmonic, compensation, hop_periods, window_periods),
     }
+    chain = _acquisition(acquisition)
+    if chain is not None:
+        settings["acquisition"] = json.loads(chain)
     text, simulated = _hystid.validate(
         json.dumps(fit),
         bool(linear),

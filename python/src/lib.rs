@@ -245,6 +245,7 @@ fn time_fit_options(
     replay: &str,
     starts: usize,
     max_judged_samples: usize,
+    acquisition: Option<&str>,
 ) -> PyResult<TimeFitOptions> {
     if !(1..=64).contains(&starts) {
         return Err(fail(format!("starts: expected 1 to 64, got {starts}")));
@@ -260,8 +261,19 @@ fn time_fit_options(
         input: from_json("replay", &format!("\"{replay}\""))?,
         starts,
         max_judged_samples,
+        acquisition: acquisition.map(acquisition_of).transpose()?,
         ..TimeFitOptions::default()
     })
+}
+
+/// The response's acquisition chain as the model file's `[acquisition]`
+/// writes it (JSON), checked.
+fn acquisition_of(text: &str) -> PyResult<hystid::validate::acquisition::Acquisition> {
+    let chain: hystid::validate::acquisition::Acquisition = from_json("acquisition", text)?;
+    chain
+        .check()
+        .map_err(|e| fail(format!("acquisition: {e}")))?;
+    Ok(chain)
 }
 
 fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
@@ -887,6 +899,7 @@ fn diagnose<'py>(
                 &t.replay,
                 t.starts,
                 t.max_judged_samples,
+                None,
             )?;
             Some((named, reduction, options))
         }
@@ -968,6 +981,10 @@ struct SettingsJson {
     /// `hystid::validate::DriveInput`).
     #[serde(default)]
     replay: hystid::validate::DriveInput,
+    /// The response's acquisition chain, in place of the fit's
+    /// (`--acquisition`).
+    #[serde(default)]
+    acquisition: Option<serde_json::Value>,
 }
 
 fn twenty() -> f64 {
@@ -1003,8 +1020,11 @@ fn validate<'py>(
     } else {
         &fit_name
     };
-    let fit = FitModel::of_json(fit.as_bytes(), linear, Path::new(origin)).map_err(err)?;
+    let mut fit = FitModel::of_json(fit.as_bytes(), linear, Path::new(origin)).map_err(err)?;
     let s: SettingsJson = from_json("settings", &settings)?;
+    if let Some(chain) = &s.acquisition {
+        fit.acquisition = Some(acquisition_of(&chain.to_string())?);
+    }
     let settings = ValidationSettings {
         input: s.replay,
         band_hz: s.band_hz,
@@ -1128,7 +1148,7 @@ impl Recordings<'_> {
 /// of a model written down (`start`, as `--start`), or with neither of
 /// multisine recordings from their linear estimate.
 #[pyfunction]
-#[pyo3(signature = (recordings, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES))]
+#[pyo3(signature = (recordings, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES, acquisition = None))]
 #[allow(clippy::too_many_arguments)]
 fn identify_time<'py>(
     py: Python<'py>,
@@ -1143,9 +1163,15 @@ fn identify_time<'py>(
     replay: String,
     starts: usize,
     max_judged_samples: usize,
+    acquisition: Option<String>,
 ) -> PyResult<String> {
-    let time_options =
-        time_fit_options(min_samples_per_period, &replay, starts, max_judged_samples)?;
+    let time_options = time_fit_options(
+        min_samples_per_period,
+        &replay,
+        starts,
+        max_judged_samples,
+        acquisition.as_deref(),
+    )?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
@@ -1187,6 +1213,7 @@ fn identify_time<'py>(
                         input: time_options.input,
                         starts: time_options.starts,
                         max_judged_samples: time_options.max_judged_samples,
+                        acquisition: time_options.acquisition.clone(),
                         ..TimeFitOptions::default()
                     },
                     band,
@@ -1262,8 +1289,13 @@ fn diagnose_time<'py>(
     starts: usize,
     max_judged_samples: usize,
 ) -> PyResult<String> {
-    let time_options =
-        time_fit_options(min_samples_per_period, &replay, starts, max_judged_samples)?;
+    let time_options = time_fit_options(
+        min_samples_per_period,
+        &replay,
+        starts,
+        max_judged_samples,
+        None,
+    )?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;

@@ -287,3 +287,39 @@ def test_a_multisine_is_diagnosed_at_its_lines_as_the_command_does(tmp_path):
     with pytest.raises(hystid.HystidError, match="not multisines"):
         hystid.diagnose_time([{"force": np.sin(0.01 * np.arange(3000) ** 1.5),
                                "response": np.zeros(3000), "sample_rate_hz": 1000.0}])
+
+
+def test_a_time_fit_through_the_acquisition_chain_is_the_commands(cli):
+    """`acquisition=` is `--acquisition`: the refinement of the FRF fit put
+    through a decimation by 4 is `identify --domain time --acquisition 4`,
+    fit.json keeps the chain, and `validate` of that fit puts its replay
+    through it as the command does; given to `validate`, it takes the place
+    of the fit's (`validate fit.json --acquisition 4`). A chain that is not
+    one is refused naming it."""
+    d = cli["dir"]
+    run_cli("identify", "sim/recording.json", "--out", "fit_time_acq", "--domain", "time",
+            "--acquisition", "4", cwd=d)
+    ref = json.loads((d / "fit_time_acq" / "fit.json").read_text())
+    record, _ = small_record(cli)
+    fit = json.loads((d / "fit" / "fit.json").read_text())
+    refined = hystid.identify_time([record], fit=fit, acquisition=4)
+    chain = {"decimated_by": 4, "taps": 31}
+    assert refined["time_domain"]["acquisition"] == chain
+    assert refined["time_domain"] == ref["time_domain"]
+    force, response, fs = record["force"], record["response"], record["sample_rate_hz"]
+    for name, model, flags, given in [
+        ("val_time_acq", "fit_time_acq/fit.json", [], None),
+        ("val_frf_acq", "fit/fit.json", ["--acquisition", "4"], [4]),
+    ]:
+        run_cli("validate", model, "sim/recording.json", "--out", name, *flags, cwd=d)
+        expected = json.loads((d / name / "validate.json").read_text())
+        fitted = json.loads((d / model).read_text())
+        val = hystid.validate(fitted, force, response, fs, steps=record["steps"],
+                              acquisition=given)
+        assert val["acquisition"] == expected["acquisition"] == chain
+        assert val["recordings"][0]["whole"] == expected["recordings"][0]["whole"]
+    with pytest.raises(hystid.HystidError, match="acquisition"):
+        hystid.identify_time([record], fit=fit, acquisition=1)
+    with pytest.raises(hystid.HystidError, match="acquisition"):
+        hystid.validate(fit, force, response, fs, steps=record["steps"],
+                        acquisition={"decimated_by": 4, "taps": 30})

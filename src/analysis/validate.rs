@@ -228,6 +228,12 @@ impl FitModel {
         } else {
             "fitted"
         };
+        // the recorded response's chain the time-domain refinement declared
+        // (the recording's, whichever model is replayed)
+        let acquisition = report
+            .time_domain
+            .as_ref()
+            .and_then(|t| t.acquisition.clone());
         let fit = report.fit;
         if linear {
             let s = &fit.linear.stick;
@@ -241,7 +247,7 @@ impl FitModel {
                 reference,
                 reference_quantity,
                 kind: "linear",
-                acquisition: None,
+                acquisition,
             });
         }
         if final_sign != 1.0 && final_sign != -1.0 {
@@ -261,7 +267,7 @@ impl FitModel {
             reference,
             reference_quantity,
             kind,
-            acquisition: None,
+            acquisition,
         })
     }
 }
