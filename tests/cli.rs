@@ -1286,6 +1286,69 @@ fn a_recording_too_long_to_hold_is_held_in_the_scratch_directory() {
     assert_eq!(std::fs::read_dir(&scratch).unwrap().count(), 0);
 }
 
+/// `diagnose --domain time --acquisition`: the refit's replays are put
+/// through the chain (its time-domain errors move from the plain refit's),
+/// diagnosis.json's refit names it, and `validate` of that diagnosis puts
+/// its replay through it too; without `--domain time` the flag is refused
+/// (exit 2, nothing written).
+#[test]
+fn a_time_domain_diagnosis_takes_the_acquisition_chain() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let run = dir.path().join("run");
+    simulated(&test, &run);
+    let recording = run.join("recording.json");
+    let diagnosed = |name: &str, flags: &[&str]| {
+        let out = dir.path().join(name);
+        let mut a = vec![
+            "diagnose",
+            "--quiet",
+            recording.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(flags);
+        (hystid(&a), out)
+    };
+    let json = |p: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+    };
+    let (o, plain) = diagnosed("plain", &["--domain", "time"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let (o, chained) = diagnosed("chained", &["--domain", "time", "--acquisition", "4"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let (plain, chained_json) = (
+        json(&plain.join("diagnosis.json")),
+        json(&chained.join("diagnosis.json")),
+    );
+    let refit = |d: &serde_json::Value| d["time_domain"]["refit"].clone();
+    let chain = serde_json::json!({"decimated_by": 4, "taps": 31});
+    assert!(refit(&plain).get("acquisition").is_none());
+    assert_eq!(refit(&chained_json)["acquisition"], chain);
+    let e = |d: &serde_json::Value| refit(d)["after"][0]["window"]["e_rms"].as_f64().unwrap();
+    assert!(
+        e(&plain) != e(&chained_json),
+        "{} {}",
+        e(&plain),
+        e(&chained_json)
+    );
+    let val = dir.path().join("val");
+    let o = hystid(&[
+        "validate",
+        "--quiet",
+        chained.join("diagnosis.json").to_str().unwrap(),
+        recording.to_str().unwrap(),
+        "--out",
+        val.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(json(&val.join("validate.json"))["acquisition"], chain);
+    let (o, refused) = diagnosed("refused", &["--acquisition", "4"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("add --domain time"), "{}", text(&o));
+    assert!(!refused.exists());
+}
+
 /// A model file's `[acquisition]` reaches `validate`: the replay is put
 /// through the chain (the error moves, by the FIR's droop at the response's
 /// frequencies), `validate.json` names the chain, and a chain that is not

@@ -152,7 +152,12 @@ impl FitModel {
                 reference_quantity: serde_json::from_value(value["reference_quantity"].clone())
                     .ok(),
                 kind: "diagnosed",
-                acquisition: None,
+                // the chain its time-domain refit declared: a stepped or
+                // swept diagnosis's (`time_domain.refit`), a multisine's
+                // (`refit`)
+                acquisition: [&value["time_domain"]["refit"], &value["refit"]]
+                    .into_iter()
+                    .find_map(|r| serde_json::from_value(r["acquisition"].clone()).ok()),
             });
         }
         if let Some(value) = value

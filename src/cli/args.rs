@@ -478,6 +478,11 @@ pub struct DiagnoseArgs {
     /// `identify --domain time --max-judged-samples` takes it).
     #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1000..))]
     pub max_judged_samples: usize,
+    /// With `--domain time`: the recorded response's decimation, put
+    /// through by every replay of the time-domain refits (as `identify
+    /// --domain time --acquisition` takes it).
+    #[command(flatten)]
+    pub acquisition: AcquisitionArgs,
 }
 
 /// `hystid run`.

@@ -64,7 +64,14 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                 "--starts: the time-domain fit descends from several starts; add --domain time"
             );
         }
+        if args.acquisition.acquisition.is_some() {
+            anyhow::bail!(
+                "--acquisition: only the time-domain refit replays the models; add --domain time"
+            );
+        }
     }
+    // a chain that is not one refused before anything is written
+    let acquisition = args.acquisition.chain()?;
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;
     // multisines, which no FRF reduction reads: diagnosed on their lines
@@ -119,6 +126,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                             min_samples_per_period: args.min_samples_per_period,
                             starts: args.starts as usize,
                             max_judged_samples: args.max_judged_samples,
+                            acquisition: acquisition.clone(),
                             ..Default::default()
                         },
                         options.band_hz,
@@ -240,6 +248,7 @@ fn diagnose_multisine_command(
         min_samples_per_period: args.min_samples_per_period,
         starts: args.starts as usize,
         max_judged_samples: args.max_judged_samples,
+        acquisition: args.acquisition.chain()?,
         ..Default::default()
     };
     let mut d = hystid::analysis::multisine::diagnose_multisine(
