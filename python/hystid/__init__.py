@@ -480,6 +480,7 @@ def diagnose(
     starts=1,
     min_samples_per_period=40.0,
     max_judged_samples=2**20,
+    acquisition=None,
     **kwargs,
 ):
     """Traces a fit's residual to missing effects, adds them and refits, as
@@ -508,7 +509,9 @@ def diagnose(
     ``min_samples_per_period`` and ``max_judged_samples`` as the command's
     ``--time-proposals``, ``--replay``, ``--starts``,
     ``--min-samples-per-period`` and ``--max-judged-samples`` (see
-    :func:`identify_time`).
+    :func:`identify_time`); ``acquisition`` as ``--acquisition`` (see
+    :func:`identify_time`: the refits' replays through the response's
+    decimation).
     """
     time = None
     if recordings is None:
@@ -518,6 +521,7 @@ def diagnose(
             "starts": starts != 1,
             "reduction": reduction is not None,
             "max_judged_samples": max_judged_samples != 2**20,
+            "acquisition": acquisition is not None,
         }
         named = [k for k, v in given.items() if v]
         if named:
@@ -533,6 +537,7 @@ def diagnose(
             min_samples_per_period=float(min_samples_per_period),
             time_proposals=int(time_proposals),
             max_judged_samples=int(max_judged_samples),
+            acquisition=_acquisition(acquisition),
         )
     text = _hystid.diagnose(
         json.dumps(frf),
@@ -556,6 +561,7 @@ def diagnose_time(
     replay="band_limited",
     starts=1,
     max_judged_samples=2**20,
+    acquisition=None,
     **kwargs,
 ):
     """Diagnoses multisine recordings on the lines of their period, as
@@ -572,7 +578,8 @@ def diagnose_time(
     one and ``starts - 1`` spread about it). Fit options as in
     :func:`identify` (``element``, ``modes``). ``progress``: see
     :data:`PROGRESS`. ``max_judged_samples``: as in :func:`identify_time`
-    (``--max-judged-samples``), for every fit the diagnosis makes.
+    (``--max-judged-samples``), for every fit the diagnosis makes;
+    ``acquisition`` as there (``--acquisition``).
     """
     parts = _time_records(recordings, replay)
     text = _hystid.diagnose_time(
@@ -585,6 +592,7 @@ def diagnose_time(
         replay,
         int(starts),
         int(max_judged_samples),
+        _acquisition(acquisition),
     )
     return json.loads(text)
 

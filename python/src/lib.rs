@@ -849,6 +849,8 @@ struct TimeRecordings<'py> {
     min_samples_per_period: f64,
     time_proposals: usize,
     max_judged_samples: usize,
+    /// The response's acquisition chain (JSON), or none.
+    acquisition: Option<String>,
 }
 
 /// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
@@ -899,7 +901,7 @@ fn diagnose<'py>(
                 &t.replay,
                 t.starts,
                 t.max_judged_samples,
-                None,
+                t.acquisition.as_deref(),
             )?;
             Some((named, reduction, options))
         }
@@ -1275,7 +1277,7 @@ fn identify_time<'py>(
 /// joint of `options`' element on their linear estimate fitted in time,
 /// then the loop closed on the residual per line.
 #[pyfunction]
-#[pyo3(signature = (recordings, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES))]
+#[pyo3(signature = (recordings, options, candidates = None, time_proposals = 0, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES, acquisition = None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose_time<'py>(
     py: Python<'py>,
@@ -1288,13 +1290,14 @@ fn diagnose_time<'py>(
     replay: String,
     starts: usize,
     max_judged_samples: usize,
+    acquisition: Option<String>,
 ) -> PyResult<String> {
     let time_options = time_fit_options(
         min_samples_per_period,
         &replay,
         starts,
         max_judged_samples,
-        None,
+        acquisition.as_deref(),
     )?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;

@@ -323,3 +323,19 @@ def test_a_time_fit_through_the_acquisition_chain_is_the_commands(cli):
     with pytest.raises(hystid.HystidError, match="acquisition"):
         hystid.validate(fit, force, response, fs, steps=record["steps"],
                         acquisition={"decimated_by": 4, "taps": 30})
+
+
+def test_a_diagnosis_refined_through_the_acquisition_chain_is_the_commands(cli):
+    """`diagnose(frf, recordings=[...], acquisition=4)` is `diagnose --domain
+    time --acquisition 4`, to the bit but for the wall time; without
+    recordings the chain is refused naming it."""
+    d = cli["dir"]
+    run_cli("diagnose", "sim/recording.json", "--out", "diag_time_acq", "--domain", "time",
+            "--acquisition", "4", cwd=d)
+    ref = json.loads((d / "diag_time_acq" / "diagnosis.json").read_text())
+    record, frf = small_record(cli)
+    diagnosis = hystid.diagnose(frf, recordings=[record], acquisition=4)
+    assert diagnosis["time_domain"]["refit"]["acquisition"] == {"decimated_by": 4, "taps": 31}
+    assert without(diagnosis, "seconds") == without(ref, "seconds")
+    with pytest.raises(hystid.HystidError, match="acquisition: applies to the refit"):
+        hystid.diagnose(frf, acquisition=4)
