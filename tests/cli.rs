@@ -1412,6 +1412,25 @@ fn a_declared_acquisition_is_put_through_by_validate() {
         );
         assert!(!out.join("validate.json").exists());
     }
+    // a model file's chain given to the FRF fit (which compares harmonics as
+    // recorded) is said to be left aside, not dropped silently
+    let declared = dir.path().join("fit_declared");
+    let o = hystid(&[
+        "identify",
+        recording.to_str().unwrap(),
+        "--start",
+        dir.path().join("chained.toml").to_str().unwrap(),
+        "--out",
+        declared.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains(
+            "chained.toml: its acquisition chain is put through by the time-domain fit only"
+        ),
+        "{}",
+        text(&o)
+    );
     // `identify` takes the chain for its time-domain fit only, and refuses
     // one that is not a chain before it writes anything
     for (flags, expected) in [

@@ -260,10 +260,19 @@ pub fn reduce_recordings(
 /// `hystid identify --start MODEL` (a model written down, a fit.json or a
 /// diagnosis.json): fitted to the nonlinear FRFs, or with `--domain time`
 /// to the time histories.
-fn identify_from_start(args: &IdentifyArgs, start: &Path, quiet: bool) -> Result<u8> {
-    let start = hystid::analysis::validate::read_fit(start, false)
-        .with_context(|| format!("--start: reading {}", start.display()))?;
+fn identify_from_start(args: &IdentifyArgs, path: &Path, quiet: bool) -> Result<u8> {
+    let start = hystid::analysis::validate::read_fit(path, false)
+        .with_context(|| format!("--start: reading {}", path.display()))?;
     if args.domain != Domain::Time {
+        // said, not silently dropped: harmonic balance predicts the
+        // continuous response's harmonics
+        if start.acquisition.is_some() {
+            eprintln!(
+                "warning: {}: its acquisition chain is put through by the time-domain fit only \
+                 (add --domain time); the FRF fit compares the harmonics as recorded",
+                path.display()
+            );
+        }
         return identify_declared(args, &start.model, start.response_sign, quiet);
     }
     let window = args
