@@ -90,7 +90,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             time_proposals: args.time_proposals,
             ..options
         };
-        return diagnose_multisine_command(args, p, &options, quiet);
+        return diagnose_multisine_command(args, p, acquisition, &options, quiet);
     }
     let (frf, _) = reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let _out = create_out_dir(&args.out)?;
@@ -237,6 +237,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
 fn diagnose_multisine_command(
     args: &DiagnoseArgs,
     p: hystid::analysis::PeriodicStart,
+    acquisition: Option<hystid::validate::acquisition::Acquisition>,
     options: &DiagnoseOptions,
     quiet: bool,
 ) -> Result<u8> {
@@ -248,7 +249,7 @@ fn diagnose_multisine_command(
         min_samples_per_period: args.min_samples_per_period,
         starts: args.starts as usize,
         max_judged_samples: args.max_judged_samples,
-        acquisition: args.acquisition.chain()?,
+        acquisition,
         ..Default::default()
     };
     let mut d = hystid::analysis::multisine::diagnose_multisine(

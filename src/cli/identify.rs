@@ -260,7 +260,12 @@ pub fn reduce_recordings(
 /// `hystid identify --start MODEL` (a model written down, a fit.json or a
 /// diagnosis.json): fitted to the nonlinear FRFs, or with `--domain time`
 /// to the time histories.
-fn identify_from_start(args: &IdentifyArgs, path: &Path, quiet: bool) -> Result<u8> {
+fn identify_from_start(
+    args: &IdentifyArgs,
+    path: &Path,
+    acquisition: Option<hystid::validate::acquisition::Acquisition>,
+    quiet: bool,
+) -> Result<u8> {
     let start = hystid::analysis::validate::read_fit(path, false)
         .with_context(|| format!("--start: reading {}", path.display()))?;
     if args.domain != Domain::Time {
@@ -284,7 +289,7 @@ fn identify_from_start(args: &IdentifyArgs, path: &Path, quiet: bool) -> Result<
     let records =
         hystid::analysis::time_records_in(&args.recordings, args.channels(), window, band)?;
     // the flag in place of the model file's own
-    let acquisition = args.acquisition.chain()?.or(start.acquisition);
+    let acquisition = acquisition.or(start.acquisition);
     fit_in_time(
         args,
         (&start.model, start.response_sign, acquisition),
@@ -421,9 +426,9 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         }
     }
     // a chain that is not one refused before anything is written
-    args.acquisition.chain()?;
+    let acquisition = args.acquisition.chain()?;
     if let Some(start) = &args.start {
-        return identify_from_start(args, start, quiet);
+        return identify_from_start(args, start, acquisition, quiet);
     }
     // multisines, which no FRF reduction reads: the start from their
     // linear estimate
@@ -435,10 +440,9 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
             kind,
             args.fit.modes,
         )? {
-            let chain = args.acquisition.chain()?;
             return fit_in_time(
                 args,
-                (&p.start, 1.0, chain),
+                (&p.start, 1.0, acquisition),
                 &p.records,
                 Some(p.note),
                 quiet,
@@ -487,7 +491,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
                     input: args.replay.into(),
                     starts: args.starts as usize,
                     max_judged_samples: args.max_judged_samples,
-                    acquisition: args.acquisition.chain()?,
+                    acquisition,
                     ..Default::default()
                 },
                 options.band_hz,

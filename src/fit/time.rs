@@ -898,14 +898,7 @@ impl<'p, 'a> JudgedResiduals<'p, 'a> {
         let judging = &problem.judging[i];
         Ok(JudgedResiduals {
             judging,
-            replay: crate::validate::Replay::new(
-                model,
-                &problem.drives[i],
-                (r.sample_rate_hz, replay_factor),
-                r.quantity,
-                problem.sign,
-            )?
-            .with_acquisition(problem.options.acquisition.as_ref())?,
+            replay: problem.replay_on(model, i, replay_factor)?,
             decimator: Decimator::new(judging.factor, JUDGING_HALF_WIDTH, r.response.len())?,
             measured: r.response.view().cursor(),
             decimated: Vec::new(),
@@ -1476,8 +1469,20 @@ impl<'a> TimeProblem<'a> {
     /// `model`'s replay of record `i`, made a stretch at a time as it is
     /// pulled (see [`crate::validate::Replay`]), on the record's replay grid.
     pub fn replay_of(&self, model: &Model, i: usize) -> Result<crate::validate::Replay<'_, 'a>> {
+        self.replay_on(model, i, self.replay_factor_of(model, i)?)
+    }
+
+    /// [`TimeProblem::replay_of`] at `factor` times the record's rate: every
+    /// replay the fit compares is made here, through the response's
+    /// acquisition chain where one is declared.
+    fn replay_on(
+        &self,
+        model: &Model,
+        i: usize,
+        factor: usize,
+    ) -> Result<crate::validate::Replay<'_, 'a>> {
         let r = &self.records[i];
-        let rate = (r.sample_rate_hz, self.replay_factor_of(model, i)?);
+        let rate = (r.sample_rate_hz, factor);
         crate::validate::Replay::new(model, &self.drives[i], rate, r.quantity, self.sign)?
             .with_acquisition(self.options.acquisition.as_ref())
     }

@@ -377,30 +377,11 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(worst < MAX_KERNEL_ERROR, "{:?}: {worst:e}", a.decimated_by);
         }
-        assert!(
-            Acquisition {
-                decimated_by: vec![1],
-                taps: 31
-            }
-            .check()
-            .is_err()
-        );
-        assert!(
-            Acquisition {
-                decimated_by: vec![],
-                taps: 31
-            }
-            .check()
-            .is_err()
-        );
-        assert!(
-            Acquisition {
-                decimated_by: vec![4],
-                taps: 30
-            }
-            .check()
-            .is_err()
-        );
+        // a factor of 1, no stage, an even number of taps
+        for (decimated_by, taps) in [(vec![1], 31), (vec![], 31), (vec![4], 30)] {
+            let chain = Acquisition { decimated_by, taps };
+            assert!(chain.check().is_err(), "{chain:?}");
+        }
     }
 
     /// The filter handed a response in stretches of any length is the
