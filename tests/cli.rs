@@ -1456,3 +1456,41 @@ fn a_declared_acquisition_is_put_through_by_validate() {
         assert!(!out.exists(), "{flags:?}: an output was left");
     }
 }
+
+/// `identify --each-alone` refits each of several recordings alone in the
+/// time domain: without `--domain time`, or with one recording, it is
+/// refused before anything is written (exit 2, the flag named). What it
+/// reports is tested in `fit::time` (a wrong dependence on level against a
+/// consistent one), on the UNESP chirps (`cli_realdata`) and through the
+/// Python package (the same recording twice: 1.00x).
+#[test]
+fn each_alone_is_refused_where_nothing_can_be_refitted_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let run = dir.path().join("run");
+    simulated(&test, &run);
+    let recording = run.join("recording.json");
+    let r = recording.to_str().unwrap();
+    for (recordings, flags, expected) in [
+        (vec![r, r], &["--each-alone"][..], "add --domain time"),
+        (
+            vec![r],
+            &["--domain", "time", "--each-alone"][..],
+            "give two or more",
+        ),
+    ] {
+        let out = dir.path().join("refused");
+        let mut a = vec!["identify", "--quiet"];
+        a.extend(recordings);
+        a.extend(["--out", out.to_str().unwrap()]);
+        a.extend(flags);
+        let o = hystid(&a);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{flags:?}: {t}");
+        assert!(
+            t.contains("--each-alone") && t.contains(expected),
+            "{flags:?}: {t}"
+        );
+        assert!(!out.exists(), "{flags:?}: an output was left");
+    }
+}

@@ -151,6 +151,15 @@ pub struct IdentifyArgs {
     /// otherwise; fit.json keeps it for `validate`).
     #[command(flatten)]
     pub acquisition: AcquisitionArgs,
+    /// With `--domain time` and several recordings: after the fit, refit
+    /// each recording alone from the fitted model (the same free
+    /// parameters) and say how much closer each comes (fit.json
+    /// `time_domain.each_alone`). A model that reaches each level alone but
+    /// not all at once lacks what changes between them (its joint law's
+    /// dependence on level), not a shape they share. Costs a fit per
+    /// recording.
+    #[arg(long)]
+    pub each_alone: bool,
 }
 
 /// How the recorded response was decimated to the recording's rate

@@ -375,6 +375,7 @@ fn fit_in_time(
         starts: args.starts as usize,
         max_judged_samples: args.max_judged_samples,
         acquisition,
+        each_alone: args.each_alone,
         ..Default::default()
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
@@ -424,6 +425,14 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         if args.acquisition.acquisition.is_some() {
             bail!("--acquisition: only the time-domain fit replays the model; add --domain time");
         }
+        if args.each_alone {
+            bail!(
+                "--each-alone: the recordings are refitted alone in the time domain; add --domain time"
+            );
+        }
+    }
+    if args.each_alone && args.recordings.len() < 2 {
+        bail!("--each-alone: refits each of several recordings alone; give two or more");
     }
     // a chain that is not one refused before anything is written
     let acquisition = args.acquisition.chain()?;
@@ -492,6 +501,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
                     starts: args.starts as usize,
                     max_judged_samples: args.max_judged_samples,
                     acquisition,
+                    each_alone: args.each_alone,
                     ..Default::default()
                 },
                 options.band_hz,
@@ -580,5 +590,21 @@ fn print_time_fit(t: &hystid::fit::TimeFitResult, unit: &str) {
             100.0 * a.segment_relative
         );
         super::validate::print_by_frequency(&a.window);
+    }
+    for a in &t.each_alone {
+        match (a.alone, &a.failed) {
+            (Some(x), _) => say!(
+                "  {} refitted alone: {:.2} % -> {:.2} % of the RMS ({:?})",
+                a.recording,
+                100.0 * a.together,
+                100.0 * x,
+                a.status
+            ),
+            (None, why) => say!(
+                "  {} refitted alone: failed ({})",
+                a.recording,
+                why.as_deref().unwrap_or("no error given")
+            ),
+        }
     }
 }
