@@ -401,6 +401,7 @@ def identify_time(
     starts=1,
     max_judged_samples=2**20,
     acquisition=None,
+    each_alone=False,
     **kwargs,
 ):
     """Fits a model to recorded time histories, as ``hystid identify
@@ -434,6 +435,9 @@ def identify_time(
     factor, a list of stages' factors such as ``[2, 2, 5]``, or a dict as
     the model file's ``[acquisition]``: ``{"decimated_by": 20, "taps":
     31}``); ``time_domain.acquisition`` keeps it for :func:`validate`.
+    ``each_alone=True`` is ``--each-alone``: after a fit of several
+    recordings, each is refitted alone from the fitted model
+    (``time_domain.each_alone``, and a note on what it says).
     """
     parts = _time_records(recordings, replay)
     model_start = None if start is None else _as_model(start)
@@ -450,6 +454,7 @@ def identify_time(
         int(starts),
         int(max_judged_samples),
         _acquisition(acquisition),
+        bool(each_alone),
     )
     return json.loads(text)
 

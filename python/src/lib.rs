@@ -1150,7 +1150,7 @@ impl Recordings<'_> {
 /// of a model written down (`start`, as `--start`), or with neither of
 /// multisine recordings from their linear estimate.
 #[pyfunction]
-#[pyo3(signature = (recordings, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES, acquisition = None))]
+#[pyo3(signature = (recordings, options, fit = None, start = None, fix = Vec::new(), window_s = None, min_samples_per_period = 40.0, progress = None, replay = String::from("band_limited"), starts = 1, max_judged_samples = hystid::fit::time::MAX_JUDGED_SAMPLES, acquisition = None, each_alone = false))]
 #[allow(clippy::too_many_arguments)]
 fn identify_time<'py>(
     py: Python<'py>,
@@ -1166,14 +1166,18 @@ fn identify_time<'py>(
     starts: usize,
     max_judged_samples: usize,
     acquisition: Option<String>,
+    each_alone: bool,
 ) -> PyResult<String> {
-    let time_options = time_fit_options(
-        min_samples_per_period,
-        &replay,
-        starts,
-        max_judged_samples,
-        acquisition.as_deref(),
-    )?;
+    let time_options = TimeFitOptions {
+        each_alone,
+        ..time_fit_options(
+            min_samples_per_period,
+            &replay,
+            starts,
+            max_judged_samples,
+            acquisition.as_deref(),
+        )?
+    };
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
@@ -1216,6 +1220,7 @@ fn identify_time<'py>(
                         starts: time_options.starts,
                         max_judged_samples: time_options.max_judged_samples,
                         acquisition: time_options.acquisition.clone(),
+                        each_alone: time_options.each_alone,
                         ..TimeFitOptions::default()
                     },
                     band,

@@ -325,6 +325,36 @@ def test_a_time_fit_through_the_acquisition_chain_is_the_commands(cli):
                         acquisition={"decimated_by": 4, "taps": 30})
 
 
+def test_each_recording_refitted_alone_is_the_commands(cli):
+    """`each_alone=True` is `--each-alone`: the FRF fit's model fitted in
+    time to the same recording given twice, then each copy refitted alone
+    from the fitted model, as `identify REC REC --domain time --start
+    fit.json --each-alone` does, to the bit. The same recording twice is the
+    consistent case: alone, each comes no closer than together (1.00x), and
+    the note says the misfit is shared."""
+    d = cli["dir"]
+    run_cli("identify", "sim/recording.json", "sim/recording.json", "--out", "fit_alone",
+            "--domain", "time", "--start", "fit/fit.json", "--each-alone", cwd=d)
+    ref = json.loads((d / "fit_alone" / "fit.json").read_text())
+    record, _ = small_record(cli)
+    start = cli["fit"]["model"]
+    refined = hystid.identify_time([record, record], start=start, each_alone=True)
+    assert refined["time_domain"] == ref["time_domain"]
+    alone = refined["time_domain"]["each_alone"]
+    after = refined["time_domain"]["after"]
+    assert [a["together"] for a in alone] == [a["window"]["relative"] for a in after]
+    for a in alone:
+        assert a["status"] == "converged" and "failed" not in a
+        assert abs(a["alone"] / a["together"] - 1.0) < 1e-3, a
+    note = refined["time_domain"]["notes"][-1]
+    assert note.startswith("refitted alone, the recordings come 1.00x closer"), note
+    assert "shared by every recording" in note
+    # without it, no refit alone and no such note
+    plain = hystid.identify_time([record, record], start=start)
+    assert "each_alone" not in plain["time_domain"]
+    assert not any(n.startswith("refitted alone") for n in plain["time_domain"]["notes"])
+
+
 def test_a_diagnosis_refined_through_the_acquisition_chain_is_the_commands(cli):
     """`diagnose(frf, recordings=[...], acquisition=4)` is `diagnose --domain
     time --acquisition 4`, to the bit but for the wall time; without
