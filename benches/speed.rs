@@ -52,6 +52,15 @@
 //!   simulate` writes it (single-threaded zstd): ≥ 200 MB/s of file. The
 //!   CPU time leaves out waiting for the disk (`finish` syncs the file);
 //!   `cargo bench --bench pipeline -- record` has the wall time.
+//! * `replay/f16_level/*` (issue 13): one whole F-16 sine-sweep level,
+//!   108 477 samples at 400 Hz (a linear sweep 15 -> 2 Hz at 50 N, as the
+//!   benchmark's), replayed as a time fit and `validate` replay it
+//!   (`hystid::validate::simulate_response`: the band-limited drive, the
+//!   acceleration) through the models the README fits to it: `masing`, the
+//!   time-domain protocol's (three modes and the eq. (10) joint), and
+//!   `iwan4_hysteretic_mode`, the walkthrough's (three modes, Segalman's
+//!   Iwan joint at the drive point and the 6.3 Hz hysteretic mode with its
+//!   Jenkins joint): ≤ 5 ms.
 
 #[path = "common/mod.rs"]
 mod common;
@@ -473,9 +482,112 @@ fn recording(c: &mut Criterion<ThreadCpu>) {
     g.finish();
 }
 
+/// One F-16 sweep level replayed through the models fitted to it (see
+/// the module docs).
+fn replay(c: &mut Criterion<ThreadCpu>) {
+    let model = |name: &str, text: &str| {
+        hystid::testbench::StructureDefinition::from_toml(text, name)
+            .and_then(|d| d.model())
+            .expect(name)
+    };
+    // as fitted (2026-12-02), to five figures
+    let masing = model(
+        "the protocol's model",
+        r#"
+[[modes]]
+frequency_hz = 6.4812
+damping_ratio = 0.0022805
+residue = 0.0025028
+[[modes]]
+frequency_hz = 4.6438
+damping_ratio = 0.012022
+residue = 0.0021905
+[[modes]]
+frequency_hz = 8.9067
+damping_ratio = 0.010193
+residue = 0.00056116
+[joint]
+kind = "masing"
+kd = 1.5325e5
+fd = 324.14
+n = 1.9273
+"#,
+    );
+    let walkthrough = model(
+        "the walkthrough's model",
+        r#"
+[[modes]]
+frequency_hz = 6.7583
+damping_ratio = 0.0016973
+residue = 0.0028575
+[[modes]]
+frequency_hz = 4.8713
+damping_ratio = 0.010484
+residue = 0.0015967
+[[modes]]
+frequency_hz = 8.9397
+damping_ratio = 0.010440
+residue = 0.00081310
+[[modes]]
+frequency_hz = 6.2838
+damping_ratio = 0.0068945
+residue = 0.00062761
+joint = { kind = "jenkins", kd = 2.9954e5, fd = 49.094 }
+[joint]
+kind = "iwan4"
+fs = 113.34
+kt = 1.0995e5
+chi = -0.0100001
+beta = 1.0879
+"#,
+    );
+    let fs = 400.0;
+    let n = 108_477;
+    let duration = n as f64 / fs;
+    let rate = -13.0 / duration;
+    let force: Vec<f64> = (0..n)
+        .map(|i| {
+            let t = i as f64 / fs;
+            50.0 * (2.0 * PI * (15.0 * t + 0.5 * rate * t * t)).sin()
+        })
+        .collect();
+    let replayed = |m: &Model, f: &[f64]| {
+        hystid::validate::simulate_response(
+            m,
+            f,
+            fs,
+            hystid::harmonics::Quantity::Acceleration,
+            1.0,
+            40.0,
+        )
+        .unwrap()
+    };
+    let mut g = c.benchmark_group("replay");
+    g.throughput(Throughput::Elements(n as u64));
+    for (name, m) in [("masing", &masing), ("iwan4_hysteretic_mode", &walkthrough)] {
+        // no upsampling at this rate: the replay is the level's own samples
+        assert_eq!(replayed(m, &force).values.len(), n);
+        g.bench_function(format!("f16_level/{name}"), |b| {
+            b.iter(|| replayed(m, black_box(&force)))
+        });
+        // the simulator alone on the same samples (no drive made
+        // band-limited, no stretches)
+        let mut sim = Simulator::new(&m.linear, m.element_set().unwrap(), fs).unwrap();
+        let mut out = vec![0.0; n];
+        g.bench_function(format!("f16_level_simulator/{name}"), |b| {
+            b.iter(|| {
+                sim.reset();
+                sim.run_output(black_box(&force), hystid::sim::Output::Acceleration, &mut out)
+                    .unwrap()
+            })
+        });
+    }
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = config();
-    targets = simulator, harmonic_balance, hb_curve, extraction, recording
+    targets = simulator, harmonic_balance, hb_curve, extraction, recording, replay
 }
 criterion_main!(benches);
