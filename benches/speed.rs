@@ -577,8 +577,12 @@ beta = 1.0879
         g.bench_function(format!("f16_level_simulator/{name}"), |b| {
             b.iter(|| {
                 sim.reset();
-                sim.run_output(black_box(&force), hystid::sim::Output::Acceleration, &mut out)
-                    .unwrap()
+                sim.run_output(
+                    black_box(&force),
+                    hystid::sim::Output::Acceleration,
+                    &mut out,
+                )
+                .unwrap()
             })
         });
     }
