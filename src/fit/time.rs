@@ -682,7 +682,13 @@ fn refit_each_alone(
         ..options.clone()
     };
     let mut alone = Vec::with_capacity(records.len());
-    for (record, together) in records.iter().zip(&fitted.after) {
+    let n = records.len() as u64;
+    for (k, (record, together)) in records.iter().zip(&fitted.after).enumerate() {
+        // the stage said between the refits (each one's evaluations are
+        // told as a fit's)
+        if let Some(o) = observer {
+            crate::observe::progress(o, "refitting each recording alone", k as u64, n)?;
+        }
         let refit = identify_time(
             &fitted.model,
             parameters.clone(),
@@ -708,6 +714,9 @@ fn refit_each_alone(
                 failed: Some(e.to_string()),
             },
         });
+    }
+    if let Some(o) = observer {
+        crate::observe::progress(o, "refitting each recording alone", n, n)?;
     }
     Ok(alone)
 }
