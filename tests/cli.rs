@@ -1457,9 +1457,60 @@ fn a_declared_acquisition_is_put_through_by_validate() {
     }
 }
 
-/// `identify --each-alone` refits each of several recordings alone in the
-/// time domain: without `--domain time`, or with one recording, it is
-/// refused before anything is written (exit 2, the flag named). What it
+/// `diagnose --domain time --each-alone` refits the final refit's
+/// recordings alone and reports them in diagnosis.json
+/// (`time_domain.refit.each_alone`, beside the refit's `after`), in
+/// diagnosis.md (a table and the note) and on the terminal: on the same
+/// recording given twice, the consistent case, alone comes no closer than
+/// together (1.00x), and the note says the misfit is shared.
+#[test]
+fn a_time_diagnosis_refits_each_recording_alone_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let run = dir.path().join("run");
+    simulated(&test, &run);
+    let recording = run.join("recording.json");
+    let r = recording.to_str().unwrap();
+    let out = dir.path().join("diag");
+    let o = hystid(&[
+        "diagnose",
+        r,
+        r,
+        "--domain",
+        "time",
+        "--each-alone",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("diagnosis.json")).unwrap()).unwrap();
+    let refit = &d["time_domain"]["refit"];
+    let alone = refit["each_alone"].as_array().expect("each_alone");
+    assert_eq!(alone.len(), 2);
+    for (a, after) in alone.iter().zip(refit["after"].as_array().unwrap()) {
+        assert_eq!(a["together"], after["window"]["relative"]);
+        let ratio = a["together"].as_f64().unwrap() / a["alone"].as_f64().unwrap();
+        assert!((ratio - 1.0).abs() < 1e-3, "{a}");
+    }
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    assert!(md.contains("| recording | together | alone |"), "{md}");
+    assert!(
+        md.contains("Refitted alone, the recordings come 1.00x closer")
+            && md.contains("shared by every recording"),
+        "{md}"
+    );
+    assert!(
+        t.contains("refitted alone: ") && t.contains("1.00x closer"),
+        "{t}"
+    );
+}
+
+/// `identify --each-alone` (and `diagnose --each-alone`) refits each of
+/// several recordings alone in the time domain: without `--domain time`,
+/// or with one recording, it is refused before anything is written (exit
+/// 2, the flag named). What it
 /// reports is tested in `fit::time` (a wrong dependence on level against a
 /// consistent one), on the UNESP chirps (`cli_realdata`) and through the
 /// Python package (the same recording twice: 1.00x).
@@ -1471,16 +1522,34 @@ fn each_alone_is_refused_where_nothing_can_be_refitted_alone() {
     simulated(&test, &run);
     let recording = run.join("recording.json");
     let r = recording.to_str().unwrap();
-    for (recordings, flags, expected) in [
-        (vec![r, r], &["--each-alone"][..], "add --domain time"),
+    for (command, recordings, flags, expected) in [
         (
+            "identify",
+            vec![r, r],
+            &["--each-alone"][..],
+            "add --domain time",
+        ),
+        (
+            "identify",
+            vec![r],
+            &["--domain", "time", "--each-alone"][..],
+            "give two or more",
+        ),
+        (
+            "diagnose",
+            vec![r, r],
+            &["--each-alone"][..],
+            "add --domain time",
+        ),
+        (
+            "diagnose",
             vec![r],
             &["--domain", "time", "--each-alone"][..],
             "give two or more",
         ),
     ] {
         let out = dir.path().join("refused");
-        let mut a = vec!["identify", "--quiet"];
+        let mut a = vec![command, "--quiet"];
         a.extend(recordings);
         a.extend(["--out", out.to_str().unwrap()]);
         a.extend(flags);

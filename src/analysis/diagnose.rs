@@ -183,6 +183,12 @@ pub fn refine_in_time(
     observer: &dyn Observer,
 ) -> Result<TimeRefinement> {
     let patience = diagnose_options.patience;
+    // the recordings alone are refitted from the final refit only
+    let each_alone = options.each_alone && records.len() > 1;
+    let options = &TimeFitOptions {
+        each_alone: false,
+        ..options.clone()
+    };
     let params = time_parameters(&d.model, options.refine_linear, band_hz);
     let mut refit = identify_time(
         &d.model,
@@ -319,6 +325,14 @@ pub fn refine_in_time(
                 break;
             }
         }
+    }
+    if each_alone {
+        let p = time_parameters(&refit.model, options.refine_linear, band_hz);
+        refit.each_alone =
+            crate::fit::time::refit_each_alone(&refit, &p, records, options, Some(observer))?;
+        refit
+            .notes
+            .extend(crate::fit::time::level_consistency(&refit.each_alone));
     }
     // the refitted model's residual in the FRFs' plane; with proposals
     // asked, every candidate traced in it
@@ -819,6 +833,29 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             100.0 * f.segment_relative,
             100.0 * a.segment_relative
         );
+    }
+    if !t.refit.each_alone.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nEach recording refitted alone from the refitted model (`--each-alone`): \
+             its relative e_RMS over its judged window.\n\n\
+             | recording | together | alone |\n|---|---|---|"
+        );
+        for a in &t.refit.each_alone {
+            let alone = match (a.alone, &a.failed) {
+                (Some(x), _) => format!("{:.2} %", 100.0 * x),
+                (None, why) => format!("refit failed: {}", why.as_deref().unwrap_or("")),
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {:.2} % | {alone} |",
+                a.recording,
+                100.0 * a.together
+            );
+        }
+        if let Some(note) = crate::fit::time::level_consistency(&t.refit.each_alone) {
+            let _ = writeln!(s, "\n{}{}.", note[..1].to_uppercase(), &note[1..]);
+        }
     }
     if !t.checks.is_empty() {
         let _ = writeln!(

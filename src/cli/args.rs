@@ -492,6 +492,14 @@ pub struct DiagnoseArgs {
     /// --domain time --acquisition` takes it).
     #[command(flatten)]
     pub acquisition: AcquisitionArgs,
+    /// With `--domain time` and several swept or stepped recordings: the
+    /// final refit's recordings each refitted alone from its model, as
+    /// `identify --domain time --each-alone` does (diagnosis.json
+    /// `time_domain.refit.each_alone`, and a table in diagnosis.md): whether
+    /// what the final model still lacks is shared by every level or changes
+    /// from one to the next. Costs a fit per recording.
+    #[arg(long)]
+    pub each_alone: bool,
 }
 
 /// `hystid run`.

@@ -69,6 +69,14 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                 "--acquisition: only the time-domain refit replays the models; add --domain time"
             );
         }
+        if args.each_alone {
+            anyhow::bail!(
+                "--each-alone: the recordings are refitted alone in the time domain; add --domain time"
+            );
+        }
+    }
+    if args.each_alone && args.recordings.len() < 2 {
+        anyhow::bail!("--each-alone: refits each of several recordings alone; give two or more");
     }
     // a chain that is not one refused before anything is written
     let acquisition = args.acquisition.chain()?;
@@ -84,6 +92,12 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             fit_opts.modes,
         )?
     {
+        if args.each_alone {
+            anyhow::bail!(
+                "--each-alone: refits a swept or stepped diagnosis's recordings alone; \
+                 multisines are diagnosed at the lines of their period"
+            );
+        }
         let options = DiagnoseOptions {
             band_hz: fit_opts.band_hz,
             fit: fit_opts.clone(),
@@ -127,6 +141,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                             starts: args.starts as usize,
                             max_judged_samples: args.max_judged_samples,
                             acquisition: acquisition.clone(),
+                            each_alone: args.each_alone,
                             ..Default::default()
                         },
                         options.band_hz,
@@ -185,6 +200,10 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                     100.0 * a.segment_relative
                 );
                 super::validate::print_by_frequency(&a.window);
+            }
+            super::identify::print_each_alone(&t.refit.each_alone);
+            if let Some(note) = hystid::fit::time::level_consistency(&t.refit.each_alone) {
+                say!("  {note}");
             }
             for c in &t.checks {
                 match &c.failed {

@@ -591,7 +591,12 @@ fn print_time_fit(t: &hystid::fit::TimeFitResult, unit: &str) {
         );
         super::validate::print_by_frequency(&a.window);
     }
-    for a in &t.each_alone {
+    print_each_alone(&t.each_alone);
+}
+
+/// Each recording refitted alone (`--each-alone`), a line each.
+pub fn print_each_alone(alone: &[hystid::fit::time::AloneFit]) {
+    for a in alone {
         match (a.alone, &a.failed) {
             (Some(x), _) => say!(
                 "  {} refitted alone: {:.2} % -> {:.2} % of the RMS ({:?})",

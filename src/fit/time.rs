@@ -669,7 +669,7 @@ pub fn level_consistency(alone: &[AloneFit]) -> Option<String> {
 /// Each of `records` refitted alone from `fitted`'s model with the
 /// `parameters` its fit freed (see [`TimeFitOptions::each_alone`]); a
 /// refit that fails is reported, not fatal.
-fn refit_each_alone(
+pub fn refit_each_alone(
     fitted: &TimeFitResult,
     parameters: &ParameterSet,
     records: &[TimeRecord],
