@@ -486,6 +486,7 @@ def diagnose(
     min_samples_per_period=40.0,
     max_judged_samples=2**20,
     acquisition=None,
+    each_alone=False,
     **kwargs,
 ):
     """Traces a fit's residual to missing effects, adds them and refits, as
@@ -516,7 +517,8 @@ def diagnose(
     ``--min-samples-per-period`` and ``--max-judged-samples`` (see
     :func:`identify_time`); ``acquisition`` as ``--acquisition`` (see
     :func:`identify_time`: the refits' replays through the response's
-    decimation).
+    decimation); ``each_alone=True`` as ``--each-alone`` (the final refit's
+    recordings each refitted alone: ``time_domain.refit.each_alone``).
     """
     time = None
     if recordings is None:
@@ -527,6 +529,7 @@ def diagnose(
             "reduction": reduction is not None,
             "max_judged_samples": max_judged_samples != 2**20,
             "acquisition": acquisition is not None,
+            "each_alone": bool(each_alone),
         }
         named = [k for k, v in given.items() if v]
         if named:
@@ -543,6 +546,7 @@ def diagnose(
             time_proposals=int(time_proposals),
             max_judged_samples=int(max_judged_samples),
             acquisition=_acquisition(acquisition),
+            each_alone=bool(each_alone),
         )
     text = _hystid.diagnose(
         json.dumps(frf),

@@ -851,6 +851,8 @@ struct TimeRecordings<'py> {
     max_judged_samples: usize,
     /// The response's acquisition chain (JSON), or none.
     acquisition: Option<String>,
+    /// Whether the final refit's recordings are each refitted alone.
+    each_alone: bool,
 }
 
 /// Diagnoses a fit of nonlinear FRFs (fit.json, or fitted first with
@@ -896,13 +898,16 @@ fn diagnose<'py>(
                 .zip(loaded)
                 .collect();
             let reduction = from_json::<ReductionJson>("reduction", &t.reduction)?.options()?;
-            let options = time_fit_options(
-                t.min_samples_per_period,
-                &t.replay,
-                t.starts,
-                t.max_judged_samples,
-                t.acquisition.as_deref(),
-            )?;
+            let options = TimeFitOptions {
+                each_alone: t.each_alone,
+                ..time_fit_options(
+                    t.min_samples_per_period,
+                    &t.replay,
+                    t.starts,
+                    t.max_judged_samples,
+                    t.acquisition.as_deref(),
+                )?
+            };
             Some((named, reduction, options))
         }
     };

@@ -355,6 +355,24 @@ def test_each_recording_refitted_alone_is_the_commands(cli):
     assert not any(n.startswith("refitted alone") for n in plain["time_domain"]["notes"])
 
 
+def test_a_diagnosis_refits_each_recording_alone_when_asked(cli):
+    """`diagnose(frf, recordings=[r, r], each_alone=True)` is `diagnose REC REC
+    --domain time --each-alone` for the refit's recordings alone: each copy
+    of the same recording refitted alone from the final refit comes no
+    closer than together (1.00x); without recordings it is refused naming
+    it."""
+    record, frf = small_record(cli)
+    diagnosis = hystid.diagnose(frf, recordings=[record, record], each_alone=True)
+    refit = diagnosis["time_domain"]["refit"]
+    alone = refit["each_alone"]
+    assert [a["together"] for a in alone] == [a["window"]["relative"] for a in refit["after"]]
+    for a in alone:
+        assert abs(a["alone"] / a["together"] - 1.0) < 1e-3, a
+    assert any(n.startswith("refitted alone, the recordings come 1.00x") for n in refit["notes"])
+    with pytest.raises(hystid.HystidError, match="each_alone: applies to the refit"):
+        hystid.diagnose(frf, each_alone=True)
+
+
 def test_a_diagnosis_refined_through_the_acquisition_chain_is_the_commands(cli):
     """`diagnose(frf, recordings=[...], acquisition=4)` is `diagnose --domain
     time --acquisition 4`, to the bit but for the wall time; without
