@@ -1522,32 +1522,18 @@ fn each_alone_is_refused_where_nothing_can_be_refitted_alone() {
     simulated(&test, &run);
     let recording = run.join("recording.json");
     let r = recording.to_str().unwrap();
-    for (command, recordings, flags, expected) in [
+    let cases = [
+        (vec![r, r], &["--each-alone"][..], "add --domain time"),
         (
-            "identify",
-            vec![r, r],
-            &["--each-alone"][..],
-            "add --domain time",
-        ),
-        (
-            "identify",
             vec![r],
             &["--domain", "time", "--each-alone"][..],
             "give two or more",
         ),
-        (
-            "diagnose",
-            vec![r, r],
-            &["--each-alone"][..],
-            "add --domain time",
-        ),
-        (
-            "diagnose",
-            vec![r],
-            &["--domain", "time", "--each-alone"][..],
-            "give two or more",
-        ),
-    ] {
+    ];
+    for (command, (recordings, flags, expected)) in ["identify", "diagnose"]
+        .into_iter()
+        .flat_map(|c| cases.iter().cloned().map(move |case| (c, case)))
+    {
         let out = dir.path().join("refused");
         let mut a = vec![command, "--quiet"];
         a.extend(recordings);

@@ -328,11 +328,7 @@ pub fn refine_in_time(
     }
     if each_alone {
         let p = time_parameters(&refit.model, options.refine_linear, band_hz);
-        refit.each_alone =
-            crate::fit::time::refit_each_alone(&refit, &p, records, options, Some(observer))?;
-        refit
-            .notes
-            .extend(crate::fit::time::level_consistency(&refit.each_alone));
+        crate::fit::time::refit_each_alone(&mut refit, &p, records, options, Some(observer))?;
     }
     // the refitted model's residual in the FRFs' plane; with proposals
     // asked, every candidate traced in it

@@ -667,9 +667,23 @@ pub fn level_consistency(alone: &[AloneFit]) -> Option<String> {
 }
 
 /// Each of `records` refitted alone from `fitted`'s model with the
-/// `parameters` its fit freed (see [`TimeFitOptions::each_alone`]); a
-/// refit that fails is reported, not fatal.
+/// `parameters` its fit freed, into `fitted.each_alone`, and the note of
+/// what that says (see [`TimeFitOptions::each_alone`]); a refit that fails
+/// is reported, not fatal. `identify_time` calls it when asked, and so does
+/// a diagnosis for its final refit.
 pub fn refit_each_alone(
+    fitted: &mut TimeFitResult,
+    parameters: &ParameterSet,
+    records: &[TimeRecord],
+    options: &TimeFitOptions,
+    observer: Option<&dyn crate::observe::Observer>,
+) -> Result<()> {
+    fitted.each_alone = alone_refits(fitted, parameters, records, options, observer)?;
+    fitted.notes.extend(level_consistency(&fitted.each_alone));
+    Ok(())
+}
+
+fn alone_refits(
     fitted: &TimeFitResult,
     parameters: &ParameterSet,
     records: &[TimeRecord],
@@ -2425,8 +2439,7 @@ pub fn identify_time(
     if let Some(parameters) = each_alone {
         // the problem's scratch (its replays, its Jacobian) freed first
         drop(problem);
-        fit.each_alone = refit_each_alone(&fit, &parameters, records, options, observer)?;
-        fit.notes.extend(level_consistency(&fit.each_alone));
+        refit_each_alone(&mut fit, &parameters, records, options, observer)?;
     }
     Ok(fit)
 }
