@@ -26,7 +26,6 @@
 //! `Im X_h` for each `h ≥ 1`, in the order of the harmonic set.
 
 use super::PeriodicLoop;
-use super::newton::EvalError;
 
 /// Largest distance of a gradually settling law's memory from periodic at the
 /// close of a marched period ([`Element::close_period`]), relative to the
@@ -41,6 +40,42 @@ use num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::f64::consts::PI;
 use std::sync::Arc;
+
+/// Why the harmonic-balance residual could not be evaluated at a point.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub(crate) enum EvalError {
+    /// The AFT march met a non-finite element force.
+    #[error(
+        "element force is not finite at time sample {sample} of {samples} (x = {x:e} m, v = {v:e} m/s)"
+    )]
+    ElementForce {
+        /// The time sample.
+        sample: usize,
+        /// Time samples per period.
+        samples: usize,
+        /// Displacement there, m.
+        x: f64,
+        /// Velocity there, m/s.
+        v: f64,
+    },
+    /// A law whose memory fades gradually did not reach a periodic loop.
+    #[error(
+        "the element's loop did not repeat within {periods} periods (last off by {change:.1e} of its peak)"
+    )]
+    NotSettled {
+        /// Periods marched.
+        periods: usize,
+        /// How far the last period's memory was from periodic, relative to
+        /// the force's peak.
+        change: f64,
+    },
+    /// A residual component is not finite (an overflowing receptance or force).
+    #[error("the residual is not finite (component {component})")]
+    Residual {
+        /// The real unknown's index.
+        component: usize,
+    },
+}
 
 /// Where each harmonic's real unknowns sit.
 #[derive(Clone, Debug)]

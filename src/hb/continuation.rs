@@ -30,8 +30,9 @@
 //!   from is chosen by following the describing function from a frequency (up
 //!   to 50 % back) where it has one.
 
+use super::aft::EvalError;
 use super::describing;
-use super::newton::{EvalError, Outcome, lu_factor, lu_solve, norm};
+use super::newton::{Outcome, lu_factor, lu_solve, norm};
 use super::{Fold, HbPoint, HbSolver, LinearPart};
 use crate::error::Result;
 use crate::model::Element;
