@@ -30,8 +30,9 @@
 //! the frequencies to rounding (tested); records up to
 //! [`super::WHOLE_RECORD_FRAMES`] are read whole, as before.
 
+use super::blocks::{BLOCKS, Blocks, HeldReference, PairSource};
 use super::stepped::{DwellOptions, WindowTracker, dwells_of_windows};
-use super::sweep_blocks::{BLOCKS, BlockPhase, Blocks, HeldReference, PairSource};
+use super::sweep_blocks::BlockPhase;
 use crate::error::{Error, Result};
 use crate::observe::{Observer, Silent, progress};
 use crate::signals::{FrameSource, SamplesView, Step};
@@ -182,7 +183,7 @@ pub fn find_dwells_stream<S: FrameSource>(
 ) -> Result<Vec<Step>> {
     let fs = source.meta().sample_rate_hz;
     let frames = source.frames();
-    let mut pair = super::sweep_blocks::frame_pair(source, reference, response, &BLOCKS)?;
+    let mut pair = super::blocks::frame_pair(source, reference, response, &BLOCKS)?;
     if frames <= BLOCKS.whole {
         let (force, _) = pair.pair(0, frames)?;
         return super::find_dwells(force, fs, options);
@@ -208,8 +209,8 @@ pub fn find_dwells_held(
 
 #[cfg(test)]
 mod tests {
+    use super::super::blocks::{InMemory, SMALL};
     use super::super::stepped::{normalise, track};
-    use super::super::sweep_blocks::{InMemory, SMALL};
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};

@@ -30,6 +30,7 @@
 //! [`DwellHarmonics::std_error`].
 
 pub(crate) mod analytic;
+mod blocks;
 mod coherent;
 mod compensation;
 mod dwell_blocks;
@@ -42,9 +43,14 @@ mod stepped;
 mod streaming;
 mod sweep;
 mod sweep_blocks;
+mod sweep_reduce;
 
+pub use blocks::WHOLE_RECORD_FRAMES;
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
-pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
+pub use compensation::{
+    TIME_CONSTANTS, choose_compensation, choose_compensation_held, choose_compensation_stream,
+    resonance_time_constant,
+};
 pub use dwell_blocks::{FINDING, find_dwells_held, find_dwells_stream};
 pub use noncoherent::{estimate_frequency, noncoherent};
 pub use periodic::{
@@ -57,13 +63,10 @@ pub use stepped::{
     reduce_stepped_report, settling,
 };
 pub use streaming::{reduce_stepped_stream, reduce_stepped_stream_observed};
-pub use sweep::{
-    MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep, reduce_sweep,
-    reduce_sweep_recording,
-};
-pub use sweep_blocks::{
-    WHOLE_RECORD_FRAMES, choose_compensation_held, choose_compensation_stream, find_sweep_held,
-    reduce_sweep_held, reduce_sweep_stream,
+pub use sweep::{MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep};
+pub use sweep_blocks::find_sweep_held;
+pub use sweep_reduce::{
+    reduce_sweep, reduce_sweep_held, reduce_sweep_recording, reduce_sweep_stream,
 };
 
 use crate::harmonics::Quantity;

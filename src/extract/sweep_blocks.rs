@@ -5,9 +5,9 @@
 //! with the sweep-distortion compensation, each harmonic's convolution with
 //! the compensation's kernel. Each takes buffers of 16 bytes per frame, on
 //! top of the record itself: 1.4 GB for a 10-minute sweep at 20 kHz. A
-//! record longer than [`WHOLE_RECORD_FRAMES`] is instead reduced a block at
+//! record longer than [`super::WHOLE_RECORD_FRAMES`] is instead reduced a block at
 //! a time, and read a stretch at a time ([`PairSource`]; from disk by
-//! [`reduce_sweep_stream`]), so that memory is set by the blocks and the
+//! [`super::reduce_sweep_stream`]), so that memory is set by the blocks and the
 //! compensation's kernel, not by the record's length:
 //!
 //! - **Following the phase.** The analytic signal is taken per block of
@@ -42,143 +42,16 @@
 //! constants.
 
 use super::analytic::next_smooth;
+use super::blocks::{BLOCKS, Blocks, HeldReference, PairSource};
 use super::sweep::{
     Demodulated, Harmonics, PhaseLaw, SweepFit, SweepOptions, WindowFit, chirp_kernel, fit_phase,
     gaussian_squared, kernel, reach, store, window_centres,
 };
 use crate::error::{Error, Result};
-use crate::signals::{FrameSource, SamplesView};
+use crate::signals::SamplesView;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
-use std::borrow::Cow;
 use std::f64::consts::PI;
-
-/// Records of at most this many frames are reduced whole (2^21: 105 s at
-/// 20 kHz), longer ones a block at a time (see the module docs).
-pub const WHOLE_RECORD_FRAMES: usize = BLOCKS.whole;
-
-/// The sizes the reduction works in.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Blocks {
-    /// Records of at most this many frames are transformed whole.
-    pub whole: usize,
-    /// Frames of the phase kept per analytic block.
-    pub analytic_block: usize,
-    /// Frames of the record transformed with a block on either side.
-    pub analytic_margin: usize,
-    /// The compensation's FFT length, at least.
-    pub convolution: usize,
-    /// Phase and envelope points kept, at most.
-    pub phase_points: usize,
-    /// Frames read from a file at a time, at least.
-    pub read: usize,
-}
-
-/// The sizes the library uses.
-pub(super) const BLOCKS: Blocks = Blocks {
-    whole: 1 << 21,
-    analytic_block: 1 << 19,
-    analytic_margin: 1 << 17,
-    convolution: 1 << 19,
-    phase_points: 1 << 18,
-    read: 1 << 18,
-};
-
-/// Blocks small enough that the tests' records of some 10^5 frames are read
-/// as long ones are: analytic blocks of 16 384 frames with 8 192 either side
-/// (40 periods at the test sweep's lowest 5 Hz), FFTs of 4 096 at least,
-/// reads of 1 024.
-#[cfg(test)]
-pub(super) const SMALL: Blocks = Blocks {
-    whole: 1 << 12,
-    analytic_block: 1 << 14,
-    analytic_margin: 1 << 13,
-    convolution: 1 << 12,
-    phase_points: 1 << 17,
-    read: 1 << 10,
-};
-
-/// The force (reference) and response of a swept record, a stretch at a
-/// time.
-pub(super) trait PairSource {
-    /// Frames in the record.
-    fn frames(&self) -> usize;
-    /// The force and the response over frames `a..b` (`a ≤ b ≤ frames`).
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])>;
-}
-
-/// Both channels in memory.
-pub(super) struct InMemory<'a> {
-    pub force: &'a [f64],
-    pub response: &'a [f64],
-}
-
-impl PairSource for InMemory<'_> {
-    fn frames(&self) -> usize {
-        self.force.len()
-    }
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        Ok((&self.force[a..b], &self.response[a..b]))
-    }
-}
-
-/// Two held channels (in memory or in scratch files), read a stretch at a
-/// time.
-struct HeldPair<'a> {
-    force: SamplesView<'a>,
-    response: SamplesView<'a>,
-    held: (Cow<'a, [f64]>, Cow<'a, [f64]>),
-}
-
-impl PairSource for HeldPair<'_> {
-    fn frames(&self) -> usize {
-        self.force.len()
-    }
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        self.held = (self.force.range(a..b), self.response.range(a..b));
-        Ok((&self.held.0, &self.held.1))
-    }
-}
-
-/// [`super::reduce_sweep`] of two held channels, read a stretch at a time
-/// where they are held in scratch files (never copied whole): the same
-/// reduction to the bit as of their values.
-pub fn reduce_sweep_held(
-    force: SamplesView,
-    response: SamplesView,
-    sample_rate_hz: f64,
-    options: &super::SweepOptions,
-) -> Result<super::SweepReduction> {
-    if force.len() != response.len() {
-        return Err(Error::input(
-            "response",
-            format!(
-                "has {} samples but the force has {}: they must be sampled together",
-                response.len(),
-                force.len()
-            ),
-        ));
-    }
-    let mut pair = HeldPair {
-        force,
-        response,
-        held: (Cow::Borrowed(&[]), Cow::Borrowed(&[])),
-    };
-    super::sweep::reduce_sweep_from(&mut pair, sample_rate_hz, options, &BLOCKS)
-}
-
-/// [`super::choose_compensation`] of two held channels, each reduction
-/// reading them a stretch at a time ([`reduce_sweep_held`]).
-pub fn choose_compensation_held(
-    force: SamplesView,
-    response: SamplesView,
-    sample_rate_hz: f64,
-    options: &super::SweepOptions,
-) -> Result<f64> {
-    super::compensation::choose_compensation_by(sample_rate_hz, options, &mut |o| {
-        reduce_sweep_held(force, response, sample_rate_hz, o)
-    })
-}
 
 /// [`super::find_sweep`] of a reference held however it is (in scratch
 /// files where it is long): read whole up to [`Blocks::whole`] frames (the
@@ -204,131 +77,6 @@ fn find_sweep_in(
     super::sweep::check_sweep_rate(sample_rate_hz)?;
     let mut only = HeldReference::new(reference);
     fit_sweep_in_blocks(&mut only, sample_rate_hz, options, blocks).map(|(_, s)| s)
-}
-
-/// A held channel as the force of a [`PairSource`] (the response: the same
-/// stretch), read a stretch at a time.
-pub(super) struct HeldReference<'a> {
-    samples: SamplesView<'a>,
-    held: Cow<'a, [f64]>,
-}
-
-impl<'a> HeldReference<'a> {
-    pub(super) fn new(samples: SamplesView<'a>) -> HeldReference<'a> {
-        HeldReference {
-            samples,
-            held: Cow::Borrowed(&[]),
-        }
-    }
-}
-
-impl PairSource for HeldReference<'_> {
-    fn frames(&self) -> usize {
-        self.samples.len()
-    }
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        self.held = self.samples.range(a..b);
-        Ok((&self.held, &self.held))
-    }
-}
-
-/// Two channels of a [`FrameSource`], read a stretch of at least
-/// [`Blocks::read`] frames at a time.
-pub(super) struct FramePair<'s, S: FrameSource> {
-    source: &'s mut S,
-    /// Reference and response channels.
-    channels: [usize; 2],
-    /// The first frame held.
-    start: usize,
-    held: [Vec<f64>; 2],
-    scratch: Vec<Vec<f64>>,
-    read: usize,
-}
-
-impl<S: FrameSource> PairSource for FramePair<'_, S> {
-    fn frames(&self) -> usize {
-        self.source.frames()
-    }
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        if a < self.start || b > self.start + self.held[0].len() {
-            let count = (b - a).max(self.read).min(self.source.frames() - a);
-            let got = self.source.read_at(a, count, &mut self.scratch)?;
-            if got < b - a {
-                return Err(Error::input(
-                    self.source.source_name(),
-                    format!("read {got} of frames {a}..{b}: the file ends early"),
-                ));
-            }
-            for (held, &c) in self.held.iter_mut().zip(&self.channels) {
-                std::mem::swap(held, &mut self.scratch[c]);
-            }
-            self.start = a;
-        }
-        let o = a - self.start;
-        let n = b - a;
-        Ok((&self.held[0][o..o + n], &self.held[1][o..o + n]))
-    }
-}
-
-/// Reduces the swept-sine recording `source` into FRF points of channel
-/// `response` against channel `reference`, as [`super::reduce_sweep`] does
-/// on the two channels in memory (the same bits: a record longer than
-/// [`WHOLE_RECORD_FRAMES`] is reduced a block at a time either way), reading
-/// it from the source a stretch at a time. Memory is set by the blocks and
-/// the compensation's window, not by the record's length (module docs).
-///
-/// Errors: those of the reduction, a channel out of range or the reference
-/// itself, and a read that fails.
-pub fn reduce_sweep_stream(
-    source: &mut impl FrameSource,
-    reference: usize,
-    response: usize,
-    options: &SweepOptions,
-) -> Result<super::SweepReduction> {
-    let fs = source.meta().sample_rate_hz;
-    let mut pair = frame_pair(source, reference, response, &BLOCKS)?;
-    super::sweep::reduce_sweep_from(&mut pair, fs, options, &BLOCKS)
-}
-
-/// [`super::choose_compensation`] for a recording read a stretch at a time
-/// (see [`reduce_sweep_stream`]).
-pub fn choose_compensation_stream(
-    source: &mut impl FrameSource,
-    reference: usize,
-    response: usize,
-    options: &SweepOptions,
-) -> Result<f64> {
-    let fs = source.meta().sample_rate_hz;
-    let mut pair = frame_pair(source, reference, response, &BLOCKS)?;
-    super::compensation::choose_compensation_by(fs, options, &mut |o| {
-        super::sweep::reduce_sweep_from(&mut pair, fs, o, &BLOCKS)
-    })
-}
-
-pub(super) fn frame_pair<'s, S: FrameSource>(
-    source: &'s mut S,
-    reference: usize,
-    response: usize,
-    blocks: &Blocks,
-) -> Result<FramePair<'s, S>> {
-    let n = source.meta().channels.len();
-    if reference >= n || response >= n || reference == response {
-        return Err(Error::input(
-            format!("{} channels", source.source_name()),
-            format!(
-                "reference {reference} and response {response}: two different channels of the \
-                 {n} are needed"
-            ),
-        ));
-    }
-    Ok(FramePair {
-        source,
-        channels: [reference, response],
-        start: 0,
-        held: [Vec::new(), Vec::new()],
-        scratch: vec![Vec::new(); n],
-        read: blocks.read,
-    })
 }
 
 /// A record's phase followed a block at a time (module docs): each block's
@@ -618,7 +366,10 @@ pub(super) fn compensated_in_blocks(
 
 #[cfg(test)]
 mod tests {
-    use super::super::sweep::{compensated, fit_sweep, plain_windows, reduce_sweep_from};
+    use super::super::blocks::{InMemory, SMALL, frame_pair};
+    use super::super::choose_compensation_held;
+    use super::super::sweep::{compensated, fit_sweep, plain_windows};
+    use super::super::sweep_reduce::{reduce_sweep_from, reduce_sweep_held};
     use super::*;
     use crate::extract::SweepLaw;
     use crate::model::{ModalModel, Mode, NoElement};
