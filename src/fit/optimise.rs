@@ -1,4 +1,4 @@
-//! Optimisers over a [`FitProblem`] and the uncertainty of their result.
+//! Optimisers over a [`super::FitProblem`] and the uncertainty of their result.
 //!
 //! * Nelder–Mead (argmin), as the paper's MATLAB `fminsearch`, in the
 //!   problem's log coordinates with an explicit initial simplex.
@@ -14,12 +14,11 @@
 //!   fitted, `B` the same with each row scaled by its measured variance),
 //!   inflated by the reduced `χ²` when the fit is worse than the noise.
 
-use super::problem::FitProblem;
 use crate::error::{Error, Result};
 
 /// What an optimiser minimises: residuals as functions of the optimiser
 /// coordinates `θ`, the last row a penalty for the distance outside the
-/// parameters' bounds (zero inside). The FRF fit ([`FitProblem`]) and the
+/// parameters' bounds (zero inside). The FRF fit ([`super::FitProblem`]) and the
 /// time-domain fit ([`super::time::TimeProblem`]) are both one.
 pub trait Objective: Sync {
     /// Residuals at `theta`, the penalty row last. A model the library
@@ -118,20 +117,6 @@ impl RowFold {
     }
 }
 
-impl Objective for FitProblem<'_> {
-    fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
-        FitProblem::residuals(self, theta)
-    }
-    fn cost(&self, theta: &[f64]) -> Result<f64> {
-        FitProblem::cost(self, theta)
-    }
-    fn evaluations(&self) -> usize {
-        FitProblem::evaluations(self)
-    }
-    fn jacobian(&self, theta: &[f64], r0: &[f64], step: f64) -> Result<DMatrix<f64>> {
-        FitProblem::jacobian(self, theta, r0, step)
-    }
-}
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

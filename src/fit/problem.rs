@@ -3,6 +3,7 @@
 //! and the harmonics used, optionally weighted by the measured standard
 //! errors.
 
+use super::optimise::{Objective, forward_difference};
 use super::params::ParameterSet;
 use crate::error::{Error, Result};
 use crate::extract::{Direction, NonlinearFrf};
@@ -540,7 +541,7 @@ impl<'a> FitProblem<'a> {
         };
         let fallback = if here.is_none() { self.start() } else { None };
         let start = here.as_ref().or(fallback.as_ref());
-        let jac = crate::fit::optimise::forward_difference(theta, r0, step, |t| {
+        let jac = forward_difference(theta, r0, step, |t| {
             let (pred, outside) = self.evaluate_or_fail_from(t, start, here.is_some())?;
             Ok(self.residuals_of(&pred, outside))
         })?;
@@ -603,5 +604,20 @@ impl<'a> FitProblem<'a> {
     /// The cost trace so far.
     pub fn trace(&self) -> Vec<TraceEntry> {
         self.trace.lock().expect("trace lock").clone()
+    }
+}
+
+impl Objective for FitProblem<'_> {
+    fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
+        FitProblem::residuals(self, theta)
+    }
+    fn cost(&self, theta: &[f64]) -> Result<f64> {
+        FitProblem::cost(self, theta)
+    }
+    fn evaluations(&self) -> usize {
+        FitProblem::evaluations(self)
+    }
+    fn jacobian(&self, theta: &[f64], r0: &[f64], step: f64) -> Result<DMatrix<f64>> {
+        FitProblem::jacobian(self, theta, r0, step)
     }
 }
