@@ -3,6 +3,7 @@
 //! (paper Figures 2.2, 3.3 and 3.4).
 
 use super::flags::{Flag, flag_estimates, flag_words};
+use super::recording::MULTISINE_LINES;
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
 use crate::fit::time::time_parameters;
@@ -396,10 +397,6 @@ pub struct PeriodicStart {
     /// What the start was made of, for the report.
     pub note: String,
 }
-
-/// Fewest excited lines for a periodic record to count as a multisine (the
-/// linear estimate's `m, c, k` need them; a single sine is periodic too).
-pub const MULTISINE_LINES: usize = 3;
 
 /// The start of a time-domain fit when no model is written down and the
 /// recordings are periodic multisines, which an FRF fit cannot read: each

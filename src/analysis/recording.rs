@@ -664,10 +664,14 @@ fn sweep_options_by(
     Ok(opts)
 }
 
+/// Fewest excited lines for a periodic record to count as a multisine (the
+/// linear estimate's `m, c, k` need them; a single sine is periodic too).
+pub const MULTISINE_LINES: usize = 3;
+
 /// A recording that states no excitation, read as a periodic multisine:
 /// its period (samples) and the excited lines (Hz, lowest and highest, and
 /// how many), found in its first [`crate::extract::PERIOD_SEARCH`] frames; `None` where
-/// its reference does not repeat with at least [`super::MULTISINE_LINES`]
+/// its reference does not repeat with at least [`MULTISINE_LINES`]
 /// excited lines (a stepped sine's repeats only within a dwell, at one
 /// line).
 pub(crate) fn multisine_period(
@@ -687,7 +691,7 @@ pub(crate) fn multisine_period(
     let period = crate::extract::find_period(u)?;
     let fs = rec.meta.sample_rate_hz;
     let lines = crate::extract::periodic_frf(u, &y[..n], fs, period);
-    if lines.len() < super::MULTISINE_LINES {
+    if lines.len() < MULTISINE_LINES {
         return None;
     }
     let (lo, hi) = lines.iter().fold((f64::INFINITY, 0.0f64), |(a, b), l| {
