@@ -83,6 +83,9 @@ pub struct Excitation {
     pub sweep: Option<Sweep>,
 }
 
+/// The format tag of recording format v1 (a sidecar's `format`).
+pub const FORMAT_V1: &str = "hystid.recording.v1";
+
 /// The JSON sidecar: everything but the samples.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RecordingMeta {
@@ -119,7 +122,7 @@ impl RecordingMeta {
         excitation: Excitation,
     ) -> RecordingMeta {
         RecordingMeta {
-            format: crate::record::FORMAT_V1.into(),
+            format: FORMAT_V1.into(),
             sample_rate_hz,
             channels,
             excitation,
@@ -787,6 +790,12 @@ impl<'a> From<&'a Samples> for SamplesView<'a> {
         s.view()
     }
 }
+
+/// Samples of a channel a loader holds in memory (16 MiB as `f32`s); the
+/// rest of a longer channel is held in a scratch file ([`Spilled`],
+/// [`SamplesBuilder::spilling_above`]), so that the replays and time-domain
+/// fits of a recording of any length hold a bounded part of it.
+pub const SAMPLES_HELD_IN_MEMORY: usize = 1 << 22;
 
 /// [`Samples`] made as they are read, a stretch at a time: held as stored
 /// `f32`s of the first of the units that gives back every sample of the

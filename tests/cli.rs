@@ -1211,7 +1211,7 @@ fn validate_refuses_a_recording_driven_by_another_quantity_than_the_fit() {
 }
 
 /// A recording longer than a channel is held in memory for
-/// (`analysis::HELD_UP_TO` samples) is held in a scratch file in `TMPDIR`:
+/// (`signals::SAMPLES_HELD_IN_MEMORY` samples) is held in a scratch file in `TMPDIR`:
 /// where that directory does not exist, `validate` says so, naming it, with
 /// exit code 2 and no output; given one, it validates and leaves nothing
 /// there (the files have no name).
@@ -1221,7 +1221,7 @@ fn a_recording_too_long_to_hold_is_held_in_the_scratch_directory() {
     use hystid::signals::Step;
     let dir = tempfile::tempdir().unwrap();
     let (fs, f) = (30_000.0, 200.0);
-    let n = hystid::analysis::recording::HELD_UP_TO + 30_000;
+    let n = hystid::signals::SAMPLES_HELD_IN_MEMORY + 30_000;
     let w = 2.0 * std::f64::consts::PI * f / fs;
     let force: Vec<f32> = (0..n)
         .map(|i| (100.0 * (w * i as f64).sin()) as f32)

@@ -10,7 +10,7 @@ use crate::extract::{
 };
 use crate::harmonics::Quantity;
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
-use crate::signals::{RecordingView, SamplesBuilder, SamplesView};
+use crate::signals::{RecordingView, SAMPLES_HELD_IN_MEMORY, SamplesBuilder, SamplesView};
 use crate::testbench::TestDefinition;
 use std::path::{Path, PathBuf};
 
@@ -378,12 +378,6 @@ pub fn stated_excitation(path: &Path) -> Result<ExcitationKind> {
     })
 }
 
-/// Samples of a channel a loader holds in memory (16 MiB as `f32`s); the
-/// rest of a longer channel is held in a scratch file
-/// ([`crate::signals::Spilled`]), so that the replays and time-domain fits
-/// of a recording of any length hold a bounded part of it.
-pub const HELD_UP_TO: usize = 1 << 22;
-
 /// Frames read at a time by [`load_reference_and_response`].
 const LOAD_STRETCH: usize = 1 << 16;
 
@@ -414,7 +408,7 @@ impl Keep for SamplesBuilder {
     fn for_channel(frames: usize, scale: f64) -> Self {
         // a WAV file's samples are f32s (or 16/24-bit integers) of its
         // scale, a run file's f32s
-        SamplesBuilder::new(frames, &[scale, 1.0]).spilling_above(HELD_UP_TO)
+        SamplesBuilder::new(frames, &[scale, 1.0]).spilling_above(SAMPLES_HELD_IN_MEMORY)
     }
     fn append(&mut self, x: &[f64]) -> Result<()> {
         self.extend(x)
@@ -1139,7 +1133,7 @@ pub fn reduce_recordings(
 /// dwells are stated in order: the measured response is reduced from the
 /// file a dwell at a time ([`reduce_path`]), the reference and response are
 /// held as the file stored them (a long channel in a scratch file, see
-/// [`HELD_UP_TO`]) until the time records take them, and a model's replay
+/// [`SAMPLES_HELD_IN_MEMORY`]) until the time records take them, and a model's replay
 /// is reduced a dwell at a time as it is made
 /// ([`ReplayReduction::replayed_as_made`]).
 pub struct ReplayReduction {

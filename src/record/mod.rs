@@ -42,11 +42,9 @@ pub use wav::{
 // The in-memory types are the format's content but not the format: they live
 // in `signals` so that the analysis stages can use them without the file code.
 pub use crate::signals::{
-    Channel, Excitation, ExcitationKind, FrameSource, Recording, RecordingMeta, Step, Sweep,
+    Channel, Excitation, ExcitationKind, FORMAT_V1, FrameSource, Recording, RecordingMeta, Step,
+    Sweep,
 };
-
-/// The format tag of recording format v1.
-pub const FORMAT_V1: &str = "hystid.recording.v1";
 
 /// Index of the first sample whose magnitude is not `<= limit` (NaN, ±Inf or
 /// beyond the limit). Checks blocks without branching so the common all-good

@@ -1209,7 +1209,7 @@ pub fn validate_view(
         whole: tally(0..compared)?,
         window: window.clone().map(tally).transpose()?,
         kept: {
-            let held = crate::analysis::recording::HELD_UP_TO;
+            let held = crate::signals::SAMPLES_HELD_IN_MEMORY;
             let b = crate::signals::SamplesBuilder::new(compared.min(held), &[]);
             if keep_replay {
                 b
@@ -1308,7 +1308,7 @@ struct Pass<'p, 'a> {
     window: Option<tally::RangeTally>,
     keep: bool,
     /// The replay kept (held in a scratch file once it is longer than
-    /// [`crate::analysis::recording::HELD_UP_TO`] where the caller does not
+    /// [`crate::signals::SAMPLES_HELD_IN_MEMORY`] where the caller does not
     /// take it).
     kept: crate::signals::SamplesBuilder,
     /// The first compared sample a reduction still reads (`usize::MAX`:
