@@ -7,8 +7,7 @@
 //! observer is called from worker threads (dwells and candidates run in
 //! parallel), so it is `Sync`; what it sees does not change the results.
 
-use crate::diagnose::DiagnoseEvent;
-use crate::fit::TraceEntry;
+use serde::{Deserialize, Serialize};
 
 /// What a stage just did.
 #[derive(Clone, Copy, Debug)]
@@ -35,6 +34,58 @@ pub enum Event<'a> {
         /// How much there is.
         total: u64,
     },
+}
+
+/// One cost evaluation of a fit, for traces and progress.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TraceEntry {
+    /// Evaluation number.
+    pub evaluation: usize,
+    /// Cost (sum of squared residuals, plus any bound penalty).
+    pub cost: f64,
+    /// Physical parameter values.
+    pub parameters: Vec<f64>,
+}
+
+/// What a diagnosis is doing, for progress displays.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DiagnoseEvent {
+    /// The baseline refit on the judged harmonics is done.
+    Baseline {
+        /// Its `χ²/dof`.
+        chi2_per_dof: f64,
+    },
+    /// A round starts with this many candidates.
+    Round {
+        /// The round (1 = on the baseline).
+        round: usize,
+        /// Candidates tried in it.
+        candidates: usize,
+    },
+    /// One candidate's refit is done (or failed).
+    Candidate {
+        /// The round.
+        round: usize,
+        /// The effect.
+        effect: EffectName,
+    },
+    /// The best candidate's resolution is being checked.
+    Checking {
+        /// The effect.
+        effect: EffectName,
+    },
+}
+
+/// An effect a diagnosis works on, by its contract name (`cubic_stiffness`):
+/// the diagnosis's effects are its own, and the observer sits below it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EffectName(pub &'static str);
+
+impl EffectName {
+    /// The contract name.
+    pub fn name(self) -> &'static str {
+        self.0
+    }
 }
 
 /// Samples a long simulation runs between two [`Event::Progress`] reports

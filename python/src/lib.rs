@@ -150,7 +150,7 @@ impl Progress {
     }
 
     fn event<'py>(py: Python<'py>, event: Event<'_>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-        use hystid::diagnose::DiagnoseEvent as D;
+        use hystid::observe::DiagnoseEvent as D;
         let d = pyo3::types::PyDict::new(py);
         match event {
             Event::Dwell {

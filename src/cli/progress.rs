@@ -36,7 +36,7 @@ pub struct Drawn<'a>(pub &'a ProgressBar);
 
 impl hystid::observe::Observer for Drawn<'_> {
     fn observe(&self, event: hystid::observe::Event<'_>) {
-        use hystid::diagnose::DiagnoseEvent as D;
+        use hystid::observe::DiagnoseEvent as D;
         use hystid::observe::Event;
         let pb = self.0;
         match event {

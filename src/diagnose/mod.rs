@@ -47,6 +47,7 @@ use crate::fit::{
 };
 use crate::harmonics::omega;
 use crate::model::{ElementSpec, Model};
+use crate::observe::{DiagnoseEvent, EffectName};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -1012,35 +1013,6 @@ pub fn default_harmonics(frf: &NonlinearFrf) -> Vec<usize> {
     h
 }
 
-/// What a diagnosis is doing, for progress displays.
-#[derive(Clone, Debug, PartialEq)]
-pub enum DiagnoseEvent {
-    /// The baseline refit on the judged harmonics is done.
-    Baseline {
-        /// Its `χ²/dof`.
-        chi2_per_dof: f64,
-    },
-    /// A round starts with this many candidates.
-    Round {
-        /// The round (1 = on the baseline).
-        round: usize,
-        /// Candidates tried in it.
-        candidates: usize,
-    },
-    /// One candidate's refit is done (or failed).
-    Candidate {
-        /// The round.
-        round: usize,
-        /// The effect.
-        effect: Effect,
-    },
-    /// The best candidate's resolution is being checked.
-    Checking {
-        /// The effect.
-        effect: Effect,
-    },
-}
-
 /// Diagnoses a fit: see the module docs.
 pub fn diagnose(
     frf: &NonlinearFrf,
@@ -1229,7 +1201,10 @@ pub fn diagnose_observed(
                         return;
                     }
                     let r = try_candidate(effect, currents, trials);
-                    observer(DiagnoseEvent::Candidate { round, effect });
+                    observer(DiagnoseEvent::Candidate {
+                        round,
+                        effect: EffectName(effect.name()),
+                    });
                     *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
                 });
             }
@@ -1323,7 +1298,9 @@ pub fn diagnose_observed(
         let mut best: Option<(usize, Intervals)> = None;
         for j in order {
             let (rep, r) = &mut round_results[j];
-            observer(DiagnoseEvent::Checking { effect: rep.effect });
+            observer(DiagnoseEvent::Checking {
+                effect: EffectName(rep.effect.name()),
+            });
             let why = match Intervals::at(r, &data, predictor) {
                 Ok(intervals) => match unresolved_in(rep.effect, r, &intervals, &data) {
                     None => {

@@ -17,12 +17,12 @@ use super::linear::{FrfSample, SdofEstimate, fit_sdof};
 use super::optimise::{self, FitStatus, OptimiserRun};
 use super::params::{Parameter, ParameterSet, Target, Transform};
 use super::problem::{
-    FitData, FitProblem, FrfPredictor, Prediction, TraceEntry, Weighting, chi_square,
-    relative_error, residuals,
+    FitData, FitProblem, FrfPredictor, Prediction, Weighting, chi_square, relative_error, residuals,
 };
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
 use crate::model::{ElementAt, ElementKind, ElementSpec, ModalModel, Mode, Model, Role};
+use crate::observe::TraceEntry;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};

@@ -19,7 +19,6 @@ pub use optimise::{FitStatus, Optimiser, OptimiserRun};
 pub use params::{N_MAX, Parameter, ParameterSet, Target, Transform};
 pub use predict::HbPredictor;
 pub use problem::{
-    FitData, FitProblem, FrfPredictor, MeasuredPoint, MeasuredSeries, Prediction, TraceEntry,
-    Weighting,
+    FitData, FitProblem, FrfPredictor, MeasuredPoint, MeasuredSeries, Prediction, Weighting,
 };
 pub use time::{TimeFitOptions, TimeFitResult, TimeRecord, identify_time};

@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::extract::{Direction, NonlinearFrf};
 use crate::harmonics::Quantity;
 use crate::model::Model;
+use crate::observe::TraceEntry;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -351,17 +352,6 @@ pub fn chi_square(data: &FitData, pred: &Prediction) -> f64 {
         .iter()
         .map(|r| r * r)
         .sum()
-}
-
-/// One cost evaluation, for traces and progress.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct TraceEntry {
-    /// Evaluation number.
-    pub evaluation: usize,
-    /// Cost (sum of squared residuals, plus any bound penalty).
-    pub cost: f64,
-    /// Physical parameter values.
-    pub parameters: Vec<f64>,
 }
 
 /// A model, its free parameters and the data: residuals and cost as

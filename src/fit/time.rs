@@ -1492,7 +1492,7 @@ impl<'a> TimeProblem<'a> {
                     let pen = outside * 10.0 * rms * (m as f64).sqrt();
                     let mut t = theta.to_vec();
                     t[j] += step;
-                    let entry = super::problem::TraceEntry {
+                    let entry = crate::observe::TraceEntry {
                         evaluation: replay,
                         cost: c.sum_of_squares + pen * pen,
                         parameters: self.parameters.values(&t),
@@ -1871,7 +1871,7 @@ impl<'a> TimeProblem<'a> {
         self.residuals_of_into(&model, outside, out)?;
         let replay = self.replays.fetch_add(1, Ordering::Relaxed) + 1;
         if let Some(o) = self.observer {
-            let entry = super::problem::TraceEntry {
+            let entry = crate::observe::TraceEntry {
                 evaluation: replay,
                 cost: out.iter().map(|v| v * v).sum::<f64>(),
                 parameters: self.parameters.values(theta),
