@@ -32,12 +32,11 @@
 use super::diagnose::{
     CONFIRMATION_RISE, MIN_TRACED_SHARE, PROPOSAL_PATIENCE, TimeProposal, judge_proposal, misfit,
 };
-use crate::diagnose::lines::{
-    LineContext, LineResidual, PeriodicSpectra, line_residual, share_explained,
-};
+use crate::diagnose::lines::{LineContext, share_explained};
 use crate::diagnose::time_residual::TracedCandidate;
 use crate::diagnose::{DiagnoseOptions, Effect};
 use crate::error::{Error, Result};
+use crate::extract::lines::{LineResidual, PeriodicSpectra, line_residual};
 use crate::fit::time::{TimeProblem, time_parameters};
 use crate::fit::{TimeFitOptions, TimeFitResult, TimeRecord, identify_time};
 use crate::model::Model;

@@ -4,8 +4,8 @@
 
 use super::identify::FitReport;
 use super::recording::{Excitation, Loaded, ReductionOptions, excitation_of, stepped_options};
-use crate::diagnose::lines::LineClass;
 use crate::error::{Error, Result};
+use crate::extract::lines::LineClass;
 use crate::harmonics::Quantity;
 use crate::model::{ModalModel, Model};
 use crate::plot::{self, FrfSeries, SeriesStyle, TimeTrace, TimeTraceBuilder};
@@ -468,14 +468,14 @@ fn validate_held(
         },
     )?;
     if let (Some(spectra), Some(lines)) = (&spectra, lines) {
-        v.lines = Some(crate::diagnose::lines::validate_lines(
+        v.lines = Some(crate::extract::lines::validate_lines(
             spectra,
             &lines.finish()?,
         ));
     }
     if settings.periodic {
         let n = v.simulated.len();
-        v.line_spectrum = crate::diagnose::lines::line_spectrum(
+        v.line_spectrum = crate::extract::lines::line_spectrum(
             &rec.channels[reference].range(0..n.min(rec.channels[reference].len())),
             &rec.channels[response].range(0..n.min(rec.channels[response].len())),
             &v.simulated,
@@ -496,7 +496,7 @@ fn steady_spectra(
     rec: &RecordingView,
     response: usize,
     period: usize,
-) -> Result<Option<crate::diagnose::lines::PeriodicSpectra>> {
+) -> Result<Option<crate::extract::lines::PeriodicSpectra>> {
     let reference = rec
         .meta
         .reference_channel()
@@ -506,7 +506,7 @@ fn steady_spectra(
     if period == 0 || periods < 3 {
         return Ok(None);
     }
-    crate::diagnose::lines::PeriodicSpectra::of_channels(
+    crate::extract::lines::PeriodicSpectra::of_channels(
         name,
         (
             rec.meta.channels[reference].quantity,
@@ -521,7 +521,7 @@ fn steady_spectra(
 /// A replay tap that also hands the replay to a multisine's lines.
 struct WithLines<'t, 'l, 's> {
     tap: &'t mut dyn ReplayTap,
-    lines: Option<&'l mut crate::diagnose::lines::ReplayedLines<'s>>,
+    lines: Option<&'l mut crate::extract::lines::ReplayedLines<'s>>,
 }
 
 impl ReplayTap for WithLines<'_, '_, '_> {

@@ -20,7 +20,9 @@
 //! * [`reduce_sweep`]: a swept sine, following the reference's phase;
 //!   [`choose_compensation`] picks its sweep-distortion compensation.
 //! * [`find_period`] and [`periodic_frf`]: a periodic excitation (a
-//!   multisine played several times), its period and the FRF at its lines.
+//!   multisine played several times), its period and the FRF at its lines;
+//!   [`lines`]: the response's mean and noise at the lines of its period, and
+//!   a replay's residual there (what a validation and a diagnosis judge).
 //! * [`naive`]: direct-sum references for tests and benchmarks.
 //!
 //! All dwell estimates use the H1 estimator over blocks,
@@ -35,6 +37,7 @@ mod coherent;
 mod compensation;
 mod dwell_blocks;
 mod estimator;
+pub mod lines;
 mod lsq;
 pub mod naive;
 mod noncoherent;

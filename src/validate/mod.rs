@@ -1030,12 +1030,12 @@ pub struct Validation {
     /// On a multisine of at least two steady periods: the residual at the
     /// lines of its period, in units of the noise (written, not read back).
     #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
-    pub lines: Option<crate::diagnose::lines::LineValidation>,
+    pub lines: Option<crate::extract::lines::LineValidation>,
     /// On a record of one period of a periodic steady state (`periodic`):
     /// the error at the lines of that period, relative to what was
     /// measured there (written, not read back).
     #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
-    pub line_spectrum: Option<crate::diagnose::lines::LineSpectrum>,
+    pub line_spectrum: Option<crate::extract::lines::LineSpectrum>,
     /// The simulated response, at the recording's samples, where it was
     /// asked to be kept (see [`validate_view`]); else empty.
     #[serde(skip)]
