@@ -2,7 +2,8 @@
 //! refit, and report the error before and after.
 
 use super::args::{DiagnoseArgs, Domain};
-use super::identify::{fit_options, reduce_recordings, reduction_options, run_fit};
+use super::identify::{fit_options, reduce_recordings, run_fit};
+use super::reduction_options;
 use super::{EXIT_OK, create_out_dir, progress};
 use anyhow::Result;
 use hystid::analysis::diagnose::{

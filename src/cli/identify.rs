@@ -4,48 +4,16 @@
 use super::args::{
     Domain, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs, Replay,
 };
-use super::{create_out_dir, progress, write_json};
+use super::{create_out_dir, progress, reduction_options, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::{
-    Compensation, Excitation, FitReport, Reduced, ReductionOptions, band_limited, reference_joint,
-    write_fit_plots,
+    Excitation, FitReport, Reduced, band_limited, reference_joint, write_fit_plots,
 };
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearRefinement, LinearStart, Weighting};
 use hystid::model::ElementKind;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-
-/// The library's reduction options from the flags.
-pub fn reduction_options(r: &ReductionArgs) -> Result<ReductionOptions> {
-    let compensation = match r.compensation.trim() {
-        "auto" => Compensation::Auto,
-        text => {
-            let s: f64 = text.parse().with_context(|| {
-                format!("--compensation: expected auto, 0 or seconds, got `{text}`")
-            })?;
-            if !(s.is_finite() && s >= 0.0) {
-                bail!("--compensation: must be auto or seconds >= 0, got {s}");
-            }
-            if s > 0.0 {
-                Compensation::Seconds(s)
-            } else {
-                Compensation::Off
-            }
-        }
-    };
-    Ok(ReductionOptions {
-        excitation: match r.excitation {
-            ExcitationArg::Stepped => Some(Excitation::Stepped),
-            ExcitationArg::Swept => Some(Excitation::Swept),
-            ExcitationArg::Auto | ExcitationArg::Unknown => None,
-        },
-        max_harmonic: r.max_harmonic,
-        compensation,
-        hop_periods: r.hop_periods,
-        window_periods: r.window_periods,
-    })
-}
 
 /// Prints what a reduction found.
 pub fn print_reduced(path: &Path, r: &Reduced) {

@@ -27,7 +27,9 @@ pub mod run;
 pub mod simulate;
 pub mod validate;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
+use args::{ExcitationArg, ReductionArgs};
+use hystid::analysis::{Compensation, Excitation, ReductionOptions};
 use std::path::Path;
 
 /// Exit status: everything worked.
@@ -97,4 +99,35 @@ pub(crate) fn return_large_blocks() {
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, 4 << 20);
     }
+}
+
+/// The library's reduction options from the flags.
+pub fn reduction_options(r: &ReductionArgs) -> Result<ReductionOptions> {
+    let compensation = match r.compensation.trim() {
+        "auto" => Compensation::Auto,
+        text => {
+            let s: f64 = text.parse().with_context(|| {
+                format!("--compensation: expected auto, 0 or seconds, got `{text}`")
+            })?;
+            if !(s.is_finite() && s >= 0.0) {
+                bail!("--compensation: must be auto or seconds >= 0, got {s}");
+            }
+            if s > 0.0 {
+                Compensation::Seconds(s)
+            } else {
+                Compensation::Off
+            }
+        }
+    };
+    Ok(ReductionOptions {
+        excitation: match r.excitation {
+            ExcitationArg::Stepped => Some(Excitation::Stepped),
+            ExcitationArg::Swept => Some(Excitation::Swept),
+            ExcitationArg::Auto | ExcitationArg::Unknown => None,
+        },
+        max_harmonic: r.max_harmonic,
+        compensation,
+        hop_periods: r.hop_periods,
+        window_periods: r.window_periods,
+    })
 }

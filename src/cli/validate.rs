@@ -2,8 +2,7 @@
 //! its simulated response compared with the measured one (e_RMS, `H1`).
 
 use super::args::ValidateArgs;
-use super::identify::reduction_options;
-use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, write_json};
+use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, reduction_options, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::load_held_reference_and_response;
 use hystid::analysis::validate::{
