@@ -5,6 +5,12 @@
 //! * The model does not depend on the simulator: no `crate::sim` in `model`.
 //! * The test bench does not depend on harmonic balance: no `crate::hb`.
 //! * Harmonic balance does not depend on fitting or diagnosis.
+//! * No import cycle between the modules of `src/` (its files; a folder
+//!   module's files among themselves too), and no layer uses one above it:
+//!   core (errors, harmonics, signals, the model, the simulator, harmonic
+//!   balance, the observer) < signals (`extract`, `record`, `import`, `plot`,
+//!   `testbench`) < identification (`validate`, `fit`, `diagnose`) < the
+//!   application (`analysis`) < the front ends (`cli`, `main.rs`).
 //! * No `dyn Any` or `downcast` in `src/`: what a stage needs to know of an
 //!   element it asks the element (`Element`, its law's `Description`).
 //! * No `Result<_, String>` (nor a `String` conversion error) anywhere in
@@ -314,4 +320,516 @@ fn the_command_line_is_thin() {
         readme.contains(&stated),
         "the README should say {stated} ({cli} / {library} lines)"
     );
+}
+
+/// A module of `src/`, by its path: `src/fit/time.rs` is `fit::time`, a
+/// folder's `mod.rs` the folder, `lib.rs` the library's root (no segment),
+/// `main.rs` the binary's root (`main`).
+type Module = Vec<String>;
+
+fn module_of(file: &Path) -> Module {
+    let rel = file.strip_prefix(src()).unwrap().with_extension("");
+    let mut segments: Module = rel
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    if segments.last().is_some_and(|s| s == "mod") {
+        segments.pop();
+    }
+    if segments == ["lib"] {
+        segments.clear();
+    }
+    segments
+}
+
+fn name(module: &[String]) -> String {
+    if module.is_empty() {
+        "lib".into()
+    } else {
+        module.join("::")
+    }
+}
+
+/// Whether `module` is the binary's (whose `crate::` is not the library).
+fn in_binary(module: &[String]) -> bool {
+    module.first().is_some_and(|s| s == "main" || s == "cli")
+}
+
+/// The paths a `use` tree names, each with the name it brings in:
+/// `a::{b, c::{d, e as f}}` is `a::b` (`b`), `a::c::d` (`d`), `a::c::e`
+/// (`f`); `a::{self}` is `a`, and a glob `a::*` is `a` (`*`).
+fn use_tree_paths(tree: &str) -> Vec<(Vec<String>, String)> {
+    fn split_top(s: &str) -> Vec<&str> {
+        let (mut parts, mut depth, mut from) = (Vec::new(), 0i32, 0);
+        for (i, c) in s.char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                ',' if depth == 0 => {
+                    parts.push(&s[from..i]);
+                    from = i + 1;
+                }
+                _ => {}
+            }
+        }
+        parts.push(&s[from..]);
+        parts
+    }
+    fn segments(s: &str) -> Vec<String> {
+        s.split("::")
+            .map(str::trim)
+            .filter(|p| !p.is_empty())
+            .map(String::from)
+            .collect()
+    }
+    fn walk(prefix: &[String], tree: &str, out: &mut Vec<(Vec<String>, String)>) {
+        for part in split_top(tree) {
+            let part = part.trim();
+            if part.is_empty() {
+                continue;
+            }
+            if let (Some(open), Some(close)) = (part.find('{'), part.rfind('}')) {
+                let head = [prefix, &segments(&part[..open])].concat();
+                walk(&head, &part[open + 1..close], out);
+                continue;
+            }
+            let (path, alias) = match part.split_once(" as ") {
+                Some((p, a)) => (p, Some(a.trim().to_string())),
+                None => (part, None),
+            };
+            let mut path = [prefix, &segments(path)].concat();
+            let last = path.last().cloned().unwrap_or_default();
+            if last == "self" || last == "*" {
+                path.pop();
+            }
+            let known_as = match (alias, last.as_str()) {
+                (Some(a), _) => a,
+                (None, "self") => path.last().cloned().unwrap_or_default(),
+                (None, _) => last,
+            };
+            out.push((path, known_as));
+        }
+    }
+    let flat = tree.split_whitespace().collect::<Vec<_>>().join(" ");
+    let mut out = Vec::new();
+    walk(&[], &flat, &mut out);
+    out
+}
+
+/// The paths of `line` that start at a module (`crate::`, `super::`,
+/// `self::`, and the library's name as the binary writes it), as segments.
+fn module_paths(line: &str) -> Vec<Vec<String>> {
+    let b = line.as_bytes();
+    let ident = |c: u8| c.is_ascii_alphanumeric() || c == b'_';
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        let starts = (b[i].is_ascii_alphabetic() || b[i] == b'_')
+            && (i == 0 || !(ident(b[i - 1]) || b[i - 1] == b':'));
+        if !starts {
+            i += 1;
+            continue;
+        }
+        let mut segments = Vec::new();
+        let mut j = i;
+        loop {
+            let from = j;
+            while j < b.len() && ident(b[j]) {
+                j += 1;
+            }
+            segments.push(line[from..j].to_string());
+            if line[j..].starts_with("::") && b.get(j + 2).is_some_and(|&c| ident(c)) {
+                j += 2;
+            } else {
+                break;
+            }
+        }
+        if segments.len() > 1 && ["crate", "super", "self", "hystid"].contains(&&*segments[0]) {
+            out.push(segments);
+        }
+        i = j;
+    }
+    out
+}
+
+/// A code line with any trailing `//` comment cut off.
+fn without_comment(line: &str) -> &str {
+    line.find("//").map_or(line, |at| &line[..at])
+}
+
+/// What one module refers to: each path it names (made absolute), with
+/// where (`file:line: text`), and the names its `use` statements bring in.
+struct Refs {
+    paths: Vec<(Vec<String>, String)>,
+    imports: std::collections::BTreeMap<String, Vec<String>>,
+}
+
+/// `path` as written in `module`, made absolute (`fit::time::TimeRecord`);
+/// `None` for a path outside `src/`'s modules (`std::`, a dependency, the
+/// binary's root items).
+fn absolute(
+    module: &[String],
+    path: &[String],
+    modules: &std::collections::BTreeSet<Module>,
+) -> Option<Vec<String>> {
+    let (head, rest) = path.split_first()?;
+    match head.as_str() {
+        "crate" if in_binary(module) => (rest.first()? == "cli").then(|| rest.to_vec()),
+        "crate" | "hystid" => Some(rest.to_vec()),
+        "self" | "super" => {
+            let mut base = module.to_vec();
+            if head == "super" {
+                base.pop();
+            }
+            let mut rest = rest;
+            while rest.first().is_some_and(|s| s == "super") {
+                base.pop();
+                rest = &rest[1..];
+            }
+            base.extend_from_slice(rest);
+            Some(base)
+        }
+        // a submodule named from its parent (`use newton::Core;` in
+        // `hb/mod.rs`); the binary's root names its modules so too
+        child => {
+            let parent: &[String] = if module == ["main"] { &[] } else { module };
+            let mut own = parent.to_vec();
+            own.push(child.to_string());
+            modules.contains(&own).then(|| [parent, path].concat())
+        }
+    }
+}
+
+fn refs_of(file: &Path, module: &[String], modules: &std::collections::BTreeSet<Module>) -> Refs {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut refs = Refs {
+        paths: Vec::new(),
+        imports: Default::default(),
+    };
+    let shown = file
+        .strip_prefix(env!("CARGO_MANIFEST_DIR"))
+        .unwrap_or(file);
+    let at = |n: usize, line: &str| format!("{}:{n}: {}", shown.display(), line.trim());
+    let mut lines = code_lines(&text).into_iter();
+    while let Some((n, line)) = lines.next() {
+        let code = without_comment(line);
+        let t = code.trim_start();
+        let tree = ["use ", "pub use ", "pub(crate) use ", "pub(super) use "]
+            .iter()
+            .find_map(|p| t.strip_prefix(p));
+        let Some(tree) = tree else {
+            for p in module_paths(code) {
+                if let Some(a) = absolute(module, &p, modules) {
+                    refs.paths.push((a, at(n, line)));
+                }
+            }
+            continue;
+        };
+        // a `use` statement, up to its `;`
+        let mut statement = tree.to_string();
+        while !statement.contains(';') {
+            let Some((_, more)) = lines.next() else { break };
+            statement.push(' ');
+            statement.push_str(without_comment(more));
+        }
+        let statement = statement.split(';').next().unwrap();
+        for (path, known_as) in use_tree_paths(statement) {
+            if let Some(a) = absolute(module, &path, modules) {
+                if known_as != "*" {
+                    refs.imports.insert(known_as, a.clone());
+                }
+                refs.paths.push((a, at(n, line)));
+            }
+        }
+    }
+    refs
+}
+
+/// Module → module it refers to → where (`file:line: text`), over every
+/// file of `src/`. A path is followed through the `use` items it names
+/// (`crate::fit::TimeRecord`, which `fit` re-exports, is `fit::time`'s).
+/// A module's references to its own ancestors are left out: a file of a
+/// folder module uses the types its `mod.rs` shares, which declares and
+/// re-exports the file in turn, and that is one module, not a cycle.
+/// (An inline module is read as its file's.)
+type Graph = std::collections::BTreeMap<Module, std::collections::BTreeMap<Module, Vec<String>>>;
+
+fn module_graph() -> Graph {
+    let files: Vec<(Module, PathBuf)> = rust_files(&src())
+        .into_iter()
+        .map(|f| (module_of(&f), f))
+        .collect();
+    let modules: std::collections::BTreeSet<Module> =
+        files.iter().map(|(m, _)| m.clone()).collect();
+    let refs: std::collections::BTreeMap<Module, Refs> = files
+        .iter()
+        .map(|(m, f)| (m.clone(), refs_of(f, m, &modules)))
+        .collect();
+    // the module that defines what `path` names
+    let resolve = |path: &[String]| -> Option<Module> {
+        let mut path = path.to_vec();
+        for _ in 0..16 {
+            let k = (0..=path.len())
+                .rev()
+                .find(|&k| modules.contains(&path[..k]))?;
+            let Some(via) = path
+                .get(k)
+                .and_then(|item| refs.get(&path[..k])?.imports.get(item))
+            else {
+                return Some(path[..k].to_vec());
+            };
+            path = [via.as_slice(), &path[k + 1..]].concat();
+        }
+        None
+    };
+    let mut graph = Graph::new();
+    for (from, r) in &refs {
+        for (path, at) in &r.paths {
+            let Some(to) = resolve(path) else { continue };
+            if to == *from || from.starts_with(&to) {
+                continue;
+            }
+            graph
+                .entry(from.clone())
+                .or_default()
+                .entry(to)
+                .or_default()
+                .push(at.clone());
+        }
+    }
+    graph
+}
+
+/// The graph's strongly connected components of more than one module.
+fn cycles(graph: &Graph) -> Vec<Vec<Module>> {
+    struct Tarjan<'g> {
+        graph: &'g Graph,
+        index: std::collections::BTreeMap<&'g Module, (usize, usize)>,
+        stack: Vec<&'g Module>,
+        on_stack: std::collections::BTreeSet<&'g Module>,
+        found: Vec<Vec<Module>>,
+    }
+    impl<'g> Tarjan<'g> {
+        fn visit(&mut self, v: &'g Module) {
+            let i = self.index.len();
+            self.index.insert(v, (i, i));
+            self.stack.push(v);
+            self.on_stack.insert(v);
+            for w in self.graph.get(v).into_iter().flat_map(|e| e.keys()) {
+                if !self.index.contains_key(w) {
+                    self.visit(w);
+                    let low = self.index[v].1.min(self.index[w].1);
+                    self.index.get_mut(v).unwrap().1 = low;
+                } else if self.on_stack.contains(w) {
+                    let low = self.index[v].1.min(self.index[w].0);
+                    self.index.get_mut(v).unwrap().1 = low;
+                }
+            }
+            if self.index[v].0 == self.index[v].1 {
+                let mut component = Vec::new();
+                while let Some(w) = self.stack.pop() {
+                    self.on_stack.remove(w);
+                    component.push(w.clone());
+                    if w == v {
+                        break;
+                    }
+                }
+                if component.len() > 1 {
+                    component.sort();
+                    self.found.push(component);
+                }
+            }
+        }
+    }
+    let mut t = Tarjan {
+        graph,
+        index: Default::default(),
+        stack: Vec::new(),
+        on_stack: Default::default(),
+        found: Vec::new(),
+    };
+    for v in graph.keys() {
+        if !t.index.contains_key(v) {
+            t.visit(v);
+        }
+    }
+    t.found.sort();
+    t.found
+}
+
+/// One cycle through the first module of `component`, each arrow with the
+/// line that makes it.
+fn describe_cycle(graph: &Graph, component: &[Module]) -> String {
+    let inside: std::collections::BTreeSet<&Module> = component.iter().collect();
+    let start = &component[0];
+    // breadth first from `start` back to it, inside the component
+    let mut came_from: std::collections::BTreeMap<&Module, &Module> = Default::default();
+    let mut queue = std::collections::VecDeque::from([start]);
+    'search: while let Some(v) = queue.pop_front() {
+        for w in graph[v].keys().filter(|w| inside.contains(w)) {
+            if w == start {
+                came_from.insert(start, v);
+                break 'search;
+            }
+            if !came_from.contains_key(w) {
+                came_from.insert(w, v);
+                queue.push_back(w);
+            }
+        }
+    }
+    let mut path = vec![start];
+    let mut v = came_from[start];
+    while v != start {
+        path.push(v);
+        v = came_from[v];
+    }
+    path.push(start);
+    path.reverse();
+    let mut out = format!(
+        "{} ({} modules: {})\n",
+        path.iter()
+            .map(|m| name(m))
+            .collect::<Vec<_>>()
+            .join(" -> "),
+        component.len(),
+        component
+            .iter()
+            .map(|m| name(m))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    for pair in path.windows(2) {
+        out += &format!(
+            "    {} -> {}: {}\n",
+            name(pair[0]),
+            name(pair[1]),
+            graph[pair[0]][pair[1]][0]
+        );
+    }
+    out
+}
+
+/// No module depends on itself through others: between the files of `src/`
+/// (a folder module's files among themselves too) the arrows go one way.
+#[test]
+fn no_module_import_cycle() {
+    let graph = module_graph();
+    let found: Vec<String> = cycles(&graph)
+        .iter()
+        .map(|c| describe_cycle(&graph, c))
+        .collect();
+    assert!(
+        found.is_empty(),
+        "module import cycles:\n{}",
+        found.join("\n")
+    );
+}
+
+/// The layers, lowest first: a module may use its own layer and those
+/// below, never one above.
+const LAYERS: &[(&str, &[&str])] = &[
+    (
+        "core",
+        &[
+            "error",
+            "atomic",
+            "harmonics",
+            "signals",
+            "model",
+            "sim",
+            "hb",
+            "observe",
+        ],
+    ),
+    (
+        "signal",
+        &["extract", "record", "import", "plot", "testbench"],
+    ),
+    ("identification", &["validate", "fit", "diagnose"]),
+    ("app", &["analysis"]),
+    ("front end", &["cli", "main"]),
+];
+
+fn layer_of(top: &str) -> Option<usize> {
+    LAYERS.iter().position(|(_, ms)| ms.contains(&top))
+}
+
+#[test]
+fn no_layer_uses_a_layer_above_it() {
+    let graph = module_graph();
+    let mut found = Vec::new();
+    let mut unplaced = std::collections::BTreeSet::new();
+    for (from, to) in graph
+        .iter()
+        .flat_map(|(f, e)| e.iter().map(move |t| (f, t)))
+    {
+        let (Some(a), Some(b)) = (from.first(), to.0.first()) else {
+            continue;
+        };
+        let (Some(la), Some(lb)) = (layer_of(a), layer_of(b)) else {
+            unplaced.extend([a, b].into_iter().filter(|m| layer_of(m).is_none()));
+            continue;
+        };
+        if lb > la {
+            for at in to.1 {
+                found.push(format!(
+                    "{} ({}) uses {} ({}): {at}",
+                    name(from),
+                    LAYERS[la].0,
+                    name(to.0),
+                    LAYERS[lb].0
+                ));
+            }
+        }
+    }
+    assert!(
+        unplaced.is_empty(),
+        "modules in no layer (add them to LAYERS): {unplaced:?}"
+    );
+    assert!(found.is_empty(), "upward references:\n{}", found.join("\n"));
+}
+
+#[test]
+fn the_module_scanner_reads_paths_as_rust_does() {
+    let paths = use_tree_paths("crate::a::{b, c::{d, e as f}, self}");
+    let names: Vec<(String, &str)> = paths
+        .iter()
+        .map(|(p, n)| (p.join("::"), n.as_str()))
+        .collect();
+    assert_eq!(
+        names,
+        vec![
+            ("crate::a::b".to_string(), "b"),
+            ("crate::a::c::d".to_string(), "d"),
+            ("crate::a::c::e".to_string(), "f"),
+            ("crate::a".to_string(), "a"),
+        ]
+    );
+    let seen: Vec<String> =
+        module_paths("let x = crate::fit::time::f(super::g::<u8>(), a::crate_b);")
+            .iter()
+            .map(|p| p.join("::"))
+            .collect();
+    assert_eq!(seen, vec!["crate::fit::time::f", "super::g"]);
+    let modules = [vec!["hb".to_string()], vec!["hb".into(), "newton".into()]]
+        .into_iter()
+        .collect();
+    let hb_aft = ["hb".to_string(), "aft".into()];
+    let to = |p: &str| {
+        absolute(
+            &hb_aft,
+            &p.split("::").map(String::from).collect::<Vec<_>>(),
+            &modules,
+        )
+        .map(|a| a.join("::"))
+    };
+    assert_eq!(
+        to("super::newton::Core").as_deref(),
+        Some("hb::newton::Core")
+    );
+    assert_eq!(
+        to("crate::model::Element").as_deref(),
+        Some("model::Element")
+    );
+    assert_eq!(to("std::sync::Arc"), None);
 }
