@@ -41,6 +41,20 @@ pub enum Quantity {
 }
 
 impl Quantity {
+    /// Every quantity, in the order messages list them.
+    pub const ALL: [Quantity; 5] = [
+        Quantity::Force,
+        Quantity::Displacement,
+        Quantity::Velocity,
+        Quantity::Acceleration,
+        Quantity::Voltage,
+    ];
+
+    /// The names of [`Quantity::ALL`], comma separated, for messages.
+    pub fn names() -> String {
+        Quantity::ALL.map(Quantity::name).join(", ")
+    }
+
     /// The SI unit text used in recordings.
     pub fn si_unit(self) -> &'static str {
         match self {
@@ -65,14 +79,7 @@ impl Quantity {
 
     /// Parses a recording's quantity name.
     pub fn from_name(name: &str) -> Option<Quantity> {
-        Some(match name {
-            "force" => Quantity::Force,
-            "displacement" => Quantity::Displacement,
-            "velocity" => Quantity::Velocity,
-            "acceleration" => Quantity::Acceleration,
-            "voltage" => Quantity::Voltage,
-            _ => return None,
-        })
+        Quantity::ALL.into_iter().find(|q| q.name() == name)
     }
 
     /// Whether this is a motion (response) quantity.
@@ -166,13 +173,7 @@ mod tests {
 
     #[test]
     fn quantity_names_round_trip() {
-        for q in [
-            Quantity::Force,
-            Quantity::Displacement,
-            Quantity::Velocity,
-            Quantity::Acceleration,
-            Quantity::Voltage,
-        ] {
+        for q in Quantity::ALL {
             assert_eq!(Quantity::from_name(q.name()), Some(q));
         }
     }

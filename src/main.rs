@@ -14,16 +14,23 @@ fn main() -> ExitCode {
             .num_threads(n.max(1))
             .build_global();
     }
-    let result = match &args.command {
+    cli::catch_interrupt();
+    let result = cli::check_paths(&args.command).and_then(|()| match &args.command {
         Command::Simulate(a) => cli::simulate::simulate(a, args.quiet),
         Command::Identify(a) => cli::identify::identify_command(a, args.quiet),
         Command::Run(a) => cli::run::run_command(a, args.quiet),
         Command::Diagnose(a) => cli::diagnose::diagnose_command(a, args.quiet),
         Command::Import(a) => cli::import::import_command(a, args.quiet),
         Command::Validate(a) => cli::validate::validate_command(a, args.quiet),
-    };
+    });
     match result {
         Ok(code) => ExitCode::from(code),
+        Err(_) if cli::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) => {
+            // the stages' files were dropped on the way out: no temporary
+            // and no lock is left
+            eprintln!("interrupted: stopped, nothing half-written left");
+            ExitCode::from(cli::EXIT_INTERRUPTED)
+        }
         Err(e) => {
             eprintln!("error: {}", hystid::error::one_line(e.as_ref()));
             ExitCode::from(2)

@@ -10,6 +10,7 @@ mod architecture;
 mod armature;
 mod bench;
 mod cli;
+mod cli_newcomer;
 mod cli_realdata;
 mod diagnose;
 mod extract;

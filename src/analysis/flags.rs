@@ -68,7 +68,7 @@ pub fn flags_of(
         flags.push(Flag::NonPhysical);
     }
     let [lo, hi] = e.ci95;
-    if !(e.identifiable && lo.is_finite() && hi.is_finite()) {
+    if !determined(e) {
         flags.push(Flag::NotIdentifiable);
     } else if (lo <= 0.0 && hi >= 0.0)
         || (lo > 0.0 && hi / lo > 10.0)
@@ -77,6 +77,14 @@ pub fn flags_of(
         flags.push(Flag::Unresolved);
     }
     flags
+}
+
+/// Whether the data determine `e`: its fit said so and its 95 % interval
+/// has two finite ends. The one test behind both an estimate's
+/// `identifiable` in a report and its `not_identifiable` flag.
+pub fn determined(e: &Estimate) -> bool {
+    let [lo, hi] = e.ci95;
+    e.identifiable && lo.is_finite() && hi.is_finite()
 }
 
 /// The unit and domain of parameter `name` of `model`: an element's from
@@ -150,13 +158,18 @@ pub fn force_drive(
 /// The flagged ones of `estimates` of `model`'s parameters with their
 /// flags, `at_bound` naming those that ended at a bound of their fit (as
 /// [`crate::fit::FitResult::at_bound`] does); a parameter without a flag is
-/// left out. `transfer` as [`flags_of`] takes it.
+/// left out. `transfer` as [`flags_of`] takes it. Each estimate's
+/// `identifiable` is set to [`determined`], so that a report says the same
+/// in it and in its flags.
 pub fn flag_estimates(
-    estimates: &BTreeMap<String, Estimate>,
+    estimates: &mut BTreeMap<String, Estimate>,
     model: &Model,
     at_bound: &[String],
     transfer: bool,
 ) -> BTreeMap<String, Vec<Flag>> {
+    for e in estimates.values_mut() {
+        e.identifiable = determined(e);
+    }
     estimates
         .iter()
         .filter_map(|(name, e)| {

@@ -138,12 +138,12 @@ impl FitReport {
     pub fn new(
         recording: String,
         response: String,
-        fit: FitResult,
+        mut fit: FitResult,
         reference: Option<ElementSpec>,
         files: Vec<PathBuf>,
     ) -> FitReport {
         let comparison = compare(&fit, reference.as_ref());
-        let flags = flag_estimates(&fit.parameters, &fit.model, &fit.at_bound, fit.transfer);
+        let flags = flag_estimates(&mut fit.parameters, &fit.model, &fit.at_bound, fit.transfer);
         FitReport {
             command: "identify".into(),
             version: super::VERSION.into(),
@@ -162,10 +162,10 @@ impl FitReport {
     }
 
     /// Sets the time-domain refinement (none: clears it) with its flags.
-    pub fn set_time_domain(&mut self, t: Option<TimeFitResult>) {
-        self.time_domain_flags = t.as_ref().map_or_else(BTreeMap::new, |t| {
+    pub fn set_time_domain(&mut self, mut t: Option<TimeFitResult>) {
+        self.time_domain_flags = t.as_mut().map_or_else(BTreeMap::new, |t| {
             let transfer = self.fit.transfer || t.response_sign < 0.0;
-            flag_estimates(&t.parameters, &t.model, &t.at_bound, transfer)
+            flag_estimates(&mut t.parameters, &t.model, &t.at_bound, transfer)
         });
         self.time_domain = t;
     }
@@ -818,7 +818,7 @@ pub fn run_time_fit_from_start_signed(
         }
     }
     params.parameters.retain(|p| !fixed.contains(&p.name));
-    let t = identify_time(
+    let mut t = identify_time(
         start,
         params,
         response_sign,
@@ -826,6 +826,12 @@ pub fn run_time_fit_from_start_signed(
         options,
         Some(observer),
     )?;
+    let time_domain_flags = flag_estimates(
+        &mut t.parameters,
+        &t.model,
+        &t.at_bound,
+        t.response_sign < 0.0,
+    );
     Ok(TimeFitReport {
         command: "identify".into(),
         version: super::VERSION.into(),
@@ -834,12 +840,7 @@ pub fn run_time_fit_from_start_signed(
         reference_channel: None,
         start: start.clone(),
         fixed: fixed.to_vec(),
-        time_domain_flags: flag_estimates(
-            &t.parameters,
-            &t.model,
-            &t.at_bound,
-            t.response_sign < 0.0,
-        ),
+        time_domain_flags,
         time_domain: t,
         files: Vec::new(),
     })

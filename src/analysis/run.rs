@@ -445,6 +445,9 @@ fn reported(
                 .at_bounds(&[e.value])[0]
             });
     let (unit, domain) = describe(name, model);
+    let mut e = e;
+    // as fit.json: `identifiable` and the flags say one thing
+    e.identifiable = super::flags::determined(&e);
     let flags = flags_of(name, &e, at_bound, domain, judged.transfer);
     Reported {
         unit: in_drive_units(unit, judged.drive),

@@ -49,12 +49,14 @@ fn spec_of(args: &ImportArgs) -> Result<ImportSpec> {
             .iter()
             .map(|c| {
                 c.parse::<ChannelSpec>()
-                    .with_context(|| "--channel".to_string())
+                    .map_err(|e| flag_error("-c/--channel", e))
             })
             .collect::<Result<_>>()?;
     }
     if let Some(r) = &args.rate {
-        spec.sample_rate = r.parse::<SampleRateSource>().context("--rate")?;
+        spec.sample_rate = r
+            .parse::<SampleRateSource>()
+            .map_err(|e| flag_error("--rate", e))?;
     }
     if let Some(e) = args.excitation {
         spec.excitation.get_or_insert_with(Default::default).kind = excitation_kind(e);
@@ -63,6 +65,15 @@ fn spec_of(args: &ImportArgs) -> Result<ImportSpec> {
         spec.description = d.clone();
     }
     Ok(spec)
+}
+
+/// A flag's value refused by its parser, said as the flag's: the parser
+/// names a spec field, which on the command line is the flag.
+fn flag_error(flag: &str, e: hystid::Error) -> anyhow::Error {
+    match e.root() {
+        hystid::Error::InvalidPlan { message, .. } => anyhow::anyhow!("{flag} {message}"),
+        _ => anyhow::Error::new(e).context(flag.to_string()),
+    }
 }
 
 /// The files `import` writes for `--out NAME` (NAME.wav or NAME.json also
@@ -124,10 +135,36 @@ fn whole_hz(path: &Path, mut rec: Recording) -> Result<(Recording, Option<f64>)>
     Ok((rec, Some(fs)))
 }
 
+/// What to say of a WAV without its JSON sidecar and no channels chosen:
+/// the sidecar is missing, and the `-c` form that imports it anyway.
+fn missing_sidecar(file: &Path) -> String {
+    let shape = hystid::import::wav::shape(file)
+        .map(|s| {
+            format!(
+                " (it holds {} channel(s) at {} Hz)",
+                s.channels, s.sample_rate_hz
+            )
+        })
+        .unwrap_or_default();
+    format!(
+        "{}: no JSON sidecar ({}) says what its channels are{shape}: name each with \
+         -c NAME=#K:QUANTITY[*SCALE], K its channel from 1, e.g. `hystid import {} --out DIR/ \
+         -c force=#1:force -c acc=#2:acceleration` (the rate is the WAV header's)",
+        file.display(),
+        file.with_extension("json").display(),
+        file.display()
+    )
+}
+
 /// `hystid import`.
 pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
     let spec = spec_of(args)?;
-    let (recording, quality): (Recording, QualityReport) = if is_recording(&args.file) {
+    let plain_wav = hystid::import::wav::is_plain_wav(&args.file);
+    if plain_wav && spec.channels.is_empty() {
+        bail!("{}", missing_sidecar(&args.file));
+    }
+    let (recording, quality): (Recording, QualityReport) = if is_recording(&args.file) && !plain_wav
+    {
         // already hystid's format: validated by reading, then checked
         let mut rec = read_recording(&args.file)?;
         if let Some(e) = args.excitation {

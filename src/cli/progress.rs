@@ -67,6 +67,10 @@ impl hystid::observe::Observer for Drawn<'_> {
             }
         }
     }
+
+    fn cancelled(&self) -> bool {
+        super::INTERRUPTED.load(std::sync::atomic::Ordering::Relaxed)
+    }
 }
 
 /// `simulating 42 %`.

@@ -45,6 +45,7 @@ pub mod delimited;
 pub mod mat;
 pub mod quality;
 pub mod uff;
+pub mod wav;
 
 pub use quality::{
     Finding, FindingKind, QualityOptions, QualityReport, Severity, Span, check_quality,
@@ -243,7 +244,8 @@ impl std::str::FromStr for ChannelSpec {
         };
         let quantity = Quantity::from_name(quantity.trim()).ok_or_else(|| {
             bad(format!(
-                "quantity `{quantity}` is not one of force, displacement, velocity, acceleration, voltage"
+                "quantity `{quantity}` is not one of {}",
+                Quantity::names()
             ))
         })?;
         let (name, source) = match left.split_once('=') {
@@ -464,6 +466,7 @@ pub fn import(source: &Path, spec: &ImportSpec) -> Result<Imported> {
     let loaded = match ext.as_str() {
         "mat" => mat_load(source, spec)?,
         "csv" | "tsv" | "txt" | "dat" => delimited::load(source, spec)?,
+        "wav" if wav::is_plain_wav(source) => wav::load(source, spec)?,
         "wav" | "json" => {
             return Err(Error::format(
                 source,
@@ -493,6 +496,17 @@ fn extension(path: &Path) -> String {
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default()
+}
+
+/// Extensions [`import`] reads besides UFF's ([`UFF_EXTENSIONS`]).
+pub const EXTENSIONS: [&str; 6] = ["mat", "csv", "tsv", "txt", "dat", "wav"];
+
+/// Whether [`import`] reads `path`, by its extension (a WAV only without
+/// its JSON sidecar: with one it is already a recording).
+pub fn reads(path: &Path) -> bool {
+    let ext = extension(path);
+    UFF_EXTENSIONS.contains(&ext.as_str())
+        || (EXTENSIONS.contains(&ext.as_str()) && (ext != "wav" || wav::is_plain_wav(path)))
 }
 
 /// Whether the file says what its channels are, so that an [`ImportSpec`]

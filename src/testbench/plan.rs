@@ -60,10 +60,22 @@ pub fn model_from_toml(text: &str, origin: &str) -> Result<Model> {
     let has_test = text
         .parse::<toml::Table>()
         .is_ok_and(|t| t.contains_key("test"));
-    if has_test {
+    let model = if has_test {
         TestDefinition::from_toml(text, origin)?.model()
     } else {
         StructureDefinition::from_toml(text, origin)?.model()
+    };
+    model.map_err(|e| in_file(origin, e))
+}
+
+/// A value refused in a file's definition, said with the file: the checks
+/// name the field only, as they also check models built in code.
+fn in_file(origin: &str, e: Error) -> Error {
+    match e {
+        Error::InvalidPlan { field, message } | Error::InvalidModel { field, message } => {
+            Error::format(origin, field, message)
+        }
+        e => e,
     }
 }
 
@@ -129,6 +141,15 @@ impl<'de> Deserialize<'de> for JointSpec {
                     "a joint of kind `none` takes no parameters",
                 )),
             };
+        }
+        // an unknown kind: the joints, not every law serde would list
+        if let Some(kind) = v.get("kind").and_then(|k| k.as_str())
+            && ElementKind::from_name(kind).is_none()
+        {
+            return Err(D::Error::custom(format!(
+                "unknown joint kind `{kind}`: expected one of {}, or none",
+                joint_names().join(", ")
+            )));
         }
         let spec: ElementSpec = serde_json::from_value(v).map_err(D::Error::custom)?;
         if !spec.description().is_joint() {
@@ -199,6 +220,20 @@ impl<'de> Deserialize<'de> for EffectSpec {
             return serde_json::from_value(v)
                 .map(EffectSpec::SecondMode)
                 .map_err(D::Error::custom);
+        }
+        // an unknown kind: the effects, not every law serde would list
+        if let Some(kind) = v.get("kind").and_then(|k| k.as_str())
+            && ElementKind::from_name(kind).is_none()
+        {
+            let effects: Vec<&str> = ElementKind::ALL
+                .iter()
+                .filter(|k| !k.description().is_joint())
+                .map(|k| k.name())
+                .collect();
+            return Err(D::Error::custom(format!(
+                "unknown effect kind `{kind}`: expected one of {}, or second_mode",
+                effects.join(", ")
+            )));
         }
         let spec: ElementSpec = serde_json::from_value(v).map_err(D::Error::custom)?;
         if spec.description().is_joint() {
@@ -589,11 +624,33 @@ impl StructureDefinition {
     }
 }
 
+/// Checks a noise level, a fraction of a channel's clean RMS: above 1 it
+/// is most likely a percentage (`noise = 5` meant as 5 %), so it is
+/// refused with the fraction it would be.
+fn noise_fraction(field: &str, v: f64, channel: &str) -> Result<()> {
+    if v.is_finite() && (0.0..=1.0).contains(&v) {
+        return Ok(());
+    }
+    let key = field.rsplit('.').next().unwrap_or(field);
+    let hint = if v.is_finite() && v > 1.0 && v <= 100.0 {
+        format!(
+            "; a percentage is written as its fraction: `{key} = {}` for {v} %",
+            v / 100.0
+        )
+    } else {
+        format!(" (e.g. `{key} = 0.05` for 5 %)")
+    };
+    Err(Error::plan(
+        field,
+        format!("must be a fraction of the {channel} RMS in [0, 1], got {v}{hint}"),
+    ))
+}
+
 impl TestDefinition {
     /// Parses and checks a definition; `origin` names the file in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<TestDefinition> {
         let def: TestDefinition = parse_toml(text, origin)?;
-        def.validate()?;
+        def.validate().map_err(|e| in_file(origin, e))?;
         Ok(def)
     }
 
@@ -628,15 +685,7 @@ impl TestDefinition {
                 ));
             }
         }
-        if !(t.noise.is_finite() && (0.0..=10.0).contains(&t.noise)) {
-            return Err(Error::plan(
-                "test.noise",
-                format!(
-                    "must be in [0, 10] (a fraction of the response RMS), got {}",
-                    t.noise
-                ),
-            ));
-        }
+        noise_fraction("test.noise", t.noise, "response")?;
         if t.force_gauge && !self.model()?.laws().any(|e| e.drive_load().is_some()) {
             return Err(Error::plan(
                 "test.force_gauge",
@@ -644,12 +693,7 @@ impl TestDefinition {
                  the force itself, recorded as the reference",
             ));
         }
-        if !(t.force_noise.is_finite() && (0.0..=10.0).contains(&t.force_noise)) {
-            return Err(Error::plan(
-                "test.force_noise",
-                format!("must be in [0, 10], got {}", t.force_noise),
-            ));
-        }
+        noise_fraction("test.force_noise", t.force_noise, "force")?;
         if t.max_harmonic == 0 || t.max_harmonic > 64 {
             return Err(Error::plan(
                 "test.max_harmonic",
@@ -818,7 +862,8 @@ mod tests {
     use super::*;
 
     /// A structure without `[test]` gives the model its test definition
-    /// gives; its errors name the key, as a test definition's do.
+    /// gives; its errors name the file and the key, as a test definition's
+    /// do.
     #[test]
     fn a_structure_alone_gives_the_definitions_model() {
         let whole = TestDefinition::embedded_default().model().unwrap();
@@ -830,7 +875,7 @@ mod tests {
         let e = model_from_toml(&bad, "s.toml").unwrap_err().to_string();
         assert_eq!(
             e,
-            "invalid model: `system.mass`: must be a finite number > 0, got -10"
+            "s.toml: `system.mass`: must be a finite number > 0, got -10"
         );
         let e = model_from_toml(&structure.replace("kd =", "kx ="), "s.toml")
             .unwrap_err()

@@ -1,0 +1,401 @@
+//! Integration tests: what a new user trips on, through the `hystid`
+//! binary. Every bad input exits with 2, names the file and the field (or
+//! the flag) and what was expected, and leaves no output behind.
+
+use crate::cli::{SMALL_TEST, hystid, text, write_test};
+use std::path::{Path, PathBuf};
+
+/// A plain WAV (no sidecar): a force and an acceleration at 8 kHz, 16-bit.
+fn plain_wav(dir: &Path, name: &str) -> PathBuf {
+    let path = dir.join(name);
+    let spec = hound::WavSpec {
+        channels: 2,
+        sample_rate: 8000,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut w = hound::WavWriter::create(&path, spec).unwrap();
+    for i in 0..8000 {
+        let t = i as f64 / 8000.0;
+        let f = (2.0 * std::f64::consts::PI * 100.0 * t).sin();
+        w.write_sample((0.5 * f * 32767.0).round() as i16).unwrap();
+        w.write_sample((-0.25 * f * 32767.0).round() as i16)
+            .unwrap();
+    }
+    w.finalize().unwrap();
+    path
+}
+
+fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|r| {
+            r.map(|e| e.unwrap().file_name().into_string().unwrap())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Runs `hystid args`, which must be refused with exit 2 and a message
+/// holding every one of `needles`; returns the message.
+fn refused(args: &[&str], needles: &[&str]) -> String {
+    let o = hystid(args);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {t}");
+    assert!(!t.contains("panicked"), "{args:?}: {t}");
+    for n in needles {
+        assert!(t.contains(n), "{args:?}: `{n}` not in: {t}");
+    }
+    t
+}
+
+/// A WAV without its JSON sidecar imports when its channels are named
+/// with `-c NAME=#K:QUANTITY` (the rate from its header, or `--rate`);
+/// without channels, the missing sidecar is said with the `-c` form to use.
+#[test]
+fn a_plain_wav_imports_with_its_channels_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = plain_wav(dir.path(), "plain.wav");
+    let w = wav.to_str().unwrap();
+    for (k, rate) in [&["--rate", "8000"][..], &[][..]].into_iter().enumerate() {
+        let out = dir.path().join(format!("pw{k}"));
+        let out_arg = format!("{}/", out.display());
+        let mut a = vec![
+            "import",
+            w,
+            "--out",
+            &out_arg,
+            "-c",
+            "force=#1:force",
+            "-c",
+            "acc=#2:acceleration*9.81",
+        ];
+        a.extend(rate);
+        let o = hystid(&a);
+        assert!(o.status.success(), "{rate:?}: {}", text(&o));
+        let rec = hystid::record::read_recording(&out.join("plain.json")).unwrap();
+        assert_eq!(rec.meta.sample_rate_hz, 8000.0);
+        let names: Vec<&str> = rec.meta.channels.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["force", "acc"]);
+        // integer samples as fractions of full scale, times the scale
+        let peak = |c: usize| rec.channels[c].iter().fold(0f64, |m, v| m.max(v.abs()));
+        assert!((peak(0) - 0.5).abs() < 1e-3, "{}", peak(0));
+        assert!((peak(1) - 0.25 * 9.81).abs() < 1e-2, "{}", peak(1));
+    }
+    // read as a recording: import it first
+    refused(
+        &[
+            "identify",
+            w,
+            "--out",
+            dir.path().join("d").to_str().unwrap(),
+        ],
+        &["plain.json", "hystid import", "-c force=#1:force"],
+    );
+    // no channels: the sidecar is missing, and the form to use
+    let out = dir.path().join("none");
+    refused(
+        &["import", w, "--out", out.to_str().unwrap()],
+        &["plain.json", "-c force=#1:force", "2 channel(s) at 8000 Hz"],
+    );
+    assert!(!out.exists());
+    // a named source, a channel the file lacks, a rate it cannot take
+    for (c, rate, needles) in [
+        ("force=Force:force", "auto", &["plain.wav", "#1 to #2"][..]),
+        ("force=#3:force", "auto", &["plain.wav", "#3", "#1 to #2"]),
+        ("force=#1:force", "comment", &["plain.wav", "sample_rate"]),
+    ] {
+        let out = dir.path().join("bad");
+        refused(
+            &[
+                "import",
+                w,
+                "--out",
+                out.to_str().unwrap(),
+                "-c",
+                c,
+                "--rate",
+                rate,
+            ],
+            needles,
+        );
+        assert!(!out.exists());
+    }
+}
+
+/// A directory where files are read is refused as one, with the files in
+/// it that would do: recordings for `identify`, importable files for
+/// `import`, and a fit.json for `validate`'s model.
+#[test]
+fn a_directory_given_as_input_is_refused_with_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("unesp");
+    std::fs::create_dir(&data).unwrap();
+    plain_wav(&data, "shaker.wav");
+    let d = data.to_str().unwrap();
+    let out = dir.path().join("d1");
+    let o = out.to_str().unwrap();
+    refused(
+        &["identify", d, "--out", o],
+        &[
+            "is a directory",
+            "holds no recording",
+            "shaker.wav",
+            "hystid import",
+        ],
+    );
+    refused(
+        &["import", d, "--out", &format!("{o}/")],
+        &["is a directory", "one file at a time", "shaker.wav"],
+    );
+    // with a recording in it, that is the one named
+    let o2 = hystid(&[
+        "import",
+        data.join("shaker.wav").to_str().unwrap(),
+        "--out",
+        data.join("rec").to_str().unwrap(),
+        "-c",
+        "force=#1:force",
+        "-c",
+        "acc=#2:acceleration",
+    ]);
+    assert!(o2.status.success(), "{}", text(&o2));
+    for command in ["identify", "diagnose"] {
+        refused(
+            &[command, d, "--out", o],
+            &["is a directory", "rec.wav", &format!("hystid {command} ")],
+        );
+    }
+    refused(
+        &[
+            "validate",
+            d,
+            data.join("rec.wav").to_str().unwrap(),
+            "--out",
+            o,
+        ],
+        &["is a directory", "name the model file"],
+    );
+    assert!(!out.exists());
+}
+
+/// A quantity mistyped in `-c` names the flag, the quantity and the
+/// valid ones (as the library lists them), not a test definition.
+#[test]
+fn a_mistyped_quantity_names_the_flag_and_the_valid_quantities() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write_test(
+        dir.path(),
+        "laser.csv",
+        "# fs = 1000 Hz\nforce,laser_velocity_m_per_s\n1,2\n3,4\n",
+    );
+    let out = dir.path().join("x");
+    let valid = hystid::harmonics::Quantity::ALL
+        .map(|q| q.name())
+        .join(", ");
+    let t = refused(
+        &[
+            "import",
+            csv.to_str().unwrap(),
+            "--out",
+            &format!("{}/", out.display()),
+            "-c",
+            "force=force:force",
+            "-c",
+            "laser=laser_velocity_m_per_s:velocty",
+        ],
+        &["-c/--channel", "`velocty`", &valid],
+    );
+    assert!(!t.contains("test definition"), "{t}");
+    assert!(!out.exists());
+}
+
+/// A test definition's refused value names the file and the field: a
+/// noise above 1 (a percentage written as one) with the fraction meant, a
+/// negative level or mass, and an unknown joint kind with exactly the
+/// registry's joint laws and `none`.
+#[test]
+fn test_definition_errors_name_the_file_and_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let joints: Vec<&str> = hystid::model::ElementKind::joints()
+        .map(|k| k.name())
+        .collect();
+    let joint_list = format!("expected one of {}, or none", joints.join(", "));
+    let cases = [
+        (
+            SMALL_TEST.replace("noise = 0.10", "noise = 5"),
+            vec!["test.noise", "noise = 0.05", "[0, 1]"],
+        ),
+        (
+            SMALL_TEST.replace("levels_n = [50.0,", "levels_n = [-5.0,"),
+            vec!["test.levels_n[0]", "> 0 N"],
+        ),
+        (
+            SMALL_TEST.replace("mass = 10.0", "mass = -2.0"),
+            vec!["system.mass"],
+        ),
+        (
+            SMALL_TEST.replace("kind = \"jenkins\"", "kind = \"massing\""),
+            vec!["`massing`", &joint_list],
+        ),
+    ];
+    for (i, (t, needles)) in cases.iter().enumerate() {
+        let name = format!("newcomer{i}.toml");
+        let test = write_test(dir.path(), &name, t);
+        let out = dir.path().join(format!("out{i}"));
+        let mut needles = needles.clone();
+        needles.push(&name);
+        let msg = refused(
+            &[
+                "simulate",
+                test.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            &needles,
+        );
+        assert!(!out.exists(), "case {i} left {:?}", entries(&out));
+        if i == 3 {
+            // effects are not joint kinds
+            assert!(!msg.contains("cubic_stiffness"), "{msg}");
+        }
+    }
+}
+
+/// An `--out` that is a file (or under one) is refused before any work, by
+/// every command that takes it; the file is left as it was.
+#[test]
+fn an_output_that_is_a_file_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let wav = plain_wav(dir.path(), "plain.wav");
+    let o = hystid(&[
+        "import",
+        wav.to_str().unwrap(),
+        "--out",
+        dir.path().join("rec").to_str().unwrap(),
+        "-c",
+        "force=#1:force",
+        "-c",
+        "acc=#2:acceleration",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rec = dir.path().join("rec.wav");
+    let taken = write_test(dir.path(), "taken", "mine");
+    let (t, r, w) = (
+        test.to_str().unwrap(),
+        rec.to_str().unwrap(),
+        wav.to_str().unwrap(),
+    );
+    for out in [taken.clone(), taken.join("sub")] {
+        let o = out.to_str().unwrap();
+        let slash = format!("{o}/");
+        let commands: [Vec<&str>; 6] = [
+            vec!["simulate", t, "--out", o],
+            vec!["run", t, "--out", o],
+            vec!["identify", r, "--out", o],
+            vec!["diagnose", r, "--out", o],
+            vec!["validate", t, r, "--out", o],
+            vec!["import", w, "--out", &slash, "-c", "f=#1:force"],
+        ];
+        for a in commands {
+            let start = std::time::Instant::now();
+            refused(&a, &["--out", "is a file, not a folder"]);
+            // refused before reading or reducing anything
+            assert!(start.elapsed().as_secs_f64() < 2.0, "{a:?}");
+        }
+    }
+    assert_eq!(std::fs::read_to_string(&taken).unwrap(), "mine");
+}
+
+/// fit.json and run.json say one thing per parameter: `identifiable` is
+/// false exactly where the flags say `not_identifiable`. Here a Masing
+/// joint of curvature 60 under 70 % noise: its final model's `n` has an
+/// interval without an upper end, which the flags said and
+/// `identifiable` did not.
+#[test]
+fn identifiable_agrees_with_the_flags_in_fit_and_run_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = SMALL_TEST
+        .replace("kind = \"jenkins\"", "kind = \"masing\"\nn = 60")
+        .replace("noise = 0.10", "noise = 0.7")
+        .replace("count = 11", "count = 7")
+        .replace("seed = 4", "seed = 2");
+    let test = write_test(dir.path(), "masing.toml", &def);
+    let out = dir.path().join("run");
+    let o = hystid(&[
+        "run",
+        test.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--no-recording",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let read = |f: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(out.join(f)).unwrap()).unwrap()
+    };
+    let not_identifiable = |flags: &serde_json::Value| {
+        flags
+            .as_array()
+            .is_some_and(|f| f.iter().any(|f| f == "not_identifiable"))
+    };
+    let run = read("run.json");
+    let fin = run["final"]["parameters"].as_object().unwrap();
+    assert!(not_identifiable(&fin["n"]["flags"]), "{}", fin["n"]);
+    for (name, e) in fin {
+        assert_eq!(
+            e["identifiable"].as_bool(),
+            Some(!not_identifiable(&e["flags"])),
+            "run.json final {name}: {e}"
+        );
+    }
+    let fit = read("fit.json");
+    assert!(not_identifiable(&fit["flags"]["n"]), "{}", fit["flags"]);
+    for (name, e) in fit["parameters"].as_object().unwrap() {
+        assert_eq!(
+            e["identifiable"].as_bool(),
+            Some(!not_identifiable(&fit["flags"][name])),
+            "fit.json {name}: {e} beside flags {}",
+            fit["flags"]
+        );
+    }
+}
+
+/// Ctrl-C during `run` stops it at the stage's next check: exit 130, said
+/// on the terminal, and neither a temporary nor the lock left in the
+/// output folder.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[test]
+fn ctrl_c_during_run_leaves_no_temporary_and_no_lock() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    // the default test: long enough to be interrupted while recording
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_hystid"))
+        .args(["run", "--out", out.to_str().unwrap(), "--quiet"])
+        .env_remove("CI")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // interrupted once it writes: a temporary in the folder
+    let start = std::time::Instant::now();
+    while !entries(&out).iter().any(|f| f.contains(".tmp")) {
+        assert!(start.elapsed().as_secs() < 60, "{:?}", entries(&out));
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    // SAFETY: a signal to the child this test spawned
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let o = child.wait_with_output().unwrap();
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(130), "{t}");
+    assert!(t.contains("interrupted"), "{t}");
+    let left = entries(&out);
+    assert!(
+        !left
+            .iter()
+            .any(|f| f.contains(".tmp") || f == hystid::atomic::LOCK_FILE),
+        "{left:?}"
+    );
+}
