@@ -207,14 +207,14 @@ fn an_armature_beside_a_hysteretic_mode_is_refused() {
     );
 }
 
-/// The README's virtual test with a shaker (the paper's structure and
+/// The validation pages' virtual test with a shaker (the paper's structure and
 /// Jenkins joint) plus an armature of 2 kg on a 2e5 N/m, 30 N s/m
 /// suspension: `simulate --check-hb` holds harmonic balance to the bench's
 /// steady state within the 0.2 % on H1 at every dwell, and
 /// `identify --start` fits the model written down as simulated, 10-20 %
 /// off, to the recording: the joint within 1 %, the armature flagged as not
 /// identifiable (on one mode it is the mode's own mass, stiffness and
-/// damping). The README's line holds the figures.
+/// damping). The pinned line holds the figures.
 #[test]
 fn a_declared_armature_is_simulated_as_balanced_and_fitted() {
     let armature = "[[effects]]\nkind = \"armature\"\nma = 2.0\nks = 2.0e5\ncs = 30.0\n[test]";
@@ -228,10 +228,10 @@ fn a_declared_armature_is_simulated_as_balanced_and_fitted() {
         check["h1_median"].as_f64().unwrap(),
     );
     eprintln!("H1: {max:.2e} max, {median:.2e} median");
-    let shown = crate::common::readme_figures("An armature on the shaker's virtual test:")
-        .expect("README line");
-    crate::common::assert_readme_figure("H1 max", max, shown[3]);
-    crate::common::assert_readme_figure("H1 median", median, shown[4]);
+    let shown = crate::common::pinned_figures("An armature on the shaker's virtual test:")
+        .expect("pinned figures");
+    crate::common::assert_pinned_figure("H1 max", max, shown[3]);
+    crate::common::assert_pinned_figure("H1 median", median, shown[4]);
 
     // the model as simulated, written down 10-20 % off, fitted to the FRFs
     let start = crate::cli::write_test(
@@ -275,9 +275,9 @@ fn a_declared_armature_is_simulated_as_balanced_and_fitted() {
             "{pair:?} should be flagged: {parameters}"
         );
     }
-    let line = crate::common::readme_figures("The armature written down and fitted:")
-        .expect("README line");
-    crate::common::assert_readme_figure("kd (%)", kd, line[0]);
-    crate::common::assert_readme_figure("fd (%)", fd, line[1]);
-    crate::common::assert_readme_figure("mass with the armature (kg)", mass, line[2]);
+    let line = crate::common::pinned_figures("The armature written down and fitted:")
+        .expect("pinned figures");
+    crate::common::assert_pinned_figure("kd (%)", kd, line[0]);
+    crate::common::assert_pinned_figure("fd (%)", fd, line[1]);
+    crate::common::assert_pinned_figure("mass with the armature (kg)", mass, line[2]);
 }

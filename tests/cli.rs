@@ -828,9 +828,8 @@ fn run_reports_the_model_after_the_diagnosis_with_the_first_fit_as_before() {
         &diagnosis["baseline"]["error_relative"],
     );
     assert!(fin["error"]["relative"].as_f64() < fin["before"]["error"]["relative"].as_f64());
-    // the README's figures of this run
-    let shown = crate::common::readme_figures("Figures of that run:")
-        .expect("README line of the cubic run");
+    // the pinned figures of this run
+    let shown = crate::common::pinned_figures("Figures of that run:").expect("pinned figures");
     let num = |v: &serde_json::Value| v.as_f64().unwrap();
     let pct = |name: &str| {
         let p = &fin["parameters"][name];
@@ -870,7 +869,7 @@ fn run_reports_the_model_after_the_diagnosis_with_the_first_fit_as_before() {
         ),
         ("the final chi2/dof", num(&fin["error"]["chi2_per_dof"]), 11),
     ] {
-        crate::common::assert_readme_figure(what, value, shown[at]);
+        crate::common::assert_pinned_figure(what, value, shown[at]);
     }
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(
@@ -894,12 +893,12 @@ fn run_reports_the_model_after_the_diagnosis_with_the_first_fit_as_before() {
     }
 }
 
-/// `run` with its default candidates on the README's virtual test of a
+/// `run` with its default candidates on the validation pages' virtual test of a
 /// hysteretic mode: the first fit (a Masing joint alone) leaves the mode
 /// out, leaving far more than twice the noise, so the diagnosis tries the
 /// hysteretic mode, adds it alone, recovers the mode and its joint (the
 /// frequency within 1 %, the rest within 2 %), and the error in H1 falls
-/// more than 3x (issue 12); the README's line is pinned.
+/// more than 3x (issue 12); the pinned line is pinned.
 #[test]
 fn run_finds_an_undeclared_hysteretic_mode() {
     let dir = tempfile::tempdir().unwrap();
@@ -919,11 +918,11 @@ fn run_finds_an_undeclared_hysteretic_mode() {
         serde_json::from_slice(&std::fs::read(out.join("run.json")).unwrap()).unwrap();
     let f = &run["final"];
     assert_eq!(f["added_effects"], serde_json::json!(["hysteretic_mode"]));
-    let shown = crate::common::readme_figures(
+    let shown = crate::common::pinned_figures(
         "- Undeclared on that virtual test, `hystid run TEST.toml` (the first fit a Masing joint \
          alone, then the diagnosis with its default candidates) adds `hysteretic_mode` alone:",
     )
-    .expect("the README's line");
+    .expect("the pinned figures");
     let mut figures = Vec::new();
     for (name, tolerance) in [
         ("frequency_hz", 0.01),
@@ -955,7 +954,7 @@ fn run_finds_an_undeclared_hysteretic_mode() {
         ),
     ]);
     for (i, (what, value)) in figures.into_iter().enumerate() {
-        crate::common::assert_readme_figure(what, value, shown[i]);
+        crate::common::assert_pinned_figure(what, value, shown[i]);
     }
 }
 

@@ -803,7 +803,7 @@ fn import_bouc_wen(data: &Path, dir: &Path, which: &[&str]) {
     }
 }
 
-/// The README's Bouc-Wen walkthrough through the binary: `identify --domain
+/// The validation pages' Bouc-Wen walkthrough through the binary: `identify --domain
 /// time --element bouc_wen --fix nu` on the estimation multisine with no
 /// start given (the multisine's period and linear estimate found by
 /// `identify`, the closest of the start grid; β held: with ν = 1 only βγ and
@@ -880,9 +880,9 @@ fn bouc_wen_fitted_through_the_binary_validates_on_both_test_sets() {
         ("beta gamma", beta * p("gamma"), 800.0, 0.02),
         ("beta delta", beta * p("delta"), -1100.0, 0.02),
     ];
-    let shown = common::readme_figures("Fitted Bouc-Wen parameters:").expect("README line");
+    let shown = common::pinned_figures("Fitted Bouc-Wen parameters:").expect("pinned figures");
     for ((what, value, truth, tol), shown) in fitted.into_iter().zip(shown) {
-        common::assert_readme_figure(&format!("Bouc-Wen fit: {what}"), value, shown);
+        common::assert_pinned_figure(&format!("Bouc-Wen fit: {what}"), value, shown);
         assert!(
             close(value, truth, tol),
             "{what}: {value} (published {truth})"
@@ -929,20 +929,20 @@ fn bouc_wen_fitted_through_the_binary_validates_on_both_test_sets() {
         );
         // the walkthrough's table and the data sets' table
         for row in [row, table_row] {
-            let shown = common::readme_figures(row).expect("README row");
+            let shown = common::pinned_figures(row).expect("pinned figures");
             for ((what, value), shown) in
                 [("e_RMS", e), ("its share of the RMS (%)", 100.0 * relative)]
                     .into_iter()
                     .zip(shown)
             {
-                common::assert_readme_figure(&format!("{row} {what}"), value, shown);
+                common::assert_pinned_figure(&format!("{row} {what}"), value, shown);
             }
         }
         assert!(e <= 3e-6, "{set}: e_RMS {e}");
         // one period (`--periodic`): the error at its lines, whose RMS is
         // e_RMS but for what lies above three times the highest excited
         // line (Parseval: never more, and here nearly all of it), and its
-        // classes the README's
+        // classes the validation pages'
         let l = &v["recordings"][0]["line_spectrum"];
         if extra.is_none() {
             assert!(
@@ -965,8 +965,8 @@ fn bouc_wen_fitted_through_the_binary_validates_on_both_test_sets() {
                 .find(|c| c["class"] == class);
             100.0 * c.unwrap()["relative"].as_f64().unwrap()
         };
-        let shown = common::readme_figures("Bouc-Wen multisine test set at its lines:")
-            .expect("README line");
+        let shown = common::pinned_figures("Bouc-Wen multisine test set at its lines:")
+            .expect("pinned figures");
         for ((what, value), shown) in [
             ("excited", relative("excited")),
             ("odd not excited", relative("odd_not_excited")),
@@ -975,7 +975,7 @@ fn bouc_wen_fitted_through_the_binary_validates_on_both_test_sets() {
         .into_iter()
         .zip(shown)
         {
-            common::assert_readme_figure(&format!("Bouc-Wen lines: {what} (%)"), value, shown);
+            common::assert_pinned_figure(&format!("Bouc-Wen lines: {what} (%)"), value, shown);
         }
     }
     // the sweep test set's decimation declared (`--acquisition 20`): the
@@ -999,9 +999,9 @@ fn bouc_wen_fitted_through_the_binary_validates_on_both_test_sets() {
     );
     let e = v["recordings"][0]["whole"]["e_rms"].as_f64().unwrap();
     eprintln!("Bouc-Wen sweep through its acquisition: e_RMS {e:.4e} m");
-    let shown = common::readme_figures("The fitted model through the sweep's acquisition:")
-        .expect("README line");
-    common::assert_readme_figure("the fitted model's e_RMS through the chain", e, shown[0]);
+    let shown = common::pinned_figures("The fitted model through the sweep's acquisition:")
+        .expect("pinned figures");
+    common::assert_pinned_figure("the fitted model's e_RMS through the chain", e, shown[0]);
     assert!(e <= 3e-7, "{e}");
     let bad = dir.path().join("val_bad");
     let o = hystid(&[
@@ -1109,8 +1109,8 @@ fn bouc_wen_fitted_on_the_sweep_through_its_acquisition_is_the_published_model()
         a[6]
     );
     let shown =
-        common::readme_figures("Fitted on the sine-sweep test set through its acquisition:")
-            .expect("README line");
+        common::pinned_figures("Fitted on the sine-sweep test set through its acquisition:")
+            .expect("pinned figures");
     let names = ["k", "alpha", "c", "m", "beta gamma", "beta delta", "e_RMS"];
     for (k, value) in b.iter().chain(&a).enumerate() {
         let what = format!(
@@ -1122,7 +1122,7 @@ fn bouc_wen_fitted_on_the_sweep_through_its_acquisition_is_the_published_model()
             },
             names[k % 7]
         );
-        common::assert_readme_figure(&what, *value, shown[k]);
+        common::assert_pinned_figure(&what, *value, shown[k]);
     }
     // validate reads the chain from fit.json
     let val = dir.path().join("val");
@@ -1146,12 +1146,12 @@ fn bouc_wen_fitted_on_the_sweep_through_its_acquisition_is_the_published_model()
     );
 }
 
-/// The README's diagnosis figures of a real data set, read from the
-/// `diagnosis.json` the README's commands write: the baseline's and the final
+/// The validation pages' diagnosis figures of a real data set, read from the
+/// `diagnosis.json` the validation pages' commands write: the baseline's and the final
 /// model's H1 error and `χ²/dof`, then each kept effect's parameters with
-/// their 95 % intervals, in the order the README's line gives them (the line
+/// their 95 % intervals, in the order the pinned line gives them (the line
 /// that starts with `start`). The kept effects must be `kept`, in order.
-fn assert_readme_diagnosis(start: &str, diagnosis: &Path, kept: &[(&str, &[&str])]) {
+fn assert_pinned_diagnosis(start: &str, diagnosis: &Path, kept: &[(&str, &[&str])]) {
     let d = json(diagnosis);
     let selected: Vec<&str> = d["selected"]
         .as_array()
@@ -1195,14 +1195,14 @@ fn assert_readme_diagnosis(start: &str, diagnosis: &Path, kept: &[(&str, &[&str]
         }
     }
     eprintln!("{start} {figures:?}");
-    let shown = common::readme_figures(start).expect("README diagnosis line");
+    let shown = common::pinned_figures(start).expect("pinned figures");
     assert_eq!(shown.len(), figures.len(), "{start}: {shown:?}");
     for ((what, value), shown) in figures.into_iter().zip(shown) {
-        common::assert_readme_figure(&format!("{start} {what}"), value, shown);
+        common::assert_pinned_figure(&format!("{start} {what}"), value, shown);
     }
 }
 
-/// A README walkthrough through the binary: each source file imported with
+/// A walkthrough through the binary: each source file imported with
 /// `import_args` (the channel flags), then all diagnosed with
 /// `diagnose_args`; the folder holding `diagnosis.json` and its path.
 fn diagnose_walkthrough(
@@ -1230,12 +1230,12 @@ fn diagnose_walkthrough(
     (dir, json)
 }
 
-/// The README's F-16 walkthrough: the odd levels imported from the data set's
-/// MAT files and diagnosed on the torsion mode's band, as the README's
+/// The validation pages' F-16 walkthrough: the odd levels imported from the data set's
+/// MAT files and diagnosed on the torsion mode's band, as the validation pages'
 /// commands do; its figures are pinned (a softening cubic stiffness kept, the
 /// residual still far above the noise).
 #[test]
-fn f16_diagnosis_is_the_readmes() {
+fn f16_diagnosis_is_as_pinned() {
     let Some(data) = common::dataset("f16_gvt_benchmark") else {
         return;
     };
@@ -1257,7 +1257,7 @@ fn f16_diagnosis_is_the_readmes() {
             "--transfer",
         ],
     );
-    assert_readme_diagnosis(
+    assert_pinned_diagnosis(
         "Diagnosis figures (F-16):",
         &diagnosis,
         &[("cubic_stiffness", &["k3"])],
@@ -1277,7 +1277,7 @@ fn f16_diagnosis_is_the_readmes() {
     );
 }
 
-/// The README's F-16 second mode: the odd levels diagnosed with every
+/// The validation pages' F-16 second mode: the odd levels diagnosed with every
 /// default candidate on a band that holds both nonlinear modes (6-7.6 Hz),
 /// then the diagnosed model validated on the even levels over that band;
 /// pinned: a hysteretic mode slipping near 6.30 Hz (the 6.2-6.6 Hz mode,
@@ -1285,7 +1285,7 @@ fn f16_diagnosis_is_the_readmes() {
 /// softening cubic stiffness kept, the residual still above the noise, and
 /// the validation's table.
 #[test]
-fn f16_second_mode_diagnosis_is_the_readmes() {
+fn f16_second_mode_diagnosis_is_as_pinned() {
     let Some(data) = common::dataset("f16_gvt_benchmark") else {
         return;
     };
@@ -1308,7 +1308,7 @@ fn f16_second_mode_diagnosis_is_the_readmes() {
     ]);
     run_ok(&args);
     let diagnosis = out.join("diagnosis.json");
-    assert_readme_diagnosis(
+    assert_pinned_diagnosis(
         "Diagnosis figures (F-16, 6-7.6 Hz):",
         &diagnosis,
         &[
@@ -1316,7 +1316,7 @@ fn f16_second_mode_diagnosis_is_the_readmes() {
             ("cubic_stiffness", &["k3"]),
         ],
     );
-    f16_validation_is_the_readmes(
+    f16_validation_is_as_pinned(
         work.path(),
         &diagnosis,
         &held,
@@ -1325,7 +1325,7 @@ fn f16_second_mode_diagnosis_is_the_readmes() {
     );
 }
 
-/// The F-16 levels imported into `work` as the README's walkthrough imports
+/// The F-16 levels imported into `work` as the walkthrough imports
 /// them: the odd levels (fitted) and the even ones (held out).
 fn f16_levels(work: &Path, data: &Path) -> (Vec<PathBuf>, Vec<PathBuf>) {
     let level = |l: &str| {
@@ -1345,9 +1345,9 @@ fn f16_levels(work: &Path, data: &Path) -> (Vec<PathBuf>, Vec<PathBuf>) {
 }
 
 /// `model` validated on the F-16's held-out levels over `band`; each
-/// level's e_RMS and share of the RMS asserted as the README's row `| {row}
+/// level's e_RMS and share of the RMS asserted as the validation pages' row `| {row}
 /// | level {l} |` prints them; the shares (%).
-fn f16_validation_is_the_readmes(
+fn f16_validation_is_as_pinned(
     work: &Path,
     model: &Path,
     held: &[PathBuf],
@@ -1365,20 +1365,21 @@ fn f16_validation_is_the_readmes(
         let relative = 100.0 * r["window"]["relative"].as_f64().unwrap();
         let e_rms = r["window"]["e_rms"].as_f64().unwrap();
         eprintln!("level {l}: e_RMS {e_rms:.3} m/s^2, {relative:.1} % of the RMS");
-        let shown = common::readme_figures(&format!("| {row} | level {l} |")).expect("README row");
-        common::assert_readme_figure(&format!("level {l} e_RMS"), e_rms, shown[0]);
-        common::assert_readme_figure(&format!("level {l} share (%)"), relative, shown[1]);
+        let shown =
+            common::pinned_figures(&format!("| {row} | level {l} |")).expect("pinned figures");
+        common::assert_pinned_figure(&format!("level {l} e_RMS"), e_rms, shown[0]);
+        common::assert_pinned_figure(&format!("level {l} share (%)"), relative, shown[1]);
         shares.push(relative);
     }
     shares
 }
 
-/// The README's UNESP walkthrough: three chirps diagnosed on mode 2's band,
-/// as the README's commands do; its figures are pinned (the shaker's lag,
+/// The validation pages' UNESP walkthrough: three chirps diagnosed on mode 2's band,
+/// as the validation pages' commands do; its figures are pinned (the shaker's lag,
 /// a softening cubic stiffness and a clearance kept, the residual still far
 /// above the noise).
 #[test]
-fn unesp_diagnosis_is_the_readmes() {
+fn unesp_diagnosis_is_as_pinned() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
         return;
     };
@@ -1391,7 +1392,7 @@ fn unesp_diagnosis_is_the_readmes() {
         &super::protocols::UNESP_IMPORT,
         &super::protocols::UNESP_REDUCTION,
     );
-    assert_readme_diagnosis(
+    assert_pinned_diagnosis(
         "Diagnosis figures (UNESP):",
         &diagnosis,
         &[
@@ -1437,9 +1438,9 @@ fn unesp_diagnosis_is_the_readmes() {
 /// which start at 0 Hz (refused before 2026-11-26: no period at the
 /// sweep's start): diagnosed over 15-22 Hz as a transfer (the laser is not
 /// at the drive). The joint model is left near the noise and nothing is
-/// kept; the README's figures are pinned.
+/// kept; the pinned figures are pinned.
 #[test]
-fn unesp_first_mode_diagnosis_is_the_readmes() {
+fn unesp_first_mode_diagnosis_is_as_pinned() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
         return;
     };
@@ -1483,15 +1484,16 @@ fn unesp_first_mode_diagnosis_is_the_readmes() {
     eprintln!("{figures:?}, best {}", best.1["effect"]);
     assert_eq!(best.1["effect"], "hysteretic_mode");
     assert_eq!(best.1["verdict"], "size_not_resolved");
-    let shown = common::readme_figures("Diagnosis figures (UNESP, mode 1):").expect("README line");
+    let shown =
+        common::pinned_figures("Diagnosis figures (UNESP, mode 1):").expect("pinned figures");
     assert_eq!(shown.len(), figures.len());
     for (value, shown) in figures.into_iter().zip(shown) {
-        common::assert_readme_figure("UNESP mode 1", value, shown);
+        common::assert_pinned_figure("UNESP mode 1", value, shown);
     }
 }
 
 /// Runs `protocol` on the data set `name` (nothing where it is absent)
-/// and pins each row it returns to the README's row that starts with the
+/// and pins each row it returns to the validation pages' row that starts with the
 /// matching `rows` entry: the figures `columns` read from it, in the
 /// README's order. Returns the rows.
 fn pin_protocol_rows(
@@ -1508,10 +1510,10 @@ fn pin_protocol_rows(
     assert_eq!(got.len(), rows.len(), "{name}: {got:?}");
     for (r, row) in got.iter().zip(rows) {
         eprintln!("{row} {r}");
-        let shown = common::readme_figures(row).expect("README row");
+        let shown = common::pinned_figures(row).expect("pinned figures");
         assert_eq!(shown.len(), columns.len(), "{row}: {shown:?}");
         for ((what, value), shown) in columns.iter().zip(shown) {
-            common::assert_readme_figure(&format!("{row} {what}"), value(r), shown);
+            common::assert_pinned_figure(&format!("{row} {what}"), value(r), shown);
         }
     }
     got
@@ -1523,13 +1525,13 @@ fn field(r: &serde_json::Value, k: &str) -> f64 {
 
 /// Issue 13's F-16 and UNESP protocols in the time domain, run as `cargo
 /// bench --bench datasets` runs them (`tests/protocols`): each validation
-/// recording's row of the README's table (e_RMS, its share of the RMS over
+/// recording's row of the validation pages' table (e_RMS, its share of the RMS over
 /// the band's window, the linearised model's share, the target). The
 /// targets themselves (15 %, 5 %) are not met and not asserted; the
 /// issue's other criterion is: the joint model at least 3 times closer
 /// than the linearised one on every validation recording.
 #[test]
-fn datasets_time_protocols_are_the_readmes() {
+fn datasets_time_protocols_are_as_pinned() {
     let work = tempfile::tempdir().unwrap();
     let columns: [(&str, fn(&serde_json::Value) -> f64); 4] = [
         ("e_RMS", |r| field(r, "e_rms")),
@@ -1570,17 +1572,17 @@ fn datasets_time_protocols_are_the_readmes() {
     }
 }
 
-/// The README's F-16 time-domain fit with a hysteretic mode: the odd
+/// The validation pages' F-16 time-domain fit with a hysteretic mode: the odd
 /// levels fitted from `signals/f16_hysteretic_mode_start.toml` (the
 /// three-mode fit's model plus the 6.2-6.6 Hz mode with a joint of its
 /// own, and an Iwan joint at the drive point), validated on the even
 /// levels over 4.5-9 Hz. The fit is the one `cargo bench --bench datasets`
-/// makes (`tests/protocols`: the README's walkthrough command), so its
-/// rows of the README's second protocols table are pinned here, then the
+/// makes (`tests/protocols`: the walkthrough command), so its
+/// rows of the validation pages' second protocols table are pinned here, then the
 /// walkthrough's own validation: each level's share of the RMS, below
 /// the three-mode protocol's, and where the residual lies in frequency.
 #[test]
-fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
+fn f16_time_fit_with_a_hysteretic_mode_is_as_pinned() {
     if common::dataset("f16_gvt_benchmark").is_none() {
         return;
     }
@@ -1610,7 +1612,7 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         let relative = w["relative"].as_f64().unwrap();
         assert!((parts.sqrt() / relative - 1.0).abs() < 1e-9, "{a}");
     }
-    let shares = f16_validation_is_the_readmes(
+    let shares = f16_validation_is_as_pinned(
         work.path(),
         &out.join("fit.json"),
         &held,
@@ -1618,7 +1620,8 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
         "F-16 with a hysteretic mode",
     );
     for (relative, l) in shares.into_iter().zip([2, 4, 6]) {
-        let without = common::readme_figures(&format!("| F-16 | level {l} |")).expect("README row");
+        let without =
+            common::pinned_figures(&format!("| F-16 | level {l} |")).expect("pinned figures");
         assert!(
             relative < without[1].0,
             "level {l}: {relative} % vs {} % without",
@@ -1637,13 +1640,13 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
             ("measured beyond", pc("beyond", "measured")),
             ("model beyond", pc("beyond", "simulated")),
         ];
-        let shown = common::readme_figures(&format!(
+        let shown = common::pinned_figures(&format!(
             "| by frequency, F-16 with a hysteretic mode | level {l} |"
         ))
-        .expect("README row");
+        .expect("pinned figures");
         assert_eq!(shown.len(), figures.len(), "{shown:?}");
         for ((what, value), shown) in figures.into_iter().zip(shown) {
-            common::assert_readme_figure(&format!("level {l} {what} (%)"), value, shown);
+            common::assert_pinned_figure(&format!("level {l} {what} (%)"), value, shown);
         }
     }
 }
@@ -1652,10 +1655,10 @@ fn f16_time_fit_with_a_hysteretic_mode_is_the_readmes() {
 /// of the 0.05 / 0.15 / 0.25 V chirps started from the FRF fit's mode and
 /// Masing joint plus the diagnosis's shaker lag
 /// (`signals/unesp_shaker_start.toml`, a transfer: `response_sign = -1`),
-/// validated on the 0.10 / 0.20 / 0.30 V chirps over 88-100 Hz. The README's
+/// validated on the 0.10 / 0.20 / 0.30 V chirps over 88-100 Hz. The validation pages'
 /// rows are pinned, and each is below the protocol's own (no shaker).
 #[test]
-fn unesp_time_fit_with_the_shaker_is_the_readmes() {
+fn unesp_time_fit_with_the_shaker_is_as_pinned() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
         return;
     };
@@ -1664,10 +1667,12 @@ fn unesp_time_fit_with_the_shaker_is_the_readmes() {
     let te = fitted.fit["time_domain"]["parameters"]["shaker.te"]["value"]
         .as_f64()
         .unwrap();
-    let first = common::readme_figures("UNESP with the shaker, fitted lag:").expect("README line");
-    common::assert_readme_figure("the fitted lag te (s)", te, first[0]);
+    let first =
+        common::pinned_figures("UNESP with the shaker, fitted lag:").expect("pinned figures");
+    common::assert_pinned_figure("the fitted lag te (s)", te, first[0]);
     for (relative, l) in fitted.pin_rows("UNESP with the shaker") {
-        let without = common::readme_figures(&format!("| UNESP | {l} V |")).expect("README row");
+        let without =
+            common::pinned_figures(&format!("| UNESP | {l} V |")).expect("pinned figures");
         assert!(
             relative < without[1].0,
             "{l} V: {relative} % vs {} % without",
@@ -1680,12 +1685,12 @@ fn unesp_time_fit_with_the_shaker_is_the_readmes() {
 /// (`signals/unesp_background_start.toml`): the fit drives its damping ratio
 /// to the bound (a background, not a resonance), and the two lower validation
 /// chirps come within issue 13's 5 %. The fit is the one `cargo bench
-/// --bench datasets` makes (`tests/protocols`), so its rows of the README's
+/// --bench datasets` makes (`tests/protocols`), so its rows of the validation pages'
 /// second protocols table are pinned here; then the walkthrough's
-/// validation: the README's rows and the background's figures, each row
+/// validation: the validation pages' rows and the background's figures, each row
 /// below the shaker-only fit's.
 #[test]
-fn unesp_time_fit_with_a_background_is_the_readmes() {
+fn unesp_time_fit_with_a_background_is_as_pinned() {
     if common::dataset("bolted_beam_unesp_bert").is_none() {
         return;
     }
@@ -1709,21 +1714,21 @@ fn unesp_time_fit_with_a_background_is_the_readmes() {
         0.9,
         "the background's damping sits at its bound"
     );
-    let line = common::readme_figures("UNESP with a background, fitted:").expect("README line");
-    common::assert_readme_figure(
+    let line = common::pinned_figures("UNESP with a background, fitted:").expect("pinned figures");
+    common::assert_pinned_figure(
         "the background's frequency (Hz)",
         value("second_mode.frequency_hz"),
         line[0],
     );
-    common::assert_readme_figure(
+    common::assert_pinned_figure(
         "the background's residue",
         value("second_mode.residue"),
         line[1],
     );
-    common::assert_readme_figure("the lag te (s)", value("shaker.te"), line[2]);
+    common::assert_pinned_figure("the lag te (s)", value("shaker.te"), line[2]);
     for (relative, l) in fitted.pin_rows("UNESP with the shaker and a background") {
-        let shaker = common::readme_figures(&format!("| UNESP with the shaker | {l} V |"))
-            .expect("README row");
+        let shaker = common::pinned_figures(&format!("| UNESP with the shaker | {l} V |"))
+            .expect("pinned figures");
         assert!(
             relative < shaker[1].0,
             "{l} V: {relative} % vs {} % with the shaker alone",
@@ -1733,13 +1738,13 @@ fn unesp_time_fit_with_a_background_is_the_readmes() {
 }
 
 /// `identify --each-alone` on the UNESP chirps, the fit of the background
-/// start (as `unesp_time_fit_with_a_background_is_the_readmes` makes it):
+/// start (as `unesp_time_fit_with_a_background_is_as_pinned` makes it):
 /// each chirp refitted alone from the fitted model comes 1.7-2.6x closer
 /// than in the fit of all three (2.4x at the median), and the note says
 /// that what the model lacks changes from one level to the next: measured
 /// data, not hystid's (`fit::time` tests the consistent case, 1.00x, and a
 /// structure changed between runs on hystid's own recordings). Figures
-/// pinned in the README.
+/// pinned in the validation pages.
 #[test]
 fn unesp_chirps_refitted_alone_come_closer_than_together() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
@@ -1768,10 +1773,10 @@ fn unesp_chirps_refitted_alone_come_closer_than_together() {
             a["alone"].as_f64().unwrap(),
         );
         assert_eq!(together, after["window"]["relative"].as_f64().unwrap());
-        let row = common::readme_figures(&format!("| UNESP refitted alone | {l} V |"))
-            .expect("README row");
-        common::assert_readme_figure(&format!("{l} V together (%)"), 100.0 * together, row[0]);
-        common::assert_readme_figure(&format!("{l} V alone (%)"), 100.0 * by_itself, row[1]);
+        let row = common::pinned_figures(&format!("| UNESP refitted alone | {l} V |"))
+            .expect("pinned figures");
+        common::assert_pinned_figure(&format!("{l} V together (%)"), 100.0 * together, row[0]);
+        common::assert_pinned_figure(&format!("{l} V alone (%)"), 100.0 * by_itself, row[1]);
         closer.push(together / by_itself);
     }
     closer.sort_by(f64::total_cmp);
@@ -1779,8 +1784,9 @@ fn unesp_chirps_refitted_alone_come_closer_than_together() {
         closer[0] > hystid::fit::time::CLOSER_ALONE,
         "every chirp comes closer alone: {closer:?}"
     );
-    let line = common::readme_figures("UNESP refitted alone, at the median:").expect("README line");
-    common::assert_readme_figure("the median (x)", closer[1], line[0]);
+    let line =
+        common::pinned_figures("UNESP refitted alone, at the median:").expect("pinned figures");
+    common::assert_pinned_figure("the median (x)", closer[1], line[0]);
     let notes = t["notes"].as_array().unwrap();
     let note = notes.last().unwrap().as_str().unwrap();
     assert!(
@@ -1799,7 +1805,7 @@ fn unesp_chirps_refitted_alone_come_closer_than_together() {
 /// two starts (`--starts 2`), the spread one reaches
 /// well under half the given start's misfit (0.3), and every validation
 /// chirp is closer than the shaker's fit without the background. Figures
-/// pinned in the README.
+/// pinned in the validation pages.
 #[test]
 fn unesp_time_fit_from_several_starts_leaves_the_worse_basin() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
@@ -1827,12 +1833,12 @@ fn unesp_time_fit_from_several_starts_leaves_the_worse_basin() {
     let notes = fitted.fit["time_domain"]["notes"].to_string();
     assert!(notes.contains(&format!("start {best}'s")), "{notes}");
     let line =
-        common::readme_figures("UNESP with a background from two starts:").expect("README line");
-    common::assert_readme_figure("the given start's misfit", misfit(0), line[0]);
-    common::assert_readme_figure("the lowest misfit", misfit(best), line[1]);
+        common::pinned_figures("UNESP with a background from two starts:").expect("pinned figures");
+    common::assert_pinned_figure("the given start's misfit", misfit(0), line[0]);
+    common::assert_pinned_figure("the lowest misfit", misfit(best), line[1]);
     for (relative, l) in fitted.pin_rows("UNESP with a background, continuous, two starts") {
-        let one = common::readme_figures(&format!("| UNESP with the shaker | {l} V |"))
-            .expect("README row");
+        let one = common::pinned_figures(&format!("| UNESP with the shaker | {l} V |"))
+            .expect("pinned figures");
         eprintln!("{l} V: {relative:.1} % (the shaker alone: {} %)", one[1].0);
         assert!(relative < one[1].0, "{l} V: {relative} %");
     }
@@ -1848,9 +1854,9 @@ fn unesp_time_fit_from_several_starts_leaves_the_worse_basin() {
 /// follows the first mode's damping with level where the same model with
 /// that mode linear (its joint held stuck) cannot: closer at every
 /// validation level, about twice as close at the loudest. Figures pinned in
-/// the README.
+/// the validation pages.
 #[test]
-fn unesp_two_nonlinear_modes_are_the_readmes() {
+fn unesp_two_nonlinear_modes_are_as_pinned() {
     let Some(data) = common::dataset("bolted_beam_unesp_bert") else {
         return;
     };
@@ -1962,20 +1968,21 @@ fn unesp_two_nonlinear_modes_are_the_readmes() {
             first_linear.iter().chain(&second_linear),
         ),
     ] {
-        let shown = common::readme_figures(row).expect("README row");
+        let shown = common::pinned_figures(row).expect("pinned figures");
         let figures: Vec<f64> = figures.copied().collect();
         assert_eq!(shown.len(), figures.len(), "{row}");
         for ((value, shown), k) in figures.iter().zip(shown).zip(0..) {
-            common::assert_readme_figure(&format!("{row} {k}"), *value, shown);
+            common::assert_pinned_figure(&format!("{row} {k}"), *value, shown);
         }
     }
-    let line = common::readme_figures("The first mode's own joint, fitted:").expect("README line");
+    let line =
+        common::pinned_figures("The first mode's own joint, fitted:").expect("pinned figures");
     for ((what, v), shown) in ["bare frequency", "kt", "fs", "chi", "beta"]
         .iter()
         .zip(&mode)
         .zip(line)
     {
-        common::assert_readme_figure(what, *v, shown);
+        common::assert_pinned_figure(what, *v, shown);
     }
     // the first mode closer at every validation level with its own joint,
     // and about twice as close at the loudest; the second about as before
@@ -2002,7 +2009,7 @@ struct UnespTimeFit {
 }
 
 impl UnespTimeFit {
-    /// Pins the README's rows `| {model} | {l} V | e_RMS | share |`; returns
+    /// Pins the validation pages' rows `| {model} | {l} V | e_RMS | share |`; returns
     /// each validation chirp's share of the RMS (%) with its level.
     fn pin_rows(&self, model: &str) -> Vec<(f64, &'static str)> {
         let mut shares = Vec::new();
@@ -2016,9 +2023,9 @@ impl UnespTimeFit {
             let e_rms = r["window"]["e_rms"].as_f64().unwrap();
             eprintln!("{model}, {l} V: e_RMS {e_rms:.4} m/s, {relative:.1} % of the RMS");
             let shown =
-                common::readme_figures(&format!("| {model} | {l} V |")).expect("README row");
-            common::assert_readme_figure(&format!("{l} V e_RMS"), e_rms, shown[0]);
-            common::assert_readme_figure(&format!("{l} V share (%)"), relative, shown[1]);
+                common::pinned_figures(&format!("| {model} | {l} V |")).expect("pinned figures");
+            common::assert_pinned_figure(&format!("{l} V e_RMS"), e_rms, shown[0]);
+            common::assert_pinned_figure(&format!("{l} V share (%)"), relative, shown[1]);
             shares.push((relative, l));
         }
         shares
@@ -2077,7 +2084,7 @@ fn unesp_validation(work: &Path, out: &Path, held: &[PathBuf]) -> UnespTimeFit {
     }
 }
 
-/// The README's second protocols table's rows of data set `name`:
+/// The validation pages' second protocols table's rows of data set `name`:
 /// `protocol` (fitted from a model in `signals/`, as `cargo bench --bench
 /// datasets` adds them to its rows as `from_start`) run into `work`, each
 /// row's e_RMS, share of the RMS and target pinned. The held-out
@@ -2115,7 +2122,7 @@ fn pin_from_start_rows(
 /// Bouc-Wen law among the candidates. The law the data were made with is
 /// traced first, added and refitted: the misfit falls to the noise, and the
 /// final model validates on the swept test set within issue 13's target
-/// (3e-6 m). README figures pinned.
+/// (3e-6 m). pinned figures pinned.
 #[test]
 fn bouc_wen_benchmark_diagnosed_at_its_lines_finds_its_law() {
     let Some(data) = common::dataset("boucwen_benchmark") else {
@@ -2177,10 +2184,10 @@ fn bouc_wen_benchmark_diagnosed_at_its_lines_finds_its_law() {
         e_rms,
     ];
     eprintln!("Bouc-Wen diagnosed at its lines: {figures:?}");
-    let shown =
-        common::readme_figures("Bouc-Wen benchmark diagnosed at its lines:").expect("README line");
+    let shown = common::pinned_figures("Bouc-Wen benchmark diagnosed at its lines:")
+        .expect("pinned figures");
     for (i, (value, shown)) in figures.into_iter().zip(shown).enumerate() {
-        common::assert_readme_figure(&format!("Bouc-Wen diagnosis figure {i}"), value, shown);
+        common::assert_pinned_figure(&format!("Bouc-Wen diagnosis figure {i}"), value, shown);
     }
     assert_eq!(selected, ["bouc_wen_joint"], "{printed}");
     assert_eq!(traced["effect"], "bouc_wen_joint", "{printed}");

@@ -38,52 +38,57 @@ pub fn worst_relative(a: &[f64], b: &[f64]) -> (usize, f64) {
     worst
 }
 
-/// The numbers of the README's line that starts with `start` (trimmed),
-/// after `start`, in order, each with half a unit of its last printed digit:
-/// what a figure pinned to the README may differ by from the value it was
-/// printed from. `None` when no line starts so (a README edit the test must
-/// follow).
-pub fn readme_figures(start: &str) -> Option<Vec<(f64, f64)>> {
-    let text =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).ok()?;
-    let line = text
-        .lines()
-        .find_map(|l| l.trim_start().strip_prefix(start))?;
-    // tokens of the characters a figure is written with; words leave
-    // tokens that do not parse (`-` of `->`, `e` of `degree`), and a token
-    // glued to a word is part of its name (`k3`, `H1`, `m^3`)
-    let out = line
-        .split(|c: char| !(c.is_ascii_digit() || "+-.e".contains(c)))
-        .filter(|t| {
-            let at = t.as_ptr() as usize - line.as_ptr() as usize;
-            !line[..at]
-                .chars()
-                .next_back()
-                .is_some_and(|c| c.is_alphabetic() || c == '^' || c == '_')
-        })
-        .map(|t| t.trim_end_matches('.'))
-        .filter_map(|t| {
-            let value: f64 = t.parse().ok()?;
-            let (mantissa, exponent) = t.split_once('e').unwrap_or((t, "0"));
-            let decimals = mantissa.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
-            let exponent: i32 = exponent.parse().ok()?;
-            Some((value, 0.5 * 10f64.powi(exponent - decimals)))
-        })
-        .collect();
-    Some(out)
+/// The figures pinned under `key` in `docs/validation/figures.json`, each
+/// with half a unit of its last printed digit: what a measured value may
+/// differ by from the figure the validation pages print. `None` when no
+/// entry has that key (a figure the test must have written first).
+///
+/// The validation pages are generated from that file (`docs_are_current`),
+/// so the figures a test pins are the figures a reader sees; the prose
+/// around them can be edited freely.
+pub fn pinned_figures(key: &str) -> Option<Vec<(f64, f64)>> {
+    let figures = pinned_table();
+    let printed = figures.get(key)?.as_array()?;
+    Some(
+        printed
+            .iter()
+            .map(|p| printed_figure(p.as_str().expect("figures are printed as strings")))
+            .collect(),
+    )
 }
 
-/// Asserts `value` prints as the README's `figure` (within half a unit of
+/// `docs/validation/figures.json`: the key of each pinned line, and its
+/// figures as printed.
+pub fn pinned_table() -> serde_json::Map<String, serde_json::Value> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/validation/figures.json");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A printed figure's value and half a unit of its last digit.
+pub fn printed_figure(t: &str) -> (f64, f64) {
+    let value: f64 = t
+        .parse()
+        .unwrap_or_else(|_| panic!("`{t}` is not a figure"));
+    let (mantissa, exponent) = t.split_once('e').unwrap_or((t, "0"));
+    let decimals = mantissa.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
+    let exponent: i32 = exponent.parse().expect("an integer exponent");
+    (value, 0.5 * 10f64.powi(exponent - decimals))
+}
+
+/// Asserts `value` prints as the pinned `figure` (within half a unit of
 /// its last digit, and a relative 1e-9 for the rounding of the value).
 ///
-/// With `HYSTID_README_REPORT=1` a mismatch is printed instead, so that one
+/// With `HYSTID_FIGURES_REPORT=1` a mismatch is printed instead, so that one
 /// run lists every figure to re-pin after a change that moves them.
-pub fn assert_readme_figure(what: &str, value: f64, figure: (f64, f64)) {
+pub fn assert_pinned_figure(what: &str, value: f64, figure: (f64, f64)) {
     let (shown, half) = figure;
     let holds = (value - shown).abs() <= half * (1.0 + 1e-9) + 1e-12 * shown.abs();
-    let message =
-        format!("README says {what} = {shown}, the test measures {value}: update the README");
-    if !holds && std::env::var_os("HYSTID_README_REPORT").is_some() {
+    let message = format!(
+        "docs/validation/figures.json pins {what} = {shown}, the test measures {value}: \
+         re-pin it there and regenerate the pages"
+    );
+    if !holds && std::env::var_os("HYSTID_FIGURES_REPORT").is_some() {
         eprintln!("{message}");
         return;
     }
@@ -91,7 +96,7 @@ pub fn assert_readme_figure(what: &str, value: f64, figure: (f64, f64)) {
 }
 
 /// The paper's jointed SDOF beside a hysteretic mode (240 Hz bare, 339 Hz
-/// stuck, 50 kg, Jenkins 1.137e8 N/m slipping at 300 N): the README's
+/// stuck, 50 kg, Jenkins 1.137e8 N/m slipping at 300 N): the validation pages'
 /// virtual test of the hysteretic mode (its `--check-hb` and `run` lines).
 pub const HYSTERETIC_MODE_TEST: &str = r#"
 [[modes]]

@@ -70,7 +70,7 @@ fn final_model(c: &CaseRun) -> hystid::analysis::run::FinalModel {
 
 /// The seeds a case runs: one per case in the suite (each case its own, so
 /// that the suite still sees three noise draws), or every seed of
-/// `HYSTID_DIAGNOSE_SEEDS` (`1-5`: the README's table).
+/// `HYSTID_DIAGNOSE_SEEDS` (`1-5`: the validation pages' table).
 fn seeds(own: u64) -> std::ops::RangeInclusive<u64> {
     match std::env::var("HYSTID_DIAGNOSE_SEEDS") {
         Ok(text) => {
@@ -114,8 +114,8 @@ fn summary(tag: &str, seed: u64, d: &Diagnosis) {
     );
 }
 
-/// A check of a case's final model against the README (see
-/// [`pin_the_readmes_cubic_run`]).
+/// A check of a case's final model against the validation pages (see
+/// [`pin_the_cubic_runs_figures`]).
 type Pin<'a> = &'a dyn Fn(&CaseRun);
 
 /// One undeclared effect, at seed `own` (see [`seeds`]): exactly it is selected, its
@@ -187,13 +187,13 @@ fn an_undeclared_cubic_stiffness_is_found() {
         &[("k3", 1.0e7)],
         1,
         1,
-        Some(&|c| pin_the_readmes_cubic_run(&c.diagnosis, &final_model(c))),
+        Some(&|c| pin_the_cubic_runs_figures(&c.diagnosis, &final_model(c))),
     );
 }
 
-/// The README's larger cubic example is this case at seed 1 (`run` on it
+/// The validation pages' larger cubic example is this case at seed 1 (`run` on it
 /// reports the same final model): its figures, as printed there.
-fn pin_the_readmes_cubic_run(d: &Diagnosis, last: &hystid::analysis::run::FinalModel) {
+fn pin_the_cubic_runs_figures(d: &Diagnosis, last: &hystid::analysis::run::FinalModel) {
     let k3 = &last.parameters["cubic_stiffness.k3"].estimate;
     let pct = |name: &str, truth: f64| 100.0 * (last.parameters[name].estimate.value / truth - 1.0);
     let before = last.before.as_ref().expect("the first fit as before");
@@ -217,11 +217,12 @@ fn pin_the_readmes_cubic_run(d: &Diagnosis, last: &hystid::analysis::run::FinalM
         ("the baseline's chi2/dof", d.baseline.chi2_per_dof),
         ("the final chi2/dof", last.error.chi2_per_dof),
     ];
-    eprintln!("README cubic run: {figures:?}");
-    let shown = crate::common::readme_figures("Figures of the larger run:").expect("README line");
-    assert_eq!(shown.len(), figures.len(), "README cubic run: {shown:?}");
+    eprintln!("pinned cubic run: {figures:?}");
+    let shown =
+        crate::common::pinned_figures("Figures of the larger run:").expect("pinned figures");
+    assert_eq!(shown.len(), figures.len(), "pinned cubic run: {shown:?}");
     for ((what, value), shown) in figures.into_iter().zip(shown) {
-        crate::common::assert_readme_figure(what, value, shown);
+        crate::common::assert_pinned_figure(what, value, shown);
     }
 }
 

@@ -1188,7 +1188,7 @@ fn f16_level1_torsion_peak() {
 /// 0.743 / 0.274 over 0.089–0.0895 V at 17 / 18 / 19 / 20 Hz, phase +92.3 /
 /// +85.6 / −73.9 / −83.3°, within 2 % and 1.5° (the structure's own drift
 /// over a record: |H1| falls 2 % and arg H1 moves 0.6° after the first
-/// 4 s; the README does not say which part it analysed). The README's
+/// 4 s; the validation pages does not say which part it analysed). The validation pages'
 /// harmonic ratios (H2/H1 = 0.67 at 9.5 Hz, H3/H1 = 0.088 at 6 Hz) include
 /// the start transient (0.56 and 0.090 over the first 4 s, against a steady
 /// 0.705 and 0.052), so they are printed, not asserted.

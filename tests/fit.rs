@@ -53,9 +53,9 @@ fn the_paper_case_is_reproduced_within_one_percent() {
     let (rkd, rfd, ckd, cfd) = report("paper case", &f, 2.4e7, 246.048);
     assert!(rkd.abs() < 0.01 && rfd.abs() < 0.01);
     assert!(ckd && cfd);
-    // the README's Table 3.1 row and sentence are this fit (`run`'s first
+    // the validation pages' Table 3.1 row and sentence are this fit (`run`'s first
     // fit of the embedded default: the same FRFs, the same options)
-    let row = crate::common::readme_figures("| hystid, first fit |").expect("README row");
+    let row = crate::common::pinned_figures("| hystid, first fit |").expect("pinned figures");
     let (kd, fd) = (&f.parameters["kd"], &f.parameters["fd"]);
     let pct = |e: &hystid::fit::Estimate, truth: f64| 100.0 * (e.value / truth - 1.0);
     for (what, value, at) in [
@@ -68,16 +68,16 @@ fn the_paper_case_is_reproduced_within_one_percent() {
         ("kd's CI low", kd.ci95[0], 7),
         ("kd's CI high", kd.ci95[1], 8),
     ] {
-        crate::common::assert_readme_figure(what, value, row[at]);
+        crate::common::assert_pinned_figure(what, value, row[at]);
     }
-    let error = crate::common::readme_figures("The first fit's relative FRF error is")
-        .expect("README sentence");
-    crate::common::assert_readme_figure(
+    let error = crate::common::pinned_figures("The first fit's relative FRF error is")
+        .expect("pinned figures");
+    crate::common::assert_pinned_figure(
         "the first fit's error [%]",
         100.0 * f.error.relative,
         error[0],
     );
-    crate::common::assert_readme_figure("its chi2/dof", f.error.chi2_per_dof, error[1]);
+    crate::common::assert_pinned_figure("its chi2/dof", f.error.chi2_per_dof, error[1]);
     let n = &f.parameters["n"];
     assert!(
         !n.identifiable && n.ci95[1].is_infinite() && n.ci95[0] > 20.0,
@@ -125,10 +125,10 @@ fn the_paper_case_is_reproduced_within_one_percent() {
         last.before.as_ref().map(|b| &b.error)
     );
     assert!(!n.flags.is_empty(), "N at its bound is flagged");
-    let row = crate::common::readme_figures(
+    let row = crate::common::pinned_figures(
         "| hystid, final model (the diagnosis added nothing; refitted with the standard errors on H1-H3) |",
     )
-    .expect("README final row");
+    .expect("pinned figures");
     for (what, value, at) in [
         ("final Fd", fd.value, 0),
         ("final Fd's error [%]", pct(fd, 246.048), 1),
@@ -140,10 +140,10 @@ fn the_paper_case_is_reproduced_within_one_percent() {
         ("final kd's CI high", kd.ci95[1], 7),
         ("N's lower bound", n.estimate.ci95[0], 8),
     ] {
-        crate::common::assert_readme_figure(what, value, row[at]);
+        crate::common::assert_pinned_figure(what, value, row[at]);
     }
-    let error = crate::common::readme_figures("The final model's relative FRF error is")
-        .expect("README sentence");
+    let error = crate::common::pinned_figures("The final model's relative FRF error is")
+        .expect("pinned figures");
     let before = last.before.as_ref().expect("the first fit as before");
     for (what, value, at) in [
         (
@@ -158,14 +158,14 @@ fn the_paper_case_is_reproduced_within_one_percent() {
         ),
         ("the final model's chi2/dof", last.error.chi2_per_dof, 2),
     ] {
-        crate::common::assert_readme_figure(what, value, error[at]);
+        crate::common::assert_pinned_figure(what, value, error[at]);
     }
 }
 
 /// Over 10 seeds the intervals cover the reference at least 8 times. The
 /// paper's test at a third of its frequencies (17 per level, 119 dwells):
 /// coverage is a property of the intervals, not of the test's size, and the
-/// study costs a third; the README's figures are these, pinned.
+/// study costs a third; the pinned figures are these, pinned.
 #[test]
 fn intervals_cover_the_reference_in_at_least_8_of_10_seeds() {
     let (mut kd_hits, mut fd_hits) = (0, 0);
@@ -189,17 +189,17 @@ fn intervals_cover_the_reference_in_at_least_8_of_10_seeds() {
         100.0 * kd_worst,
         100.0 * fd_worst
     );
-    let shown = crate::common::readme_figures(
+    let shown = crate::common::pinned_figures(
         "| identification (paper case at 17 frequencies per level; 10 seeds) | the reference |",
     )
-    .expect("README row");
+    .expect("pinned figures");
     for (what, value, at) in [
         ("kd's worst error [%]", 100.0 * kd_worst, 0),
         ("Fd's worst error [%]", 100.0 * fd_worst, 1),
         ("kd's coverage", kd_hits as f64, 2),
         ("Fd's coverage", fd_hits as f64, 4),
     ] {
-        crate::common::assert_readme_figure(what, value, shown[at]);
+        crate::common::assert_pinned_figure(what, value, shown[at]);
     }
     assert!(kd_hits >= 8 && fd_hits >= 8);
 }

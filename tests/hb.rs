@@ -1230,7 +1230,7 @@ fn a_difference_step_below_the_tolerance_still_moves_the_solution() {
 /// paper's jointed SDOF: `simulate --check-hb` balances the point structure
 /// and the mode apart and adds their harmonics, against the simulator's
 /// steady state, which runs them as two uncoupled systems under one force.
-/// Issue 12 asks 0.2 % in H1; the README's figures are pinned here.
+/// Issue 12 asks 0.2 % in H1; the pinned figures are pinned here.
 #[test]
 fn a_hysteretic_mode_is_balanced_as_the_simulator_runs_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -1273,12 +1273,12 @@ fn a_hysteretic_mode_is_balanced_as_the_simulator_runs_it() {
     );
     assert_eq!(h1.len(), 84);
     assert!(max < 2e-3, "{max}");
-    let shown = crate::common::readme_figures(
+    let shown = crate::common::pinned_figures(
         "- `simulate --check-hb` on the paper's system plus a hysteretic mode:",
     )
-    .expect("the README's line");
-    crate::common::assert_readme_figure("H1 median", median, shown[0]);
-    crate::common::assert_readme_figure("H1 max", max, shown[1]);
-    crate::common::assert_readme_figure("dwells", h1.len() as f64, shown[2]);
-    crate::common::assert_readme_figure("H3 median", h3, shown[3]);
+    .expect("the pinned figures");
+    crate::common::assert_pinned_figure("H1 median", median, shown[0]);
+    crate::common::assert_pinned_figure("H1 max", max, shown[1]);
+    crate::common::assert_pinned_figure("dwells", h1.len() as f64, shown[2]);
+    crate::common::assert_pinned_figure("H3 median", h3, shown[3]);
 }

@@ -1571,7 +1571,7 @@ fn real_unesp_sine_19hz_csv() {
         assert!(same_bits(&rec.channels[c], &col), "column {}", c + 2);
     }
     // 32 s hold exactly 608 periods of 19 Hz: a plain DFT at 19 Hz gives
-    // the fundamentals without leakage. The README lists, for the steady
+    // the fundamentals without leakage. The pinned lists, for the steady
     // state, a drive amplitude of about 0.089-0.0895 V, a laser fundamental
     // of 0.743 m/s and a phase of -73.9 deg; the second half of the record
     // reproduces them to their rounding (over the whole record the drive
@@ -1597,7 +1597,7 @@ fn real_unesp_sine_19hz_csv() {
     assert!((v1 - 0.743).abs() <= 0.0005, "{v1}");
     // 0.743/0.0895 .. 0.743/0.089, with ±0.0005 on 0.743.
     assert!((8.296..8.354).contains(&ratio), "{ratio}");
-    // The README rounds to 0.1 deg.
+    // The pinned rounds to 0.1 deg.
     assert!((phase + 73.9).abs() < 0.06, "{phase}");
     // 19 Hz is where the data says it is: no rate finding.
     assert!(

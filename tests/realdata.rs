@@ -7,7 +7,7 @@
 //! simulation at ten times the rate (the upsampled validation must approach
 //! it), the in-memory reduction (the streaming one must equal it), the
 //! analytic FRF of an SDOF (peak refinement), and for the real data the
-//! data sets' README figures and the linear (level-1) model the joint model
+//! data sets' pinned figures and the linear (level-1) model the joint model
 //! must beat.
 
 use crate::common;
@@ -726,12 +726,12 @@ fn f16_fit_on_odd_levels_validates_on_even_ones() {
             ],
         ));
     }
-    // the README's validation table, as printed (after every row is printed)
+    // the validation pages' validation table, as printed (after every row is printed)
     for (l, figures) in table {
-        let row = common::readme_figures(&format!("| {} (", &l[..1])).expect("README F-16 row");
-        assert_eq!(row.len(), figures.len(), "README F-16 row {l}: {row:?}");
+        let row = common::pinned_figures(&format!("| {} (", &l[..1])).expect("pinned figures");
+        assert_eq!(row.len(), figures.len(), "pinned F-16 row {l}: {row:?}");
         for ((what, value), shown) in figures.into_iter().zip(row) {
-            common::assert_readme_figure(&format!("F-16 level {l}: {what}"), value, shown);
+            common::assert_pinned_figure(&format!("F-16 level {l}: {what}"), value, shown);
         }
     }
     eprintln!("F-16: reductions {t_reduce:?}, all {:?}", t0.elapsed());
@@ -744,7 +744,7 @@ fn f16_fit_on_odd_levels_validates_on_even_ones() {
 /// `summary_chirp_frf_peaks.csv`) must be matched by the reduced FRFs
 /// within 0.5 Hz (the sweep distortion at 5 Hz/s moves a chirp's peak), and
 /// the joint model's e_RMS must beat the linear (0.05 V) model's on every
-/// validation level. The README's table of the chirps is pinned.
+/// validation level. The validation pages' table of the chirps is pinned.
 #[test]
 fn unesp_chirps_fit_and_validate() {
     let Some(dir) = common::dataset("bolted_beam_unesp_bert") else {
@@ -774,10 +774,10 @@ fn unesp_chirps_fit_and_validate() {
             .next()
             .unwrap_or_else(|| panic!("no Test.Lab peak for {l} V"))
     };
-    let readme_row = |l: &str, role: &str| {
+    let pinned_row = |l: &str, role: &str| {
         let volts = l.replace('p', ".");
-        common::readme_figures(&format!("| {volts} V | {role} |"))
-            .unwrap_or_else(|| panic!("README UNESP row {volts} V"))
+        common::pinned_figures(&format!("| {volts} V | {role} |"))
+            .unwrap_or_else(|| panic!("pinned UNESP row {volts} V"))
     };
     let sweep = SweepOptions {
         max_harmonic: 3,
@@ -857,15 +857,15 @@ fn unesp_chirps_fit_and_validate() {
         ));
     }
     eprintln!("UNESP: {:?}", t0.elapsed());
-    // the README's table of the chirps, as printed (after every row is printed)
-    let shown = common::readme_figures("The fit's relative FRF error on the fitted chirps is")
-        .expect("README UNESP fit error");
-    common::assert_readme_figure("UNESP fit error (%)", 100.0 * fit.error.relative, shown[0]);
+    // the validation pages' table of the chirps, as printed (after every row is printed)
+    let shown = common::pinned_figures("The fit's relative FRF error on the fitted chirps is")
+        .expect("pinned figures");
+    common::assert_pinned_figure("UNESP fit error (%)", 100.0 * fit.error.relative, shown[0]);
     for (l, role, figures) in table {
-        let row = readme_row(l, role);
-        assert_eq!(row.len(), figures.len(), "README UNESP row {l}: {row:?}");
+        let row = pinned_row(l, role);
+        assert_eq!(row.len(), figures.len(), "pinned UNESP row {l}: {row:?}");
         for ((what, value), shown) in figures.into_iter().zip(row) {
-            common::assert_readme_figure(&format!("UNESP {l} V: {what}"), value, shown);
+            common::assert_pinned_figure(&format!("UNESP {l} V: {what}"), value, shown);
         }
     }
 }
@@ -927,7 +927,8 @@ fn boucwen_sweep_validation() {
         100.0 * v.frf.as_ref().unwrap().levels[0].relative_h1_error,
         t0.elapsed()
     );
-    let shown = common::readme_figures("Masing joint on the Bouc-Wen sweep:").expect("README line");
+    let shown =
+        common::pinned_figures("Masing joint on the Bouc-Wen sweep:").expect("pinned figures");
     for ((what, value), shown) in [
         ("e_RMS", v.whole.e_rms),
         ("its share of the RMS (%)", 100.0 * v.whole.relative),
@@ -940,7 +941,7 @@ fn boucwen_sweep_validation() {
     .into_iter()
     .zip(shown)
     {
-        common::assert_readme_figure(&format!("Bouc-Wen sweep, Masing: {what}"), value, shown);
+        common::assert_pinned_figure(&format!("Bouc-Wen sweep, Masing: {what}"), value, shown);
     }
     assert!(v.whole.e_rms > 1e-6);
     assert!(v.whole.relative < 1.0 / 3.0);
@@ -1058,7 +1059,7 @@ fn boucwen_rk4_fine(u: &[f64], fs: f64, sub: usize) -> Vec<f64> {
 /// second period compared (the benchmark's protocol). The floor is the RK4
 /// reference's distance from the data: on the sine sweep 2.5e-6 m (the data
 /// and an accurate simulation of the published model part near the
-/// resonance; the data set's README compared only the first 40 s), on the
+/// resonance; the data set's pinned compared only the first 40 s), on the
 /// multisine 5.8e-7 m. Measured: e_RMS 2.57e-6 m on the sweep (hystid
 /// 1.2e-7 m from the reference), 4.1e-7 m on the multisine.
 #[test]
@@ -1099,11 +1100,11 @@ fn boucwen_published_model_reaches_the_floor() {
             data_vs_reference,
             hystid_vs_reference
         );
-        let row = common::readme_figures(match name {
+        let row = common::pinned_figures(match name {
             "sine sweep" => "| sine sweep (204 s, 40 N) |",
             _ => "| multisine (the steady-state period, played twice, the second compared) |",
         })
-        .expect("README Bouc-Wen row");
+        .expect("pinned figures");
         for ((what, value), shown) in [
             ("hystid's e_RMS", e.e_rms),
             ("its share of the RMS (%)", 100.0 * e.relative),
@@ -1113,7 +1114,7 @@ fn boucwen_published_model_reaches_the_floor() {
         .into_iter()
         .zip(row)
         {
-            common::assert_readme_figure(&format!("Bouc-Wen {name}: {what}"), value, shown);
+            common::assert_pinned_figure(&format!("Bouc-Wen {name}: {what}"), value, shown);
         }
         // within 10 % of the floor the data leave to an accurate simulation
         assert!(
@@ -1222,8 +1223,8 @@ fn boucwen_published_model_through_the_test_sets_acquisition_is_within_2e_6() {
         }
         figures.push((name, e.e_rms, 100.0 * e.relative));
     }
-    let shown = common::readme_figures("The published model through the test sets' acquisition:")
-        .expect("README line");
+    let shown = common::pinned_figures("The published model through the test sets' acquisition:")
+        .expect("pinned figures");
     let all: Vec<(&str, f64)> = [
         ("RK4 at 15 kHz as integrated", unfiltered),
         ("through the decimation", reference),
@@ -1234,7 +1235,7 @@ fn boucwen_published_model_through_the_test_sets_acquisition_is_within_2e_6() {
     .collect();
     assert_eq!(shown.len(), all.len(), "{shown:?}");
     for ((what, value), shown) in all.into_iter().zip(shown) {
-        common::assert_readme_figure(what, value, shown);
+        common::assert_pinned_figure(what, value, shown);
     }
 }
 

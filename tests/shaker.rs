@@ -355,8 +355,8 @@ fn simulated_shaker_test(dir: &std::path::Path) -> std::path::PathBuf {
     sim
 }
 
-fn readme_line(start: &str) -> Vec<(f64, f64)> {
-    crate::common::readme_figures(start).expect("README line")
+fn pinned_line(start: &str) -> Vec<(f64, f64)> {
+    crate::common::pinned_figures(start).expect("pinned figures")
 }
 
 /// A virtual test declares the shaker as an effect beside the paper's
@@ -401,7 +401,7 @@ pub(crate) fn checked_against_hb(dir: &std::path::Path, test: &str) -> std::path
 
 /// Undeclared, analysed with the right joint alone: `diagnose --element
 /// jenkins` on the run file selects `shaker` alone, finds `te` within 1 %
-/// and `ce` within 3 %, and the error in H1 falls at least 3x (the README's
+/// and `ce` within 3 %, and the error in H1 falls at least 3x (the validation pages'
 /// line holds the figures).
 #[test]
 fn an_undeclared_shaker_on_a_virtual_test_is_found() {
@@ -441,9 +441,9 @@ fn an_undeclared_shaker_on_a_virtual_test_is_found() {
         ("chi2/dof after", chi2("final")),
     ];
     eprintln!("{figures:?}");
-    let shown = readme_line("Shaker on a virtual test:");
+    let shown = pinned_line("Shaker on a virtual test:");
     for ((what, value), shown) in figures.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
     assert!(
         figures[0].1.abs() < 3.0 && figures[1].1.abs() < 1.0,
@@ -510,9 +510,9 @@ fn a_declared_shaker_is_identified_from_the_frfs() {
         ),
     ];
     eprintln!("{figures:?}");
-    let shown = readme_line("A declared shaker fitted to the FRFs:");
+    let shown = pinned_line("A declared shaker fitted to the FRFs:");
     for ((what, value), shown) in figures.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
     assert!(
         figures[0].1.abs() < 3.0 && figures[1].1.abs() < 1.0,
@@ -692,9 +692,9 @@ fn a_force_gauge_beside_the_voltage_gives_the_structure_without_the_shaker() {
         ("chi2/dof", f["error"]["chi2_per_dof"].as_f64().unwrap()),
     ];
     eprintln!("{figures:?}");
-    let shown = readme_line("A force gauge beside the voltage:");
+    let shown = pinned_line("A force gauge beside the voltage:");
     for ((what, value), shown) in figures.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
     // the back-EMF takes a fifth of the force at the top level's resonance,
     // next to nothing at 100 Hz
@@ -777,10 +777,10 @@ fn the_voltage_named_as_the_reference_beside_a_gauge_gives_the_shaker() {
         figures.push((name, 100.0 * e));
     }
     eprintln!("{figures:?}");
-    let shown = readme_line("The voltage named as the reference beside the gauge:");
+    let shown = pinned_line("The voltage named as the reference beside the gauge:");
     assert_eq!(shown.len(), figures.len());
     for ((what, value), shown) in figures.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
     // validate takes the reference from the diagnosis: the error is the
     // response's 10 % noise

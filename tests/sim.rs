@@ -674,10 +674,10 @@ fn located_transitions_with_the_element_force_compensated_gain_tenfold() {
         ]);
     }
     let shown =
-        crate::common::readme_figures("Located transitions with the element force compensated:")
-            .expect("README line");
+        crate::common::pinned_figures("Located transitions with the element force compensated:")
+            .expect("pinned figures");
     assert_eq!(shown.len(), figures.len(), "{shown:?}");
     for ((what, value), shown) in figures.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
 }

@@ -566,10 +566,10 @@ fn diagnose_in_the_time_domain_follows_the_joints_history_beside_a_contact() {
     }
     figures.push(("points".into(), 48.0));
     let shown =
-        crate::common::readme_figures("The contact case's time residual:").expect("README line");
+        crate::common::pinned_figures("The contact case's time residual:").expect("pinned figures");
     assert_eq!(shown.len(), figures.len(), "{shown:?}");
     for ((what, value), shown) in figures.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
     assert!(md.contains("residual in the FRFs' plane"), "{md}");
 }
@@ -922,18 +922,18 @@ fn an_effect_the_frfs_left_out_is_added_by_the_time_history() {
             100.0 * continuous_misfit,
         ),
     ];
-    let shown = crate::common::readme_figures("The time residual traced on that recording:")
-        .expect("README line");
+    let shown = crate::common::pinned_figures("The time residual traced on that recording:")
+        .expect("pinned figures");
     assert_eq!(shown.len(), traced.len(), "{shown:?}");
     for ((what, value), shown) in traced.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
     let shown =
-        crate::common::readme_figures("An effect the FRFs left out, put to the time histories:")
-            .expect("README line");
+        crate::common::pinned_figures("An effect the FRFs left out, put to the time histories:")
+            .expect("pinned figures");
     assert_eq!(shown.len(), figures.len(), "{shown:?}");
     for ((what, value), shown) in figures.iter().zip(shown) {
-        crate::common::assert_readme_figure(what, *value, shown);
+        crate::common::assert_pinned_figure(what, *value, shown);
     }
     // the command asks for the time domain, exit 2 before reading anything
     let o = hystid(&[

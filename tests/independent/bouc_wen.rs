@@ -97,7 +97,7 @@ fn hystid_bouc_wen_is_the_benchmark_equation() {
 /// noise, 0.5 % force noise, the corpus's random structure, 6 levels from
 /// 0.02 to 60 times the saturation force x 16 frequencies), read like a
 /// user's: `identify --element bouc_wen` recovers `α`, `βγ`, `βδ` and `ν`
-/// within 5 % (issue 12), figures as the README prints them. `β` itself is
+/// within 5 % (issue 12), figures as the validation pages prints them. `β` itself is
 /// held (the law depends on it only through those products), so `γ` and
 /// `δ` are compared through them. `ν = 1.5`: the general flow, not the
 /// exponential of `ν = 1`.
@@ -161,11 +161,11 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
         fit["parameters"]["beta"]["note"].as_str()
     );
     let chi2 = fit["error"]["chi2_per_dof"].as_f64().unwrap_or(f64::NAN);
-    let shown = crate::common::readme_figures(&format!(
+    let shown = crate::common::pinned_figures(&format!(
         "| {} (gamma {gamma}, delta {delta}, nu {nu}) | `identify --element bouc_wen` |",
         case.name
     ))
-    .unwrap_or_else(|| panic!("no README row for {}", case.name));
+    .unwrap_or_else(|| panic!("no pinned row for {}", case.name));
     for (what, value, at) in [
         ("alpha's error [%]", errors[0], 0),
         ("beta*gamma's error [%]", errors[1], 1),
@@ -174,7 +174,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
         ("the H1 error [%]", 100.0 * error, 4),
         ("chi2/dof", chi2, 5),
     ] {
-        crate::common::assert_readme_figure(&format!("{}: {what}", case.name), value, shown[at]);
+        crate::common::assert_pinned_figure(&format!("{}: {what}", case.name), value, shown[at]);
     }
     let mut failures = Vec::new();
     if !errors.iter().all(|e| e.abs() <= 5.0) {
@@ -237,11 +237,11 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
         chi2("final"),
         run.seconds
     );
-    let shown = crate::common::readme_figures(&format!(
+    let shown = crate::common::pinned_figures(&format!(
         "| {} (gamma {gamma}, delta {delta}, nu {nu}) | `diagnose --element masing --candidates all` (undeclared): selects `bouc_wen_joint` alone |",
         case.name
     ))
-    .unwrap_or_else(|| panic!("no README row for {}'s diagnosis", case.name));
+    .unwrap_or_else(|| panic!("no pinned row for {}'s diagnosis", case.name));
     for (what, value, at) in [
         ("alpha's error [%]", errors[0], 0),
         ("beta*gamma's error [%]", errors[1], 1),
@@ -252,7 +252,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
         ("chi2/dof before", chi2("baseline"), 6),
         ("chi2/dof after", chi2("final"), 7),
     ] {
-        crate::common::assert_readme_figure(
+        crate::common::assert_pinned_figure(
             &format!("{} diagnosed: {what}", case.name),
             value,
             shown[at],

@@ -90,9 +90,9 @@ fn a_hysteretic_mode_from_the_independent_simulator_is_found() {
     assert_eq!(selected, ["hysteretic_mode"], "{}", d["explanation"]);
     let hm = d["selected"][0]["parameters"].clone();
     let got = |n: &str| hm[n]["value"].as_f64().unwrap_or(f64::NAN);
-    // the README's row
-    let shown = crate::common::readme_figures(&format!("| {} |", case.name))
-        .unwrap_or_else(|| panic!("no README row for {}", case.name));
+    // the validation pages' row
+    let shown = crate::common::pinned_figures(&format!("| {} |", case.name))
+        .unwrap_or_else(|| panic!("no pinned row for {}", case.name));
     let chi2 = |at: &str| d[at]["chi2_per_dof"].as_f64().unwrap();
     for (i, (what, value)) in [
         ("frequency", 100.0 * (got("frequency_hz") / f_bare - 1.0)),
@@ -108,7 +108,7 @@ fn a_hysteretic_mode_from_the_independent_simulator_is_found() {
     .into_iter()
     .enumerate()
     {
-        crate::common::assert_readme_figure(&format!("{}: {what}", case.name), value, shown[i]);
+        crate::common::assert_pinned_figure(&format!("{}: {what}", case.name), value, shown[i]);
     }
     for (name, truth, tolerance) in [
         ("frequency_hz", f_bare, 0.01),

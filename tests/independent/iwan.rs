@@ -125,13 +125,13 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
     let js = write_recording(&dir.join("recordings"), case, &rec).unwrap();
     drop(rec);
     let mut failures = Vec::new();
-    // the README's row of this recording and analysis
+    // the validation pages' row of this recording and analysis
     let row = |how: &str| {
         let (JointKind::Iwan4 { chi, beta }, name) = (case.joint, &case.name) else {
             unreachable!()
         };
-        crate::common::readme_figures(&format!("| {name} (chi {chi}, beta {beta}) | {how} |"))
-            .unwrap_or_else(|| panic!("no README row for {name}, {how}"))
+        crate::common::pinned_figures(&format!("| {name} (chi {chi}, beta {beta}) | {how} |"))
+            .unwrap_or_else(|| panic!("no pinned row for {name}, {how}"))
     };
     let mut judge = |how: &str, got: [Option<f64>; 4]| {
         let [kt_hat, fs_hat, chi_hat, beta_hat] = got.map(|v| v.unwrap_or(f64::NAN));
@@ -150,7 +150,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
             ("chi", chi_hat, 2),
             ("beta's error [%]", 100.0 * (beta_hat / beta - 1.0), 3),
         ] {
-            crate::common::assert_readme_figure(
+            crate::common::assert_pinned_figure(
                 &format!("{} {how}: {what}", case.name),
                 value,
                 shown[at],
@@ -214,7 +214,7 @@ fn check_case(case: &Case, dir: &Path) -> Vec<String> {
         ("chi2/dof before", chi2("baseline"), 6),
         ("chi2/dof after", chi2("final"), 7),
     ] {
-        crate::common::assert_readme_figure(&format!("{}: {what}", case.name), value, shown[at]);
+        crate::common::assert_pinned_figure(&format!("{}: {what}", case.name), value, shown[at]);
     }
     eprintln!(
         "{}: selected {selected:?}, H1 error {:.2} % -> {:.2} % ({:.1}x), chi2/dof {:.1} -> {:.2}, {:.0} s",

@@ -250,15 +250,15 @@ fn two_modes_and_a_joint_are_fitted_to_multisines() {
     eprintln!(
         "relative e_RMS (quiet, loud): two modes {start:.1?} -> {after:.2?} %, one mode -> {sdof:.1?} % (noise 2 %)"
     );
-    let shown = crate::common::readme_figures("Two modes and a joint fitted to multisines:")
-        .expect("the README's line");
+    let shown = crate::common::pinned_figures("Two modes and a joint fitted to multisines:")
+        .expect("the pinned figures");
     let figures = errors
         .iter()
         .map(|(what, e, _)| (what.to_string(), *e))
         .chain(after.iter().map(|v| ("e_RMS, two modes".to_string(), *v)))
         .chain(sdof.iter().map(|v| ("e_RMS, one mode".to_string(), *v)));
     for ((what, value), shown) in figures.zip(shown) {
-        crate::common::assert_readme_figure(&format!("multisine: {what}"), value, shown);
+        crate::common::assert_pinned_figure(&format!("multisine: {what}"), value, shown);
     }
     for (what, e, tol) in errors {
         assert!(e.abs() <= tol, "{what}: {e:+.3} % (tolerance {tol} %)");
@@ -292,10 +292,10 @@ fn two_modes_and_a_joint_are_fitted_to_multisines() {
         misfit(&d["refit"]),
     ];
     eprintln!("{text}\ndiagnosed: {diagnosed:?}");
-    let shown = crate::common::readme_figures("A missing mode at the multisine's lines:")
-        .expect("the README's line");
+    let shown = crate::common::pinned_figures("A missing mode at the multisine's lines:")
+        .expect("the pinned figures");
     for (i, (value, shown)) in diagnosed.iter().zip(shown).enumerate() {
-        crate::common::assert_readme_figure(&format!("multisine mode, figure {i}"), *value, shown);
+        crate::common::assert_pinned_figure(&format!("multisine mode, figure {i}"), *value, shown);
     }
     // the mode is put to the refits (a hysteretic mode's start, which can
     // stick, explains more of the residual as it stands; refitted, the
@@ -436,10 +436,10 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
         after,
     ];
     let shown =
-        crate::common::readme_figures("An undeclared cubic stiffness at the multisine's lines:")
-            .expect("the README's line");
+        crate::common::pinned_figures("An undeclared cubic stiffness at the multisine's lines:")
+            .expect("the pinned figures");
     for (i, (value, shown)) in figures.into_iter().zip(shown).enumerate() {
-        crate::common::assert_readme_figure(&format!("multisine cubic, figure {i}"), value, shown);
+        crate::common::assert_pinned_figure(&format!("multisine cubic, figure {i}"), value, shown);
     }
     assert_eq!(selected, ["cubic_stiffness"]);
     assert_eq!(first, "cubic_stiffness");
@@ -525,11 +525,11 @@ fn an_undeclared_cubic_stiffness_is_found_at_the_multisines_lines() {
             .find(|c| c["class"] == "excited")
             .map_or(f64::NAN, |c| 100.0 * c["share"].as_f64().unwrap())
     };
-    let shown = crate::common::readme_figures("Validated at the lines of a held-out multisine:")
-        .expect("the README's line");
+    let shown = crate::common::pinned_figures("Validated at the lines of a held-out multisine:")
+        .expect("the pinned figures");
     let figures = [chi2_final, chi2_baseline, excited_share(&baseline_lines)];
     for (i, (value, shown)) in figures.into_iter().zip(shown).enumerate() {
-        crate::common::assert_readme_figure(&format!("held-out lines, figure {i}"), value, shown);
+        crate::common::assert_pinned_figure(&format!("held-out lines, figure {i}"), value, shown);
     }
     // the final model leaves the noise (chi2 per line about 1: the noise
     // estimate from three periods' scatter, smoothed over 17 lines, biases
@@ -619,10 +619,10 @@ fn a_shaker_nobody_declared_is_found_at_the_multisines_lines() {
         misfit(&d["refit"]),
     ];
     eprintln!("shaker: {figures:?}");
-    let shown = crate::common::readme_figures("A shaker nobody declared at the multisine's lines:")
-        .expect("the README's line");
+    let shown = crate::common::pinned_figures("A shaker nobody declared at the multisine's lines:")
+        .expect("the pinned figures");
     for (i, (value, shown)) in figures.iter().zip(shown).enumerate() {
-        crate::common::assert_readme_figure(
+        crate::common::assert_pinned_figure(
             &format!("multisine shaker, figure {i}"),
             *value,
             shown,
@@ -701,12 +701,12 @@ fn a_hysteretic_mode_nobody_declared_is_found_at_the_multisines_lines() {
         misfit(&d["refit"]),
     ];
     eprintln!("hysteretic mode (slip {fd:.3} N): {figures:?}");
-    let shown = crate::common::readme_figures(
+    let shown = crate::common::pinned_figures(
         "A hysteretic mode nobody declared at the multisine's lines:",
     )
-    .expect("the README's line");
+    .expect("the pinned figures");
     for (i, (value, shown)) in figures.iter().zip(shown).enumerate() {
-        crate::common::assert_readme_figure(
+        crate::common::assert_pinned_figure(
             &format!("multisine hysteretic mode, figure {i}"),
             *value,
             shown,

@@ -22,7 +22,7 @@ use std::time::Duration;
 /// for the force the back-EMF takes at resonance. `diagnose --element
 /// jenkins` (its default candidates) selects `shaker` alone, finds the
 /// coil's time constant and its back-EMF damping (in the drive's unit,
-/// `Bl`) within 3 %, and the error in H1 falls at least 3x; the README's
+/// `Bl`) within 3 %, and the error in H1 falls at least 3x; the validation pages'
 /// row holds the figures.
 #[test]
 fn a_shaker_from_the_independent_simulator_is_found() {
@@ -100,8 +100,8 @@ fn a_shaker_from_the_independent_simulator_is_found() {
         ("ce", 100.0 * (got("ce") / coil.bl - 1.0)),
     ];
     eprintln!("  te {:+.2} %, ce {:+.2} %", errors[0].1, errors[1].1);
-    let shown = crate::common::readme_figures(&format!("| {} |", case.name))
-        .unwrap_or_else(|| panic!("no README row for {}", case.name));
+    let shown = crate::common::pinned_figures(&format!("| {} |", case.name))
+        .unwrap_or_else(|| panic!("no pinned row for {}", case.name));
     for (i, (what, value)) in errors
         .into_iter()
         .chain([
@@ -112,7 +112,7 @@ fn a_shaker_from_the_independent_simulator_is_found() {
         ])
         .enumerate()
     {
-        crate::common::assert_readme_figure(&format!("{}: {what}", case.name), value, shown[i]);
+        crate::common::assert_pinned_figure(&format!("{}: {what}", case.name), value, shown[i]);
     }
     for (what, e) in errors {
         assert!(e.abs() < 3.0, "{what}: {e:+.2} %");
@@ -137,10 +137,10 @@ fn a_shaker_from_the_independent_simulator_is_found() {
         ("fd", 100.0 * (p("fd") / case.fd - 1.0)),
     ];
     eprintln!("with the gauge: {gauge:?}");
-    let shown = crate::common::readme_figures(&format!("| {}-gauge |", case.name))
-        .unwrap_or_else(|| panic!("no README row for {}-gauge", case.name));
+    let shown = crate::common::pinned_figures(&format!("| {}-gauge |", case.name))
+        .unwrap_or_else(|| panic!("no pinned row for {}-gauge", case.name));
     for (i, (what, value)) in gauge.iter().enumerate() {
-        crate::common::assert_readme_figure(
+        crate::common::assert_pinned_figure(
             &format!("{}-gauge: {what}", case.name),
             *value,
             shown[i],

@@ -1,8 +1,8 @@
 //! The three data sets' protocols of issue 13, fitted in the time domain
 //! on their estimation records and judged on held-out ones, through the
-//! `hystid` binary with the README's commands: shared by `cargo bench
+//! `hystid` binary with the validation pages' commands: shared by `cargo bench
 //! --bench datasets` (the table and `target/datasets/report.json`) and the
-//! test that pins the README's table.
+//! test that pins the validation pages' table.
 //!
 //! - Bouc-Wen: fitted on the estimation multisine (no start written down),
 //!   judged on the sine-sweep and multisine test sets (the latter one
@@ -230,7 +230,7 @@ pub fn bouc_wen(d: &Path, work: &Path) -> Vec<Value> {
     )
 }
 
-/// `import`'s arguments for an F-16 level (the README's).
+/// `import`'s arguments for an F-16 level (the validation pages').
 pub const F16_IMPORT: [&str; 8] = [
     "-c",
     "force=Force:force",
@@ -242,7 +242,7 @@ pub const F16_IMPORT: [&str; 8] = [
     "swept",
 ];
 
-/// `import`'s arguments for a UNESP chirp (the README's).
+/// `import`'s arguments for a UNESP chirp (the validation pages').
 pub const UNESP_IMPORT: [&str; 6] = [
     "-c",
     "drive=shaker_amp_V:voltage",
