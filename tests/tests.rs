@@ -13,6 +13,7 @@ mod cli;
 mod cli_newcomer;
 mod cli_realdata;
 mod diagnose;
+mod docs;
 mod extract;
 mod fit;
 mod hb;
