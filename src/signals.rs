@@ -1,6 +1,6 @@
 //! A recording in memory: channels of samples and what they mean.
 //!
-//! The content of "hystid.recording.v1" (`../shared/spec/recording-format.md`)
+//! The content of "hystid.recording.v1" (`docs/src/reference/recording-format.md`)
 //! without the files: [`record`](crate::record) reads and writes these types
 //! (and re-exports them), and [`extract`](crate::extract) reduces them
 //! without knowing the format. [`FrameSource`] is a recording too large to

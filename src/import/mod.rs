@@ -1,7 +1,7 @@
 //! Import: the formats real data comes in, converted into a [`Recording`].
 //!
 //! Measured data rarely arrives as hystid's own WAV + JSON recording
-//! (`shared/spec/recording-format.md`). This stage reads the two formats
+//! (`docs/src/reference/recording-format.md`). This stage reads the two formats
 //! the benchmark data sets use and turns the chosen signals into a
 //! [`Recording`] in memory (samples in physical units, calibration, quantity
 //! and unit kept per channel), plus a [`QualityReport`] of the data:

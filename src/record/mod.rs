@@ -1,7 +1,7 @@
 //! Recordings: the WAV + JSON interchange format and MCAP run files.
 //!
 //! A [`Recording`] is a multi-channel sampled measurement plus what its
-//! samples mean (`../shared/spec/recording-format.md`, "hystid.recording.v1"):
+//! samples mean (`docs/src/reference/recording-format.md`, "hystid.recording.v1"):
 //! channel quantities, units and calibration, and the excitation (stepped-sine
 //! dwells or a sweep). Virtual tests write one; `import` converts real data
 //! into one; `extract` reduces one into nonlinear FRFs.
