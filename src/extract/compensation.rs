@@ -57,8 +57,8 @@ pub fn resonance_time_constant(points: &[FrfPoint]) -> Option<f64> {
 /// the sweep's own time scale `1/√|α|` (`α` the sweep rate in rad/s²), at
 /// most half the cap: a mode whose `τ` is within it is swept nearly
 /// quasi-steadily (`ατ² ≤ 1`), and a mode swept slower would show as a
-/// resonance. (Half the cap alone, as before 2026-11-27, grew with the
-/// sweep's duration: 50 s on a 10-minute sweep, mixing the response over
+/// resonance. (Half the cap alone would grow with the sweep's duration:
+/// 50 s on a 10-minute sweep, mixing the response over
 /// minutes and holding a kernel of 8 M frames at 20 kHz.) The sweep
 /// broadens the plain (uncompensated) reduction's peak, which shortens `τ`,
 /// so `τ` is measured again on the reduction compensated with the first

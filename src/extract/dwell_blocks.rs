@@ -28,7 +28,7 @@
 //! local RMS from sums over the block, the transform's cut), so the dwells
 //! found agree with the whole record's to within a sample at their ends and
 //! the frequencies to rounding (tested); records up to
-//! [`super::WHOLE_RECORD_FRAMES`] are read whole, as before.
+//! [`super::WHOLE_RECORD_FRAMES`] are read whole.
 
 use super::blocks::{BLOCKS, Blocks, HeldReference, PairSource};
 use super::stepped::{DwellOptions, WindowTracker, dwells_of_windows};

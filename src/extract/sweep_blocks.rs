@@ -414,11 +414,10 @@ mod tests {
     /// The phase followed a block at a time (the analytic signal in
     /// tapered blocks) against the whole record's transform: the same sweep,
     /// and the fitted phase laws apart by at most 3e-5 rad over it, which
-    /// moves a window by 1e-3 of a sample at the sweep's lowest frequency
-    /// (measured 2026-11-27: 7.8e-6 rad at the sweep's ends, 1.1e-6 in the
-    /// middle, of 3e6 rad swept). (The sweep fills the record: where it
-    /// starts abruptly, the envelope's crossing of the threshold, a Hilbert
-    /// transform's near a jump, can move by a frame.)
+    /// moves a window by 1e-3 of a sample at the sweep's lowest frequency.
+    /// (The sweep fills the record: where it starts abruptly, the envelope's
+    /// crossing of the threshold, a Hilbert transform's near a jump, can
+    /// move by a frame.)
     #[test]
     fn the_phase_followed_in_blocks_is_the_whole_records() {
         let (force, x) = record(0.0);
@@ -475,9 +474,8 @@ mod tests {
 
     /// The compensation by overlap-save in blocks of 4 096 against the
     /// whole record's convolution, from the same plain windows: the same
-    /// harmonics and variances to 1e-10 (measured 2026-11-27: 2e-14 and
-    /// 2e-15 over 3 124 windows; both are the same sums, in a different
-    /// order).
+    /// harmonics and variances to 1e-10 (both are the same sums, in a
+    /// different order).
     #[test]
     fn the_compensation_by_overlap_save_is_the_whole_convolution() {
         let (force, x) = record(3.0);
@@ -513,7 +511,7 @@ mod tests {
     }
 
     /// With the phase kept at every 8th frame the sweep rate is the same to
-    /// 1e-6 (measured 6e-10), its ends move by at most 8 frames and its end
+    /// 1e-6, its ends move by at most 8 frames and its end
     /// frequencies by the law's change over those frames, to 1e-6 Hz.
     #[test]
     fn a_decimated_phase_gives_the_same_law() {
