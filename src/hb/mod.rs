@@ -307,20 +307,18 @@ struct Walk {
 /// [`HbSolver::solve_point`] takes from a linearised prediction: a
 /// larger one means the balance is near a fold, where the linearisation
 /// points across it, and the walk starts from the last point instead (as a
-/// stepped-sine test stays on its branch). Measured: at a tenth, the
-/// default test's diagnosis made 37 % more model solves (its fits took
-/// other paths from the points predicted 5-10 % away, converged to other
-/// bits within the tolerance); at a twentieth, the same solves as without
-/// the prediction. Measured again 2026-12-01 at a fifth (the bound a sweep
-/// holds a solve to, [`continuation::JUMP_CHECK`]): the speed bench's
-/// Jenkins curve 3.0 AFT evaluations a point against 3.4, but `hystid run`
-/// on the default test 12.1 s of CPU against 9.4 (its fits' paths again).
+/// stepped-sine test stays on its branch). At a twentieth a fit makes the
+/// same solves as without the prediction; a larger bound (a tenth, or the
+/// fifth a sweep holds a solve to, [`continuation::JUMP_CHECK`]) saves a
+/// few AFT evaluations a point, but the fits converge from points
+/// predicted 5-20 % away to other bits within the tolerance, take other
+/// paths and cost more model solves overall.
 const PREDICTION_TRUST: f64 = 0.05;
 
 /// How close (relative) a guess must be to the last converged point to
 /// continue its walk: the same solution reached another way (a sweep, an
-/// earlier solve) differs from it by the Newton tolerance's order,
-/// measured 1e-13 to 1e-10 on the speed bench's grid.
+/// earlier solve) differs from it by the Newton tolerance's order, 1e-13
+/// to 1e-10 on the speed bench's grid.
 const SAME_SOLUTION: f64 = 1e-8;
 
 impl HbSolver {

@@ -341,7 +341,7 @@ pub trait Element {
 /// `to ← from` for a sensitivity row of a few unknowns, copied once per
 /// sample by the laws with memory: inline moves, not the library call (and
 /// its set-up) that `copy_from_slice` becomes for a length not known at
-/// compile time (it was 15 % of harmonic balance's time on a Jenkins joint).
+/// compile time (15 % of harmonic balance's time on a Jenkins joint).
 #[inline]
 pub(crate) fn copy_short(to: &mut [f64], from: &[f64]) {
     let mut to = to.chunks_exact_mut(4);

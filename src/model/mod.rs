@@ -486,7 +486,7 @@ pub struct Model {
     pub effects: Vec<ElementSpec>,
 }
 
-/// A model as files hold it, today's form or the list form before it.
+/// A model as files hold it, in the current form or the older list form.
 #[derive(Deserialize)]
 struct ModelForm {
     linear: ModalModel,

@@ -977,7 +977,7 @@ mod tests {
     /// loading and unloading from either side of zero, across saturation,
     /// for softening, stiffening and linear sides (`γ = δ` unloads
     /// linearly): within 1e-10 of the law's force scale, or of `|z|` where
-    /// it grows beyond, where the curves hold the step (4.6e-11 measured),
+    /// it grows beyond, where the curves hold the step,
     /// and the sub-steps' 1e-4 where they do not (a stiffening side driven
     /// far past its scale).
     #[test]

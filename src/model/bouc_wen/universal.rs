@@ -30,10 +30,9 @@
 //!   within `10⁻⁸` of itself, by that exponential.
 //!
 //! A flow then costs two polynomials (the curve and its slope, by Estrin's
-//! scheme) where the sub-stepped flow it replaces took tens of
-//! exponentials, and it is exact to rounding, so harmonic
-//! balance's symmetric-loop start and its sensitivities are exact for every
-//! `ν`, as they were for `ν = 1`.
+//! scheme) where a sub-stepped flow takes tens of exponentials, and it is
+//! exact to rounding, so harmonic balance's symmetric-loop start and its
+//! sensitivities are exact for every `ν`.
 
 use std::sync::{Arc, Mutex};
 
