@@ -56,8 +56,8 @@ pub struct RunSummary<'a> {
     pub files: Vec<PathBuf>,
 }
 
-/// The diagnosis in `run.json` (fields in the order JSON objects of the
-/// earlier `run.json` had: alphabetical).
+/// The diagnosis in `run.json` (fields in alphabetical order, the layout
+/// readers of `run.json` rely on).
 #[derive(Serialize)]
 pub struct DiagnosisSummary {
     /// The baseline's relative error.

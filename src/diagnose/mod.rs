@@ -1906,7 +1906,7 @@ mod tests {
     /// A cubic stiffness kept in round 2 loses its resolution once a second
     /// mode comes in (round 3), and without it the mode loses its own: the
     /// round is undone (the model of round 2, with the cubic stiffness,
-    /// stands), where the cascade used to end with neither.
+    /// stands) rather than the cascade ending with neither.
     #[test]
     fn an_addition_that_loses_its_resolution_without_what_it_displaced_is_undone() {
         use Effect::{CubicStiffness as Cubic, SecondMode as Mode, Shaker};

@@ -1727,9 +1727,9 @@ impl<'a> TimeProblem<'a> {
     }
 
     /// Each recording's replay is compared as it is made, a stretch at a
-    /// time (a copy of the response each, two at once, was most of what a
-    /// time fit of a long recording held), but where its error is split by
-    /// frequency (an FFT of the window, which needs it whole).
+    /// time (a copy of the response each, two at once, would be most of
+    /// what a time fit of a long recording holds), but where its error is
+    /// split by frequency (an FFT of the window, which needs it whole).
     fn errors_with(&self, model: &Model, split: bool) -> Result<Vec<RecordError>> {
         // the sums start where `Iterator::sum` starts them: the same bits
         // as summing the whole replay
@@ -2163,7 +2163,7 @@ pub fn periodic_starts_modal(
 
 /// Most samples [`closest_start`] judges each start on (an eighth of
 /// [`MAX_JUDGED_SAMPLES`]): a grid of 180 starts replayed over a long
-/// multisine's million judged samples took minutes, and the starts differ
+/// multisine's million judged samples takes minutes, and the starts differ
 /// by far more than a part of the record can hide.
 pub const START_JUDGED_SAMPLES: usize = MAX_JUDGED_SAMPLES / 8;
 
@@ -2200,7 +2200,7 @@ pub fn closest_start(
     )?;
     // replayed on the grid the start with the highest frequency needs (see
     // `fix_replay_grid`), not at the sure rate: a grid of starts replayed
-    // at 12 times a long multisine's rate took minutes
+    // at 12 times a long multisine's rate takes minutes
     let slowest = records
         .iter()
         .map(|r| r.sample_rate_hz)

@@ -1842,8 +1842,8 @@ mod tests {
     /// whole record at once, computes the error figures from the two
     /// signals whole (`error_metrics`, `error_by_frequency`) and reduces the
     /// measured and simulated responses on the measured dwells as two
-    /// recordings held whole (`reduce_stepped_report`), as validation did
-    /// before it streamed. The tap is handed every simulated sample once,
+    /// recordings held whole (`reduce_stepped_report`). The tap is handed
+    /// every simulated sample once,
     /// in order; the replay is kept only when asked. Dwells stated in
     /// increasing order, found on the reference (no steps stated) and
     /// stated out of order (read forwards all the same, one at a time

@@ -7,13 +7,13 @@
 //! of the whole signals to the bit. The split by frequency
 //! ([`super::ErrorByFrequency`]) is Parseval's theorem on one FFT per block
 //! of [`SPLIT_BLOCK`] samples: a stretch no longer than that is transformed
-//! whole, as before; a longer one in blocks of that length and what is
+//! whole; a longer one in blocks of that length and what is
 //! left, whose mean squares add up to the stretch's (a block's spectrum
 //! resolves `fs / 2^20`, 0.03 Hz at 30 kHz; the last one's, shorter, less
 //! finely, on its own share of the samples). A power of two keeps the
 //! transforms fast and small, and the last block is padded with zeros to a
-//! fast length: blocks of any length took a Bluestein transform each, 2.5
-//! times the time and 190 MB on a record of 8 M samples.
+//! fast length: blocks of any length would take a Bluestein transform each,
+//! 2.5 times the time and 190 MB on a record of 8 M samples.
 
 use super::{BandShares, ErrorByFrequency, ErrorMetrics, error_metrics_of_sum, sum_start};
 use crate::error::{Error, Result};
