@@ -490,7 +490,7 @@ fn replay(c: &mut Criterion<ThreadCpu>) {
             .and_then(|d| d.model())
             .expect(name)
     };
-    // as fitted (2026-12-02), to five figures
+    // as fitted, to five figures
     let masing = model(
         "the protocol's model",
         r#"

@@ -343,7 +343,7 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
 /// fit's residual vectors and Jacobian, a replay's channels). glibc's
 /// default threshold rises to 32 MiB after the first such block is freed,
 /// and blocks below it freed and allocated again fragment the heap: a time
-/// fit of the default test's recording peaked 25-30 MB above what it held
+/// fit of the default test's recording peaks 25-30 MB above what it holds
 /// at any moment (identify 274 MB, 249 MB with this; diagnose 308 MB, 278
 /// MB). Not for `simulate`, whose batches the default reuses better (95-100
 /// MB, 113-137 MB with a fixed threshold).

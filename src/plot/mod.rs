@@ -1193,7 +1193,7 @@ mod tests {
         // 6 markers a level (3 points, 2 panels), seven outlines within
         // 16 px: the crossings take most of a small one's pixels (and a
         // circle's stroke is antialiased), but each keeps some of its own
-        // colour at every point (measured: 12 to 396 px a level)
+        // colour at every point
         assert!(
             shown.iter().all(|&n| n >= 6 * 2),
             "pixels per level {shown:?}"

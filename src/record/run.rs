@@ -58,12 +58,12 @@ pub const RUN_FORMAT: &str = "hystid.run.v1";
 /// can lose.
 const CHUNK_BYTES: u64 = 4 << 20;
 /// Single-threaded zstd: its output does not depend on the host's CPU count
-/// (the crate's default does), and on noisy samples it was also faster than
-/// one worker thread (measured 330 vs 270 MB/s, the worker's locking costs
-/// more than the overlap gains).
+/// (the crate's default does), and on noisy samples it is also faster than
+/// one worker thread (the worker's locking costs more than the overlap
+/// gains).
 const ZSTD_THREADS: u32 = 0;
-/// zstd level 1: noisy float32 samples barely compress (measured: level 3
-/// saves 3.5 % of the file but cost a third of the write rate).
+/// zstd level 1: noisy float32 samples barely compress (level 3 saves
+/// 3.5 % of the file but costs a third of the write rate).
 const ZSTD_LEVEL: u32 = 1;
 /// Target rate of the preview topic, Hz.
 const PREVIEW_HZ: f64 = 1000.0;
