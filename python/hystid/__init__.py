@@ -27,6 +27,7 @@ Python threads run meanwhile.
 
 import json
 import os
+import pathlib
 
 import numpy as np
 
@@ -44,9 +45,11 @@ __all__ = [
     "diagnose_time",
     "extract",
     "fit_coil",
+    "frf_arrays",
     "identify",
     "identify_time",
     "model",
+    "parameters_table",
     "simulate",
     "validate",
     "virtual_test",
@@ -83,11 +86,45 @@ def _definition_text(definition):
     if isinstance(definition, str):
         if definition.lstrip().startswith("{"):
             return _hystid.json_to_toml(definition), "test definition"
+        if _names_a_toml_file(definition):
+            return _definition_text(pathlib.Path(definition))
         return definition, "test definition"
     raise TypeError(
         "a test definition is TOML text, a dict, JSON text or a path, "
         f"not {type(definition).__name__}"
     )
+
+
+def _names_a_toml_file(text):
+    """A string the command line would take as a file: one line ending in
+    ``.toml`` (TOML text always holds a ``=`` or a table on its lines)."""
+    t = text.strip()
+    return "\n" not in t and t.endswith(".toml") and "=" not in t
+
+
+def _names(names):
+    """Effect names as the command line takes them: a list, or one string
+    of comma-separated names (``"all"``, ``"default,clearance"``)."""
+    if names is None:
+        return None
+    if isinstance(names, str):
+        return [n.strip() for n in names.split(",") if n.strip()]
+    return list(names)
+
+
+def _band(band):
+    """A band as ``(lo, hi)`` or as the command line writes it, ``"lo:hi"``."""
+    if band is None:
+        return None
+    if isinstance(band, str):
+        lo, sep, hi = band.partition(":")
+        try:
+            if not sep:
+                raise ValueError
+            return [float(lo), float(hi)]
+        except ValueError:
+            raise HystidError(f"`band_hz`: expected LO:HI in Hz (e.g. \"120:200\"), got {band!r}") from None
+    return list(band)
 
 
 def model(source):
@@ -280,7 +317,7 @@ def _options(options, kwargs):
     o = dict(options or {})
     o.update(kwargs)
     if "band_hz" in o and o["band_hz"] is not None:
-        o["band_hz"] = list(o["band_hz"])
+        o["band_hz"] = _band(o["band_hz"])
     return json.dumps(o)
 
 
@@ -552,7 +589,7 @@ def diagnose(
         json.dumps(frf),
         _options(options, kwargs),
         None if fit is None else json.dumps(fit),
-        None if candidates is None else list(candidates),
+        _names(candidates),
         progress,
         time,
     )
@@ -594,7 +631,7 @@ def diagnose_time(
     text = _hystid.diagnose_time(
         parts,
         _options(options, kwargs),
-        None if candidates is None else list(candidates),
+        _names(candidates),
         int(time_proposals),
         float(min_samples_per_period),
         progress,
@@ -682,7 +719,7 @@ def validate(
         )
     settings = {
         "replay": replay,
-        "band_hz": None if band_hz is None else list(band_hz),
+        "band_hz": _band(band_hz),
         "window_s": None if window_s is None else list(window_s),
         "min_samples_per_period": float(min_samples_per_period),
         "frf": bool(frf),
@@ -709,3 +746,64 @@ def validate(
     report = json.loads(text)
     report["recordings"][0]["simulated"] = simulated
     return report
+
+
+def frf_arrays(frf):
+    """Nonlinear FRFs (``frf.json``, or ``virtual_test()["frf"]``) as numpy
+    arrays, level x frequency x harmonic.
+
+    Returns a dict: ``level`` (the nominal levels), ``direction``,
+    ``frequency_hz`` and ``force_amplitude`` (level x point), ``h`` (complex,
+    level x point x harmonic, ``h[..., k]`` the k-th harmonic's FRF ``H_k``,
+    ``H_0`` the mean) and ``std_error`` (its standard error, same shape).
+    Levels with fewer points than the longest are padded with NaN.
+    """
+    levels = frf["levels"]
+    n_points = max((len(l["points"]) for l in levels), default=0)
+    n_harmonics = int(frf["max_harmonic"]) + 1
+    shape = (len(levels), n_points)
+    out = {
+        "level": np.array([l["level"] for l in levels], dtype=float),
+        "direction": [l.get("direction") for l in levels],
+        "frequency_hz": np.full(shape, np.nan),
+        "force_amplitude": np.full(shape, np.nan),
+        "h": np.full(shape + (n_harmonics,), np.nan, dtype=complex),
+        "std_error": np.full(shape + (n_harmonics,), np.nan),
+    }
+    for i, level in enumerate(levels):
+        for j, p in enumerate(level["points"]):
+            out["frequency_hz"][i, j] = p["frequency_hz"]
+            out["force_amplitude"][i, j] = p["force_amplitude"]
+            h = np.asarray(p["h"], dtype=float)
+            out["h"][i, j, : len(h)] = h[:, 0] + 1j * h[:, 1]
+            se = np.asarray(p["std_error"], dtype=float)
+            out["std_error"][i, j, : len(se)] = se
+    return out
+
+
+def parameters_table(result):
+    """A fit's or a diagnosis's parameters as a table: a pandas DataFrame
+    (index: the parameter) when pandas is installed, else a dict of columns.
+
+    Columns: ``value``, ``ci95_low``, ``ci95_high`` (NaN where the interval
+    has no end or was not computed) and ``identifiable``.
+    """
+    params = result.get("parameters")
+    if params is None and isinstance(result.get("final"), dict):
+        params = result["final"].get("parameters")
+    if params is None:
+        raise HystidError("no `parameters` in this result (expected a fit or a diagnosis)")
+    names = list(params)
+    rows = [p if isinstance(p, dict) else {"value": p} for p in params.values()]
+    end = lambda r, k: np.nan if r.get("ci95") is None or r["ci95"][k] is None else float(r["ci95"][k])
+    columns = {
+        "value": np.array([float(r["value"]) for r in rows]),
+        "ci95_low": np.array([end(r, 0) for r in rows]),
+        "ci95_high": np.array([end(r, 1) for r in rows]),
+        "identifiable": [r.get("identifiable") for r in rows],
+    }
+    try:
+        import pandas as pd
+    except ImportError:
+        return {"parameter": names, **columns}
+    return pd.DataFrame(columns, index=pd.Index(names, name="parameter"))
