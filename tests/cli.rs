@@ -724,6 +724,7 @@ fn time_domain_options_are_refused_without_the_time_domain() {
     let sim = dir.path().join("sim");
     simulated(&test, &sim);
     let out = dir.path().join("fit");
+    let recording = sim.join("recording.json");
     for (command, extra, expected) in [
         ("identify", &["--starts", "3"][..], "--starts"),
         (
@@ -742,7 +743,7 @@ fn time_domain_options_are_refused_without_the_time_domain() {
     ] {
         let mut a = vec![
             command,
-            sim.to_str().unwrap(),
+            recording.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),
         ];
