@@ -1203,6 +1203,12 @@ fn identify_time<'py>(
             .collect::<hystid::Result<Vec<TimeRecord>>>()
     };
     let recording = names.join(", ");
+    // the response fitted to, named in fit.json as the command names it
+    // (here its quantity: the arrays name no channel)
+    let response = loaded
+        .first()
+        .map(|l| l.recording.meta.channels[l.response].name.clone())
+        .unwrap_or_default();
     let text = match (fit, start) {
         (Some(_), Some(_)) => return Err(fail("give fit= or start=, not both")),
         (Some(text), None) => {
@@ -1242,7 +1248,7 @@ fn identify_time<'py>(
                 let records = records(loaded, window_s)?;
                 hystid::analysis::run_time_fit_from_start(
                     recording,
-                    String::new(),
+                    response,
                     &start,
                     &fix,
                     &records,
@@ -1265,7 +1271,7 @@ fn identify_time<'py>(
                     };
                     let mut report = hystid::analysis::run_time_fit_from_start(
                         recording,
-                        String::new(),
+                        response,
                         &p.start,
                         &fix,
                         &p.records,

@@ -635,8 +635,9 @@ pub struct TimeFitReport {
     pub version: String,
     /// The recording (several: comma separated).
     pub recording: String,
-    /// The response channel named by the user (empty: the first channel
-    /// that is not the reference).
+    /// The response channel fitted to: the one named by the user, else the
+    /// one the first recording gives by default (empty in files of earlier
+    /// versions: the first channel that is not the reference).
     pub response: String,
     /// The reference channel named by the user (`--reference`); none: the
     /// recording format's rule (the first force, else the first voltage).
@@ -666,8 +667,9 @@ pub struct DeclaredFitReport {
     pub version: String,
     /// The recording (several: comma separated).
     pub recording: String,
-    /// The response channel named by the user (empty: the first channel
-    /// that is not the reference).
+    /// The response channel fitted to: the one named by the user, else the
+    /// one the first recording gives by default (empty in files of earlier
+    /// versions: the first channel that is not the reference).
     pub response: String,
     /// The reference channel named by the user (`--reference`); none: the
     /// recording format's rule (the first force, else the first voltage).

@@ -267,6 +267,21 @@ fn identify_from_start(
     )
 }
 
+/// The response channel fitted to: `--response`, else the one the first
+/// recording's channels give by default, named in fit.json so that
+/// `validate` compares the model with that channel, not another recording's
+/// first response.
+fn fitted_response(args: &IdentifyArgs) -> Result<String> {
+    match (&args.response, args.recordings.first()) {
+        (Some(r), _) => Ok(r.clone()),
+        (None, Some(path)) => Ok(hystid::analysis::recording::response_channel_name(
+            path,
+            args.channels(),
+        )?),
+        (None, None) => Ok(String::new()),
+    }
+}
+
 /// Fits the model written down to the recordings' nonlinear FRFs and
 /// writes fit.json (see [`hystid::diagnose::fit_declared`]).
 fn identify_declared(
@@ -294,7 +309,7 @@ fn identify_declared(
         response_sign,
         &options,
         names.join(", "),
-        args.response.clone().unwrap_or_default(),
+        fitted_response(args)?,
         &progress::Drawn(&pb),
     )?;
     pb.finish_and_clear();
@@ -349,7 +364,7 @@ fn fit_in_time(
     let pb = progress::spinner("fitting in the time domain", quiet);
     let mut report = hystid::analysis::run_time_fit_from_start_signed(
         names.join(", "),
-        args.response.clone().unwrap_or_default(),
+        fitted_response(args)?,
         model,
         response_sign,
         &args.fix,
