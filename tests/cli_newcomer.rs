@@ -539,3 +539,41 @@ fn validate_compares_the_response_the_model_was_fitted_to() {
         "acc1"
     );
 }
+
+/// On FRFs measured against a force, the shaker between a voltage and the
+/// structure has nothing to model: diagnosis.md and diagnosis.json say it
+/// is not applicable, not that it failed.
+#[test]
+fn the_shaker_is_not_applicable_on_a_force_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let out = dir.path().join("diag");
+    let o = hystid(&[
+        "diagnose",
+        sim.join("recording.json").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    let row = md
+        .lines()
+        .find(|l| l.starts_with("| shaker |"))
+        .unwrap_or_else(|| panic!("no shaker row: {md}"));
+    assert!(
+        row.contains("| not applicable |") && !row.contains("failed"),
+        "{row}"
+    );
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("diagnosis.json")).unwrap()).unwrap();
+    let shaker = d["failed"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["effect"] == "shaker")
+        .unwrap();
+    assert_eq!(shaker["not_applicable"], true, "{shaker}");
+}
