@@ -481,7 +481,13 @@ fn validate_compares_the_response_the_model_was_fitted_to() {
     let read = |p: &Path| -> serde_json::Value {
         serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
     };
-    assert_eq!(read(&fit.join("fit.json"))["response"], "acc2");
+    let fitted = read(&fit.join("fit.json"));
+    assert_eq!(fitted["response"], "acc2");
+    // the recordings fitted to: a list of the paths as given
+    assert_eq!(
+        fitted["recording"],
+        serde_json::json!([only.to_str().unwrap()])
+    );
     let validated = |tag: &str, extra: &[&str]| {
         let out = dir.path().join(tag);
         let mut a: Vec<String> = vec![
@@ -576,4 +582,49 @@ fn the_shaker_is_not_applicable_on_a_force_reference() {
         .find(|f| f["effect"] == "shaker")
         .unwrap();
     assert_eq!(shaker["not_applicable"], true, "{shaker}");
+}
+
+/// fit.json's `recording` lists the recordings as given, one entry each;
+/// a fit.json of an earlier version (one comma-joined string) still reads.
+#[test]
+fn fit_json_lists_its_recordings_as_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let rec = sim.join("recording.json");
+    let again = dir.path().join("again.json");
+    std::fs::copy(sim.join("recording.wav"), dir.path().join("again.wav")).unwrap();
+    std::fs::copy(&rec, &again).unwrap();
+    let fit = dir.path().join("fit");
+    let o = hystid(&[
+        "identify",
+        rec.to_str().unwrap(),
+        again.to_str().unwrap(),
+        "--start",
+        test.to_str().unwrap(),
+        "--out",
+        fit.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut f: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(fit.join("fit.json")).unwrap()).unwrap();
+    assert_eq!(
+        f["recording"],
+        serde_json::json!([rec.to_str().unwrap(), again.to_str().unwrap()])
+    );
+    f["recording"] = serde_json::json!(format!("{}, {}", rec.display(), again.display()));
+    let old = dir.path().join("old_fit.json");
+    std::fs::write(&old, serde_json::to_vec(&f).unwrap()).unwrap();
+    let o = hystid(&[
+        "validate",
+        old.to_str().unwrap(),
+        rec.to_str().unwrap(),
+        "--no-frf",
+        "--out",
+        dir.path().join("val").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
 }

@@ -43,8 +43,8 @@ pub struct FitReport {
     pub command: String,
     /// Tool version.
     pub version: String,
-    /// The recording (several: comma separated).
-    pub recording: String,
+    /// The recordings fitted to, their paths as given.
+    pub recording: Vec<String>,
     /// The response analysed.
     pub response: String,
     /// The reference channel named by the user (`--reference`); none: the
@@ -85,7 +85,8 @@ pub struct FitReport {
 struct ReportHead {
     command: String,
     version: String,
-    recording: String,
+    #[serde(deserialize_with = "listed")]
+    recording: Vec<String>,
     response: String,
     #[serde(default)]
     reference_channel: Option<String>,
@@ -103,6 +104,21 @@ struct ReportHead {
     time_domain_flags: BTreeMap<String, Vec<Flag>>,
     #[serde(default)]
     coil: Option<crate::fit::coil::CoilFit>,
+}
+
+/// fit.json's `recording`: a list of paths; a file of an earlier version
+/// held one string (several comma-joined), read as the one entry it is.
+fn listed<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<String>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Listed {
+        One(String),
+        Many(Vec<String>),
+    }
+    Ok(match Listed::deserialize(d)? {
+        Listed::One(s) => vec![s],
+        Listed::Many(v) => v,
+    })
 }
 
 // By hand, through a JSON value: serde's derived `flatten` buffers the fit's
@@ -136,7 +152,7 @@ impl FitReport {
     /// The report of `fit`, fitted to `recording`'s `response`, compared with
     /// `reference` when known.
     pub fn new(
-        recording: String,
+        recording: Vec<String>,
         response: String,
         mut fit: FitResult,
         reference: Option<ElementSpec>,
@@ -633,8 +649,9 @@ pub struct TimeFitReport {
     pub command: String,
     /// Tool version.
     pub version: String,
-    /// The recording (several: comma separated).
-    pub recording: String,
+    /// The recordings fitted to, their paths as given.
+    #[serde(deserialize_with = "listed")]
+    pub recording: Vec<String>,
     /// The response channel fitted to: the one named by the user, else the
     /// one the first recording gives by default (empty in files of earlier
     /// versions: the first channel that is not the reference).
@@ -665,8 +682,9 @@ pub struct DeclaredFitReport {
     pub command: String,
     /// Tool version.
     pub version: String,
-    /// The recording (several: comma separated).
-    pub recording: String,
+    /// The recordings fitted to, their paths as given.
+    #[serde(deserialize_with = "listed")]
+    pub recording: Vec<String>,
     /// The response channel fitted to: the one named by the user, else the
     /// one the first recording gives by default (empty in files of earlier
     /// versions: the first channel that is not the reference).
@@ -697,11 +715,14 @@ impl DeclaredFitReport {
         start: &Model,
         response_sign: f64,
         options: &FitOptions,
-        recording: String,
+        recording: Vec<String>,
         response: String,
         observer: &dyn Observer,
     ) -> Result<DeclaredFitReport> {
-        start.check_reference(frf.reference, &format!("{recording}: the reference"))?;
+        start.check_reference(
+            frf.reference,
+            &format!("{}: the reference", recording.join(", ")),
+        )?;
         let fit = crate::diagnose::fit_declared(
             frf,
             start,
@@ -755,7 +776,7 @@ impl TimeFitReport {
 /// response taken as recorded (sign +1). Errors name an unknown `fixed`
 /// name with the free ones.
 pub fn run_time_fit_from_start(
-    recording: String,
+    recording: Vec<String>,
     response: String,
     start: &Model,
     fixed: &[String],
@@ -773,7 +794,7 @@ pub fn run_time_fit_from_start(
 /// transfer with a negative modal constant).
 #[allow(clippy::too_many_arguments)]
 pub fn run_time_fit_from_start_signed(
-    recording: String,
+    recording: Vec<String>,
     response: String,
     start: &Model,
     response_sign: f64,
@@ -893,7 +914,7 @@ mod tests {
         let options = FitOptions::default();
         let (fit, _) = run_fit(&run.frf, &options, &crate::observe::Silent, None).unwrap();
         let report = FitReport::new(
-            "run.mcap".into(),
+            vec!["run.mcap".into()],
             "acceleration".into(),
             fit,
             reference_joint(Some(&def)),

@@ -308,7 +308,7 @@ fn identify_declared(
         model,
         response_sign,
         &options,
-        names.join(", "),
+        names,
         fitted_response(args)?,
         &progress::Drawn(&pb),
     )?;
@@ -363,7 +363,7 @@ fn fit_in_time(
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
     let mut report = hystid::analysis::run_time_fit_from_start_signed(
-        names.join(", "),
+        names,
         fitted_response(args)?,
         model,
         response_sign,
@@ -495,7 +495,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         }
     };
     let mut report = FitReport::new(
-        recording_names.join(", "),
+        recording_names.clone(),
         first.response_name.clone(),
         fit,
         reference,
