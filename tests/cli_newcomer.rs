@@ -628,3 +628,47 @@ fn fit_json_lists_its_recordings_as_given() {
     ]);
     assert!(o.status.success(), "{}", text(&o));
 }
+
+/// On a voltage reference the model's forces are volts: `identify` gives
+/// the linear estimate in the drive's units (V s²/m, not kg), as
+/// `diagnose` does; on a force, in newtons' as before.
+#[test]
+fn identify_gives_the_linear_estimate_in_the_drives_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let driven = recording_of(
+        &sim,
+        &dir.path().join("driven"),
+        &[
+            ("drive", "voltage", "V", 0, 1.0),
+            ("disp", "displacement", "m", 1, 1.0),
+        ],
+    );
+    let linear_line = |rec: &Path, tag: &str| {
+        let out = dir.path().join(tag);
+        let o = hystid(&[
+            "identify",
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        text(&o)
+            .lines()
+            .find(|l| l.trim_start().starts_with("linear: m ="))
+            .unwrap_or_else(|| panic!("no linear line: {}", text(&o)))
+            .to_string()
+    };
+    let volts = linear_line(&driven, "fit_v");
+    assert!(
+        volts.contains("V s²/m,") && volts.contains("V s/m,") && !volts.contains("kg"),
+        "{volts}"
+    );
+    let newtons = linear_line(&sim.join("recording.json"), "fit_n");
+    assert!(
+        newtons.contains(" kg,") && newtons.contains("N s/m,"),
+        "{newtons}"
+    );
+}

@@ -574,9 +574,23 @@ pub fn periodic_start_of(
                 l.reference / d.norm()
             })
         })?;
+        // in the drive's units (volts for the force on a voltage reference)
+        let unit = |u| {
+            super::flags::in_drive_units(
+                u,
+                records
+                    .first()
+                    .map_or(crate::harmonics::Quantity::Force, |r| r.reference_quantity),
+            )
+        };
         let estimate = format!(
-            "(m {:.5e} kg, c {:.5e} N s/m, k {:.5e} N/m)",
-            linear.mass, linear.damping, linear.stiffness
+            "(m {:.5e} {}, c {:.5e} {}, k {:.5e} {})",
+            linear.mass,
+            unit("kg"),
+            linear.damping,
+            unit("N s/m"),
+            linear.stiffness,
+            unit("N/m")
         );
         (starts, estimate, linear.sign)
     };

@@ -142,12 +142,21 @@ pub fn print_fit(report: &FitReport) {
     for line in report.parameter_lines() {
         say!("{line}");
     }
+    // on a voltage reference the model's forces are volts: its units too
+    let drive = fit
+        .reference_quantity
+        .unwrap_or(hystid::harmonics::Quantity::Force);
+    let unit = |u| hystid::analysis::flags::in_drive_units(u, drive);
     say!(
-        "  linear: m = {:.5} kg, c = {:.4} N s/m, k = {:.6e} N/m; stick k_low = {:.6e} N/m",
+        "  linear: m = {:.5} {}, c = {:.4} {}, k = {:.6e} {}; stick k_low = {:.6e} {}",
         fit.linear.mass,
+        unit("kg"),
         fit.linear.damping,
+        unit("N s/m"),
         fit.linear.stiffness,
-        fit.linear.stick.stiffness
+        unit("N/m"),
+        fit.linear.stick.stiffness,
+        unit("N/m")
     );
     for n in &fit.notes {
         say!("  note: {n}");
