@@ -399,3 +399,276 @@ fn ctrl_c_during_run_leaves_no_temporary_and_no_lock() {
         "{left:?}"
     );
 }
+
+/// A recording (WAV + JSON) of `columns` of the simulated `sim` recording
+/// (each `(name, quantity, unit, column, factor)`), its virtual test's
+/// description left out, as a measured recording has none.
+fn recording_of(sim: &Path, out: &Path, columns: &[(&str, &str, &str, usize, f32)]) -> PathBuf {
+    let mut reader = hound::WavReader::open(sim.join("recording.wav")).unwrap();
+    let spec = reader.spec();
+    assert_eq!(spec.sample_format, hound::SampleFormat::Float);
+    let width = spec.channels as usize;
+    let samples: Vec<f32> = reader.samples::<f32>().map(Result::unwrap).collect();
+    let mut w = hound::WavWriter::create(
+        out.with_extension("wav"),
+        hound::WavSpec {
+            channels: columns.len() as u16,
+            ..spec
+        },
+    )
+    .unwrap();
+    for frame in samples.chunks(width) {
+        for &(_, _, _, c, factor) in columns {
+            w.write_sample(factor * frame[c]).unwrap();
+        }
+    }
+    w.finalize().unwrap();
+    let mut meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(sim.join("recording.json")).unwrap()).unwrap();
+    meta.as_object_mut().unwrap().remove("metadata");
+    meta["channels"] = columns
+        .iter()
+        .map(|&(name, quantity, unit, _, _)| {
+            serde_json::json!({"name": name, "quantity": quantity, "unit": unit, "scale": 1.0})
+        })
+        .collect();
+    let json = out.with_extension("json");
+    std::fs::write(&json, serde_json::to_vec_pretty(&meta).unwrap()).unwrap();
+    json
+}
+
+/// A model fitted to recordings holding one response (`acc2`) names it in
+/// fit.json, and `validate` compares it with that channel on a recording
+/// holding several (not with the first, `acc1`), says so, and names it in
+/// validate.json; `--response` still chooses another.
+#[test]
+fn validate_compares_the_response_the_model_was_fitted_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    // the simulated columns: force, displacement, velocity, acceleration
+    let only = recording_of(
+        &sim,
+        &dir.path().join("only_acc2"),
+        &[
+            ("force", "force", "N", 0, 1.0),
+            ("acc2", "acceleration", "m/s^2", 3, 1.0),
+        ],
+    );
+    // acc1 another point of the structure: three times the motion
+    let several = recording_of(
+        &sim,
+        &dir.path().join("three"),
+        &[
+            ("force", "force", "N", 0, 1.0),
+            ("acc1", "acceleration", "m/s^2", 3, 3.0),
+            ("acc2", "acceleration", "m/s^2", 3, 1.0),
+            ("acc3", "acceleration", "m/s^2", 3, -1.0),
+        ],
+    );
+    let fit = dir.path().join("fit");
+    let o = hystid(&[
+        "identify",
+        only.to_str().unwrap(),
+        "--start",
+        test.to_str().unwrap(),
+        "--out",
+        fit.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+    };
+    let fitted = read(&fit.join("fit.json"));
+    assert_eq!(fitted["response"], "acc2");
+    // the recordings fitted to: a list of the paths as given
+    assert_eq!(
+        fitted["recording"],
+        serde_json::json!([only.to_str().unwrap()])
+    );
+    let validated = |tag: &str, extra: &[&str]| {
+        let out = dir.path().join(tag);
+        let mut a: Vec<String> = vec![
+            "validate".to_string(),
+            fit.join("fit.json").to_str().unwrap().to_string(),
+            several.to_str().unwrap().to_string(),
+            "--no-frf".to_string(),
+            "--out".to_string(),
+            out.to_str().unwrap().to_string(),
+        ];
+        a.extend(extra.iter().map(|s| s.to_string()));
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = hystid(&a);
+        assert!(o.status.success(), "{}", text(&o));
+        let r = read(&out.join("validate.json"))["recordings"][0].clone();
+        (text(&o), r)
+    };
+    let (t, r) = validated("val", &[]);
+    assert_eq!(r["response"], "acc2", "{r}");
+    assert!(
+        t.contains("`acc2` (the response the model was fitted to)"),
+        "{t}"
+    );
+    let fitted = r["whole"]["relative"].as_f64().unwrap();
+    let (_, r) = validated("val_acc1", &["--response", "acc1"]);
+    assert_eq!(r["response"], "acc1", "{r}");
+    let other = r["whole"]["relative"].as_f64().unwrap();
+    assert!(fitted < 0.3 && other > 0.5, "acc2 {fitted}, acc1 {other}");
+    // a recording without the fitted channel: its own response, said
+    let plain = recording_of(
+        &sim,
+        &dir.path().join("acc1_only"),
+        &[
+            ("force", "force", "N", 0, 1.0),
+            ("acc1", "acceleration", "m/s^2", 3, 1.0),
+        ],
+    );
+    let out = dir.path().join("val_plain");
+    let o = hystid(&[
+        "validate",
+        fit.join("fit.json").to_str().unwrap(),
+        plain.to_str().unwrap(),
+        "--no-frf",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("no channel `acc2`, the response the model was fitted to"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(
+        read(&out.join("validate.json"))["recordings"][0]["response"],
+        "acc1"
+    );
+}
+
+/// On FRFs measured against a force, the shaker between a voltage and the
+/// structure has nothing to model: diagnosis.md and diagnosis.json say it
+/// is not applicable, not that it failed.
+#[test]
+fn the_shaker_is_not_applicable_on_a_force_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let out = dir.path().join("diag");
+    let o = hystid(&[
+        "diagnose",
+        sim.join("recording.json").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    let row = md
+        .lines()
+        .find(|l| l.starts_with("| shaker |"))
+        .unwrap_or_else(|| panic!("no shaker row: {md}"));
+    assert!(
+        row.contains("| not applicable |") && !row.contains("failed"),
+        "{row}"
+    );
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("diagnosis.json")).unwrap()).unwrap();
+    let shaker = d["failed"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["effect"] == "shaker")
+        .unwrap();
+    assert_eq!(shaker["not_applicable"], true, "{shaker}");
+}
+
+/// fit.json's `recording` lists the recordings as given, one entry each;
+/// a fit.json of an earlier version (one comma-joined string) still reads.
+#[test]
+fn fit_json_lists_its_recordings_as_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let rec = sim.join("recording.json");
+    let again = dir.path().join("again.json");
+    std::fs::copy(sim.join("recording.wav"), dir.path().join("again.wav")).unwrap();
+    std::fs::copy(&rec, &again).unwrap();
+    let fit = dir.path().join("fit");
+    let o = hystid(&[
+        "identify",
+        rec.to_str().unwrap(),
+        again.to_str().unwrap(),
+        "--start",
+        test.to_str().unwrap(),
+        "--out",
+        fit.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut f: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(fit.join("fit.json")).unwrap()).unwrap();
+    assert_eq!(
+        f["recording"],
+        serde_json::json!([rec.to_str().unwrap(), again.to_str().unwrap()])
+    );
+    f["recording"] = serde_json::json!(format!("{}, {}", rec.display(), again.display()));
+    let old = dir.path().join("old_fit.json");
+    std::fs::write(&old, serde_json::to_vec(&f).unwrap()).unwrap();
+    let o = hystid(&[
+        "validate",
+        old.to_str().unwrap(),
+        rec.to_str().unwrap(),
+        "--no-frf",
+        "--out",
+        dir.path().join("val").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+/// On a voltage reference the model's forces are volts: `identify` gives
+/// the linear estimate in the drive's units (V s²/m, not kg), as
+/// `diagnose` does; on a force, in newtons' as before.
+#[test]
+fn identify_gives_the_linear_estimate_in_the_drives_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let driven = recording_of(
+        &sim,
+        &dir.path().join("driven"),
+        &[
+            ("drive", "voltage", "V", 0, 1.0),
+            ("disp", "displacement", "m", 1, 1.0),
+        ],
+    );
+    let linear_line = |rec: &Path, tag: &str| {
+        let out = dir.path().join(tag);
+        let o = hystid(&[
+            "identify",
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        text(&o)
+            .lines()
+            .find(|l| l.trim_start().starts_with("linear: m ="))
+            .unwrap_or_else(|| panic!("no linear line: {}", text(&o)))
+            .to_string()
+    };
+    let volts = linear_line(&driven, "fit_v");
+    assert!(
+        volts.contains("V s²/m,") && volts.contains("V s/m,") && !volts.contains("kg"),
+        "{volts}"
+    );
+    let newtons = linear_line(&sim.join("recording.json"), "fit_n");
+    assert!(
+        newtons.contains(" kg,") && newtons.contains("N s/m,"),
+        "{newtons}"
+    );
+}

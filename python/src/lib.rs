@@ -756,6 +756,14 @@ fn fit_options(text: &str) -> PyResult<FitOptions> {
     Ok(options)
 }
 
+/// fit.json's `recording`, a list, of the one path given (none: empty).
+fn listed(recording: String) -> Vec<String> {
+    (!recording.is_empty())
+        .then_some(recording)
+        .into_iter()
+        .collect()
+}
+
 /// Fits a joint model to nonlinear FRFs (frf.json): fit.json.
 #[pyfunction]
 #[pyo3(signature = (frf, options, reference = None, recording = String::new(), response = None, progress = None))]
@@ -777,7 +785,7 @@ fn identify<'py>(
     });
     let (fit, _) = fit?;
     let response = response.unwrap_or_else(|| frf.response.name().to_string());
-    let report = FitReport::new(recording, response, fit, reference, Vec::new());
+    let report = FitReport::new(listed(recording), response, fit, reference, Vec::new());
     to_json(&report)
 }
 
@@ -811,7 +819,7 @@ fn identify_declared<'py>(
             &model,
             response_sign,
             &options,
-            recording,
+            listed(recording),
             response.unwrap_or_default(),
             &progress,
         )
@@ -1202,7 +1210,13 @@ fn identify_time<'py>(
             })
             .collect::<hystid::Result<Vec<TimeRecord>>>()
     };
-    let recording = names.join(", ");
+    let recording = names.clone();
+    // the response fitted to, named in fit.json as the command names it
+    // (here its quantity: the arrays name no channel)
+    let response = loaded
+        .first()
+        .map(|l| l.recording.meta.channels[l.response].name.clone())
+        .unwrap_or_default();
     let text = match (fit, start) {
         (Some(_), Some(_)) => return Err(fail("give fit= or start=, not both")),
         (Some(text), None) => {
@@ -1242,7 +1256,7 @@ fn identify_time<'py>(
                 let records = records(loaded, window_s)?;
                 hystid::analysis::run_time_fit_from_start(
                     recording,
-                    String::new(),
+                    response,
                     &start,
                     &fix,
                     &records,
@@ -1265,7 +1279,7 @@ fn identify_time<'py>(
                     };
                     let mut report = hystid::analysis::run_time_fit_from_start(
                         recording,
-                        String::new(),
+                        response,
                         &p.start,
                         &fix,
                         &p.records,

@@ -1117,9 +1117,14 @@ pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
     for f in &d.failed {
         let _ = writeln!(
             s,
-            "| {} | {} | | | | failed | | | {} |",
+            "| {} | {} | | | | {} | | | {} |",
             f.effect.name(),
             f.round,
+            if f.not_applicable {
+                "not applicable"
+            } else {
+                "failed"
+            },
             f.reason.replace('|', "/")
         );
     }

@@ -43,8 +43,8 @@ pub struct FitReport {
     pub command: String,
     /// Tool version.
     pub version: String,
-    /// The recording (several: comma separated).
-    pub recording: String,
+    /// The recordings fitted to, their paths as given.
+    pub recording: Vec<String>,
     /// The response analysed.
     pub response: String,
     /// The reference channel named by the user (`--reference`); none: the
@@ -85,7 +85,8 @@ pub struct FitReport {
 struct ReportHead {
     command: String,
     version: String,
-    recording: String,
+    #[serde(deserialize_with = "listed")]
+    recording: Vec<String>,
     response: String,
     #[serde(default)]
     reference_channel: Option<String>,
@@ -103,6 +104,21 @@ struct ReportHead {
     time_domain_flags: BTreeMap<String, Vec<Flag>>,
     #[serde(default)]
     coil: Option<crate::fit::coil::CoilFit>,
+}
+
+/// fit.json's `recording`: a list of paths; a file of an earlier version
+/// held one string (several comma-joined), read as the one entry it is.
+fn listed<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<String>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Listed {
+        One(String),
+        Many(Vec<String>),
+    }
+    Ok(match Listed::deserialize(d)? {
+        Listed::One(s) => vec![s],
+        Listed::Many(v) => v,
+    })
 }
 
 // By hand, through a JSON value: serde's derived `flatten` buffers the fit's
@@ -136,7 +152,7 @@ impl FitReport {
     /// The report of `fit`, fitted to `recording`'s `response`, compared with
     /// `reference` when known.
     pub fn new(
-        recording: String,
+        recording: Vec<String>,
         response: String,
         mut fit: FitResult,
         reference: Option<ElementSpec>,
@@ -558,9 +574,23 @@ pub fn periodic_start_of(
                 l.reference / d.norm()
             })
         })?;
+        // in the drive's units (volts for the force on a voltage reference)
+        let unit = |u| {
+            super::flags::in_drive_units(
+                u,
+                records
+                    .first()
+                    .map_or(crate::harmonics::Quantity::Force, |r| r.reference_quantity),
+            )
+        };
         let estimate = format!(
-            "(m {:.5e} kg, c {:.5e} N s/m, k {:.5e} N/m)",
-            linear.mass, linear.damping, linear.stiffness
+            "(m {:.5e} {}, c {:.5e} {}, k {:.5e} {})",
+            linear.mass,
+            unit("kg"),
+            linear.damping,
+            unit("N s/m"),
+            linear.stiffness,
+            unit("N/m")
         );
         (starts, estimate, linear.sign)
     };
@@ -633,10 +663,12 @@ pub struct TimeFitReport {
     pub command: String,
     /// Tool version.
     pub version: String,
-    /// The recording (several: comma separated).
-    pub recording: String,
-    /// The response channel named by the user (empty: the first channel
-    /// that is not the reference).
+    /// The recordings fitted to, their paths as given.
+    #[serde(deserialize_with = "listed")]
+    pub recording: Vec<String>,
+    /// The response channel fitted to: the one named by the user, else the
+    /// one the first recording gives by default (empty in files of earlier
+    /// versions: the first channel that is not the reference).
     pub response: String,
     /// The reference channel named by the user (`--reference`); none: the
     /// recording format's rule (the first force, else the first voltage).
@@ -664,10 +696,12 @@ pub struct DeclaredFitReport {
     pub command: String,
     /// Tool version.
     pub version: String,
-    /// The recording (several: comma separated).
-    pub recording: String,
-    /// The response channel named by the user (empty: the first channel
-    /// that is not the reference).
+    /// The recordings fitted to, their paths as given.
+    #[serde(deserialize_with = "listed")]
+    pub recording: Vec<String>,
+    /// The response channel fitted to: the one named by the user, else the
+    /// one the first recording gives by default (empty in files of earlier
+    /// versions: the first channel that is not the reference).
     pub response: String,
     /// The reference channel named by the user (`--reference`); none: the
     /// recording format's rule (the first force, else the first voltage).
@@ -695,11 +729,14 @@ impl DeclaredFitReport {
         start: &Model,
         response_sign: f64,
         options: &FitOptions,
-        recording: String,
+        recording: Vec<String>,
         response: String,
         observer: &dyn Observer,
     ) -> Result<DeclaredFitReport> {
-        start.check_reference(frf.reference, &format!("{recording}: the reference"))?;
+        start.check_reference(
+            frf.reference,
+            &format!("{}: the reference", recording.join(", ")),
+        )?;
         let fit = crate::diagnose::fit_declared(
             frf,
             start,
@@ -753,7 +790,7 @@ impl TimeFitReport {
 /// response taken as recorded (sign +1). Errors name an unknown `fixed`
 /// name with the free ones.
 pub fn run_time_fit_from_start(
-    recording: String,
+    recording: Vec<String>,
     response: String,
     start: &Model,
     fixed: &[String],
@@ -771,7 +808,7 @@ pub fn run_time_fit_from_start(
 /// transfer with a negative modal constant).
 #[allow(clippy::too_many_arguments)]
 pub fn run_time_fit_from_start_signed(
-    recording: String,
+    recording: Vec<String>,
     response: String,
     start: &Model,
     response_sign: f64,
@@ -891,7 +928,7 @@ mod tests {
         let options = FitOptions::default();
         let (fit, _) = run_fit(&run.frf, &options, &crate::observe::Silent, None).unwrap();
         let report = FitReport::new(
-            "run.mcap".into(),
+            vec!["run.mcap".into()],
             "acceleration".into(),
             fit,
             reference_joint(Some(&def)),

@@ -362,6 +362,39 @@ fn open_kept<K: Keep>(path: &Path, choice: ChannelChoice) -> Result<(Kept<K>, bo
     }
 }
 
+/// The recording at `path`'s description (not its samples) and the test
+/// definition it records, if any.
+fn described(path: &Path) -> Result<(RecordingMeta, Option<TestDefinition>)> {
+    let (meta, text) = if is_mcap(path) {
+        let reader = crate::record::McapRunReader::open(path)?;
+        let text = reader.run().info.test_definition.clone();
+        (reader.meta().clone(), Some(text))
+    } else {
+        let reader = crate::record::RecordingReader::open(path)?;
+        let text = recorded_truth(reader.meta());
+        (reader.meta().clone(), text)
+    };
+    let truth = text.and_then(|t| TestDefinition::from_toml(&t, "recorded test definition").ok());
+    Ok((meta, truth))
+}
+
+/// The names of the recording at `path`'s channels, its description read,
+/// not its samples.
+pub fn channel_names(path: &Path) -> Result<Vec<String>> {
+    let (meta, _) = described(path)?;
+    Ok(meta.channels.iter().map(|c| c.name.clone()).collect())
+}
+
+/// The name of the response channel `choice` takes in the recording at
+/// `path` (see [`response_channel`]), its description read, not its
+/// samples: what a fit was fitted to.
+pub fn response_channel_name(path: &Path, choice: ChannelChoice) -> Result<String> {
+    let (mut meta, truth) = described(path)?;
+    choice.apply(path, &mut meta)?;
+    let response = response_channel(path, &meta, choice.response, truth.as_ref())?;
+    Ok(meta.channels[response].name.clone())
+}
+
 /// The excitation the recording at `path` states (its description read,
 /// not its samples).
 pub fn stated_excitation(path: &Path) -> Result<ExcitationKind> {

@@ -177,7 +177,7 @@ impl FitModel {
             return Ok(FitModel {
                 model: f.model,
                 response_sign: f.response_sign,
-                response: None,
+                response: (!report.response.is_empty()).then_some(report.response),
                 reference: report.reference_channel,
                 reference_quantity: report.reference_quantity,
                 kind: "fitted to the FRFs from a start",
@@ -219,7 +219,7 @@ impl FitModel {
     /// final model (or, with `linear`, the SDOF of `linear.stick` with no
     /// element) and response sign.
     pub fn of_report(report: FitReport, linear: bool, path: &Path) -> Result<FitModel> {
-        let response = Some(report.response.clone());
+        let response = (!report.response.is_empty()).then(|| report.response.clone());
         let reference = report.reference_channel.clone();
         let reference_quantity = report
             .time_domain

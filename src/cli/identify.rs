@@ -142,12 +142,21 @@ pub fn print_fit(report: &FitReport) {
     for line in report.parameter_lines() {
         say!("{line}");
     }
+    // on a voltage reference the model's forces are volts: its units too
+    let drive = fit
+        .reference_quantity
+        .unwrap_or(hystid::harmonics::Quantity::Force);
+    let unit = |u| hystid::analysis::flags::in_drive_units(u, drive);
     say!(
-        "  linear: m = {:.5} kg, c = {:.4} N s/m, k = {:.6e} N/m; stick k_low = {:.6e} N/m",
+        "  linear: m = {:.5} {}, c = {:.4} {}, k = {:.6e} {}; stick k_low = {:.6e} {}",
         fit.linear.mass,
+        unit("kg"),
         fit.linear.damping,
+        unit("N s/m"),
         fit.linear.stiffness,
-        fit.linear.stick.stiffness
+        unit("N/m"),
+        fit.linear.stick.stiffness,
+        unit("N/m")
     );
     for n in &fit.notes {
         say!("  note: {n}");
@@ -267,6 +276,21 @@ fn identify_from_start(
     )
 }
 
+/// The response channel fitted to: `--response`, else the one the first
+/// recording's channels give by default, named in fit.json so that
+/// `validate` compares the model with that channel, not another recording's
+/// first response.
+fn fitted_response(args: &IdentifyArgs) -> Result<String> {
+    match (&args.response, args.recordings.first()) {
+        (Some(r), _) => Ok(r.clone()),
+        (None, Some(path)) => Ok(hystid::analysis::recording::response_channel_name(
+            path,
+            args.channels(),
+        )?),
+        (None, None) => Ok(String::new()),
+    }
+}
+
 /// Fits the model written down to the recordings' nonlinear FRFs and
 /// writes fit.json (see [`hystid::diagnose::fit_declared`]).
 fn identify_declared(
@@ -293,8 +317,8 @@ fn identify_declared(
         model,
         response_sign,
         &options,
-        names.join(", "),
-        args.response.clone().unwrap_or_default(),
+        names,
+        fitted_response(args)?,
         &progress::Drawn(&pb),
     )?;
     pb.finish_and_clear();
@@ -348,8 +372,8 @@ fn fit_in_time(
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
     let mut report = hystid::analysis::run_time_fit_from_start_signed(
-        names.join(", "),
-        args.response.clone().unwrap_or_default(),
+        names,
+        fitted_response(args)?,
         model,
         response_sign,
         &args.fix,
@@ -480,7 +504,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         }
     };
     let mut report = FitReport::new(
-        recording_names.join(", "),
+        recording_names.clone(),
         first.response_name.clone(),
         fit,
         reference,

@@ -43,10 +43,11 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     files.extend(write_convergence(&args.out, &fit)?);
     files.push(args.out.join("fit.json"));
     let report = FitReport::new(
+        // none with --no-recording
         if args.no_recording {
-            "(not recorded: --no-recording)".to_string()
+            Vec::new()
         } else {
-            args.out.join("run.mcap").display().to_string()
+            vec![args.out.join("run.mcap").display().to_string()]
         },
         def.test.response.quantity().name().to_string(),
         fit,

@@ -69,8 +69,29 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     pb.enable_steady_tick(std::time::Duration::from_millis(150));
     for path in &args.recordings {
         pb.set_message(format!("validating on {}", path.display()));
+        // `--response`, else the channel the model was fitted to where this
+        // recording holds it: another recording's first response is another
+        // point of the structure, compared with the wrong motion
+        let fitted = match (args.response.as_deref(), fit.response.as_deref()) {
+            (None, Some(name)) => {
+                let held = hystid::analysis::recording::channel_names(path)?
+                    .iter()
+                    .any(|n| n == name);
+                if !held && !quiet {
+                    pb.suspend(|| {
+                        say!(
+                            "{}: no channel `{name}`, the response the model was fitted to; \
+                             comparing with the recording's own response",
+                            path.display()
+                        )
+                    });
+                }
+                held.then_some(name)
+            }
+            _ => None,
+        };
         let channels = hystid::analysis::ChannelChoice {
-            response: args.response.as_deref().or(fit.response.as_deref()),
+            response: args.response.as_deref().or(fitted),
             reference: args.reference.as_deref().or(fit.reference.as_deref()),
         };
         // only the reference and the response are replayed and compared,
@@ -107,7 +128,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         if let Some(why) = &entry.replay_failed {
             pb.suspend(|| eprintln!("warning: {why}"));
         } else if !quiet && let Some(v) = &entry.validation {
-            pb.suspend(|| print_validation(path, &entry.response, v));
+            pb.suspend(|| print_validation(path, &entry.response, fitted.is_some(), v));
         }
         entries.push(entry);
     }
@@ -162,12 +183,17 @@ pub(crate) fn print_by_frequency(e: &hystid::validate::ErrorMetrics) {
     );
 }
 
-fn print_validation(path: &Path, response: &str, v: &Validation) {
+fn print_validation(path: &Path, response: &str, fitted: bool, v: &Validation) {
     // the unit of the quantity compared, whatever the channel is called
     let unit = v.quantity.si_unit();
     say!(
-        "{}: `{response}` simulated at {} Hz{}: e_RMS {:.4e} {unit} ({:.1} % of the measured RMS {:.4e} {unit})",
+        "{}: `{response}`{} simulated at {} Hz{}: e_RMS {:.4e} {unit} ({:.1} % of the measured RMS {:.4e} {unit})",
         path.display(),
+        if fitted {
+            " (the response the model was fitted to)"
+        } else {
+            ""
+        },
         v.sample_rate_hz * v.upsampling as f64,
         if v.upsampling >= hystid::validate::resample::MAX_FACTOR {
             // capped: the model's top mode lies far above what was recorded

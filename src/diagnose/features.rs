@@ -48,6 +48,12 @@ pub struct ResidualFeatures {
     pub peak_ratio_trend: f64,
 }
 
+/// The smallest `|r|` of a trend's correlation with level that an
+/// explanation calls a trend: with a few levels, a weaker correlation is as
+/// likely scatter as a shift, and saying "the peak moved downward" on
+/// `r = −0.04` claims what the data do not show.
+pub const TREND_CORRELATION: f64 = 0.5;
+
 /// `|z|²` of a point and harmonic (2 expected for noise).
 fn z2(meas: Complex64, model: Complex64, sigma: f64) -> f64 {
     2.0 * (meas - model).norm_sqr() / sigma.max(f64::MIN_POSITIVE).powi(2)

@@ -175,8 +175,13 @@ pub struct FailedCandidate {
     pub effect: Effect,
     /// The round.
     pub round: usize,
-    /// Why (the error, or no starting point in the residual).
+    /// Why (the error, or no starting point in the residual, or why it does
+    /// not apply).
     pub reason: String,
+    /// It does not apply to these FRFs (the shaker on a force reference):
+    /// not a failure.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub not_applicable: bool,
 }
 
 /// An effect kept, with its parameters' intervals.
@@ -1228,10 +1233,15 @@ pub fn diagnose_observed(
             let r = match t {
                 Ok(Some(r)) => r,
                 Ok(None) => {
+                    let why = effect.candidate().not_applicable_to(frf.reference);
                     failed.push(FailedCandidate {
                         effect,
                         round,
-                        reason: "no starting point: the residual offered none".into(),
+                        reason: why.map_or_else(
+                            || "no starting point: the residual offered none".into(),
+                            |w| format!("not applicable: {w}"),
+                        ),
+                        not_applicable: why.is_some(),
                     });
                     continue;
                 }
@@ -1242,6 +1252,7 @@ pub fn diagnose_observed(
                         effect,
                         round,
                         reason: e.to_string(),
+                        not_applicable: false,
                     });
                     continue;
                 }
@@ -1843,24 +1854,33 @@ fn explain(
             params.join(", ")
         ));
     }
-    let even_before: Vec<String> = baseline
-        .error_relative_per_harmonic
-        .iter()
-        .filter(|(h, _)| **h != 1)
-        .map(|(h, e)| format!("H{h} {:.1} %", 100.0 * e))
-        .collect();
-    let even_after: Vec<String> = final_fit
-        .error_relative_per_harmonic
-        .iter()
-        .filter(|(h, _)| **h != 1)
-        .map(|(h, e)| format!("H{h} {:.1} %", 100.0 * e))
-        .collect();
+    // a harmonic the baseline leaves at the noise (χ²/dof < 2) with an
+    // error of half the harmonic or more is itself no more than noise: its
+    // "100 % → 100 %" says nothing of the model, so it is left out
+    let at_noise = |h: usize| {
+        f.chi2_per_dof_by_harmonic.get(&h).is_some_and(|c| *c < 2.0)
+            && baseline
+                .error_relative_per_harmonic
+                .get(&h)
+                .is_some_and(|e| *e >= 0.5)
+    };
+    let shown = |fit: &ModelFit| -> Vec<String> {
+        fit.error_relative_per_harmonic
+            .iter()
+            .filter(|(h, _)| **h != 1 && !at_noise(**h))
+            .map(|(h, e)| format!("H{h} {:.1} %", 100.0 * e))
+            .collect()
+    };
+    let (even_before, even_after) = (shown(baseline), shown(final_fit));
+    let others = if even_before.is_empty() && even_after.is_empty() {
+        String::new()
+    } else {
+        format!(" ({} → {})", even_before.join(", "), even_after.join(", "))
+    };
     s.push_str(&format!(
-        "Error {:.2} % → {:.2} % in H1 ({} → {}); χ²/dof {:.2} → {:.2}, {}.",
+        "Error {:.2} % → {:.2} % in H1{others}; χ²/dof {:.2} → {:.2}, {}.",
         100.0 * baseline.error_relative,
         100.0 * final_fit.error_relative,
-        even_before.join(", "),
-        even_after.join(", "),
         baseline.chi2_per_dof,
         final_fit.chi2_per_dof,
         if consistent {
@@ -1883,6 +1903,44 @@ fn capitalise(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The summary's harmonics beside H1 leave out those at the noise (no
+    /// "H2 100.0 % → H2 100.0 %" where there are no even harmonics), and
+    /// keep those the model is judged on.
+    #[test]
+    fn the_summary_leaves_out_harmonics_at_the_noise() {
+        let fit = |h2: f64, h3: f64| ModelFit {
+            parameters: BTreeMap::new(),
+            error_relative: 0.05,
+            error_relative_per_harmonic: [(1, 0.05), (2, h2), (3, h3)].into(),
+            chi2: 100.0,
+            chi2_per_dof: 1.2,
+        };
+        let features = ResidualFeatures {
+            chi2_per_dof_by_harmonic: [(1, 1.2), (2, 1.0), (3, 6.0)].into(),
+            chi2_per_dof_by_level: Vec::new(),
+            growth_with_level: 0.0,
+            level_independent_share: 0.0,
+            peak_shift_hz: Vec::new(),
+            peak_ratio: Vec::new(),
+            peak_shift_trend: 0.0,
+            peak_ratio_trend: 0.0,
+        };
+        let added = [SelectedEffect {
+            effect: Effect::CubicStiffness,
+            parameters: BTreeMap::new(),
+        }];
+        let s = explain(&fit(1.0, 0.4), &features, &[], &added, &fit(1.0, 0.1), true);
+        assert!(!s.contains("H2"), "{s}");
+        assert!(s.contains("(H3 40.0 % → H3 10.0 %)"), "{s}");
+        // every harmonic beside H1 at the noise: no empty parentheses
+        let quiet = ResidualFeatures {
+            chi2_per_dof_by_harmonic: [(1, 1.2), (2, 1.0), (3, 1.0)].into(),
+            ..features
+        };
+        let s = explain(&fit(1.0, 0.9), &quiet, &[], &added, &fit(1.0, 0.9), true);
+        assert!(s.contains("in H1; χ²/dof"), "{s}");
+    }
 
     /// The drop cascade on a toy model (its state: the effects it holds,
     /// a refit without one always possible), `added` last in `chosen`.

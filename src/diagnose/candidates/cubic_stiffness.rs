@@ -48,6 +48,12 @@ impl Candidate for CubicStiffness {
     }
 
     fn explain(&self, f: &ResidualFeatures, _: &SelectedEffect) -> String {
+        if f.peak_shift_trend.abs() < crate::diagnose::features::TREND_CORRELATION {
+            return format!(
+                "the residual changed with level (slope {:.2}); the measured peak shows no clear shift with level relative to the model (correlation {:+.2})",
+                f.growth_with_level, f.peak_shift_trend
+            );
+        }
         let dir = if f.peak_shift_trend > 0.0 {
             "upward"
         } else {

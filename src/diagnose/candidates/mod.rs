@@ -277,6 +277,13 @@ pub(crate) trait Candidate: Sync {
         true
     }
 
+    /// Why it does not apply to FRFs measured against `reference` (the
+    /// shaker on a measured force), where it offers no start for that
+    /// reason: the diagnosis says it is not applicable, not that it failed.
+    fn not_applicable_to(&self, _reference: crate::harmonics::Quantity) -> Option<&'static str> {
+        None
+    }
+
     /// How many parameters it adds to `before` (the information
     /// criterion's `p`): its size, unless it replaces a part of `before`.
     fn added_parameters(&self, _before: &Model) -> usize {
@@ -510,6 +517,44 @@ mod tests {
 
     fn names(v: &[&str]) -> Vec<String> {
         v.iter().map(|s| s.to_string()).collect()
+    }
+
+    /// A correlation with level near zero is said to show no trend: the
+    /// cubic stiffness's and quadratic damping's explanations claim a peak
+    /// that moved, or fell short, only where `|r|` is at least 0.5.
+    #[test]
+    fn explanations_claim_no_trend_from_a_weak_correlation() {
+        let features = |shift: f64, ratio: f64| ResidualFeatures {
+            chi2_per_dof_by_harmonic: Default::default(),
+            chi2_per_dof_by_level: Vec::new(),
+            growth_with_level: 0.3,
+            level_independent_share: 0.0,
+            peak_shift_hz: Vec::new(),
+            peak_ratio: Vec::new(),
+            peak_shift_trend: shift,
+            peak_ratio_trend: ratio,
+        };
+        let why = |effect: Effect, f: &ResidualFeatures| {
+            let sel = SelectedEffect {
+                effect,
+                parameters: Default::default(),
+            };
+            effect.candidate().explain(f, &sel)
+        };
+        let weak = features(-0.04, -0.04);
+        let cubic = why(Effect::CubicStiffness, &weak);
+        assert!(
+            cubic.contains("no clear shift") && !cubic.contains("downward"),
+            "{cubic}"
+        );
+        let damping = why(Effect::QuadraticDamping, &weak);
+        assert!(
+            damping.contains("no clear shortfall") && !damping.contains("fell short"),
+            "{damping}"
+        );
+        let strong = features(-0.9, -0.9);
+        assert!(why(Effect::CubicStiffness, &strong).contains("moved downward"));
+        assert!(why(Effect::QuadraticDamping, &strong).contains("fell short"));
     }
 
     /// `all` is every candidate, `default` every one but those tried when

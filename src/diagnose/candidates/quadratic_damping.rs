@@ -43,6 +43,13 @@ impl Candidate for QuadraticDamping {
     }
 
     fn explain(&self, f: &ResidualFeatures, _: &SelectedEffect) -> String {
+        // only a falling ratio is the shortfall this effect explains
+        if f.peak_ratio_trend > -crate::diagnose::features::TREND_CORRELATION {
+            return format!(
+                "damping that grows with velocity fitted the residual better; the measured peaks show no clear shortfall against the model's with level (correlation {:+.2})",
+                f.peak_ratio_trend
+            );
+        }
         format!(
             "the measured peaks fell short of the model's more at higher levels (correlation {:+.2}): damping that grows with velocity",
             f.peak_ratio_trend

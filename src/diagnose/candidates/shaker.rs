@@ -28,6 +28,12 @@ impl Candidate for Shaker {
         model.laws().all(|e| e.drive_load().is_none())
     }
 
+    fn not_applicable_to(&self, reference: Quantity) -> Option<&'static str> {
+        (reference != Quantity::Voltage).then_some(
+            "the reference is a measured force, which needs no model of the shaker that made it",
+        )
+    }
+
     fn score(&self, f: &ResidualFeatures) -> f64 {
         3.0 * f.level_independent_share
     }
