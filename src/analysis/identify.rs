@@ -363,8 +363,8 @@ pub fn write_convergence(dir: &Path, fit: &FitResult) -> Result<Vec<PathBuf>> {
     }
     plot::write_convergence_plot(
         &dir.join("convergence"),
-        &format!("{:?}: cost per evaluation", fit.optimiser.method),
-        "cost (eq. 9 squared)",
+        &format!("{}: cost per evaluation", fit.optimiser.method.title()),
+        "cost: squared relative FRF error (eq. 9)",
         &[ConvergenceSeries {
             label: "cost of each evaluation".into(),
             group: 0,

@@ -655,8 +655,11 @@ pub fn validate_on(
         files.extend(plot::write_time_overlay_traced(
             &dir.join(format!("{stem}_time")),
             &format!(
-                "{name}: measured and simulated ({} model), e_RMS {:.4e}",
-                fit.kind, v.whole.e_rms
+                "{name}: measured and simulated ({} model), e_RMS {:.3e} {} ({:.1} % of the RMS)",
+                fit.kind,
+                v.whole.e_rms,
+                channel.unit,
+                100.0 * v.whole.relative
             ),
             &y_label,
             [&m, &s, &d],
@@ -667,8 +670,12 @@ pub fn validate_on(
         files.extend(plot::write_time_overlay_traced(
             &dir.join(format!("{stem}_time_window")),
             &format!(
-                "{name}: {:.1}-{:.1} s, e_RMS {:.4e}",
-                w.start_s, w.end_s, w.e_rms
+                "{name}: {:.1}-{:.1} s, e_RMS {:.3e} {} ({:.1} % of the RMS)",
+                w.start_s,
+                w.end_s,
+                w.e_rms,
+                channel.unit,
+                100.0 * w.relative
             ),
             &y_label,
             [&m, &s, &d],

@@ -132,6 +132,16 @@ pub enum Optimiser {
     LevenbergMarquardt,
 }
 
+impl Optimiser {
+    /// The method's name as the literature writes it, for titles.
+    pub fn title(self) -> &'static str {
+        match self {
+            Optimiser::NelderMead => "Nelder-Mead",
+            Optimiser::LevenbergMarquardt => "Levenberg-Marquardt",
+        }
+    }
+}
+
 /// How a fit (or one optimiser run) ended, from the optimiser's own
 /// termination type, never from its message text.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
