@@ -20,6 +20,7 @@ fn options(levels: usize, frequencies: usize) -> CaseOptions {
         quantity: Some(KitQuantity::Displacement),
         sweep: Some(Sweep::Up),
         with_steps: Some(true),
+        broad: false,
     }
 }
 

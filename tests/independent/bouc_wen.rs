@@ -110,6 +110,7 @@ fn bouc_wen_joint_from_the_independent_simulator_is_identified() {
         quantity: Some(Quantity::Displacement),
         sweep: Some(Sweep::Up),
         with_steps: Some(true),
+        broad: false,
     };
     let mut case = case_with(
         212,

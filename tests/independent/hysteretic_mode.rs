@@ -31,6 +31,7 @@ fn a_hysteretic_mode_from_the_independent_simulator_is_found() {
         quantity: Some(Quantity::Displacement),
         sweep: Some(Sweep::Up),
         with_steps: Some(true),
+        broad: false,
     };
     let mut case = case_with(231, JointKind::Jenkins, &[], &o);
     case.name = "hysteretic-mode-231".into();

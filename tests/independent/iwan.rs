@@ -70,6 +70,7 @@ fn iwan_joint_from_the_independent_simulator_is_identified_declared_or_not() {
         quantity: Some(Quantity::Displacement),
         sweep: Some(Sweep::Up),
         with_steps: Some(true),
+        broad: false,
     };
     let mut cases = vec![
         case_with(

@@ -350,6 +350,7 @@ fn reference_recordings_read_back() {
             quantity: Some(quantity),
             sweep: Some(Sweep::Down),
             with_steps: Some(true),
+            broad: false,
         };
         let case = case_with(30 + i as u64, JointKind::Jenkins, &[], &o);
         let rec = generate(&case);

@@ -19,6 +19,7 @@ pub fn sample_cases() -> Vec<Case> {
         quantity: Some(quantity),
         sweep: Some(sweep),
         with_steps: Some(with_steps),
+        broad: false,
     };
     use EffectKind::*;
     use Quantity::*;
@@ -178,6 +179,7 @@ fn independent_case_from_env() {
                 }),
                 sweep: None,
                 with_steps: var("HYSTID_CASE_STEPS").map(|v| v == "1"),
+                broad: false,
             };
             case_with(seed, joint, &effects, &o)
         }

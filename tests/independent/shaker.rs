@@ -33,6 +33,7 @@ fn a_shaker_from_the_independent_simulator_is_found() {
         quantity: Some(Quantity::Velocity),
         sweep: Some(Sweep::Up),
         with_steps: Some(true),
+        broad: false,
     };
     let mut case = case_with(232, JointKind::Jenkins, &[], &o);
     case.name = "shaker-232".into();

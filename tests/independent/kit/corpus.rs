@@ -369,6 +369,66 @@ pub struct CaseOptions {
     pub quantity: Option<Quantity>,
     pub sweep: Option<Sweep>,
     pub with_steps: Option<bool>,
+    /// Draw over the broad ranges of [`draw_broad`] (bands that may cut a
+    /// resonance, effects up to dominant, further modes anywhere, noise
+    /// 0.3-10 %) instead of the original corpus's.
+    pub broad: bool,
+}
+
+/// The draws [`CaseOptions::broad`] adds, from a stream of their own, so
+/// that the original corpus's cases stay the same.
+struct Broad {
+    rng: ChaCha8Rng,
+}
+
+impl Broad {
+    fn new(seed: u64) -> Broad {
+        Broad {
+            rng: ChaCha8Rng::seed_from_u64(seed ^ 0xb40a_d000_0000_0001),
+        }
+    }
+    /// The band's ends as multiples of the slip and stuck frequencies: a
+    /// fifth of the cases start above the slipping resonance or end inside
+    /// the stuck one (the band cuts a resonance).
+    fn band(&mut self) -> (f64, f64) {
+        let lo = if self.rng.random_range(0.0..1.0) < 0.2 {
+            self.rng.random_range(0.97..1.05)
+        } else {
+            self.rng.random_range(0.4..0.9)
+        };
+        let hi = if self.rng.random_range(0.0..1.0) < 0.2 {
+            self.rng.random_range(0.96..1.03)
+        } else {
+            self.rng.random_range(1.1..1.8)
+        };
+        (lo, hi)
+    }
+    /// Response noise, RMS relative to the clean response: 0.3-10 %.
+    fn noise(&mut self) -> f64 {
+        log_uniform(&mut self.rng, 0.003, 0.10)
+    }
+    /// An effect's size from just resolvable to dominant (jumps and folds
+    /// at the top levels): a factor over `[lo, hi]`, log-uniform.
+    fn size(&mut self, lo: f64, hi: f64) -> f64 {
+        log_uniform(&mut self.rng, lo, hi)
+    }
+    /// A further mode anywhere from below the band to above it: below,
+    /// at the bottom edge, inside (away from the joint's resonances), at
+    /// the top edge, above.
+    fn further_mode(&mut self, flo: f64, fhi: f64, avoid: [f64; 2]) -> f64 {
+        match self.rng.random_range(0..5usize) {
+            0 => flo * self.rng.random_range(0.25..0.85),
+            1 => flo * self.rng.random_range(0.9..1.1),
+            2 => loop {
+                let f = log_uniform(&mut self.rng, flo * 1.1, fhi / 1.1);
+                if avoid.iter().all(|a| (f / a).ln().abs() > 0.12) || flo * 1.1 >= fhi / 1.1 {
+                    break f;
+                }
+            },
+            3 => fhi * self.rng.random_range(0.9..1.1),
+            _ => fhi * self.rng.random_range(1.15..3.0),
+        }
+    }
 }
 
 /// A specific case, deterministic in `seed`: the structure, sizes and
@@ -393,7 +453,11 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         .frequencies
         .unwrap_or_else(|| rng.random_range(12..=20usize));
     let f_stuck = ((stiffness + kd) / mass).sqrt() / (2.0 * PI);
-    let (flo, fhi) = (0.6 * f_slip, 1.4 * f_stuck);
+    let mut broad = o.broad.then(|| Broad::new(seed));
+    let (flo, fhi) = match broad.as_mut().map(Broad::band) {
+        Some((lo, hi)) => (lo * f_slip, (hi * f_stuck).max(1.2 * lo * f_slip)),
+        None => (0.6 * f_slip, 1.4 * f_stuck),
+    };
     // a log grid over the band plus points around both resonances
     let n_near = (nf / 5).max(1);
     let n_grid = nf - 2 * n_near;
@@ -401,6 +465,8 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         .map(|i| flo * (fhi / flo).powf(i as f64 / (n_grid - 1).max(1) as f64))
         .collect();
     for &fr in &[f_slip, f_stuck] {
+        // a band that cuts a resonance holds no points beyond its ends
+        let inside = |f: f64| !o.broad || (f >= flo && f <= fhi);
         for i in 0..n_near {
             let u = if n_near == 1 {
                 0.0
@@ -408,7 +474,10 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
                 i as f64 / (n_near - 1) as f64 * 2.0 - 1.0
             };
             // within the half-power band, where damping shows
-            frequencies.push(fr * (1.0 + 1.5 * zeta * u + rng.random_range(-0.3..0.3) * zeta));
+            let f = fr * (1.0 + 1.5 * zeta * u + rng.random_range(-0.3..0.3) * zeta);
+            if inside(f) {
+                frequencies.push(f);
+            }
         }
     }
     // off any round value: a small random detuning
@@ -461,7 +530,7 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         format,
         quantity,
         with_steps,
-        response_noise: 0.10,
+        response_noise: broad.as_mut().map_or(0.10, Broad::noise),
         force_noise: 0.005,
         analysis_periods: rng.random_range(16..=32u64),
         substeps: 16,
@@ -475,7 +544,10 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
         let e = match kind {
             EffectKind::CubicStiffness => {
                 // 3/4 k3 X² = ±(3–12 %) of k at the top level's resonance
-                let delta = rng.random_range(0.03..0.12)
+                let delta = broad
+                    .as_mut()
+                    .map(|b| b.size(0.03, 0.6))
+                    .unwrap_or_else(|| rng.random_range(0.03..0.12))
                     * if rng.random_range(0.0..1.0) < 0.5 {
                         -1.0
                     } else {
@@ -487,7 +559,10 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
             }
             EffectKind::QuadraticDamping => {
                 // 8/(3π) c2 ω X = (15–45 %) of c at the top level's resonance
-                let delta = rng.random_range(0.15..0.45);
+                let delta = broad
+                    .as_mut()
+                    .map(|b| b.size(0.15, 3.0))
+                    .unwrap_or_else(|| rng.random_range(0.15..0.45));
                 TrueEffect::QuadDamping {
                     c2: delta * damping / (8.0 / (3.0 * PI) * w * x_top),
                 }
@@ -495,7 +570,11 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
             EffectKind::BilinearStiffness => {
                 // one-sided contact, kb = 0.4–1.0 k: H2 ~ 0.07 kb/k of H1
                 TrueEffect::Bilinear {
-                    kb: rng.random_range(0.4..1.0) * stiffness,
+                    kb: broad
+                        .as_mut()
+                        .map(|b| b.size(0.4, 4.0))
+                        .unwrap_or_else(|| rng.random_range(0.4..1.0))
+                        * stiffness,
                 }
             }
             EffectKind::Clearance => {
@@ -503,7 +582,10 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
                 // 5–15 % of k there
                 let g: f64 = rng.random_range(0.3..0.6);
                 let frac = 1.0 - 2.0 / PI * (g.asin() + g * (1.0 - g * g).sqrt());
-                let delta = rng.random_range(0.05..0.15);
+                let delta = broad
+                    .as_mut()
+                    .map(|b| b.size(0.05, 0.8))
+                    .unwrap_or_else(|| rng.random_range(0.05..0.15));
                 TrueEffect::Clearance {
                     k: delta * stiffness / frac,
                     gap: g * x_top,
@@ -514,6 +596,10 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
                     ftop * rng.random_range(1.6..3.0)
                 } else {
                     flo * rng.random_range(0.3..0.5)
+                };
+                let f2 = match broad.as_mut() {
+                    Some(b) => b.further_mode(flo, ftop, [f_slip, f_stuck]),
+                    None => f2,
                 };
                 TrueEffect::SecondMode {
                     frequency_hz: f2,
@@ -542,6 +628,10 @@ pub fn case_with(seed: u64, joint: JointKind, effects: &[EffectKind], o: &CaseOp
 /// A case drawn over what users have: joint, effects and everything else
 /// from the seed.
 pub fn draw_case(seed: u64) -> Case {
+    draw_case_with(seed, false)
+}
+
+fn draw_case_with(seed: u64, broad: bool) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ 7);
     let joint = if rng.random_range(0.0..1.0) < 0.4 {
         JointKind::Jenkins
@@ -561,7 +651,22 @@ pub fn draw_case(seed: u64) -> Case {
         let b = (a + rng.random_range(1..5usize)) % 5;
         vec![all[a], all[b]]
     };
-    case_with(seed, joint, &effects, &CaseOptions::default())
+    let o = CaseOptions {
+        broad,
+        ..CaseOptions::default()
+    };
+    case_with(seed, joint, &effects, &o)
+}
+
+/// A case drawn over the broad ranges (issue 70): everything
+/// [`draw_case`] draws, and bands that cut a resonance, effects from just
+/// resolvable to dominant, a further mode anywhere from below the band to
+/// above it, noise 0.3-10 %. Seeds below 1000 are for development; seeds
+/// from 1000 up are the held-out test set.
+pub fn draw_broad(seed: u64) -> Case {
+    let mut case = draw_case_with(seed, true);
+    case.name = format!("broad-{seed}");
+    case
 }
 
 /// A generated recording: per-sample channels and the dwells' sample
