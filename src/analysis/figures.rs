@@ -580,6 +580,7 @@ mod tests {
             response_sign: 1.0,
             transfer: false,
             unusable_points: 0,
+            anchor: None,
         };
         let lines = model_lines(&model, 1.0, &fine, &HbPredictor::default()).unwrap();
         let l = &lines[0];
@@ -691,6 +692,7 @@ mod tests {
             response_sign: 1.0,
             transfer: false,
             unusable_points: 0,
+            anchor: None,
         };
         let fine = fine_grid(&data, 5);
         let f: Vec<f64> = fine.series[0]

@@ -227,6 +227,11 @@ pub struct Diagnosis {
     pub model: Model,
     /// The response sign the models predict (see `FitData::response_sign`).
     pub response_sign: f64,
+    /// The baseline's first-mode parameters at or beyond the range the
+    /// smallest level's linear estimate allows (see [`crate::fit::anchor`]):
+    /// a baseline gone astray, on which the effects added are not trusted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baseline_astray: Option<crate::fit::identify::Astray>,
 }
 
 /// The free parameters of a model: every element's, the first mode as an
@@ -433,7 +438,7 @@ fn refit_counted(
     budget: Budget,
     observed: Option<Observed<'_>>,
 ) -> Result<(Refit, usize)> {
-    let mut params = model_parameters(model, data.band_hz());
+    let mut params = data.anchored(model_parameters(model, data.band_hz()), model);
     // a parameter at its bound (the joint's N → ∞ for Jenkins-like data) is
     // held there: its penalty row would mislead a derivative-based step
     params.parameters.retain(|p| {
@@ -1051,7 +1056,8 @@ pub fn diagnose_observed(
     }
     let data = FitData::from_frf(frf, &harmonics, options.band_hz, None)?
         .with_sign(fit.response_sign)
-        .with_transfer(options.fit.transfer || fit.transfer);
+        .with_transfer(options.fit.transfer || fit.transfer)
+        .with_anchor(crate::fit::LinearAnchor::of(&fit.linear.stick));
     let n_real = (2 * data.observations()) as f64;
     // χ² against what noise alone gives with block-estimated standard errors
     let expected = crate::fit::problem::expected_chi_square(&data);
@@ -1399,7 +1405,14 @@ pub fn diagnose_observed(
             }
         }
     }
+    let baseline_astray = gone_astray(
+        &data,
+        &base.model,
+        &base.pred,
+        fit.linear.stick.relative_rms_residual,
+    );
     conclude(Conclusion {
+        baseline_astray,
         harmonics,
         band_hz: options.band_hz,
         baseline,
@@ -1436,6 +1449,32 @@ struct Conclusion<'a> {
     expected: f64,
     /// The intervals at `current`, where the rounds computed them.
     intervals: Option<Intervals>,
+    /// Whether the baseline went astray.
+    baseline_astray: Option<crate::fit::identify::Astray>,
+}
+
+/// Whether `model` (predicting `pred`) went astray from the data's anchor
+/// (see [`crate::fit::identify::Astray`]); `stick_residual` is the smallest
+/// level's linear fit's RMS relative residual.
+fn gone_astray(
+    data: &FitData,
+    model: &Model,
+    pred: &Prediction,
+    stick_residual: f64,
+) -> Option<crate::fit::identify::Astray> {
+    use crate::fit::identify::{LOWEST_LEVEL_MARGIN, LOWEST_LEVEL_SLACK, lowest_level_residual};
+    let anchor = data.anchor?;
+    let parameters = anchor.astray_in(model);
+    let smallest_level_residual = lowest_level_residual(data, pred)
+        .filter(|r| *r > LOWEST_LEVEL_SLACK * stick_residual + LOWEST_LEVEL_MARGIN)
+        .map(|r| [r, stick_residual]);
+    (!parameters.is_empty() || smallest_level_residual.is_some()).then(|| {
+        crate::fit::identify::Astray {
+            parameters,
+            anchor: anchor.describe(),
+            smallest_level_residual,
+        }
+    })
 }
 
 /// The diagnosis: the kept effects' intervals at the final model, its fit
@@ -1456,6 +1495,7 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         response_sign,
         expected,
         intervals,
+        baseline_astray,
     } = c;
     let normalised = |chi2: f64| chi2 / expected.max(f64::MIN_POSITIVE);
     // intervals of the effects kept, at the final model
@@ -1530,7 +1570,14 @@ fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
             untried[0]
         ));
     }
+    if let Some(a) = &baseline_astray {
+        explanation.push_str(&format!(
+            " The baseline went astray ({}): what was added to it is not trusted.",
+            a.describe()
+        ));
+    }
     Ok(Diagnosis {
+        baseline_astray,
         harmonics,
         band_hz,
         baseline,
@@ -1605,6 +1652,7 @@ fn reconcluded(
         response_sign: d.response_sign,
         expected: crate::fit::problem::expected_chi_square(data),
         intervals: None,
+        baseline_astray: d.baseline_astray.clone(),
     })
 }
 

@@ -355,6 +355,48 @@ pub struct FitResult {
     /// other (absent from fit.json files written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference_quantity: Option<crate::harmonics::Quantity>,
+    /// The first mode's parameters that ended at a bound the smallest
+    /// level's linear estimate sets (see [`super::anchor`]): a fit led
+    /// astray, not a measurement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub astray: Option<Astray>,
+}
+
+/// A fit led astray: its first mode's parameters at the bounds its anchor
+/// sets, or the smallest level's FRF missed by far more than that level's
+/// own linear fit misses it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Astray {
+    /// The parameters at an anchored bound (`mass`, `stiffness`, `damping`).
+    pub parameters: Vec<String>,
+    /// The anchor, as a sentence.
+    pub anchor: String,
+    /// The smallest level's RMS relative residual: the model's and its
+    /// linear fit's, where the model's is the larger by far.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smallest_level_residual: Option<[f64; 2]>,
+}
+
+impl Astray {
+    /// What went astray, as a clause ("its mass at the bound ... allows").
+    pub fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        if !self.parameters.is_empty() {
+            parts.push(format!(
+                "its {} at or beyond the range {} allows",
+                self.parameters.join(", "),
+                self.anchor
+            ));
+        }
+        if let Some([model, linear]) = self.smallest_level_residual {
+            parts.push(format!(
+                "the smallest level's FRF missed by {:.1} % (RMS), where that level's linear fit misses it by {:.1} %",
+                100.0 * model,
+                100.0 * linear
+            ));
+        }
+        parts.join("; ")
+    }
 }
 
 /// Linear system estimates from the largest and smallest levels.
@@ -500,6 +542,13 @@ pub fn linear_from_levels_with(
 }
 
 /// Fits `options.element` to measured nonlinear FRFs.
+///
+/// The first mode's `m, c, k` are held to what the smallest level's linear
+/// estimate allows (see [`super::anchor`]). A fit from the paper's start
+/// (the largest level's mode) that ends at one of those bounds has been led
+/// astray by what the largest level holds (a jump, a strong effect the model
+/// lacks): it is restarted from the smallest level's mode, the better of the
+/// two kept, and the notes say so.
 pub fn identify(
     frf: &NonlinearFrf,
     options: &FitOptions,
@@ -507,6 +556,86 @@ pub fn identify(
     observer: Option<&dyn crate::observe::Observer>,
 ) -> Result<FitResult> {
     options.validate()?;
+    let first = identify_from(frf, options, predictor, observer)?;
+    let Some(astray) = first.astray.clone() else {
+        return Ok(first);
+    };
+    if options.linear_start != LinearStart::Extremes {
+        return Ok(with_astray_note(first, &astray, None));
+    }
+    let again = FitOptions {
+        linear_start: LinearStart::Lowest,
+        ..options.clone()
+    };
+    let second = match identify_from(frf, &again, predictor, observer) {
+        Ok(f) => f,
+        Err(_) => return Ok(with_astray_note(first, &astray, None)),
+    };
+    let restart = Some(second.error.cost < first.error.cost);
+    Ok(if second.error.cost < first.error.cost {
+        with_astray_note(second, &astray, restart)
+    } else {
+        with_astray_note(first, &astray, restart)
+    })
+}
+
+/// How much further a joint model may sit from the smallest level's FRF
+/// than that level's own linear fit (an RMS of relative residuals) before
+/// the fit counts as astray: the model holds that linear fit (its joint
+/// stuck), so a fit of every level trades away at most a little of it.
+pub(crate) const LOWEST_LEVEL_SLACK: f64 = 2.0;
+pub(crate) const LOWEST_LEVEL_MARGIN: f64 = 0.02;
+
+/// The RMS over the smallest level's points of `|H1 − H1_model| / |H1|`
+/// (the definition of [`super::linear::SdofEstimate::relative_rms_residual`]).
+pub(crate) fn lowest_level_residual(data: &FitData, pred: &super::problem::Prediction) -> Option<f64> {
+    let k = data.harmonic_index(1)?;
+    let (i, series) = data
+        .series
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.level.total_cmp(&b.1.level))?;
+    let relative: Vec<f64> = series
+        .points
+        .iter()
+        .zip(pred.h.get(i)?)
+        .filter_map(|(p, m)| Some(((p.h[k] - m.as_ref()?[k]).norm() / p.h[k].norm()).powi(2)))
+        .collect();
+    (!relative.is_empty()).then(|| (relative.iter().sum::<f64>() / relative.len() as f64).sqrt())
+}
+
+/// `fit` with a note on the first fit's parameters at an anchored bound
+/// (`astray`), and on the restart from the smallest level's mode: `Some(true)`
+/// when it was kept.
+fn with_astray_note(mut fit: FitResult, astray: &Astray, restart: Option<bool>) -> FitResult {
+    let first = format!(
+        "the first fit (from the largest level's mode) went astray: {}",
+        astray.describe()
+    );
+    let note = match (restart, &fit.astray) {
+        (None, _) => format!("{first}; not trusted"),
+        (Some(true), None) => {
+            format!("{first}; restarted from the smallest level's mode, which is kept")
+        }
+        (Some(true), Some(a)) => format!(
+            "{first}; restarted from the smallest level's mode, which is kept, though it went astray too ({}): not trusted",
+            a.describe()
+        ),
+        (Some(false), _) => format!(
+            "{first}; restarted from the smallest level's mode, which ended worse: the first fit is kept, not trusted"
+        ),
+    };
+    fit.notes.push(note);
+    fit
+}
+
+/// [`identify`] from `options.linear_start`, once.
+fn identify_from(
+    frf: &NonlinearFrf,
+    options: &FitOptions,
+    predictor: &dyn FrfPredictor,
+    observer: Option<&dyn crate::observe::Observer>,
+) -> Result<FitResult> {
     let t0 = std::time::Instant::now();
     let mut linear =
         linear_from_levels_with(frf, options.band_hz, options.modes, &options.extra_modes)?;
@@ -521,7 +650,8 @@ pub fn identify(
     }
     let data = FitData::from_frf(frf, &options.harmonics, options.band_hz, None)?
         .with_sign(sign)
-        .with_transfer(options.transfer);
+        .with_transfer(options.transfer)
+        .with_anchor(super::anchor::LinearAnchor::of(&linear.stick));
     if data.unusable_points > 0 {
         notes.push(format!(
             "{} measured point(s) left out: a zero fundamental or a zero standard error (a response below the recording's resolution)",
@@ -621,6 +751,7 @@ pub fn identify(
             params.extend(kc);
         }
     }
+    let params = data.anchored(params, &base);
     if options.linear_start == LinearStart::Lowest {
         // stage 1 keeps k + kd at the smallest level's stiffness
         let total = stick_stiffness(&linear);
@@ -641,6 +772,7 @@ pub fn identify(
     {
         stage1_params.extend(ParameterSet::for_sdof_damping(0));
     }
+    let stage1_params = data.anchored(stage1_params, &base);
     let mut stage1 = FitProblem::new(
         base.clone(),
         stage1_params.clone(),
@@ -814,6 +946,18 @@ pub fn identify(
         bootstrap(&problem, &run.theta, &pred, options, &mut parameters)?;
     }
     let error = error_report(&data, &pred, run.cost, params.len());
+    let astray = data.anchor.and_then(|anchor| {
+        let parameters = anchor.astray(&params, &params.values(&run.theta));
+        let linear_residual = linear.stick.relative_rms_residual;
+        let smallest_level_residual = lowest_level_residual(&data, &pred)
+            .filter(|r| *r > LOWEST_LEVEL_SLACK * linear_residual + LOWEST_LEVEL_MARGIN)
+            .map(|r| [r, linear_residual]);
+        (!parameters.is_empty() || smallest_level_residual.is_some()).then(|| Astray {
+            parameters,
+            anchor: anchor.describe(),
+            smallest_level_residual,
+        })
+    });
     if pred.failures() > 0 {
         notes.push(format!(
             "{} model points did not converge at the optimum",
@@ -857,6 +1001,7 @@ pub fn identify(
         },
         notes,
         at_bound,
+        astray,
         reference_quantity: Some(frf.reference),
     })
 }

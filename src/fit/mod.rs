@@ -3,10 +3,12 @@
 //! eq. 9); or, from such a fit, the recording itself replayed in the time
 //! domain ([`time`]).
 
+pub mod anchor;
 pub mod coil;
 pub mod identify;
 pub mod linear;
 
+pub use anchor::LinearAnchor;
 pub use linear::{FrfSample, SdofEstimate, fit_sdof};
 pub mod optimise;
 pub mod params;

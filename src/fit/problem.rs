@@ -67,6 +67,10 @@ pub struct FitData {
     /// lowest level stays within one step of the converter).
     #[serde(default)]
     pub unusable_points: usize,
+    /// What the smallest level's linear estimate allows the first mode's
+    /// `m, c, k` (see [`super::anchor`]); none where it could not be made.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anchor: Option<super::anchor::LinearAnchor>,
 }
 
 /// Whether a measured point can be weighed: a non-zero, finite fundamental
@@ -158,6 +162,7 @@ impl FitData {
             response_sign: 1.0,
             transfer: false,
             unusable_points,
+            anchor: None,
         })
     }
 
@@ -180,6 +185,22 @@ impl FitData {
     pub fn with_transfer(mut self, transfer: bool) -> FitData {
         self.transfer |= transfer;
         self
+    }
+
+    /// The data with the first mode's `m, c, k` anchored (see
+    /// [`super::anchor`]).
+    pub fn with_anchor(mut self, anchor: Option<super::anchor::LinearAnchor>) -> FitData {
+        self.anchor = anchor;
+        self
+    }
+
+    /// `set` bounded by the data's anchor, if any (see
+    /// [`super::anchor::LinearAnchor::bound`]).
+    pub fn anchored(&self, set: super::params::ParameterSet, start: &Model) -> super::params::ParameterSet {
+        match &self.anchor {
+            Some(a) => a.bound(set, start),
+            None => set,
+        }
     }
 
     /// Number of complex observations.

@@ -9,6 +9,7 @@
 pub mod kit;
 
 mod bouc_wen;
+mod broad;
 mod hysteretic_mode;
 mod iwan;
 mod multisine;
