@@ -39,6 +39,47 @@ fn rust_files(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
+/// Whether `file` is a test module in its own file: its parent declares it
+/// as `#[cfg(test)] mod name;`, so all of it is `#[cfg(test)]` code.
+fn is_test_module_file(file: &Path) -> bool {
+    let (Some(dir), Some(stem)) = (file.parent(), file.file_stem()) else {
+        return false;
+    };
+    let stem = stem.to_string_lossy();
+    // `a/x.rs` and `a/x/mod.rs` are both declared in `a/mod.rs` or `a.rs`
+    let (name, dir) = if stem == "mod" {
+        let Some(up) = dir.parent() else { return false };
+        (dir.file_name().unwrap_or_default().to_string_lossy(), up)
+    } else {
+        (stem, dir)
+    };
+    let mut parents = vec![dir.join("mod.rs"), dir.with_extension("rs")];
+    if dir == src() {
+        parents.extend([dir.join("lib.rs"), dir.join("main.rs")]);
+    }
+    let declaration = format!("mod {name};");
+    parents.iter().any(|p| {
+        let Ok(text) = std::fs::read_to_string(p) else {
+            return false;
+        };
+        let lines: Vec<&str> = text.lines().map(str::trim).collect();
+        lines.iter().enumerate().any(|(i, l)| {
+            l.strip_prefix("#[cfg(test)]").is_some_and(|rest| {
+                rest.trim() == declaration
+                    || (rest.trim().is_empty() && lines.get(i + 1) == Some(&declaration.as_str()))
+            })
+        })
+    })
+}
+
+/// Every `.rs` file under `dir` but the test modules in their own files.
+fn code_files(dir: &Path) -> Vec<PathBuf> {
+    rust_files(dir)
+        .into_iter()
+        .filter(|f| !is_test_module_file(f))
+        .collect()
+}
+
 /// The source's code lines, numbered from 1, without comment lines and
 /// without `#[cfg(test)]` items (counted by braces, which is enough for
 /// this crate's test modules).
@@ -83,7 +124,7 @@ fn src() -> PathBuf {
 fn uses(module: &str, forbidden: &[&str]) -> Vec<String> {
     let root = src().join(module);
     let files = if root.is_dir() {
-        rust_files(&root)
+        code_files(&root)
     } else {
         vec![root.with_extension("rs")]
     };
@@ -134,7 +175,7 @@ fn harmonic_balance_does_not_depend_on_fit_or_diagnosis() {
 #[test]
 fn no_stage_downcasts_an_element() {
     let mut found = Vec::new();
-    for f in rust_files(&src()) {
+    for f in code_files(&src()) {
         let text = std::fs::read_to_string(&f).unwrap();
         for (n, line) in code_lines(&text) {
             if ["downcast", "dyn Any", "std::any::Any"]
@@ -153,7 +194,7 @@ fn no_stage_downcasts_an_element() {
 #[test]
 fn no_status_is_read_from_message_text() {
     let mut found = Vec::new();
-    for f in rust_files(&src()) {
+    for f in code_files(&src()) {
         let text = std::fs::read_to_string(&f).unwrap();
         for (n, line) in code_lines(&text) {
             let l = line.replace(' ', "");
@@ -183,7 +224,7 @@ fn no_status_is_read_from_message_text() {
 #[test]
 fn only_the_model_matches_on_element_laws() {
     let mut found = Vec::new();
-    for f in rust_files(&src()) {
+    for f in code_files(&src()) {
         let rel = f.strip_prefix(src()).unwrap().to_string_lossy().to_string();
         if rel.starts_with("model") || rel.starts_with("diagnose/candidates") {
             continue;
@@ -252,7 +293,7 @@ fn result_error_types(line: &str) -> Vec<Option<String>> {
 #[test]
 fn library_errors_are_typed() {
     let mut found = Vec::new();
-    for f in rust_files(&src()) {
+    for f in code_files(&src()) {
         let text = std::fs::read_to_string(&f).unwrap();
         for (n, line) in code_lines(&text) {
             let string_error = result_error_types(line)
@@ -285,6 +326,9 @@ fn the_scanner_sees_what_it_looks_for() {
     let text = "#[cfg(test)] use crate::sim;\nuse b;\n";
     let kept: Vec<&str> = code_lines(text).into_iter().map(|(_, l)| l).collect();
     assert_eq!(kept, vec!["use b;"]);
+    // a test module in its own file is test code, its parent is not
+    assert!(is_test_module_file(&src().join("model/masing/tests.rs")));
+    assert!(!is_test_module_file(&src().join("model/masing/mod.rs")));
 }
 
 /// The command line only translates: `src/cli/` stays under 8 % of the
@@ -545,7 +589,7 @@ fn refs_of(file: &Path, module: &[String], modules: &std::collections::BTreeSet<
 type Graph = std::collections::BTreeMap<Module, std::collections::BTreeMap<Module, Vec<String>>>;
 
 fn module_graph() -> Graph {
-    let files: Vec<(Module, PathBuf)> = rust_files(&src())
+    let files: Vec<(Module, PathBuf)> = code_files(&src())
         .into_iter()
         .map(|f| (module_of(&f), f))
         .collect();
