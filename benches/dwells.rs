@@ -31,6 +31,7 @@ fn main() {
         quantity: None,
         sweep: Some(Sweep::Up),
         with_steps: Some(steps),
+        broad: false,
     };
     let cases = vec![
         case_with(201, JointKind::Masing { n: 3.0 }, &[], &o(false)),
