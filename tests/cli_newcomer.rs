@@ -672,3 +672,86 @@ fn identify_gives_the_linear_estimate_in_the_drives_units() {
         "{newtons}"
     );
 }
+
+/// Clipping found at import reaches `identify` and `diagnose`: the import's
+/// quality report beside a recording gives a warning on the terminal, a note
+/// in fit.json, `quality_warnings` in diagnosis.json and a section in
+/// diagnosis.md; a recording without one gives none of these.
+#[test]
+fn import_quality_warnings_reach_identify_and_diagnose() {
+    let dir = tempfile::tempdir().unwrap();
+    // a force clipped at 0.8 of its amplitude: flat tops at both extremes
+    let mut csv = String::from("force,acc\n");
+    for i in 0..8000 {
+        let s = (2.0 * std::f64::consts::PI * 100.0 * i as f64 / 8000.0).sin();
+        csv += &format!("{},{}\n", s.clamp(-0.8, 0.8), -0.25 * s);
+    }
+    let clipped = dir.path().join("clipped.csv");
+    std::fs::write(&clipped, csv).unwrap();
+    let imported = dir.path().join("imp");
+    let o = hystid(&[
+        "import",
+        clipped.to_str().unwrap(),
+        "--out",
+        &format!("{}/", imported.display()),
+        "--rate",
+        "8000",
+        "-c",
+        "force=#1:force",
+        "-c",
+        "acc=#2:acceleration",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let report = imported.join("clipped.quality.json");
+    assert!(
+        std::fs::read_to_string(&report)
+            .unwrap()
+            .contains("clipped")
+    );
+    // a recording identify can fit, the import's report beside it
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let columns = [
+        ("force", "force", "N", 0, 1.0),
+        ("disp", "displacement", "m", 1, 1.0),
+    ];
+    let rec = recording_of(&sim, &dir.path().join("rec"), &columns);
+    std::fs::copy(&report, dir.path().join("rec.quality.json")).unwrap();
+    let plain = recording_of(&sim, &dir.path().join("plain"), &columns);
+    let run = |cmd: &str, rec: &Path, out: &str| {
+        let out = dir.path().join(out);
+        let r = rec.to_str().unwrap();
+        let o = hystid(&[cmd, r, "--out", out.to_str().unwrap(), "--quiet"]);
+        assert!(o.status.success(), "{}", text(&o));
+        (out, String::from_utf8_lossy(&o.stderr).to_string())
+    };
+    let read = |p: PathBuf| std::fs::read_to_string(p).unwrap();
+    let said = format!("{}: warning: channel `force` looks clipped", rec.display());
+    let (fit, err) = run("identify", &rec, "fit");
+    assert!(err.contains(&format!("warning: {said}")), "{err}");
+    let f: serde_json::Value = serde_json::from_str(&read(fit.join("fit.json"))).unwrap();
+    let notes = f["notes"].as_array().unwrap();
+    assert!(
+        notes.iter().any(|n| n.as_str().unwrap().starts_with(&said)),
+        "{notes:?}"
+    );
+    let (diag, err) = run("diagnose", &rec, "diag");
+    assert!(err.contains(&said), "{err}");
+    let d: serde_json::Value = serde_json::from_str(&read(diag.join("diagnosis.json"))).unwrap();
+    assert!(
+        d["quality_warnings"][0]
+            .as_str()
+            .unwrap()
+            .starts_with(&said)
+    );
+    let md = read(diag.join("diagnosis.md"));
+    assert!(md.contains("## Data quality") && md.contains(&said), "{md}");
+    // no report beside it: nothing said
+    let (fit, err) = run("identify", &plain, "fit_plain");
+    assert!(!err.contains("quality report"), "{err}");
+    assert!(!read(fit.join("fit.json")).contains("quality report"));
+    let (diag, _) = run("diagnose", &plain, "diag_plain");
+    assert!(!read(diag.join("diagnosis.json")).contains("quality_warnings"));
+    assert!(!read(diag.join("diagnosis.md")).contains("Data quality"));
+}

@@ -707,6 +707,10 @@ pub struct DiagnosisReport<'a> {
     /// recording format's rule.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_channel: Option<&'a str>,
+    /// The warnings of the quality reports `hystid import` wrote beside the
+    /// recordings, one line each; none: absent.
+    #[serde(skip_serializing_if = "<[String]>::is_empty")]
+    pub quality_warnings: &'a [String],
     /// The quantity of the reference the FRFs were measured against (a
     /// force or a voltage): `validate` refuses a recording driven by the
     /// other.
@@ -723,6 +727,8 @@ pub struct DiagnosisExtras<'a> {
     pub final_model: Option<&'a super::run::FinalModel>,
     /// The reference channel the user named.
     pub reference_channel: Option<&'a str>,
+    /// The import's quality warnings on the recordings.
+    pub quality: &'a [String],
 }
 
 impl<'a> DiagnosisReport<'a> {
@@ -737,6 +743,7 @@ impl<'a> DiagnosisReport<'a> {
             time_domain: None,
             final_model: None,
             reference_channel: None,
+            quality_warnings: &[],
             reference_quantity: reference,
         }
     }
@@ -769,6 +776,7 @@ pub fn write_diagnosis_with(
         time,
         final_model,
         reference_channel,
+        quality,
     } = extras;
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
     write_json(
@@ -777,11 +785,13 @@ pub fn write_diagnosis_with(
             time_domain: time,
             final_model,
             reference_channel,
+            quality_warnings: quality,
             ..DiagnosisReport::new(d, frf.reference, seconds)
         },
     )?;
     files.extend(residual_plots(dir, frf, d, predictor)?);
     let mut md = markdown(d, seconds);
+    md += &quality_markdown(quality);
     if let Some(f) = final_model {
         md += "\n";
         md += &super::run::final_markdown(f);
@@ -795,6 +805,20 @@ pub fn write_diagnosis_with(
     }
     crate::atomic::write_bytes(&files[1], md.as_bytes())?;
     Ok(files)
+}
+
+/// The import's quality warnings as a section of `diagnosis.md`; none:
+/// no section.
+fn quality_markdown(quality: &[String]) -> String {
+    if quality.is_empty() {
+        return String::new();
+    }
+    let mut s =
+        "\n## Data quality\n\nThe import found, in the recordings analysed:\n\n".to_string();
+    for q in quality {
+        let _ = writeln!(s, "- {q}");
+    }
+    s
 }
 
 /// The time-domain refinement as a section of `diagnosis.md`.

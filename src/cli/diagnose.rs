@@ -107,7 +107,8 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         };
         return diagnose_multisine_command(args, p, acquisition, &options, quiet);
     }
-    let (frf, _) = reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
+    let (frf, first) =
+        reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let _out = create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
     let (fit, _) = run_fit(&frf, &fit_opts, quiet, None)?;
@@ -184,6 +185,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             time: time.as_ref(),
             final_model: Some(&final_model),
             reference_channel: args.reference.as_deref(),
+            quality: &first.quality,
         },
     )?;
     if !quiet {

@@ -205,6 +205,9 @@ pub fn reduce_recordings(
                     path.display()
                 );
             }
+            for q in &red.quality {
+                eprintln!("warning: {q}");
+            }
             if !quiet {
                 print_reduced(path, red);
             }
@@ -402,6 +405,15 @@ fn fit_in_time(
     Ok(super::fit_exit_code(report.time_domain.status))
 }
 
+/// The import's quality warnings into fit.json's notes: the FRF fit's, and
+/// the time fit's, which is read on its own.
+fn carry_quality(report: &mut FitReport, quality: &[String]) {
+    report.fit.notes.extend(quality.iter().cloned());
+    if let Some(t) = &mut report.time_domain {
+        t.notes.extend(quality.iter().cloned());
+    }
+}
+
 /// `hystid identify`.
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     if args.domain == Domain::Time {
@@ -511,6 +523,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         files,
     );
     report.set_time_domain(time_domain);
+    carry_quality(&mut report, &first.quality);
     // the shaker's coil, from the first recording that holds its voltage
     // beside its force
     for path in &args.recordings {

@@ -91,6 +91,9 @@ pub struct Reduced {
     pub streamed: bool,
     /// An MCAP run file cut short: only its complete chunks were reduced.
     pub truncated: bool,
+    /// The warnings and errors of the quality report `hystid import` wrote
+    /// beside the recording, one line each ([`quality_notes`]).
+    pub quality: Vec<String>,
 }
 
 /// The highest harmonic for a reduction.
@@ -274,6 +277,7 @@ pub fn reduce_observed(
         truth: loaded.truth.clone(),
         streamed: false,
         truncated: loaded.truncated,
+        quality: Vec::new(),
     })
 }
 
@@ -335,11 +339,51 @@ pub fn reduce_path_observed(
             "this is the data-quality report `hystid import` writes beside a recording, not a recording (a glob such as `*.json` picks it up: name the recordings)",
         ));
     }
-    if let Some(reduced) = reduce_path_streamed(path, choice, r, observer)? {
-        return Ok(reduced);
+    let mut reduced = match reduce_path_streamed(path, choice, r, observer)? {
+        Some(reduced) => reduced,
+        None => reduce_observed(&load_recording(path, choice)?, r, observer)?,
+    };
+    reduced.quality = quality_notes(path);
+    Ok(reduced)
+}
+
+/// The quality report `hystid import` writes beside `path` (NAME.wav or
+/// NAME.json: NAME.quality.json), if there is one.
+fn quality_report_path(path: &Path) -> Option<PathBuf> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    if ext != "wav" && ext != "json" {
+        return None;
     }
-    let loaded = load_recording(path, choice)?;
-    reduce_observed(&loaded, r, observer)
+    let mut s = path.with_extension("").into_os_string();
+    s.push(".quality.json");
+    Some(PathBuf::from(s))
+}
+
+/// The warnings and errors of the import's quality report beside `path`,
+/// one line each naming the recording, so that clipping found at import
+/// reaches the fit and the diagnosis. No report: none; an unreadable one:
+/// a line saying so (the analysis goes on, as it would without).
+pub fn quality_notes(path: &Path) -> Vec<String> {
+    use crate::import::quality::{QualityReport, Severity};
+    let Some(report_path) = quality_report_path(path).filter(|p| p.is_file()) else {
+        return Vec::new();
+    };
+    let name = path.display();
+    let report = std::fs::read_to_string(&report_path)
+        .map_err(|e| e.to_string())
+        .and_then(|t| serde_json::from_str::<QualityReport>(&t).map_err(|e| e.to_string()));
+    match report {
+        Ok(r) => r
+            .findings
+            .iter()
+            .filter(|f| f.severity != Severity::Info)
+            .map(|f| format!("{name}: {}: {} (import's quality report)", f.severity, f.message))
+            .collect(),
+        Err(e) => vec![format!(
+            "{name}: the import's quality report {} could not be read ({e}); its warnings are not carried",
+            report_path.display()
+        )],
+    }
 }
 
 /// [`reduce_path`] where it reads the file a stretch at a time (stated
@@ -445,6 +489,7 @@ fn reduce_streamed(
         truth,
         streamed: true,
         truncated,
+        quality: Vec::new(),
     }))
 }
 
@@ -494,6 +539,7 @@ fn reduce_swept_stream(
         truth,
         streamed: true,
         truncated,
+        quality: Vec::new(),
     })
 }
 
@@ -586,8 +632,9 @@ pub fn combine_recordings(sets: &[(PathBuf, NonlinearFrf)]) -> Result<NonlinearF
 }
 
 /// Reduces every recording and combines them into one FRF set (one level
-/// per file, or the levels each holds); also returns the first reduction.
-/// `on_reduced` sees each reduction as it is made, `observer` how each
+/// per file, or the levels each holds); also returns the first reduction,
+/// its `quality` holding every recording's. `on_reduced` sees each
+/// reduction as it is made, `observer` how each
 /// progresses ([`reduce_path_observed`]).
 pub fn reduce_recordings(
     recordings: &[PathBuf],
@@ -598,13 +645,17 @@ pub fn reduce_recordings(
 ) -> Result<(NonlinearFrf, Reduced)> {
     let mut sets = Vec::with_capacity(recordings.len());
     let mut first: Option<Reduced> = None;
+    let mut quality = Vec::new();
     for path in recordings {
         let red = reduce_path_observed(path, choice, reduction, observer)
             .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
         on_reduced(path, &red);
         sets.push((path.clone(), red.frf.clone()));
+        quality.extend(red.quality.iter().cloned());
         first.get_or_insert(red);
     }
-    let first = first.ok_or_else(|| Error::input("recordings", "no recording given"))?;
+    let mut first = first.ok_or_else(|| Error::input("recordings", "no recording given"))?;
+    // the combined FRFs carry every recording's quality warnings
+    first.quality = quality;
     Ok((combine_recordings(&sets)?, first))
 }
