@@ -711,6 +711,10 @@ pub struct DiagnosisReport<'a> {
     /// recordings, one line each; none: absent.
     #[serde(skip_serializing_if = "<[String]>::is_empty")]
     pub quality_warnings: &'a [String],
+    /// Why the figures were not drawn, where they could not be (the
+    /// analysis stands without them); absent when they were.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub figures_not_drawn: Option<String>,
     /// The quantity of the reference the FRFs were measured against (a
     /// force or a voltage): `validate` refuses a recording driven by the
     /// other.
@@ -744,6 +748,7 @@ impl<'a> DiagnosisReport<'a> {
             final_model: None,
             reference_channel: None,
             quality_warnings: &[],
+            figures_not_drawn: None,
             reference_quantity: reference,
         }
     }
@@ -756,8 +761,18 @@ pub fn write_diagnosis(
     d: &Diagnosis,
     predictor: &HbPredictor,
     seconds: f64,
-) -> Result<Vec<PathBuf>> {
+) -> Result<Written> {
     write_diagnosis_with(dir, frf, d, predictor, seconds, DiagnosisExtras::default())
+}
+
+/// What [`write_diagnosis_with`] wrote, and what it could not (a figure
+/// not drawn, with the reason), for the terminal.
+#[derive(Clone, Debug, Default)]
+pub struct Written {
+    /// The files written.
+    pub files: Vec<PathBuf>,
+    /// One line per thing left out.
+    pub notes: Vec<String>,
 }
 
 /// [`write_diagnosis`], with `extras`: the time-domain refinement when there
@@ -771,7 +786,7 @@ pub fn write_diagnosis_with(
     predictor: &HbPredictor,
     seconds: f64,
     extras: DiagnosisExtras,
-) -> Result<Vec<PathBuf>> {
+) -> Result<Written> {
     let DiagnosisExtras {
         time,
         final_model,
@@ -779,6 +794,15 @@ pub fn write_diagnosis_with(
         quality,
     } = extras;
     let mut files = vec![dir.join("diagnosis.json"), dir.join("diagnosis.md")];
+    // a figure that cannot be drawn (every residual of a level NaN, say)
+    // is said, never the end of the analysis
+    let figures_not_drawn = match residual_plots(dir, frf, d, predictor) {
+        Ok(plots) => {
+            files.extend(plots);
+            None
+        }
+        Err(e) => Some(format!("the figures residual and diagnosis_frf were not drawn: {e}")),
+    };
     write_json(
         &files[0],
         &DiagnosisReport {
@@ -786,11 +810,14 @@ pub fn write_diagnosis_with(
             final_model,
             reference_channel,
             quality_warnings: quality,
+            figures_not_drawn: figures_not_drawn.clone(),
             ..DiagnosisReport::new(d, frf.reference, seconds)
         },
     )?;
-    files.extend(residual_plots(dir, frf, d, predictor)?);
     let mut md = markdown(d, seconds);
+    if let Some(why) = &figures_not_drawn {
+        md = md.replace(FIGURES_MARKDOWN, &format!("({why})"));
+    }
     md += &quality_markdown(quality);
     if let Some(f) = final_model {
         md += "\n";
@@ -804,7 +831,10 @@ pub fn write_diagnosis_with(
         None => {}
     }
     crate::atomic::write_bytes(&files[1], md.as_bytes())?;
-    Ok(files)
+    Ok(Written {
+        files,
+        notes: figures_not_drawn.into_iter().collect(),
+    })
 }
 
 /// The import's quality warnings as a section of `diagnosis.md`; none:
@@ -1179,9 +1209,10 @@ pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
         d.harmonics,
         seconds
     );
-    let _ = writeln!(
-        s,
-        "![residual before and after](residual.png)\n\n![the diagnosed model](diagnosis_frf.png)"
-    );
+    let _ = writeln!(s, "{FIGURES_MARKDOWN}");
     s
 }
+
+/// The figures' place in `diagnosis.md`.
+const FIGURES_MARKDOWN: &str =
+    "![residual before and after](residual.png)\n\n![the diagnosed model](diagnosis_frf.png)";

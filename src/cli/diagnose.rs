@@ -175,7 +175,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         None,
         &predictor,
     )?;
-    let files = write_diagnosis_with(
+    let written = write_diagnosis_with(
         &args.out,
         &frf,
         &d,
@@ -247,7 +247,10 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                 }
             }
         }
-        for f in files {
+        for n in &written.notes {
+            say!("  note: {n}");
+        }
+        for f in &written.files {
             say!("  wrote {}", f.display());
         }
     }

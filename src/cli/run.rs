@@ -76,9 +76,14 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
             quiet,
         )?;
         let secs = t.elapsed().as_secs_f64();
-        files.extend(hystid::analysis::diagnose::write_diagnosis(
-            &args.out, &run.frf, &d, &p, secs,
-        )?);
+        let written =
+            hystid::analysis::diagnose::write_diagnosis(&args.out, &run.frf, &d, &p, secs)?;
+        if !quiet {
+            for note in &written.notes {
+                say!("  note: {note}");
+            }
+        }
+        files.extend(written.files);
         diagnosis = Some((d, secs));
     }
     let truth = def.model().ok();

@@ -5,9 +5,10 @@
 //! SDOF estimate (`m, c, k` of the stuck joint) is the anchor. A fit may
 //! move the mass a decade either way, the stiffness two decades down (the
 //! joint takes its share of the stuck stiffness) and one up, the damping
-//! two decades either way (a slipping joint's equivalent damping is not
-//! viscous); never to a mass of 1e-13 kg, which a fit on a recording with a
-//! strong effect its model lacks would otherwise reach. A fit that ends at
+//! up to two decades above and down to nothing (a joint can carry all of
+//! a jointed structure's dissipation, as on the F-16); never to a mass of
+//! 1e-13 kg, which a fit on a recording with a strong effect its model
+//! lacks would otherwise reach. A fit that ends at
 //! one of these bounds has gone astray: see [`LinearAnchor::astray`].
 
 use super::linear::SdofEstimate;
@@ -18,7 +19,8 @@ use serde::{Deserialize, Serialize};
 /// Decades a parameter may move below and above its anchor.
 const MASS_DECADES: (f64, f64) = (1.0, 1.0);
 const STIFFNESS_DECADES: (f64, f64) = (2.0, 1.0);
-const DAMPING_DECADES: (f64, f64) = (2.0, 2.0);
+// unbounded below: 10^-∞ = 0
+const DAMPING_DECADES: (f64, f64) = (f64::INFINITY, 2.0);
 
 /// The smallest level's linear estimate of the first mode.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -128,7 +130,7 @@ mod tests {
         let bounds: Vec<[f64; 2]> = set.parameters.iter().map(|p| p.bounds).collect();
         // for_sdof: mass, damping, stiffness
         assert_eq!(bounds[0], [0.4, 40.0]);
-        assert_eq!(bounds[1], [0.2, 2000.0]);
+        assert_eq!(bounds[1], [1e-30, 2000.0]);
         assert_eq!(bounds[2], [1e5, 1e8]);
         // clamped there, whatever the optimiser asks for
         let theta = [(1.3e-13f64).ln(), 20f64.ln(), 1e7f64.ln()];
