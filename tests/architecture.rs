@@ -15,6 +15,8 @@
 //!   element it asks the element (`Element`, its law's `Description`).
 //! * No `Result<_, String>` (nor a `String` conversion error) anywhere in
 //!   `src/`: errors are typed.
+//! * No source file of `src/` or `python/src/` longer than 1,200 lines: a
+//!   file that grows past it is split by responsibility.
 //!
 //! Comment lines and `#[cfg(test)]` items are skipped: documentation may
 //! name another module, and a test may check one stage against another.
@@ -741,6 +743,31 @@ fn describe_cycle(graph: &Graph, component: &[Module]) -> String {
         );
     }
     out
+}
+
+/// The most lines a source file may have.
+const MAX_FILE_LINES: usize = 1200;
+
+/// Every `.rs` file of the library, the binary and the Python bindings (test
+/// modules in their own files too) is at most [`MAX_FILE_LINES`] long.
+#[test]
+fn no_source_file_over_1200_lines() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut over = Vec::new();
+    for dir in [src(), root.join("python").join("src")] {
+        for f in rust_files(&dir) {
+            let lines = std::fs::read_to_string(&f).unwrap().lines().count();
+            if lines > MAX_FILE_LINES {
+                let shown = f.strip_prefix(root).unwrap_or(&f);
+                over.push(format!("{}: {lines} lines", shown.display()));
+            }
+        }
+    }
+    assert!(
+        over.is_empty(),
+        "source files over {MAX_FILE_LINES} lines:\n{}",
+        over.join("\n")
+    );
 }
 
 /// No module depends on itself through others: between the files of `src/`
