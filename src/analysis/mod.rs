@@ -14,6 +14,7 @@
 //! callbacks, and every report is returned as data.
 
 pub mod diagnose;
+pub mod diagnosis_figures;
 pub mod figures;
 pub mod flags;
 pub mod frf_uff;
