@@ -61,7 +61,9 @@ fn main() {
         other => panic!("HYSTID_CORPUS_DRAW={other}: expected broad or narrow"),
     };
     if draw == "broad" && seed0 + n > 1000 && seed0 < 1000 {
-        eprintln!("corpus: seeds below 1000 are for development, from 1000 up held out: this run mixes both");
+        eprintln!(
+            "corpus: seeds below 1000 are for development, from 1000 up held out: this run mixes both"
+        );
     }
     let cases: Vec<Case> = (seed0..seed0 + n).map(draw_one).collect();
     eprintln!(

@@ -331,3 +331,51 @@ fn two_effects_at_once_are_both_found() {
         assert!(d.final_fit.chi2_per_dof < 2.0);
     }
 }
+
+/// A diagnosis whose figures cannot be drawn (here its model made
+/// unplottable: a mode at a frequency that is not a number) is written
+/// whole, saying why in place of the figures, and is never an error.
+#[test]
+fn a_figure_that_cannot_be_drawn_is_said_and_the_diagnosis_stands() {
+    let c = case_run("", 1);
+    let mut d = c.diagnosis.clone();
+    d.model.linear.modes[0].frequency_hz = f64::NAN;
+    let dir = tempfile::tempdir().unwrap();
+    let written = hystid::analysis::diagnose::write_diagnosis(
+        dir.path(),
+        &c.frf,
+        &d,
+        &HbPredictor::default(),
+        1.0,
+    )
+    .expect("the diagnosis is written without its figures");
+    assert_eq!(written.notes.len(), 1, "{:?}", written.notes);
+    assert!(
+        written.notes[0].contains("were not drawn"),
+        "{}",
+        written.notes[0]
+    );
+    assert!(!dir.path().join("residual.png").exists());
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("diagnosis.json")).unwrap()).unwrap();
+    assert_eq!(
+        json["figures_not_drawn"].as_str(),
+        Some(written.notes[0].as_str())
+    );
+    let md = std::fs::read_to_string(dir.path().join("diagnosis.md")).unwrap();
+    assert!(
+        md.contains("were not drawn") && !md.contains("residual.png"),
+        "{md}"
+    );
+    // the same diagnosis, drawable, has its figures and no note
+    let drawn = hystid::analysis::diagnose::write_diagnosis(
+        dir.path(),
+        &c.frf,
+        &c.diagnosis,
+        &HbPredictor::default(),
+        1.0,
+    )
+    .unwrap();
+    assert!(drawn.notes.is_empty());
+    assert!(dir.path().join("residual.png").exists());
+}

@@ -2,9 +2,9 @@
 //! ([`crate::diagnose`]), and its files: `diagnosis.json`, `diagnosis.md`
 //! and the residual figures.
 
+pub use super::diagnosis_figures::{effects_label, residual_plots};
 use super::recording::ReplayReduction;
 use super::write_json;
-pub use super::diagnosis_figures::{effects_label, residual_plots};
 use crate::diagnose::time_residual::{
     TimeResidual, TracedCandidate, share_explained, time_residual,
 };
@@ -801,7 +801,9 @@ pub fn write_diagnosis_with(
             files.extend(plots);
             None
         }
-        Err(e) => Some(format!("the figures residual and diagnosis_frf were not drawn: {e}")),
+        Err(e) => Some(format!(
+            "the figures residual and diagnosis_frf were not drawn: {e}"
+        )),
     };
     write_json(
         &files[0],

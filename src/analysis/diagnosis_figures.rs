@@ -122,4 +122,3 @@ pub fn effects_label(d: &Diagnosis) -> String {
             .join(" + ")
     }
 }
-

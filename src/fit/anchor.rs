@@ -125,7 +125,8 @@ mod tests {
 
     #[test]
     fn the_first_modes_mass_is_held_within_a_decade_of_the_anchor() {
-        let start = Model::with_joint(ModalModel::sdof(4.0, 20.0, 1e7).unwrap(), None, Vec::new()).unwrap();
+        let start =
+            Model::with_joint(ModalModel::sdof(4.0, 20.0, 1e7).unwrap(), None, Vec::new()).unwrap();
         let set = anchor().bound(ParameterSet::for_sdof(0), &start);
         let bounds: Vec<[f64; 2]> = set.parameters.iter().map(|p| p.bounds).collect();
         // for_sdof: mass, damping, stiffness
@@ -141,7 +142,12 @@ mod tests {
 
     #[test]
     fn a_start_outside_the_anchors_range_widens_it_to_the_start() {
-        let start = Model::with_joint(ModalModel::sdof(100.0, 20.0, 1e7).unwrap(), None, Vec::new()).unwrap();
+        let start = Model::with_joint(
+            ModalModel::sdof(100.0, 20.0, 1e7).unwrap(),
+            None,
+            Vec::new(),
+        )
+        .unwrap();
         let set = anchor().bound(ParameterSet::for_sdof(0), &start);
         assert_eq!(set.parameters[0].bounds, [0.4, 100.0]);
     }

@@ -196,7 +196,11 @@ impl FitData {
 
     /// `set` bounded by the data's anchor, if any (see
     /// [`super::anchor::LinearAnchor::bound`]).
-    pub fn anchored(&self, set: super::params::ParameterSet, start: &Model) -> super::params::ParameterSet {
+    pub fn anchored(
+        &self,
+        set: super::params::ParameterSet,
+        start: &Model,
+    ) -> super::params::ParameterSet {
         match &self.anchor {
             Some(a) => a.bound(set, start),
             None => set,

@@ -64,7 +64,10 @@ fn the_broad_corpus_draws_what_users_bring() {
     assert!(cut >= 300, "{cut} bands of 999 cut a resonance");
     // cubic in 19 % of the cases, log-uniform 3-60 % of k: ln 2 / ln 20 =
     // 23 % of them beyond 30 % (~44, sd ~6)
-    assert!(dominant_cubic >= 25, "{dominant_cubic} dominant cubic stiffnesses");
+    assert!(
+        dominant_cubic >= 25,
+        "{dominant_cubic} dominant cubic stiffnesses"
+    );
     // log-uniform 0.3-10 %: ln(1/0.3) / ln(10/0.3) = 34 % below 1 % (~343)
     assert!(low_noise >= 290, "{low_noise} cases with under 1 % noise");
 }
@@ -90,7 +93,9 @@ fn a_first_fit_led_astray_says_so_and_the_diagnosis_still_finds_both_effects() {
         .filter_map(|n| n.as_str())
         .collect();
     assert!(
-        notes.iter().any(|n| n.contains("went astray") && n.contains("restarted")),
+        notes
+            .iter()
+            .any(|n| n.contains("went astray") && n.contains("restarted")),
         "notes: {notes:?}"
     );
     let run = run_diagnose(

@@ -377,7 +377,12 @@ pub fn quality_notes(path: &Path) -> Vec<String> {
             .findings
             .iter()
             .filter(|f| f.severity != Severity::Info)
-            .map(|f| format!("{name}: {}: {} (import's quality report)", f.severity, f.message))
+            .map(|f| {
+                format!(
+                    "{name}: {}: {} (import's quality report)",
+                    f.severity, f.message
+                )
+            })
             .collect(),
         Err(e) => vec![format!(
             "{name}: the import's quality report {} could not be read ({e}); its warnings are not carried",

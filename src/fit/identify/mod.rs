@@ -592,7 +592,10 @@ pub(crate) const LOWEST_LEVEL_MARGIN: f64 = 0.02;
 
 /// The RMS over the smallest level's points of `|H1 − H1_model| / |H1|`
 /// (the definition of [`super::linear::SdofEstimate::relative_rms_residual`]).
-pub(crate) fn lowest_level_residual(data: &FitData, pred: &super::problem::Prediction) -> Option<f64> {
+pub(crate) fn lowest_level_residual(
+    data: &FitData,
+    pred: &super::problem::Prediction,
+) -> Option<f64> {
     let k = data.harmonic_index(1)?;
     let (i, series) = data
         .series
