@@ -11,7 +11,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
-use crate::fit::{Estimate, FitData, HbPredictor, Prediction};
+use crate::fit::{Estimate, FitData, HbPredictor};
 use crate::model::Model;
 use std::collections::BTreeMap;
 
@@ -36,30 +36,6 @@ pub(super) struct Conclusion<'a> {
     pub(super) intervals: Option<Intervals>,
     /// Whether the baseline went astray.
     pub(super) baseline_astray: Option<crate::fit::identify::Astray>,
-}
-
-/// Whether `model` (predicting `pred`) went astray from the data's anchor
-/// (see [`crate::fit::identify::Astray`]); `stick_residual` is the smallest
-/// level's linear fit's RMS relative residual.
-pub(super) fn gone_astray(
-    data: &FitData,
-    model: &Model,
-    pred: &Prediction,
-    stick_residual: f64,
-) -> Option<crate::fit::identify::Astray> {
-    use crate::fit::identify::{LOWEST_LEVEL_MARGIN, LOWEST_LEVEL_SLACK, lowest_level_residual};
-    let anchor = data.anchor?;
-    let parameters = anchor.astray_in(model);
-    let smallest_level_residual = lowest_level_residual(data, pred)
-        .filter(|r| *r > LOWEST_LEVEL_SLACK * stick_residual + LOWEST_LEVEL_MARGIN)
-        .map(|r| [r, stick_residual]);
-    (!parameters.is_empty() || smallest_level_residual.is_some()).then(|| {
-        crate::fit::identify::Astray {
-            parameters,
-            anchor: anchor.describe(),
-            smallest_level_residual,
-        }
-    })
 }
 
 /// The diagnosis: the kept effects' intervals at the final model, its fit

@@ -42,7 +42,7 @@ pub use conclude::{candidate_on_final, candidates_on_final, with_effect, without
 pub use features::{ResidualFeatures, features};
 pub(crate) use starts::scan_start;
 
-use conclude::{Cascade, Conclusion, conclude, drop_cascade, gone_astray, mark_dropped};
+use conclude::{Cascade, Conclusion, conclude, drop_cascade, mark_dropped};
 use resolution::{Intervals, confidence_at, unresolved_in};
 use starts::{lower_levels_fit, lower_levels_joint};
 use trials::{Trials, rank, try_candidate};
@@ -1002,12 +1002,7 @@ pub fn diagnose_observed(
             }
         }
     }
-    let baseline_astray = gone_astray(
-        &data,
-        &base.model,
-        &base.pred,
-        fit.linear.stick.relative_rms_residual,
-    );
+    let baseline_astray = data.astray(&base.model, &base.pred);
     conclude(Conclusion {
         baseline_astray,
         harmonics,

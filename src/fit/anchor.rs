@@ -31,6 +31,9 @@ pub struct LinearAnchor {
     pub damping: f64,
     /// N/m.
     pub stiffness: f64,
+    /// The smallest level's linear fit's RMS relative residual.
+    #[serde(default)]
+    pub residual: f64,
 }
 
 impl LinearAnchor {
@@ -42,6 +45,7 @@ impl LinearAnchor {
             mass: e.mass,
             damping: e.damping,
             stiffness: e.stiffness,
+            residual: e.relative_rms_residual,
         })
     }
 
@@ -120,6 +124,7 @@ mod tests {
             mass: 4.0,
             damping: 20.0,
             stiffness: 1e7,
+            residual: 0.01,
         }
     }
 

@@ -194,6 +194,23 @@ impl FitData {
         self
     }
 
+    /// Whether `model`, predicting `pred`, went astray from the data's
+    /// anchor: its first mode at the ends of the anchor's range, or the
+    /// smallest level's FRF missed far beyond that level's linear fit
+    /// (see [`Astray`]).
+    pub fn astray(&self, model: &Model, pred: &Prediction) -> Option<Astray> {
+        let anchor = self.anchor?;
+        let parameters = anchor.astray_in(model);
+        let smallest_level_residual = lowest_level_residual(self, pred)
+            .filter(|r| *r > LOWEST_LEVEL_SLACK * anchor.residual + LOWEST_LEVEL_MARGIN)
+            .map(|r| [r, anchor.residual]);
+        (!parameters.is_empty() || smallest_level_residual.is_some()).then(|| Astray {
+            parameters,
+            anchor: anchor.describe(),
+            smallest_level_residual,
+        })
+    }
+
     /// `set` bounded by the data's anchor, if any (see
     /// [`super::anchor::LinearAnchor::bound`]).
     pub fn anchored(
@@ -229,6 +246,68 @@ impl FitData {
         let hi = f.fold(0.0, f64::max);
         (lo.is_finite() && hi >= lo).then_some((lo, hi))
     }
+}
+
+/// A fit led astray: its first mode's parameters at the bounds its anchor
+/// sets, or the smallest level's FRF missed by far more than that level's
+/// own linear fit misses it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Astray {
+    /// The parameters at an anchored bound (`mass`, `stiffness`, `damping`).
+    pub parameters: Vec<String>,
+    /// The anchor, as a sentence.
+    pub anchor: String,
+    /// The smallest level's RMS relative residual: the model's and its
+    /// linear fit's, where the model's is the larger by far.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smallest_level_residual: Option<[f64; 2]>,
+}
+
+impl Astray {
+    /// What went astray, as a clause ("its mass at the bound ... allows").
+    pub fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        if !self.parameters.is_empty() {
+            parts.push(format!(
+                "its {} at or beyond the range {} allows",
+                self.parameters.join(", "),
+                self.anchor
+            ));
+        }
+        if let Some([model, linear]) = self.smallest_level_residual {
+            parts.push(format!(
+                "the smallest level's FRF missed by {:.1} % (RMS), where that level's linear fit misses it by {:.1} %",
+                100.0 * model,
+                100.0 * linear
+            ));
+        }
+        parts.join("; ")
+    }
+}
+
+/// How much further a joint model may sit from the smallest level's FRF
+/// than that level's own linear fit (an RMS of relative residuals) before
+/// the fit counts as astray: the model holds that linear fit (its joint
+/// stuck), so a fit of every level trades away at most a little of it.
+const LOWEST_LEVEL_SLACK: f64 = 2.0;
+const LOWEST_LEVEL_MARGIN: f64 = 0.02;
+
+/// The RMS over the smallest level's points of `|H1 − H1_model| / |H1|`
+/// (the definition of [`super::linear::SdofEstimate::relative_rms_residual`]).
+fn lowest_level_residual(data: &FitData, pred: &Prediction) -> Option<f64> {
+    let k = data.harmonic_index(1)?;
+    let (i, series) = data
+        .series
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.level.total_cmp(&b.1.level))?;
+    let relative: Vec<f64> = series
+        .points
+        .iter()
+        .zip(pred.h.get(i)?)
+        .filter_map(|(p, m)| Some(((p.h[k] - m.as_ref()?[k]).norm() / p.h[k].norm()).powi(2)))
+        .collect();
+    (!relative.is_empty()).then(|| (relative.iter().sum::<f64>() / relative.len() as f64).sqrt())
 }
 
 /// The model's FRFs at the measured points.

@@ -15,6 +15,7 @@
 
 mod intervals;
 
+pub use super::problem::Astray;
 pub use intervals::{Confidence, confidence};
 
 use intervals::{bootstrap, jenkins_limit_check};
@@ -366,43 +367,6 @@ pub struct FitResult {
     pub astray: Option<Astray>,
 }
 
-/// A fit led astray: its first mode's parameters at the bounds its anchor
-/// sets, or the smallest level's FRF missed by far more than that level's
-/// own linear fit misses it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Astray {
-    /// The parameters at an anchored bound (`mass`, `stiffness`, `damping`).
-    pub parameters: Vec<String>,
-    /// The anchor, as a sentence.
-    pub anchor: String,
-    /// The smallest level's RMS relative residual: the model's and its
-    /// linear fit's, where the model's is the larger by far.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub smallest_level_residual: Option<[f64; 2]>,
-}
-
-impl Astray {
-    /// What went astray, as a clause ("its mass at the bound ... allows").
-    pub fn describe(&self) -> String {
-        let mut parts = Vec::new();
-        if !self.parameters.is_empty() {
-            parts.push(format!(
-                "its {} at or beyond the range {} allows",
-                self.parameters.join(", "),
-                self.anchor
-            ));
-        }
-        if let Some([model, linear]) = self.smallest_level_residual {
-            parts.push(format!(
-                "the smallest level's FRF missed by {:.1} % (RMS), where that level's linear fit misses it by {:.1} %",
-                100.0 * model,
-                100.0 * linear
-            ));
-        }
-        parts.join("; ")
-    }
-}
-
 /// Linear system estimates from the largest and smallest levels.
 pub fn linear_from_levels(frf: &NonlinearFrf, band_hz: Option<(f64, f64)>) -> Result<LinearReport> {
     linear_from_levels_with(frf, band_hz, 1, &[])
@@ -581,34 +545,6 @@ pub fn identify(
     } else {
         with_astray_note(first, &astray, restart)
     })
-}
-
-/// How much further a joint model may sit from the smallest level's FRF
-/// than that level's own linear fit (an RMS of relative residuals) before
-/// the fit counts as astray: the model holds that linear fit (its joint
-/// stuck), so a fit of every level trades away at most a little of it.
-pub(crate) const LOWEST_LEVEL_SLACK: f64 = 2.0;
-pub(crate) const LOWEST_LEVEL_MARGIN: f64 = 0.02;
-
-/// The RMS over the smallest level's points of `|H1 − H1_model| / |H1|`
-/// (the definition of [`super::linear::SdofEstimate::relative_rms_residual`]).
-pub(crate) fn lowest_level_residual(
-    data: &FitData,
-    pred: &super::problem::Prediction,
-) -> Option<f64> {
-    let k = data.harmonic_index(1)?;
-    let (i, series) = data
-        .series
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.level.total_cmp(&b.1.level))?;
-    let relative: Vec<f64> = series
-        .points
-        .iter()
-        .zip(pred.h.get(i)?)
-        .filter_map(|(p, m)| Some(((p.h[k] - m.as_ref()?[k]).norm() / p.h[k].norm()).powi(2)))
-        .collect();
-    (!relative.is_empty()).then(|| (relative.iter().sum::<f64>() / relative.len() as f64).sqrt())
 }
 
 /// `fit` with a note on the first fit's parameters at an anchored bound
@@ -953,18 +889,7 @@ fn identify_from(
         bootstrap(&problem, &run.theta, &pred, options, &mut parameters)?;
     }
     let error = error_report(&data, &pred, run.cost, params.len());
-    let astray = data.anchor.and_then(|anchor| {
-        let parameters = anchor.astray(&params, &params.values(&run.theta));
-        let linear_residual = linear.stick.relative_rms_residual;
-        let smallest_level_residual = lowest_level_residual(&data, &pred)
-            .filter(|r| *r > LOWEST_LEVEL_SLACK * linear_residual + LOWEST_LEVEL_MARGIN)
-            .map(|r| [r, linear_residual]);
-        (!parameters.is_empty() || smallest_level_residual.is_some()).then(|| Astray {
-            parameters,
-            anchor: anchor.describe(),
-            smallest_level_residual,
-        })
-    });
+    let astray = data.astray(&model, &pred);
     if pred.failures() > 0 {
         notes.push(format!(
             "{} model points did not converge at the optimum",

@@ -419,12 +419,22 @@ impl Broad {
         match self.rng.random_range(0..5usize) {
             0 => flo * self.rng.random_range(0.25..0.85),
             1 => flo * self.rng.random_range(0.9..1.1),
-            2 => loop {
-                let f = log_uniform(&mut self.rng, flo * 1.1, fhi / 1.1);
-                if avoid.iter().all(|a| (f / a).ln().abs() > 0.12) || flo * 1.1 >= fhi / 1.1 {
-                    break f;
+            2 => {
+                // inside, away from the joint's resonances where the band
+                // leaves room (a few tries, then wherever the draw fell)
+                let (lo, hi) = (flo * 1.1, fhi / 1.1);
+                if lo >= hi {
+                    return (flo * fhi).sqrt();
                 }
-            },
+                let mut f = log_uniform(&mut self.rng, lo, hi);
+                for _ in 0..20 {
+                    if avoid.iter().all(|a| (f / a).ln().abs() > 0.12) {
+                        break;
+                    }
+                    f = log_uniform(&mut self.rng, lo, hi);
+                }
+                f
+            }
             3 => fhi * self.rng.random_range(0.9..1.1),
             _ => fhi * self.rng.random_range(1.15..3.0),
         }
