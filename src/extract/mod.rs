@@ -23,6 +23,8 @@
 //!   multisine played several times), its period and the FRF at its lines;
 //!   [`lines`]: the response's mean and noise at the lines of its period, and
 //!   a replay's residual there (what a validation and a diagnosis judge).
+//! * [`welch_h1`]: a broadband (random) drive's FRF and coherence by
+//!   Welch averaging.
 //! * [`naive`]: direct-sum references for tests and benchmarks.
 //!
 //! All dwell estimates use the H1 estimator over blocks,
@@ -47,6 +49,7 @@ mod streaming;
 mod sweep;
 mod sweep_blocks;
 mod sweep_reduce;
+mod welch;
 
 pub use blocks::WHOLE_RECORD_FRAMES;
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
@@ -71,6 +74,7 @@ pub use sweep_blocks::find_sweep_held;
 pub use sweep_reduce::{
     reduce_sweep, reduce_sweep_held, reduce_sweep_recording, reduce_sweep_stream,
 };
+pub use welch::{DEFAULT_SEGMENT, MIN_AVERAGES, WelchFrf, welch_h1};
 
 use crate::harmonics::Quantity;
 use num_complex::Complex64;

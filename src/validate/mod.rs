@@ -46,12 +46,14 @@
 //! lines, dwells stated out of order, and a caller that asks for it.
 
 pub mod acquisition;
+mod broadband;
 mod metrics;
 mod replay;
 pub mod resample;
 mod tally;
 mod validation;
 
+pub use broadband::{H1Comparison, MIN_COHERENCE, compare_h1};
 pub use metrics::{BandShares, ErrorByFrequency, ErrorMetrics, Peak, error_metrics, h1_peak};
 pub(crate) use metrics::{error_metrics_of_sum, error_window, sum_start};
 pub use replay::{
