@@ -39,6 +39,14 @@ pub enum Error {
         /// What was expected.
         message: String,
     },
+    /// A reference holds no stepped-sine dwell: no stretch of constant
+    /// frequency and amplitude long enough to reduce. Its own kind, as the
+    /// caller may then take the drive for broadband rather than fail.
+    #[error("invalid input: reference: {message}")]
+    NoDwell {
+        /// The tolerances and windows searched.
+        message: String,
+    },
     /// A file's content does not follow its format.
     #[error("{path}: `{field}`: {message}")]
     Format {

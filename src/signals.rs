@@ -64,9 +64,23 @@ pub enum ExcitationKind {
     SteppedSine,
     /// A continuous sweep.
     SweptSine,
+    /// Broadband random: no harmonics to reduce; validated in the time
+    /// domain and by H1.
+    Random,
+    /// A period of several sines, played repeatedly: judged at the lines of
+    /// its period.
+    Multisine,
     /// Not stated.
     #[default]
     Unknown,
+}
+
+impl ExcitationKind {
+    /// Whether a recording of this kind may be a periodic multisine (found
+    /// by its period when the kind is not stated).
+    pub fn may_be_multisine(self) -> bool {
+        matches!(self, ExcitationKind::Multisine | ExcitationKind::Unknown)
+    }
 }
 
 /// The excitation section of the sidecar.

@@ -435,7 +435,7 @@ pub fn periodic_start(
     // a recording that states its excitation is no multisine: known from
     // its description, before its samples are read
     for p in recordings {
-        if super::recording::stated_excitation(p)? != crate::signals::ExcitationKind::Unknown {
+        if !super::recording::stated_excitation(p)?.may_be_multisine() {
             return Ok(None);
         }
     }
@@ -465,7 +465,7 @@ pub fn periodic_start_of(
     let mut quantity = None;
     let mut notes = Vec::new();
     for (name, held) in recordings {
-        if held.meta.excitation.kind != crate::signals::ExcitationKind::Unknown {
+        if !held.meta.excitation.kind.may_be_multisine() {
             return Ok(None);
         }
         let Some(reference) = held.meta.reference_channel() else {

@@ -420,7 +420,11 @@ fn validate_held(
         .then(|| super::recording::multisine_period(rec, response))
         .flatten()
         .map(|m| m.0);
-    let reduction = if settings.frf && !settings.periodic && multisine.is_none() {
+    let broadband = settings.frf
+        && !settings.periodic
+        && multisine.is_none()
+        && holds_no_dwell(rec, reference, settings)?;
+    let reduction = if settings.frf && !settings.periodic && multisine.is_none() && !broadband {
         Some(
             match excitation_of(rec.meta, settings.reduction.excitation) {
                 Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
@@ -457,7 +461,10 @@ fn validate_held(
     // error at the period's lines
     let mut v = validate_view(
         &fit.model,
-        (fit.response_sign, keep_replay || settings.periodic),
+        (
+            fit.response_sign,
+            keep_replay || settings.periodic || broadband,
+        ),
         rec,
         response,
         &opts,
@@ -473,6 +480,22 @@ fn validate_held(
             &lines.finish()?,
         ));
     }
+    if broadband {
+        let n = v.simulated.len();
+        v.h1 = crate::validate::compare_h1(
+            &rec.channels[reference].range(0..n.min(rec.channels[reference].len())),
+            (
+                &rec.channels[response].range(0..n.min(rec.channels[response].len())),
+                &v.simulated,
+            ),
+            rec.meta.sample_rate_hz,
+            settings.band_hz,
+        )?;
+        v.assumed = Some(broadband_words(rec, v.h1.as_ref()));
+        if !keep_replay {
+            v.simulated = Vec::new();
+        }
+    }
     if settings.periodic {
         let n = v.simulated.len();
         v.line_spectrum = crate::extract::lines::line_spectrum(
@@ -486,6 +509,61 @@ fn validate_held(
         }
     }
     Ok(v)
+}
+
+/// What a broadband drive's validation assumed and found, in one line.
+fn broadband_words(rec: &RecordingView, h1: Option<&crate::validate::H1Comparison>) -> String {
+    let why = if rec.meta.excitation.kind == crate::signals::ExcitationKind::Random {
+        "the recording states a random excitation"
+    } else {
+        "no sine dwell was found in the reference and the recording states no excitation: taken \
+         as a broadband drive"
+    };
+    match h1 {
+        Some(c) => format!(
+            "{why}: compared in the time domain and by H1 ({} Welch segments of {} samples): \
+             H1 error {:.1} % over {} lines of coherence >= {}",
+            c.averages,
+            c.segment,
+            100.0 * c.relative_error,
+            c.frequency_hz.len(),
+            crate::validate::MIN_COHERENCE
+        ),
+        None => format!(
+            "{why}: compared in the time domain only (no line in the band has a coherence >= {})",
+            crate::validate::MIN_COHERENCE
+        ),
+    }
+}
+
+/// Whether a recording's drive is broadband, its FRF compared by H1 rather
+/// than by its harmonics: stated `random`, or nobody said (excitation
+/// unknown, no steps, no reduction chosen) and its reference holds no sine
+/// dwell.
+fn holds_no_dwell(
+    rec: &RecordingView,
+    reference: usize,
+    settings: &ValidationSettings,
+) -> Result<bool> {
+    use crate::signals::ExcitationKind;
+    if settings.reduction.excitation.is_some() || !rec.meta.excitation.steps.is_empty() {
+        return Ok(false);
+    }
+    if rec.meta.excitation.kind == ExcitationKind::Random {
+        return Ok(true);
+    }
+    if rec.meta.excitation.kind != ExcitationKind::Unknown {
+        return Ok(false);
+    }
+    match crate::extract::find_dwells_held(
+        rec.channels[reference],
+        rec.meta.sample_rate_hz,
+        &stepped_options(&settings.reduction).dwell,
+    ) {
+        Ok(_) => Ok(false),
+        Err(Error::NoDwell { .. }) => Ok(true),
+        Err(e) => Err(e),
+    }
 }
 
 /// The spectra of a multisine recording's steady periods of `period`
@@ -728,6 +806,40 @@ pub fn validate_on(
                 &series,
             )?);
         }
+    }
+    if let Some(c) = &v.h1 {
+        let label = format!(
+            "|H1| [{}/{}]",
+            channel.unit.replace("^2", "²"),
+            rec.meta.channels[rec.meta.reference_channel().unwrap_or(0)].unit
+        );
+        files.extend(plot::write_frf_plot(
+            &dir.join(format!("{stem}_h1")),
+            &format!(
+                "{name}: H1 of a broadband drive, measured and simulated ({} model), error {:.1} %",
+                fit.kind,
+                100.0 * c.relative_error
+            ),
+            &label,
+            &[
+                FrfSeries {
+                    label: "measured".into(),
+                    group: 0,
+                    frequency_hz: c.frequency_hz.clone(),
+                    h: c.measured.clone(),
+                    std_error: None,
+                    style: SeriesStyle::Measured,
+                },
+                FrfSeries {
+                    label: "simulated".into(),
+                    group: 0,
+                    frequency_hz: c.frequency_hz.clone(),
+                    h: c.simulated.clone(),
+                    std_error: None,
+                    style: SeriesStyle::Model,
+                },
+            ],
+        )?);
     }
     if let Some(l) = &v.lines {
         // one series per class of line, as a multisine user reads them

@@ -256,9 +256,20 @@ pub enum ExcitationArg {
     Stepped,
     /// A continuous sweep.
     Swept,
-    /// Not stated (import only: what a recording says when nobody said;
-    /// identify treats it as auto).
-    #[value(hide = true)]
+}
+
+/// What drove the structure, as `import` records it (`excitation.kind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RecordedExcitation {
+    /// Stepped (or single) sine dwells.
+    Stepped,
+    /// A continuous sweep.
+    Swept,
+    /// Broadband random: validated in the time domain and by H1.
+    Random,
+    /// A period of several sines played repeatedly.
+    Multisine,
+    /// Not stated.
     Unknown,
 }
 
@@ -285,10 +296,10 @@ pub struct ImportArgs {
     /// time:COLUMN.
     #[arg(long)]
     pub rate: Option<String>,
-    /// What drove the structure (kept in the recording): stepped, swept or
-    /// unknown (the default when the file does not say).
+    /// What drove the structure (kept in the recording): stepped, swept,
+    /// random, multisine or unknown (the default when the file does not say).
     #[arg(long, value_enum)]
-    pub excitation: Option<ExcitationArg>,
+    pub excitation: Option<RecordedExcitation>,
     /// An import spec (TOML: `[[channels]]`, `sample_rate`, `[quality]`, ...);
     /// flags override its fields.
     #[arg(long)]

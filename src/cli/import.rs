@@ -1,7 +1,7 @@
 //! `hystid import`: measured data (MAT v5, CSV/TSV, UFF 58, WAV + JSON) into
 //! a checked recording, NAME.wav + NAME.json, with its quality report.
 
-use super::args::{ExcitationArg, ImportArgs, WavFormat};
+use super::args::{ImportArgs, RecordedExcitation, WavFormat};
 use super::{EXIT_OK, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::import::{
@@ -24,11 +24,13 @@ pub fn sample_format(f: WavFormat) -> SampleFormat {
     }
 }
 
-fn excitation_kind(e: ExcitationArg) -> ExcitationKind {
+fn excitation_kind(e: RecordedExcitation) -> ExcitationKind {
     match e {
-        ExcitationArg::Stepped => ExcitationKind::SteppedSine,
-        ExcitationArg::Swept => ExcitationKind::SweptSine,
-        ExcitationArg::Auto | ExcitationArg::Unknown => ExcitationKind::Unknown,
+        RecordedExcitation::Stepped => ExcitationKind::SteppedSine,
+        RecordedExcitation::Swept => ExcitationKind::SweptSine,
+        RecordedExcitation::Random => ExcitationKind::Random,
+        RecordedExcitation::Multisine => ExcitationKind::Multisine,
+        RecordedExcitation::Unknown => ExcitationKind::Unknown,
     }
 }
 

@@ -377,7 +377,7 @@ pub fn reduction_options(r: &ReductionArgs) -> Result<ReductionOptions> {
         excitation: match r.excitation {
             ExcitationArg::Stepped => Some(Excitation::Stepped),
             ExcitationArg::Swept => Some(Excitation::Swept),
-            ExcitationArg::Auto | ExcitationArg::Unknown => None,
+            ExcitationArg::Auto => None,
         },
         max_harmonic: r.max_harmonic,
         compensation,

@@ -220,6 +220,9 @@ fn print_validation(path: &Path, response: &str, fitted: bool, v: &Validation) {
         v.whole.measured_rms
     );
     print_by_frequency(&v.whole);
+    if let Some(assumed) = &v.assumed {
+        say!("  note: {assumed}");
+    }
     if let Some(w) = &v.window {
         say!(
             "  window {:.2}-{:.2} s: e_RMS {:.4e} {unit} ({:.1} % of {:.4e} {unit})",

@@ -73,11 +73,12 @@ fn check_types(path: &Path, root: &Map<String, Value>) -> Result<()> {
             .ok_or_else(|| err("excitation", "expected an object"))?;
         if let Some(kind) = exc.get("kind") {
             match kind.as_str() {
-                Some("stepped-sine" | "swept-sine" | "unknown") => {}
+                Some("stepped-sine" | "swept-sine" | "random" | "multisine" | "unknown") => {}
                 _ => {
                     return Err(err(
                         "excitation.kind",
-                        "expected \"stepped-sine\", \"swept-sine\" or \"unknown\"",
+                        "expected \"stepped-sine\", \"swept-sine\", \"random\", \"multisine\" \
+                         or \"unknown\"",
                     ));
                 }
             }

@@ -70,6 +70,15 @@ pub struct Validation {
     /// The FRF comparison, if asked for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frf: Option<FrfComparison>,
+    /// What was assumed of the drive where the recording did not say, e.g.
+    /// that a reference with no sine dwell is broadband (written, not read
+    /// back).
+    #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
+    pub assumed: Option<String>,
+    /// On a broadband (random) drive: the measured and replayed H1
+    /// compared (written, not read back).
+    #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
+    pub h1: Option<super::H1Comparison>,
     /// On a multisine of at least two steady periods: the residual at the
     /// lines of its period, in units of the noise (written, not read back).
     #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
@@ -326,6 +335,8 @@ pub fn validate_view(
         whole: whole.finish(measured, fs),
         window: window.map(|w| w.finish(measured, fs)),
         frf,
+        assumed: None,
+        h1: None,
         lines: None,
         line_spectrum: None,
         simulated: if keep_replay {

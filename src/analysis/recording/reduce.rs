@@ -172,8 +172,7 @@ pub(crate) fn multisine_period(
     rec: &RecordingView,
     response: usize,
 ) -> Option<(usize, f64, f64, usize)> {
-    if rec.meta.excitation.kind != ExcitationKind::Unknown || !rec.meta.excitation.steps.is_empty()
-    {
+    if !rec.meta.excitation.kind.may_be_multisine() || !rec.meta.excitation.steps.is_empty() {
         return None;
     }
     let reference = rec.meta.reference_channel()?;
@@ -214,6 +213,20 @@ pub(crate) fn refuse_a_multisine(rec: &Recording, response: usize) -> Result<()>
     ))
 }
 
+/// An error when a recording states a random excitation and no reduction
+/// was chosen: a random drive has no harmonics to read nonlinear FRFs from.
+pub(crate) fn refuse_a_random(meta: &RecordingMeta, r: &ReductionOptions) -> Result<()> {
+    if meta.excitation.kind != ExcitationKind::Random || r.excitation.is_some() {
+        return Ok(());
+    }
+    Err(Error::input(
+        "recording",
+        "its `excitation.kind` is `random`, which nonlinear FRFs are not read from (they need \
+         stepped or swept sines): validate a model on it (`hystid validate`, which compares it \
+         in the time domain and by H1), or state `--excitation stepped` or `swept` if it is one",
+    ))
+}
+
 /// Nonlinear FRFs of a loaded recording.
 pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
     reduce_observed(loaded, r, &crate::observe::Silent)
@@ -229,6 +242,7 @@ pub fn reduce_observed(
     observer: &dyn crate::observe::Observer,
 ) -> Result<Reduced> {
     let rec = &loaded.recording;
+    refuse_a_random(&rec.meta, r)?;
     let excitation = excitation_of(&rec.meta, r.excitation);
     let response_name = rec.meta.channels[loaded.response].name.clone();
     let fs = rec.meta.sample_rate_hz;
@@ -441,6 +455,8 @@ fn reduce_streamed(
     observer: &dyn crate::observe::Observer,
 ) -> Result<Option<Reduced>> {
     let mut meta = source.meta().clone();
+    refuse_a_random(&meta, r)
+        .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
     let excitation = excitation_of(&meta, r.excitation);
     let long = source.frames() > WHOLE_RECORD_FRAMES;
     let swept = excitation == Excitation::Swept && long;

@@ -483,9 +483,8 @@ pub(in crate::extract) fn dwells_of_windows<'r>(
         });
     }
     if steps.is_empty() {
-        return Err(Error::input(
-            "reference",
-            format!(
+        return Err(Error::NoDwell {
+            message: format!(
                 "no dwell of constant frequency (within {:e}) and amplitude (within {:e}) lasting \
                  {} settled periods was found in {} windows of {} periods",
                 options.frequency_tolerance,
@@ -494,7 +493,7 @@ pub(in crate::extract) fn dwells_of_windows<'r>(
                 windows.len(),
                 options.window_periods
             ),
-        ));
+        });
     }
     // cluster the amplitudes into levels
     let mut order: Vec<usize> = (0..steps.len()).collect();
