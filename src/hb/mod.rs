@@ -63,6 +63,7 @@ mod continuation;
 pub mod describing;
 pub mod linear;
 mod newton;
+pub mod points;
 
 pub use check::{HbCheck, SteadyDwell, check_hb};
 pub use linear::{Driven, LinearPart, SampledReceptance, TabulatedFrf};

@@ -21,8 +21,10 @@
 //! continues each dwell from where the last one ended.
 
 pub mod filter;
+pub mod points;
 
 pub use filter::{ModeFilter, Section};
+pub use points::{PointResponse, PointSimulator};
 
 use crate::error::{Error, Result};
 use crate::model::element::SOLVE_TOLERANCE;
