@@ -673,6 +673,98 @@ fn identify_gives_the_linear_estimate_in_the_drives_units() {
     );
 }
 
+/// Whether `line` names a newton-based unit: a word `N` or `kg`.
+fn in_newtons(line: &str) -> bool {
+    line.split(|c: char| !c.is_alphanumeric())
+        .any(|w| w == "N" || w == "kg")
+}
+
+/// On a voltage reference every fitted parameter is stated in volts: the
+/// parameter lines of `identify` and of `diagnose` on the terminal, and the
+/// parameter tables of diagnosis.md (the final model's and the
+/// candidates'); none says N or kg. On the force reference the same lines
+/// say N and kg.
+#[test]
+fn parameters_are_stated_in_the_drives_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let driven = recording_of(
+        &sim,
+        &dir.path().join("driven"),
+        &[
+            ("drive", "voltage", "V", 0, 1.0),
+            ("disp", "displacement", "m", 1, 1.0),
+        ],
+    );
+    let run = |command: &str, rec: &Path, tag: &str| {
+        let out = dir.path().join(tag);
+        let o = hystid(&[
+            command,
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        (text(&o), out)
+    };
+    // a parameter's line, `name = value ...` (identify: `ci95 [..]`,
+    // diagnose: `95 % [..]`)
+    let line_of = |t: &str, name: &str| -> String {
+        t.lines()
+            .find(|l| l.trim_start().starts_with(&format!("{name} =")) && l.contains('['))
+            .unwrap_or_else(|| panic!("no line for {name}: {t}"))
+            .to_string()
+    };
+    // the SMALL_TEST joint fits as a Masing or Jenkins law: fd and kd
+    let volts = [
+        ("mass", "V s²/m"),
+        ("damping", "V s/m"),
+        ("stiffness", "V/m"),
+        ("kd", "V/m"),
+        ("fd", "V"),
+    ];
+    for command in ["identify", "diagnose"] {
+        let (t, _) = run(command, &driven, &format!("{command}_v"));
+        for (name, unit) in volts {
+            let l = line_of(&t, name);
+            assert!(
+                l.trim_end().ends_with(&format!("] {unit}")),
+                "{command}: {l}"
+            );
+            assert!(!in_newtons(&l), "{command}: {l}");
+        }
+        let (t, _) = run(
+            command,
+            &sim.join("recording.json"),
+            &format!("{command}_n"),
+        );
+        assert!(line_of(&t, "mass").contains("] kg"), "{t}");
+        assert!(line_of(&t, "fd").contains("] N"), "{t}");
+    }
+    let (_, out) = run("diagnose", &driven, "diagnose_md");
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    // the final model's table: `| mass | 10.00238 V s²/m | [..] | |`
+    for (name, unit) in volts {
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} | ")))
+            .unwrap_or_else(|| panic!("no row for {name}: {md}"));
+        assert!(row.contains(&format!(" {unit} | [")), "{row}");
+    }
+    // the candidates' table: cubic stiffness's k3 in V/m³
+    let cubic = md
+        .lines()
+        .find(|l| l.starts_with("| cubic_stiffness |"))
+        .unwrap_or_else(|| panic!("no cubic_stiffness row: {md}"));
+    assert!(cubic.contains(" V/m³"), "{cubic}");
+    let tables: Vec<&str> = md.lines().filter(|l| l.starts_with("| ")).collect();
+    for row in tables {
+        assert!(!in_newtons(row), "{row}");
+    }
+}
+
 /// Clipping found at import reaches `identify` and `diagnose`: the import's
 /// quality report beside a recording gives a warning on the terminal, a note
 /// in fit.json, `quality_warnings` in diagnosis.json and a section in

@@ -106,7 +106,11 @@ pub fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
             return (info.unit, Some(info.domain));
         }
     }
-    let leaf = name.rsplit_once('.').map_or(name, |(_, l)| l);
+    linear_part(name.rsplit_once('.').map_or(name, |(_, l)| l))
+}
+
+/// The unit and domain of the linear part's parameter `leaf` (in newtons).
+fn linear_part(leaf: &str) -> (&'static str, Option<Domain>) {
     match leaf {
         "mass" | "modal_mass" => ("kg", Some(Domain::Positive)),
         "damping" => ("N s/m", Some(Domain::NonNegative)),
@@ -119,11 +123,43 @@ pub fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
     }
 }
 
+/// The unit parameter `name` of `model` is stated in when `model`'s forces
+/// are measured against a reference of quantity `drive` (see
+/// [`force_drive`]): [`describe`]'s, in volts on a voltage reference.
+pub fn parameter_unit(
+    name: &str,
+    model: &Model,
+    drive: crate::harmonics::Quantity,
+) -> &'static str {
+    in_drive_units(describe(name, model).0, drive)
+}
+
+/// [`parameter_unit`] of parameter `name` of a law `law` not (or not yet) in
+/// a model (a diagnosis's candidate; none: a mode's), in volts on a voltage
+/// reference.
+pub fn law_parameter_unit(
+    law: Option<crate::model::ElementKind>,
+    name: &str,
+    drive: crate::harmonics::Quantity,
+) -> &'static str {
+    let own = law.and_then(|k| k.description().parameters.iter().find(|q| q.name == name));
+    in_drive_units(own.map_or_else(|| linear_part(name).0, |q| q.unit), drive)
+}
+
+/// ` unit` after a value, nothing for a dimensionless parameter.
+pub fn unit_suffix(unit: &str) -> String {
+    if unit.is_empty() || unit == "1" {
+        String::new()
+    } else {
+        format!(" {unit}")
+    }
+}
+
 /// `unit` (a model parameter's, in newtons) for a model driven by a
 /// reference of quantity `drive`: with a voltage reference (an amplifier's
 /// drive, the structure's force not measured) the model's "forces" are in
 /// volts, so a slip force is in V, a stiffness in V/m and a mass in V s²/m.
-pub fn in_drive_units(unit: &'static str, drive: crate::harmonics::Quantity) -> &'static str {
+fn in_drive_units(unit: &'static str, drive: crate::harmonics::Quantity) -> &'static str {
     if drive != crate::harmonics::Quantity::Voltage {
         return unit;
     }
