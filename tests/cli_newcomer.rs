@@ -765,6 +765,72 @@ fn parameters_are_stated_in_the_drives_units() {
     }
 }
 
+/// `diagnose`'s FRF figure exists and diagnosis.md shows it with a caption
+/// (a relative link); its legend names each level once, rounded to 3
+/// significant digits in the drive's unit, and each kind of line once
+/// (measured, baseline model, final model), not each level's model apart.
+#[test]
+fn the_diagnosis_figure_is_in_the_report_with_a_short_legend() {
+    let dir = tempfile::tempdir().unwrap();
+    let levels = SMALL_TEST.replace("levels_n = [50.0, 3000.0]", "levels_n = [57.7418, 3000.0]");
+    let test = write_test(dir.path(), "small.toml", &levels);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let driven = recording_of(
+        &sim,
+        &dir.path().join("driven"),
+        &[
+            ("drive", "voltage", "V", 0, 1.0),
+            ("disp", "displacement", "m", 1, 1.0),
+        ],
+    );
+    let out = dir.path().join("diag");
+    let o = hystid(&[
+        "diagnose",
+        driven.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let png = std::fs::metadata(out.join("diagnosis_frf.png")).unwrap();
+    assert!(png.len() > 1000, "{} bytes", png.len());
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    assert!(md.contains("](diagnosis_frf.png)\n"), "{md}");
+    assert!(
+        md.lines().any(
+            |l| l.starts_with("*[diagnosis_frf.png](diagnosis_frf.png): ")
+                && l.contains("baseline")
+        ),
+        "no caption: {md}"
+    );
+    let svg = std::fs::read_to_string(out.join("diagnosis_frf.svg")).unwrap();
+    let texts: Vec<&str> = svg
+        .split("<text")
+        .skip(1)
+        .filter_map(|t| t.split_once('>').and_then(|(_, r)| r.split_once("</text>")))
+        .map(|(t, _)| t.trim())
+        .collect();
+    for entry in [
+        "57.7 V",
+        "3000 V",
+        "measured",
+        "baseline model",
+        "final model",
+    ] {
+        assert_eq!(
+            texts.iter().filter(|t| **t == entry).count(),
+            1,
+            "`{entry}` not once in {texts:?}"
+        );
+    }
+    assert!(
+        !texts
+            .iter()
+            .any(|t| t.contains("(model)") || t.contains("57.74")),
+        "{texts:?}"
+    );
+}
+
 /// Clipping found at import reaches `identify` and `diagnose`: the import's
 /// quality report beside a recording gives a warning on the terminal, a note
 /// in fit.json, `quality_warnings` in diagnosis.json and a section in

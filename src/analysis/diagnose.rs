@@ -1111,5 +1111,8 @@ pub fn markdown(d: &Diagnosis, reference: crate::harmonics::Quantity, seconds: f
 }
 
 /// The figures' place in `diagnosis.md`.
-const FIGURES_MARKDOWN: &str =
-    "![residual before and after](residual.png)\n\n![the diagnosed model](diagnosis_frf.png)";
+const FIGURES_MARKDOWN: &str = "![residual before and after](residual.png)\n\n\
+*[residual.png](residual.png): |H1 meas − H1 model| / σ per level, the baseline's and the final model's.*\n\n\
+![the baseline and the final model](diagnosis_frf.png)\n\n\
+*[diagnosis_frf.png](diagnosis_frf.png): the measured FRFs (markers) with the baseline (grey) \
+and the final model (solid) on a fine grid: where the grey line leaves the solid one, the effects added change the FRF.*";
