@@ -680,14 +680,24 @@ fn in_newtons(line: &str) -> bool {
 }
 
 /// On a voltage reference every fitted parameter is stated in volts: the
-/// parameter lines of `identify` and of `diagnose` on the terminal, and the
-/// parameter tables of diagnosis.md (the final model's and the
-/// candidates'); none says N or kg. On the force reference the same lines
-/// say N and kg.
+/// parameter lines of `identify` and of `diagnose` on the terminal, the
+/// effect the diagnosis adds in its account, and the parameter tables of
+/// diagnosis.md (the final model's and the candidates'); none says N or kg.
+/// On the force reference the same lines say N and kg.
 #[test]
 fn parameters_are_stated_in_the_drives_units() {
     let dir = tempfile::tempdir().unwrap();
-    let test = write_test(dir.path(), "small.toml", SMALL_TEST);
+    // a cubic stiffness the diagnosis finds (as `run` does on it in cli.rs)
+    let cubic = SMALL_TEST
+        .replace(
+            "levels_n = [50.0, 3000.0]",
+            "levels_n = [50.0, 1000.0, 30000.0]",
+        )
+        .replace(
+            "[test]",
+            "[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1.0e7\n[test]",
+        );
+    let test = write_test(dir.path(), "cubic.toml", &cubic);
     let sim = dir.path().join("sim");
     crate::cli::simulated(&test, &sim);
     let driven = recording_of(
@@ -743,7 +753,20 @@ fn parameters_are_stated_in_the_drives_units() {
         assert!(line_of(&t, "mass").contains("] kg"), "{t}");
         assert!(line_of(&t, "fd").contains("] N"), "{t}");
     }
-    let (_, out) = run("diagnose", &driven, "diagnose_md");
+    let (t, out) = run("diagnose", &driven, "diagnose_md");
+    let account = t
+        .lines()
+        .find(|l| l.starts_with("hystid diagnose:"))
+        .unwrap();
+    assert!(
+        account.contains("cubic_stiffness added (k3 = "),
+        "{account}"
+    );
+    assert!(
+        account.contains(" V/m³)") && !in_newtons(account),
+        "{account}"
+    );
+    assert!(line_of(&t, "cubic_stiffness.k3").ends_with("] V/m³"), "{t}");
     let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
     // the final model's table: `| mass | 10.00238 V s²/m | [..] | |`
     for (name, unit) in volts {

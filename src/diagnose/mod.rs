@@ -1019,6 +1019,7 @@ pub fn diagnose_observed(
         response_sign: fit.response_sign,
         expected,
         intervals: current_intervals,
+        drive: crate::model::units::force_drive(&fit.model, frf.reference),
     })
 }
 

@@ -22,6 +22,7 @@ pub mod masing;
 pub mod modal;
 pub mod quadratic_damping;
 pub mod shaker;
+pub mod units;
 pub mod viscous_damping;
 
 pub use armature::Armature;
