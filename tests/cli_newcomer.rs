@@ -673,6 +673,187 @@ fn identify_gives_the_linear_estimate_in_the_drives_units() {
     );
 }
 
+/// Whether `line` names a newton-based unit: a word `N` or `kg`.
+fn in_newtons(line: &str) -> bool {
+    line.split(|c: char| !c.is_alphanumeric())
+        .any(|w| w == "N" || w == "kg")
+}
+
+/// On a voltage reference every fitted parameter is stated in volts: the
+/// parameter lines of `identify` and of `diagnose` on the terminal, the
+/// effect the diagnosis adds in its account, and the parameter tables of
+/// diagnosis.md (the final model's and the candidates'); none says N or kg.
+/// On the force reference the same lines say N and kg.
+#[test]
+fn parameters_are_stated_in_the_drives_units() {
+    let dir = tempfile::tempdir().unwrap();
+    // a cubic stiffness the diagnosis finds (as `run` does on it in cli.rs)
+    let cubic = SMALL_TEST
+        .replace(
+            "levels_n = [50.0, 3000.0]",
+            "levels_n = [50.0, 1000.0, 30000.0]",
+        )
+        .replace(
+            "[test]",
+            "[[effects]]\nkind = \"cubic_stiffness\"\nk3 = 1.0e7\n[test]",
+        );
+    let test = write_test(dir.path(), "cubic.toml", &cubic);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let driven = recording_of(
+        &sim,
+        &dir.path().join("driven"),
+        &[
+            ("drive", "voltage", "V", 0, 1.0),
+            ("disp", "displacement", "m", 1, 1.0),
+        ],
+    );
+    let run = |command: &str, rec: &Path, tag: &str| {
+        let out = dir.path().join(tag);
+        let o = hystid(&[
+            command,
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        (text(&o), out)
+    };
+    // a parameter's line, `name = value ...` (identify: `ci95 [..]`,
+    // diagnose: `95 % [..]`)
+    let line_of = |t: &str, name: &str| -> String {
+        t.lines()
+            .find(|l| l.trim_start().starts_with(&format!("{name} =")) && l.contains('['))
+            .unwrap_or_else(|| panic!("no line for {name}: {t}"))
+            .to_string()
+    };
+    // the SMALL_TEST joint fits as a Masing or Jenkins law: fd and kd
+    let volts = [
+        ("mass", "V s²/m"),
+        ("damping", "V s/m"),
+        ("stiffness", "V/m"),
+        ("kd", "V/m"),
+        ("fd", "V"),
+    ];
+    for command in ["identify", "diagnose"] {
+        let (t, _) = run(command, &driven, &format!("{command}_v"));
+        for (name, unit) in volts {
+            let l = line_of(&t, name);
+            assert!(
+                l.trim_end().ends_with(&format!("] {unit}")),
+                "{command}: {l}"
+            );
+            assert!(!in_newtons(&l), "{command}: {l}");
+        }
+        let (t, _) = run(
+            command,
+            &sim.join("recording.json"),
+            &format!("{command}_n"),
+        );
+        assert!(line_of(&t, "mass").contains("] kg"), "{t}");
+        assert!(line_of(&t, "fd").contains("] N"), "{t}");
+    }
+    let (t, out) = run("diagnose", &driven, "diagnose_md");
+    let account = t
+        .lines()
+        .find(|l| l.starts_with("hystid diagnose:"))
+        .unwrap();
+    assert!(
+        account.contains("cubic_stiffness added (k3 = "),
+        "{account}"
+    );
+    assert!(
+        account.contains(" V/m³)") && !in_newtons(account),
+        "{account}"
+    );
+    assert!(line_of(&t, "cubic_stiffness.k3").ends_with("] V/m³"), "{t}");
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    // the final model's table: `| mass | 10.00238 V s²/m | [..] | |`
+    for (name, unit) in volts {
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} | ")))
+            .unwrap_or_else(|| panic!("no row for {name}: {md}"));
+        assert!(row.contains(&format!(" {unit} | [")), "{row}");
+    }
+    // the candidates' table: cubic stiffness's k3 in V/m³
+    let cubic = md
+        .lines()
+        .find(|l| l.starts_with("| cubic_stiffness |"))
+        .unwrap_or_else(|| panic!("no cubic_stiffness row: {md}"));
+    assert!(cubic.contains(" V/m³"), "{cubic}");
+    let tables: Vec<&str> = md.lines().filter(|l| l.starts_with("| ")).collect();
+    for row in tables {
+        assert!(!in_newtons(row), "{row}");
+    }
+}
+
+/// `diagnose`'s FRF figure exists and diagnosis.md shows it with a caption
+/// (a relative link); its legend names each level once, rounded to 3
+/// significant digits in the drive's unit, and each kind of line once
+/// (measured, baseline model, final model), not each level's model apart.
+#[test]
+fn the_diagnosis_figure_is_in_the_report_with_a_short_legend() {
+    let dir = tempfile::tempdir().unwrap();
+    let levels = SMALL_TEST.replace("levels_n = [50.0, 3000.0]", "levels_n = [57.7418, 3000.0]");
+    let test = write_test(dir.path(), "small.toml", &levels);
+    let sim = dir.path().join("sim");
+    crate::cli::simulated(&test, &sim);
+    let driven = recording_of(
+        &sim,
+        &dir.path().join("driven"),
+        &[
+            ("drive", "voltage", "V", 0, 1.0),
+            ("disp", "displacement", "m", 1, 1.0),
+        ],
+    );
+    let out = dir.path().join("diag");
+    let o = hystid(&[
+        "diagnose",
+        driven.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let png = std::fs::metadata(out.join("diagnosis_frf.png")).unwrap();
+    assert!(png.len() > 1000, "{} bytes", png.len());
+    let md = std::fs::read_to_string(out.join("diagnosis.md")).unwrap();
+    assert!(md.contains("](diagnosis_frf.png)\n"), "{md}");
+    assert!(
+        md.lines().any(
+            |l| l.starts_with("*[diagnosis_frf.png](diagnosis_frf.png): ")
+                && l.contains("baseline")
+        ),
+        "no caption: {md}"
+    );
+    let svg = std::fs::read_to_string(out.join("diagnosis_frf.svg")).unwrap();
+    let texts: Vec<&str> = svg
+        .split("<text")
+        .skip(1)
+        .filter_map(|t| t.split_once('>').and_then(|(_, r)| r.split_once("</text>")))
+        .map(|(t, _)| t.trim())
+        .collect();
+    for entry in [
+        "57.7 V",
+        "3000 V",
+        "measured",
+        "baseline model",
+        "final model",
+    ] {
+        assert_eq!(
+            texts.iter().filter(|t| **t == entry).count(),
+            1,
+            "`{entry}` not once in {texts:?}"
+        );
+    }
+    assert!(
+        !texts
+            .iter()
+            .any(|t| t.contains("(model)") || t.contains("57.74")),
+        "{texts:?}"
+    );
+}
+
 /// Clipping found at import reaches `identify` and `diagnose`: the import's
 /// quality report beside a recording gives a warning on the terminal, a note
 /// in fit.json, `quality_warnings` in diagnosis.json and a section in

@@ -816,7 +816,7 @@ pub fn write_diagnosis_with(
             ..DiagnosisReport::new(d, frf.reference, seconds)
         },
     )?;
-    let mut md = markdown(d, seconds);
+    let mut md = markdown(d, frf.reference, seconds);
     if let Some(why) = &figures_not_drawn {
         md = md.replace(FIGURES_MARKDOWN, &format!("({why})"));
     }
@@ -998,11 +998,15 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
         }
     }
     let _ = writeln!(s, "\n| parameter | value | 95 % interval |\n|---|---|---|");
+    let reference = (t.refit.reference_quantity).unwrap_or(crate::harmonics::Quantity::Force);
+    let drive = super::flags::force_drive(&t.refit.model, reference);
     for (name, e) in &t.refit.parameters {
+        let unit = super::flags::parameter_unit(name, &t.refit.model, drive);
         let _ = writeln!(
             s,
-            "| {name} | {:.6e} | [{:.4e}, {:.4e}]{} |",
+            "| {name} | {:.6e}{} | [{:.4e}, {:.4e}]{} |",
             e.value,
+            super::flags::unit_suffix(unit),
             e.ci95[0],
             e.ci95[1],
             if e.identifiable {
@@ -1018,8 +1022,10 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
     s
 }
 
-/// `diagnosis.md`: the candidates, what was kept and why.
-pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
+/// `diagnosis.md`: the candidates, what was kept and why; `reference` the
+/// quantity the FRFs are referred to (their parameters' units follow it).
+pub fn markdown(d: &Diagnosis, reference: crate::harmonics::Quantity, seconds: f64) -> String {
+    let drive = super::flags::force_drive(&d.baseline_model, reference);
     let mut s = String::new();
     let _ = writeln!(s, "# Diagnosis: what the fitted joint model lacks\n");
     let _ = writeln!(s, "{}\n", d.explanation);
@@ -1032,7 +1038,10 @@ pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
         let p: Vec<String> = c
             .effect_parameters
             .iter()
-            .map(|(n, v)| format!("{n} = {v:.4e}"))
+            .map(|(n, v)| {
+                let unit = super::flags::law_parameter_unit(c.effect.candidate().law(), n, drive);
+                format!("{n} = {v:.4e}{}", super::flags::unit_suffix(unit))
+            })
             .collect();
         let _ = writeln!(
             s,
@@ -1102,5 +1111,8 @@ pub fn markdown(d: &Diagnosis, seconds: f64) -> String {
 }
 
 /// The figures' place in `diagnosis.md`.
-const FIGURES_MARKDOWN: &str =
-    "![residual before and after](residual.png)\n\n![the diagnosed model](diagnosis_frf.png)";
+const FIGURES_MARKDOWN: &str = "![residual before and after](residual.png)\n\n\
+*[residual.png](residual.png): |H1 meas − H1 model| / σ per level, the baseline's and the final model's.*\n\n\
+![the baseline and the final model](diagnosis_frf.png)\n\n\
+*[diagnosis_frf.png](diagnosis_frf.png): the measured FRFs (markers) with the baseline (grey) \
+and the final model (solid) on a fine grid: where the grey line leaves the solid one, the effects added change the FRF.*";

@@ -1,16 +1,18 @@
 //! A diagnosis's figures: the H1 residual in units of the measured
 //! standard error per level, before and after the effects were added, and
-//! the measured FRFs beside the diagnosed model's.
+//! the measured FRFs with the baseline's and the final model's: what the
+//! effects added change (`final_frf` shows the final model alone).
 
+use super::figures::Drawn;
 use crate::diagnose::Diagnosis;
 use crate::error::Result;
 use crate::extract::NonlinearFrf;
 use crate::fit::{FitData, FrfPredictor, HbPredictor};
-use crate::plot::{self, FrfSeries, NoiseLevel, ResidualPanel, ResidualSeries, SeriesStyle};
+use crate::plot::{self, NoiseLevel, ResidualPanel, ResidualSeries};
 use std::path::{Path, PathBuf};
 
-/// |H1_meas − H1_model|/σ per level, before and after, and the FRF overlay
-/// of the final model.
+/// |H1_meas − H1_model|/σ per level, before and after, and the measured
+/// FRFs with the baseline's and the final model's on a fine grid.
 pub fn residual_plots(
     dir: &Path,
     frf: &NonlinearFrf,
@@ -70,44 +72,37 @@ pub fn residual_plots(
             label: "2σ".into(),
         }),
     )?;
-    let mut series = Vec::new();
-    for (g, (s, ps)) in data.series.iter().zip(&after.h).enumerate() {
-        let f: Vec<f64> = s.points.iter().map(|p| p.frequency_hz).collect();
-        series.push(FrfSeries {
-            label: crate::plot::level_label(s.level, frf.reference.si_unit()),
-            group: g,
-            frequency_hz: f.clone(),
-            h: s.points.iter().map(|p| p.h[0] * d.response_sign).collect(),
-            std_error: None,
-            style: SeriesStyle::Measured,
-        });
-        series.push(FrfSeries {
-            label: format!(
-                "{} (model)",
-                crate::plot::level_label(s.level, frf.reference.si_unit())
-            ),
-            group: g,
-            frequency_hz: f,
-            h: ps
-                .iter()
-                .map(|m| {
-                    m.as_ref()
-                        .map_or(num_complex::Complex64::new(f64::NAN, f64::NAN), |m| {
-                            m[0] * d.response_sign
-                        })
-                })
-                .collect(),
-            std_error: None,
-            style: SeriesStyle::Model,
-        });
-    }
-    files.extend(plot::write_frf_plot(
+    files.extend(super::figures::write_models_overlay(
         &dir.join("diagnosis_frf"),
-        &format!("Measured and the diagnosed model ({})", effects_label(d)),
-        &plot::frf_magnitude_label(frf, 1),
-        &series,
+        &models_title(d),
+        frf,
+        d.band_hz,
+        &[
+            Drawn {
+                model: &d.baseline_model,
+                response_sign: d.response_sign,
+            },
+            Drawn {
+                model: &d.model,
+                response_sign: d.response_sign,
+            },
+        ],
+        predictor,
     )?);
     Ok(files)
+}
+
+/// The FRF figure's title: what its two kinds of line are.
+fn models_title(d: &Diagnosis) -> String {
+    if d.selected.is_empty() {
+        "Measured, the baseline (grey) and the final model: no effect added, the baseline refitted"
+            .into()
+    } else {
+        format!(
+            "Measured, the baseline (grey) and the final model with {} (solid)",
+            effects_label(d)
+        )
+    }
 }
 
 /// The added effects, `a + b`, or `no added effect`.

@@ -11,8 +11,52 @@ use crate::plot::{self, FrfSeries, LoopSeries, SeriesStyle};
 use num_complex::Complex64;
 use std::path::{Path, PathBuf};
 
-/// Points per level of the model's curves.
+/// Points per level of the model's curves, at least.
 pub const FINE_POINTS: usize = 400;
+
+/// Points a model curve puts within each resonance's half-power width, at
+/// least: enough to draw its peak round, not as a corner.
+pub const POINTS_PER_HALF_POWER_WIDTH: usize = 5;
+
+/// Points per level of the model's curves, at most: each is a harmonic
+/// balance solved twice (both sweep directions) at every level.
+pub const MAX_FINE_POINTS: usize = 5 * FINE_POINTS;
+
+/// The points per level `model`'s curves over `data`'s band need:
+/// [`FINE_POINTS`], or more where a resonance is so narrow that fewer than
+/// [`POINTS_PER_HALF_POWER_WIDTH`] would fall within its half-power width;
+/// at most [`MAX_FINE_POINTS`]. A mode's half-power width is `2ζ f`, its
+/// damping over its mass (`c/2πm` Hz), whether the joint sticks or slips;
+/// a joint only adds damping, so no level's resonance is narrower.
+pub fn fine_points(model: &Model, data: &FitData) -> usize {
+    let (lo, hi) = data
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.frequency_hz))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), f| {
+            (a.min(f), b.max(f))
+        });
+    let narrowest = model
+        .linear
+        .modes
+        .iter()
+        .zip(model.linearised_frequencies_hz())
+        .filter_map(|(m, stuck)| {
+            let width = 2.0 * m.damping_ratio * m.frequency_hz;
+            // its resonance somewhere between slipping and stuck, in the band
+            let seen =
+                m.frequency_hz.min(stuck) - width <= hi && m.frequency_hz.max(stuck) + width >= lo;
+            (seen && width > 0.0).then_some(width)
+        })
+        .fold(f64::INFINITY, f64::min);
+    let needed = (POINTS_PER_HALF_POWER_WIDTH as f64 * (hi - lo) / narrowest).ceil();
+    if needed.is_finite() {
+        // one more for each end
+        (needed as usize + 2).clamp(FINE_POINTS, MAX_FINE_POINTS)
+    } else {
+        FINE_POINTS
+    }
+}
 
 /// `data` with each series' points replaced by `points` frequencies spread
 /// evenly over its measured range, in the series' own order (an up sweep
@@ -319,7 +363,7 @@ pub struct Drawn<'a> {
 
 /// Writes the FRF overlay `stem` (`.png`, `.svg`): the measured `|H1|` and
 /// phase of every level in `band_hz` (markers with their standard errors)
-/// and `model`'s on a fine grid of [`FINE_POINTS`] per level (lines).
+/// and `model`'s on a fine grid (lines, see [`fine_points`]).
 pub fn write_frf_overlay(
     stem: &Path,
     title: &str,
@@ -328,41 +372,72 @@ pub fn write_frf_overlay(
     model: Drawn<'_>,
     predictor: &HbPredictor,
 ) -> Result<Vec<PathBuf>> {
+    write_models_overlay(stem, title, frf, band_hz, &[model], predictor)
+}
+
+/// [`write_frf_overlay`] of several models on one grid: the last solid
+/// (with a fold's unstable branch dashed), those before it as baselines
+/// (thin, pale). The legend: one entry per level, and one per line style.
+pub fn write_models_overlay(
+    stem: &Path,
+    title: &str,
+    frf: &NonlinearFrf,
+    band_hz: Option<(f64, f64)>,
+    models: &[Drawn<'_>],
+    predictor: &HbPredictor,
+) -> Result<Vec<PathBuf>> {
     let data = FitData::from_frf(frf, &[1], band_hz, None)?;
-    let fine = fine_grid(&data, FINE_POINTS);
-    let lines = model_lines(model.model, model.response_sign, &fine, predictor)?;
+    let points = models.iter().map(|m| fine_points(m.model, &data)).max();
+    let fine = fine_grid(&data, points.unwrap_or(FINE_POINTS));
+    let mut lines = Vec::with_capacity(models.len());
+    for (i, m) in models.iter().enumerate() {
+        let last = i + 1 == models.len();
+        lines.push((
+            last,
+            model_lines(m.model, m.response_sign, &fine, predictor)?,
+        ));
+    }
     let unit = frf.reference.si_unit();
     let mut series = Vec::new();
-    for (g, (s, l)) in data.series.iter().zip(lines).enumerate() {
-        let label = plot::level_label(s.level, unit);
+    for (g, s) in data.series.iter().enumerate() {
         series.push(FrfSeries {
-            label,
+            label: plot::level_label(s.level, unit),
             group: g,
             frequency_hz: s.points.iter().map(|p| p.frequency_hz).collect(),
             h: s.points.iter().map(|p| p.h[0]).collect(),
             std_error: Some(s.points.iter().map(|p| p.std_error[0]).collect()),
             style: SeriesStyle::Measured,
         });
-        // one legend entry per level: the lines share the markers' colour
-        for (line, style) in [
-            (l.own, SeriesStyle::Model),
-            (l.other, SeriesStyle::Model),
-            (l.unstable, SeriesStyle::Unstable),
-        ] {
-            if line.is_empty() {
-                continue;
-            }
-            series.push(FrfSeries {
-                label: String::new(),
-                group: g,
-                frequency_hz: line.iter().map(|p| p.0).collect(),
-                h: line.iter().map(|p| p.1).collect(),
-                std_error: None,
-                style,
-            });
+        for (last, l) in &lines {
+            series.extend(level_series(g, &l[g], *last));
         }
     }
     plot::write_frf_plot(stem, title, &plot::frf_magnitude_label(frf, 1), &series)
+}
+
+/// A level's model lines as series of colour group `g`, out of the legend
+/// (the lines share the markers' colour): `last`, the model drawn solid,
+/// else a baseline, without its unstable branch.
+fn level_series(g: usize, l: &LevelLines, last: bool) -> Vec<FrfSeries> {
+    let stable = if last {
+        SeriesStyle::Model
+    } else {
+        SeriesStyle::Baseline
+    };
+    let unstable = last.then_some(&l.unstable);
+    [(&l.own, stable), (&l.other, stable)]
+        .into_iter()
+        .chain(unstable.map(|u| (u, SeriesStyle::Unstable)))
+        .filter(|(line, _)| !line.is_empty())
+        .map(|(line, style)| FrfSeries {
+            label: String::new(),
+            group: g,
+            frequency_hz: line.iter().map(|p| p.0).collect(),
+            h: line.iter().map(|p| p.1).collect(),
+            std_error: None,
+            style,
+        })
+        .collect()
 }
 
 /// Writes the hysteresis loops `stem` of `joint` at `amplitudes` (level,
@@ -670,6 +745,60 @@ mod tests {
         assert_eq!(engineering(1.234e-6, "m"), "1.23 µm");
         assert_eq!(engineering(8.2e-5, "m"), "82.0 µm");
         assert_eq!(engineering(0.5, "m"), "500 mm");
+    }
+
+    /// A lightly damped SDOF (ζ = 0.2 % at 100 Hz) measured from 50 to
+    /// 150 Hz: its curves' grid puts at least 5 points within the half-power
+    /// band of its receptance, `f² = fn² (1 − 2ζ² ∓ 2ζ√(1 − ζ²))` (0.4 Hz
+    /// wide), where 400 points (0.25 Hz apart) put 2; a well-damped one
+    /// (ζ = 5 %, 10 Hz wide) keeps the 400.
+    #[test]
+    fn the_fine_grid_resolves_a_lightly_damped_resonance() {
+        let (fn_hz, zeta) = (100.0, 0.002);
+        let sdof = |zeta: f64| {
+            let mode = crate::model::Mode::from_modal_mass(fn_hz, zeta, 1.0).unwrap();
+            let linear = crate::model::ModalModel::new(vec![mode]).unwrap();
+            Model::new(linear, vec![]).unwrap()
+        };
+        let p = |f: f64| MeasuredPoint {
+            frequency_hz: f,
+            force_amplitude: 1.0,
+            h: vec![Complex64::new(1.0, 0.0)],
+            std_error: vec![0.1],
+            blocks: 1,
+        };
+        let data = FitData {
+            response: crate::harmonics::Quantity::Displacement,
+            harmonics: vec![1],
+            series: vec![MeasuredSeries {
+                level: 1.0,
+                direction: crate::extract::Direction::Up,
+                points: vec![p(50.0), p(150.0)],
+            }],
+            response_sign: 1.0,
+            transfer: false,
+            unusable_points: 0,
+            anchor: None,
+        };
+        let half_power = |sign: f64| {
+            let x = 1.0 - 2.0 * zeta * zeta + sign * 2.0 * zeta * (1.0 - zeta * zeta).sqrt();
+            fn_hz * x.sqrt()
+        };
+        let (lo, hi) = (half_power(-1.0), half_power(1.0));
+        let within = |points: usize| {
+            let fine = fine_grid(&data, points);
+            let f = fine.series[0].points.iter().map(|p| p.frequency_hz);
+            f.filter(|f| (lo..=hi).contains(f)).count()
+        };
+        let points = fine_points(&sdof(zeta), &data);
+        assert!(
+            within(points) >= 5,
+            "{} points in [{lo}, {hi}] Hz",
+            within(points)
+        );
+        assert!(points <= MAX_FINE_POINTS);
+        assert_eq!(within(FINE_POINTS), 2);
+        assert_eq!(fine_points(&sdof(0.05), &data), FINE_POINTS);
     }
 
     #[test]

@@ -4,7 +4,10 @@
 //! so the same estimate carries the same flags wherever it is shown.
 
 use crate::fit::Estimate;
-use crate::model::{Domain, ElementSpec, Model};
+pub use crate::model::units::{
+    describe, force_drive, law_parameter_unit, parameter_unit, unit_suffix,
+};
+use crate::model::{Domain, Model};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -87,74 +90,6 @@ pub fn determined(e: &Estimate) -> bool {
     e.identifiable && lo.is_finite() && hi.is_finite()
 }
 
-/// The unit and domain of parameter `name` of `model`: an element's from
-/// its law's description, the linear part's by name.
-pub fn describe(name: &str, model: &Model) -> (&'static str, Option<Domain>) {
-    // an element's parameter: the name its fit gives it (the joint's plain,
-    // an effect's or a hysteretic mode's joint's after a prefix)
-    for (at, e) in model.placed_all() {
-        let prefix = model.parameter_prefix(at);
-        let leaf = if prefix.is_empty() {
-            Some(name)
-        } else {
-            name.strip_prefix(prefix.as_str())
-                .and_then(|r| r.strip_prefix('.'))
-        };
-        if let Some(info) =
-            leaf.and_then(|l| e.description().parameters.iter().find(|q| q.name == l))
-        {
-            return (info.unit, Some(info.domain));
-        }
-    }
-    let leaf = name.rsplit_once('.').map_or(name, |(_, l)| l);
-    match leaf {
-        "mass" | "modal_mass" => ("kg", Some(Domain::Positive)),
-        "damping" => ("N s/m", Some(Domain::NonNegative)),
-        "stiffness" => ("N/m", Some(Domain::Positive)),
-        "frequency_hz" => ("Hz", Some(Domain::Positive)),
-        "damping_ratio" => ("", Some(Domain::Range { min: 0.0, max: 1.0 })),
-        "residue" => ("1/kg", None),
-        "flexibility" => ("m/N", None),
-        _ => ("", None),
-    }
-}
-
-/// `unit` (a model parameter's, in newtons) for a model driven by a
-/// reference of quantity `drive`: with a voltage reference (an amplifier's
-/// drive, the structure's force not measured) the model's "forces" are in
-/// volts, so a slip force is in V, a stiffness in V/m and a mass in V s²/m.
-pub fn in_drive_units(unit: &'static str, drive: crate::harmonics::Quantity) -> &'static str {
-    if drive != crate::harmonics::Quantity::Voltage {
-        return unit;
-    }
-    match unit {
-        "N" => "V",
-        "N/m" => "V/m",
-        "N s/m" => "V s/m",
-        "N/m³" => "V/m³",
-        "N s²/m²" => "V s²/m²",
-        "N^(1-nu)/m" => "V^(1-nu)/m",
-        "kg" => "V s²/m",
-        "1/kg" => "m/(V s²)",
-        "m/N" => "m/V",
-        "N/V" => "V/V",
-        other => other,
-    }
-}
-
-/// What `model`'s forces are measured against with a reference of quantity
-/// `reference`: the reference's own unit, unless a shaker declared by its
-/// coil (a gain other than 1, `Bl/R`) turns the voltage into newtons.
-pub fn force_drive(
-    model: &Model,
-    reference: crate::harmonics::Quantity,
-) -> crate::harmonics::Quantity {
-    match model.laws().find_map(ElementSpec::drive_load) {
-        Some(load) if load.gain != 1.0 => crate::harmonics::Quantity::Force,
-        _ => reference,
-    }
-}
-
 /// The flagged ones of `estimates` of `model`'s parameters with their
 /// flags, `at_bound` naming those that ended at a bound of their fit (as
 /// [`crate::fit::FitResult::at_bound`] does); a parameter without a flag is
@@ -223,6 +158,7 @@ mod tests {
     #[test]
     fn units_follow_the_drive() {
         use crate::harmonics::Quantity::{Force, Voltage};
+        use crate::model::units::in_drive_units;
         let mut units: Vec<&'static str> = crate::model::ElementKind::ALL
             .iter()
             .flat_map(|k| k.description().parameters.iter().map(|p| p.unit))

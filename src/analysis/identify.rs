@@ -2,7 +2,7 @@
 //! virtual test was simulated with, `fit.json` and the fit's figures
 //! (paper Figures 2.2, 3.3 and 3.4).
 
-use super::flags::{Flag, flag_estimates, flag_words};
+use super::flags::{Flag, flag_estimates, flag_words, parameter_unit, unit_suffix};
 use super::recording::MULTISINE_LINES;
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
@@ -11,6 +11,7 @@ use crate::fit::{
     Estimate, FitData, FitOptions, FitResult, HbPredictor, TimeFitOptions, TimeFitResult,
     TimeRecord, identify, identify_time,
 };
+use crate::harmonics::Quantity;
 use crate::model::{ElementSpec, Model};
 use crate::observe::{Event, Observer};
 use crate::plot::{self, ConvergenceSeries};
@@ -189,14 +190,23 @@ impl FitReport {
     /// The terminal's lines for the fit's parameters: value, interval, the
     /// reference when known, flags; each estimate's note below it.
     pub fn parameter_lines(&self) -> Vec<String> {
-        estimate_lines(&self.fit.parameters, &self.comparison, &self.flags)
+        let unit = |name: &str| parameter_unit(name, &self.fit.model, self.drive());
+        estimate_lines(&self.fit.parameters, &self.comparison, &self.flags, &unit)
     }
 
     /// [`FitReport::parameter_lines`] for the time-domain refinement.
     pub fn time_domain_lines(&self) -> Vec<String> {
         self.time_domain.as_ref().map_or_else(Vec::new, |t| {
-            estimate_lines(&t.parameters, &[], &self.time_domain_flags)
+            let unit = |name: &str| parameter_unit(name, &t.model, self.drive());
+            estimate_lines(&t.parameters, &[], &self.time_domain_flags, &unit)
         })
+    }
+
+    /// What the model's forces are measured against (see
+    /// [`super::flags::force_drive`]): its parameters' units follow it.
+    pub fn drive(&self) -> Quantity {
+        let reference = self.fit.reference_quantity.unwrap_or(Quantity::Force);
+        super::flags::force_drive(&self.fit.model, reference)
     }
 
     /// The model the report stands for: the time-domain refinement's when
@@ -229,11 +239,13 @@ impl FitReport {
     }
 }
 
-/// One line per estimate (see [`FitReport::parameter_lines`]).
+/// One line per estimate (see [`FitReport::parameter_lines`]), each in the
+/// unit `unit` gives its name.
 fn estimate_lines(
     estimates: &BTreeMap<String, Estimate>,
     comparison: &[Comparison],
     flags: &BTreeMap<String, Vec<Flag>>,
+    unit: &dyn Fn(&str) -> &'static str,
 ) -> Vec<String> {
     let mut out = Vec::new();
     for (name, e) in estimates {
@@ -252,8 +264,11 @@ fn estimate_lines(
         });
         let f = flags.get(name).map_or(String::new(), |f| flag_words(f));
         out.push(format!(
-            "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{r}{f}",
-            e.value, e.ci95[0], e.ci95[1],
+            "  {name:>10} = {:.6e}  ci95 [{:.4e}, {:.4e}]{}{r}{f}",
+            e.value,
+            e.ci95[0],
+            e.ci95[1],
+            unit_suffix(unit(name)),
         ));
         if let Some(n) = &e.note {
             out.push(format!("             {n}"));
@@ -575,22 +590,18 @@ pub fn periodic_start_of(
             })
         })?;
         // in the drive's units (volts for the force on a voltage reference)
-        let unit = |u| {
-            super::flags::in_drive_units(
-                u,
-                records
-                    .first()
-                    .map_or(crate::harmonics::Quantity::Force, |r| r.reference_quantity),
-            )
-        };
+        let drive = records
+            .first()
+            .map_or(crate::harmonics::Quantity::Force, |r| r.reference_quantity);
+        let unit = |name| super::flags::law_parameter_unit(None, name, drive);
         let estimate = format!(
             "(m {:.5e} {}, c {:.5e} {}, k {:.5e} {})",
             linear.mass,
-            unit("kg"),
+            unit("mass"),
             linear.damping,
-            unit("N s/m"),
+            unit("damping"),
             linear.stiffness,
-            unit("N/m")
+            unit("stiffness")
         );
         (starts, estimate, linear.sign)
     };
@@ -768,7 +779,11 @@ impl DeclaredFitReport {
 
     /// The terminal's lines for the fitted parameters.
     pub fn parameter_lines(&self) -> Vec<String> {
-        estimate_lines(&self.frequency_domain.parameters, &[], &BTreeMap::new())
+        let fit = &self.frequency_domain;
+        let reference = self.reference_quantity.unwrap_or(Quantity::Force);
+        let drive = super::flags::force_drive(&fit.model, reference);
+        let unit = |name: &str| parameter_unit(name, &fit.model, drive);
+        estimate_lines(&fit.parameters, &[], &BTreeMap::new(), &unit)
     }
 }
 
@@ -781,7 +796,11 @@ impl TimeFitReport {
 
     /// The terminal's lines for the fitted parameters.
     pub fn parameter_lines(&self) -> Vec<String> {
-        estimate_lines(&self.time_domain.parameters, &[], &self.time_domain_flags)
+        let t = &self.time_domain;
+        let reference = t.reference_quantity.unwrap_or(Quantity::Force);
+        let drive = super::flags::force_drive(&t.model, reference);
+        let unit = |name: &str| parameter_unit(name, &t.model, drive);
+        estimate_lines(&t.parameters, &[], &self.time_domain_flags, &unit)
     }
 }
 

@@ -15,7 +15,7 @@
 //! the test is of the paper's system (the embedded default's structure).
 
 pub use super::flags::{Flag, flags_of};
-use super::flags::{describe, flag_words, in_drive_units};
+use super::flags::{describe, flag_words, parameter_unit};
 use super::identify::FitReport;
 use super::simulate::SimulateSummary;
 use crate::diagnose::{Diagnosis, model_parameters};
@@ -444,13 +444,13 @@ fn reported(
                 }
                 .at_bounds(&[e.value])[0]
             });
-    let (unit, domain) = describe(name, model);
+    let domain = describe(name, model).1;
     let mut e = e;
     // as fit.json: `identifiable` and the flags say one thing
     e.identifiable = super::flags::determined(&e);
     let flags = flags_of(name, &e, at_bound, domain, judged.transfer);
     Reported {
-        unit: in_drive_units(unit, judged.drive),
+        unit: parameter_unit(name, model, judged.drive),
         reference: judged.truth.get(name).copied(),
         flags,
         estimate: e,

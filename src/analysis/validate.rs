@@ -777,7 +777,7 @@ pub fn validate_on(
             if fm.is_empty() {
                 continue;
             }
-            let label = format!("{:.4} {}", lm.level, m.reference.si_unit());
+            let label = plot::level_label(lm.level, m.reference.si_unit());
             series.push(FrfSeries {
                 label: format!("{label} measured"),
                 group: g,

@@ -143,20 +143,17 @@ pub fn print_fit(report: &FitReport) {
         say!("{line}");
     }
     // on a voltage reference the model's forces are volts: its units too
-    let drive = fit
-        .reference_quantity
-        .unwrap_or(hystid::harmonics::Quantity::Force);
-    let unit = |u| hystid::analysis::flags::in_drive_units(u, drive);
+    let unit = |name| hystid::analysis::flags::parameter_unit(name, &fit.model, report.drive());
     say!(
         "  linear: m = {:.5} {}, c = {:.4} {}, k = {:.6e} {}; stick k_low = {:.6e} {}",
         fit.linear.mass,
-        unit("kg"),
+        unit("mass"),
         fit.linear.damping,
-        unit("N s/m"),
+        unit("damping"),
         fit.linear.stiffness,
-        unit("N/m"),
+        unit("stiffness"),
         fit.linear.stick.stiffness,
-        unit("N/m")
+        unit("stiffness")
     );
     for n in &fit.notes {
         say!("  note: {n}");

@@ -36,6 +36,8 @@ pub(super) struct Conclusion<'a> {
     pub(super) intervals: Option<Intervals>,
     /// Whether the baseline went astray.
     pub(super) baseline_astray: Option<crate::fit::identify::Astray>,
+    /// What the model's forces are measured against: its units.
+    pub(super) drive: crate::harmonics::Quantity,
 }
 
 /// The diagnosis: the kept effects' intervals at the final model, its fit
@@ -57,6 +59,7 @@ pub(super) fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         expected,
         intervals,
         baseline_astray,
+        drive,
     } = c;
     let normalised = |chi2: f64| chi2 / expected.max(f64::MIN_POSITIVE);
     // intervals of the effects kept, at the final model
@@ -113,6 +116,7 @@ pub(super) fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         &selected,
         &final_fit,
         consistent,
+        drive,
     );
     // where the residual stays above the noise, the candidates left out
     // are the user's next step
@@ -185,11 +189,12 @@ pub fn without_effect(
         .map(|s| s.effect)
         .filter(|&e| e != effect)
         .collect();
-    reconcluded(d, reports, chosen, current, &data, predictor)
+    reconcluded(d, reports, chosen, current, &data, predictor, frf.reference)
 }
 
 /// `d` concluded again with `reports`, the effects `chosen` and the final
-/// refit `current` on `data` (its baseline and features as they were).
+/// refit `current` on `data` (its baseline and features as they were), the
+/// FRFs referred to `reference`.
 fn reconcluded(
     d: &Diagnosis,
     reports: Vec<CandidateReport>,
@@ -197,6 +202,7 @@ fn reconcluded(
     current: Refit,
     data: &FitData,
     predictor: &HbPredictor,
+    reference: crate::harmonics::Quantity,
 ) -> Result<Diagnosis> {
     conclude(Conclusion {
         harmonics: d.harmonics.clone(),
@@ -214,6 +220,7 @@ fn reconcluded(
         expected: crate::fit::problem::expected_chi_square(data),
         intervals: None,
         baseline_astray: d.baseline_astray.clone(),
+        drive: crate::model::units::force_drive(&d.baseline_model, reference),
     })
 }
 
@@ -287,7 +294,7 @@ pub fn with_effect(
     }
     let mut chosen: Vec<Effect> = d.selected.iter().map(|s| s.effect).collect();
     chosen.push(effect);
-    reconcluded(d, reports, chosen, current, &data, predictor)
+    reconcluded(d, reports, chosen, current, &data, predictor, frf.reference)
 }
 
 /// How the drop cascade after an addition ended.
@@ -380,6 +387,7 @@ pub(super) fn explain(
     selected: &[SelectedEffect],
     final_fit: &ModelFit,
     consistent: bool,
+    drive: crate::harmonics::Quantity,
 ) -> String {
     let mut s = String::new();
     s.push_str(&format!(
@@ -440,11 +448,14 @@ pub(super) fn explain(
             .parameters
             .iter()
             .map(|(n, e)| {
+                let law = sel.effect.candidate().law();
+                let unit = crate::model::units::law_parameter_unit(law, n, drive);
                 format!(
-                    "{n} = {} [{}, {}]",
+                    "{n} = {} [{}, {}]{}",
                     fmt_value(e.value),
                     fmt_value(e.ci95[0]),
-                    fmt_value(e.ci95[1])
+                    fmt_value(e.ci95[1]),
+                    crate::model::units::unit_suffix(unit)
                 )
             })
             .collect();

@@ -654,7 +654,10 @@ pub fn diagnose_observed(
     let data = FitData::from_frf(frf, &harmonics, options.band_hz, None)?
         .with_sign(fit.response_sign)
         .with_transfer(options.fit.transfer || fit.transfer)
-        .with_anchor(crate::fit::LinearAnchor::of(&fit.linear.stick));
+        .with_anchor(crate::fit::LinearAnchor::of(
+            &fit.linear.stick,
+            frf.reference,
+        ));
     let n_real = (2 * data.observations()) as f64;
     // χ² against what noise alone gives with block-estimated standard errors
     let expected = crate::fit::problem::expected_chi_square(&data);
@@ -1019,6 +1022,7 @@ pub fn diagnose_observed(
         response_sign: fit.response_sign,
         expected,
         intervals: current_intervals,
+        drive: crate::model::units::force_drive(&fit.model, frf.reference),
     })
 }
 

@@ -3,6 +3,7 @@
 
 use super::conclude::explain;
 use super::*;
+use crate::harmonics::Quantity::Force;
 
 /// The summary's harmonics beside H1 leave out those at the noise (no
 /// "H2 100.0 % → H2 100.0 %" where there are no even harmonics), and
@@ -30,7 +31,15 @@ fn the_summary_leaves_out_harmonics_at_the_noise() {
         effect: Effect::CubicStiffness,
         parameters: BTreeMap::new(),
     }];
-    let s = explain(&fit(1.0, 0.4), &features, &[], &added, &fit(1.0, 0.1), true);
+    let s = explain(
+        &fit(1.0, 0.4),
+        &features,
+        &[],
+        &added,
+        &fit(1.0, 0.1),
+        true,
+        Force,
+    );
     assert!(!s.contains("H2"), "{s}");
     assert!(s.contains("(H3 40.0 % → H3 10.0 %)"), "{s}");
     // every harmonic beside H1 at the noise: no empty parentheses
@@ -38,7 +47,15 @@ fn the_summary_leaves_out_harmonics_at_the_noise() {
         chi2_per_dof_by_harmonic: [(1, 1.2), (2, 1.0), (3, 1.0)].into(),
         ..features
     };
-    let s = explain(&fit(1.0, 0.9), &quiet, &[], &added, &fit(1.0, 0.9), true);
+    let s = explain(
+        &fit(1.0, 0.9),
+        &quiet,
+        &[],
+        &added,
+        &fit(1.0, 0.9),
+        true,
+        Force,
+    );
     assert!(s.contains("in H1; χ²/dof"), "{s}");
 }
 

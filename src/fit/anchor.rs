@@ -13,6 +13,7 @@
 
 use super::linear::SdofEstimate;
 use super::params::{ParameterSet, Target};
+use crate::harmonics::Quantity;
 use crate::model::Model;
 use serde::{Deserialize, Serialize};
 
@@ -25,27 +26,36 @@ const DAMPING_DECADES: (f64, f64) = (f64::INFINITY, 2.0);
 /// The smallest level's linear estimate of the first mode.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LinearAnchor {
-    /// kg.
+    /// kg (V s²/m on a voltage reference).
     pub mass: f64,
-    /// N s/m.
+    /// N s/m (V s/m).
     pub damping: f64,
-    /// N/m.
+    /// N/m (V/m).
     pub stiffness: f64,
     /// The smallest level's linear fit's RMS relative residual.
     #[serde(default)]
     pub residual: f64,
+    /// What the FRFs are referred to: the estimate's units follow it.
+    #[serde(default = "force")]
+    pub reference: Quantity,
+}
+
+fn force() -> Quantity {
+    Quantity::Force
 }
 
 impl LinearAnchor {
-    /// The anchor of an SDOF estimate; none where it is not a physical
-    /// mode (a value that is not finite and positive).
-    pub fn of(e: &SdofEstimate) -> Option<LinearAnchor> {
+    /// The anchor of an SDOF estimate of FRFs referred to `reference`;
+    /// none where it is not a physical mode (a value that is not finite and
+    /// positive).
+    pub fn of(e: &SdofEstimate, reference: Quantity) -> Option<LinearAnchor> {
         let ok = |v: f64| v.is_finite() && v > 0.0;
         (ok(e.mass) && ok(e.damping) && ok(e.stiffness)).then_some(LinearAnchor {
             mass: e.mass,
             damping: e.damping,
             stiffness: e.stiffness,
             residual: e.relative_rms_residual,
+            reference,
         })
     }
 
@@ -107,9 +117,15 @@ impl LinearAnchor {
 
     /// One line naming the anchor, for reports.
     pub fn describe(&self) -> String {
+        let unit = |name| crate::model::units::law_parameter_unit(None, name, self.reference);
         format!(
-            "the smallest level's linear estimate: m = {:.4e} kg, c = {:.4e} N s/m, k = {:.4e} N/m",
-            self.mass, self.damping, self.stiffness
+            "the smallest level's linear estimate: m = {:.4e} {}, c = {:.4e} {}, k = {:.4e} {}",
+            self.mass,
+            unit("mass"),
+            self.damping,
+            unit("damping"),
+            self.stiffness,
+            unit("stiffness")
         )
     }
 }
@@ -125,6 +141,7 @@ mod tests {
             damping: 20.0,
             stiffness: 1e7,
             residual: 0.01,
+            reference: Quantity::Force,
         }
     }
 

@@ -23,6 +23,7 @@ pub mod modal;
 pub mod points;
 pub mod quadratic_damping;
 pub mod shaker;
+pub mod units;
 pub mod viscous_damping;
 
 pub use armature::Armature;
@@ -747,7 +748,7 @@ impl Model {
     }
 
     /// Each mode's frequency with the joints stuck, Hz.
-    fn linearised_frequencies_hz(&self) -> impl Iterator<Item = f64> + '_ {
+    pub(crate) fn linearised_frequencies_hz(&self) -> impl Iterator<Item = f64> + '_ {
         let kd = self.stick_stiffness();
         self.linear.modes.iter().map(move |m| {
             // a hysteretic mode is stiffened by its own joint alone

@@ -189,6 +189,10 @@ pub enum SeriesStyle {
     /// A model's unstable solution (a fold's middle branch, which no test
     /// reaches): a dashed line.
     Unstable,
+    /// A model another is compared with (a diagnosis's baseline): a thin
+    /// grey line over the other's solid one, a thread along it where the
+    /// two agree, apart where they differ.
+    Baseline,
 }
 
 /// One FRF curve: `H` at each excitation frequency.
@@ -389,10 +393,16 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
     for pass in [
         SeriesStyle::Unstable,
         SeriesStyle::Model,
+        SeriesStyle::Baseline,
         SeriesStyle::Measured,
     ] {
         for (s, magnitude, phase) in traces.iter().filter(|t| t.0.style == pass) {
             let (c, mark) = (palette.colour(s.group), marker_of(s.group));
+            if pass == SeriesStyle::Baseline {
+                top.shapes.push(thin(GREY, magnitude.clone()));
+                bottom.shapes.push(thin(GREY, phase.clone()));
+                continue;
+            }
             if pass == SeriesStyle::Model {
                 top.shapes.push(line(c, 2, magnitude.clone()));
                 bottom.shapes.push(line(c, 2, phase.clone()));
@@ -422,26 +432,7 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
         .iter()
         .filter_map(|s| legend_entry(&s.label, palette.colour(s.group), sample(s.style, s.group)))
         .collect();
-    // model lines left out of the legend (one entry per level) are named
-    // once, in grey, with what the markers are
-    let unlabelled_model = series
-        .iter()
-        .any(|s| s.style == SeriesStyle::Model && s.label.is_empty());
-    if unlabelled_model {
-        let measured = series.iter().any(|s| s.style == SeriesStyle::Measured);
-        if measured {
-            legend.push(LegendEntry {
-                label: "measured".into(),
-                colour: GREY,
-                sample: Sample::Marker(Marker::CIRCLE),
-            });
-        }
-        legend.push(LegendEntry {
-            label: "model".into(),
-            colour: GREY,
-            sample: Sample::Line,
-        });
-    }
+    legend.extend(style_entries(series));
     if series.iter().any(|s| s.style == SeriesStyle::Unstable) {
         legend.push(LegendEntry {
             label: "unstable".into(),
@@ -454,6 +445,37 @@ fn frf_figure(title: &str, magnitude_label: &str, series: &[FrfSeries]) -> Resul
         panels: vec![top, bottom],
         legend,
     })
+}
+
+/// The legend's grey entries naming the line styles once: model lines left
+/// out of the legend (one entry per level, the level's colour) are named
+/// with what the markers are, a baseline's beside the final model's.
+fn style_entries(series: &[FrfSeries]) -> Vec<LegendEntry> {
+    let unlabelled = |style| {
+        series
+            .iter()
+            .any(|s| s.style == style && s.label.is_empty())
+    };
+    let baseline = unlabelled(SeriesStyle::Baseline);
+    let mut out = Vec::new();
+    if !(unlabelled(SeriesStyle::Model) || baseline) {
+        return out;
+    }
+    let grey = |label: &str, sample| LegendEntry {
+        label: label.into(),
+        colour: GREY,
+        sample,
+    };
+    if series.iter().any(|s| s.style == SeriesStyle::Measured) {
+        out.push(grey("measured", Sample::Marker(Marker::CIRCLE)));
+    }
+    if baseline {
+        out.push(grey("baseline model", Sample::Thin));
+        out.push(grey("final model", Sample::Line));
+    } else {
+        out.push(grey("model", Sample::Line));
+    }
+    out
 }
 
 /// `(frequency, low, high)`.
@@ -482,6 +504,7 @@ fn sample(style: SeriesStyle, group: usize) -> Sample {
         SeriesStyle::Measured => Sample::Marker(marker_of(group)),
         SeriesStyle::Model => Sample::Line,
         SeriesStyle::Unstable => Sample::Dashed,
+        SeriesStyle::Baseline => Sample::Thin,
     }
 }
 
@@ -507,6 +530,16 @@ fn line(colour: RGBColor, width: u32, points: Vec<(f64, f64)>) -> Shape {
     }
 }
 
+/// A baseline's line: one pixel wide (see [`SeriesStyle::Baseline`]).
+fn thin(colour: RGBColor, points: Vec<(f64, f64)>) -> Shape {
+    Shape::Line {
+        colour,
+        width: 1,
+        alpha: render::THIN_ALPHA,
+        points,
+    }
+}
+
 fn dashed(colour: RGBColor, width: u32, points: Vec<(f64, f64)>) -> Shape {
     Shape::Dashed {
         colour,
@@ -523,14 +556,23 @@ fn markers(colour: RGBColor, marker: Marker, points: Vec<(f64, f64)>) -> Shape {
     }
 }
 
-/// A level for a legend: 4 significant digits, no trailing zeros (a measured
-/// 4.824257419730869 N reads `4.824 N`).
+/// A level for a legend, in the drive's `unit`: 3 significant digits, no
+/// trailing zeros (a measured 57.7418 N reads `57.7 N`), enough to tell a
+/// test's levels apart, which are steps of a few per cent or more; a level
+/// of 1000 or more is written whole (`3050 N`).
 pub fn level_label(level: f64, unit: &str) -> String {
     if !level.is_finite() || level == 0.0 {
         return format!("{level} {unit}");
     }
-    let decimals = (3 - level.abs().log10().floor() as i32).max(0) as usize;
-    let mut t = format!("{level:.decimals$}");
+    let digits = 3 - 1 - level.abs().log10().floor() as i32;
+    let rounded = if digits < 0 {
+        let step = 10f64.powi(-digits);
+        (level / step).round() * step
+    } else {
+        level
+    };
+    let decimals = digits.max(0) as usize;
+    let mut t = format!("{rounded:.decimals$}");
     if t.contains('.') {
         t = t.trim_end_matches('0').trim_end_matches('.').to_string();
     }
@@ -668,6 +710,7 @@ pub fn write_loop_plot(
     let palette = Palette::over(series.iter().map(|s| s.group));
     for pass in [
         SeriesStyle::Measured,
+        SeriesStyle::Baseline,
         SeriesStyle::Unstable,
         SeriesStyle::Model,
     ] {
@@ -682,6 +725,7 @@ pub fn write_loop_plot(
                 },
                 SeriesStyle::Model => line(c, 2, points),
                 SeriesStyle::Unstable => dashed(c, 2, points),
+                SeriesStyle::Baseline => thin(c, points),
             });
         }
     }
@@ -690,6 +734,7 @@ pub fn write_loop_plot(
             SeriesStyle::Measured => Sample::Band,
             SeriesStyle::Model => Sample::Line,
             SeriesStyle::Unstable => Sample::Dashed,
+            SeriesStyle::Baseline => Sample::Thin,
         };
         legend_entry(&s.label, palette.colour(s.group), sample)
     });

@@ -63,6 +63,8 @@ pub(super) enum Shape {
 #[derive(Clone, Copy)]
 pub(super) enum Sample {
     Line,
+    /// A thin, pale line.
+    Thin,
     Band,
     Marker(Marker),
     Dashed,
@@ -167,6 +169,8 @@ const MARKER: u32 = 5;
 /// Width of a reference band (a measured loop drawn under the fitted one), px.
 pub(super) const BAND_WIDTH: u32 = 7;
 pub(super) const BAND_ALPHA: f64 = 0.35;
+/// A baseline's line: seen over a solid model line and through it.
+pub(super) const THIN_ALPHA: f64 = 0.85;
 const ERROR_BAR_ALPHA: f64 = 0.6;
 pub(super) const GREY: RGBColor = RGBColor(90, 90, 90);
 
@@ -282,6 +286,10 @@ fn draw_sample<DB: DrawingBackend>(
     };
     match e.sample {
         Sample::Line => area.draw(&bar(x, x + 28, 1, c.filled())),
+        Sample::Thin => area.draw(&Rectangle::new(
+            [(x, y), (x + 28, y + 1)],
+            c.mix(THIN_ALPHA).filled(),
+        )),
         Sample::Band => area.draw(&bar(
             x,
             x + 28,

@@ -48,12 +48,18 @@ fn coincident_markers_of_every_level_stay_visible() {
     );
 }
 
+/// Three significant digits, trailing zeros dropped, in the unit given.
 #[test]
 fn level_labels_are_short() {
-    assert_eq!(level_label(4.824257419730869, "N"), "4.824 N");
+    assert_eq!(level_label(57.7418, "N"), "57.7 N");
+    assert_eq!(level_label(57.7418, "V"), "57.7 V");
+    assert_eq!(level_label(4.824257419730869, "N"), "4.82 N");
+    assert_eq!(level_label(0.0123456, "V"), "0.0123 V");
     assert_eq!(level_label(30000.0, "N"), "30000 N");
+    assert_eq!(level_label(3046.8, "N"), "3050 N");
     assert_eq!(level_label(0.05, "N"), "0.05 N");
     assert_eq!(level_label(246.048, "N"), "246 N");
+    assert_eq!(level_label(999.7, "N"), "1000 N");
 }
 
 #[test]

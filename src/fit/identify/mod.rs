@@ -594,7 +594,10 @@ fn identify_from(
     let data = FitData::from_frf(frf, &options.harmonics, options.band_hz, None)?
         .with_sign(sign)
         .with_transfer(options.transfer)
-        .with_anchor(super::anchor::LinearAnchor::of(&linear.stick));
+        .with_anchor(super::anchor::LinearAnchor::of(
+            &linear.stick,
+            frf.reference,
+        ));
     if data.unusable_points > 0 {
         notes.push(format!(
             "{} measured point(s) left out: a zero fundamental or a zero standard error (a response below the recording's resolution)",
