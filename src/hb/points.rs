@@ -100,13 +100,7 @@ mod tests {
     /// slipping freely (k2 alone) is more than 5 % away.
     #[test]
     fn harmonic_balance_of_a_joint_between_two_masses_is_the_simulators_steady_state() {
-        let chain = Lumped {
-            points: vec!["drive".into(), "tip".into()],
-            masses: vec![2.0, 1.0],
-            springs: vec![(0, None, 4.0e4), (0, Some(1), 1.0e4)],
-            alpha: 5.0,
-            beta: 2.0e-5,
-        };
+        let chain = crate::model::points::two_mass_chain(5.0, 2.0e-5);
         let structure = chain.modes().unwrap();
         let (kd, fd, amplitude, f) = (5.0e3, 2.0, 30.0, 18.0);
         let joint = JointReceptance {

@@ -227,18 +227,26 @@ impl Lumped {
     }
 }
 
+/// The tests' chain: ground - 4e4 N/m - 2 kg ("drive") - 1e4 N/m - 1 kg
+/// ("tip"), with Rayleigh damping `alpha`, `beta` (modes at 13.5 and
+/// 26.5 Hz).
+#[cfg(test)]
+pub(crate) fn two_mass_chain(alpha: f64, beta: f64) -> Lumped {
+    Lumped {
+        points: vec!["drive".into(), "tip".into()],
+        masses: vec![2.0, 1.0],
+        springs: vec![(0, None, 4.0e4), (0, Some(1), 1.0e4)],
+        alpha,
+        beta,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn chain() -> Lumped {
-        Lumped {
-            points: vec!["drive".into(), "tip".into()],
-            masses: vec![2.0, 1.0],
-            springs: vec![(0, None, 4.0e4), (0, Some(1), 1.0e4)],
-            alpha: 0.0,
-            beta: 0.0,
-        }
+        two_mass_chain(0.0, 0.0)
     }
 
     /// The two-mass chain's frequencies are the closed-form roots of

@@ -235,16 +235,7 @@ impl<E: Element> Simulator<E> {
             .filter(|m| !quasi_static(m))
             .map(|m| m.frequency_hz)
             .fold(0.0, f64::max);
-        if !(sample_rate_hz.is_finite() && sample_rate_hz > 2.0 * top) {
-            return Err(Error::model(
-                "sample_rate_hz",
-                format!(
-                    "must exceed twice the highest mode ({:.6} Hz), got {sample_rate_hz} Hz; \
-                     use at least 10x (50x and more for stiff joints)",
-                    top
-                ),
-            ));
-        }
+        check_rate(sample_rate_hz, top)?;
         let t = 1.0 / sample_rate_hz;
         elements.set_time_step(t);
         let (drive_lag, drive_gain) = match elements.drive_load() {
@@ -865,6 +856,21 @@ pub struct SliceOutputs<'a> {
 /// Newton on `R(u) = u − F + g(x_p + bx u, v_p + bv u)`, started from
 /// `guess` (the linear extrapolation of the last two inputs); falls back to a
 /// bracketed Newton–bisection when Newton does not settle (kinks, softening).
+/// An error unless `sample_rate_hz` exceeds twice the highest mode `top`
+/// (the filters would alias the modes themselves).
+fn check_rate(sample_rate_hz: f64, top: f64) -> Result<()> {
+    if sample_rate_hz.is_finite() && sample_rate_hz > 2.0 * top {
+        return Ok(());
+    }
+    Err(Error::model(
+        "sample_rate_hz",
+        format!(
+            "must exceed twice the highest mode ({top:.6} Hz), got {sample_rate_hz} Hz; use at \
+             least 10x (50x and more for stiff joints)"
+        ),
+    ))
+}
+
 fn solve_iteratively<E: Element>(
     e: &E,
     stats: &mut SolveStats,

@@ -76,14 +76,7 @@ impl<E: Element> PointSimulator<E> {
             .iter()
             .map(|m| m.frequency_hz)
             .fold(0.0, f64::max);
-        if !(sample_rate_hz.is_finite() && sample_rate_hz > 2.0 * top) {
-            return Err(Error::model(
-                "sample_rate_hz",
-                format!(
-                    "must exceed twice the highest mode ({top:.6} Hz), got {sample_rate_hz} Hz"
-                ),
-            ));
-        }
+        super::check_rate(sample_rate_hz, top)?;
         let t = 1.0 / sample_rate_hz;
         let filters: Vec<ModeFilter> = structure
             .modes
@@ -352,13 +345,7 @@ mod tests {
     /// O(h)).
     #[test]
     fn a_joint_between_two_masses_matches_a_chain_integrated_by_rk4() {
-        let chain = Lumped {
-            points: vec!["drive".into(), "tip".into()],
-            masses: vec![2.0, 1.0],
-            springs: vec![(0, None, 4.0e4), (0, Some(1), 1.0e4)],
-            alpha: 0.5,
-            beta: 2.0e-5,
-        };
+        let chain = crate::model::points::two_mass_chain(0.5, 2.0e-5);
         let structure = chain.modes().unwrap();
         let (kd, fd) = (5.0e3, 2.0);
         let (fs, n) = (4000.0, 8000);
