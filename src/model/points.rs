@@ -195,7 +195,7 @@ impl Lumped {
         for r in order {
             let w2 = eigen.eigenvalues[r];
             // a free structure's rigid-body eigenvalue is zero to rounding
-            if !(w2 > 1e-9 * top) {
+            if w2.is_nan() || w2 <= 1e-9 * top {
                 return Err(Error::model(
                     "springs",
                     "the structure has a rigid-body mode: hold it to the ground",
