@@ -381,7 +381,7 @@ fn fit_sdof_plain(samples: &[FrfSample], quantity: Quantity, what: &str) -> Resu
         return Err(Error::input(
             what,
             format!(
-                "the FRF does not look like one damped mode in this band (fit gave m = {m:e} kg, c = {c:e} N s/m, k = {k:e} N/m)"
+                "the FRF does not look like one damped mode in this band (fit gave m = {m:e}, c = {c:e}, k = {k:e}: kg, N s/m, N/m on a force reference; V s^2/m, V s/m, V/m on a voltage one)"
             ),
         ));
     }

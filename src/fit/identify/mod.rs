@@ -610,7 +610,7 @@ fn identify_from(
                 linear.kd_initial
             } else {
                 notes.push(format!(
-                    "the smallest level is not stiffer than the largest (k_low − k = {:.4e} N/m): no stick stiffness visible; starting from kd = k",
+                    "the smallest level is not stiffer than the largest (k_low − k = {:.4e}, N/m on a force reference, V/m on a voltage one): no stick stiffness visible; starting from kd = k",
                     linear.kd_initial
                 ));
                 linear.stiffness
