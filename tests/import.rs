@@ -11,8 +11,8 @@ use flate2::{Compression, write::ZlibEncoder};
 use hystid::harmonics::Quantity;
 use hystid::import::mat::MatFile;
 use hystid::import::{
-    ChannelSpec, Delimiter, FindingKind, ImportSpec, QualityOptions, SampleRateSource, Severity,
-    Source, Span, check_quality, import,
+    ChannelSpec, Column, Delimiter, FindingKind, ImportSpec, QualityOptions, SampleRateSource,
+    Severity, Span, check_quality, import,
 };
 use hystid::record::{
     Channel, Excitation, ExcitationKind, FORMAT_V1, Recording, RecordingMeta, Step,
@@ -878,7 +878,7 @@ fn time_column_mismatch_jitter_and_gap_are_found_where_injected() {
 fn delimited_errors_name_file_line_and_column() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("data.csv");
-    let spec = |src: Source| {
+    let spec = |src: Column| {
         ImportSpec::new(
             vec![ChannelSpec::new(src, Quantity::Velocity)],
             SampleRateSource::Value(100.0),
@@ -1011,9 +1011,9 @@ fn spec_from_toml_and_report_to_json() {
     let spec: ImportSpec = toml::from_str(toml_text).unwrap();
     assert_eq!(spec.sample_rate, SampleRateSource::Variable("Fs".into()));
     assert_eq!(spec.delimiter, Some(Delimiter::Char(b'\t')));
-    assert_eq!(spec.channels[1].source, Source::Name("Acceleration".into()));
+    assert_eq!(spec.channels[1].source, Column::Name("Acceleration".into()));
     assert_eq!(spec.channels[1].row, Some(2));
-    assert_eq!(spec.channels[2].source, Source::Index(3));
+    assert_eq!(spec.channels[2].source, Column::Index(3));
     assert_eq!(spec.channels[2].scale, 1e-3);
     assert_eq!(
         spec.excitation.as_ref().unwrap().kind,
@@ -1109,7 +1109,7 @@ fn compact_command_line_forms() {
         ("1024 Hz", SampleRateSource::Value(1024.0)),
         ("variable:Fs", SampleRateSource::Variable("Fs".into())),
         ("time:time_s", SampleRateSource::Time("time_s".into())),
-        ("time:#1", SampleRateSource::Time(Source::Index(1))),
+        ("time:#1", SampleRateSource::Time(Column::Index(1))),
     ] {
         assert_eq!(text.parse::<SampleRateSource>().unwrap(), want, "{text}");
     }

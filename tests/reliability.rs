@@ -229,8 +229,8 @@ fn read_seed(target: &str, bytes: &[u8]) -> Result<(), String> {
         }
         "delimited" => {
             let want = [
-                hystid::import::Source::Index(1),
-                hystid::import::Source::Index(2),
+                hystid::import::Column::Index(1),
+                hystid::import::Column::Index(2),
             ];
             hystid::import::delimited::parse_columns(Path::new("s.csv"), &bytes[1..], None, &want)
                 .map_err(e)?;

@@ -14,7 +14,7 @@ use crate::cli::{hystid, text};
 use hystid::extract::{Direction, FrfLevel, FrfPoint, NonlinearFrf};
 use hystid::harmonics::Quantity;
 use hystid::import::uff::{Abscissa, Ordinate, UffFile, parse};
-use hystid::import::{ChannelSpec, ImportSpec, SampleRateSource, Source, import};
+use hystid::import::{ChannelSpec, Column, ImportSpec, SampleRateSource, import};
 use num_complex::Complex64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -546,7 +546,7 @@ fn ascii_files_with_other_datasets_and_an_frf_beside_the_time_records() {
         let r = import(
             &path,
             &spec(vec![
-                ChannelSpec::new(Source::Index(5), Quantity::Force).name("f"),
+                ChannelSpec::new(Column::Index(5), Quantity::Force).name("f"),
                 ChannelSpec::new("accel", Quantity::Acceleration).scale(2.0),
             ]),
         )
@@ -565,7 +565,7 @@ fn ascii_files_with_other_datasets_and_an_frf_beside_the_time_records() {
         assert_mentions(&e, &["#4", "no dataset 58", "#K"]);
         let e = err_text(import(
             &path,
-            &spec(vec![ChannelSpec::new(Source::Index(4), Quantity::Force)]),
+            &spec(vec![ChannelSpec::new(Column::Index(4), Quantity::Force)]),
         ));
         assert_mentions(
             &e,
@@ -578,7 +578,7 @@ fn ascii_files_with_other_datasets_and_an_frf_beside_the_time_records() {
         );
         let e = err_text(import(
             &path,
-            &spec(vec![ChannelSpec::new(Source::Index(1), Quantity::Force)]),
+            &spec(vec![ChannelSpec::new(Column::Index(1), Quantity::Force)]),
         ));
         assert_mentions(&e, &["dataset 1 (164", "not a dataset 58"]);
     }

@@ -2,7 +2,7 @@
 //! them, in JSON.
 
 use super::fail;
-use hystid::analysis::{Compensation, Excitation as Reduction, ReductionOptions};
+use hystid::analysis::{Compensation, SineTest as Reduction, ReductionOptions};
 use pyo3::prelude::*;
 use serde::Deserialize;
 

@@ -32,11 +32,10 @@ pub use identify::{
     run_time_fit_from_start_signed, time_records, time_records_in, write_fit_plots,
 };
 pub use recording::{
-    ChannelChoice, Compensation, Excitation, HeldRecording, Loaded, MULTISINE_LINES, Reduced,
-    ReductionOptions, band_limited, combine_recordings, excitation_of,
-    load_held_reference_and_response, load_recording, load_reference_and_response,
-    load_time_record, reduce, reduce_observed, reduce_path, reduce_path_observed,
-    reduce_recordings, response_channel, sweep_options,
+    ChannelChoice, Compensation, HeldRecording, Loaded, MULTISINE_LINES, Reduced, ReductionOptions,
+    SineTest, band_limited, combine_recordings, excitation_of, load_held_reference_and_response,
+    load_recording, load_reference_and_response, load_time_record, reduce, reduce_observed,
+    reduce_path, reduce_path_observed, reduce_recordings, response_channel, sweep_options,
 };
 
 use crate::error::{Error, Result};

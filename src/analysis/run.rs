@@ -138,7 +138,7 @@ impl From<ErrorReport> for ErrorFigures {
 /// Where the final model comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Source {
+pub enum ModelSource {
     /// The fit (no diagnosis ran).
     Fit,
     /// The diagnosis: the fitted law, the effects it added, every parameter
@@ -150,7 +150,7 @@ pub enum Source {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FinalModel {
     /// Where it comes from.
-    pub source: Source,
+    pub source: ModelSource,
     /// The joint law.
     pub joint: Option<&'static str>,
     /// The effects the diagnosis added (not one that replaced the joint).
@@ -216,7 +216,7 @@ impl FinalModel {
                 })
                 .collect();
             return Ok(FinalModel {
-                source: Source::Fit,
+                source: ModelSource::Fit,
                 joint: fit.model.joint.as_ref().map(|j| j.kind().name()),
                 added_effects: Vec::new(),
                 replaced_joint: None,
@@ -290,7 +290,7 @@ impl FinalModel {
             error: error_report(&data, &before_pred, f64::NAN, before_set.len()).into(),
         };
         Ok(FinalModel {
-            source: Source::Diagnosis,
+            source: ModelSource::Diagnosis,
             joint: d.model.joint.as_ref().map(|j| j.kind().name()),
             added_effects: (d.selected.iter())
                 .filter(|s| !replaces(s))
@@ -337,8 +337,8 @@ impl FinalModel {
         let mut out = vec![format!(
             "final model ({}): {}",
             match self.source {
-                Source::Diagnosis => "after the diagnosis",
-                Source::Fit => "the fit; no diagnosis",
+                ModelSource::Diagnosis => "after the diagnosis",
+                ModelSource::Fit => "the fit; no diagnosis",
             },
             self.name()
         )];
@@ -673,9 +673,9 @@ pub fn final_markdown(f: &FinalModel) -> String {
         s,
         "{}\n",
         match (f.source, f.added_effects.is_empty(), f.replaced_joint) {
-            (Source::Fit, _, _) => "The fitted model (the diagnosis did not run).".to_string(),
-            (Source::Diagnosis, true, None) => "The model after the diagnosis, which added no effect: the fitted law, every parameter refitted with the measured standard errors on the harmonics judged.".to_string(),
-            (Source::Diagnosis, _, replaced) => {
+            (ModelSource::Fit, _, _) => "The fitted model (the diagnosis did not run).".to_string(),
+            (ModelSource::Diagnosis, true, None) => "The model after the diagnosis, which added no effect: the fitted law, every parameter refitted with the measured standard errors on the harmonics judged.".to_string(),
+            (ModelSource::Diagnosis, _, replaced) => {
                 let mut changes: Vec<String> = replaced
                     .map(|r| format!("replaced the joint law {r} by {}", f.joint.unwrap_or("another")))
                     .into_iter()

@@ -364,7 +364,7 @@ pub fn summarise_checks(checks: &[HbCheck]) -> HbCheckSummary {
 
 /// Whether a virtual test keeps its time histories on disk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Recording {
+pub enum TimeHistories {
     /// `run.mcap` and `recording.wav` + `recording.json` (in the format
     /// given).
     Written(SampleFormat),
@@ -396,7 +396,7 @@ pub fn simulate_into(
     def: &TestDefinition,
     toml_text: &str,
     dir: &Path,
-    recording: Recording,
+    recording: TimeHistories,
     check_hb: bool,
     observer: &dyn Observer,
     after_bench: &mut dyn FnMut(&BenchRun, Option<&mut McapRecorder>) -> Result<()>,
@@ -411,7 +411,7 @@ pub fn simulate_into(
     };
     let mut files = Vec::new();
     let (run, checks, bench_seconds) = match recording {
-        Recording::Written(wav_format) => {
+        TimeHistories::Written(wav_format) => {
             let mut sink = FileSink::create(dir, def, toml_text, fs)?;
             sink.check = check;
             let run = testbench::run(def, &mut sink, observer)?;
@@ -433,7 +433,7 @@ pub fn simulate_into(
             }
             (run, checks, bench_seconds)
         }
-        Recording::Skipped => {
+        TimeHistories::Skipped => {
             let mut sink = CheckSink(check);
             let run = testbench::run(def, &mut sink, observer)?;
             let bench_seconds = t0.elapsed().as_secs_f64();
@@ -566,7 +566,7 @@ seed = 5
             &def,
             text,
             dir.path(),
-            Recording::Written(SampleFormat::Float32),
+            TimeHistories::Written(SampleFormat::Float32),
             true,
             &crate::observe::Silent,
             &mut |_, _| Ok(()),

@@ -3,7 +3,7 @@
 //! from `fit.json`, `validate.json` and the overlay figures.
 
 use super::identify::FitReport;
-use super::recording::{Excitation, Loaded, ReductionOptions, excitation_of, stepped_options};
+use super::recording::{Loaded, ReductionOptions, SineTest, excitation_of, stepped_options};
 use crate::error::{Error, Result};
 use crate::extract::lines::LineClass;
 use crate::harmonics::Quantity;
@@ -423,12 +423,12 @@ fn validate_held(
     let broadband = settings.frf
         && !settings.periodic
         && multisine.is_none()
-        && holds_no_dwell(rec, reference, settings)?;
+        && drive_is_broadband(rec, reference, settings)?;
     let reduction = if settings.frf && !settings.periodic && multisine.is_none() && !broadband {
         Some(
             match excitation_of(rec.meta, settings.reduction.excitation) {
-                Excitation::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
-                Excitation::Swept => Reduction::Swept(super::recording::sweep_options_held(
+                SineTest::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
+                SineTest::Swept => Reduction::Swept(super::recording::sweep_options_held(
                     rec.channels[reference],
                     rec.channels[response],
                     rec.meta.sample_rate_hz,
@@ -540,7 +540,7 @@ fn broadband_words(rec: &RecordingView, h1: Option<&crate::validate::H1Compariso
 /// than by its harmonics: stated `random`, or nobody said (excitation
 /// unknown, no steps, no reduction chosen) and its reference holds no sine
 /// dwell.
-fn holds_no_dwell(
+fn drive_is_broadband(
     rec: &RecordingView,
     reference: usize,
     settings: &ValidationSettings,

@@ -105,8 +105,8 @@ pub struct IdentifyArgs {
     /// least 3 excited lines), which no FRF reduction reads, start instead
     /// from their linear FRF at the excited lines, each judged over its
     /// periods after the first.
-    #[arg(long, value_enum, default_value_t = Domain::Frf)]
-    pub domain: Domain,
+    #[arg(long, value_enum, default_value_t = DomainArg::Frf)]
+    pub domain: DomainArg,
     /// Fit a model given instead of identifying the joint law: written down
     /// (`*.toml`: modes, joint and effects, e.g. a shaker or a hysteretic
     /// mode; `response_sign = -1` for a transfer), a fit.json, or a
@@ -129,8 +129,8 @@ pub struct IdentifyArgs {
     #[arg(long, default_value_t = 40.0)]
     pub min_samples_per_period: f64,
     /// With `--domain time`: how the model is replayed (see `Replay`).
-    #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
-    pub replay: Replay,
+    #[arg(long, value_enum, default_value_t = ReplayArg::BandLimited)]
+    pub replay: ReplayArg,
     /// With `--domain time`: descend from N starts, the given one and N-1
     /// spread about it (each parameter moved by up to a factor 1.5, or 15 %
     /// on a linear scale, the same on every run), and keep the one with the
@@ -197,7 +197,7 @@ impl AcquisitionArgs {
 
 /// How a model is replayed on a measured reference.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Replay {
+pub enum ReplayArg {
     /// The reference as the band-limited signal its samples stand for; the
     /// joint's force as the ramp-invariant filters take it.
     BandLimited,
@@ -206,18 +206,18 @@ pub enum Replay {
     Continuous,
 }
 
-impl From<Replay> for hystid::validate::DriveInput {
-    fn from(r: Replay) -> Self {
+impl From<ReplayArg> for hystid::validate::DriveInput {
+    fn from(r: ReplayArg) -> Self {
         match r {
-            Replay::BandLimited => hystid::validate::DriveInput::BandLimited,
-            Replay::Continuous => hystid::validate::DriveInput::Continuous,
+            ReplayArg::BandLimited => hystid::validate::DriveInput::BandLimited,
+            ReplayArg::Continuous => hystid::validate::DriveInput::Continuous,
         }
     }
 }
 
 /// What `identify` fits to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Domain {
+pub enum DomainArg {
     /// The nonlinear FRFs.
     Frf,
     /// The FRFs, then the time histories.
@@ -355,8 +355,8 @@ pub struct ValidateArgs {
     #[arg(long, default_value_t = 20.0)]
     pub min_samples_per_period: f64,
     /// How the model is replayed (see `Replay`).
-    #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
-    pub replay: Replay,
+    #[arg(long, value_enum, default_value_t = ReplayArg::BandLimited)]
+    pub replay: ReplayArg,
     /// Each recording is one period of a periodic steady state (a multisine
     /// test set): the model is driven by it repeated until its slowest mode
     /// has settled, and the last period is compared (no FRF comparison).
@@ -466,8 +466,8 @@ pub struct DiagnoseArgs {
     /// final model refitted on the recorded time histories; multisines,
     /// which no FRF is read from, are diagnosed on the time histories
     /// alone, their residual read at the lines of the period).
-    #[arg(long, value_enum, default_value_t = Domain::Frf)]
-    pub domain: Domain,
+    #[arg(long, value_enum, default_value_t = DomainArg::Frf)]
+    pub domain: DomainArg,
     /// With `--domain time`: trace every candidate in the refitted model's
     /// time residual (its replay reduced as the recordings were) and put the
     /// N that explain the most of it to the recorded time histories, each
@@ -481,8 +481,8 @@ pub struct DiagnoseArgs {
     /// With `--domain time`: how every model is replayed on the recordings
     /// (its refit, its checks and proposals, its time residual), as
     /// `identify --replay` takes it.
-    #[arg(long, value_enum, default_value_t = Replay::BandLimited)]
-    pub replay: Replay,
+    #[arg(long, value_enum, default_value_t = ReplayArg::BandLimited)]
+    pub replay: ReplayArg,
     /// With `--domain time`: fewest samples per period of the model's
     /// highest linearised frequency before the replay is upsampled (as
     /// `identify --domain time` takes it).

@@ -1,7 +1,7 @@
 //! `hystid diagnose`: trace a fit's residual to a missing effect, add it,
 //! refit, and report the error before and after.
 
-use super::args::{DiagnoseArgs, Domain};
+use super::args::{DiagnoseArgs, DomainArg};
 use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::reduction_options;
 use super::{EXIT_OK, create_out_dir, progress};
@@ -39,23 +39,24 @@ pub fn run_diagnosis(
     let pb = progress::bar(0, "diagnosing", quiet);
     pb.enable_steady_tick(std::time::Duration::from_millis(200));
     pb.set_message("baseline refit");
-    let out = hystid::analysis::diagnose::run_diagnosis(frf, fit, options, &progress::Drawn(&pb))?;
+    let out =
+        hystid::analysis::diagnose::run_diagnosis(frf, fit, options, &progress::BarObserver(&pb))?;
     pb.finish_and_clear();
     Ok(out)
 }
 
 /// `hystid diagnose`.
 pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
-    if args.domain == Domain::Time {
+    if args.domain == DomainArg::Time {
         super::return_large_blocks();
     }
-    if args.domain != Domain::Time {
+    if args.domain != DomainArg::Time {
         if args.time_proposals > 0 {
             anyhow::bail!(
                 "--time-proposals: the candidates are put to the time histories; add --domain time"
             );
         }
-        if args.replay != super::args::Replay::BandLimited {
+        if args.replay != super::args::ReplayArg::BandLimited {
             anyhow::bail!(
                 "--replay: only the time-domain refit replays the models; add --domain time"
             );
@@ -84,7 +85,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;
     // multisines, which no FRF reduction reads: diagnosed on their lines
-    if args.domain == Domain::Time
+    if args.domain == DomainArg::Time
         && args.reduction.excitation == super::args::ExcitationArg::Auto
         && let Some(p) = hystid::analysis::periodic_start(
             &args.recordings,
@@ -122,8 +123,8 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     };
     let (mut d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
     let time = match args.domain {
-        Domain::Frf => None,
-        Domain::Time => {
+        DomainArg::Frf => None,
+        DomainArg::Time => {
             // a refit that fails leaves the FRF diagnosis standing, with why
             let pb = progress::spinner("refitting in the time domain", quiet);
             let reduction = reduction_options(&args.reduction)?;
@@ -150,7 +151,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                         &options,
                         &predictor,
                         Some(&replays),
-                        &progress::Drawn(&pb),
+                        &progress::BarObserver(&pb),
                     )
                 },
             );
@@ -282,7 +283,7 @@ fn diagnose_multisine_command(
         &p.records,
         &time_options,
         options,
-        &progress::Drawn(&pb),
+        &progress::BarObserver(&pb),
     )?;
     pb.finish_and_clear();
     d.start = p.note;

@@ -2,12 +2,12 @@
 //! FRFs (paper Figures 2.2 and 3.3).
 
 use super::args::{
-    Domain, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs, Replay,
+    DomainArg, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs, ReplayArg,
 };
 use super::{create_out_dir, progress, reduction_options, write_json};
 use anyhow::{Context, Result, bail};
 use hystid::analysis::{
-    Excitation, FitReport, Reduced, band_limited, reference_joint, write_fit_plots,
+    FitReport, Reduced, SineTest, band_limited, reference_joint, write_fit_plots,
 };
 use hystid::extract::NonlinearFrf;
 use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearRefinement, LinearStart, Weighting};
@@ -29,8 +29,8 @@ pub fn print_reduced(path: &Path, r: &Reduced) {
         path.display(),
         r.response_name,
         match r.excitation {
-            Excitation::Stepped => "stepped sine,",
-            Excitation::Swept => "swept sine,",
+            SineTest::Stepped => "stepped sine,",
+            SineTest::Swept => "swept sine,",
         },
         points,
         levels.join(", "),
@@ -168,7 +168,7 @@ pub fn run_fit(
     mcap: Option<&Mutex<&mut hystid::record::McapRecorder>>,
 ) -> hystid::Result<(FitResult, HbPredictor)> {
     let pb = progress::spinner("fitting", quiet);
-    let out = hystid::analysis::run_fit(frf, options, &progress::Drawn(&pb), mcap)?;
+    let out = hystid::analysis::run_fit(frf, options, &progress::BarObserver(&pb), mcap)?;
     pb.finish_and_clear();
     Ok(out)
 }
@@ -245,7 +245,7 @@ fn identify_from_start(
 ) -> Result<u8> {
     let start = hystid::analysis::validate::read_fit(path, false)
         .with_context(|| format!("--start: reading {}", path.display()))?;
-    if args.domain != Domain::Time {
+    if args.domain != DomainArg::Time {
         // said, not silently dropped: harmonic balance predicts the
         // continuous response's harmonics
         if start.acquisition.is_some() {
@@ -319,7 +319,7 @@ fn identify_declared(
         &options,
         names,
         fitted_response(args)?,
-        &progress::Drawn(&pb),
+        &progress::BarObserver(&pb),
     )?;
     pb.finish_and_clear();
     let _out = create_out_dir(&args.out)?;
@@ -379,7 +379,7 @@ fn fit_in_time(
         &args.fix,
         records,
         &options,
-        &progress::Drawn(&pb),
+        &progress::BarObserver(&pb),
     )?;
     pb.finish_and_clear();
     if let Some(o) = origin {
@@ -413,14 +413,14 @@ fn carry_quality(report: &mut FitReport, quality: &[String]) {
 
 /// `hystid identify`.
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
-    if args.domain == Domain::Time {
+    if args.domain == DomainArg::Time {
         super::return_large_blocks();
     }
-    if args.domain != Domain::Time {
+    if args.domain != DomainArg::Time {
         if args.starts > 1 {
             bail!("--starts: the time-domain fit descends from several starts; add --domain time");
         }
-        if args.replay != Replay::BandLimited {
+        if args.replay != ReplayArg::BandLimited {
             bail!("--replay: only the time-domain fit replays the model; add --domain time");
         }
         if args.acquisition.acquisition.is_some() {
@@ -442,7 +442,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     }
     // multisines, which no FRF reduction reads: the start from their
     // linear estimate
-    if args.domain == Domain::Time && args.reduction.excitation == ExcitationArg::Auto {
+    if args.domain == DomainArg::Time && args.reduction.excitation == ExcitationArg::Auto {
         let kind = fit_options(&args.fit)?.element;
         if let Some(p) = hystid::analysis::periodic_start(
             &args.recordings,
@@ -489,8 +489,8 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         &predictor,
     )?);
     let time_domain = match args.domain {
-        Domain::Frf => None,
-        Domain::Time => {
+        DomainArg::Frf => None,
+        DomainArg::Time => {
             let records =
                 hystid::analysis::time_records(&args.recordings, args.channels(), options.band_hz)?;
             let pb = progress::spinner("fitting in the time domain", quiet);
@@ -506,7 +506,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
                     ..Default::default()
                 },
                 options.band_hz,
-                &progress::Drawn(&pb),
+                &progress::BarObserver(&pb),
             )?;
             pb.finish_and_clear();
             Some(t)

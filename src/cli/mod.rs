@@ -29,7 +29,7 @@ pub mod validate;
 
 use anyhow::{Context, Result, bail};
 use args::{ExcitationArg, ReductionArgs};
-use hystid::analysis::{Compensation, Excitation, ReductionOptions};
+use hystid::analysis::{Compensation, ReductionOptions, SineTest};
 use std::path::Path;
 
 /// Exit status: everything worked.
@@ -57,7 +57,7 @@ pub fn fit_exit_code(status: hystid::fit::FitStatus) -> u8 {
 pub const EXIT_INTERRUPTED: u8 = 130;
 
 /// Set by the first Ctrl-C. Every stage asks its observer
-/// ([`progress::Drawn`]) whether to stop and returns `Cancelled` at its
+/// ([`progress::BarObserver`]) whether to stop and returns `Cancelled` at its
 /// next check; unwinding that error drops the pending files and the output
 /// directory's claim, which remove the temporaries and the lock.
 pub static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -375,8 +375,8 @@ pub fn reduction_options(r: &ReductionArgs) -> Result<ReductionOptions> {
     };
     Ok(ReductionOptions {
         excitation: match r.excitation {
-            ExcitationArg::Stepped => Some(Excitation::Stepped),
-            ExcitationArg::Swept => Some(Excitation::Swept),
+            ExcitationArg::Stepped => Some(SineTest::Stepped),
+            ExcitationArg::Swept => Some(SineTest::Swept),
             ExcitationArg::Auto => None,
         },
         max_harmonic: r.max_harmonic,

@@ -32,9 +32,9 @@ pub fn spinner(message: &str, quiet: bool) -> ProgressBar {
 /// The terminal's one observer: every stage's events drawn on `pb`
 /// (a dwell advances the bar, a cost evaluation and the diagnosis's steps
 /// set its message).
-pub struct Drawn<'a>(pub &'a ProgressBar);
+pub struct BarObserver<'a>(pub &'a ProgressBar);
 
-impl hystid::observe::Observer for Drawn<'_> {
+impl hystid::observe::Observer for BarObserver<'_> {
     fn observe(&self, event: hystid::observe::Event<'_>) {
         use hystid::observe::DiagnoseEvent as D;
         use hystid::observe::Event;

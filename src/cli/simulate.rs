@@ -4,7 +4,7 @@ use super::args::{SimulateArgs, WavFormat};
 use super::import::sample_format;
 use super::{EXIT_DEGRADED, EXIT_OK, progress, read_test, write_json};
 use anyhow::Result;
-use hystid::analysis::simulate::{Recording, SimulateSummary};
+use hystid::analysis::simulate::{SimulateSummary, TimeHistories};
 use hystid::record::McapRecorder;
 use hystid::testbench::{BenchRun, TestDefinition};
 use std::path::Path;
@@ -29,11 +29,11 @@ pub fn simulate_into(
         toml_text,
         dir,
         match recording {
-            Some(f) => Recording::Written(sample_format(f)),
-            None => Recording::Skipped,
+            Some(f) => TimeHistories::Written(sample_format(f)),
+            None => TimeHistories::Skipped,
         },
         check_hb,
-        &progress::Drawn(&pb),
+        &progress::BarObserver(&pb),
         &mut |run, mcap| {
             pb.finish_and_clear();
             after_bench(run, mcap)

@@ -18,7 +18,7 @@
 //! UNESP BERT and Bouc-Wen CSVs have; also `sample rate: 2 kHz`,
 //! `sampling frequency = ...`) or derived from a time column.
 
-use super::{Delimiter, ImportSpec, Loaded, SampleRateSource, Source};
+use super::{Column, Delimiter, ImportSpec, Loaded, SampleRateSource};
 use crate::import::quality;
 use crate::{Error, Result};
 use std::path::Path;
@@ -160,9 +160,9 @@ fn detect(header: &str, rows: &[&str], tab_first: bool) -> Delimiter {
 }
 
 /// Finds a column: by exact header name, or by number from 1.
-fn resolve(path: &Path, header: &[String], src: &Source) -> Result<usize> {
+fn resolve(path: &Path, header: &[String], src: &Column) -> Result<usize> {
     match src {
-        Source::Index(i) => {
+        Column::Index(i) => {
             if *i == 0 || *i > header.len() {
                 Err(Error::format(
                     path,
@@ -177,7 +177,7 @@ fn resolve(path: &Path, header: &[String], src: &Source) -> Result<usize> {
                 Ok(i - 1)
             }
         }
-        Source::Name(n) => {
+        Column::Name(n) => {
             let hits: Vec<usize> = (0..header.len()).filter(|&k| header[k] == *n).collect();
             match hits.as_slice() {
                 [k] => Ok(*k),
@@ -290,7 +290,7 @@ fn layout<'a>(path: &Path, text: &'a str, delimiter: Option<Delimiter>) -> Resul
 }
 
 /// Parses the columns `wanted` of a laid-out file.
-fn extract(path: &Path, lay: Layout<'_>, wanted: &[Source]) -> Result<TextTable> {
+fn extract(path: &Path, lay: Layout<'_>, wanted: &[Column]) -> Result<TextTable> {
     let Layout {
         header,
         header_line,
@@ -368,7 +368,7 @@ fn extract(path: &Path, lay: Layout<'_>, wanted: &[Source]) -> Result<TextTable>
 pub fn read_columns(
     path: &Path,
     delimiter: Option<Delimiter>,
-    wanted: &[Source],
+    wanted: &[Column],
 ) -> Result<TextTable> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     parse_columns(path, &bytes, delimiter, wanted)
@@ -380,7 +380,7 @@ pub fn parse_columns(
     path: &Path,
     bytes: &[u8],
     delimiter: Option<Delimiter>,
-    wanted: &[Source],
+    wanted: &[Column],
 ) -> Result<TextTable> {
     let text = as_text(path, bytes)?;
     extract(path, layout(path, text, delimiter)?, wanted)
@@ -509,7 +509,7 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
         ));
     }
     // First pass: the header, to find the time column by name.
-    let mut wanted: Vec<Source> = spec.channels.iter().map(|c| c.source.clone()).collect();
+    let mut wanted: Vec<Column> = spec.channels.iter().map(|c| c.source.clone()).collect();
     let explicit_time = match &spec.sample_rate {
         SampleRateSource::Time(s) => Some(s.clone()),
         _ => spec.time_column.clone(),
@@ -523,7 +523,7 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
                 let l = h.to_ascii_lowercase();
                 l.starts_with("time") || l == "t"
             })
-            .map(|h| Source::Name(h.clone()))
+            .map(|h| Column::Name(h.clone()))
     });
     if let Some(t) = &time_src {
         wanted.push(t.clone());

@@ -61,36 +61,36 @@ use std::path::Path;
 /// header) or a 1-based column number (CSV only).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(untagged)]
-pub enum Source {
+pub enum Column {
     /// Column number, counted from 1.
     Index(usize),
     /// Variable or column name, matched exactly.
     Name(String),
 }
 
-impl From<&str> for Source {
-    fn from(s: &str) -> Source {
-        Source::Name(s.to_string())
+impl From<&str> for Column {
+    fn from(s: &str) -> Column {
+        Column::Name(s.to_string())
     }
 }
 
-impl From<String> for Source {
-    fn from(s: String) -> Source {
-        Source::Name(s)
+impl From<String> for Column {
+    fn from(s: String) -> Column {
+        Column::Name(s)
     }
 }
 
-impl From<usize> for Source {
-    fn from(i: usize) -> Source {
-        Source::Index(i)
+impl From<usize> for Column {
+    fn from(i: usize) -> Column {
+        Column::Index(i)
     }
 }
 
-impl std::fmt::Display for Source {
+impl std::fmt::Display for Column {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Source::Index(i) => write!(f, "column {i}"),
-            Source::Name(n) => f.write_str(n),
+            Column::Index(i) => write!(f, "column {i}"),
+            Column::Name(n) => f.write_str(n),
         }
     }
 }
@@ -102,7 +102,7 @@ pub struct ChannelSpec {
     /// The MAT variable, or the CSV column (header name or number from 1).
     /// In TOML also spelled `variable` or `column`.
     #[serde(alias = "variable", alias = "column")]
-    pub source: Source,
+    pub source: Column,
     /// MAT only: which signal of a 2-D variable, counted from 1 (the row of a
     /// `kxN` matrix, the column of an `Nxk` one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -133,7 +133,7 @@ fn one() -> f64 {
 
 impl ChannelSpec {
     /// A channel from `source` with the quantity's SI unit and scale 1.
-    pub fn new(source: impl Into<Source>, quantity: Quantity) -> ChannelSpec {
+    pub fn new(source: impl Into<Column>, quantity: Quantity) -> ChannelSpec {
         ChannelSpec {
             source: source.into(),
             row: None,
@@ -175,9 +175,9 @@ impl ChannelSpec {
             return n.clone();
         }
         match (&self.source, self.row) {
-            (Source::Name(n), Some(r)) => format!("{n}_{r}"),
-            (Source::Name(n), None) => n.clone(),
-            (Source::Index(i), _) => format!("column_{i}"),
+            (Column::Name(n), Some(r)) => format!("{n}_{r}"),
+            (Column::Name(n), None) => n.clone(),
+            (Column::Index(i), _) => format!("column_{i}"),
         }
     }
 
@@ -211,7 +211,7 @@ pub enum SampleRateSource {
     /// `sample rate: 2 kHz`, ...).
     Comment,
     /// A time column (text) or time vector (MAT) in seconds, uniformly spaced.
-    Time(Source),
+    Time(Column),
 }
 
 /// The compact command-line form of a channel:
@@ -264,12 +264,12 @@ impl std::str::FromStr for ChannelSpec {
             None => (source, None),
         };
         let source = match source.strip_prefix('#') {
-            Some(k) => Source::Index(
+            Some(k) => Column::Index(
                 k.parse()
                     .map_err(|_| bad(format!("column number `{k}` is not a number")))?,
             ),
             None if source.is_empty() => return Err(bad("no SOURCE".into())),
-            None => Source::Name(source.to_string()),
+            None => Column::Name(source.to_string()),
         };
         Ok(ChannelSpec {
             source,
@@ -306,8 +306,8 @@ impl std::str::FromStr for SampleRateSource {
                 } else if let Some(c) = t.strip_prefix("time:") {
                     let c = c.trim();
                     SampleRateSource::Time(match c.strip_prefix('#').map(str::parse) {
-                        Some(Ok(k)) => Source::Index(k),
-                        _ => Source::Name(c.to_string()),
+                        Some(Ok(k)) => Column::Index(k),
+                        _ => Column::Name(c.to_string()),
                     })
                 } else {
                     return Err(Error::plan(
@@ -382,7 +382,7 @@ pub struct ImportSpec {
     /// column whose header starts with `time` (any case) or is `t`, if any;
     /// for MAT: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub time_column: Option<Source>,
+    pub time_column: Option<Column>,
     /// Text only: the separator; default: detected from the header and the
     /// first rows (tab, comma, semicolon, `|`, else whitespace).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -574,7 +574,7 @@ fn validate_spec(path: &Path, spec: &ImportSpec) -> Result<()> {
                 "rows are counted from 1, as in MATLAB",
             ));
         }
-        if c.source == Source::Index(0) {
+        if c.source == Column::Index(0) {
             return Err(Error::plan(
                 format!("{field}.source"),
                 "columns are counted from 1",
@@ -798,8 +798,8 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
     let mut values = Vec::with_capacity(spec.channels.len());
     for (k, c) in spec.channels.iter().enumerate() {
         let name = match &c.source {
-            Source::Name(n) => n,
-            Source::Index(i) => {
+            Column::Name(n) => n,
+            Column::Index(i) => {
                 return Err(Error::plan(
                     format!("channels[{k}].source"),
                     format!(
@@ -868,7 +868,7 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
             ));
         }
         SampleRateSource::Time(src) => {
-            let Source::Name(name) = src else {
+            let Column::Name(name) = src else {
                 return Err(Error::plan(
                     "sample_rate.time",
                     "MAT-file variables are chosen by name",
@@ -884,10 +884,10 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
     // A time vector to check a declared rate against.
     if time.is_none() {
         match &spec.time_column {
-            Some(Source::Name(name)) => {
+            Some(Column::Name(name)) => {
                 time = Some((name.clone(), file.read(name)?.signal(None, path)?));
             }
-            Some(Source::Index(i)) => {
+            Some(Column::Index(i)) => {
                 return Err(Error::plan(
                     "time_column",
                     format!("column {i}: MAT-file variables are chosen by name"),

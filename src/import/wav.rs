@@ -7,7 +7,7 @@
 //! MATLAB's `audioread` and Python's `soundfile` read them; float samples as
 //! stored. A channel's `scale` turns either into physical units.
 
-use super::{ImportSpec, Loaded, SampleRateSource, Source};
+use super::{Column, ImportSpec, Loaded, SampleRateSource};
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -59,8 +59,8 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
     for (k, c) in spec.channels.iter().enumerate() {
         let field = format!("channels[{k}].source");
         match (&c.source, c.row) {
-            (Source::Index(i), None) if (1..=n).contains(i) => columns.push(i - 1),
-            (Source::Index(i), None) => {
+            (Column::Index(i), None) if (1..=n).contains(i) => columns.push(i - 1),
+            (Column::Index(i), None) => {
                 return Err(Error::format(
                     path,
                     field,
@@ -74,7 +74,7 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
                     "a WAV's channels have no rows: choose each by number, #1 to #{n}",
                 ));
             }
-            (Source::Name(name), None) => {
+            (Column::Name(name), None) => {
                 return Err(Error::format(
                     path,
                     field,
@@ -157,8 +157,8 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
             .channels
             .iter()
             .map(|c| match c.source {
-                Source::Index(i) => format!("WAV channel {i}"),
-                Source::Name(_) => unreachable!("refused above"),
+                Column::Index(i) => format!("WAV channel {i}"),
+                Column::Name(_) => unreachable!("refused above"),
             })
             .collect(),
         notes,

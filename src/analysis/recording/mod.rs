@@ -13,10 +13,10 @@ pub use load::{
 };
 pub(crate) use reduce::multisine_period;
 pub use reduce::{
-    Compensation, Excitation, MULTISINE_LINES, Reduced, ReductionOptions, SweptReading,
-    coil_of_path, combine_recordings, excitation_of, max_harmonic, quality_notes, reduce,
-    reduce_observed, reduce_path, reduce_path_observed, reduce_recordings, stepped_options,
-    sweep_options, sweep_options_held,
+    Compensation, MULTISINE_LINES, Reduced, ReductionOptions, SineTest, SweptReading, coil_of_path,
+    combine_recordings, excitation_of, max_harmonic, quality_notes, reduce, reduce_observed,
+    reduce_path, reduce_path_observed, reduce_recordings, stepped_options, sweep_options,
+    sweep_options_held,
 };
 pub use replay::{ReplayReduction, band_limited};
 

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 /// How a recording is reduced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Excitation {
+pub enum SineTest {
     /// Dwells (stated or found).
     Stepped,
     /// A continuous sweep.
@@ -41,7 +41,7 @@ pub enum Compensation {
 pub struct ReductionOptions {
     /// The reduction; `None`: the recording's `excitation.kind` (stepped
     /// when not stated).
-    pub excitation: Option<Excitation>,
+    pub excitation: Option<SineTest>,
     /// Highest harmonic; `None`: 7 for stepped sine, 3 for swept.
     pub max_harmonic: Option<usize>,
     /// Swept sine: the compensation.
@@ -66,10 +66,10 @@ impl Default for ReductionOptions {
 
 /// The reduction a recording gets: the option, else its `excitation.kind`
 /// (stepped when not stated).
-pub fn excitation_of(meta: &RecordingMeta, choice: Option<Excitation>) -> Excitation {
+pub fn excitation_of(meta: &RecordingMeta, choice: Option<SineTest>) -> SineTest {
     choice.unwrap_or(match meta.excitation.kind {
-        ExcitationKind::SweptSine => Excitation::Swept,
-        _ => Excitation::Stepped,
+        ExcitationKind::SweptSine => SineTest::Swept,
+        _ => SineTest::Stepped,
     })
 }
 
@@ -82,7 +82,7 @@ pub struct Reduced {
     /// The recording's sample rate, Hz.
     pub sample_rate_hz: f64,
     /// How it was reduced.
-    pub excitation: Excitation,
+    pub excitation: SineTest,
     /// Swept sine: the sweep found, the compensation and the hop used.
     pub sweep: Option<SweptReading>,
     /// The virtual test's definition, if recorded.
@@ -97,17 +97,17 @@ pub struct Reduced {
 }
 
 /// The highest harmonic for a reduction.
-pub fn max_harmonic(r: &ReductionOptions, e: Excitation) -> usize {
+pub fn max_harmonic(r: &ReductionOptions, e: SineTest) -> usize {
     r.max_harmonic.unwrap_or(match e {
-        Excitation::Stepped => 7,
-        Excitation::Swept => 3,
+        SineTest::Stepped => 7,
+        SineTest::Swept => 3,
     })
 }
 
 /// Stepped-sine reduction options.
 pub fn stepped_options(r: &ReductionOptions) -> ReduceOptions {
     ReduceOptions {
-        max_harmonic: max_harmonic(r, Excitation::Stepped),
+        max_harmonic: max_harmonic(r, SineTest::Stepped),
         blocks: 16,
         ..ReduceOptions::default()
     }
@@ -145,7 +145,7 @@ fn sweep_options_by(
     choose: &mut dyn FnMut(&SweepOptions) -> Result<f64>,
 ) -> Result<SweepOptions> {
     let mut opts = SweepOptions {
-        max_harmonic: max_harmonic(r, Excitation::Swept),
+        max_harmonic: max_harmonic(r, SineTest::Swept),
         window_periods: r.window_periods,
         hop_periods: r.hop_periods,
         ..SweepOptions::default()
@@ -247,7 +247,7 @@ pub fn reduce_observed(
     let response_name = rec.meta.channels[loaded.response].name.clone();
     let fs = rec.meta.sample_rate_hz;
     let (frf, sweep) = match excitation {
-        Excitation::Stepped => {
+        SineTest::Stepped => {
             if r.excitation.is_none() {
                 refuse_a_multisine(rec, loaded.response)?;
             }
@@ -256,7 +256,7 @@ pub fn reduce_observed(
                 None,
             )
         }
-        Excitation::Swept => {
+        SineTest::Swept => {
             let reference = rec
                 .reference_channel()
                 .ok_or_else(|| Error::input("recording", "no reference channel"))?;
@@ -459,8 +459,8 @@ fn reduce_streamed(
         .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
     let excitation = excitation_of(&meta, r.excitation);
     let long = source.frames() > WHOLE_RECORD_FRAMES;
-    let swept = excitation == Excitation::Swept && long;
-    let stepped = excitation == Excitation::Stepped && (!meta.excitation.steps.is_empty() || long);
+    let swept = excitation == SineTest::Swept && long;
+    let stepped = excitation == SineTest::Stepped && (!meta.excitation.steps.is_empty() || long);
     if !swept && !stepped {
         return Ok(None);
     }
@@ -505,7 +505,7 @@ fn reduce_streamed(
         frf: red.frf,
         response_name: meta.channels[ch].name.clone(),
         sample_rate_hz: meta.sample_rate_hz,
-        excitation: Excitation::Stepped,
+        excitation: SineTest::Stepped,
         sweep: None,
         truth,
         streamed: true,
@@ -555,7 +555,7 @@ fn reduce_swept_stream(
         ),
         response_name: meta.channels[ch].name.clone(),
         sample_rate_hz: meta.sample_rate_hz,
-        excitation: Excitation::Swept,
+        excitation: SineTest::Swept,
         sweep: Some(reading),
         truth,
         streamed: true,

@@ -6,7 +6,7 @@ use super::load::{
     load_reference_and_response,
 };
 use super::reduce::{
-    Compensation, Excitation, Reduced, ReductionOptions, SweptReading, combine_recordings,
+    Compensation, Reduced, ReductionOptions, SineTest, SweptReading, combine_recordings,
     excitation_of, reduce, reduce_path_streamed, stepped_options,
 };
 use crate::error::{Error, Result};
@@ -230,7 +230,7 @@ impl ReplayReduction {
             ..s.options.clone()
         };
         let steps = &s.meta.excitation.steps;
-        let by_dwell = options.excitation == Some(Excitation::Stepped)
+        let by_dwell = options.excitation == Some(SineTest::Stepped)
             && !steps.is_empty()
             && s.meta.channels.len() == 2
             && s.meta.reference_channel().is_some_and(|r| r != s.response);

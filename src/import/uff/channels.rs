@@ -3,7 +3,7 @@
 
 use super::types::{Abscissa, Dataset, Function, Ordinate, Precision, UffFile, function_type_name};
 use crate::harmonics::Quantity;
-use crate::import::{ChannelSpec, ImportSpec, Loaded, SampleRateSource, Source};
+use crate::import::{ChannelSpec, Column, ImportSpec, Loaded, SampleRateSource};
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -229,7 +229,7 @@ pub fn channels(path: &Path, file: &UffFile) -> Result<(Vec<ChannelSpec>, Vec<St
                         c.quantity.si_unit()
                     ));
                 }
-                let spec = ChannelSpec::new(Source::Index(d.index), c.quantity)
+                let spec = ChannelSpec::new(Column::Index(d.index), c.quantity)
                     .name(name)
                     .scale(c.scale);
                 found.push((f.ordinate_axis.data_type == 13, spec));
@@ -271,7 +271,7 @@ fn resolve<'a>(
         ));
     }
     match &c.source {
-        Source::Index(i) => {
+        Column::Index(i) => {
             let d = file.datasets.get(i.wrapping_sub(1)).ok_or_else(|| {
                 Error::plan(
                     &field,
@@ -296,7 +296,7 @@ fn resolve<'a>(
                 )),
             }
         }
-        Source::Name(name) => {
+        Column::Name(name) => {
             let hits: Vec<(&Dataset, &Function)> = file
                 .functions()
                 .filter(|(d, f)| {
@@ -362,7 +362,7 @@ pub(crate) fn load(path: &Path, file: &UffFile, spec: &ImportSpec) -> Result<(Im
     for k in 0..spec.channels.len() {
         let (d, f) = resolve(path, file, &spec.channels[k], k)?;
         let c = &mut spec.channels[k];
-        if c.name.is_none() && matches!(c.source, Source::Index(_)) {
+        if c.name.is_none() && matches!(c.source, Column::Index(_)) {
             // `#3` would read `column_3`: the dataset's own name instead
             c.name = Some(default_name(d, f, c.quantity));
         }
