@@ -39,7 +39,10 @@ impl Layout {
             );
         }
         if let Some(j) = joint
-            && let Some((name, v)) = j.parameters().into_iter().find(|(_, v)| !(*v > 0.0))
+            && let Some((name, v)) = j
+                .parameters()
+                .into_iter()
+                .find(|(_, v)| *v <= 0.0 || !v.is_finite())
         {
             return Err(Error::model(
                 name,

@@ -172,7 +172,7 @@ pub fn without_joint(
     let mut modes = Vec::with_capacity(n);
     for i in 0..n {
         let l = eigen.eigenvalues[i];
-        if !(l > 0.0) {
+        if l <= 0.0 || l.is_nan() {
             return Err(Error::model(
                 "kd",
                 format!("a stick stiffness of {kd} N/m leaves a mode without stiffness"),
