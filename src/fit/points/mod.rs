@@ -17,7 +17,7 @@
 //!
 //! each residual's real and imaginary parts divided by the line's weight
 //! `w_p` (the measured standard error, else the response's RMS over the
-//! level). Levenberg–Marquardt ([`levenberg_marquardt`]) minimises `Σ r²`
+//! level). Levenberg–Marquardt ([`levenberg_marquardt()`]) minimises `Σ r²`
 //! over `θ = (ln f_r, ln ζ_r, φ_r(p)/|φ_r,0(p)|, ln p_joint)`; `ζ_r` is held
 //! within `[1e-4, 0.5]` and the joint's parameters within six decades of
 //! their start, the distance outside added as a penalty row (as
