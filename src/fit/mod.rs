@@ -12,6 +12,7 @@ pub use anchor::LinearAnchor;
 pub use linear::{FrfSample, SdofEstimate, fit_sdof};
 pub mod optimise;
 pub mod params;
+pub mod points;
 pub mod predict;
 pub mod problem;
 pub mod time;

@@ -1,0 +1,271 @@
+//! A multi-response FRF fit of a structure seen at several points
+//! ([`PointModes`]) with one joint between two of them (or one point and
+//! the ground), driven at a third.
+//!
+//! The data are the first-harmonic FRFs `H_p = Y_p,1/F_1` of several
+//! response points (receptance, mobility or accelerance: the model's
+//! receptance is multiplied by `(jω)^k` as [`Quantity::from_displacement`]
+//! says), per drive level and line. The model is the structure's modes
+//! (`f_r`, `ζ_r` and the mass-normalised shape `φ_r(p)` at every point, all
+//! free) and the joint's law; each line is solved by harmonic balance of the
+//! joint's relative motion ([`JointReceptance`]) and every point's motion
+//! follows from the joint's force harmonics ([`point_harmonics`]):
+//!
+//! ```text
+//! X_p,1 = H_pd(ω) F − H_pj(ω) G_1,   r_p = (X_p,1 (jω)^k / F − H_p,measured) / w_p
+//! ```
+//!
+//! each residual's real and imaginary parts divided by the line's weight
+//! `w_p` (the measured standard error, else the response's RMS over the
+//! level). Levenberg–Marquardt ([`levenberg_marquardt()`]) minimises `Σ r²`
+//! over `θ = (ln f_r, ln ζ_r, φ_r(p)/|φ_r,0(p)|, ln p_joint)`; `ζ_r` is held
+//! within `[1e-4, 0.5]` and the joint's parameters within six decades of
+//! their start, the distance outside added as a penalty row (as
+//! [`super::params`] does).
+//!
+//! The start ([`start`]): the lowest level's FRFs fitted by the linear
+//! modes alone (the joint stuck, so inside the modes), from peaks picked on
+//! the summed receptance, then the joint's stated stick stiffness taken out
+//! of those modes in modal coordinates (`Ω² − k_d ψ ψᵀ`, `ψ_r = φ_r(a) −
+//! φ_r(b)`) to give the structure beside the joint.
+
+mod layout;
+mod problem;
+pub mod start;
+#[cfg(test)]
+mod tests;
+
+use super::optimise::{OptimiserRun, levenberg_marquardt};
+use crate::error::{Error, Result};
+use crate::extract::NonlinearFrf;
+use crate::harmonics::Quantity;
+use crate::hb::points::{JointReceptance, point_harmonics};
+use crate::model::{ElementSpec, PointModes};
+use layout::Layout;
+use num_complex::Complex64;
+use problem::JointProblem;
+use serde::{Deserialize, Serialize};
+
+pub use start::{linear_modes, lowest_level, without_joint};
+
+/// One measured line of one response point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointLine {
+    /// Hz.
+    pub frequency_hz: f64,
+    /// `|F_1|`, N.
+    pub force_amplitude: f64,
+    /// `H = Y_1/F_1` in the measurement's response quantity.
+    pub h: Complex64,
+    /// What a residual is divided by: the standard error of `h` when known,
+    /// else the response's RMS over the level.
+    pub weight: f64,
+}
+
+/// The lines of one drive level, in measurement order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointLevel {
+    /// Nominal level.
+    pub level: f64,
+    /// Lines in measurement order.
+    pub lines: Vec<PointLine>,
+}
+
+/// The first-harmonic FRFs of one response point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointMeasurement {
+    /// The point's index in the structure's points.
+    pub point: usize,
+    /// The response quantity of `h`.
+    pub response: Quantity,
+    /// The levels.
+    pub levels: Vec<PointLevel>,
+}
+
+impl PointMeasurement {
+    /// The first harmonic of `frf` at `point`: each line weighted by its
+    /// standard error where that is finite and positive, else by the RMS of
+    /// `|H_1|` over its level.
+    pub fn from_frf(point: usize, frf: &NonlinearFrf) -> Result<PointMeasurement> {
+        if !frf.response.is_motion() || frf.reference != Quantity::Force {
+            return Err(Error::input(
+                "frf",
+                format!(
+                    "a fit at points needs a motion over a force, got {} over {}",
+                    frf.response, frf.reference
+                ),
+            ));
+        }
+        let levels = frf
+            .levels
+            .iter()
+            .map(|l| {
+                let h1 = |p: &crate::extract::FrfPoint| p.h.get(1).copied().unwrap_or_default();
+                let rms = (l.points.iter().map(|p| h1(p).norm_sqr()).sum::<f64>()
+                    / l.points.len().max(1) as f64)
+                    .sqrt();
+                let lines = l
+                    .points
+                    .iter()
+                    .map(|p| {
+                        let se = p.std_error.get(1).copied().unwrap_or(f64::NAN);
+                        PointLine {
+                            frequency_hz: p.frequency_hz,
+                            force_amplitude: p.force_amplitude,
+                            h: h1(p),
+                            weight: if se.is_finite() && se > 0.0 { se } else { rms },
+                        }
+                    })
+                    .collect();
+                PointLevel {
+                    level: l.level,
+                    lines,
+                }
+            })
+            .collect();
+        Ok(PointMeasurement {
+            point,
+            response: frf.response,
+            levels,
+        })
+    }
+}
+
+/// A joint between two points of the structure.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PointJoint {
+    /// Its ends (`None`: the ground).
+    pub ends: (usize, Option<usize>),
+    /// Its law and parameters (every parameter positive: they are fitted in
+    /// log coordinates).
+    pub law: ElementSpec,
+}
+
+/// How the fit solves and how long it runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointFitOptions {
+    /// Harmonic-balance harmonics (odd, holding 1).
+    pub harmonics: Vec<usize>,
+    /// AFT samples per period.
+    pub samples_per_period: usize,
+    /// Levenberg–Marquardt's patience (residual evaluations per parameter).
+    pub patience: usize,
+}
+
+impl Default for PointFitOptions {
+    fn default() -> Self {
+        PointFitOptions {
+            harmonics: vec![1, 3, 5],
+            samples_per_period: 256,
+            patience: 100,
+        }
+    }
+}
+
+/// What [`fit_points`] found.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PointFit {
+    /// The structure beside the joint.
+    pub structure: PointModes,
+    /// The joint.
+    pub joint: PointJoint,
+    /// RMS of the weighted residuals (real and imaginary parts) at the
+    /// start.
+    pub start_rms: f64,
+    /// The same at the optimum.
+    pub residual_rms: f64,
+    /// Lines whose balance did not converge at the optimum.
+    pub failed_lines: usize,
+    /// The optimiser's run.
+    pub run: OptimiserRun,
+}
+
+/// Fits `structure` and `joint` (both as starts) to `data`, the structure
+/// driven at point `drive`, by Levenberg–Marquardt (see the module docs).
+///
+/// Errors: measurements whose levels or lines differ from one another, a
+/// point out of range, a joint parameter not positive.
+pub fn fit_points(
+    data: &[PointMeasurement],
+    structure: &PointModes,
+    drive: usize,
+    joint: &PointJoint,
+    options: &PointFitOptions,
+) -> Result<PointFit> {
+    structure.validate()?;
+    let layout = Layout::new(structure, Some(&joint.law))?;
+    let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?;
+    let theta0 = layout.theta_of(structure, Some(&joint.law));
+    let start_rms = problem.rms(&theta0)?.0;
+    let run = levenberg_marquardt(&problem, &theta0, options.patience)?;
+    let (residual_rms, failed_lines) = problem.rms(&run.theta)?;
+    let (structure, _) = layout.structure_at(&run.theta);
+    let (law, _) = layout
+        .joint_at(&run.theta)
+        .expect("the layout holds a joint");
+    Ok(PointFit {
+        structure,
+        joint: PointJoint {
+            ends: joint.ends,
+            law,
+        },
+        start_rms,
+        residual_rms,
+        failed_lines,
+        run,
+    })
+}
+
+/// Every response point's predicted first harmonic (`[level][line][m]`,
+/// in `data`'s quantities; `None` where the balance failed), solved along
+/// each level in measurement order from the previous line's solution.
+pub fn predict_points(
+    data: &[PointMeasurement],
+    structure: &PointModes,
+    drive: usize,
+    joint: &PointJoint,
+    options: &PointFitOptions,
+) -> Result<Vec<Vec<Option<Vec<Complex64>>>>> {
+    let shape = problem::check_lines(data, structure.points.len())?;
+    let receptance = JointReceptance {
+        structure,
+        drive,
+        ends: joint.ends,
+    };
+    let mut out = Vec::with_capacity(shape.len());
+    for (level, lines) in shape.iter().enumerate() {
+        let mut solver = crate::hb::HbSolver::new(&problem::hb_options(options))?;
+        let mut element = joint.law.build()?;
+        let mut guess: Option<Vec<Complex64>> = None;
+        let mut predicted = Vec::with_capacity(*lines);
+        for line in 0..*lines {
+            let at = data[0].levels[level].lines[line];
+            let solved = solver.solve_point(
+                &receptance,
+                &mut element,
+                at.frequency_hz,
+                at.force_amplitude,
+                guess.as_deref(),
+            );
+            let point = match solved {
+                Ok(p) if p.converged => p,
+                _ => {
+                    guess = None;
+                    predicted.push(None);
+                    continue;
+                }
+            };
+            let one = point.harmonics.iter().position(|&k| k == 1).unwrap_or(0);
+            let x = point_harmonics(&receptance, &point);
+            let w = 2.0 * std::f64::consts::PI * at.frequency_hz;
+            predicted.push(Some(
+                data.iter()
+                    .map(|m| x[m.point][one] / at.force_amplitude * m.response.from_displacement(w))
+                    .collect(),
+            ));
+            guess = Some(point.x);
+        }
+        out.push(predicted);
+    }
+    Ok(out)
+}

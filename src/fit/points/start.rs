@@ -1,0 +1,206 @@
+//! The fit's start: the linear modes of the lowest level, where the joint
+//! sticks, and the structure beside the joint once its stick stiffness is
+//! taken out of them.
+//!
+//! The linear modes start from peaks of the summed, normalised receptances
+//! `Σ_p |H_pd|/max|H_pd|` (a parabola through each peak's three lines in
+//! `ln`), a damping ratio of [`START_DAMPING`], and shapes from the peak's
+//! quadrature response, `Im H_pd(ω_r) ≈ −φ_r(p) φ_r(d)/(2 ζ_r ω_r²)`, then
+//! Levenberg–Marquardt fits them to the level's FRFs.
+
+use super::layout::Layout;
+use super::problem::{LinearProblem, check_lines};
+use super::{PointMeasurement, PointModes};
+use crate::error::{Error, Result};
+use crate::fit::optimise::levenberg_marquardt;
+use crate::model::ShapedMode;
+use num_complex::Complex64;
+use std::f64::consts::PI;
+use std::sync::atomic::AtomicUsize;
+
+/// The damping ratio every mode starts at.
+pub const START_DAMPING: f64 = 0.02;
+
+/// The level of the smallest median force amplitude.
+pub fn lowest_level(data: &[PointMeasurement]) -> Result<usize> {
+    let first = data
+        .first()
+        .ok_or_else(|| Error::input("data", "no measurement"))?;
+    let median = |l: &super::PointLevel| {
+        let mut f: Vec<f64> = l.lines.iter().map(|x| x.force_amplitude).collect();
+        f.sort_by(f64::total_cmp);
+        f.get(f.len() / 2).copied().unwrap_or(f64::INFINITY)
+    };
+    (0..first.levels.len())
+        .min_by(|&a, &b| median(&first.levels[a]).total_cmp(&median(&first.levels[b])))
+        .ok_or_else(|| Error::input("data", "no level"))
+}
+
+/// The receptance of measurement `m` at each line of `level`.
+fn receptances(m: &PointMeasurement, level: usize) -> Vec<Complex64> {
+    m.levels[level]
+        .lines
+        .iter()
+        .map(|l| l.h / m.response.from_displacement(2.0 * PI * l.frequency_hz))
+        .collect()
+}
+
+/// `modes` peaks of the summed normalised receptances, lowest first: each
+/// line's index and the frequency of the parabola's vertex through it and
+/// its neighbours (in `ln` of the sum).
+fn peaks(data: &[PointMeasurement], level: usize, modes: usize) -> Result<Vec<(usize, f64)>> {
+    let f: Vec<f64> = data[0].levels[level]
+        .lines
+        .iter()
+        .map(|l| l.frequency_hz)
+        .collect();
+    let mut sum = vec![0.0; f.len()];
+    for m in data {
+        let r = receptances(m, level);
+        let top = r.iter().fold(0.0, |a: f64, h| a.max(h.norm()));
+        sum.iter_mut()
+            .zip(&r)
+            .for_each(|(s, h)| *s += h.norm() / top.max(f64::MIN_POSITIVE));
+    }
+    let mut found: Vec<usize> = (1..f.len().saturating_sub(1))
+        .filter(|&i| sum[i] > sum[i - 1] && sum[i] >= sum[i + 1])
+        .collect();
+    if found.len() < modes {
+        return Err(Error::input(
+            "data",
+            format!(
+                "{} peaks in the lowest level for {modes} modes",
+                found.len()
+            ),
+        ));
+    }
+    found.sort_by(|&a, &b| sum[b].total_cmp(&sum[a]));
+    found.truncate(modes);
+    found.sort_unstable();
+    Ok(found
+        .into_iter()
+        .map(|i| {
+            let (x, y) = (
+                [f[i - 1], f[i], f[i + 1]],
+                [sum[i - 1], sum[i], sum[i + 1]].map(f64::ln),
+            );
+            // the vertex of the parabola through three points
+            let d1 = (y[1] - y[0]) / (x[1] - x[0]);
+            let d2 = (y[2] - y[1]) / (x[2] - x[1]);
+            let a = (d2 - d1) / (x[2] - x[0]);
+            let vertex = if a < 0.0 {
+                0.5 * (x[0] + x[1]) - d1 / (2.0 * a)
+            } else {
+                x[1]
+            };
+            (i, vertex.clamp(x[0], x[2]))
+        })
+        .collect())
+}
+
+/// The linear modes (`modes` of them) fitted to level `level` alone, the
+/// structure driven at `drive` and every point measured: the structure
+/// with the joint stuck at that level. Returns them and the RMS of the
+/// weighted residuals.
+pub fn linear_modes(
+    data: &[PointMeasurement],
+    points: Vec<String>,
+    drive: usize,
+    modes: usize,
+    level: usize,
+) -> Result<(PointModes, f64)> {
+    check_lines(data, points.len())?;
+    let at = |p: usize| data.iter().find(|m| m.point == p);
+    let Some(d) = at(drive) else {
+        return Err(Error::input("data", "the drive point needs a sensor"));
+    };
+    if (0..points.len()).any(|p| at(p).is_none()) {
+        return Err(Error::input("data", "every point needs a sensor"));
+    }
+    let mut start = Vec::with_capacity(modes);
+    for (i, f) in peaks(data, level, modes)? {
+        let w2 = (2.0 * PI * f).powi(2);
+        let constant =
+            |m: &PointMeasurement| -receptances(m, level)[i].im * 2.0 * START_DAMPING * w2;
+        let phi_d = constant(d).abs().sqrt().max(f64::MIN_POSITIVE);
+        start.push(ShapedMode {
+            frequency_hz: f,
+            damping_ratio: START_DAMPING,
+            shape: (0..points.len())
+                .map(|p| at(p).map_or(0.0, |m| constant(m) / phi_d))
+                .collect(),
+        });
+    }
+    let structure = PointModes {
+        points,
+        modes: start,
+    };
+    let layout = Layout::new(&structure, None)?;
+    let problem = LinearProblem {
+        data,
+        level,
+        layout: &layout,
+        drive,
+        evaluations: AtomicUsize::new(0),
+    };
+    let run = levenberg_marquardt(&problem, &layout.theta_of(&structure, None), 200)?;
+    Ok((layout.structure_at(&run.theta).0, problem.rms(&run.theta)))
+}
+
+/// The structure beside a joint of stick stiffness `kd` between `ends`,
+/// from the modes of the structure with the joint stuck: in the stuck
+/// modes' coordinates the stiffness is `Ω² − kd ψ ψᵀ` (`ψ_r = φ_r(a) −
+/// φ_r(b)`, the mass the identity), whose eigenvectors `v_i` give the
+/// shapes `Φ v_i`; each new mode's damping ratio is the stuck ones' mean
+/// weighted by `v_i,r²`. Exact for a complete set of modes.
+///
+/// Errors: a `kd` that leaves a mode without stiffness.
+pub fn without_joint(
+    stuck: &PointModes,
+    ends: (usize, Option<usize>),
+    kd: f64,
+) -> Result<PointModes> {
+    stuck.validate()?;
+    let n = stuck.modes.len();
+    let site = crate::model::Site::Across(ends.0, ends.1);
+    let psi: Vec<f64> = stuck.modes.iter().map(|m| m.at(site)).collect();
+    let k = nalgebra::DMatrix::from_fn(n, n, |r, s| {
+        let w = 2.0 * PI * stuck.modes[r].frequency_hz;
+        (if r == s { w * w } else { 0.0 }) - kd * psi[r] * psi[s]
+    });
+    let eigen = nalgebra::SymmetricEigen::new(k);
+    let mut modes = Vec::with_capacity(n);
+    for i in 0..n {
+        let l = eigen.eigenvalues[i];
+        if l <= 0.0 || l.is_nan() {
+            return Err(Error::model(
+                "kd",
+                format!("a stick stiffness of {kd} N/m leaves a mode without stiffness"),
+            ));
+        }
+        let v = eigen.eigenvectors.column(i);
+        let mut shape: Vec<f64> = (0..stuck.points.len())
+            .map(|p| (0..n).map(|r| stuck.modes[r].shape[p] * v[r]).sum())
+            .collect();
+        let largest = shape
+            .iter()
+            .fold(0.0, |m: f64, &x| if x.abs() > m.abs() { x } else { m });
+        if largest < 0.0 {
+            shape.iter_mut().for_each(|x| *x = -*x);
+        }
+        modes.push(ShapedMode {
+            frequency_hz: l.sqrt() / (2.0 * PI),
+            damping_ratio: (0..n)
+                .map(|r| v[r] * v[r] * stuck.modes[r].damping_ratio)
+                .sum(),
+            shape,
+        });
+    }
+    modes.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
+    let out = PointModes {
+        points: stuck.points.clone(),
+        modes,
+    };
+    out.validate()?;
+    Ok(out)
+}
