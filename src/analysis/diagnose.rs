@@ -1055,6 +1055,7 @@ pub fn markdown(d: &Diagnosis, reference: crate::harmonics::Quantity, seconds: f
                 Verdict::Kept => "**yes**",
                 Verdict::DroppedLater => "no: dropped later",
                 Verdict::SizeNotResolved => "no: size not resolved",
+                Verdict::NotSeenAtAnyPoint => "no: within the noise at every point",
                 Verdict::AnotherDidBetter => "no: another did better",
                 Verdict::BelowCriterion => "no",
                 Verdict::NotConfirmedInTime => "no: not confirmed in the time domain",

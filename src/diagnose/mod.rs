@@ -43,7 +43,7 @@ pub use features::{ResidualFeatures, features};
 pub(crate) use starts::scan_start;
 
 use conclude::{Cascade, Conclusion, conclude, drop_cascade, mark_dropped};
-use resolution::{Intervals, confidence_at, unresolved_in};
+use resolution::{Intervals, confidence_at, largest_change, unresolved_in};
 use starts::{lower_levels_fit, lower_levels_joint};
 use trials::{Trials, rank, try_candidate};
 
@@ -145,7 +145,20 @@ pub struct CandidateReport {
     /// Why a candidate that passed the criterion was still not kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// The largest change the refit made to the predicted FRFs of the model
+    /// it was tried on, at any measured point and harmonic judged, in
+    /// measured standard errors of that point (see [`VISIBLE_CHANGE`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub largest_change: Option<f64>,
 }
+
+/// The least an added effect must change the model's predicted FRFs at
+/// one measured point at least, in measured standard errors of that point,
+/// to be kept (see [`CandidateReport::largest_change`]). Not scaled by the
+/// reduced `χ²` as the information criterion is: a model far from the data
+/// misses them most at a few points, and an effect that mends a part of
+/// that is seen by its own points' noise, not by the misfit elsewhere.
+pub const VISIBLE_CHANGE: f64 = 3.0;
 
 /// What became of a candidate refit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -162,6 +175,10 @@ pub enum Verdict {
     /// Passed the information criterion, but another candidate of its round
     /// did better.
     AnotherDidBetter,
+    /// Passed the information criterion, but moved no measured point by
+    /// [`VISIBLE_CHANGE`] of its standard error: a χ² drop pooled from
+    /// changes each within the noise.
+    NotSeenAtAnyPoint,
     /// Did not lower `χ²` by what the information criterion asks.
     #[default]
     BelowCriterion,
@@ -891,6 +908,7 @@ pub fn diagnose_observed(
                     Verdict::BelowCriterion
                 },
                 note: None,
+                largest_change: Some(largest_change(&data, &current.pred, &r.pred)),
             };
             round_results.push((report, r));
         }
@@ -918,6 +936,15 @@ pub fn diagnose_observed(
             observer(DiagnoseEvent::Checking {
                 effect: EffectName(rep.effect.name()),
             });
+            if let Some(seen) = rep.largest_change.filter(|c| *c < VISIBLE_CHANGE) {
+                rep.note = Some(format!(
+                    "lowered χ² enough, but moves no measured point by more than {seen:.2} of its noise \
+                     (at least {VISIBLE_CHANGE} asked): a drop pooled from changes each within the noise, \
+                     as a model's own small inaccuracies give"
+                ));
+                rep.verdict = Verdict::NotSeenAtAnyPoint;
+                continue;
+            }
             let why = match Intervals::at(r, &data, predictor) {
                 Ok(intervals) => match unresolved_in(rep.effect, r, &intervals, &data) {
                     None => {

@@ -102,3 +102,89 @@ pub(super) fn confidence_at(
     let theta = params.theta_of(model)?;
     crate::fit::identify::confidence(&problem, &theta, pred)
 }
+
+/// The largest change `after` makes to `before`'s predicted FRFs at any
+/// measured point and harmonic judged, in units of that point's standard
+/// error: how far the effect a refit added shows at the one point that
+/// sees it best. A χ² drop pooled from many points that each move by a
+/// fraction of their noise is what a model's own small inaccuracies (a
+/// floor below the noise, the same at every point) also give; an effect of
+/// the structure shows at some point by more than its noise.
+pub(super) fn largest_change(data: &FitData, before: &Prediction, after: &Prediction) -> f64 {
+    let mut largest = 0.0f64;
+    for (s, series) in data.series.iter().enumerate() {
+        for (p, point) in series.points.iter().enumerate() {
+            let at = |pred: &Prediction| pred.h.get(s)?.get(p)?.clone();
+            let (Some(b), Some(a)) = (at(before), at(after)) else {
+                continue;
+            };
+            for ((x, y), sigma) in b.iter().zip(&a).zip(&point.std_error) {
+                if *sigma > 0.0 {
+                    largest = largest.max((x - y).norm() / sigma);
+                }
+            }
+        }
+    }
+    largest
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extract::Direction;
+    use crate::fit::{MeasuredPoint, MeasuredSeries};
+    use crate::harmonics::Quantity;
+    use num_complex::Complex64;
+
+    fn point(f: f64, sigma: [f64; 2]) -> MeasuredPoint {
+        MeasuredPoint {
+            frequency_hz: f,
+            force_amplitude: 1.0,
+            h: vec![Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0)],
+            std_error: sigma.to_vec(),
+            blocks: 16,
+        }
+    }
+
+    /// The largest change is read point by point and harmonic by harmonic in
+    /// that point's own standard error, not pooled: a change of 0.5 at a
+    /// point of σ = 0.1 is 5σ, however small the other points' changes;
+    /// a point whose solve failed on either side is passed over.
+    #[test]
+    fn the_largest_change_is_counted_in_each_points_own_noise() {
+        let data = FitData {
+            response: Quantity::Displacement,
+            harmonics: vec![1, 2],
+            series: vec![MeasuredSeries {
+                level: 1.0,
+                direction: Direction::Up,
+                points: vec![
+                    point(10.0, [1.0, 1.0]),
+                    point(11.0, [0.1, 0.5]),
+                    point(12.0, [1.0, 1.0]),
+                ],
+            }],
+            response_sign: 1.0,
+            transfer: false,
+            unusable_points: 0,
+            anchor: None,
+        };
+        let h = |v: [[f64; 2]; 3]| Prediction {
+            h: vec![
+                v.iter()
+                    .map(|p| Some(p.iter().map(|x| Complex64::new(*x, 0.0)).collect()))
+                    .collect(),
+            ],
+            ..Prediction::default()
+        };
+        let before = h([[1.0, 0.0], [1.0, 0.0], [1.0, 0.0]]);
+        let after = h([[1.2, 0.0], [1.0, 0.5], [1.0, 0.0]]);
+        // 0.2/1 at the first point's H1, 0.5/0.5 at the second's H2
+        assert!((largest_change(&data, &before, &after) - 1.0).abs() < 1e-12);
+        let after = h([[1.2, 0.0], [1.5, 0.0], [1.0, 0.0]]);
+        assert!((largest_change(&data, &before, &after) - 5.0).abs() < 1e-12);
+        let mut failed = after.clone();
+        failed.h[0][1] = None;
+        assert!((largest_change(&data, &before, &failed) - 0.2).abs() < 1e-12);
+    }
+}
