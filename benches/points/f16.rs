@@ -140,14 +140,7 @@ pub fn laws() -> [&'static str; 2] {
 fn start(data: &[PointMeasurement], law: &str) -> (PointModes, PointJoint) {
     let lowest = lowest_level(data).expect("levels");
     let points = RESPONSES.iter().map(|s| s.to_string()).collect();
-    let (stuck, lrms) = linear_modes_beside(data, points, 0, MODES, lowest).expect("linear modes");
-    eprintln!("linear rms {lrms:.2}");
-    for m in &stuck.modes {
-        eprintln!(
-            "  {:.3} Hz {:.4} {:?}",
-            m.frequency_hz, m.damping_ratio, m.shape
-        );
-    }
+    let (stuck, _) = linear_modes_beside(data, points, 0, MODES, lowest).expect("linear modes");
     let kd = 0.1
         * stuck
             .modes
@@ -246,12 +239,6 @@ pub fn judge(levels: &[Level], law: &str) -> Value {
         together.run.status,
         fit_s
     );
-    for m in &together.structure.modes {
-        eprintln!(
-            "  {:.3} Hz {:.4} {:?}",
-            m.frequency_hz, m.damping_ratio, m.shape
-        );
-    }
     let held: Vec<Value> = HELD
         .iter()
         .map(|&i| {

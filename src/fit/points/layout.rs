@@ -23,6 +23,10 @@ pub(super) struct Layout {
     scales: Vec<f64>,
     /// `ln f_r` at the start.
     frequencies: Vec<f64>,
+    /// How far each `ln f_r` may move from its start.
+    frequency_ranges: Vec<f64>,
+    /// Each mode's lowest `ln ζ_r`.
+    zeta_floors: Vec<f64>,
     /// The joint's start, if there is a joint.
     joint: Option<ElementSpec>,
 }
@@ -64,8 +68,21 @@ impl Layout {
                 .iter()
                 .map(|m| m.frequency_hz.ln())
                 .collect(),
+            frequency_ranges: vec![FREQUENCY_RANGE; structure.modes.len()],
+            zeta_floors: vec![ZETA_BOUNDS.0.ln(); structure.modes.len()],
             joint: joint.copied(),
         })
+    }
+
+    /// Modes starting outside `lines_hz` are seen only through what they
+    /// leave inside: their damping ratios are held at `floor` or more.
+    pub(super) fn damped_outside(mut self, lines_hz: (f64, f64), floor: f64) -> Layout {
+        for (r, f) in self.frequencies.iter().enumerate() {
+            if !(lines_hz.0.ln()..=lines_hz.1.ln()).contains(f) {
+                self.zeta_floors[r] = floor.ln();
+            }
+        }
+        self
     }
 
     /// Number of points.
@@ -106,13 +123,14 @@ impl Layout {
         let modes = (0..self.modes)
             .map(|r| {
                 let lz = theta[2 * r + 1];
-                let (lo, hi) = (ZETA_BOUNDS.0.ln(), ZETA_BOUNDS.1.ln());
+                let (lo, hi) = (self.zeta_floors[r], ZETA_BOUNDS.1.ln());
                 outside += (lo - lz).max(0.0) + (lz - hi).max(0.0);
                 let (lf, c) = (theta[2 * r], self.frequencies[r]);
-                outside += ((lf - c).abs() - FREQUENCY_RANGE).max(0.0);
+                let range = self.frequency_ranges[r];
+                outside += ((lf - c).abs() - range).max(0.0);
                 let at = self.shapes_at() + r * n;
                 ShapedMode {
-                    frequency_hz: lf.clamp(c - FREQUENCY_RANGE, c + FREQUENCY_RANGE).exp(),
+                    frequency_hz: lf.clamp(c - range, c + range).exp(),
                     damping_ratio: lz.clamp(lo, hi).exp(),
                     shape: (0..n)
                         .map(|p| theta[at + p] * self.scales[r * n + p])

@@ -166,29 +166,31 @@ pub fn linear_modes_beside(
                 .collect(),
         });
     }
-    let (mut structure, mut rms) = refined(data, points, drive, start, level)?;
+    let (mut structure, mut rms) = refined(data, (points, start), drive, level)?;
     if !modes.1.is_empty() {
         let outside = outside_modes(data, &structure, drive, modes.1, level);
         let mut all = structure.modes.clone();
         all.extend(outside);
-        (structure, rms) = refined(data, structure.points, drive, all, level)?;
+        let points = structure.points;
+        (structure, rms) = refined(data, (points, all), drive, level)?;
     }
     Ok((structure, rms))
 }
 
-/// `start` fitted to level `level` by Levenberg–Marquardt.
+/// `start` fitted to level `level` by Levenberg–Marquardt, the modes
+/// outside the lines damped at [`START_DAMPING`] or more.
 fn refined(
     data: &[PointMeasurement],
-    points: Vec<String>,
+    (points, start): (Vec<String>, Vec<ShapedMode>),
     drive: usize,
-    start: Vec<ShapedMode>,
     level: usize,
 ) -> Result<(PointModes, f64)> {
     let structure = PointModes {
         points,
         modes: start,
     };
-    let layout = Layout::new(&structure, None)?;
+    let layout = Layout::new(&structure, None)?
+        .damped_outside(super::problem::lines_hz(data), START_DAMPING);
     let problem = LinearProblem {
         data,
         level,
