@@ -7,6 +7,10 @@ use crate::model::{ElementSpec, PointModes, ShapedMode};
 
 /// The damping ratios a mode may take.
 const ZETA_BOUNDS: (f64, f64) = (1e-4, 0.5);
+/// How far (in `ln`) a mode's frequency may move from its start: a factor
+/// 1.25 either way, so that a small mode is not traded for a second copy of a
+/// large one beside it.
+const FREQUENCY_RANGE: f64 = 0.223_143_551_314_209_7;
 /// How far (in `ln`) a joint parameter may move from its start: six decades.
 const JOINT_RANGE: f64 = 13.815_510_557_964_274;
 
@@ -17,6 +21,12 @@ pub(super) struct Layout {
     modes: usize,
     /// `|φ_r,0(p)|` (or the mode's largest where that is zero), mode-major.
     scales: Vec<f64>,
+    /// `ln f_r` at the start.
+    frequencies: Vec<f64>,
+    /// How far each `ln f_r` may move from its start.
+    frequency_ranges: Vec<f64>,
+    /// Each mode's lowest `ln ζ_r`.
+    zeta_floors: Vec<f64>,
     /// The joint's start, if there is a joint.
     joint: Option<ElementSpec>,
 }
@@ -53,8 +63,26 @@ impl Layout {
             points: structure.points.clone(),
             modes: structure.modes.len(),
             scales,
+            frequencies: structure
+                .modes
+                .iter()
+                .map(|m| m.frequency_hz.ln())
+                .collect(),
+            frequency_ranges: vec![FREQUENCY_RANGE; structure.modes.len()],
+            zeta_floors: vec![ZETA_BOUNDS.0.ln(); structure.modes.len()],
             joint: joint.copied(),
         })
+    }
+
+    /// Modes starting outside `lines_hz` are seen only through what they
+    /// leave inside: their damping ratios are held at `floor` or more.
+    pub(super) fn damped_outside(mut self, lines_hz: (f64, f64), floor: f64) -> Layout {
+        for (r, f) in self.frequencies.iter().enumerate() {
+            if !(lines_hz.0.ln()..=lines_hz.1.ln()).contains(f) {
+                self.zeta_floors[r] = floor.ln();
+            }
+        }
+        self
     }
 
     /// Number of points.
@@ -86,19 +114,23 @@ impl Layout {
         theta
     }
 
-    /// The structure at `theta` and the distance (in `ln ζ`) of its damping
-    /// ratios outside their bounds, those held at the bound.
+    /// The structure at `theta` and the distance (in `ln`) of its damping
+    /// ratios and frequencies outside their bounds, those held at the
+    /// bound.
     pub(super) fn structure_at(&self, theta: &[f64]) -> (PointModes, f64) {
         let n = self.points.len();
         let mut outside = 0.0;
         let modes = (0..self.modes)
             .map(|r| {
                 let lz = theta[2 * r + 1];
-                let (lo, hi) = (ZETA_BOUNDS.0.ln(), ZETA_BOUNDS.1.ln());
+                let (lo, hi) = (self.zeta_floors[r], ZETA_BOUNDS.1.ln());
                 outside += (lo - lz).max(0.0) + (lz - hi).max(0.0);
+                let (lf, c) = (theta[2 * r], self.frequencies[r]);
+                let range = self.frequency_ranges[r];
+                outside += ((lf - c).abs() - range).max(0.0);
                 let at = self.shapes_at() + r * n;
                 ShapedMode {
-                    frequency_hz: theta[2 * r].exp(),
+                    frequency_hz: lf.clamp(c - range, c + range).exp(),
                     damping_ratio: lz.clamp(lo, hi).exp(),
                     shape: (0..n)
                         .map(|p| theta[at + p] * self.scales[r * n + p])

@@ -19,8 +19,10 @@
 //! `w_p` (the measured standard error, else the response's RMS over the
 //! level). Levenberg–Marquardt ([`levenberg_marquardt()`]) minimises `Σ r²`
 //! over `θ = (ln f_r, ln ζ_r, φ_r(p)/|φ_r,0(p)|, ln p_joint)`; `ζ_r` is held
-//! within `[1e-4, 0.5]` and the joint's parameters within six decades of
-//! their start, the distance outside added as a penalty row (as
+//! within `[1e-4, 0.5]` (`[0.02, 0.5]` for a mode starting outside the
+//! lines: only its residual is seen), `f_r` within a factor 1.25 of its
+//! start and the
+//! joint's parameters within six decades of their start, the distance outside added as a penalty row (as
 //! [`super::params`] does).
 //!
 //! The start ([`start`]): the lowest level's FRFs fitted by the linear
@@ -46,7 +48,7 @@ use num_complex::Complex64;
 use problem::JointProblem;
 use serde::{Deserialize, Serialize};
 
-pub use start::{linear_modes, lowest_level, without_joint};
+pub use start::{linear_modes, linear_modes_beside, lowest_level, without_joint};
 
 /// One measured line of one response point.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -193,7 +195,8 @@ pub fn fit_points(
     options: &PointFitOptions,
 ) -> Result<PointFit> {
     structure.validate()?;
-    let layout = Layout::new(structure, Some(&joint.law))?;
+    let layout = Layout::new(structure, Some(&joint.law))?
+        .damped_outside(problem::lines_hz(data), start::START_DAMPING);
     let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?;
     let theta0 = layout.theta_of(structure, Some(&joint.law));
     let start_rms = problem.rms(&theta0)?.0;

@@ -55,6 +55,16 @@ pub(super) fn check_lines(data: &[PointMeasurement], points: usize) -> Result<Ve
     Ok(shape)
 }
 
+/// The lowest and highest line of every level of `data`, Hz.
+pub(super) fn lines_hz(data: &[PointMeasurement]) -> (f64, f64) {
+    let all = data
+        .iter()
+        .flat_map(|m| &m.levels)
+        .flat_map(|l| &l.lines)
+        .map(|l| l.frequency_hz);
+    all.fold((f64::INFINITY, 0.0), |(lo, hi), f| (lo.min(f), hi.max(f)))
+}
+
 /// The residual pair of one line: `(predicted − measured)/weight`; a line
 /// not solved counts as twice the measurement, worse than predicting
 /// nothing, so that an optimiser steps back from it.

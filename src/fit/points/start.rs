@@ -45,9 +45,27 @@ fn receptances(m: &PointMeasurement, level: usize) -> Vec<Complex64> {
         .collect()
 }
 
-/// `modes` peaks of the summed normalised receptances, lowest first: each
-/// line's index and the frequency of the parabola's vertex through it and
-/// its neighbours (in `ln` of the sum).
+/// How far `y[i]` stands above the higher of the lowest values on either
+/// side before a higher one (or the end): a ripple beside a resonance
+/// stands out less than a small mode of its own.
+fn prominence(y: &[f64], i: usize) -> f64 {
+    let side = |range: &mut dyn Iterator<Item = usize>| {
+        let mut low = y[i];
+        for j in range {
+            if y[j] > y[i] {
+                break;
+            }
+            low = low.min(y[j]);
+        }
+        low
+    };
+    y[i] - side(&mut (0..i).rev()).max(side(&mut (i + 1..y.len())))
+}
+
+/// `modes` peaks of the summed normalised receptances, the most prominent
+/// ([`prominence`]), in measurement order: each line's index and the
+/// frequency of the parabola's vertex through it and its neighbours (in
+/// `ln` of the sum).
 fn peaks(data: &[PointMeasurement], level: usize, modes: usize) -> Result<Vec<(usize, f64)>> {
     let f: Vec<f64> = data[0].levels[level]
         .lines
@@ -74,7 +92,8 @@ fn peaks(data: &[PointMeasurement], level: usize, modes: usize) -> Result<Vec<(u
             ),
         ));
     }
-    found.sort_by(|&a, &b| sum[b].total_cmp(&sum[a]));
+    let prominence: Vec<f64> = (0..sum.len()).map(|i| prominence(&sum, i)).collect();
+    found.sort_by(|&a, &b| prominence[b].total_cmp(&prominence[a]));
     found.truncate(modes);
     found.sort_unstable();
     Ok(found
@@ -93,7 +112,8 @@ fn peaks(data: &[PointMeasurement], level: usize, modes: usize) -> Result<Vec<(u
             } else {
                 x[1]
             };
-            (i, vertex.clamp(x[0], x[2]))
+            // lines in measurement order: a sweep down has them falling
+            (i, vertex.clamp(x[0].min(x[2]), x[0].max(x[2])))
         })
         .collect())
 }
@@ -109,6 +129,21 @@ pub fn linear_modes(
     modes: usize,
     level: usize,
 ) -> Result<(PointModes, f64)> {
+    linear_modes_beside(data, points, drive, (modes, &[]), level)
+}
+
+/// [`linear_modes`] with modes outside the lines besides: `modes.0` from
+/// the peaks, then one at each of `modes.1` (Hz; the residual of modes
+/// below and above the band), whose products `φ_r(p) φ_r(d)` start as the
+/// least-squares fit of what the peaks' modes leave of each receptance (at
+/// [`START_DAMPING`]); then all are fitted together.
+pub fn linear_modes_beside(
+    data: &[PointMeasurement],
+    points: Vec<String>,
+    drive: usize,
+    modes: (usize, &[f64]),
+    level: usize,
+) -> Result<(PointModes, f64)> {
     check_lines(data, points.len())?;
     let at = |p: usize| data.iter().find(|m| m.point == p);
     let Some(d) = at(drive) else {
@@ -117,8 +152,8 @@ pub fn linear_modes(
     if (0..points.len()).any(|p| at(p).is_none()) {
         return Err(Error::input("data", "every point needs a sensor"));
     }
-    let mut start = Vec::with_capacity(modes);
-    for (i, f) in peaks(data, level, modes)? {
+    let mut start = Vec::with_capacity(modes.0 + modes.1.len());
+    for (i, f) in peaks(data, level, modes.0)? {
         let w2 = (2.0 * PI * f).powi(2);
         let constant =
             |m: &PointMeasurement| -receptances(m, level)[i].im * 2.0 * START_DAMPING * w2;
@@ -131,11 +166,31 @@ pub fn linear_modes(
                 .collect(),
         });
     }
+    let (mut structure, mut rms) = refined(data, (points, start), drive, level)?;
+    if !modes.1.is_empty() {
+        let outside = outside_modes(data, &structure, drive, modes.1, level);
+        let mut all = structure.modes.clone();
+        all.extend(outside);
+        let points = structure.points;
+        (structure, rms) = refined(data, (points, all), drive, level)?;
+    }
+    Ok((structure, rms))
+}
+
+/// `start` fitted to level `level` by Levenberg–Marquardt, the modes
+/// outside the lines damped at [`START_DAMPING`] or more.
+fn refined(
+    data: &[PointMeasurement],
+    (points, start): (Vec<String>, Vec<ShapedMode>),
+    drive: usize,
+    level: usize,
+) -> Result<(PointModes, f64)> {
     let structure = PointModes {
         points,
         modes: start,
     };
-    let layout = Layout::new(&structure, None)?;
+    let layout = Layout::new(&structure, None)?
+        .damped_outside(super::problem::lines_hz(data), START_DAMPING);
     let problem = LinearProblem {
         data,
         level,
@@ -145,6 +200,56 @@ pub fn linear_modes(
     };
     let run = levenberg_marquardt(&problem, &layout.theta_of(&structure, None), 200)?;
     Ok((layout.structure_at(&run.theta).0, problem.rms(&run.theta)))
+}
+
+/// Modes at `frequencies` whose products `c_p = φ(p) φ(d)` fit, by least
+/// squares over the level's lines, what `structure` leaves of each
+/// receptance; `φ(d) = √|c_d|`.
+fn outside_modes(
+    data: &[PointMeasurement],
+    structure: &PointModes,
+    drive: usize,
+    frequencies: &[f64],
+    level: usize,
+) -> Vec<ShapedMode> {
+    let lines = &data[0].levels[level].lines;
+    let basis = |f: f64, w: f64| {
+        let wr = 2.0 * PI * f;
+        1.0 / Complex64::new(wr * wr - w * w, 2.0 * START_DAMPING * w * wr)
+    };
+    let n = frequencies.len();
+    let a = nalgebra::DMatrix::from_fn(2 * lines.len(), n, |row, r| {
+        let b = basis(frequencies[r], 2.0 * PI * lines[row / 2].frequency_hz);
+        if row % 2 == 0 { b.re } else { b.im }
+    });
+    let svd = a.svd(true, true);
+    let mut c = vec![vec![0.0; n]; structure.points.len()];
+    for m in data {
+        let measured = receptances(m, level);
+        let left = nalgebra::DVector::from_fn(2 * lines.len(), |row, _| {
+            let w = 2.0 * PI * lines[row / 2].frequency_hz;
+            let model = structure.receptance_between(
+                crate::model::Site::Point(m.point),
+                crate::model::Site::Point(drive),
+                w,
+            );
+            let e = measured[row / 2] - model;
+            if row % 2 == 0 { e.re } else { e.im }
+        });
+        if let Ok(x) = svd.solve(&left, 1e-12) {
+            c[m.point] = x.iter().copied().collect();
+        }
+    }
+    (0..n)
+        .map(|r| {
+            let phi_d = c[drive][r].abs().sqrt().max(f64::MIN_POSITIVE);
+            ShapedMode {
+                frequency_hz: frequencies[r],
+                damping_ratio: START_DAMPING,
+                shape: c.iter().map(|cp| cp[r] / phi_d).collect(),
+            }
+        })
+        .collect()
 }
 
 /// The structure beside a joint of stick stiffness `kd` between `ends`,
