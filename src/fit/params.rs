@@ -140,6 +140,15 @@ impl Parameter {
         (self.value(theta), 0.0)
     }
 
+    /// The name of the element parameter it changes (its report name for
+    /// any other target).
+    pub fn target_name(&self) -> &str {
+        match &self.target {
+            Target::Element { name, .. } => name,
+            _ => &self.name,
+        }
+    }
+
     /// Reads the current value from a model.
     pub fn read(&self, model: &Model) -> Result<f64> {
         let mode = |i: usize| {
@@ -330,35 +339,23 @@ impl ParameterSet {
                 .map(|m| (MAX_STUCK_RATIO * MAX_STUCK_RATIO - 1.0) * m.modal_stiffness().abs()),
             _ => None,
         };
-        let parameters = e
-            .parameters()
-            .into_iter()
-            .map(|(name, value)| {
-                let (transform, mut bounds) = default_coordinates(e, name, value);
-                let stick = e
-                    .description()
-                    .parameters
-                    .iter()
-                    .any(|q| q.name == name && q.role == Role::StickStiffness);
-                if let Some(top) = stiffest.filter(|_| stick) {
-                    // never below the start: a start outside would be clamped
-                    bounds[1] = bounds[1].min(top.max(value));
-                }
-                Parameter {
-                    name: if prefix.is_empty() {
-                        name.to_string()
-                    } else {
-                        format!("{prefix}.{name}")
-                    },
-                    target: Target::Element {
-                        at,
-                        name: name.to_string(),
-                    },
-                    transform,
-                    bounds,
-                }
-            })
-            .collect();
+        ParameterSet {
+            parameters: law_parameters(e, at, prefix, stiffest),
+        }
+    }
+
+    /// The parameters of a joint's law `law` alone (no model around it),
+    /// with default transforms and bounds, its gauges (see [`Role::Gauge`])
+    /// left out: what the fit at points frees of its joint.
+    pub fn for_law(law: &ElementSpec) -> ParameterSet {
+        let mut parameters = law_parameters(law, ElementAt::Joint, "", None);
+        let gauge = |name: &str| {
+            law.description()
+                .parameters
+                .iter()
+                .any(|q| q.name == name && q.role == Role::Gauge)
+        };
+        parameters.retain(|p| !gauge(p.target_name()));
         ParameterSet { parameters }
     }
 
@@ -574,6 +571,44 @@ fn stick_stiffness_name(model: &Model, at: ElementAt) -> Result<&'static str> {
     d.index_of(Role::StickStiffness)
         .map(|i| d.parameters[i].name)
         .ok_or_else(|| Error::model(at.to_string(), format!("{} has no stick stiffness", d.name)))
+}
+
+/// The own parameters of `e` (at `at`) as free parameters, named with
+/// `prefix`; a stick stiffness no higher than `stiffest` (or its start).
+fn law_parameters(
+    e: &ElementSpec,
+    at: ElementAt,
+    prefix: &str,
+    stiffest: Option<f64>,
+) -> Vec<Parameter> {
+    e.parameters()
+        .into_iter()
+        .map(|(name, value)| {
+            let (transform, mut bounds) = default_coordinates(e, name, value);
+            let stick = e
+                .description()
+                .parameters
+                .iter()
+                .any(|q| q.name == name && q.role == Role::StickStiffness);
+            if let Some(top) = stiffest.filter(|_| stick) {
+                // never below the start: a start outside would be clamped
+                bounds[1] = bounds[1].min(top.max(value));
+            }
+            Parameter {
+                name: if prefix.is_empty() {
+                    name.to_string()
+                } else {
+                    format!("{prefix}.{name}")
+                },
+                target: Target::Element {
+                    at,
+                    name: name.to_string(),
+                },
+                transform,
+                bounds,
+            }
+        })
+        .collect()
 }
 
 /// A parameter's fit coordinate and bounds, from its law's description.

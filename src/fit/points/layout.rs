@@ -1,8 +1,10 @@
 //! The optimiser's coordinates of a structure at points and its joint:
 //! `ln f_r`, `ln ζ_r` per mode, then each shape value over its start's
-//! magnitude (signed), then the joint's parameters' logarithms.
+//! magnitude (signed), then the joint's free parameters in the coordinates
+//! and bounds the one-point fit gives them ([`ParameterSet::for_law`]).
 
 use crate::error::{Error, Result};
+use crate::fit::params::ParameterSet;
 use crate::model::{ElementSpec, PointModes, ShapedMode};
 
 /// The damping ratios a mode may take.
@@ -11,8 +13,6 @@ const ZETA_BOUNDS: (f64, f64) = (1e-4, 0.5);
 /// 1.25 either way, so that a small mode is not traded for a second copy of a
 /// large one beside it.
 const FREQUENCY_RANGE: f64 = 0.223_143_551_314_209_7;
-/// How far (in `ln`) a joint parameter may move from its start: six decades.
-const JOINT_RANGE: f64 = 13.815_510_557_964_274;
 
 /// Where each model number sits in `θ`.
 #[derive(Clone, Debug)]
@@ -27,8 +27,8 @@ pub(super) struct Layout {
     frequency_ranges: Vec<f64>,
     /// Each mode's lowest `ln ζ_r`.
     zeta_floors: Vec<f64>,
-    /// The joint's start, if there is a joint.
-    joint: Option<ElementSpec>,
+    /// The joint's start and its free parameters, if there is a joint.
+    joint: Option<(ElementSpec, ParameterSet)>,
 }
 
 impl Layout {
@@ -48,16 +48,8 @@ impl Layout {
                     .map(|v| if *v != 0.0 { v.abs() } else { largest }),
             );
         }
-        if let Some(j) = joint
-            && let Some((name, v)) = j
-                .parameters()
-                .into_iter()
-                .find(|(_, v)| *v <= 0.0 || !v.is_finite())
-        {
-            return Err(Error::model(
-                name,
-                format!("a fitted joint parameter must be positive, got {v}"),
-            ));
+        if let Some(j) = joint {
+            j.build()?;
         }
         Ok(Layout {
             points: structure.points.clone(),
@@ -70,8 +62,26 @@ impl Layout {
                 .collect(),
             frequency_ranges: vec![FREQUENCY_RANGE; structure.modes.len()],
             zeta_floors: vec![ZETA_BOUNDS.0.ln(); structure.modes.len()],
-            joint: joint.copied(),
+            joint: joint.map(|j| (*j, ParameterSet::for_law(j))),
         })
+    }
+
+    /// Each mode's frequency held nearer its own start than any other
+    /// mode's (half the distance, in `ln`, to the nearest): a mode started
+    /// from a peak of its own stays that peak's mode, and is not traded for a
+    /// second copy of a larger one beside it.
+    pub(super) fn apart(mut self) -> Layout {
+        for (r, f) in self.frequencies.iter().enumerate() {
+            let nearest = self
+                .frequencies
+                .iter()
+                .enumerate()
+                .filter(|&(s, _)| s != r)
+                .map(|(_, g)| (f - g).abs())
+                .fold(f64::INFINITY, f64::min);
+            self.frequency_ranges[r] = self.frequency_ranges[r].min(0.5 * nearest);
+        }
+        self
     }
 
     /// Modes starting outside `lines_hz` are seen only through what they
@@ -108,8 +118,18 @@ impl Layout {
             .collect();
         let shapes = structure.modes.iter().flat_map(|m| m.shape.iter());
         theta.extend(shapes.zip(&self.scales).map(|(v, s)| v / s));
-        if let Some(j) = joint {
-            theta.extend(j.parameters().iter().map(|(_, v)| v.ln()));
+        if let (Some(j), Some((_, free))) = (joint, &self.joint) {
+            let value = |name: &str| {
+                j.parameters()
+                    .into_iter()
+                    .find(|(n, _)| *n == name)
+                    .map_or(f64::NAN, |(_, v)| v)
+            };
+            theta.extend(
+                free.parameters
+                    .iter()
+                    .map(|p| p.theta(value(p.target_name()))),
+            );
         }
         theta
     }
@@ -147,23 +167,90 @@ impl Layout {
         )
     }
 
-    /// The joint at `theta` and the distance (in `ln`) of its parameters
-    /// beyond six decades from their start, those held there; `None` without
-    /// a joint.
+    /// The joint at `theta` (its held parameters at their start) and the
+    /// distance (in `θ`) of its free parameters outside their bounds, those
+    /// held at the bound; `None` without a joint.
     pub(super) fn joint_at(&self, theta: &[f64]) -> Option<(ElementSpec, f64)> {
-        let start = self.joint?;
+        let (start, free) = self.joint.as_ref()?;
         let at = self.joint_at_index();
         let mut outside = 0.0;
         let values: Vec<f64> = start
             .parameters()
             .iter()
-            .enumerate()
-            .map(|(i, (_, v0))| {
-                let (t, c) = (theta[at + i], v0.ln());
-                outside += ((t - c).abs() - JOINT_RANGE).max(0.0);
-                t.clamp(c - JOINT_RANGE, c + JOINT_RANGE).exp()
+            .map(|(name, v0)| {
+                let Some(i) = free
+                    .parameters
+                    .iter()
+                    .position(|p| p.target_name() == *name)
+                else {
+                    return *v0;
+                };
+                let (v, o) = free.parameters[i].clamped(theta[at + i]);
+                outside += o;
+                v
             })
             .collect();
         Some((start.with_parameters(&values), outside))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_modes() -> PointModes {
+        let mode = |f: f64| ShapedMode {
+            frequency_hz: f,
+            damping_ratio: 0.01,
+            shape: vec![0.5, -0.25],
+        };
+        PointModes {
+            points: vec!["a".into(), "b".into()],
+            modes: vec![mode(6.65), mode(7.32)],
+        }
+    }
+
+    /// Every law of the registry a joint may take goes through `θ` and
+    /// back unchanged, Iwan's negative `χ` and Masing's `N` (fitted as
+    /// `1/N`) included.
+    #[test]
+    fn a_joints_parameters_go_through_theta_and_back() {
+        let s = two_modes();
+        for law in [
+            ElementSpec::Jenkins { kd: 4.0e4, fd: 4.0 },
+            ElementSpec::Masing {
+                kd: 4.0e4,
+                fd: 4.0,
+                n: 2.5,
+            },
+            ElementSpec::Iwan4 {
+                fs: 4.0,
+                kt: 4.0e4,
+                chi: -0.5,
+                beta: 0.2,
+            },
+        ] {
+            let layout = Layout::new(&s, Some(&law)).expect("a valid joint");
+            let theta = layout.theta_of(&s, Some(&law));
+            let (back, outside) = layout.joint_at(&theta).expect("a joint");
+            assert_eq!(outside, 0.0, "{law:?}");
+            for ((n, a), (_, b)) in law.parameters().into_iter().zip(back.parameters()) {
+                assert!((a - b).abs() <= 1e-12 * a.abs(), "{n}: {a} -> {b}");
+            }
+        }
+    }
+
+    /// Held apart, a mode reaches at most halfway (in `ln f`) to its
+    /// neighbour's start: 6.65 Hz beside 7.32 Hz stops at √(6.65·7.32).
+    #[test]
+    fn modes_held_apart_stop_halfway_to_each_other() {
+        let s = two_modes();
+        let layout = Layout::new(&s, None).unwrap().apart();
+        let mut theta = layout.theta_of(&s, None);
+        theta[0] = 7.32_f64.ln();
+        let (moved, outside) = layout.structure_at(&theta);
+        let halfway = (6.65_f64 * 7.32).sqrt();
+        assert!((moved.modes[0].frequency_hz - halfway).abs() < 1e-9 * halfway);
+        assert!((outside - 0.5 * (7.32_f64 / 6.65).ln()).abs() < 1e-12);
     }
 }

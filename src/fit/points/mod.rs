@@ -18,16 +18,18 @@
 //! each residual's real and imaginary parts divided by the line's weight
 //! `w_p` (the measured standard error, else the response's RMS over the
 //! level). Levenberg–Marquardt ([`levenberg_marquardt()`]) minimises `Σ r²`
-//! over `θ = (ln f_r, ln ζ_r, φ_r(p)/|φ_r,0(p)|, ln p_joint)`; `ζ_r` is held
+//! over `θ = (ln f_r, ln ζ_r, φ_r(p)/|φ_r,0(p)|, θ_joint)`; `ζ_r` is held
 //! within `[1e-4, 0.5]` (`[0.02, 0.5]` for a mode starting outside the
 //! lines: only its residual is seen), `f_r` within a factor 1.25 of its
-//! start and the
-//! joint's parameters within six decades of their start, the distance outside added as a penalty row (as
-//! [`super::params`] does).
+//! start, and the joint's parameters in the coordinates and bounds the
+//! one-point fit gives its law ([`super::params::ParameterSet::for_law`]:
+//! a signed `χ`, `1/N`, six decades for a stiffness), the distance outside
+//! added as a penalty row.
 //!
 //! The start ([`start`]): the lowest level's FRFs fitted by the linear
 //! modes alone (the joint stuck, so inside the modes), from peaks picked on
-//! the summed receptance, then the joint's stated stick stiffness taken out
+//! the summed receptance, each mode held nearer its own peak than any
+//! other's, then the joint's stated stick stiffness taken out
 //! of those modes in modal coordinates (`Ω² − k_d ψ ψᵀ`, `ψ_r = φ_r(a) −
 //! φ_r(b)`) to give the structure beside the joint.
 
@@ -46,6 +48,7 @@ use crate::model::{ElementSpec, PointModes};
 use layout::Layout;
 use num_complex::Complex64;
 use problem::JointProblem;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 pub use start::{linear_modes, linear_modes_beside, lowest_level, without_joint};
@@ -138,8 +141,7 @@ impl PointMeasurement {
 pub struct PointJoint {
     /// Its ends (`None`: the ground).
     pub ends: (usize, Option<usize>),
-    /// Its law and parameters (every parameter positive: they are fitted in
-    /// log coordinates).
+    /// Its law and parameters.
     pub law: ElementSpec,
 }
 
@@ -235,40 +237,53 @@ pub fn predict_points(
         drive,
         ends: joint.ends,
     };
-    let mut out = Vec::with_capacity(shape.len());
-    for (level, lines) in shape.iter().enumerate() {
-        let mut solver = crate::hb::HbSolver::new(&problem::hb_options(options))?;
-        let mut element = joint.law.build()?;
-        let mut guess: Option<Vec<Complex64>> = None;
-        let mut predicted = Vec::with_capacity(*lines);
-        for line in 0..*lines {
-            let at = data[0].levels[level].lines[line];
-            let solved = solver.solve_point(
-                &receptance,
-                &mut element,
-                at.frequency_hz,
-                at.force_amplitude,
-                guess.as_deref(),
-            );
-            let point = match solved {
-                Ok(p) if p.converged => p,
-                _ => {
-                    guess = None;
-                    predicted.push(None);
-                    continue;
-                }
-            };
-            let one = point.harmonics.iter().position(|&k| k == 1).unwrap_or(0);
-            let x = point_harmonics(&receptance, &point);
-            let w = 2.0 * std::f64::consts::PI * at.frequency_hz;
-            predicted.push(Some(
-                data.iter()
-                    .map(|m| x[m.point][one] / at.force_amplitude * m.response.from_displacement(w))
-                    .collect(),
-            ));
-            guess = Some(point.x);
-        }
-        out.push(predicted);
+    // each level is independent: solved side by side, each along its own
+    // lines in order, so the result does not depend on the thread count
+    shape
+        .par_iter()
+        .enumerate()
+        .map(|(level, lines)| predict_level(data, &receptance, joint, options, (level, *lines)))
+        .collect()
+}
+
+/// [`predict_points`] of level `level`, along its `lines` lines.
+fn predict_level(
+    data: &[PointMeasurement],
+    receptance: &JointReceptance,
+    joint: &PointJoint,
+    options: &PointFitOptions,
+    (level, lines): (usize, usize),
+) -> Result<Vec<Option<Vec<Complex64>>>> {
+    let mut solver = crate::hb::HbSolver::new(&problem::hb_options(options))?;
+    let mut element = joint.law.build()?;
+    let mut guess: Option<Vec<Complex64>> = None;
+    let mut predicted = Vec::with_capacity(lines);
+    for line in 0..lines {
+        let at = data[0].levels[level].lines[line];
+        let solved = solver.solve_point(
+            receptance,
+            &mut element,
+            at.frequency_hz,
+            at.force_amplitude,
+            guess.as_deref(),
+        );
+        let point = match solved {
+            Ok(p) if p.converged => p,
+            _ => {
+                guess = None;
+                predicted.push(None);
+                continue;
+            }
+        };
+        let one = point.harmonics.iter().position(|&k| k == 1).unwrap_or(0);
+        let x = point_harmonics(receptance, &point);
+        let w = 2.0 * std::f64::consts::PI * at.frequency_hz;
+        predicted.push(Some(
+            data.iter()
+                .map(|m| x[m.point][one] / at.force_amplitude * m.response.from_displacement(w))
+                .collect(),
+        ));
+        guess = Some(point.x);
     }
-    Ok(out)
+    Ok(predicted)
 }
