@@ -302,7 +302,7 @@ fn swept_recording() -> PathBuf {
     let joint = hystid::model::Jenkins::new(1e5, 20.0).unwrap();
     let v = hystid::sim::Simulator::new(&model, joint, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .velocity;
     let channel = |name: &str, q: Quantity| Channel {
@@ -355,6 +355,7 @@ fn sweep_rss_mode() {
         &stem.with_extension("json"),
         ChannelChoice::default(),
         &ReductionOptions::default(),
+        &hystid::observe::Silent,
     )
     .unwrap();
     let took = t.elapsed().as_secs_f64();

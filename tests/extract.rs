@@ -338,7 +338,10 @@ fn stepped_recording() -> Recording {
             }
         }
     }
-    let x = sim.run(&force).unwrap().displacement;
+    let x = sim
+        .run(&force, &hystid::observe::Silent)
+        .unwrap()
+        .displacement;
     Recording {
         meta: meta(steps),
         channels: vec![force, x],
@@ -366,7 +369,7 @@ fn stepped_sine_with_and_without_steps_and_against_the_receptance() {
         },
         ..Default::default()
     };
-    let with = reduce_stepped_report(&rec, 1, &opts).unwrap();
+    let with = reduce_stepped_report(&rec, 1, &opts, &hystid::observe::Silent).unwrap();
     assert!(!with.dwells_found);
     assert_eq!(with.frf.levels.len(), 3);
     let dirs: Vec<Direction> = with.frf.levels.iter().map(|l| l.direction).collect();
@@ -391,7 +394,7 @@ fn stepped_sine_with_and_without_steps_and_against_the_receptance() {
     let mut bare = rec.clone();
     bare.meta.excitation.steps.clear();
     let t = std::time::Instant::now();
-    let found = reduce_stepped_report(&bare, 1, &opts).unwrap();
+    let found = reduce_stepped_report(&bare, 1, &opts, &hystid::observe::Silent).unwrap();
     eprintln!(
         "stepped sine, {} samples: reduced with dwells found in {:?}",
         bare.frames(),
@@ -449,7 +452,13 @@ fn stepped_sine_with_response_noise() {
     let stated = reduce_stepped(&rec, 1, &ReduceOptions::default()).unwrap();
     let mut bare = rec.clone();
     bare.meta.excitation.steps.clear();
-    let found = reduce_stepped_report(&bare, 1, &ReduceOptions::default()).unwrap();
+    let found = reduce_stepped_report(
+        &bare,
+        1,
+        &ReduceOptions::default(),
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     let model = sdof();
     for (name, frf) in [("stated steps", &stated), ("dwells found", &found.frf)] {
         let z: Vec<f64> = frf
@@ -515,7 +524,8 @@ fn stated_frequency_off_is_refined_and_reported() {
     for s in &mut off.meta.excitation.steps {
         s.frequency_hz *= 1.0 + 1e-3;
     }
-    let r = reduce_stepped_report(&off, 1, &ReduceOptions::default()).unwrap();
+    let r = reduce_stepped_report(&off, 1, &ReduceOptions::default(), &hystid::observe::Silent)
+        .unwrap();
     assert!(r.dwells.iter().all(|d| d.frequency_refined));
     for (a, b) in h1_points(&exact).iter().zip(h1_points(&r.frf)) {
         assert!((a.0 / b.0 - 1.0).abs() < 1e-9);
@@ -613,7 +623,10 @@ fn f16_like_sweep() -> (Vec<f64>, Vec<f64>, ModalModel) {
         })
         .collect();
     let mut sim = Simulator::new(&model, NoElement, fs).unwrap();
-    let x = sim.run(&force).unwrap().displacement;
+    let x = sim
+        .run(&force, &hystid::observe::Silent)
+        .unwrap()
+        .displacement;
     (force, x, model)
 }
 
@@ -666,7 +679,7 @@ fn chirp_through_a_30_hz_mode(frames: usize) -> (ModalModel, f64, Vec<f64>, Vec<
         .collect();
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
     (model, fs, force, x)
@@ -903,7 +916,7 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
     .unwrap();
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
     let mut meta = meta(Vec::new());
@@ -922,12 +935,19 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
         ..ReductionOptions::default()
     };
     let t0 = std::time::Instant::now();
-    let streamed = reduce_path(&path, ChannelChoice::default(), &options).unwrap();
+    let streamed = reduce_path(
+        &path,
+        ChannelChoice::default(),
+        &options,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     let t_streamed = t0.elapsed();
     assert!(streamed.streamed);
     let whole = reduce(
         &load_recording(&path, ChannelChoice::default()).unwrap(),
         &options,
+        &hystid::observe::Silent,
     )
     .unwrap();
     assert!(!whole.streamed);
@@ -959,7 +979,7 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
 #[test]
 fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     use hystid::analysis::recording::{
-        ChannelChoice, ReductionOptions, load_recording, reduce, reduce_path_observed,
+        ChannelChoice, ReductionOptions, load_recording, reduce, reduce_path,
     };
     let fs = 2000.0;
     let model = ModalModel::new(vec![
@@ -980,7 +1000,7 @@ fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     assert!(force.len() > extract::WHOLE_RECORD_FRAMES);
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
     let mut meta = meta(Vec::new());
@@ -1002,7 +1022,7 @@ fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
             told.lock().unwrap().push((task, done, total));
         }
     };
-    let streamed = reduce_path_observed(&path, ChannelChoice::default(), &options, &watch).unwrap();
+    let streamed = reduce_path(&path, ChannelChoice::default(), &options, &watch).unwrap();
     assert!(streamed.streamed);
     let told = told.into_inner().unwrap();
     let last = |task: &str| told.iter().rev().find(|t| t.0 == task).copied();
@@ -1012,6 +1032,7 @@ fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     let whole = reduce(
         &load_recording(&path, ChannelChoice::default()).unwrap(),
         &options,
+        &hystid::observe::Silent,
     )
     .unwrap();
     assert!(!whole.streamed);
@@ -1056,7 +1077,7 @@ fn without_a_resonance_the_compensation_is_the_sweeps_time_scale() {
             .collect();
         let x = Simulator::new(&model, NoElement, fs)
             .unwrap()
-            .run(&force)
+            .run(&force, &hystid::observe::Silent)
             .unwrap()
             .displacement;
         let opts = SweepOptions::default();
@@ -1083,7 +1104,7 @@ fn logarithmic_sweep_is_recognised() {
     let model = sdof();
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
     let r = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
@@ -1229,7 +1250,8 @@ fn unesp_single_sines_combine() {
             channels: vec![v, laser],
         };
         let t = std::time::Instant::now();
-        let r = reduce_stepped_report(&rec, 1, &ReduceOptions::default()).unwrap();
+        let r = reduce_stepped_report(&rec, 1, &ReduceOptions::default(), &hystid::observe::Silent)
+            .unwrap();
         elapsed += t.elapsed();
         assert_eq!(
             r.dwells.len(),
@@ -1577,7 +1599,8 @@ fn check_found_dwells(t: &SteppedTruth, rec: &Recording, name: &str) -> (usize, 
         assert!(s.settle < s.length);
     }
     // the whole reduction
-    let r = reduce_stepped_report(rec, 1, &ReduceOptions::default()).unwrap();
+    let r =
+        reduce_stepped_report(rec, 1, &ReduceOptions::default(), &hystid::observe::Silent).unwrap();
     assert!(r.dwells_found);
     let levels: Vec<String> = r
         .frf
@@ -1622,7 +1645,8 @@ fn check_found_dwells(t: &SteppedTruth, rec: &Recording, name: &str) -> (usize, 
 /// The response's settled points against the SDOF's receptance: the
 /// transient after each switch must have been skipped.
 fn check_transient_skipped(t: &SteppedTruth, rec: &Recording, sdof: (f64, f64), name: &str) {
-    let r = reduce_stepped_report(rec, 1, &ReduceOptions::default()).unwrap();
+    let r =
+        reduce_stepped_report(rec, 1, &ReduceOptions::default(), &hystid::observe::Silent).unwrap();
     let wn = 2.0 * PI * sdof.0;
     let (k, c) = (wn * wn, 2.0 * sdof.1 * wn);
     let z: Vec<f64> = r

@@ -65,10 +65,9 @@ pub use periodic::{
 };
 pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, below_resolution,
-    combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_observed,
-    reduce_stepped_report, settling,
+    combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_report, settling,
 };
-pub use streaming::{reduce_stepped_stream, reduce_stepped_stream_observed};
+pub use streaming::reduce_stepped_stream;
 pub use sweep::{MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep};
 pub use sweep_blocks::find_sweep_held;
 pub use sweep_reduce::{

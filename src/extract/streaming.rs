@@ -28,21 +28,14 @@ use crate::signals::{FrameSource, Recording, Step};
 /// whole reference to within their windows (see
 /// [`super::find_dwells_stream`]).
 ///
+/// `observer` is told how it progresses (the dwell search's
+/// [`super::dwell_blocks::FINDING`] where it finds them, then `reducing`
+/// after each dwell), and the reduction stops where it asks
+/// ([`Error::Cancelled`]).
+///
 /// Errors: those of [`FrameSource::read_at`], of the dwell search and of the
 /// reduction.
 pub fn reduce_stepped_stream(
-    source: &mut impl FrameSource,
-    response_channel: usize,
-    options: &ReduceOptions,
-) -> Result<SteppedReduction> {
-    reduce_stepped_stream_observed(source, response_channel, options, &Silent)
-}
-
-/// [`reduce_stepped_stream`], telling `observer` how it progresses (the
-/// dwell search's [`super::dwell_blocks::FINDING`] where it finds them,
-/// then `reducing` after each dwell) and stopping where it asks
-/// ([`Error::Cancelled`]).
-pub fn reduce_stepped_stream_observed(
     source: &mut impl FrameSource,
     response_channel: usize,
     options: &ReduceOptions,

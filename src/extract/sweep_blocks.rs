@@ -398,7 +398,7 @@ mod tests {
         let model = ModalModel::new(vec![Mode::from_modal_mass(20.0, 0.02, 1.0).unwrap()]).unwrap();
         let x = Simulator::new(&model, NoElement, FS)
             .unwrap()
-            .run(&force)
+            .run(&force, &crate::observe::Silent)
             .unwrap()
             .displacement;
         (force, x)

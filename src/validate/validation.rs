@@ -117,29 +117,13 @@ impl ReplayTap for () {}
 /// no reference, a response that is not a motion or is the reference, a
 /// window outside the record, and those of [`simulate_response`] and of the
 /// reductions.
+///
+/// `observer` is told how the replay and the FRF comparison progress
+/// ([`REDUCING`] 0 and 1 of 2 around the measured response's reduction,
+/// `simulating` as the replay is made and reduced, then [`REDUCING`] 2 of
+/// 2), and the validation stops where it asks ([`Error::Cancelled`]). The
+/// replay is kept ([`Validation::simulated`]).
 pub fn validate_recording(
-    model: &Model,
-    response_sign: f64,
-    rec: &Recording,
-    response_channel: usize,
-    options: &ValidateOptions,
-) -> Result<Validation> {
-    validate_recording_observed(
-        model,
-        response_sign,
-        rec,
-        response_channel,
-        options,
-        &Silent,
-    )
-}
-
-/// [`validate_recording`], telling `observer` how the replay and the
-/// FRF comparison progress ([`REDUCING`] 0 and 1 of 2 around the measured
-/// response's reduction, `simulating` as the replay is made and reduced,
-/// then [`REDUCING`] 2 of 2) and stopping where it asks
-/// ([`Error::Cancelled`]). The replay is kept ([`Validation::simulated`]).
-pub fn validate_recording_observed(
     model: &Model,
     response_sign: f64,
     rec: &Recording,
@@ -158,7 +142,7 @@ pub fn validate_recording_observed(
     )
 }
 
-/// [`validate_recording_observed`] on a recording however its channels are
+/// [`validate_recording`] on a recording however its channels are
 /// held, `keep_replay` saying whether the simulated response is kept whole
 /// ([`Validation::simulated`]) and `tap` handed it a stretch at a time.
 ///
@@ -294,7 +278,7 @@ pub fn validate_view(
                 pass: &mut pass,
                 observer,
             };
-            Some(reduce_stepped_stream(&mut frames, 1, opts)?.frf)
+            Some(reduce_stepped_stream(&mut frames, 1, opts, &Silent)?.frf)
         }
         _ => None,
     };
@@ -639,6 +623,7 @@ impl MeasuredFrfs {
                     &mut InMemoryFrames::of_channels(&meta, pair.clone(), "recording"),
                     1,
                     &opts,
+                    &Silent,
                 )?;
                 // the simulated response on exactly the measured dwells
                 let steps: Vec<Step> = first.dwells.iter().map(|d| d.step).collect();
@@ -650,6 +635,7 @@ impl MeasuredFrfs {
                         &mut InMemoryFrames::of_channels(&meta, pair, "recording"),
                         1,
                         &opts,
+                        &Silent,
                     )?
                     .frf
                 };

@@ -8,7 +8,7 @@ use super::load::{
 use crate::error::{Error, Result};
 use crate::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, WHOLE_RECORD_FRAMES, choose_compensation,
-    choose_compensation_stream, reduce_stepped_observed, reduce_stepped_stream_observed,
+    choose_compensation_stream, reduce_stepped_report, reduce_stepped_stream,
     reduce_sweep_recording, reduce_sweep_stream,
 };
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
@@ -227,16 +227,11 @@ pub(crate) fn refuse_a_random(meta: &RecordingMeta, r: &ReductionOptions) -> Res
     ))
 }
 
-/// Nonlinear FRFs of a loaded recording.
-pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
-    reduce_observed(loaded, r, &crate::observe::Silent)
-}
-
-/// [`reduce`], telling `observer` how it progresses (`reducing`: a stepped
-/// sine's dwells; a swept sine's whole reductions, three where the
-/// compensation is chosen from the data) and stopping where it asks
-/// ([`Error::Cancelled`]).
-pub fn reduce_observed(
+/// Nonlinear FRFs of a loaded recording, telling `observer` how it
+/// progresses (`reducing`: a stepped sine's dwells; a swept sine's whole
+/// reductions, three where the compensation is chosen from the data) and
+/// stopping where it asks ([`Error::Cancelled`]).
+pub fn reduce(
     loaded: &Loaded,
     r: &ReductionOptions,
     observer: &dyn crate::observe::Observer,
@@ -252,7 +247,7 @@ pub fn reduce_observed(
                 refuse_a_multisine(rec, loaded.response)?;
             }
             (
-                reduce_stepped_observed(rec, loaded.response, &stepped_options(r), observer)?.frf,
+                reduce_stepped_report(rec, loaded.response, &stepped_options(r), observer)?.frf,
                 None,
             )
         }
@@ -330,15 +325,11 @@ pub struct SweptReading {
 /// whose sidecar states its steps is reduced from disk one dwell at a time,
 /// and a swept-sine one longer than [`WHOLE_RECORD_FRAMES`] a stretch at a
 /// time (memory bounded whatever the file size); anything else is read
-/// whole.
-pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> Result<Reduced> {
-    reduce_path_observed(path, choice, r, &crate::observe::Silent)
-}
-
-/// [`reduce_path`], telling `observer` how it progresses (a dwell search's
+/// whole. `observer` is told how it progresses (a dwell search's
 /// `finding dwells`; `reducing`: a stepped sine's dwells, a swept sine's
-/// whole reductions) and stopping where it asks ([`Error::Cancelled`]).
-pub fn reduce_path_observed(
+/// whole reductions), and the reduction stops where it asks
+/// ([`Error::Cancelled`]).
+pub fn reduce_path(
     path: &Path,
     choice: ChannelChoice,
     r: &ReductionOptions,
@@ -355,7 +346,7 @@ pub fn reduce_path_observed(
     }
     let mut reduced = match reduce_path_streamed(path, choice, r, observer)? {
         Some(reduced) => reduced,
-        None => reduce_observed(&load_recording(path, choice)?, r, observer)?,
+        None => reduce(&load_recording(path, choice)?, r, observer)?,
     };
     reduced.quality = quality_notes(path);
     Ok(reduced)
@@ -497,7 +488,7 @@ fn reduce_streamed(
         reference_channel: Some(reference),
         ..stepped_options(r)
     };
-    let red = match reduce_stepped_stream_observed(&mut source, ch, &options, observer) {
+    let red = match reduce_stepped_stream(&mut source, ch, &options, observer) {
         Ok(red) => red,
         Err(e) => return Err(why_failed(e, path, &mut source, &meta, reference)?),
     };
@@ -656,7 +647,7 @@ pub fn combine_recordings(sets: &[(PathBuf, NonlinearFrf)]) -> Result<NonlinearF
 /// per file, or the levels each holds); also returns the first reduction,
 /// its `quality` holding every recording's. `on_reduced` sees each
 /// reduction as it is made, `observer` how each
-/// progresses ([`reduce_path_observed`]).
+/// progresses ([`reduce_path`]).
 pub fn reduce_recordings(
     recordings: &[PathBuf],
     choice: ChannelChoice,
@@ -668,7 +659,7 @@ pub fn reduce_recordings(
     let mut first: Option<Reduced> = None;
     let mut quality = Vec::new();
     for path in recordings {
-        let red = reduce_path_observed(path, choice, reduction, observer)
+        let red = reduce_path(path, choice, reduction, observer)
             .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
         on_reduced(path, &red);
         sets.push((path.clone(), red.frf.clone()));

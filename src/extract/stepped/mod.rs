@@ -216,7 +216,7 @@ pub fn reduce_stepped(
     response_channel: usize,
     options: &ReduceOptions,
 ) -> Result<NonlinearFrf> {
-    reduce_stepped_report(rec, response_channel, options).map(|r| r.frf)
+    reduce_stepped_report(rec, response_channel, options, &Silent).map(|r| r.frf)
 }
 
 /// Reduces a stepped-sine recording into nonlinear FRFs of one response
@@ -236,18 +236,10 @@ pub fn reduce_stepped(
 /// Errors name the channel or the step: no reference channel, a response
 /// channel out of range or equal to the reference, a step outside the record,
 /// a dwell too short for 2 blocks, a harmonic above Nyquist.
+///
+/// `observer` is told after each dwell (`reducing`, dwells done of all),
+/// and the reduction stops there if it asks ([`Error::Cancelled`]).
 pub fn reduce_stepped_report(
-    rec: &Recording,
-    response_channel: usize,
-    options: &ReduceOptions,
-) -> Result<SteppedReduction> {
-    reduce_stepped_observed(rec, response_channel, options, &Silent)
-}
-
-/// [`reduce_stepped_report`], telling `observer` after each dwell
-/// (`reducing`, dwells done of all) and stopping there if it asks
-/// ([`Error::Cancelled`]).
-pub fn reduce_stepped_observed(
     rec: &Recording,
     response_channel: usize,
     options: &ReduceOptions,
@@ -256,7 +248,7 @@ pub fn reduce_stepped_observed(
     reduce_stepped_as(rec, response_channel, options, observer, false)
 }
 
-/// [`reduce_stepped_observed`]; `as_found`: the steps the recording states
+/// [`reduce_stepped_report`]; `as_found`: the steps the recording states
 /// were found in its reference (by [`super::find_dwells_stream`]), and are
 /// reduced as found ones are (the response's settling tested too).
 pub(super) fn reduce_stepped_as(
