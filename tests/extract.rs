@@ -10,7 +10,7 @@ use crate::common;
 use hystid::Error;
 use hystid::extract::{
     self, Direction, DwellOptions, FrfLevel, HarmonicAnalyser, NonlinearFrf, ReduceOptions,
-    SweepOptions, combine, estimate_frequency, find_dwells, harmonics_agree, noncoherent,
+    SweepOptions, combine, estimate_frequency, find_dwells_whole, harmonics_agree, noncoherent,
     reduce_stepped, reduce_stepped_report, reduce_sweep,
 };
 use hystid::harmonics::{Quantity, omega, sinc, synthesize};
@@ -500,7 +500,7 @@ fn stepped_sine_with_response_noise() {
 #[test]
 fn find_dwells_locates_the_steps() {
     let rec = stepped_recording();
-    let steps = find_dwells(&rec.channels[0], FS, &DwellOptions::default()).unwrap();
+    let steps = find_dwells_whole(&rec.channels[0], FS, &DwellOptions::default()).unwrap();
     let truth = &rec.meta.excitation.steps;
     assert_eq!(steps.len(), truth.len());
     for (s, t) in steps.iter().zip(truth) {
@@ -696,7 +696,13 @@ fn chirp_through_a_30_hz_mode(frames: usize) -> (ModalModel, f64, Vec<f64>, Vec<
 #[test]
 fn a_chirp_from_zero_hertz_is_reduced() {
     let (model, fs, force, x) = chirp_through_a_30_hz_mode(16384);
-    let r = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
+    let r = reduce_sweep(
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
+        &SweepOptions::default(),
+    )
+    .unwrap();
     let s = r.sweep;
     eprintln!(
         "{:?} {:.4} -> {:.4} Hz at {:.5} Hz/s",
@@ -726,13 +732,19 @@ fn a_chirp_from_zero_hertz_is_reduced() {
 #[test]
 fn a_sweep_with_more_periods_than_points_allowed_is_read_at_a_longer_hop() {
     let (model, fs, force, x) = chirp_through_a_30_hz_mode(8192);
-    let all = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
+    let all = reduce_sweep(
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
+        &SweepOptions::default(),
+    )
+    .unwrap();
     assert_eq!(all.hop_periods, 1.0);
     let capped_options = SweepOptions {
         max_points: 40,
         ..SweepOptions::default()
     };
-    let capped = reduce_sweep(&force, &x, fs, &capped_options).unwrap();
+    let capped = reduce_sweep(&mut common::pair(&force, &x, fs), 0, 1, &capped_options).unwrap();
     let (n_all, n_capped) = (all.level.points.len(), capped.level.points.len());
     eprintln!(
         "{n_all} points at hop 1; at most 40: {n_capped} at hop {:.4}",
@@ -747,9 +759,9 @@ fn a_sweep_with_more_periods_than_points_allowed_is_read_at_a_longer_hop() {
         capped.hop_periods
     );
     let asked = reduce_sweep(
-        &force,
-        &x,
-        fs,
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
         &SweepOptions {
             hop_periods: capped.hop_periods,
             ..SweepOptions::default()
@@ -777,7 +789,7 @@ fn sweep_reduction_of_a_simulated_slow_sweep() {
         ..Default::default()
     };
     let t0 = std::time::Instant::now();
-    let plain = reduce_sweep(&force, &x, fs, &opts).unwrap();
+    let plain = reduce_sweep(&mut common::pair(&force, &x, fs), 0, 1, &opts).unwrap();
     let t_plain = t0.elapsed();
     let s = plain.sweep;
     eprintln!(
@@ -810,9 +822,9 @@ fn sweep_reduction_of_a_simulated_slow_sweep() {
     assert!(plain_far < 5e-3, "{plain_far}");
     let t1 = std::time::Instant::now();
     let comp = reduce_sweep(
-        &force,
-        &x,
-        fs,
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(40.0),
             ..opts
@@ -868,7 +880,7 @@ fn sweep_reduction_of_a_simulated_slow_sweep() {
     let noise = Normal::new(0.0, 0.3 * rms).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     let noisy: Vec<f64> = x.iter().map(|v| v + noise.sample(&mut rng)).collect();
-    let r = reduce_sweep(&force, &noisy, fs, &opts).unwrap();
+    let r = reduce_sweep(&mut common::pair(&force, &noisy, fs), 0, 1, &opts).unwrap();
     let pairs: Vec<(Complex64, f64)> = r
         .level
         .points
@@ -1081,7 +1093,8 @@ fn without_a_resonance_the_compensation_is_the_sweeps_time_scale() {
             .unwrap()
             .displacement;
         let opts = SweepOptions::default();
-        let sigma = extract::choose_compensation(&force, &x, fs, &opts).unwrap();
+        let sigma =
+            extract::choose_compensation(&mut common::pair(&force, &x, fs), 0, 1, &opts).unwrap();
         let want = extract::TIME_CONSTANTS / (2.0 * PI * rate).sqrt();
         eprintln!("{seconds} s: sigma {sigma:.4} s, want {want:.4} s");
         assert!((sigma / want - 1.0).abs() < 1e-3, "{sigma} vs {want}");
@@ -1107,7 +1120,13 @@ fn logarithmic_sweep_is_recognised() {
         .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
-    let r = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
+    let r = reduce_sweep(
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
+        &SweepOptions::default(),
+    )
+    .unwrap();
     let s = r.sweep;
     let octaves = lambda * 60.0 / 2f64.ln();
     eprintln!(
@@ -1120,9 +1139,9 @@ fn logarithmic_sweep_is_recognised() {
     assert_eq!(r.level.direction, Direction::Up);
     // the compensation is for linear sweeps only, and says so
     let e = reduce_sweep(
-        &force,
-        &x,
-        fs,
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(5.0),
             ..Default::default()
@@ -1173,11 +1192,11 @@ fn f16_level1_torsion_peak() {
         max_harmonic: 7,
         ..Default::default()
     };
-    let plain = reduce_sweep(&force, &acc2, 400.0, &opts).unwrap();
+    let plain = reduce_sweep(&mut common::pair(&force, &acc2, 400.0), 0, 1, &opts).unwrap();
     let comp = reduce_sweep(
-        &force,
-        &acc2,
-        400.0,
+        &mut common::pair(&force, &acc2, 400.0),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(12.0),
             ..opts
@@ -1553,7 +1572,7 @@ fn truth_recording(t: &SteppedTruth) -> Recording {
 /// frequency error.
 fn check_found_dwells(t: &SteppedTruth, rec: &Recording, name: &str) -> (usize, usize, f64) {
     let fs = t.fs;
-    let steps = find_dwells(&rec.channels[0], fs, &DwellOptions::default()).unwrap();
+    let steps = find_dwells_whole(&rec.channels[0], fs, &DwellOptions::default()).unwrap();
     let summary = |s: &[Step]| {
         s.iter()
             .map(|s| {

@@ -544,16 +544,16 @@ fn stepped_validation_uses_the_measured_dwells() {
 fn reduce_swept(rec: &Recording, opts: &SweepOptions) -> (NonlinearFrf, f64) {
     let r = rec.reference_channel().unwrap();
     let sigma = choose_compensation(
-        &rec.channels[r],
-        &rec.channels[1],
-        rec.meta.sample_rate_hz,
+        &mut common::pair(&rec.channels[r], &rec.channels[1], rec.meta.sample_rate_hz),
+        0,
+        1,
         opts,
     )
     .unwrap();
     let red = reduce_sweep(
-        &rec.channels[r],
-        &rec.channels[1],
-        rec.meta.sample_rate_hz,
+        &mut common::pair(&rec.channels[r], &rec.channels[1], rec.meta.sample_rate_hz),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(sigma),
             ..opts.clone()
@@ -602,9 +602,9 @@ fn swept_validation(
 ) -> Validation {
     let r = rec.reference_channel().unwrap();
     let sigma = choose_compensation(
-        &rec.channels[r],
-        &rec.channels[1],
-        rec.meta.sample_rate_hz,
+        &mut common::pair(&rec.channels[r], &rec.channels[1], rec.meta.sample_rate_hz),
+        0,
+        1,
         opts,
     )
     .unwrap();

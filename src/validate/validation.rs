@@ -9,7 +9,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::extract::reduce_stepped_stream;
-use crate::extract::{NonlinearFrf, ReduceOptions, SweepFit, reduce_sweep_held};
+use crate::extract::{NonlinearFrf, ReduceOptions, SweepFit, reduce_sweep};
 use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::{Observer, Silent};
@@ -302,7 +302,8 @@ pub fn validate_view(
                 (None, Some(Reduction::Swept(opts))) => {
                     let q = rec.meta.channels[response_channel].quantity;
                     let r = rec.meta.channels[reference].quantity;
-                    reduce_sweep_held(force, kept.view(), fs, opts)?.into_frf(q, r)
+                    let mut pair = InMemoryFrames::pair(force, kept.view(), fs)?;
+                    reduce_sweep(&mut pair, 0, 1, opts)?.into_frf(q, r)
                 }
                 (None, _) => unreachable!("a measured reduction is stepped or swept"),
             };
@@ -594,8 +595,9 @@ impl MeasuredFrfs {
         let fs = rec.meta.sample_rate_hz;
         match reduction {
             Reduction::Swept(opts) => {
-                let m =
-                    reduce_sweep_held(rec.channels[reference], rec.channels[response], fs, opts)?;
+                let mut pair =
+                    InMemoryFrames::pair(rec.channels[reference], rec.channels[response], fs)?;
+                let m = reduce_sweep(&mut pair, 0, 1, opts)?;
                 let sweep = m.sweep;
                 Ok(MeasuredFrfs {
                     frf: m.into_frf(

@@ -15,7 +15,7 @@ pub(crate) use reduce::multisine_period;
 pub use reduce::{
     Compensation, MULTISINE_LINES, Reduced, ReductionOptions, SineTest, SweptReading, coil_of_path,
     combine_recordings, excitation_of, max_harmonic, quality_notes, reduce, reduce_path,
-    reduce_recordings, stepped_options, sweep_options, sweep_options_held,
+    reduce_recordings, stepped_options, sweep_options,
 };
 pub use replay::{ReplayReduction, band_limited};
 

@@ -8,8 +8,7 @@ use super::load::{
 use crate::error::{Error, Result};
 use crate::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, WHOLE_RECORD_FRAMES, choose_compensation,
-    choose_compensation_stream, reduce_stepped_report, reduce_stepped_stream,
-    reduce_sweep_recording, reduce_sweep_stream,
+    reduce_stepped_report, reduce_stepped_stream, reduce_sweep, reduce_sweep_recording,
 };
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
 use crate::signals::RecordingView;
@@ -113,36 +112,15 @@ pub fn stepped_options(r: &ReductionOptions) -> ReduceOptions {
     }
 }
 
-/// Sweep options for `force`/`response`, the compensation resolved
-/// ([`Compensation::Auto`]: [`choose_compensation`]).
+/// Sweep options for channels `reference` and `response` of `source`, the
+/// compensation resolved ([`Compensation::Auto`]: [`choose_compensation`],
+/// reading them a stretch at a time; held channels are handed over as
+/// [`crate::signals::InMemoryFrames::pair`]).
 pub fn sweep_options(
-    force: &[f64],
-    response: &[f64],
-    sample_rate_hz: f64,
+    source: &mut impl FrameSource,
+    reference: usize,
+    response: usize,
     r: &ReductionOptions,
-) -> Result<SweepOptions> {
-    sweep_options_by(r, &mut |opts| {
-        choose_compensation(force, response, sample_rate_hz, opts)
-    })
-}
-
-/// [`sweep_options`] of two held channels (in memory or in scratch files),
-/// read a stretch at a time rather than copied whole: the same options.
-pub fn sweep_options_held(
-    force: crate::signals::SamplesView,
-    response: crate::signals::SamplesView,
-    sample_rate_hz: f64,
-    r: &ReductionOptions,
-) -> Result<SweepOptions> {
-    sweep_options_by(r, &mut |opts| {
-        crate::extract::choose_compensation_held(force, response, sample_rate_hz, opts)
-    })
-}
-
-/// Sweep options, the automatic compensation chosen by `choose`.
-fn sweep_options_by(
-    r: &ReductionOptions,
-    choose: &mut dyn FnMut(&SweepOptions) -> Result<f64>,
 ) -> Result<SweepOptions> {
     let mut opts = SweepOptions {
         max_harmonic: max_harmonic(r, SineTest::Swept),
@@ -151,7 +129,7 @@ fn sweep_options_by(
         ..SweepOptions::default()
     };
     opts.compensation_s = match r.compensation {
-        Compensation::Auto => Some(choose(&opts)?),
+        Compensation::Auto => Some(choose_compensation(source, reference, response, &opts)?),
         Compensation::Off => None,
         Compensation::Seconds(s) => Some(s),
     };
@@ -257,12 +235,12 @@ pub fn reduce(
                 .ok_or_else(|| Error::input("recording", "no reference channel"))?;
             let (total, report) = swept_stages(r, observer);
             report(0)?;
-            let opts = sweep_options(
-                &rec.channels[reference],
-                &rec.channels[loaded.response],
+            let mut pair = crate::signals::InMemoryFrames::pair(
+                (&rec.channels[reference]).into(),
+                (&rec.channels[loaded.response]).into(),
                 fs,
-                r,
             )?;
+            let opts = sweep_options(&mut pair, 0, 1, r)?;
             report(total - 1)?;
             let red = reduce_sweep_recording(rec, loaded.response, &opts)?;
             report(total)?;
@@ -518,14 +496,10 @@ fn reduce_swept_stream(
 ) -> Result<Reduced> {
     let (total, report) = swept_stages(r, observer);
     let reduced = report(0)
-        .and_then(|()| {
-            sweep_options_by(r, &mut |opts| {
-                choose_compensation_stream(&mut source, reference, ch, opts)
-            })
-        })
+        .and_then(|()| sweep_options(&mut source, reference, ch, r))
         .and_then(|opts| {
             report(total - 1)?;
-            let red = reduce_sweep_stream(&mut source, reference, ch, &opts)?;
+            let red = reduce_sweep(&mut source, reference, ch, &opts)?;
             report(total)?;
             Ok((red, opts.compensation_s, opts.hop_periods))
         });

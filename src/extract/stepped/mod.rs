@@ -4,7 +4,7 @@
 //! samples is reduced by the non-coherent least-squares fit at the stated
 //! frequency (refined from the reference channel when the stated value is
 //! off). Without steps, the dwells are found from the reference channel
-//! ([`find_dwells`]). The reference is first divided by its local RMS, so
+//! ([`find_dwells_whole`]). The reference is first divided by its local RMS, so
 //! that the Hilbert transform's non-local tails (and the FFT's wrap of the
 //! record's end onto its start) cannot bury a weak level under a strong one;
 //! its phase is then cut into windows of whole periods, each with a
@@ -44,7 +44,7 @@ mod settling;
 use dwells::same_level;
 
 pub(super) use dwells::{WindowTracker, dwells_of_windows};
-pub use dwells::{below_resolution, find_dwells};
+pub use dwells::{below_resolution, find_dwells_whole};
 #[cfg(test)]
 pub(super) use dwells::{normalise, track};
 pub(super) use settling::check_rate;
@@ -226,7 +226,7 @@ pub fn reduce_stepped(
 /// after its `settle` samples; the stated frequency is checked against the
 /// reference by the phase advance between the dwell's halves and replaced by
 /// the least-squares estimate when they differ by more than
-/// `frequency_tolerance`), otherwise from [`find_dwells`], in which case the
+/// `frequency_tolerance`), otherwise from [`find_dwells_whole`], in which case the
 /// [`settling`] test is also run on the response (the force of a virtual test
 /// has no transient; the response has). Each dwell is reduced by
 /// [`super::noncoherent`] with `blocks` blocks over its largest window of
@@ -249,7 +249,7 @@ pub fn reduce_stepped_report(
 }
 
 /// [`reduce_stepped_report`]; `as_found`: the steps the recording states
-/// were found in its reference (by [`super::find_dwells_stream`]), and are
+/// were found in its reference (by [`super::find_dwells`]), and are
 /// reduced as found ones are (the response's settling tested too).
 pub(super) fn reduce_stepped_as(
     rec: &Recording,
@@ -313,7 +313,7 @@ pub(super) fn reduce_stepped_as(
     let frames = reference.len();
     let dwells_found = as_found || rec.meta.excitation.steps.is_empty();
     let steps = if rec.meta.excitation.steps.is_empty() {
-        find_dwells(reference, fs, &options.dwell)?
+        find_dwells_whole(reference, fs, &options.dwell)?
     } else {
         rec.meta.excitation.steps.clone()
     };

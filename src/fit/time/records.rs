@@ -276,9 +276,9 @@ impl TimeRecord {
         let stated = &meta.excitation.steps;
         let swept = meta.excitation.kind == crate::signals::ExcitationKind::SweptSine;
         if let (Some(band), true, true) = (band_hz, swept, stated.is_empty()) {
-            let sweep = crate::extract::find_sweep_held(
-                reference.view(),
-                fs,
+            let sweep = crate::extract::find_sweep(
+                &mut crate::signals::InMemoryFrames::single(reference.view(), fs),
+                0,
                 &crate::extract::SweepOptions::default(),
             )
             .map_err(|e| Error::context(format!("{name}: the sweep"), e))?;
@@ -300,10 +300,11 @@ impl TimeRecord {
         } else if swept {
             Vec::new()
         } else {
-            crate::extract::find_dwells_held(
-                reference.view(),
-                fs,
+            crate::extract::find_dwells(
+                &mut crate::signals::InMemoryFrames::single(reference.view(), fs),
+                0,
                 &crate::extract::DwellOptions::default(),
+                &crate::observe::Silent,
             )
             .unwrap_or_default()
         };
