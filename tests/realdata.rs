@@ -13,7 +13,7 @@
 use crate::common;
 use hystid::extract::{
     Direction, FrfPoint, NonlinearFrf, ReduceOptions, SweepOptions, choose_compensation,
-    reduce_stepped_report, reduce_stepped_stream, reduce_sweep,
+    reduce_stepped_by_dwell, reduce_stepped_report, reduce_sweep,
 };
 use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearStart, identify};
 use hystid::harmonics::{Quantity, omega};
@@ -466,7 +466,7 @@ fn streaming_stepped_reduction_equals_the_in_memory_one() {
     let opts = ReduceOptions::default();
     let t = std::time::Instant::now();
     let streamed =
-        reduce_stepped_stream(&mut open(&path), 1, &opts, &hystid::observe::Silent).unwrap();
+        reduce_stepped_by_dwell(&mut open(&path), 1, &opts, &hystid::observe::Silent).unwrap();
     let ts = t.elapsed();
     let whole = read_recording(&path).unwrap();
     let t = std::time::Instant::now();
@@ -485,7 +485,7 @@ fn streaming_stepped_reduction_equals_the_in_memory_one() {
     let p2 = dir.path().join("bare");
     write_recording(&p2, &bare, SampleFormat::Float32).unwrap();
     let streamed =
-        reduce_stepped_stream(&mut open(&p2), 1, &opts, &hystid::observe::Silent).unwrap();
+        reduce_stepped_by_dwell(&mut open(&p2), 1, &opts, &hystid::observe::Silent).unwrap();
     let memory = reduce_stepped_report(
         &read_recording(&p2).unwrap(),
         1,
@@ -497,7 +497,7 @@ fn streaming_stepped_reduction_equals_the_in_memory_one() {
     assert_eq!(memory.dwells.len(), 8);
     assert_eq!(streamed.dwells, memory.dwells);
     assert_eq!(streamed.frf, memory.frf);
-    let e = reduce_stepped_stream(&mut open(&path), 5, &opts, &hystid::observe::Silent)
+    let e = reduce_stepped_by_dwell(&mut open(&path), 5, &opts, &hystid::observe::Silent)
         .unwrap_err()
         .to_string();
     assert!(e.contains("response channel 5"), "{e}");

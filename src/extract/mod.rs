@@ -12,7 +12,7 @@
 //! * [`reduce_stepped`]: a stepped-sine [`Recording`](crate::signals::Recording),
 //!   with its stated steps or with dwells found in the reference
 //!   ([`find_dwells_whole`]); [`combine`] merges single-dwell recordings;
-//!   [`reduce_stepped_stream`] reduces a recording too large for memory one
+//!   [`reduce_stepped_by_dwell`] reduces a recording too large for memory one
 //!   dwell at a time from a [`FrameSource`](crate::signals::FrameSource).
 //!
 //! This stage reads samples, never files: the file formats are
@@ -57,14 +57,13 @@ pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_const
 pub use dwell_blocks::{FINDING, find_dwells};
 pub use noncoherent::{estimate_frequency, noncoherent};
 pub use periodic::{
-    EXCITED_LINE, Line, PERIOD_SEARCH, PERIODIC_CORRELATION, find_period, find_period_held,
-    periodic_frf, periodic_frf_held,
+    EXCITED_LINE, Line, PERIOD_SEARCH, PERIODIC_CORRELATION, find_period, periodic_frf,
 };
 pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, below_resolution,
     combine, combine_with, find_dwells_whole, reduce_stepped, reduce_stepped_report, settling,
 };
-pub use streaming::reduce_stepped_stream;
+pub use streaming::reduce_stepped_by_dwell;
 pub use sweep::{
     MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep_whole,
 };

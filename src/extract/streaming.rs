@@ -35,7 +35,7 @@ use crate::signals::{FrameSource, Recording, Step};
 ///
 /// Errors: those of [`FrameSource::read_at`], of the dwell search and of the
 /// reduction.
-pub fn reduce_stepped_stream(
+pub fn reduce_stepped_by_dwell(
     source: &mut impl FrameSource,
     response_channel: usize,
     options: &ReduceOptions,

@@ -8,7 +8,7 @@ use super::{
     tally, upsampling_factor,
 };
 use crate::error::{Error, Result};
-use crate::extract::reduce_stepped_stream;
+use crate::extract::reduce_stepped_by_dwell;
 use crate::extract::{NonlinearFrf, ReduceOptions, SweepFit, reduce_sweep};
 use crate::harmonics::Quantity;
 use crate::model::Model;
@@ -278,7 +278,7 @@ pub fn validate_view(
                 pass: &mut pass,
                 observer,
             };
-            Some(reduce_stepped_stream(&mut frames, 1, opts, &Silent)?.frf)
+            Some(reduce_stepped_by_dwell(&mut frames, 1, opts, &Silent)?.frf)
         }
         _ => None,
     };
@@ -621,7 +621,7 @@ impl MeasuredFrfs {
                 let pair = vec![rec.channels[reference], rec.channels[response]];
                 // the dwells, stated or found (a stretch at a time where
                 // the record is long), are read one at a time
-                let first = reduce_stepped_stream(
+                let first = reduce_stepped_by_dwell(
                     &mut InMemoryFrames::of_channels(&meta, pair.clone(), "recording"),
                     1,
                     &opts,
@@ -633,7 +633,7 @@ impl MeasuredFrfs {
                     first.frf
                 } else {
                     meta.excitation.steps = steps;
-                    reduce_stepped_stream(
+                    reduce_stepped_by_dwell(
                         &mut InMemoryFrames::of_channels(&meta, pair, "recording"),
                         1,
                         &opts,

@@ -8,7 +8,7 @@ use super::load::{
 use crate::error::{Error, Result};
 use crate::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, WHOLE_RECORD_FRAMES, choose_compensation,
-    reduce_stepped_report, reduce_stepped_stream, reduce_sweep, reduce_sweep_recording,
+    reduce_stepped_by_dwell, reduce_stepped_report, reduce_sweep, reduce_sweep_recording,
 };
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
 use crate::signals::RecordingView;
@@ -158,10 +158,12 @@ pub(crate) fn multisine_period(
     // unequal lengths are the reduction's to refuse, naming the channels
     let n = u.len().min(y.len()).min(crate::extract::PERIOD_SEARCH);
     let (u, y) = (u.range(0..n), y.range(0..n));
-    let u = &u[..];
-    let period = crate::extract::find_period(u)?;
     let fs = rec.meta.sample_rate_hz;
-    let lines = crate::extract::periodic_frf(u, &y[..n], fs, period);
+    // the heads are in memory: reading them cannot fail
+    let mut head =
+        crate::signals::InMemoryFrames::pair((&u[..]).into(), (&y[..]).into(), fs).ok()?;
+    let period = crate::extract::find_period(&mut head, 0).ok().flatten()?;
+    let lines = crate::extract::periodic_frf(&mut head, 0, 1, period).ok()?;
     if lines.len() < MULTISINE_LINES {
         return None;
     }
@@ -466,7 +468,7 @@ fn reduce_streamed(
         reference_channel: Some(reference),
         ..stepped_options(r)
     };
-    let red = match reduce_stepped_stream(&mut source, ch, &options, observer) {
+    let red = match reduce_stepped_by_dwell(&mut source, ch, &options, observer) {
         Ok(red) => red,
         Err(e) => return Err(why_failed(e, path, &mut source, &meta, reference)?),
     };

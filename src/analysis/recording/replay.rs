@@ -10,7 +10,7 @@ use super::reduce::{
     excitation_of, reduce, reduce_path_streamed, stepped_options,
 };
 use crate::error::{Error, Result};
-use crate::extract::{NonlinearFrf, ReduceOptions, reduce_stepped_stream};
+use crate::extract::{NonlinearFrf, ReduceOptions, reduce_stepped_by_dwell};
 use crate::observe::Silent;
 use crate::record::{Recording, RecordingMeta};
 use crate::signals::{SamplesBuilder, SamplesView};
@@ -190,7 +190,7 @@ impl ReplayReduction {
                 };
                 let reference_samples =
                     std::mem::replace(&mut channels[reference], Vec::<f64>::new().into());
-                crate::fit::TimeRecord::from_held(
+                crate::fit::TimeRecord::from_channels(
                     &name,
                     &s.meta,
                     s.response,
@@ -286,7 +286,7 @@ impl ReplayReduction {
                     reference_channel: Some(reference),
                     ..stepped_options(&options)
                 };
-                reduce_stepped_stream(&mut frames, s.response, &stepped, &Silent)
+                reduce_stepped_by_dwell(&mut frames, s.response, &stepped, &Silent)
                     .map_err(at)?
                     .frf
             } else {
@@ -339,7 +339,7 @@ impl ReplayReduction {
                     reference_channel: Some(reference),
                     ..stepped_options(&options)
                 };
-                let red = reduce_stepped_stream(&mut source, s.response, &stepped, &Silent)
+                let red = reduce_stepped_by_dwell(&mut source, s.response, &stepped, &Silent)
                     .map_err(at)?;
                 return Ok(red.frf);
             }
