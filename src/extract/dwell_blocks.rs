@@ -43,10 +43,10 @@ use std::f64::consts::PI;
 /// The progress task of a dwell search read a stretch at a time.
 pub const FINDING: &str = "finding dwells";
 
-/// [`super::find_dwells_whole`] of the reference (`src`'s force) read a stretch at
-/// a time (see the module docs), telling `observer` how far its four reads
-/// have come (`finding dwells`: the mean, the crossings, the phase, the
-/// dwells examined) and stopping where it asks.
+/// [`super::find_dwells_whole`] of the reference (`src`'s force) read a
+/// stretch at a time (see the module docs), telling `observer` how far its
+/// four reads have come (`finding dwells`: the mean, the crossings, the
+/// phase, the dwells examined) and stopping where it asks.
 pub(super) fn find_dwells_in_blocks(
     src: &mut dyn PairSource,
     sample_rate_hz: f64,

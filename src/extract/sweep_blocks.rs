@@ -7,8 +7,8 @@
 //! top of the record itself: 1.4 GB for a 10-minute sweep at 20 kHz. A
 //! record longer than [`super::WHOLE_RECORD_FRAMES`] is instead reduced a block at
 //! a time, and read a stretch at a time ([`PairSource`], from the
-//! [`FrameSource`] [`super::reduce_sweep`] is handed), so that memory is set by the blocks and the
-//! compensation's kernel, not by the record's length:
+//! [`FrameSource`] [`super::reduce_sweep`] is handed), so that memory is set
+//! by the blocks and the compensation's kernel, not by the record's length:
 //!
 //! - **Following the phase.** The analytic signal is taken per block of
 //!   [`Blocks::analytic_block`] frames, each transformed with

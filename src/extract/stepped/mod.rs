@@ -4,10 +4,10 @@
 //! samples is reduced by the non-coherent least-squares fit at the stated
 //! frequency (refined from the reference channel when the stated value is
 //! off). Without steps, the dwells are found from the reference channel
-//! ([`find_dwells_whole`]). The reference is first divided by its local RMS, so
-//! that the Hilbert transform's non-local tails (and the FFT's wrap of the
-//! record's end onto its start) cannot bury a weak level under a strong one;
-//! its phase is then cut into windows of whole periods, each with a
+//! ([`find_dwells_whole`]). The reference is first divided by its local RMS,
+//! so that the Hilbert transform's non-local tails (and the FFT's wrap of
+//! the record's end onto its start) cannot bury a weak level under a strong
+//! one; its phase is then cut into windows of whole periods, each with a
 //! least-squares frequency and an amplitude and their standard errors. A
 //! window joins the running dwell while both agree with the dwell's mean
 //! within the tolerances or within 5 standard errors, whichever is wider, so
@@ -226,9 +226,9 @@ pub fn reduce_stepped(
 /// after its `settle` samples; the stated frequency is checked against the
 /// reference by the phase advance between the dwell's halves and replaced by
 /// the least-squares estimate when they differ by more than
-/// `frequency_tolerance`), otherwise from [`find_dwells_whole`], in which case the
-/// [`settling`] test is also run on the response (the force of a virtual test
-/// has no transient; the response has). Each dwell is reduced by
+/// `frequency_tolerance`), otherwise from [`find_dwells_whole`], in which
+/// case the [`settling`] test is also run on the response (the force of a
+/// virtual test has no transient; the response has). Each dwell is reduced by
 /// [`super::noncoherent`] with `blocks` blocks over its largest window of
 /// whole periods. Points are grouped into levels in measurement order (a new
 /// level where the nominal level changes or the frequency order reverses).
