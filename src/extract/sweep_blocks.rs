@@ -56,10 +56,10 @@ use std::f64::consts::PI;
 /// The sweep in channel `reference` of `source` (its active stretch and
 /// fitted frequency law), without reducing a response: what a time-domain
 /// fit needs to judge a swept record inside a band. A record of up to
-/// [`Blocks::whole`] frames is read whole ([`super::find_sweep_whole`]), a
-/// longer one a block at a time as the long sweep's reduction reads it
-/// (module docs), never held whole. A held channel is handed over as
-/// [`crate::signals::InMemoryFrames::single`].
+/// [`super::WHOLE_RECORD_FRAMES`] frames is read whole
+/// ([`super::find_sweep_whole`]), a longer one a block at a time as the
+/// long sweep's reduction reads it (module docs), never held whole. A held
+/// channel is handed over as [`crate::signals::InMemoryFrames::single`].
 pub fn find_sweep(
     source: &mut impl FrameSource,
     reference: usize,
