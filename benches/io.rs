@@ -51,6 +51,7 @@ use hystid::record::{
     Channel, Excitation, ExcitationKind, FORMAT_V1, RecordingMeta, RecordingReader,
     RecordingWriter, Step,
 };
+use hystid::signals::InMemoryFrames;
 use std::f64::consts::PI;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -82,7 +83,7 @@ fn bench_f16(c: &mut Criterion) {
     let imported = import(&path, &spec).unwrap();
     let rec = &imported.recording;
     let fs = rec.meta.sample_rate_hz;
-    let r = reduce_sweep(&rec.channels[0], &rec.channels[1], fs, &opts).unwrap();
+    let r = reduce_sweep(&mut InMemoryFrames::new(rec, "f16"), 0, 1, &opts).unwrap();
     eprintln!(
         "f16: {} frames at {fs} Hz, {} FRF points",
         rec.frames(),
@@ -94,13 +95,12 @@ fn bench_f16(c: &mut Criterion) {
         b.iter(|| import(black_box(&path), &spec).unwrap())
     });
     g.bench_function("reduce_sweep/level1", |b| {
-        b.iter(|| reduce_sweep(&rec.channels[0], &rec.channels[1], fs, &opts).unwrap())
+        b.iter(|| reduce_sweep(&mut InMemoryFrames::new(rec, "f16"), 0, 1, &opts).unwrap())
     });
     g.bench_function("import_and_reduce/level1", |b| {
         b.iter(|| {
             let imp = import(black_box(&path), &spec).unwrap();
-            let ch = &imp.recording.channels;
-            reduce_sweep(&ch[0], &ch[1], fs, &opts).unwrap()
+            reduce_sweep(&mut InMemoryFrames::new(&imp.recording, "f16"), 0, 1, &opts).unwrap()
         })
     });
     g.finish();
@@ -302,7 +302,7 @@ fn swept_recording() -> PathBuf {
     let joint = hystid::model::Jenkins::new(1e5, 20.0).unwrap();
     let v = hystid::sim::Simulator::new(&model, joint, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .velocity;
     let channel = |name: &str, q: Quantity| Channel {
@@ -355,6 +355,7 @@ fn sweep_rss_mode() {
         &stem.with_extension("json"),
         ChannelChoice::default(),
         &ReductionOptions::default(),
+        &hystid::observe::Silent,
     )
     .unwrap();
     let took = t.elapsed().as_secs_f64();

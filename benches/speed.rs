@@ -581,6 +581,7 @@ beta = 1.0879
                     black_box(&force),
                     hystid::sim::Output::Acceleration,
                     &mut out,
+                    &hystid::observe::Silent,
                 )
                 .unwrap()
             })

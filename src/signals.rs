@@ -298,9 +298,11 @@ pub trait FrameSource {
 
 /// A recording in memory read as a file is ([`FrameSource`]), for the stages
 /// that read one a stretch at a time (the coil's fit from arrays a binding
-/// hands over, say).
+/// hands over, say), and channels held however they are (in memory, in
+/// scratch files; slices through `.into()`) handed to those stages as a
+/// recording ([`InMemoryFrames::pair`], [`InMemoryFrames::single`]).
 pub struct InMemoryFrames<'a> {
-    meta: &'a RecordingMeta,
+    meta: std::borrow::Cow<'a, RecordingMeta>,
     channels: Vec<SamplesView<'a>>,
     name: String,
 }
@@ -320,16 +322,73 @@ impl<'a> InMemoryFrames<'a> {
         name: impl Into<String>,
     ) -> InMemoryFrames<'a> {
         InMemoryFrames {
-            meta,
+            meta: std::borrow::Cow::Borrowed(meta),
             channels,
             name: name.into(),
+        }
+    }
+
+    /// A force (channel 0) and a response (channel 1) sampled together at
+    /// `sample_rate_hz`.
+    ///
+    /// Errors: their lengths differ.
+    pub fn pair(
+        force: SamplesView<'a>,
+        response: SamplesView<'a>,
+        sample_rate_hz: f64,
+    ) -> Result<InMemoryFrames<'a>> {
+        if force.len() != response.len() {
+            return Err(Error::input(
+                "response",
+                format!(
+                    "has {} samples but the force has {}: they must be sampled together",
+                    response.len(),
+                    force.len()
+                ),
+            ));
+        }
+        let channels = [
+            ("force", Quantity::Force, "N"),
+            ("response", Quantity::Displacement, "m"),
+        ];
+        Ok(InMemoryFrames::held(
+            &channels,
+            vec![force, response],
+            sample_rate_hz,
+        ))
+    }
+
+    /// A reference alone (channel 0), sampled at `sample_rate_hz`.
+    pub fn single(reference: SamplesView<'a>, sample_rate_hz: f64) -> InMemoryFrames<'a> {
+        let channels = [("reference", Quantity::Force, "N")];
+        InMemoryFrames::held(&channels, vec![reference], sample_rate_hz)
+    }
+
+    /// `channels` described as `described` (name, quantity, unit), with no
+    /// excitation stated.
+    fn held(
+        described: &[(&str, Quantity, &str)],
+        channels: Vec<SamplesView<'a>>,
+        sample_rate_hz: f64,
+    ) -> InMemoryFrames<'a> {
+        let described = described.iter().map(|&(name, quantity, unit)| Channel {
+            name: name.into(),
+            quantity,
+            unit: unit.into(),
+            scale: 1.0,
+        });
+        let meta = RecordingMeta::new(sample_rate_hz, described.collect(), Excitation::default());
+        InMemoryFrames {
+            meta: std::borrow::Cow::Owned(meta),
+            channels,
+            name: "channels".into(),
         }
     }
 }
 
 impl FrameSource for InMemoryFrames<'_> {
     fn meta(&self) -> &RecordingMeta {
-        self.meta
+        &self.meta
     }
     fn frames(&self) -> usize {
         self.channels.first().map_or(0, SamplesView::len)

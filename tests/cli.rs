@@ -988,6 +988,7 @@ fn validate_reports_a_replay_that_runs_away_and_validates_the_rest() {
             &force,
             fs,
             hystid::sim::Output::Displacement,
+            &hystid::observe::Silent,
         )
         .unwrap();
         force_and_displacement(
@@ -1100,7 +1101,14 @@ fn an_unstated_multisine_is_sent_to_the_time_domain_fit() {
         "linear",
     )
     .unwrap();
-    let x = hystid::sim::simulate(&linear, &force, fs, hystid::sim::Output::Displacement).unwrap();
+    let x = hystid::sim::simulate(
+        &linear,
+        &force,
+        fs,
+        hystid::sim::Output::Displacement,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     let rec = force_and_displacement(
         &dir.path().join("ms"),
         fs,

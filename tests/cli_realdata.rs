@@ -112,7 +112,10 @@ fn swept(fs: f64, f0: f64, f1: f64, seconds: f64, a: f64) -> Recording {
         .collect();
     let model = joint_model();
     let mut sim = Simulator::new(&model.linear, model.element_set().unwrap(), fs).unwrap();
-    let acc = sim.run(&force).unwrap().acceleration;
+    let acc = sim
+        .run(&force, &hystid::observe::Silent)
+        .unwrap()
+        .acceleration;
     Recording {
         meta: meta(fs, Quantity::Acceleration, ExcitationKind::SweptSine),
         channels: vec![force, acc],

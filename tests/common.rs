@@ -119,3 +119,13 @@ noise = 0.10
 seed = 1
 measure_periods = 16
 "#;
+
+/// `force` and `response` sampled together at `fs`, as channels 0 and 1 of
+/// the recording the sweep stages read.
+pub fn pair<'a>(
+    force: &'a [f64],
+    response: &'a [f64],
+    fs: f64,
+) -> hystid::signals::InMemoryFrames<'a> {
+    hystid::signals::InMemoryFrames::pair(force.into(), response.into(), fs).unwrap()
+}

@@ -44,7 +44,14 @@ measure_periods = 16
     let run = testbench::run(&def, &mut NoSink, &hystid::observe::Silent).unwrap();
     let p = HbPredictor::default();
     let fit = identify(&run.frf, &FitOptions::default(), &p, None).unwrap();
-    let diagnosis = diagnose(&run.frf, &fit, &DiagnoseOptions::default(), &p).unwrap();
+    let diagnosis = diagnose(
+        &run.frf,
+        &fit,
+        &DiagnoseOptions::default(),
+        &p,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     CaseRun {
         def,
         frf: run.frf,
@@ -287,6 +294,7 @@ fn the_same_on_one_thread(c: &CaseRun) {
             &c.fit,
             &DiagnoseOptions::default(),
             &HbPredictor::default(),
+            &hystid::observe::Silent,
         )
         .unwrap()
     });

@@ -10,7 +10,7 @@ use crate::common;
 use hystid::Error;
 use hystid::extract::{
     self, Direction, DwellOptions, FrfLevel, HarmonicAnalyser, NonlinearFrf, ReduceOptions,
-    SweepOptions, combine, estimate_frequency, find_dwells, harmonics_agree, noncoherent,
+    SweepOptions, combine, estimate_frequency, find_dwells_whole, harmonics_agree, noncoherent,
     reduce_stepped, reduce_stepped_report, reduce_sweep,
 };
 use hystid::harmonics::{Quantity, omega, sinc, synthesize};
@@ -338,7 +338,10 @@ fn stepped_recording() -> Recording {
             }
         }
     }
-    let x = sim.run(&force).unwrap().displacement;
+    let x = sim
+        .run(&force, &hystid::observe::Silent)
+        .unwrap()
+        .displacement;
     Recording {
         meta: meta(steps),
         channels: vec![force, x],
@@ -366,7 +369,7 @@ fn stepped_sine_with_and_without_steps_and_against_the_receptance() {
         },
         ..Default::default()
     };
-    let with = reduce_stepped_report(&rec, 1, &opts).unwrap();
+    let with = reduce_stepped_report(&rec, 1, &opts, &hystid::observe::Silent).unwrap();
     assert!(!with.dwells_found);
     assert_eq!(with.frf.levels.len(), 3);
     let dirs: Vec<Direction> = with.frf.levels.iter().map(|l| l.direction).collect();
@@ -391,7 +394,7 @@ fn stepped_sine_with_and_without_steps_and_against_the_receptance() {
     let mut bare = rec.clone();
     bare.meta.excitation.steps.clear();
     let t = std::time::Instant::now();
-    let found = reduce_stepped_report(&bare, 1, &opts).unwrap();
+    let found = reduce_stepped_report(&bare, 1, &opts, &hystid::observe::Silent).unwrap();
     eprintln!(
         "stepped sine, {} samples: reduced with dwells found in {:?}",
         bare.frames(),
@@ -449,7 +452,13 @@ fn stepped_sine_with_response_noise() {
     let stated = reduce_stepped(&rec, 1, &ReduceOptions::default()).unwrap();
     let mut bare = rec.clone();
     bare.meta.excitation.steps.clear();
-    let found = reduce_stepped_report(&bare, 1, &ReduceOptions::default()).unwrap();
+    let found = reduce_stepped_report(
+        &bare,
+        1,
+        &ReduceOptions::default(),
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     let model = sdof();
     for (name, frf) in [("stated steps", &stated), ("dwells found", &found.frf)] {
         let z: Vec<f64> = frf
@@ -491,7 +500,7 @@ fn stepped_sine_with_response_noise() {
 #[test]
 fn find_dwells_locates_the_steps() {
     let rec = stepped_recording();
-    let steps = find_dwells(&rec.channels[0], FS, &DwellOptions::default()).unwrap();
+    let steps = find_dwells_whole(&rec.channels[0], FS, &DwellOptions::default()).unwrap();
     let truth = &rec.meta.excitation.steps;
     assert_eq!(steps.len(), truth.len());
     for (s, t) in steps.iter().zip(truth) {
@@ -515,7 +524,8 @@ fn stated_frequency_off_is_refined_and_reported() {
     for s in &mut off.meta.excitation.steps {
         s.frequency_hz *= 1.0 + 1e-3;
     }
-    let r = reduce_stepped_report(&off, 1, &ReduceOptions::default()).unwrap();
+    let r = reduce_stepped_report(&off, 1, &ReduceOptions::default(), &hystid::observe::Silent)
+        .unwrap();
     assert!(r.dwells.iter().all(|d| d.frequency_refined));
     for (a, b) in h1_points(&exact).iter().zip(h1_points(&r.frf)) {
         assert!((a.0 / b.0 - 1.0).abs() < 1e-9);
@@ -613,7 +623,10 @@ fn f16_like_sweep() -> (Vec<f64>, Vec<f64>, ModalModel) {
         })
         .collect();
     let mut sim = Simulator::new(&model, NoElement, fs).unwrap();
-    let x = sim.run(&force).unwrap().displacement;
+    let x = sim
+        .run(&force, &hystid::observe::Silent)
+        .unwrap()
+        .displacement;
     (force, x, model)
 }
 
@@ -666,7 +679,7 @@ fn chirp_through_a_30_hz_mode(frames: usize) -> (ModalModel, f64, Vec<f64>, Vec<
         .collect();
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
     (model, fs, force, x)
@@ -683,7 +696,13 @@ fn chirp_through_a_30_hz_mode(frames: usize) -> (ModalModel, f64, Vec<f64>, Vec<
 #[test]
 fn a_chirp_from_zero_hertz_is_reduced() {
     let (model, fs, force, x) = chirp_through_a_30_hz_mode(16384);
-    let r = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
+    let r = reduce_sweep(
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
+        &SweepOptions::default(),
+    )
+    .unwrap();
     let s = r.sweep;
     eprintln!(
         "{:?} {:.4} -> {:.4} Hz at {:.5} Hz/s",
@@ -713,13 +732,19 @@ fn a_chirp_from_zero_hertz_is_reduced() {
 #[test]
 fn a_sweep_with_more_periods_than_points_allowed_is_read_at_a_longer_hop() {
     let (model, fs, force, x) = chirp_through_a_30_hz_mode(8192);
-    let all = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
+    let all = reduce_sweep(
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
+        &SweepOptions::default(),
+    )
+    .unwrap();
     assert_eq!(all.hop_periods, 1.0);
     let capped_options = SweepOptions {
         max_points: 40,
         ..SweepOptions::default()
     };
-    let capped = reduce_sweep(&force, &x, fs, &capped_options).unwrap();
+    let capped = reduce_sweep(&mut common::pair(&force, &x, fs), 0, 1, &capped_options).unwrap();
     let (n_all, n_capped) = (all.level.points.len(), capped.level.points.len());
     eprintln!(
         "{n_all} points at hop 1; at most 40: {n_capped} at hop {:.4}",
@@ -734,9 +759,9 @@ fn a_sweep_with_more_periods_than_points_allowed_is_read_at_a_longer_hop() {
         capped.hop_periods
     );
     let asked = reduce_sweep(
-        &force,
-        &x,
-        fs,
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
         &SweepOptions {
             hop_periods: capped.hop_periods,
             ..SweepOptions::default()
@@ -764,7 +789,7 @@ fn sweep_reduction_of_a_simulated_slow_sweep() {
         ..Default::default()
     };
     let t0 = std::time::Instant::now();
-    let plain = reduce_sweep(&force, &x, fs, &opts).unwrap();
+    let plain = reduce_sweep(&mut common::pair(&force, &x, fs), 0, 1, &opts).unwrap();
     let t_plain = t0.elapsed();
     let s = plain.sweep;
     eprintln!(
@@ -797,9 +822,9 @@ fn sweep_reduction_of_a_simulated_slow_sweep() {
     assert!(plain_far < 5e-3, "{plain_far}");
     let t1 = std::time::Instant::now();
     let comp = reduce_sweep(
-        &force,
-        &x,
-        fs,
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(40.0),
             ..opts
@@ -855,7 +880,7 @@ fn sweep_reduction_of_a_simulated_slow_sweep() {
     let noise = Normal::new(0.0, 0.3 * rms).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     let noisy: Vec<f64> = x.iter().map(|v| v + noise.sample(&mut rng)).collect();
-    let r = reduce_sweep(&force, &noisy, fs, &opts).unwrap();
+    let r = reduce_sweep(&mut common::pair(&force, &noisy, fs), 0, 1, &opts).unwrap();
     let pairs: Vec<(Complex64, f64)> = r
         .level
         .points
@@ -903,7 +928,7 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
     .unwrap();
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
     let mut meta = meta(Vec::new());
@@ -922,12 +947,19 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
         ..ReductionOptions::default()
     };
     let t0 = std::time::Instant::now();
-    let streamed = reduce_path(&path, ChannelChoice::default(), &options).unwrap();
+    let streamed = reduce_path(
+        &path,
+        ChannelChoice::default(),
+        &options,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     let t_streamed = t0.elapsed();
     assert!(streamed.streamed);
     let whole = reduce(
         &load_recording(&path, ChannelChoice::default()).unwrap(),
         &options,
+        &hystid::observe::Silent,
     )
     .unwrap();
     assert!(!whole.streamed);
@@ -959,7 +991,7 @@ fn a_long_sweep_is_reduced_from_disk_a_stretch_at_a_time() {
 #[test]
 fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     use hystid::analysis::recording::{
-        ChannelChoice, ReductionOptions, load_recording, reduce, reduce_path_observed,
+        ChannelChoice, ReductionOptions, load_recording, reduce, reduce_path,
     };
     let fs = 2000.0;
     let model = ModalModel::new(vec![
@@ -980,7 +1012,7 @@ fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     assert!(force.len() > extract::WHOLE_RECORD_FRAMES);
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
     let mut meta = meta(Vec::new());
@@ -1002,7 +1034,7 @@ fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
             told.lock().unwrap().push((task, done, total));
         }
     };
-    let streamed = reduce_path_observed(&path, ChannelChoice::default(), &options, &watch).unwrap();
+    let streamed = reduce_path(&path, ChannelChoice::default(), &options, &watch).unwrap();
     assert!(streamed.streamed);
     let told = told.into_inner().unwrap();
     let last = |task: &str| told.iter().rev().find(|t| t.0 == task).copied();
@@ -1012,6 +1044,7 @@ fn a_long_stepped_sine_without_stated_steps_is_reduced_from_disk() {
     let whole = reduce(
         &load_recording(&path, ChannelChoice::default()).unwrap(),
         &options,
+        &hystid::observe::Silent,
     )
     .unwrap();
     assert!(!whole.streamed);
@@ -1056,11 +1089,12 @@ fn without_a_resonance_the_compensation_is_the_sweeps_time_scale() {
             .collect();
         let x = Simulator::new(&model, NoElement, fs)
             .unwrap()
-            .run(&force)
+            .run(&force, &hystid::observe::Silent)
             .unwrap()
             .displacement;
         let opts = SweepOptions::default();
-        let sigma = extract::choose_compensation(&force, &x, fs, &opts).unwrap();
+        let sigma =
+            extract::choose_compensation(&mut common::pair(&force, &x, fs), 0, 1, &opts).unwrap();
         let want = extract::TIME_CONSTANTS / (2.0 * PI * rate).sqrt();
         eprintln!("{seconds} s: sigma {sigma:.4} s, want {want:.4} s");
         assert!((sigma / want - 1.0).abs() < 1e-3, "{sigma} vs {want}");
@@ -1083,10 +1117,16 @@ fn logarithmic_sweep_is_recognised() {
     let model = sdof();
     let x = Simulator::new(&model, NoElement, fs)
         .unwrap()
-        .run(&force)
+        .run(&force, &hystid::observe::Silent)
         .unwrap()
         .displacement;
-    let r = reduce_sweep(&force, &x, fs, &SweepOptions::default()).unwrap();
+    let r = reduce_sweep(
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
+        &SweepOptions::default(),
+    )
+    .unwrap();
     let s = r.sweep;
     let octaves = lambda * 60.0 / 2f64.ln();
     eprintln!(
@@ -1099,9 +1139,9 @@ fn logarithmic_sweep_is_recognised() {
     assert_eq!(r.level.direction, Direction::Up);
     // the compensation is for linear sweeps only, and says so
     let e = reduce_sweep(
-        &force,
-        &x,
-        fs,
+        &mut common::pair(&force, &x, fs),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(5.0),
             ..Default::default()
@@ -1152,11 +1192,11 @@ fn f16_level1_torsion_peak() {
         max_harmonic: 7,
         ..Default::default()
     };
-    let plain = reduce_sweep(&force, &acc2, 400.0, &opts).unwrap();
+    let plain = reduce_sweep(&mut common::pair(&force, &acc2, 400.0), 0, 1, &opts).unwrap();
     let comp = reduce_sweep(
-        &force,
-        &acc2,
-        400.0,
+        &mut common::pair(&force, &acc2, 400.0),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(12.0),
             ..opts
@@ -1229,7 +1269,8 @@ fn unesp_single_sines_combine() {
             channels: vec![v, laser],
         };
         let t = std::time::Instant::now();
-        let r = reduce_stepped_report(&rec, 1, &ReduceOptions::default()).unwrap();
+        let r = reduce_stepped_report(&rec, 1, &ReduceOptions::default(), &hystid::observe::Silent)
+            .unwrap();
         elapsed += t.elapsed();
         assert_eq!(
             r.dwells.len(),
@@ -1531,7 +1572,7 @@ fn truth_recording(t: &SteppedTruth) -> Recording {
 /// frequency error.
 fn check_found_dwells(t: &SteppedTruth, rec: &Recording, name: &str) -> (usize, usize, f64) {
     let fs = t.fs;
-    let steps = find_dwells(&rec.channels[0], fs, &DwellOptions::default()).unwrap();
+    let steps = find_dwells_whole(&rec.channels[0], fs, &DwellOptions::default()).unwrap();
     let summary = |s: &[Step]| {
         s.iter()
             .map(|s| {
@@ -1577,7 +1618,8 @@ fn check_found_dwells(t: &SteppedTruth, rec: &Recording, name: &str) -> (usize, 
         assert!(s.settle < s.length);
     }
     // the whole reduction
-    let r = reduce_stepped_report(rec, 1, &ReduceOptions::default()).unwrap();
+    let r =
+        reduce_stepped_report(rec, 1, &ReduceOptions::default(), &hystid::observe::Silent).unwrap();
     assert!(r.dwells_found);
     let levels: Vec<String> = r
         .frf
@@ -1622,7 +1664,8 @@ fn check_found_dwells(t: &SteppedTruth, rec: &Recording, name: &str) -> (usize, 
 /// The response's settled points against the SDOF's receptance: the
 /// transient after each switch must have been skipped.
 fn check_transient_skipped(t: &SteppedTruth, rec: &Recording, sdof: (f64, f64), name: &str) {
-    let r = reduce_stepped_report(rec, 1, &ReduceOptions::default()).unwrap();
+    let r =
+        reduce_stepped_report(rec, 1, &ReduceOptions::default(), &hystid::observe::Silent).unwrap();
     let wn = 2.0 * PI * sdof.0;
     let (k, c) = (wn * wn, 2.0 * sdof.1 * wn);
     let z: Vec<f64> = r

@@ -100,6 +100,7 @@ fn the_paper_case_is_reproduced_within_one_percent() {
             ..Default::default()
         },
         &predictor,
+        &hystid::observe::Silent,
     )
     .unwrap();
     assert!(d.selected.is_empty(), "{}", d.explanation);

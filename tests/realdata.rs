@@ -13,7 +13,7 @@
 use crate::common;
 use hystid::extract::{
     Direction, FrfPoint, NonlinearFrf, ReduceOptions, SweepOptions, choose_compensation,
-    reduce_stepped_report, reduce_stepped_stream, reduce_sweep,
+    reduce_stepped_by_dwell, reduce_stepped_report, reduce_sweep,
 };
 use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearStart, identify};
 use hystid::harmonics::{Quantity, omega};
@@ -107,7 +107,7 @@ fn sweep_force(fs: f64, f0: f64, f1: f64, seconds: f64, a: f64) -> Vec<f64> {
 
 fn simulate(model: &Model, force: &[f64], fs: f64) -> hystid::sim::Response {
     let mut sim = Simulator::new(&model.linear, model.element_set().unwrap(), fs).unwrap();
-    sim.run(force).unwrap()
+    sim.run(force, &hystid::observe::Silent).unwrap()
 }
 
 fn rms(x: &[f64]) -> f64 {
@@ -148,7 +148,7 @@ fn validation_of_the_true_model_leaves_the_noise() {
         input: DriveInput::Ramp,
         ..ValidateOptions::default()
     };
-    let v = validate_recording(&model, 1.0, &rec, 1, &opts).unwrap();
+    let v = validate_recording(&model, 1.0, &rec, 1, &opts, &hystid::observe::Silent).unwrap();
     let ramp = ValidateOptions {
         input: DriveInput::Ramp,
         ..ValidateOptions::default()
@@ -185,9 +185,9 @@ fn validation_of_the_true_model_leaves_the_noise() {
         fd: 30.0,
         n: 3.0,
     });
-    let vw = validate_recording(&wrong, 1.0, &rec, 1, &ramp).unwrap();
+    let vw = validate_recording(&wrong, 1.0, &rec, 1, &ramp, &hystid::observe::Silent).unwrap();
     let linear = Model::new(model.linear.clone(), Vec::new()).unwrap();
-    let vl = validate_recording(&linear, 1.0, &rec, 1, &ramp).unwrap();
+    let vl = validate_recording(&linear, 1.0, &rec, 1, &ramp, &hystid::observe::Silent).unwrap();
     eprintln!(
         "  slip force 30 N instead of 20 N: e_RMS {:.4e}; no joint: {:.4e}",
         vw.whole.e_rms, vl.whole.e_rms
@@ -203,7 +203,7 @@ fn validation_of_the_true_model_leaves_the_noise() {
         Quantity::Acceleration,
         ExcitationKind::SweptSine,
     );
-    let v2 = validate_recording(&model, -1.0, &rec2, 1, &ramp).unwrap();
+    let v2 = validate_recording(&model, -1.0, &rec2, 1, &ramp, &hystid::observe::Silent).unwrap();
     assert!((v2.whole.e_rms / want - 1.0).abs() < 1e-9);
 }
 
@@ -242,6 +242,7 @@ fn validation_upsamples_a_coarse_recording() {
                 min_samples_per_period: spp,
                 ..ValidateOptions::default()
             },
+            &hystid::observe::Silent,
         )
         .unwrap();
         eprintln!(
@@ -354,6 +355,7 @@ fn validation_errors_are_clear() {
             window_s: Some((5.0, 6.0)),
             ..ValidateOptions::default()
         },
+        &hystid::observe::Silent,
     )
     .unwrap_err()
     .to_string();
@@ -463,11 +465,12 @@ fn streaming_stepped_reduction_equals_the_in_memory_one() {
     write_recording(&path, &stepped(1000.0), SampleFormat::Float32).unwrap();
     let opts = ReduceOptions::default();
     let t = std::time::Instant::now();
-    let streamed = reduce_stepped_stream(&mut open(&path), 1, &opts).unwrap();
+    let streamed =
+        reduce_stepped_by_dwell(&mut open(&path), 1, &opts, &hystid::observe::Silent).unwrap();
     let ts = t.elapsed();
     let whole = read_recording(&path).unwrap();
     let t = std::time::Instant::now();
-    let memory = reduce_stepped_report(&whole, 1, &opts).unwrap();
+    let memory = reduce_stepped_report(&whole, 1, &opts, &hystid::observe::Silent).unwrap();
     eprintln!(
         "streamed {ts:?}, in memory {:?}; {} levels",
         t.elapsed(),
@@ -481,13 +484,20 @@ fn streaming_stepped_reduction_equals_the_in_memory_one() {
     bare.meta.excitation.steps.clear();
     let p2 = dir.path().join("bare");
     write_recording(&p2, &bare, SampleFormat::Float32).unwrap();
-    let streamed = reduce_stepped_stream(&mut open(&p2), 1, &opts).unwrap();
-    let memory = reduce_stepped_report(&read_recording(&p2).unwrap(), 1, &opts).unwrap();
+    let streamed =
+        reduce_stepped_by_dwell(&mut open(&p2), 1, &opts, &hystid::observe::Silent).unwrap();
+    let memory = reduce_stepped_report(
+        &read_recording(&p2).unwrap(),
+        1,
+        &opts,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     assert!(streamed.dwells_found && memory.dwells_found);
     assert_eq!(memory.dwells.len(), 8);
     assert_eq!(streamed.dwells, memory.dwells);
     assert_eq!(streamed.frf, memory.frf);
-    let e = reduce_stepped_stream(&mut open(&path), 5, &opts)
+    let e = reduce_stepped_by_dwell(&mut open(&path), 5, &opts, &hystid::observe::Silent)
         .unwrap_err()
         .to_string();
     assert!(e.contains("response channel 5"), "{e}");
@@ -510,6 +520,7 @@ fn stepped_validation_uses_the_measured_dwells() {
             input: DriveInput::Ramp,
             ..ValidateOptions::default()
         },
+        &hystid::observe::Silent,
     )
     .unwrap();
     let c = v.frf.unwrap();
@@ -533,16 +544,16 @@ fn stepped_validation_uses_the_measured_dwells() {
 fn reduce_swept(rec: &Recording, opts: &SweepOptions) -> (NonlinearFrf, f64) {
     let r = rec.reference_channel().unwrap();
     let sigma = choose_compensation(
-        &rec.channels[r],
-        &rec.channels[1],
-        rec.meta.sample_rate_hz,
+        &mut common::pair(&rec.channels[r], &rec.channels[1], rec.meta.sample_rate_hz),
+        0,
+        1,
         opts,
     )
     .unwrap();
     let red = reduce_sweep(
-        &rec.channels[r],
-        &rec.channels[1],
-        rec.meta.sample_rate_hz,
+        &mut common::pair(&rec.channels[r], &rec.channels[1], rec.meta.sample_rate_hz),
+        0,
+        1,
         &SweepOptions {
             compensation_s: Some(sigma),
             ..opts.clone()
@@ -591,9 +602,9 @@ fn swept_validation(
 ) -> Validation {
     let r = rec.reference_channel().unwrap();
     let sigma = choose_compensation(
-        &rec.channels[r],
-        &rec.channels[1],
-        rec.meta.sample_rate_hz,
+        &mut common::pair(&rec.channels[r], &rec.channels[1], rec.meta.sample_rate_hz),
+        0,
+        1,
         opts,
     )
     .unwrap();
@@ -610,6 +621,7 @@ fn swept_validation(
             })),
             ..ValidateOptions::default()
         },
+        &hystid::observe::Silent,
     )
     .unwrap()
 }
@@ -1085,6 +1097,7 @@ fn boucwen_published_model_reaches_the_floor() {
                 window_s: window,
                 ..ValidateOptions::default()
             },
+            &hystid::observe::Silent,
         )
         .unwrap();
         let e = v.window.as_ref().unwrap_or(&v.whole);
@@ -1203,6 +1216,7 @@ fn boucwen_published_model_through_the_test_sets_acquisition_is_within_2e_6() {
                 }),
                 ..ValidateOptions::default()
             },
+            &hystid::observe::Silent,
         )
         .unwrap();
         let e = v.window.as_ref().unwrap_or(&v.whole);
@@ -1276,6 +1290,7 @@ fn periodic_validation_is_the_steady_state() {
                 periodic,
                 ..ValidateOptions::default()
             },
+            &hystid::observe::Silent,
         )
         .unwrap()
         .whole

@@ -808,6 +808,7 @@ fn mcap_run_round_trip() {
         &path,
         hystid::analysis::ChannelChoice::response(Some("x")),
         &options,
+        &hystid::observe::Silent,
     )
     .unwrap();
     let loaded = hystid::analysis::load_recording(
@@ -815,7 +816,7 @@ fn mcap_run_round_trip() {
         hystid::analysis::ChannelChoice::response(Some("x")),
     )
     .unwrap();
-    let whole = hystid::analysis::reduce(&loaded, &options).unwrap();
+    let whole = hystid::analysis::reduce(&loaded, &options, &hystid::observe::Silent).unwrap();
     assert!(streamed.streamed && !whole.streamed);
     assert_eq!(streamed.frf.levels.len(), 2);
     assert_eq!(streamed.frf, whole.frf);
@@ -831,6 +832,7 @@ fn mcap_run_round_trip() {
                 &flat_path,
                 hystid::analysis::ChannelChoice::response(Some("x")),
                 &options,
+                &hystid::observe::Silent,
             )
             .map(|_| ()),
         ),

@@ -118,7 +118,9 @@ pub(crate) fn driven(m: &Model, amplitude: f64, f: f64, p: usize, seconds: f64) 
     let drive: Vec<f64> = (0..periods * p)
         .map(|n| amplitude * (2.0 * PI * (n % p) as f64 / p as f64).cos())
         .collect();
-    sim.run(&drive).unwrap().displacement
+    sim.run(&drive, &hystid::observe::Silent)
+        .unwrap()
+        .displacement
 }
 
 /// `m` balanced at `f` under the drive `amplitude` (as [`driven`] takes it).
@@ -200,7 +202,14 @@ fn the_drive_force_is_the_coils_and_drops_at_resonance() {
         let drive: Vec<f64> = (0..periods * p)
             .map(|n| (2.0 * PI * (n % p) as f64 / p as f64).cos())
             .collect();
-        let got = harmonic(&sim.run(&drive).unwrap().drive_force, p, 20, 1);
+        let got = harmonic(
+            &sim.run(&drive, &hystid::observe::Silent)
+                .unwrap()
+                .drive_force,
+            p,
+            20,
+            1,
+        );
         let exact = coil_force(f);
         let e = (got / exact - 1.0).norm();
         eprintln!("drive force at {f} Hz: {got:.4} vs {exact:.4} ({e:.1e})");
@@ -292,7 +301,10 @@ fn beside_a_hysteretic_mode_the_parts_balance_as_the_simulator_runs_them() {
         let drive: Vec<f64> = (0..periods * p)
             .map(|n| force * (2.0 * PI * (n % p) as f64 / p as f64).cos())
             .collect();
-        let x = sim.run(&drive).unwrap().displacement;
+        let x = sim
+            .run(&drive, &hystid::observe::Silent)
+            .unwrap()
+            .displacement;
         let s = harmonic(&x, p, 20, 1);
         assert!(
             (s / hb - 1.0).norm() < 2e-3,

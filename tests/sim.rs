@@ -38,7 +38,7 @@ fn linear_steady_state(p: usize, f: f64) -> [Complex64; 3] {
     let force: Vec<f64> = (0..n)
         .map(|i| (2.0 * PI * (i % p) as f64 / p as f64).cos())
         .collect();
-    let r = sim.run(&force).unwrap();
+    let r = sim.run(&force, &hystid::observe::Silent).unwrap();
     [
         fundamental(&r.displacement, p, 4),
         fundamental(&r.velocity, p, 4),
@@ -105,7 +105,9 @@ fn linear_steady_state_is_the_receptance_times_sinc_squared() {
 fn static_gain_is_exactly_one_over_k() {
     let model = ModalModel::sdof(M, C, K).unwrap();
     let mut sim = Simulator::new(&model, NoElement, 30000.0).unwrap();
-    let r = sim.run(&vec![1000.0; 120_000]).unwrap();
+    let r = sim
+        .run(&vec![1000.0; 120_000], &hystid::observe::Silent)
+        .unwrap();
     let x = *r.displacement.last().unwrap();
     assert!(
         (x * K / 1000.0 - 1.0).abs() < 1e-10,
@@ -343,7 +345,7 @@ fn masing_with_large_n_simulates_like_jenkins() {
         let force: Vec<f64> = (0..(fs as usize))
             .map(|i| 400.0 * (2.0 * PI * 250.0 * i as f64 / fs).cos())
             .collect();
-        sim.run(&force).unwrap()
+        sim.run(&force, &hystid::observe::Silent).unwrap()
     };
     let a = run(ElementSpec::Jenkins { kd: KD, fd: FD });
     let b = run(ElementSpec::Masing {
@@ -369,9 +371,9 @@ fn state_carries_from_one_call_to_the_next() {
         .map(|i| 300.0 * (2.0 * PI * 230.0 * i as f64 / fs).sin())
         .collect();
     let mut one = Simulator::new(&model, el(), fs).unwrap();
-    let whole = one.run(&force).unwrap();
+    let whole = one.run(&force, &hystid::observe::Silent).unwrap();
     let mut two = Simulator::new(&model, el(), fs).unwrap();
-    let mut parts = two.run(&force[..1234]).unwrap();
+    let mut parts = two.run(&force[..1234], &hystid::observe::Silent).unwrap();
     two.run_into(&force[1234..], &mut parts).unwrap();
     assert_eq!(whole, parts);
     assert!(one.elements().has_memory());
@@ -381,7 +383,10 @@ fn state_carries_from_one_call_to_the_next() {
 fn bad_input_is_an_error_not_a_panic() {
     let model = ModalModel::sdof(M, C, K).unwrap();
     let mut sim = Simulator::new(&model, NoElement, 10000.0).unwrap();
-    let e = sim.run(&[1.0, f64::NAN, 2.0]).unwrap_err().to_string();
+    let e = sim
+        .run(&[1.0, f64::NAN, 2.0], &hystid::observe::Silent)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("force sample 1") && e.contains("finite"), "{e}");
     let e = Simulator::new(&model, NoElement, 300.0)
         .unwrap_err()
@@ -534,8 +539,14 @@ fn a_hysteretic_mode_stuck_or_slipping_is_the_closed_form_receptance() {
             let force: Vec<f64> = (0..n)
                 .map(|i| (2.0 * PI * (i % p) as f64 / p as f64).cos())
                 .collect();
-            let x = hystid::sim::simulate(&model, &force, fs, hystid::sim::Output::Displacement)
-                .unwrap();
+            let x = hystid::sim::simulate(
+                &model,
+                &force,
+                fs,
+                hystid::sim::Output::Displacement,
+                &hystid::observe::Silent,
+            )
+            .unwrap();
             let got = fundamental(&x, p, 4);
             let h = s2 * own.receptance(w);
             let held = if stuck { h / (1.0 + kd * h) } else { h };
@@ -602,7 +613,10 @@ fn the_element_forces_sinc_squared_loss_compensated_is_the_closed_form() {
             let force: Vec<f64> = (0..n)
                 .map(|i| c(i) + (2.0 * c(i) - c(i + p - 1) - c(i + 1)) / 12.0)
                 .collect();
-            let x = sim.run(&force).unwrap().displacement;
+            let x = sim
+                .run(&force, &hystid::observe::Silent)
+                .unwrap()
+                .displacement;
             let got = fundamental(&x, p, 4);
             let exact = (got / closed - 1.0).norm();
             let error = (got / continuous - 1.0).norm();

@@ -86,8 +86,13 @@ fn jenkins_diagnosis(
     hystid::fit::HbPredictor,
     hystid::diagnose::Diagnosis,
 ) {
-    let reduced =
-        hystid::analysis::reduce_path(path, Default::default(), &Default::default()).unwrap();
+    let reduced = hystid::analysis::reduce_path(
+        path,
+        Default::default(),
+        &Default::default(),
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     let predictor = hystid::fit::HbPredictor::default();
     let fit_options = hystid::fit::FitOptions {
         element: hystid::model::ElementKind::Jenkins,
@@ -98,7 +103,14 @@ fn jenkins_diagnosis(
         fit: fit_options,
         ..Default::default()
     };
-    let d = hystid::diagnose::diagnose(&reduced.frf, &fit, &options, &predictor).unwrap();
+    let d = hystid::diagnose::diagnose(
+        &reduced.frf,
+        &fit,
+        &options,
+        &predictor,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     (reduced, options, predictor, d)
 }
 
@@ -1095,8 +1107,13 @@ fn a_mode_above_twice_the_rate_is_replayed_by_its_flexibility() {
     .unwrap();
     let force = interpolate(&rec.force, k).unwrap();
     let mut fine = vec![0.0; force.len()];
-    sim.run_output(&force, hystid::sim::Output::Velocity, &mut fine)
-        .unwrap();
+    sim.run_output(
+        &force,
+        hystid::sim::Output::Velocity,
+        &mut fine,
+        &hystid::observe::Silent,
+    )
+    .unwrap();
     let mut resolved = decimate(&fine, k).unwrap();
     resolved.truncate(rec.force.len());
     let (q, r, left_out) = (

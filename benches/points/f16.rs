@@ -88,7 +88,13 @@ fn reduce(path: &Path) -> (Vec<PointMeasurement>, SweepFit) {
         ..ReductionOptions::default()
     };
     let one = |name: &str, options: &ReductionOptions| {
-        reduce_path(path, ChannelChoice::response(Some(name)), options).expect("the sweep reduces")
+        reduce_path(
+            path,
+            ChannelChoice::response(Some(name)),
+            options,
+            &hystid::observe::Silent,
+        )
+        .expect("the sweep reduces")
     };
     let red = one(RESPONSES[1], &options);
     let (wing, reading) = (red.frf, red.sweep.expect("a swept reading"));

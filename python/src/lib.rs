@@ -21,7 +21,7 @@ use hystid::analysis::run::FinalModel;
 use hystid::analysis::validate::{
     FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
 };
-use hystid::analysis::{FitReport, Loaded, reduce_observed};
+use hystid::analysis::{FitReport, Loaded, reduce};
 use hystid::diagnose::{DiagnoseOptions, Effect};
 use hystid::fit::{FitOptions, TimeFitOptions, TimeRecord};
 use hystid::harmonics::Quantity;
@@ -197,7 +197,7 @@ fn simulate<'py>(
     let m = &model.inner;
     let progress = Progress::new(progress);
     let y = progress.run_simulation(py, f.len(), || {
-        hystid::sim::simulate_observed(m, f, sample_rate_hz, which, &progress)
+        hystid::sim::simulate(m, f, sample_rate_hz, which, &progress)
     })?;
     Ok(y.into_pyarray(py))
 }
@@ -217,7 +217,7 @@ fn simulate_all<'py>(
     let m = &model.inner;
     let progress = Progress::new(progress);
     let r = progress.run_simulation(py, f.len(), || {
-        hystid::sim::simulate_all_observed(m, f, sample_rate_hz, &progress)
+        hystid::sim::simulate_all(m, f, sample_rate_hz, &progress)
     })?;
     Ok(vec![
         r.displacement.into_pyarray(py),
@@ -312,7 +312,7 @@ impl PySimulation {
         let f = slice("force", &force)?;
         let y = self.block(py, f.len(), progress, |sim, p| {
             let mut out = vec![0.0; f.len()];
-            sim.run_output_observed(f, which, &mut out, p).map(|_| out)
+            sim.run_output(f, which, &mut out, p).map(|_| out)
         })?;
         Ok(y.into_pyarray(py))
     }
@@ -326,7 +326,7 @@ impl PySimulation {
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Vec<Bound<'py, PyArray1<f64>>>> {
         let f = slice("force", &force)?;
-        let r = self.block(py, f.len(), progress, |sim, p| sim.run_observed(f, p))?;
+        let r = self.block(py, f.len(), progress, |sim, p| sim.run(f, p))?;
         Ok(vec![
             r.displacement.into_pyarray(py),
             r.velocity.into_pyarray(py),
@@ -370,7 +370,7 @@ fn _rust_simulate_seconds<'py>(
     let m = &model.inner;
     py.detach(|| {
         let t0 = std::time::Instant::now();
-        let y = hystid::sim::simulate(m, f, sample_rate_hz, which)?;
+        let y = hystid::sim::simulate(m, f, sample_rate_hz, which, &hystid::observe::Silent)?;
         let s = t0.elapsed().as_secs_f64();
         drop(y);
         Ok(s)
@@ -478,7 +478,7 @@ fn extract<'py>(
         &excitation,
     )?;
     let progress = Progress::new(progress);
-    let red = progress.run(py, || reduce_observed(&loaded, &options, &progress))?;
+    let red = progress.run(py, || reduce(&loaded, &options, &progress))?;
     to_json(&red.frf)
 }
 

@@ -2,7 +2,7 @@
 //! them, in JSON.
 
 use super::fail;
-use hystid::analysis::{Compensation, SineTest as Reduction, ReductionOptions};
+use hystid::analysis::{Compensation, ReductionOptions, SineTest as Reduction};
 use pyo3::prelude::*;
 use serde::Deserialize;
 

@@ -8,7 +8,7 @@ use super::write_json;
 use crate::diagnose::time_residual::{
     TimeResidual, TracedCandidate, share_explained, time_residual,
 };
-use crate::diagnose::{DiagnoseOptions, Diagnosis, Effect, Verdict, diagnose_observed};
+use crate::diagnose::{DiagnoseOptions, Diagnosis, Effect, Verdict, diagnose};
 use crate::error::Result;
 use crate::extract::NonlinearFrf;
 use crate::fit::time::{RecordError, TimeProblem, time_parameters};
@@ -30,7 +30,7 @@ pub fn run_diagnosis(
     observer: &dyn Observer,
 ) -> Result<(Diagnosis, HbPredictor)> {
     let predictor = HbPredictor::default();
-    let d = diagnose_observed(frf, fit, options, &predictor, observer)?;
+    let d = diagnose(frf, fit, options, &predictor, observer)?;
     Ok((d, predictor))
 }
 

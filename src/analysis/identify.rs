@@ -466,8 +466,8 @@ pub fn periodic_start(
 
 /// [`periodic_start`] of recordings read, each with its name: taken over
 /// (their reference and response become the time records' without a copy)
-/// and read a period at a time ([`crate::extract::find_period_held`],
-/// [`crate::extract::periodic_frf_held`]), so that a long recording spilled
+/// and read a period at a time ([`crate::extract::find_period`],
+/// [`crate::extract::periodic_frf`]), so that a long recording spilled
 /// to a scratch file is never held whole.
 pub fn periodic_start_of(
     recordings: Vec<(String, super::HeldRecording)>,
@@ -490,11 +490,12 @@ pub fn periodic_start_of(
             held.channels[reference].view(),
             held.channels[held.response].view(),
         );
-        let Some(period) = crate::extract::find_period_held(u) else {
+        let fs = held.meta.sample_rate_hz;
+        let mut pair = crate::signals::InMemoryFrames::pair(u, y, fs)?;
+        let Some(period) = crate::extract::find_period(&mut pair, 0)? else {
             return Ok(None);
         };
-        let fs = held.meta.sample_rate_hz;
-        let found = crate::extract::periodic_frf_held(u, y, fs, period);
+        let found = crate::extract::periodic_frf(&mut pair, 0, 1, period)?;
         if found.len() < MULTISINE_LINES {
             return Ok(None);
         }

@@ -34,8 +34,8 @@ pub use identify::{
 pub use recording::{
     ChannelChoice, Compensation, HeldRecording, Loaded, MULTISINE_LINES, Reduced, ReductionOptions,
     SineTest, band_limited, combine_recordings, excitation_of, load_held_reference_and_response,
-    load_recording, load_reference_and_response, load_time_record, reduce, reduce_observed,
-    reduce_path, reduce_path_observed, reduce_recordings, response_channel, sweep_options,
+    load_recording, load_reference_and_response, load_time_record, reduce, reduce_path,
+    reduce_recordings, response_channel, sweep_options,
 };
 
 use crate::error::{Error, Result};

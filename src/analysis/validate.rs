@@ -9,7 +9,7 @@ use crate::extract::lines::LineClass;
 use crate::harmonics::Quantity;
 use crate::model::{ModalModel, Model};
 use crate::plot::{self, FrfSeries, SeriesStyle, TimeTrace, TimeTraceBuilder};
-use crate::signals::{RecordingView, SamplesView};
+use crate::signals::{InMemoryFrames, RecordingView, SamplesView};
 use crate::validate::{Reduction, ReplayTap, ValidateOptions, Validation, validate_view};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -428,10 +428,14 @@ fn validate_held(
         Some(
             match excitation_of(rec.meta, settings.reduction.excitation) {
                 SineTest::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
-                SineTest::Swept => Reduction::Swept(super::recording::sweep_options_held(
-                    rec.channels[reference],
-                    rec.channels[response],
-                    rec.meta.sample_rate_hz,
+                SineTest::Swept => Reduction::Swept(super::recording::sweep_options(
+                    &mut InMemoryFrames::pair(
+                        rec.channels[reference],
+                        rec.channels[response],
+                        rec.meta.sample_rate_hz,
+                    )?,
+                    0,
+                    1,
                     &settings.reduction,
                 )?),
             },
@@ -555,10 +559,11 @@ fn drive_is_broadband(
     if rec.meta.excitation.kind != ExcitationKind::Unknown {
         return Ok(false);
     }
-    match crate::extract::find_dwells_held(
-        rec.channels[reference],
-        rec.meta.sample_rate_hz,
+    match crate::extract::find_dwells(
+        &mut InMemoryFrames::single(rec.channels[reference], rec.meta.sample_rate_hz),
+        0,
         &stepped_options(&settings.reduction).dwell,
+        &crate::observe::Silent,
     ) {
         Ok(_) => Ok(false),
         Err(Error::NoDwell { .. }) => Ok(true),

@@ -637,19 +637,10 @@ pub fn default_harmonics(frf: &NonlinearFrf) -> Vec<usize> {
     h
 }
 
-/// Diagnoses a fit: see the module docs.
+/// Diagnoses a fit (see the module docs), telling `observer` what it is
+/// doing (called from worker threads while candidates are refitted in
+/// parallel).
 pub fn diagnose(
-    frf: &NonlinearFrf,
-    fit: &FitResult,
-    options: &DiagnoseOptions,
-    predictor: &HbPredictor,
-) -> Result<Diagnosis> {
-    diagnose_observed(frf, fit, options, predictor, &crate::observe::Silent)
-}
-
-/// [`diagnose`], telling `observer` what it is doing (called from worker
-/// threads while candidates are refitted in parallel).
-pub fn diagnose_observed(
     frf: &NonlinearFrf,
     fit: &FitResult,
     options: &DiagnoseOptions,

@@ -1,11 +1,10 @@
 //! A record read a block at a time: the sizes the long reductions work in
-//! and the sources they read a force and a response from (in memory, held
-//! in scratch files, or a recording on disk), shared by the swept-sine and
-//! stepped-sine reductions.
+//! and how they read a force and a response (or a reference alone) from a
+//! [`FrameSource`] (a recording on disk, or channels held in memory or in
+//! scratch files), shared by the swept-sine and stepped-sine reductions.
 
 use crate::error::{Error, Result};
-use crate::signals::{FrameSource, SamplesView};
-use std::borrow::Cow;
+use crate::signals::FrameSource;
 
 /// Records of at most this many frames are reduced whole (2^21: 105 s at
 /// 20 kHz), longer ones a block at a time (see the module docs).
@@ -61,72 +60,21 @@ pub(super) trait PairSource {
     fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])>;
 }
 
-/// Both channels in memory.
+/// Both channels in memory (the tests' records, read by the block stages
+/// directly).
+#[cfg(test)]
 pub(super) struct InMemory<'a> {
     pub force: &'a [f64],
     pub response: &'a [f64],
 }
 
+#[cfg(test)]
 impl PairSource for InMemory<'_> {
     fn frames(&self) -> usize {
         self.force.len()
     }
     fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
         Ok((&self.force[a..b], &self.response[a..b]))
-    }
-}
-
-/// Two held channels (in memory or in scratch files), read a stretch at a
-/// time.
-pub(super) struct HeldPair<'a> {
-    force: SamplesView<'a>,
-    response: SamplesView<'a>,
-    held: (Cow<'a, [f64]>, Cow<'a, [f64]>),
-}
-
-impl<'a> HeldPair<'a> {
-    pub(super) fn new(force: SamplesView<'a>, response: SamplesView<'a>) -> HeldPair<'a> {
-        HeldPair {
-            force,
-            response,
-            held: (Cow::Borrowed(&[]), Cow::Borrowed(&[])),
-        }
-    }
-}
-
-impl PairSource for HeldPair<'_> {
-    fn frames(&self) -> usize {
-        self.force.len()
-    }
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        self.held = (self.force.range(a..b), self.response.range(a..b));
-        Ok((&self.held.0, &self.held.1))
-    }
-}
-
-/// A held channel as the force of a [`PairSource`] (the response: the same
-/// stretch), read a stretch at a time.
-pub(super) struct HeldReference<'a> {
-    samples: SamplesView<'a>,
-    held: Cow<'a, [f64]>,
-}
-
-impl<'a> HeldReference<'a> {
-    pub(super) fn new(samples: SamplesView<'a>) -> HeldReference<'a> {
-        HeldReference {
-            samples,
-            held: Cow::Borrowed(&[]),
-        }
-    }
-}
-
-impl PairSource for HeldReference<'_> {
-    fn frames(&self) -> usize {
-        self.samples.len()
-    }
-    fn pair(&mut self, a: usize, b: usize) -> Result<(&[f64], &[f64])> {
-        self.held = self.samples.range(a..b);
-        Ok((&self.held, &self.held))
     }
 }
 
@@ -157,15 +105,48 @@ impl<S: FrameSource> PairSource for FramePair<'_, S> {
                     format!("read {got} of frames {a}..{b}: the file ends early"),
                 ));
             }
-            for (held, &c) in self.held.iter_mut().zip(&self.channels) {
-                std::mem::swap(held, &mut self.scratch[c]);
+            let [reference, response] = self.channels;
+            std::mem::swap(&mut self.held[0], &mut self.scratch[reference]);
+            if response != reference {
+                std::mem::swap(&mut self.held[1], &mut self.scratch[response]);
             }
             self.start = a;
         }
         let o = a - self.start;
         let n = b - a;
-        Ok((&self.held[0][o..o + n], &self.held[1][o..o + n]))
+        // a reference read alone is its own response
+        let response = if self.channels[0] == self.channels[1] {
+            &self.held[0]
+        } else {
+            &self.held[1]
+        };
+        Ok((&self.held[0][o..o + n], &response[o..o + n]))
     }
+}
+
+/// Channel `reference` of `source` alone as a [`PairSource`] (the response:
+/// the same stretch), read a stretch of at least `blocks.read` frames at a
+/// time.
+pub(super) fn frame_reference<'s, S: FrameSource>(
+    source: &'s mut S,
+    reference: usize,
+    blocks: &Blocks,
+) -> Result<FramePair<'s, S>> {
+    let n = source.meta().channels.len();
+    if reference >= n {
+        return Err(Error::input(
+            format!("reference channel {reference}"),
+            format!("out of range: {} has {n} channels", source.source_name()),
+        ));
+    }
+    Ok(FramePair {
+        source,
+        channels: [reference, reference],
+        start: 0,
+        held: [Vec::new(), Vec::new()],
+        scratch: vec![Vec::new(); n],
+        read: blocks.read,
+    })
 }
 
 pub(super) fn frame_pair<'s, S: FrameSource>(

@@ -9,10 +9,10 @@
 //! peak.
 
 use super::blocks::{BLOCKS, frame_pair};
-use super::sweep_reduce::{reduce_sweep, reduce_sweep_from, reduce_sweep_held};
+use super::sweep_reduce::reduce_sweep_from;
 use super::{FrfPoint, SweepOptions, SweepReduction};
 use crate::error::Result;
-use crate::signals::{FrameSource, SamplesView};
+use crate::signals::FrameSource;
 use std::f64::consts::PI;
 
 /// Time constants of the resonance per compensation window `σ`.
@@ -63,15 +63,19 @@ pub fn resonance_time_constant(points: &[FrfPoint]) -> Option<f64> {
 /// broadens the plain (uncompensated) reduction's peak, which shortens `τ`,
 /// so `τ` is measured again on the reduction compensated with the first
 /// estimate, and the larger `σ` kept. `options` are those of the reductions
-/// (their `compensation_s` is ignored).
+/// (their `compensation_s` is ignored). The record is channels `reference`
+/// and `response` of `source`, each reduction reading it a stretch at a
+/// time (see [`super::reduce_sweep`]).
 pub fn choose_compensation(
-    force: &[f64],
-    response: &[f64],
-    sample_rate_hz: f64,
+    source: &mut impl FrameSource,
+    reference: usize,
+    response: usize,
     options: &SweepOptions,
 ) -> Result<f64> {
-    choose_compensation_by(sample_rate_hz, options, &mut |o| {
-        reduce_sweep(force, response, sample_rate_hz, o)
+    let fs = source.meta().sample_rate_hz;
+    let mut pair = frame_pair(source, reference, response, &BLOCKS)?;
+    choose_compensation_by(fs, options, &mut |o| {
+        reduce_sweep_from(&mut pair, fs, o, &BLOCKS)
     })
 }
 
@@ -102,32 +106,4 @@ pub(crate) fn choose_compensation_by(
         ..plain_options
     })?;
     Ok(sigma(&again.level.points).max(first))
-}
-
-/// [`super::choose_compensation`] of two held channels, each reduction
-/// reading them a stretch at a time ([`super::reduce_sweep_held`]).
-pub fn choose_compensation_held(
-    force: SamplesView,
-    response: SamplesView,
-    sample_rate_hz: f64,
-    options: &SweepOptions,
-) -> Result<f64> {
-    choose_compensation_by(sample_rate_hz, options, &mut |o| {
-        reduce_sweep_held(force, response, sample_rate_hz, o)
-    })
-}
-
-/// [`super::choose_compensation`] for a recording read a stretch at a time
-/// (see [`super::reduce_sweep_stream`]).
-pub fn choose_compensation_stream(
-    source: &mut impl FrameSource,
-    reference: usize,
-    response: usize,
-    options: &SweepOptions,
-) -> Result<f64> {
-    let fs = source.meta().sample_rate_hz;
-    let mut pair = frame_pair(source, reference, response, &BLOCKS)?;
-    choose_compensation_by(fs, options, &mut |o| {
-        reduce_sweep_from(&mut pair, fs, o, &BLOCKS)
-    })
 }

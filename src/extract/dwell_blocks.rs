@@ -1,6 +1,6 @@
 //! The dwells of a long stepped-sine record found a block at a time.
 //!
-//! [`super::find_dwells`] follows the reference's phase over the whole
+//! [`super::find_dwells_whole`] follows the reference's phase over the whole
 //! record: its local RMS, the analytic signal of the reference divided by
 //! it (an FFT of the record), the phase and envelope at every sample. That
 //! is about 60 bytes a frame on top of the record: 3.4 GB of peak memory
@@ -30,12 +30,12 @@
 //! the frequencies to rounding (tested); records up to
 //! [`super::WHOLE_RECORD_FRAMES`] are read whole.
 
-use super::blocks::{BLOCKS, Blocks, HeldReference, PairSource};
+use super::blocks::{BLOCKS, Blocks, PairSource};
 use super::stepped::{DwellOptions, WindowTracker, dwells_of_windows};
 use super::sweep_blocks::BlockPhase;
 use crate::error::{Error, Result};
-use crate::observe::{Observer, Silent, progress};
-use crate::signals::{FrameSource, SamplesView, Step};
+use crate::observe::{Observer, progress};
+use crate::signals::{FrameSource, Step};
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -43,10 +43,10 @@ use std::f64::consts::PI;
 /// The progress task of a dwell search read a stretch at a time.
 pub const FINDING: &str = "finding dwells";
 
-/// [`super::find_dwells`] of the reference (`src`'s force) read a stretch at
-/// a time (see the module docs), telling `observer` how far its four reads
-/// have come (`finding dwells`: the mean, the crossings, the phase, the
-/// dwells examined) and stopping where it asks.
+/// [`super::find_dwells_whole`] of the reference (`src`'s force) read a
+/// stretch at a time (see the module docs), telling `observer` how far its
+/// four reads have come (`finding dwells`: the mean, the crossings, the
+/// phase, the dwells examined) and stopping where it asks.
 pub(super) fn find_dwells_in_blocks(
     src: &mut dyn PairSource,
     sample_rate_hz: f64,
@@ -170,41 +170,30 @@ pub(super) fn find_dwells_in_blocks(
     Ok(found)
 }
 
-/// [`super::find_dwells`] of channel `reference` of `source` (`response`:
-/// another channel, read beside it): read whole where the record is at most
-/// [`super::WHOLE_RECORD_FRAMES`] long (the same dwells as ever), a stretch
-/// at a time with the library's block sizes where it is longer, telling
-/// `observer` how far it has come ([`FINDING`]).
-pub fn find_dwells_stream<S: FrameSource>(
+/// The stepped-sine dwells of channel `reference` of `source`: read whole
+/// where the record is at most [`super::WHOLE_RECORD_FRAMES`] long
+/// ([`super::find_dwells_whole`], the same dwells as ever), a stretch at a
+/// time with the library's block sizes where it is longer (a channel held
+/// in a scratch file is then never copied whole), telling `observer` how
+/// far it has come ([`FINDING`]). A held channel is handed over as
+/// [`crate::signals::InMemoryFrames::single`].
+///
+/// Errors: the channel out of range, a read that fails, and those of
+/// [`super::find_dwells_whole`].
+pub fn find_dwells<S: FrameSource>(
     source: &mut S,
-    (reference, response): (usize, usize),
+    reference: usize,
     options: &DwellOptions,
     observer: &dyn Observer,
 ) -> Result<Vec<Step>> {
     let fs = source.meta().sample_rate_hz;
     let frames = source.frames();
-    let mut pair = super::blocks::frame_pair(source, reference, response, &BLOCKS)?;
+    let mut only = super::blocks::frame_reference(source, reference, &BLOCKS)?;
     if frames <= BLOCKS.whole {
-        let (force, _) = pair.pair(0, frames)?;
-        return super::find_dwells(force, fs, options);
+        let (force, _) = only.pair(0, frames)?;
+        return super::find_dwells_whole(force, fs, options);
     }
-    find_dwells_in_blocks(&mut pair, fs, options, &BLOCKS, observer)
-}
-
-/// [`super::find_dwells`] of a held reference: read whole where it is at
-/// most [`super::WHOLE_RECORD_FRAMES`] long (the same dwells as ever), a
-/// stretch at a time where it is longer (a channel held in a scratch file
-/// is then never copied whole).
-pub fn find_dwells_held(
-    reference: SamplesView,
-    sample_rate_hz: f64,
-    options: &DwellOptions,
-) -> Result<Vec<Step>> {
-    if reference.len() <= BLOCKS.whole {
-        return super::find_dwells(&reference.values(), sample_rate_hz, options);
-    }
-    let mut src = HeldReference::new(reference);
-    find_dwells_in_blocks(&mut src, sample_rate_hz, options, &BLOCKS, &Silent)
+    find_dwells_in_blocks(&mut only, fs, options, &BLOCKS, observer)
 }
 
 #[cfg(test)]
@@ -212,6 +201,7 @@ mod tests {
     use super::super::blocks::{InMemory, SMALL};
     use super::super::stepped::{normalise, track};
     use super::*;
+    use crate::observe::Silent;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
 
@@ -284,7 +274,7 @@ mod tests {
     fn the_dwells_found_in_blocks_are_the_whole_records() {
         let (x, truth) = reference();
         let options = DwellOptions::default();
-        let whole = super::super::find_dwells(&x, FS, &options).unwrap();
+        let whole = super::super::find_dwells_whole(&x, FS, &options).unwrap();
         let response = vec![0.0; x.len()];
         let mut src = InMemory {
             force: &x,

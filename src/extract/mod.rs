@@ -11,8 +11,8 @@
 //!   [`estimate_frequency`] finds the frequency.
 //! * [`reduce_stepped`]: a stepped-sine [`Recording`](crate::signals::Recording),
 //!   with its stated steps or with dwells found in the reference
-//!   ([`find_dwells`]); [`combine`] merges single-dwell recordings;
-//!   [`reduce_stepped_stream`] reduces a recording too large for memory one
+//!   ([`find_dwells_whole`]); [`combine`] merges single-dwell recordings;
+//!   [`reduce_stepped_by_dwell`] reduces a recording too large for memory one
 //!   dwell at a time from a [`FrameSource`](crate::signals::FrameSource).
 //!
 //! This stage reads samples, never files: the file formats are
@@ -53,27 +53,22 @@ mod welch;
 
 pub use blocks::WHOLE_RECORD_FRAMES;
 pub use coherent::{HarmonicAnalyser, harmonics_agree};
-pub use compensation::{
-    TIME_CONSTANTS, choose_compensation, choose_compensation_held, choose_compensation_stream,
-    resonance_time_constant,
-};
-pub use dwell_blocks::{FINDING, find_dwells_held, find_dwells_stream};
+pub use compensation::{TIME_CONSTANTS, choose_compensation, resonance_time_constant};
+pub use dwell_blocks::{FINDING, find_dwells};
 pub use noncoherent::{estimate_frequency, noncoherent};
 pub use periodic::{
-    EXCITED_LINE, Line, PERIOD_SEARCH, PERIODIC_CORRELATION, find_period, find_period_held,
-    periodic_frf, periodic_frf_held,
+    EXCITED_LINE, Line, PERIOD_SEARCH, PERIODIC_CORRELATION, find_period, periodic_frf,
 };
 pub use stepped::{
     DwellOptions, DwellReport, ReduceOptions, Settling, SteppedReduction, below_resolution,
-    combine, combine_with, find_dwells, reduce_stepped, reduce_stepped_observed,
-    reduce_stepped_report, settling,
+    combine, combine_with, find_dwells_whole, reduce_stepped, reduce_stepped_report, settling,
 };
-pub use streaming::{reduce_stepped_stream, reduce_stepped_stream_observed};
-pub use sweep::{MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep};
-pub use sweep_blocks::find_sweep_held;
-pub use sweep_reduce::{
-    reduce_sweep, reduce_sweep_held, reduce_sweep_recording, reduce_sweep_stream,
+pub use streaming::reduce_stepped_by_dwell;
+pub use sweep::{
+    MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep_whole,
 };
+pub use sweep_blocks::find_sweep;
+pub use sweep_reduce::{reduce_sweep, reduce_sweep_recording};
 pub use welch::{DEFAULT_SEGMENT, MIN_AVERAGES, WelchFrf, welch_h1};
 
 use crate::harmonics::Quantity;

@@ -11,7 +11,9 @@
 //! first (its transient), is the linear FRF a best linear approximation of
 //! the structure gives (Pintelon & Schoukens, *System Identification*, ch. 3).
 
-use crate::signals::SamplesView;
+use super::blocks::{BLOCKS, PairSource, frame_pair, frame_reference};
+use crate::error::Result;
+use crate::signals::FrameSource;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
 
@@ -36,12 +38,13 @@ pub const PERIODIC_CORRELATION: f64 = 0.98;
 /// as excited.
 pub const EXCITED_LINE: f64 = 0.1;
 
-/// The reference's period in samples: the smallest lag past the
+/// The reference's period in samples, from its autocorrelation over the
+/// whole of `reference` at once: the smallest lag past the
 /// autocorrelation's zero-lag lobe where it returns above
 /// [`PERIODIC_CORRELATION`] (at its local maximum there); `None` when it
 /// never does within half the record (no two whole periods) or the record
 /// is silent.
-pub fn find_period(reference: &[f64]) -> Option<usize> {
+fn period_of(reference: &[f64]) -> Option<usize> {
     let n = reference.len();
     if n < 32 || reference.iter().any(|v| !v.is_finite()) {
         return None;
@@ -100,40 +103,52 @@ pub fn find_period(reference: &[f64]) -> Option<usize> {
     None
 }
 
-/// Frames of a long reference in which [`find_period_held`] looks for its
+/// Frames of a long reference in which [`find_period`] looks for its
 /// period (the autocorrelation's FFT over them holds 32 MiB): periods up to
 /// half of it are found.
 pub const PERIOD_SEARCH: usize = 1 << 20;
 
-/// [`find_period`] of a reference held however it is, without holding more
-/// than [`PERIOD_SEARCH`] of its samples: a reference up to that long is
-/// searched whole (the same period); a longer one in its first
-/// [`PERIOD_SEARCH`] frames, the period found there kept only if the whole
-/// record repeats at it (its autocorrelation `ρ` at that lag, over the
-/// whole record, read a stretch at a time, at least
-/// [`PERIODIC_CORRELATION`]): a record whose later part is another signal
-/// has no period.
-pub fn find_period_held(reference: SamplesView) -> Option<usize> {
-    let n = reference.len();
+/// The period in samples of channel `reference` of `source` (a held
+/// channel: [`crate::signals::InMemoryFrames::single`]), without holding
+/// more than [`PERIOD_SEARCH`] of its samples: the smallest lag past the
+/// autocorrelation's zero-lag lobe where it returns above
+/// [`PERIODIC_CORRELATION`] (at its local maximum there), `None` when it
+/// never does within half the record (no two whole periods) or the record
+/// is silent. A reference up to [`PERIOD_SEARCH`] long is searched whole;
+/// a longer one in its first [`PERIOD_SEARCH`] frames, the period found
+/// there kept only if the whole record repeats at it (its autocorrelation
+/// `ρ` at that lag, over the whole record, read a stretch at a time, at
+/// least [`PERIODIC_CORRELATION`]): a record whose later part is another
+/// signal has no period.
+///
+/// Errors: the channel out of range, a read that fails.
+pub fn find_period(source: &mut impl FrameSource, reference: usize) -> Result<Option<usize>> {
+    let n = source.frames();
+    let mut x = frame_reference(source, reference, &BLOCKS)?;
+    let Some(period) = period_of(x.pair(0, n.min(PERIOD_SEARCH))?.0) else {
+        return Ok(None);
+    };
     if n <= PERIOD_SEARCH {
-        return find_period(&reference.range(0..n));
+        return Ok(Some(period));
     }
-    let period = find_period(&reference.range(0..PERIOD_SEARCH))?;
-    (correlation_at(reference, period)? >= PERIODIC_CORRELATION).then_some(period)
+    let rho = correlation_at(&mut x, period)?;
+    Ok(rho
+        .is_some_and(|r| r >= PERIODIC_CORRELATION)
+        .then_some(period))
 }
 
 /// The normalised autocorrelation `ρ(ℓ)` of `x` over the whole record (see
 /// the module docs), read in stretches of [`STRETCH`] and the lag beyond;
 /// `None` where a sample is not finite or an overlap is silent.
-fn correlation_at(x: SamplesView, lag: usize) -> Option<f64> {
-    let n = x.len();
+fn correlation_at(x: &mut dyn PairSource, lag: usize) -> Result<Option<f64>> {
+    let n = x.frames();
     let (mut cross, mut head, mut tail) = (0.0, 0.0, 0.0);
     let mut a = 0;
     while a < n {
         let b = (a + STRETCH).min(n);
-        let v = x.range(a..(b + lag).min(n));
+        let v = x.pair(a, (b + lag).min(n))?.0;
         if v.iter().any(|v| !v.is_finite()) {
-            return None;
+            return Ok(None);
         }
         for i in 0..b - a {
             if a + i + lag < n {
@@ -147,7 +162,7 @@ fn correlation_at(x: SamplesView, lag: usize) -> Option<f64> {
         a = b;
     }
     let d = (head * tail).sqrt();
-    (d > 0.0).then(|| cross / d)
+    Ok((d > 0.0).then(|| cross / d))
 }
 
 /// Samples read at a time from a held channel.
@@ -157,29 +172,25 @@ const STRETCH: usize = 1 << 16;
 /// excitation of `period` samples, over the whole periods after the first
 /// (the transient's): H1 per line with its standard error from the scatter
 /// of the periods (0 with a single period), at `k · fs / period` Hz. Empty
-/// when fewer than two whole periods are recorded.
+/// when fewer than two whole periods are recorded. The channels are those
+/// of `source` (held ones: [`crate::signals::InMemoryFrames::pair`]), read
+/// a period at a time (each period's spectra made twice, for the sums and
+/// then for the scatter about their estimate), so that a record of any
+/// length holds a period's samples and one spectrum per line.
+///
+/// Errors: a channel out of range or the reference itself, a read that
+/// fails.
 pub fn periodic_frf(
-    reference: &[f64],
-    response: &[f64],
-    sample_rate_hz: f64,
+    source: &mut impl FrameSource,
+    reference: usize,
+    response: usize,
     period: usize,
-) -> Vec<Line> {
-    periodic_frf_held(reference.into(), response.into(), sample_rate_hz, period)
-}
-
-/// [`periodic_frf`] of channels held however they are: a period at a time
-/// (each period's spectra made twice, for the sums and then for the scatter
-/// about their estimate), so that a record of any length holds a period's
-/// samples and one spectrum per line.
-pub fn periodic_frf_held(
-    reference: SamplesView,
-    response: SamplesView,
-    sample_rate_hz: f64,
-    period: usize,
-) -> Vec<Line> {
-    let n = reference.len().min(response.len());
+) -> Result<Vec<Line>> {
+    let sample_rate_hz = source.meta().sample_rate_hz;
+    let n = source.frames();
+    let mut pair = frame_pair(source, reference, response, &BLOCKS)?;
     if period < 4 || n < 2 * period {
-        return Vec::new();
+        return Ok(Vec::new());
     }
     let periods = n / period;
     let mut planner = FftPlanner::<f64>::new();
@@ -190,14 +201,12 @@ pub fn periodic_frf_held(
         b
     };
     // each steady period's spectra, in order, handed to `each`
-    let each_period = |each: &mut dyn FnMut(&[Complex64], &[Complex64])| {
+    let mut each_period = |each: &mut dyn FnMut(&[Complex64], &[Complex64])| -> Result<()> {
         for p in 1..periods {
-            let r = p * period..(p + 1) * period;
-            each(
-                &spectrum(&reference.range(r.clone())),
-                &spectrum(&response.range(r)),
-            );
+            let (u, y) = pair.pair(p * period, (p + 1) * period)?;
+            each(&spectrum(u), &spectrum(y));
         }
+        Ok(())
     };
     let lines = period / 2;
     let zero = Complex64::new(0.0, 0.0);
@@ -207,7 +216,7 @@ pub fn periodic_frf_held(
             power[l] += u[l].norm_sqr();
             cross[l] += y[l] * u[l].conj();
         }
-    });
+    })?;
     let strongest = power[1..].iter().copied().fold(0.0, f64::max);
     let excited: Vec<usize> = (1..lines)
         .filter(|&l| strongest > 0.0 && power[l] >= EXCITED_LINE * EXCITED_LINE * strongest)
@@ -218,9 +227,9 @@ pub fn periodic_frf_held(
         for (i, &l) in excited.iter().enumerate() {
             scatter[i] += (y[l] - h[i] * u[l]).norm_sqr();
         }
-    });
+    })?;
     let used = (periods - 1) as f64;
-    excited
+    Ok(excited
         .iter()
         .enumerate()
         .map(|(i, &l)| {
@@ -236,13 +245,25 @@ pub fn periodic_frf_held(
                 reference: (power[l] / used).sqrt(),
             }
         })
-        .collect()
+        .collect())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::signals::{InMemoryFrames, SamplesView};
     use std::f64::consts::PI;
+
+    /// [`find_period`] of `x` held in memory.
+    fn period_in(x: SamplesView) -> Option<usize> {
+        find_period(&mut InMemoryFrames::single(x, 1000.0), 0).unwrap()
+    }
+
+    /// [`periodic_frf`] of `u` and `y` held in memory.
+    fn lines_of(u: SamplesView, y: SamplesView, fs: f64, period: usize) -> Vec<Line> {
+        let mut pair = InMemoryFrames::pair(u, y, fs).unwrap();
+        periodic_frf(&mut pair, 0, 1, period).unwrap()
+    }
 
     /// A multisine of odd lines 3..61 with Schroeder phases, `periods`
     /// times over `period` samples.
@@ -266,7 +287,10 @@ mod tests {
     #[test]
     fn a_repeated_multisine_has_its_period_and_noise_has_none() {
         for (period, periods) in [(1000, 3), (4096, 2), (777, 5)] {
-            assert_eq!(find_period(&multisine(period, periods)), Some(period));
+            assert_eq!(
+                period_in((&multisine(period, periods)).into()),
+                Some(period)
+            );
         }
         // a deterministic pseudo-random record: no period
         let mut s = 12345u64;
@@ -278,9 +302,9 @@ mod tests {
                 (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
             })
             .collect();
-        assert_eq!(find_period(&noise), None);
+        assert_eq!(period_in((&noise).into()), None);
         // one period only: none
-        assert_eq!(find_period(&multisine(1000, 1)), None);
+        assert_eq!(period_in((&multisine(1000, 1)).into()), None);
     }
 
     /// A reference longer than [`PERIOD_SEARCH`] has the period its first
@@ -291,7 +315,7 @@ mod tests {
     fn a_long_held_reference_has_its_period_and_its_lines() {
         let period = 1000;
         let long = multisine(period, PERIOD_SEARCH / period + 50);
-        assert_eq!(find_period_held((&long).into()), Some(period));
+        assert_eq!(period_in((&long).into()), Some(period));
         // as long again of noise as loud after the search: no period over
         // the whole (ρ about 0.5)
         let mut changed = multisine(period, 2 * PERIOD_SEARCH / period);
@@ -303,8 +327,8 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             *v = rms * 3.46 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
         }
-        assert_eq!(find_period(&changed[..PERIOD_SEARCH]), Some(period));
-        assert_eq!(find_period_held((&changed).into()), None);
+        assert_eq!(period_of(&changed[..PERIOD_SEARCH]), Some(period));
+        assert_eq!(period_in((&changed).into()), None);
         // spilled: the same lines, to the bit
         let spilled = |x: &[f64]| {
             let mut b = crate::signals::SamplesBuilder::new(x.len(), &[]).spilling_above(5_000);
@@ -315,11 +339,11 @@ mod tests {
         let response: Vec<f64> = short.iter().map(|v| 0.3 * v + 1e-3 * v * v).collect();
         let (u, y) = (spilled(short), spilled(&response));
         assert!(u.is_spilled() && y.is_spilled());
-        let held = periodic_frf_held(u.view(), y.view(), 1000.0, period);
-        let whole = periodic_frf(short, &response, 1000.0, period);
+        let held = lines_of(u.view(), y.view(), 1000.0, period);
+        let whole = lines_of(short.into(), (&response).into(), 1000.0, period);
         assert_eq!(held.len(), 30);
         assert_eq!(held, whole);
-        assert_eq!(find_period_held(u.view()), Some(period));
+        assert_eq!(period_in(u.view()), Some(period));
     }
 
     /// A known linear filter's FRF at the lines: the response is the
@@ -337,7 +361,7 @@ mod tests {
             prev = a * prev + v;
             y[i] = prev;
         }
-        let frf = periodic_frf(&u, &y, fs, period);
+        let frf = lines_of((&u).into(), (&y).into(), fs, period);
         assert_eq!(frf.len(), 30);
         for p in &frf {
             let w = 2.0 * PI * p.frequency_hz / fs;

@@ -8,7 +8,7 @@
 //! dwell's first analysed sample), and the points are grouped into levels
 //! the same way. The dwells are the recording's stated steps, or, where it
 //! states none, found in its reference a stretch at a time
-//! ([`super::find_dwells_stream`]). The dwells are read forwards, in the
+//! ([`super::find_dwells`]). The dwells are read forwards, in the
 //! order they start, whatever order they are stated in (a replay made as
 //! it is read can only go forwards), and reported in the stated order.
 //! Memory is the largest dwell's samples and the dwell search's blocks,
@@ -24,25 +24,18 @@ use crate::signals::{FrameSource, Recording, Step};
 /// channel `response_channel`, reading one dwell at a time (see the module
 /// docs). The result equals [`super::reduce_stepped_report`] on the whole
 /// recording where it states its steps; where it does not, the dwells are
-/// found a stretch at a time, as [`super::find_dwells`] finds them in the
-/// whole reference to within their windows (see
-/// [`super::find_dwells_stream`]).
+/// found a stretch at a time, as [`super::find_dwells_whole`] finds them in
+/// the whole reference to within their windows (see
+/// [`super::find_dwells`]).
+///
+/// `observer` is told how it progresses (the dwell search's
+/// [`super::dwell_blocks::FINDING`] where it finds them, then `reducing`
+/// after each dwell), and the reduction stops where it asks
+/// ([`Error::Cancelled`]).
 ///
 /// Errors: those of [`FrameSource::read_at`], of the dwell search and of the
 /// reduction.
-pub fn reduce_stepped_stream(
-    source: &mut impl FrameSource,
-    response_channel: usize,
-    options: &ReduceOptions,
-) -> Result<SteppedReduction> {
-    reduce_stepped_stream_observed(source, response_channel, options, &Silent)
-}
-
-/// [`reduce_stepped_stream`], telling `observer` how it progresses (the
-/// dwell search's [`super::dwell_blocks::FINDING`] where it finds them,
-/// then `reducing` after each dwell) and stopping where it asks
-/// ([`Error::Cancelled`]).
-pub fn reduce_stepped_stream_observed(
+pub fn reduce_stepped_by_dwell(
     source: &mut impl FrameSource,
     response_channel: usize,
     options: &ReduceOptions,
@@ -81,12 +74,7 @@ pub fn reduce_stepped_stream_observed(
                 "is the reference channel",
             ));
         }
-        meta.excitation.steps = super::find_dwells_stream(
-            source,
-            (reference, response_channel),
-            &options.dwell,
-            observer,
-        )?;
+        meta.excitation.steps = super::find_dwells(source, reference, &options.dwell, observer)?;
     }
     let frames = source.frames();
     let steps = &meta.excitation.steps;

@@ -52,8 +52,8 @@
 //!
 //! **Long records.** Steps 1 and the compensation transform the record
 //! whole; a record longer than [`super::WHOLE_RECORD_FRAMES`] is reduced a
-//! block at a time instead, and can be read from disk a stretch at a time
-//! ([`super::reduce_sweep_stream`]), so that memory does not grow with its
+//! block at a time instead, and read from its source a stretch at a time
+//! ([`super::reduce_sweep`]), so that memory does not grow with its
 //! length (see `sweep_blocks`).
 
 use super::analytic::{Analytic, analytic};
@@ -545,9 +545,10 @@ pub(super) fn fit_phase(
 }
 
 /// The sweep in `reference` (its active stretch and fitted frequency law),
-/// without reducing a response: what a time-domain fit needs to judge a
-/// swept record inside a band.
-pub fn find_sweep(
+/// its phase fitted over the whole record at once, without reducing a
+/// response (what [`super::find_sweep`] does with a record of at most
+/// [`super::WHOLE_RECORD_FRAMES`] frames).
+pub fn find_sweep_whole(
     reference: &[f64],
     sample_rate_hz: f64,
     options: &SweepOptions,

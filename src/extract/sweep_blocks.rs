@@ -6,9 +6,9 @@
 //! the compensation's kernel. Each takes buffers of 16 bytes per frame, on
 //! top of the record itself: 1.4 GB for a 10-minute sweep at 20 kHz. A
 //! record longer than [`super::WHOLE_RECORD_FRAMES`] is instead reduced a block at
-//! a time, and read a stretch at a time ([`PairSource`]; from disk by
-//! [`super::reduce_sweep_stream`]), so that memory is set by the blocks and the
-//! compensation's kernel, not by the record's length:
+//! a time, and read a stretch at a time ([`PairSource`], from the
+//! [`FrameSource`] [`super::reduce_sweep`] is handed), so that memory is set
+//! by the blocks and the compensation's kernel, not by the record's length:
 //!
 //! - **Following the phase.** The analytic signal is taken per block of
 //!   [`Blocks::analytic_block`] frames, each transformed with
@@ -42,41 +42,51 @@
 //! constants.
 
 use super::analytic::next_smooth;
-use super::blocks::{BLOCKS, Blocks, HeldReference, PairSource};
+use super::blocks::{BLOCKS, Blocks, PairSource, frame_reference};
 use super::sweep::{
     Demodulated, Harmonics, PhaseLaw, SweepFit, SweepOptions, WindowFit, chirp_kernel, fit_phase,
     gaussian_squared, kernel, reach, store, window_centres,
 };
 use crate::error::{Error, Result};
-use crate::signals::SamplesView;
+use crate::signals::FrameSource;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
 
-/// [`super::find_sweep`] of a reference held however it is (in scratch
-/// files where it is long): read whole up to [`Blocks::whole`] frames (the
-/// same sweep as of its values), a longer one a block at a time as the long
-/// sweep's reduction reads it (module docs), never copied whole.
-pub fn find_sweep_held(
-    reference: SamplesView,
-    sample_rate_hz: f64,
+/// The sweep in channel `reference` of `source` (its active stretch and
+/// fitted frequency law), without reducing a response: what a time-domain
+/// fit needs to judge a swept record inside a band. A record of up to
+/// [`super::WHOLE_RECORD_FRAMES`] frames is read whole
+/// ([`super::find_sweep_whole`]), a longer one a block at a time as the
+/// long sweep's reduction reads it (module docs), never held whole. A held
+/// channel is handed over as [`crate::signals::InMemoryFrames::single`].
+pub fn find_sweep(
+    source: &mut impl FrameSource,
+    reference: usize,
     options: &super::SweepOptions,
 ) -> Result<super::SweepFit> {
-    find_sweep_in(reference, sample_rate_hz, options, &BLOCKS)
+    let fs = source.meta().sample_rate_hz;
+    find_sweep_in(
+        &mut frame_reference(source, reference, &BLOCKS)?,
+        fs,
+        options,
+        &BLOCKS,
+    )
 }
 
 fn find_sweep_in(
-    reference: SamplesView,
+    src: &mut dyn PairSource,
     sample_rate_hz: f64,
     options: &super::SweepOptions,
     blocks: &Blocks,
 ) -> Result<super::SweepFit> {
-    if reference.len() <= blocks.whole {
-        return super::find_sweep(&reference.values(), sample_rate_hz, options);
+    let n = src.frames();
+    if n <= blocks.whole {
+        let (reference, _) = src.pair(0, n)?;
+        return super::find_sweep_whole(reference, sample_rate_hz, options);
     }
     super::sweep::check_sweep_rate(sample_rate_hz)?;
-    let mut only = HeldReference::new(reference);
-    fit_sweep_in_blocks(&mut only, sample_rate_hz, options, blocks).map(|(_, s)| s)
+    fit_sweep_in_blocks(src, sample_rate_hz, options, blocks).map(|(_, s)| s)
 }
 
 /// A record's phase followed a block at a time (module docs): each block's
@@ -367,13 +377,14 @@ pub(super) fn compensated_in_blocks(
 #[cfg(test)]
 mod tests {
     use super::super::blocks::{InMemory, SMALL, frame_pair};
-    use super::super::choose_compensation_held;
     use super::super::sweep::{compensated, fit_sweep, plain_windows};
-    use super::super::sweep_reduce::{reduce_sweep_from, reduce_sweep_held};
+    use super::super::sweep_reduce::reduce_sweep_from;
+    use super::super::{choose_compensation, reduce_sweep};
     use super::*;
     use crate::extract::SweepLaw;
     use crate::model::{ModalModel, Mode, NoElement};
     use crate::record::{Channel, Excitation, ExcitationKind, Recording, RecordingMeta};
+    use crate::signals::InMemoryFrames;
     use crate::sim::Simulator;
 
     const FS: f64 = 1000.0;
@@ -398,7 +409,7 @@ mod tests {
         let model = ModalModel::new(vec![Mode::from_modal_mass(20.0, 0.02, 1.0).unwrap()]).unwrap();
         let x = Simulator::new(&model, NoElement, FS)
             .unwrap()
-            .run(&force)
+            .run(&force, &crate::observe::Silent)
             .unwrap()
             .displacement;
         (force, x)
@@ -451,14 +462,23 @@ mod tests {
             b.finish().unwrap()
         };
         assert!(spilled.is_spilled() && force.len() > SMALL.whole);
-        let held = find_sweep_in(spilled.view(), FS, &options(), &SMALL).unwrap();
+        let find = |fs: f64, blocks: &Blocks| {
+            let mut held = InMemoryFrames::single(spilled.view(), fs);
+            find_sweep_in(
+                &mut frame_reference(&mut held, 0, blocks)?,
+                fs,
+                &options(),
+                blocks,
+            )
+        };
+        let held = find(FS, &SMALL).unwrap();
         let mut src = InMemory {
             force: &force,
             response: &x,
         };
         let (_, blocks) = fit_sweep_in_blocks(&mut src, FS, &options(), &SMALL).unwrap();
         assert_eq!(format!("{held:?}"), format!("{blocks:?}"));
-        let whole = super::super::find_sweep(&force, FS, &options()).unwrap();
+        let whole = super::super::find_sweep_whole(&force, FS, &options()).unwrap();
         for band in [(10.0, 20.0), (30.0, 44.0)] {
             let (h, w) = (held.samples_in(band), whole.samples_in(band));
             assert!(
@@ -466,9 +486,9 @@ mod tests {
                 "{band:?}: {h:?} against {w:?}"
             );
         }
-        let short = find_sweep_in(spilled.view(), FS, &options(), &BLOCKS).unwrap();
+        let short = find(FS, &BLOCKS).unwrap();
         assert_eq!(format!("{short:?}"), format!("{whole:?}"));
-        let e = find_sweep_in(spilled.view(), 0.0, &options(), &SMALL).unwrap_err();
+        let e = find(0.0, &SMALL).unwrap_err();
         assert!(e.to_string().contains("sample rate"), "{e}");
     }
 
@@ -558,21 +578,23 @@ mod tests {
             s
         };
         let (f, y) = (spilled(&force), spilled(&x));
-        let held = reduce_sweep_held(f.view(), y.view(), FS, &options()).unwrap();
-        let whole = super::super::reduce_sweep(&force, &x, FS, &options()).unwrap();
-        assert_eq!(held, whole);
+        let pair = |f, y| InMemoryFrames::pair(f, y, FS);
+        let mut held = pair(f.view(), y.view()).unwrap();
+        let mut whole = pair((&force).into(), (&x).into()).unwrap();
+        assert_eq!(
+            reduce_sweep(&mut held, 0, 1, &options()).unwrap(),
+            reduce_sweep(&mut whole, 0, 1, &options()).unwrap()
+        );
         let plain = SweepOptions {
             compensation_s: None,
             ..options()
         };
         assert_eq!(
-            choose_compensation_held(f.view(), y.view(), FS, &plain).unwrap(),
-            super::super::choose_compensation(&force, &x, FS, &plain).unwrap()
+            choose_compensation(&mut held, 0, 1, &plain).unwrap(),
+            choose_compensation(&mut whole, 0, 1, &plain).unwrap()
         );
         let short = spilled(&x[..x.len() - 1]);
-        let e = reduce_sweep_held(f.view(), short.view(), FS, &options())
-            .unwrap_err()
-            .to_string();
+        let e = pair(f.view(), short.view()).err().unwrap().to_string();
         assert!(e.contains("must be sampled together"), "{e}");
     }
 

@@ -1,36 +1,17 @@
-//! The swept-sine reduction's entry points: a record in memory, two held
-//! channels or a recording read from disk, reduced whole or a block at a
-//! time (the method: [`super::sweep`]; long records: [`super::sweep_blocks`]).
+//! The swept-sine reduction's entry points: a recording read a stretch at a
+//! time from a [`FrameSource`] (a file, or channels held in memory or in
+//! scratch files), reduced whole or a block at a time (the method:
+//! [`super::sweep`]; long records: [`super::sweep_blocks`]).
 
-use super::blocks::{BLOCKS, Blocks, HeldPair, InMemory, PairSource, frame_pair};
+use super::blocks::{BLOCKS, Blocks, PairSource, frame_pair};
 use super::estimator::check_finite;
 use super::sweep::{Harmonics, PhaseLaw, WindowFit, compensated, fit_sweep, plain_windows};
 use super::sweep_blocks::{compensated_in_blocks, fit_sweep_in_blocks};
 use super::{Direction, FrfLevel, FrfPoint, SweepOptions, SweepReduction};
 use crate::error::{Error, Result};
-use crate::signals::{FrameSource, Recording, SamplesView};
+use crate::signals::{FrameSource, InMemoryFrames, Recording};
 use num_complex::Complex64;
 use std::f64::consts::PI;
-
-/// Reduces a swept-sine record into FRF points (see [`super::sweep`]).
-///
-/// Errors: bad rate or options, lengths differ, a non-finite sample (named),
-/// no sweep in the reference, a harmonic above Nyquist at the sweep's top
-/// frequency, compensation requested for a logarithmic sweep.
-pub fn reduce_sweep(
-    force: &[f64],
-    response: &[f64],
-    sample_rate_hz: f64,
-    options: &SweepOptions,
-) -> Result<SweepReduction> {
-    super::check_paired(force, response, "response")?;
-    reduce_sweep_from(
-        &mut InMemory { force, response },
-        sample_rate_hz,
-        options,
-        &BLOCKS,
-    )
-}
 
 /// Checks the options and the rate of a swept-sine reduction.
 fn check_options(sample_rate_hz: f64, options: &SweepOptions) -> Result<()> {
@@ -200,39 +181,20 @@ fn point(w: &WindowFit, law: &PhaseLaw, sample_rate_hz: f64, harmonics: &Harmoni
     }
 }
 
-/// [`super::reduce_sweep`] of two held channels, read a stretch at a time
-/// where they are held in scratch files (never copied whole): the same
-/// reduction to the bit as of their values.
-pub fn reduce_sweep_held(
-    force: SamplesView,
-    response: SamplesView,
-    sample_rate_hz: f64,
-    options: &SweepOptions,
-) -> Result<SweepReduction> {
-    if force.len() != response.len() {
-        return Err(Error::input(
-            "response",
-            format!(
-                "has {} samples but the force has {}: they must be sampled together",
-                response.len(),
-                force.len()
-            ),
-        ));
-    }
-    let mut pair = HeldPair::new(force, response);
-    reduce_sweep_from(&mut pair, sample_rate_hz, options, &BLOCKS)
-}
-
 /// Reduces the swept-sine recording `source` into FRF points of channel
-/// `response` against channel `reference`, as [`super::reduce_sweep`] does
-/// on the two channels in memory (the same bits: a record longer than
-/// [`super::WHOLE_RECORD_FRAMES`] is reduced a block at a time either way), reading
-/// it from the source a stretch at a time. Memory is set by the blocks and
-/// the compensation's window, not by the record's length (module docs).
+/// `response` against channel `reference` (see [`super::sweep`]), reading
+/// it a stretch at a time: a record longer than
+/// [`super::WHOLE_RECORD_FRAMES`] is reduced a block at a time, so memory
+/// is set by the blocks and the compensation's window, not by the record's
+/// length (module docs). Channels held in memory or in scratch files are
+/// handed over as [`InMemoryFrames::pair`] (force 0, response 1); the
+/// reduction is the same to the bit however the record is read.
 ///
-/// Errors: those of the reduction, a channel out of range or the reference
-/// itself, and a read that fails.
-pub fn reduce_sweep_stream(
+/// Errors: bad rate or options, a channel out of range or the reference
+/// itself, a non-finite sample (named), no sweep in the reference, a
+/// harmonic above Nyquist at the sweep's top frequency, compensation
+/// requested for a logarithmic sweep, and a read that fails.
+pub fn reduce_sweep(
     source: &mut impl FrameSource,
     reference: usize,
     response: usize,
@@ -263,10 +225,10 @@ pub fn reduce_sweep_recording(
             format!("must be one of the {n} channels other than the reference {r}"),
         ));
     }
-    reduce_sweep(
-        &rec.channels[r],
-        &rec.channels[response_channel],
+    let mut pair = InMemoryFrames::pair(
+        (&rec.channels[r]).into(),
+        (&rec.channels[response_channel]).into(),
         rec.meta.sample_rate_hz,
-        options,
-    )
+    )?;
+    reduce_sweep(&mut pair, 0, 1, options)
 }

@@ -404,7 +404,7 @@ impl RecordingReader {
 }
 
 /// The reader is the file glue of the streaming reduction
-/// ([`crate::extract::reduce_stepped_stream`]), which knows no files.
+/// ([`crate::extract::reduce_stepped_by_dwell`]), which knows no files.
 impl super::FrameSource for RecordingReader {
     fn meta(&self) -> &RecordingMeta {
         &self.meta

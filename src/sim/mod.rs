@@ -616,17 +616,12 @@ impl<E: Element> Simulator<E> {
         self.drive(force.len(), |i| force[i], |_, s| out.push(s))
     }
 
-    /// Runs a block of force samples.
-    pub fn run(&mut self, force: &[f64]) -> Result<Response> {
-        let mut out = Response::default();
-        self.run_into(force, &mut out)?;
-        Ok(out)
-    }
-
-    /// [`Simulator::run`] a stretch at a time, telling `observer` after
-    /// each and stopping there if it asks (the state then stands where the
-    /// last stretch left it).
-    pub fn run_observed(&mut self, force: &[f64], observer: &dyn Observer) -> Result<Response> {
+    /// Runs a block of force samples a stretch of
+    /// [`SAMPLES_PER_REPORT`](crate::observe::SAMPLES_PER_REPORT) at a time,
+    /// telling `observer` after each and stopping there if it asks (the
+    /// state then stands where the last stretch left it); the same bits as
+    /// one stretch.
+    pub fn run(&mut self, force: &[f64], observer: &dyn Observer) -> Result<Response> {
         let mut out = Response::default();
         in_stretches(force.len(), observer, |range| {
             self.run_into(&force[range], &mut out)
@@ -659,32 +654,13 @@ impl<E: Element> Simulator<E> {
         self.drive(force.len(), |i| force[i], |i, s| x[i] = s.displacement)
     }
 
-    /// Runs a block writing one output into `out` (no allocation).
+    /// Runs a block writing one output into `out` (no allocation), a
+    /// stretch at a time, reporting `simulating` progress to `observer` and
+    /// stopping if it asks (the same bits as one stretch).
     ///
     /// # Panics
     /// If `out.len() != force.len()`.
-    pub fn run_output(&mut self, force: &[f64], output: Output, out: &mut [f64]) -> Result<()> {
-        assert_eq!(
-            force.len(),
-            out.len(),
-            "output length must equal input length"
-        );
-        let n = force.len();
-        match output {
-            Output::Displacement => self.drive(n, |i| force[i], |i, s| out[i] = s.displacement),
-            Output::Velocity => self.drive(n, |i| force[i], |i, s| out[i] = s.velocity),
-            Output::Acceleration => self.drive(n, |i| force[i], |i, s| out[i] = s.acceleration),
-            Output::ElementForce => self.drive(n, |i| force[i], |i, s| out[i] = s.element_force),
-        }
-    }
-
-    /// [`Simulator::run_output`] a stretch at a time, reporting
-    /// `simulating` progress to `observer` and stopping if it asks (the same
-    /// bits as one call).
-    ///
-    /// # Panics
-    /// If `out.len() != force.len()`.
-    pub fn run_output_observed(
+    pub fn run_output(
         &mut self,
         force: &[f64],
         output: Output,
@@ -697,8 +673,19 @@ impl<E: Element> Simulator<E> {
             "output length must equal input length"
         );
         in_stretches(force.len(), observer, |range| {
-            self.run_output(&force[range.clone()], output, &mut out[range])
+            self.run_output_stretch(&force[range.clone()], output, &mut out[range])
         })
+    }
+
+    /// One stretch of [`Simulator::run_output`].
+    fn run_output_stretch(&mut self, force: &[f64], output: Output, out: &mut [f64]) -> Result<()> {
+        let n = force.len();
+        match output {
+            Output::Displacement => self.drive(n, |i| force[i], |i, s| out[i] = s.displacement),
+            Output::Velocity => self.drive(n, |i| force[i], |i, s| out[i] = s.velocity),
+            Output::Acceleration => self.drive(n, |i| force[i], |i, s| out[i] = s.acceleration),
+            Output::ElementForce => self.drive(n, |i| force[i], |i, s| out[i] = s.element_force),
+        }
     }
 
     /// Runs a block into caller-provided slices (no allocation).
@@ -767,30 +754,14 @@ impl Output {
 
 /// `model` driven from rest by `force` sampled at `sample_rate_hz`: one
 /// output, sample for sample (the whole run in one call, as a script
-/// drives it).
+/// drives it), reporting `simulating` progress to `observer` every
+/// [`SAMPLES_PER_REPORT`](crate::observe::SAMPLES_PER_REPORT) samples and
+/// stopping there if it asks ([`crate::Error::Cancelled`]). The same bits
+/// as one call: the simulator carries its state from stretch to stretch.
 ///
 /// Errors: the model's and the sample rate's (see [`Simulator::new`]), and
 /// a sample whose implicit solve fails.
 pub fn simulate(
-    model: &Model,
-    force: &[f64],
-    sample_rate_hz: f64,
-    output: Output,
-) -> Result<Vec<f64>> {
-    simulate_observed(
-        model,
-        force,
-        sample_rate_hz,
-        output,
-        &crate::observe::Silent,
-    )
-}
-
-/// [`simulate`], reporting `simulating` progress to `observer` every
-/// [`SAMPLES_PER_REPORT`](crate::observe::SAMPLES_PER_REPORT) samples and
-/// stopping there if it asks ([`crate::Error::Cancelled`]). The same bits
-/// as one call: the simulator carries its state from stretch to stretch.
-pub fn simulate_observed(
     model: &Model,
     force: &[f64],
     sample_rate_hz: f64,
@@ -800,26 +771,20 @@ pub fn simulate_observed(
     model.validate()?;
     let mut sim = Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?;
     let mut out = vec![0.0; force.len()];
-    sim.run_output_observed(force, output, &mut out, observer)?;
+    sim.run_output(force, output, &mut out, observer)?;
     Ok(out)
 }
 
 /// `model` driven from rest by `force` sampled at `sample_rate_hz`: every
-/// output ([`simulate`] for one).
-pub fn simulate_all(model: &Model, force: &[f64], sample_rate_hz: f64) -> Result<Response> {
-    simulate_all_observed(model, force, sample_rate_hz, &crate::observe::Silent)
-}
-
-/// [`simulate_all`] observed as [`simulate_observed`] is.
-pub fn simulate_all_observed(
+/// output ([`simulate`] for one), observed as [`simulate`] is.
+pub fn simulate_all(
     model: &Model,
     force: &[f64],
     sample_rate_hz: f64,
     observer: &dyn Observer,
 ) -> Result<Response> {
     model.validate()?;
-    Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?
-        .run_observed(force, observer)
+    Simulator::new(&model.linear, model.element_set()?, sample_rate_hz)?.run(force, observer)
 }
 
 /// Runs `stretch` over `0..n` in stretches of
@@ -964,6 +929,7 @@ fn solve_bracketed<E: Element>(e: &E, sample: u64, s: &ImplicitStep, u0: f64) ->
 mod tests {
     use super::*;
     use crate::model::ElementSpec;
+    use crate::observe::Silent;
 
     /// The paper's SDOF with a Jenkins joint.
     fn paper_jenkins() -> Model {
@@ -985,22 +951,26 @@ mod tests {
         let force: Vec<f64> = (0..20_000)
             .map(|i| 400.0 * (2.0 * std::f64::consts::PI * 150.0 * i as f64 / fs).sin())
             .collect();
-        let all = simulate_all(&model, &force, fs).unwrap();
+        let all = simulate_all(&model, &force, fs, &Silent).unwrap();
         let mut sim = Simulator::new(&model.linear, model.element_set().unwrap(), fs).unwrap();
-        assert_eq!(sim.run(&force).unwrap(), all);
+        assert_eq!(sim.run(&force, &Silent).unwrap(), all);
         for (o, expected) in Output::ALL.into_iter().zip([
             &all.displacement,
             &all.velocity,
             &all.acceleration,
             &all.element_force,
         ]) {
-            assert_eq!(&simulate(&model, &force, fs, o).unwrap(), expected, "{o:?}");
+            assert_eq!(
+                &simulate(&model, &force, fs, o, &Silent).unwrap(),
+                expected,
+                "{o:?}"
+            );
             assert_eq!(Output::from_name(o.name()), Some(o));
         }
         // the joint slips: its force reaches Fd and no further
         let peak = all.element_force.iter().fold(0.0f64, |m, g| m.max(g.abs()));
         assert!((peak / 246.048 - 1.0).abs() < 1e-9, "{peak}");
-        let e = simulate(&model, &force, 100.0, Output::Displacement).unwrap_err();
+        let e = simulate(&model, &force, 100.0, Output::Displacement, &Silent).unwrap_err();
         assert!(
             e.to_string().contains("must exceed twice the highest mode"),
             "{e}"
@@ -1044,12 +1014,12 @@ mod tests {
         for (variant, name) in ["plain", "compensated", "located"].iter().enumerate() {
             let mut whole = vec![0.0; n];
             build(variant)
-                .run_output(&force, Output::Velocity, &mut whole)
+                .run_output_stretch(&force, Output::Velocity, &mut whole)
                 .unwrap();
             let told = Told(Mutex::new(Vec::new()), usize::MAX);
             let mut parts = vec![0.0; n];
             build(variant)
-                .run_output_observed(&force, Output::Velocity, &mut parts, &told)
+                .run_output(&force, Output::Velocity, &mut parts, &told)
                 .unwrap();
             assert!(
                 whole
@@ -1062,16 +1032,14 @@ mod tests {
             let n = n as u64;
             assert_eq!(*told.0.lock().unwrap(), [(s, n), (2 * s, n), (n, n)]);
         }
-        let all = simulate_all(&model, &force, fs).unwrap();
+        let mut all = Response::default();
+        fresh().run_into(&force, &mut all).unwrap();
         let told = Told(Mutex::new(Vec::new()), usize::MAX);
-        assert_eq!(
-            simulate_all_observed(&model, &force, fs, &told).unwrap(),
-            all
-        );
+        assert_eq!(simulate_all(&model, &force, fs, &told).unwrap(), all);
         assert_eq!(told.0.lock().unwrap().len(), 3);
         // asked to stop after the first stretch: the second is not run
         let stop = Told(Mutex::new(Vec::new()), 1);
-        let e = simulate_observed(&model, &force, fs, Output::Displacement, &stop).unwrap_err();
+        let e = simulate(&model, &force, fs, Output::Displacement, &stop).unwrap_err();
         assert!(matches!(e, crate::Error::Cancelled), "{e}");
         assert_eq!(stop.0.lock().unwrap().len(), 1);
     }

@@ -246,7 +246,7 @@ mod tests {
         let one = super::super::Simulator::new(&linear, joint(), fs)
             .unwrap()
             .with_transitions_located()
-            .run(&force)
+            .run(&force, &crate::observe::Silent)
             .unwrap();
         let many = PointSimulator::new(&shaped, 0, (0, None), joint(), fs)
             .unwrap()

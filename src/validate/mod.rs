@@ -66,7 +66,7 @@ pub use tally::SPLIT_BLOCK;
 pub(crate) use validation::ReplayBeside;
 pub use validation::{
     FrfComparison, LevelComparison, ReplayTap, Validation, sweep_window, validate_recording,
-    validate_recording_observed, validate_view,
+    validate_view,
 };
 
 use crate::error::Result;
@@ -274,8 +274,13 @@ mod tests {
                 )
                 .unwrap();
                 let mut fine = vec![0.0; fine_drive.len()];
-                sim.run_output(&fine_drive, Output::Velocity, &mut fine)
-                    .unwrap();
+                sim.run_output(
+                    &fine_drive,
+                    Output::Velocity,
+                    &mut fine,
+                    &crate::observe::Silent,
+                )
+                .unwrap();
                 let whole: Vec<f64> = resample::decimate(&fine, factor)
                     .unwrap()
                     .into_iter()
@@ -426,12 +431,16 @@ mod tests {
                 e
             };
             let window = 80_000..244_000;
-            let first = reduce_stepped_report(rec, 1, reduce).unwrap();
+            let first = reduce_stepped_report(rec, 1, reduce, &crate::observe::Silent).unwrap();
             let mut pair = rec.clone();
             pair.meta.excitation.steps = first.dwells.iter().map(|d| d.step).collect();
-            let want_measured = reduce_stepped_report(&pair, 1, reduce).unwrap().frf;
+            let want_measured = reduce_stepped_report(&pair, 1, reduce, &crate::observe::Silent)
+                .unwrap()
+                .frf;
             pair.channels[1] = simulated.clone();
-            let want_simulated = reduce_stepped_report(&pair, 1, reduce).unwrap().frf;
+            let want_simulated = reduce_stepped_report(&pair, 1, reduce, &crate::observe::Silent)
+                .unwrap()
+                .frf;
             let spilled: Vec<crate::signals::Samples> = rec
                 .channels
                 .iter()

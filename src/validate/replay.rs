@@ -558,10 +558,12 @@ impl<'d, 'a> Replay<'d, 'a> {
         // the drive's samples `lo..hi` on the replay's grid
         let (interpolator, buffer) = (self.interpolator.as_ref(), &mut self.interpolated);
         match (held, self.drive.input) {
-            (Some(h), _) => self.sim.run_output(&h[done..end], self.output, fine)?,
+            (Some(h), _) => self
+                .sim
+                .run_output(&h[done..end], self.output, fine, &Silent)?,
             (None, DriveInput::Ramp) => {
                 let x = drive_on_grid(reference, interpolator, buffer, done..end);
-                self.sim.run_output(&x, self.output, fine)?
+                self.sim.run_output(&x, self.output, fine, &Silent)?
             }
             (None, _) => {
                 // with a neighbour each side where there is one: the same
@@ -571,7 +573,8 @@ impl<'d, 'a> Replay<'d, 'a> {
                 self.force.clear();
                 self.force
                     .extend((done..end).map(|i| pre_emphasised(&x, i - lo)));
-                self.sim.run_output(&self.force, self.output, fine)?;
+                self.sim
+                    .run_output(&self.force, self.output, fine, &Silent)?;
             }
         }
         if let Some(i) = fine.iter().position(|v| !v.is_finite()) {

@@ -8,8 +8,8 @@ use super::{
     tally, upsampling_factor,
 };
 use crate::error::{Error, Result};
-use crate::extract::reduce_stepped_stream;
-use crate::extract::{NonlinearFrf, ReduceOptions, SweepFit, reduce_sweep_held};
+use crate::extract::reduce_stepped_by_dwell;
+use crate::extract::{NonlinearFrf, ReduceOptions, SweepFit, reduce_sweep};
 use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::{Observer, Silent};
@@ -117,29 +117,13 @@ impl ReplayTap for () {}
 /// no reference, a response that is not a motion or is the reference, a
 /// window outside the record, and those of [`simulate_response`] and of the
 /// reductions.
+///
+/// `observer` is told how the replay and the FRF comparison progress
+/// ([`REDUCING`] 0 and 1 of 2 around the measured response's reduction,
+/// `simulating` as the replay is made and reduced, then [`REDUCING`] 2 of
+/// 2), and the validation stops where it asks ([`Error::Cancelled`]). The
+/// replay is kept ([`Validation::simulated`]).
 pub fn validate_recording(
-    model: &Model,
-    response_sign: f64,
-    rec: &Recording,
-    response_channel: usize,
-    options: &ValidateOptions,
-) -> Result<Validation> {
-    validate_recording_observed(
-        model,
-        response_sign,
-        rec,
-        response_channel,
-        options,
-        &Silent,
-    )
-}
-
-/// [`validate_recording`], telling `observer` how the replay and the
-/// FRF comparison progress ([`REDUCING`] 0 and 1 of 2 around the measured
-/// response's reduction, `simulating` as the replay is made and reduced,
-/// then [`REDUCING`] 2 of 2) and stopping where it asks
-/// ([`Error::Cancelled`]). The replay is kept ([`Validation::simulated`]).
-pub fn validate_recording_observed(
     model: &Model,
     response_sign: f64,
     rec: &Recording,
@@ -158,7 +142,7 @@ pub fn validate_recording_observed(
     )
 }
 
-/// [`validate_recording_observed`] on a recording however its channels are
+/// [`validate_recording`] on a recording however its channels are
 /// held, `keep_replay` saying whether the simulated response is kept whole
 /// ([`Validation::simulated`]) and `tap` handed it a stretch at a time.
 ///
@@ -294,7 +278,7 @@ pub fn validate_view(
                 pass: &mut pass,
                 observer,
             };
-            Some(reduce_stepped_stream(&mut frames, 1, opts)?.frf)
+            Some(reduce_stepped_by_dwell(&mut frames, 1, opts, &Silent)?.frf)
         }
         _ => None,
     };
@@ -318,7 +302,8 @@ pub fn validate_view(
                 (None, Some(Reduction::Swept(opts))) => {
                     let q = rec.meta.channels[response_channel].quantity;
                     let r = rec.meta.channels[reference].quantity;
-                    reduce_sweep_held(force, kept.view(), fs, opts)?.into_frf(q, r)
+                    let mut pair = InMemoryFrames::pair(force, kept.view(), fs)?;
+                    reduce_sweep(&mut pair, 0, 1, opts)?.into_frf(q, r)
                 }
                 (None, _) => unreachable!("a measured reduction is stepped or swept"),
             };
@@ -610,8 +595,9 @@ impl MeasuredFrfs {
         let fs = rec.meta.sample_rate_hz;
         match reduction {
             Reduction::Swept(opts) => {
-                let m =
-                    reduce_sweep_held(rec.channels[reference], rec.channels[response], fs, opts)?;
+                let mut pair =
+                    InMemoryFrames::pair(rec.channels[reference], rec.channels[response], fs)?;
+                let m = reduce_sweep(&mut pair, 0, 1, opts)?;
                 let sweep = m.sweep;
                 Ok(MeasuredFrfs {
                     frf: m.into_frf(
@@ -635,10 +621,11 @@ impl MeasuredFrfs {
                 let pair = vec![rec.channels[reference], rec.channels[response]];
                 // the dwells, stated or found (a stretch at a time where
                 // the record is long), are read one at a time
-                let first = reduce_stepped_stream(
+                let first = reduce_stepped_by_dwell(
                     &mut InMemoryFrames::of_channels(&meta, pair.clone(), "recording"),
                     1,
                     &opts,
+                    &Silent,
                 )?;
                 // the simulated response on exactly the measured dwells
                 let steps: Vec<Step> = first.dwells.iter().map(|d| d.step).collect();
@@ -646,10 +633,11 @@ impl MeasuredFrfs {
                     first.frf
                 } else {
                     meta.excitation.steps = steps;
-                    reduce_stepped_stream(
+                    reduce_stepped_by_dwell(
                         &mut InMemoryFrames::of_channels(&meta, pair, "recording"),
                         1,
                         &opts,
+                        &Silent,
                     )?
                     .frf
                 };

@@ -536,7 +536,7 @@ pub fn load_time_record(
         // the reference judged against itself
         None => reference_samples.clone(),
     };
-    crate::fit::TimeRecord::from_held(
+    crate::fit::TimeRecord::from_channels(
         &path.display().to_string(),
         &kept.meta,
         kept.response,

@@ -14,9 +14,8 @@ pub use load::{
 pub(crate) use reduce::multisine_period;
 pub use reduce::{
     Compensation, MULTISINE_LINES, Reduced, ReductionOptions, SineTest, SweptReading, coil_of_path,
-    combine_recordings, excitation_of, max_harmonic, quality_notes, reduce, reduce_observed,
-    reduce_path, reduce_path_observed, reduce_recordings, stepped_options, sweep_options,
-    sweep_options_held,
+    combine_recordings, excitation_of, max_harmonic, quality_notes, reduce, reduce_path,
+    reduce_recordings, stepped_options, sweep_options,
 };
 pub use replay::{ReplayReduction, band_limited};
 
@@ -41,7 +40,14 @@ mod tests {
         let force: Vec<f64> = (0..n)
             .map(|i| 100.0 * (2.0 * std::f64::consts::PI * f * i as f64 / fs).cos())
             .collect();
-        let x = crate::sim::simulate(&model, &force, fs, crate::sim::Output::Displacement).unwrap();
+        let x = crate::sim::simulate(
+            &model,
+            &force,
+            fs,
+            crate::sim::Output::Displacement,
+            &crate::observe::Silent,
+        )
+        .unwrap();
         let steps = vec![Step {
             frequency_hz: f,
             level: 100.0,
@@ -63,7 +69,12 @@ mod tests {
             excitation.clone(),
         )
         .unwrap();
-        let red = reduce(&loaded, &ReductionOptions::default()).unwrap();
+        let red = reduce(
+            &loaded,
+            &ReductionOptions::default(),
+            &crate::observe::Silent,
+        )
+        .unwrap();
         assert_eq!(red.response_name, "displacement");
         let p = &red.frf.levels[0].points[0];
         let w = crate::harmonics::omega(f);

@@ -8,8 +8,7 @@ use super::load::{
 use crate::error::{Error, Result};
 use crate::extract::{
     NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, WHOLE_RECORD_FRAMES, choose_compensation,
-    choose_compensation_stream, reduce_stepped_observed, reduce_stepped_stream_observed,
-    reduce_sweep_recording, reduce_sweep_stream,
+    reduce_stepped_by_dwell, reduce_stepped_report, reduce_sweep, reduce_sweep_recording,
 };
 use crate::record::{ExcitationKind, FrameSource, Recording, RecordingMeta};
 use crate::signals::RecordingView;
@@ -113,36 +112,15 @@ pub fn stepped_options(r: &ReductionOptions) -> ReduceOptions {
     }
 }
 
-/// Sweep options for `force`/`response`, the compensation resolved
-/// ([`Compensation::Auto`]: [`choose_compensation`]).
+/// Sweep options for channels `reference` and `response` of `source`, the
+/// compensation resolved ([`Compensation::Auto`]: [`choose_compensation`],
+/// reading them a stretch at a time; held channels are handed over as
+/// [`crate::signals::InMemoryFrames::pair`]).
 pub fn sweep_options(
-    force: &[f64],
-    response: &[f64],
-    sample_rate_hz: f64,
+    source: &mut impl FrameSource,
+    reference: usize,
+    response: usize,
     r: &ReductionOptions,
-) -> Result<SweepOptions> {
-    sweep_options_by(r, &mut |opts| {
-        choose_compensation(force, response, sample_rate_hz, opts)
-    })
-}
-
-/// [`sweep_options`] of two held channels (in memory or in scratch files),
-/// read a stretch at a time rather than copied whole: the same options.
-pub fn sweep_options_held(
-    force: crate::signals::SamplesView,
-    response: crate::signals::SamplesView,
-    sample_rate_hz: f64,
-    r: &ReductionOptions,
-) -> Result<SweepOptions> {
-    sweep_options_by(r, &mut |opts| {
-        crate::extract::choose_compensation_held(force, response, sample_rate_hz, opts)
-    })
-}
-
-/// Sweep options, the automatic compensation chosen by `choose`.
-fn sweep_options_by(
-    r: &ReductionOptions,
-    choose: &mut dyn FnMut(&SweepOptions) -> Result<f64>,
 ) -> Result<SweepOptions> {
     let mut opts = SweepOptions {
         max_harmonic: max_harmonic(r, SineTest::Swept),
@@ -151,7 +129,7 @@ fn sweep_options_by(
         ..SweepOptions::default()
     };
     opts.compensation_s = match r.compensation {
-        Compensation::Auto => Some(choose(&opts)?),
+        Compensation::Auto => Some(choose_compensation(source, reference, response, &opts)?),
         Compensation::Off => None,
         Compensation::Seconds(s) => Some(s),
     };
@@ -180,10 +158,12 @@ pub(crate) fn multisine_period(
     // unequal lengths are the reduction's to refuse, naming the channels
     let n = u.len().min(y.len()).min(crate::extract::PERIOD_SEARCH);
     let (u, y) = (u.range(0..n), y.range(0..n));
-    let u = &u[..];
-    let period = crate::extract::find_period(u)?;
     let fs = rec.meta.sample_rate_hz;
-    let lines = crate::extract::periodic_frf(u, &y[..n], fs, period);
+    // the heads are in memory: reading them cannot fail
+    let mut head =
+        crate::signals::InMemoryFrames::pair((&u[..]).into(), (&y[..]).into(), fs).ok()?;
+    let period = crate::extract::find_period(&mut head, 0).ok().flatten()?;
+    let lines = crate::extract::periodic_frf(&mut head, 0, 1, period).ok()?;
     if lines.len() < MULTISINE_LINES {
         return None;
     }
@@ -227,16 +207,11 @@ pub(crate) fn refuse_a_random(meta: &RecordingMeta, r: &ReductionOptions) -> Res
     ))
 }
 
-/// Nonlinear FRFs of a loaded recording.
-pub fn reduce(loaded: &Loaded, r: &ReductionOptions) -> Result<Reduced> {
-    reduce_observed(loaded, r, &crate::observe::Silent)
-}
-
-/// [`reduce`], telling `observer` how it progresses (`reducing`: a stepped
-/// sine's dwells; a swept sine's whole reductions, three where the
-/// compensation is chosen from the data) and stopping where it asks
-/// ([`Error::Cancelled`]).
-pub fn reduce_observed(
+/// Nonlinear FRFs of a loaded recording, telling `observer` how it
+/// progresses (`reducing`: a stepped sine's dwells; a swept sine's whole
+/// reductions, three where the compensation is chosen from the data) and
+/// stopping where it asks ([`Error::Cancelled`]).
+pub fn reduce(
     loaded: &Loaded,
     r: &ReductionOptions,
     observer: &dyn crate::observe::Observer,
@@ -252,7 +227,7 @@ pub fn reduce_observed(
                 refuse_a_multisine(rec, loaded.response)?;
             }
             (
-                reduce_stepped_observed(rec, loaded.response, &stepped_options(r), observer)?.frf,
+                reduce_stepped_report(rec, loaded.response, &stepped_options(r), observer)?.frf,
                 None,
             )
         }
@@ -262,12 +237,12 @@ pub fn reduce_observed(
                 .ok_or_else(|| Error::input("recording", "no reference channel"))?;
             let (total, report) = swept_stages(r, observer);
             report(0)?;
-            let opts = sweep_options(
-                &rec.channels[reference],
-                &rec.channels[loaded.response],
+            let mut pair = crate::signals::InMemoryFrames::pair(
+                (&rec.channels[reference]).into(),
+                (&rec.channels[loaded.response]).into(),
                 fs,
-                r,
             )?;
+            let opts = sweep_options(&mut pair, 0, 1, r)?;
             report(total - 1)?;
             let red = reduce_sweep_recording(rec, loaded.response, &opts)?;
             report(total)?;
@@ -330,15 +305,11 @@ pub struct SweptReading {
 /// whose sidecar states its steps is reduced from disk one dwell at a time,
 /// and a swept-sine one longer than [`WHOLE_RECORD_FRAMES`] a stretch at a
 /// time (memory bounded whatever the file size); anything else is read
-/// whole.
-pub fn reduce_path(path: &Path, choice: ChannelChoice, r: &ReductionOptions) -> Result<Reduced> {
-    reduce_path_observed(path, choice, r, &crate::observe::Silent)
-}
-
-/// [`reduce_path`], telling `observer` how it progresses (a dwell search's
+/// whole. `observer` is told how it progresses (a dwell search's
 /// `finding dwells`; `reducing`: a stepped sine's dwells, a swept sine's
-/// whole reductions) and stopping where it asks ([`Error::Cancelled`]).
-pub fn reduce_path_observed(
+/// whole reductions), and the reduction stops where it asks
+/// ([`Error::Cancelled`]).
+pub fn reduce_path(
     path: &Path,
     choice: ChannelChoice,
     r: &ReductionOptions,
@@ -355,7 +326,7 @@ pub fn reduce_path_observed(
     }
     let mut reduced = match reduce_path_streamed(path, choice, r, observer)? {
         Some(reduced) => reduced,
-        None => reduce_observed(&load_recording(path, choice)?, r, observer)?,
+        None => reduce(&load_recording(path, choice)?, r, observer)?,
     };
     reduced.quality = quality_notes(path);
     Ok(reduced)
@@ -497,7 +468,7 @@ fn reduce_streamed(
         reference_channel: Some(reference),
         ..stepped_options(r)
     };
-    let red = match reduce_stepped_stream_observed(&mut source, ch, &options, observer) {
+    let red = match reduce_stepped_by_dwell(&mut source, ch, &options, observer) {
         Ok(red) => red,
         Err(e) => return Err(why_failed(e, path, &mut source, &meta, reference)?),
     };
@@ -527,14 +498,10 @@ fn reduce_swept_stream(
 ) -> Result<Reduced> {
     let (total, report) = swept_stages(r, observer);
     let reduced = report(0)
-        .and_then(|()| {
-            sweep_options_by(r, &mut |opts| {
-                choose_compensation_stream(&mut source, reference, ch, opts)
-            })
-        })
+        .and_then(|()| sweep_options(&mut source, reference, ch, r))
         .and_then(|opts| {
             report(total - 1)?;
-            let red = reduce_sweep_stream(&mut source, reference, ch, &opts)?;
+            let red = reduce_sweep(&mut source, reference, ch, &opts)?;
             report(total)?;
             Ok((red, opts.compensation_s, opts.hop_periods))
         });
@@ -656,7 +623,7 @@ pub fn combine_recordings(sets: &[(PathBuf, NonlinearFrf)]) -> Result<NonlinearF
 /// per file, or the levels each holds); also returns the first reduction,
 /// its `quality` holding every recording's. `on_reduced` sees each
 /// reduction as it is made, `observer` how each
-/// progresses ([`reduce_path_observed`]).
+/// progresses ([`reduce_path`]).
 pub fn reduce_recordings(
     recordings: &[PathBuf],
     choice: ChannelChoice,
@@ -668,7 +635,7 @@ pub fn reduce_recordings(
     let mut first: Option<Reduced> = None;
     let mut quality = Vec::new();
     for path in recordings {
-        let red = reduce_path_observed(path, choice, reduction, observer)
+        let red = reduce_path(path, choice, reduction, observer)
             .map_err(|e| Error::context(format!("reducing {}", path.display()), e))?;
         on_reduced(path, &red);
         sets.push((path.clone(), red.frf.clone()));

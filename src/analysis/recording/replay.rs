@@ -10,7 +10,8 @@ use super::reduce::{
     excitation_of, reduce, reduce_path_streamed, stepped_options,
 };
 use crate::error::{Error, Result};
-use crate::extract::{NonlinearFrf, ReduceOptions, reduce_stepped_stream};
+use crate::extract::{NonlinearFrf, ReduceOptions, reduce_stepped_by_dwell};
+use crate::observe::Silent;
 use crate::record::{Recording, RecordingMeta};
 use crate::signals::{SamplesBuilder, SamplesView};
 use std::path::PathBuf;
@@ -95,7 +96,7 @@ impl ReplayReduction {
                 ),
                 None => {
                     let loaded = load_reference_and_response(path, choice).map_err(at)?;
-                    let red = reduce(&loaded, reduction).map_err(at)?;
+                    let red = reduce(&loaded, reduction, &Silent).map_err(at)?;
                     (red, HeldRecording::of_loaded(loaded)?)
                 }
             };
@@ -113,7 +114,7 @@ impl ReplayReduction {
         let mut reduced = Vec::with_capacity(recordings.len());
         for (path, loaded) in recordings {
             let at = |e| Error::context(format!("reducing {}", path.display()), e);
-            let red = reduce(&loaded, reduction).map_err(at)?;
+            let red = reduce(&loaded, reduction, &Silent).map_err(at)?;
             reduced.push((path, (red, HeldRecording::of_loaded(loaded)?)));
         }
         ReplayReduction::of_reduced(reduced, reduction)
@@ -189,7 +190,7 @@ impl ReplayReduction {
                 };
                 let reference_samples =
                     std::mem::replace(&mut channels[reference], Vec::<f64>::new().into());
-                crate::fit::TimeRecord::from_held(
+                crate::fit::TimeRecord::from_channels(
                     &name,
                     &s.meta,
                     s.response,
@@ -285,7 +286,7 @@ impl ReplayReduction {
                     reference_channel: Some(reference),
                     ..stepped_options(&options)
                 };
-                reduce_stepped_stream(&mut frames, s.response, &stepped)
+                reduce_stepped_by_dwell(&mut frames, s.response, &stepped, &Silent)
                     .map_err(at)?
                     .frf
             } else {
@@ -338,7 +339,8 @@ impl ReplayReduction {
                     reference_channel: Some(reference),
                     ..stepped_options(&options)
                 };
-                let red = reduce_stepped_stream(&mut source, s.response, &stepped).map_err(at)?;
+                let red = reduce_stepped_by_dwell(&mut source, s.response, &stepped, &Silent)
+                    .map_err(at)?;
                 return Ok(red.frf);
             }
         }
@@ -363,7 +365,7 @@ impl ReplayReduction {
             truth: None,
             truncated: s.truncated,
         };
-        Ok(reduce(&replay, &options).map_err(at)?.frf)
+        Ok(reduce(&replay, &options, &Silent).map_err(at)?.frf)
     }
 }
 

@@ -371,7 +371,7 @@ fn segment(windows: &[Window], options: &DwellOptions) -> Vec<(usize, usize)> {
 /// cluster's mean amplitude.
 ///
 /// Errors: bad rate, a non-finite sample, no dwell found.
-pub fn find_dwells(
+pub fn find_dwells_whole(
     reference: &[f64],
     sample_rate_hz: f64,
     options: &DwellOptions,
@@ -399,9 +399,9 @@ pub fn find_dwells(
 pub(in crate::extract) type ReadReference<'a, 'r> =
     dyn FnMut(std::ops::Range<usize>) -> Result<std::borrow::Cow<'r, [f64]>> + 'a;
 
-/// [`find_dwells`] from the reference's tracking windows: the dwells they
-/// hold, each read (`read`) as it is examined, of a reference of `frames`
-/// samples.
+/// [`find_dwells_whole`] from the reference's tracking windows: the dwells
+/// they hold, each read (`read`) as it is examined, of a reference of
+/// `frames` samples.
 pub(in crate::extract) fn dwells_of_windows<'r>(
     windows: &[Window],
     frames: usize,

@@ -4,10 +4,10 @@
 //! samples is reduced by the non-coherent least-squares fit at the stated
 //! frequency (refined from the reference channel when the stated value is
 //! off). Without steps, the dwells are found from the reference channel
-//! ([`find_dwells`]). The reference is first divided by its local RMS, so
-//! that the Hilbert transform's non-local tails (and the FFT's wrap of the
-//! record's end onto its start) cannot bury a weak level under a strong one;
-//! its phase is then cut into windows of whole periods, each with a
+//! ([`find_dwells_whole`]). The reference is first divided by its local RMS,
+//! so that the Hilbert transform's non-local tails (and the FFT's wrap of
+//! the record's end onto its start) cannot bury a weak level under a strong
+//! one; its phase is then cut into windows of whole periods, each with a
 //! least-squares frequency and an amplitude and their standard errors. A
 //! window joins the running dwell while both agree with the dwell's mean
 //! within the tolerances or within 5 standard errors, whichever is wider, so
@@ -44,7 +44,7 @@ mod settling;
 use dwells::same_level;
 
 pub(super) use dwells::{WindowTracker, dwells_of_windows};
-pub use dwells::{below_resolution, find_dwells};
+pub use dwells::{below_resolution, find_dwells_whole};
 #[cfg(test)]
 pub(super) use dwells::{normalise, track};
 pub(super) use settling::check_rate;
@@ -216,7 +216,7 @@ pub fn reduce_stepped(
     response_channel: usize,
     options: &ReduceOptions,
 ) -> Result<NonlinearFrf> {
-    reduce_stepped_report(rec, response_channel, options).map(|r| r.frf)
+    reduce_stepped_report(rec, response_channel, options, &Silent).map(|r| r.frf)
 }
 
 /// Reduces a stepped-sine recording into nonlinear FRFs of one response
@@ -226,9 +226,9 @@ pub fn reduce_stepped(
 /// after its `settle` samples; the stated frequency is checked against the
 /// reference by the phase advance between the dwell's halves and replaced by
 /// the least-squares estimate when they differ by more than
-/// `frequency_tolerance`), otherwise from [`find_dwells`], in which case the
-/// [`settling`] test is also run on the response (the force of a virtual test
-/// has no transient; the response has). Each dwell is reduced by
+/// `frequency_tolerance`), otherwise from [`find_dwells_whole`], in which
+/// case the [`settling`] test is also run on the response (the force of a
+/// virtual test has no transient; the response has). Each dwell is reduced by
 /// [`super::noncoherent`] with `blocks` blocks over its largest window of
 /// whole periods. Points are grouped into levels in measurement order (a new
 /// level where the nominal level changes or the frequency order reverses).
@@ -236,18 +236,10 @@ pub fn reduce_stepped(
 /// Errors name the channel or the step: no reference channel, a response
 /// channel out of range or equal to the reference, a step outside the record,
 /// a dwell too short for 2 blocks, a harmonic above Nyquist.
+///
+/// `observer` is told after each dwell (`reducing`, dwells done of all),
+/// and the reduction stops there if it asks ([`Error::Cancelled`]).
 pub fn reduce_stepped_report(
-    rec: &Recording,
-    response_channel: usize,
-    options: &ReduceOptions,
-) -> Result<SteppedReduction> {
-    reduce_stepped_observed(rec, response_channel, options, &Silent)
-}
-
-/// [`reduce_stepped_report`], telling `observer` after each dwell
-/// (`reducing`, dwells done of all) and stopping there if it asks
-/// ([`Error::Cancelled`]).
-pub fn reduce_stepped_observed(
     rec: &Recording,
     response_channel: usize,
     options: &ReduceOptions,
@@ -256,8 +248,8 @@ pub fn reduce_stepped_observed(
     reduce_stepped_as(rec, response_channel, options, observer, false)
 }
 
-/// [`reduce_stepped_observed`]; `as_found`: the steps the recording states
-/// were found in its reference (by [`super::find_dwells_stream`]), and are
+/// [`reduce_stepped_report`]; `as_found`: the steps the recording states
+/// were found in its reference (by [`super::find_dwells`]), and are
 /// reduced as found ones are (the response's settling tested too).
 pub(super) fn reduce_stepped_as(
     rec: &Recording,
@@ -321,7 +313,7 @@ pub(super) fn reduce_stepped_as(
     let frames = reference.len();
     let dwells_found = as_found || rec.meta.excitation.steps.is_empty();
     let steps = if rec.meta.excitation.steps.is_empty() {
-        find_dwells(reference, fs, &options.dwell)?
+        find_dwells_whole(reference, fs, &options.dwell)?
     } else {
         rec.meta.excitation.steps.clone()
     };

@@ -169,21 +169,6 @@ impl TimeRecord {
         Self::from_values(name, &rec.meta, response, channels, window, band_hz)
     }
 
-    /// [`TimeRecord::from_recording`] of a recording described by `meta`
-    /// whose reference and response are already held (see
-    /// [`crate::analysis::load_time_record`]).
-    pub fn from_held(
-        name: &str,
-        meta: &crate::signals::RecordingMeta,
-        response: usize,
-        channels: (Samples, Samples),
-        window: Option<Range<usize>>,
-        band_hz: Option<(f64, f64)>,
-    ) -> Result<TimeRecord> {
-        Self::reference_of(name, meta, response)?;
-        Self::from_channels(name, meta, response, channels, window, band_hz)
-    }
-
     /// A periodic record (a multisine played several times) judged over
     /// its steady periods of `period` samples: its whole periods after the
     /// first (the model's replay starts from rest), one segment each, as a
@@ -258,10 +243,11 @@ impl TimeRecord {
         Ok(reference)
     }
 
-    /// The record of a recording described by `meta` whose reference and
-    /// response (channel `response_channel`) samples are `(reference,
-    /// response)` (see [`TimeRecord::from_recording`]).
-    fn from_channels(
+    /// [`TimeRecord::from_recording`] of a recording described by `meta`
+    /// whose reference and response (channel `response_channel`) are
+    /// already held, `(reference, response)`, and are taken over (see
+    /// [`crate::analysis::load_time_record`]).
+    pub fn from_channels(
         name: &str,
         meta: &crate::signals::RecordingMeta,
         response_channel: usize,
@@ -269,16 +255,16 @@ impl TimeRecord {
         window: Option<Range<usize>>,
         band_hz: Option<(f64, f64)>,
     ) -> Result<TimeRecord> {
-        let reference_channel = meta.reference_channel().expect("checked by reference_of");
+        let reference_channel = Self::reference_of(name, meta, response_channel)?;
         let n = reference.len();
         let mut window = window.unwrap_or(0..n);
         let fs = meta.sample_rate_hz;
         let stated = &meta.excitation.steps;
         let swept = meta.excitation.kind == crate::signals::ExcitationKind::SweptSine;
         if let (Some(band), true, true) = (band_hz, swept, stated.is_empty()) {
-            let sweep = crate::extract::find_sweep_held(
-                reference.view(),
-                fs,
+            let sweep = crate::extract::find_sweep(
+                &mut crate::signals::InMemoryFrames::single(reference.view(), fs),
+                0,
                 &crate::extract::SweepOptions::default(),
             )
             .map_err(|e| Error::context(format!("{name}: the sweep"), e))?;
@@ -300,10 +286,11 @@ impl TimeRecord {
         } else if swept {
             Vec::new()
         } else {
-            crate::extract::find_dwells_held(
-                reference.view(),
-                fs,
+            crate::extract::find_dwells(
+                &mut crate::signals::InMemoryFrames::single(reference.view(), fs),
+                0,
                 &crate::extract::DwellOptions::default(),
+                &crate::observe::Silent,
             )
             .unwrap_or_default()
         };

@@ -628,7 +628,8 @@ fn a_record_held_in_scratch_files_is_judged_as_the_one_held_in_memory() {
         };
         let channels = (samples(&rec.channels[0]), samples(&rec.channels[1]));
         assert_eq!(channels.0.is_spilled(), spill);
-        TimeRecord::from_held("dwells", &rec.meta, 1, channels, None, Some((55.0, 75.0))).unwrap()
+        TimeRecord::from_channels("dwells", &rec.meta, 1, channels, None, Some((55.0, 75.0)))
+            .unwrap()
     };
     let (in_memory, spilled) = ([held(false)], [held(true)]);
     let start = model(1.0);

@@ -258,8 +258,8 @@ fn own_implicit_solve_meets_the_tolerance_and_simulates_like_the_formula() {
         let mut fast = Simulator::new(&model, Masing::new(KD, FD, n).unwrap(), fs).unwrap();
         let reference = Masing::with_backbone(formula(n));
         let mut slow = Simulator::new(&model, Generic(reference), fs).unwrap();
-        let a = fast.run(&drive).unwrap();
-        let b = slow.run(&drive).unwrap();
+        let a = fast.run(&drive, &crate::observe::Silent).unwrap();
+        let b = slow.run(&drive, &crate::observe::Silent).unwrap();
         assert_eq!(fast.stats().bracketed, 0);
         let peak = b.displacement.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         assert!(peak > 3.0 * FD / KD, "n={n}: the joint must slip");
