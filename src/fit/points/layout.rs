@@ -66,24 +66,6 @@ impl Layout {
         })
     }
 
-    /// Each mode's frequency held nearer its own start than any other
-    /// mode's (half the distance, in `ln`, to the nearest): a mode started
-    /// from a peak of its own stays that peak's mode, and is not traded for a
-    /// second copy of a larger one beside it.
-    pub(super) fn apart(mut self) -> Layout {
-        for (r, f) in self.frequencies.iter().enumerate() {
-            let nearest = self
-                .frequencies
-                .iter()
-                .enumerate()
-                .filter(|&(s, _)| s != r)
-                .map(|(_, g)| (f - g).abs())
-                .fold(f64::INFINITY, f64::min);
-            self.frequency_ranges[r] = self.frequency_ranges[r].min(0.5 * nearest);
-        }
-        self
-    }
-
     /// Modes starting outside `lines_hz` are seen only through what they
     /// leave inside: their damping ratios are held at `floor` or more.
     pub(super) fn damped_outside(mut self, lines_hz: (f64, f64), floor: f64) -> Layout {
@@ -238,19 +220,5 @@ mod tests {
                 assert!((a - b).abs() <= 1e-12 * a.abs(), "{n}: {a} -> {b}");
             }
         }
-    }
-
-    /// Held apart, a mode reaches at most halfway (in `ln f`) to its
-    /// neighbour's start: 6.65 Hz beside 7.32 Hz stops at √(6.65·7.32).
-    #[test]
-    fn modes_held_apart_stop_halfway_to_each_other() {
-        let s = two_modes();
-        let layout = Layout::new(&s, None).unwrap().apart();
-        let mut theta = layout.theta_of(&s, None);
-        theta[0] = 7.32_f64.ln();
-        let (moved, outside) = layout.structure_at(&theta);
-        let halfway = (6.65_f64 * 7.32).sqrt();
-        assert!((moved.modes[0].frequency_hz - halfway).abs() < 1e-9 * halfway);
-        assert!((outside - 0.5 * (7.32_f64 / 6.65).ln()).abs() < 1e-12);
     }
 }

@@ -28,8 +28,7 @@
 //!
 //! The start ([`start`]): the lowest level's FRFs fitted by the linear
 //! modes alone (the joint stuck, so inside the modes), from peaks picked on
-//! the summed receptance, each mode held nearer its own peak than any
-//! other's, then the joint's stated stick stiffness taken out
+//! the summed receptance, then the joint's stated stick stiffness taken out
 //! of those modes in modal coordinates (`Ω² − k_d ψ ψᵀ`, `ψ_r = φ_r(a) −
 //! φ_r(b)`) to give the structure beside the joint.
 

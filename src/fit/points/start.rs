@@ -166,37 +166,31 @@ pub fn linear_modes_beside(
                 .collect(),
         });
     }
-    let anchor = PointModes {
-        points,
-        modes: start,
-    };
-    let (mut structure, mut rms) = refined(data, &anchor, &anchor, drive, level)?;
+    let (mut structure, mut rms) = refined(data, (points, start), drive, level)?;
     if !modes.1.is_empty() {
         let outside = outside_modes(data, &structure, drive, modes.1, level);
-        let with_outside = |s: &PointModes| PointModes {
-            points: s.points.clone(),
-            modes: s.modes.iter().chain(&outside).cloned().collect(),
-        };
-        let from = with_outside(&structure);
-        (structure, rms) = refined(data, &with_outside(&anchor), &from, drive, level)?;
+        let mut all = structure.modes.clone();
+        all.extend(outside);
+        let points = structure.points;
+        (structure, rms) = refined(data, (points, all), drive, level)?;
     }
     Ok((structure, rms))
 }
 
-/// `from` fitted to level `level` by Levenberg–Marquardt, the modes
-/// outside the lines damped at [`START_DAMPING`] or more and every mode
-/// held nearer its place in `anchor` (where the peaks put it) than any
-/// other mode's: each peak keeps its mode.
+/// `start` fitted to level `level` by Levenberg–Marquardt, the modes
+/// outside the lines damped at [`START_DAMPING`] or more.
 fn refined(
     data: &[PointMeasurement],
-    anchor: &PointModes,
-    from: &PointModes,
+    (points, start): (Vec<String>, Vec<ShapedMode>),
     drive: usize,
     level: usize,
 ) -> Result<(PointModes, f64)> {
-    let layout = Layout::new(anchor, None)?
-        .damped_outside(super::problem::lines_hz(data), START_DAMPING)
-        .apart();
+    let structure = PointModes {
+        points,
+        modes: start,
+    };
+    let layout = Layout::new(&structure, None)?
+        .damped_outside(super::problem::lines_hz(data), START_DAMPING);
     let problem = LinearProblem {
         data,
         level,
@@ -204,7 +198,7 @@ fn refined(
         drive,
         evaluations: AtomicUsize::new(0),
     };
-    let run = levenberg_marquardt(&problem, &layout.theta_of(from, None), 200)?;
+    let run = levenberg_marquardt(&problem, &layout.theta_of(&structure, None), 200)?;
     Ok((layout.structure_at(&run.theta).0, problem.rms(&run.theta)))
 }
 
