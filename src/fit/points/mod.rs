@@ -16,9 +16,12 @@
 //! ```
 //!
 //! each residual's real and imaginary parts divided by the line's weight
-//! `w_p` (the measured standard error, else the response's RMS over the
-//! level). Levenberg–Marquardt ([`levenberg_marquardt()`]) minimises `Σ r²`
-//! over `θ = (ln f_r, ln ζ_r, φ_r(p)/|φ_r,0(p)|, θ_joint)`; `ζ_r` is held
+//! `w_p` (the response's RMS over the level, or the line's measured
+//! standard error: [`PointMeasurement::from_frf`]). Where the model cannot
+//! meet the data to within the noise, as on a measured structure, standard
+//! errors far smaller than the model's own error would let the few
+//! quietest lines decide the fit. Levenberg–Marquardt
+//! ([`levenberg_marquardt()`]) minimises `Σ r²` over `θ = (ln f_r, ln ζ_r, φ_r(p)/|φ_r,0(p)|, θ_joint)`; `ζ_r` is held
 //! within `[1e-4, 0.5]` (`[0.02, 0.5]` for a mode starting outside the
 //! lines: only its residual is seen), `f_r` within a factor 1.25 of its
 //! start, and the joint's parameters in the coordinates and bounds the
@@ -27,30 +30,40 @@
 //! added as a penalty row.
 //!
 //! The start ([`start`]): the lowest level's FRFs fitted by the linear
-//! modes alone (the joint stuck, so inside the modes), from peaks picked on
-//! the summed receptance, then the joint's stated stick stiffness taken out
-//! of those modes in modal coordinates (`Ω² − k_d ψ ψᵀ`, `ψ_r = φ_r(a) −
-//! φ_r(b)`) to give the structure beside the joint.
+//! modes alone (the joint stuck, so inside the modes), from each peak's
+//! mode fitted near its peak ([`poles`]), then the joint's stated stick
+//! stiffness taken out of those modes in modal coordinates (`Ω² − k_d ψ
+//! ψᵀ`, `ψ_r = φ_r(a) − φ_r(b)`) to give the structure beside the joint.
+//!
+//! A joint's ends need no sensor: a point that no measurement reads is a
+//! coordinate whose value in each mode is fitted like any other. The
+//! motion across a bolted interface is seldom what two accelerometers
+//! beside it read; a joint from a coordinate of its own to the ground,
+//! `ψ_r` free in every mode, is the joint that several modes share
+//! ([`with_joint_point`] starts it from the modes' drop in frequency with
+//! level).
 
 mod layout;
+pub mod poles;
 mod problem;
 pub mod start;
 #[cfg(test)]
 mod tests;
 
+use super::Weighting;
 use super::optimise::{OptimiserRun, levenberg_marquardt};
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
 use crate::harmonics::Quantity;
 use crate::hb::points::{JointReceptance, point_harmonics};
-use crate::model::{ElementSpec, PointModes};
+use crate::model::{ElementSpec, PointModes, Role};
 use layout::Layout;
 use num_complex::Complex64;
 use problem::JointProblem;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-pub use start::{linear_modes, linear_modes_beside, lowest_level, without_joint};
+pub use start::{linear_modes, linear_modes_beside, lowest_level, with_joint_point, without_joint};
 
 /// One measured line of one response point.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -61,8 +74,7 @@ pub struct PointLine {
     pub force_amplitude: f64,
     /// `H = Y_1/F_1` in the measurement's response quantity.
     pub h: Complex64,
-    /// What a residual is divided by: the standard error of `h` when known,
-    /// else the response's RMS over the level.
+    /// What a residual is divided by ([`PointMeasurement::from_frf`]).
     pub weight: f64,
 }
 
@@ -87,10 +99,16 @@ pub struct PointMeasurement {
 }
 
 impl PointMeasurement {
-    /// The first harmonic of `frf` at `point`: each line weighted by its
-    /// standard error where that is finite and positive, else by the RMS of
-    /// `|H_1|` over its level.
-    pub fn from_frf(point: usize, frf: &NonlinearFrf) -> Result<PointMeasurement> {
+    /// The first harmonic of `frf` at `point`, each line weighted as
+    /// `weighting` says: [`Weighting::None`], by the RMS of `|H_1|` over its
+    /// level (every response and level in its own scale, the FRF error the
+    /// fit is judged by); [`Weighting::StandardError`], by its standard
+    /// error where that is finite and positive, else by that RMS.
+    pub fn from_frf(
+        point: usize,
+        frf: &NonlinearFrf,
+        weighting: Weighting,
+    ) -> Result<PointMeasurement> {
         if !frf.response.is_motion() || frf.reference != Quantity::Force {
             return Err(Error::input(
                 "frf",
@@ -117,7 +135,10 @@ impl PointMeasurement {
                             frequency_hz: p.frequency_hz,
                             force_amplitude: p.force_amplitude,
                             h: h1(p),
-                            weight: if se.is_finite() && se > 0.0 { se } else { rms },
+                            weight: match weighting {
+                                Weighting::StandardError if se.is_finite() && se > 0.0 => se,
+                                _ => rms,
+                            },
                         }
                     })
                     .collect();
@@ -184,7 +205,9 @@ pub struct PointFit {
 }
 
 /// Fits `structure` and `joint` (both as starts) to `data`, the structure
-/// driven at point `drive`, by Levenberg–Marquardt (see the module docs).
+/// driven at point `drive`, by Levenberg–Marquardt (see the module docs),
+/// from the joint's slip force that meets the data best among a decade
+/// either way of its start.
 ///
 /// Errors: measurements whose levels or lines differ from one another, a
 /// point out of range, a joint parameter not positive.
@@ -196,6 +219,7 @@ pub fn fit_points(
     options: &PointFitOptions,
 ) -> Result<PointFit> {
     structure.validate()?;
+    let joint = &slip_force_start(data, structure, drive, joint, options)?;
     let layout = Layout::new(structure, Some(&joint.law))?
         .damped_outside(problem::lines_hz(data), start::START_DAMPING);
     let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?;
@@ -218,6 +242,53 @@ pub fn fit_points(
         failed_lines,
         run,
     })
+}
+
+/// The factors of the start's slip force tried before the descent: a
+/// decade either way in quarter decades.
+const SLIP_FORCE_FACTORS: [f64; 9] = [
+    0.1,
+    0.177_827_941,
+    0.316_227_766,
+    0.562_341_325,
+    1.0,
+    1.778_279_41,
+    3.162_277_66,
+    5.623_413_25,
+    10.0,
+];
+
+/// `joint` with its slip force ([`Role::SlipForce`]) the factor of
+/// [`SLIP_FORCE_FACTORS`] whose start meets `data` best: where the joint
+/// slips decides which levels it softens, and a descent from the wrong
+/// side of that stays there. A law without a slip force is returned as it
+/// is.
+fn slip_force_start(
+    data: &[PointMeasurement],
+    structure: &PointModes,
+    drive: usize,
+    joint: &PointJoint,
+    options: &PointFitOptions,
+) -> Result<PointJoint> {
+    let Some(at) = joint.law.description().index_of(Role::SlipForce) else {
+        return Ok(*joint);
+    };
+    let mut best = (f64::INFINITY, *joint);
+    for factor in SLIP_FORCE_FACTORS {
+        let mut values: Vec<f64> = joint.law.parameters().iter().map(|p| p.1).collect();
+        values[at] *= factor;
+        let law = joint.law.with_parameters(&values);
+        if law.build().is_err() {
+            continue;
+        }
+        let layout = Layout::new(structure, Some(&law))?;
+        let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?;
+        let (rms, _) = problem.rms(&layout.theta_of(structure, Some(&law)))?;
+        if rms < best.0 {
+            best = (rms, PointJoint { law, ..*joint });
+        }
+    }
+    Ok(best.1)
 }
 
 /// Every response point's predicted first harmonic (`[level][line][m]`,

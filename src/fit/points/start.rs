@@ -4,11 +4,16 @@
 //!
 //! The linear modes start from peaks of the summed, normalised receptances
 //! `Σ_p |H_pd|/max|H_pd|` (a parabola through each peak's three lines in
-//! `ln`), a damping ratio of [`START_DAMPING`], and shapes from the peak's
-//! quadrature response, `Im H_pd(ω_r) ≈ −φ_r(p) φ_r(d)/(2 ζ_r ω_r²)`, then
-//! Levenberg–Marquardt fits them to the level's FRFs.
+//! `ln`), each mode's pole fitted near its own peak and every residue over
+//! all the lines ([`super::poles`]); then Levenberg–Marquardt fits them to
+//! the level's FRFs. Fitted near its peak, a mode is not pulled towards a
+//! larger neighbour by lines far from it. Where a peak's neighbourhood
+//! holds no mode, the start is its quadrature response,
+//! `Im H_pd(ω_r) ≈ −φ_r(p) φ_r(d)/(2 ζ_r ω_r²)` at a damping ratio of
+//! [`START_DAMPING`].
 
 use super::layout::Layout;
+use super::poles::peak_modes;
 use super::problem::{LinearProblem, check_lines};
 use super::{PointMeasurement, PointModes};
 use crate::error::{Error, Result};
@@ -63,10 +68,9 @@ fn prominence(y: &[f64], i: usize) -> f64 {
 }
 
 /// `modes` peaks of the summed normalised receptances, the most prominent
-/// ([`prominence`]), in measurement order: each line's index and the
-/// frequency of the parabola's vertex through it and its neighbours (in
-/// `ln` of the sum).
-fn peaks(data: &[PointMeasurement], level: usize, modes: usize) -> Result<Vec<(usize, f64)>> {
+/// ([`prominence`]), in measurement order: the frequency of the parabola's
+/// vertex through each peak's line and its neighbours (in `ln` of the sum).
+fn peaks(data: &[PointMeasurement], level: usize, modes: usize) -> Result<Vec<f64>> {
     let f: Vec<f64> = data[0].levels[level]
         .lines
         .iter()
@@ -113,7 +117,7 @@ fn peaks(data: &[PointMeasurement], level: usize, modes: usize) -> Result<Vec<(u
                 x[1]
             };
             // lines in measurement order: a sweep down has them falling
-            (i, vertex.clamp(x[0].min(x[2]), x[0].max(x[2])))
+            vertex.clamp(x[0].min(x[2]), x[0].max(x[2]))
         })
         .collect())
 }
@@ -132,11 +136,10 @@ pub fn linear_modes(
     linear_modes_beside(data, points, drive, (modes, &[]), level)
 }
 
-/// [`linear_modes`] with modes outside the lines besides: `modes.0` from
-/// the peaks, then one at each of `modes.1` (Hz; the residual of modes
-/// below and above the band), whose products `φ_r(p) φ_r(d)` start as the
-/// least-squares fit of what the peaks' modes leave of each receptance (at
-/// [`START_DAMPING`]); then all are fitted together.
+/// [`linear_modes`] with modes outside the lines besides: `modes.0` at
+/// the peaks, each fitted near its own peak ([`peak_modes`]), and one at
+/// each of `modes.1` (Hz, held there, at [`START_DAMPING`]: the residual
+/// of modes below and above the band); then all are fitted together.
 pub fn linear_modes_beside(
     data: &[PointMeasurement],
     points: Vec<String>,
@@ -152,29 +155,58 @@ pub fn linear_modes_beside(
     if (0..points.len()).any(|p| at(p).is_none()) {
         return Err(Error::input("data", "every point needs a sensor"));
     }
-    let mut start = Vec::with_capacity(modes.0 + modes.1.len());
-    for (i, f) in peaks(data, level, modes.0)? {
-        let w2 = (2.0 * PI * f).powi(2);
+    let found = peaks(data, level, modes.0)?;
+    let (omega, h) = super::poles::receptances_of(data, level);
+    let start = match peak_modes(&omega, &h, drive, &found, (modes.1, START_DAMPING)) {
+        Ok(start) => start,
+        // a peak whose neighbourhood alone holds no mode: its quadrature
+        // response gives the start instead
+        Err(_) => quadrature_start(data, (d, drive), &found, modes.1, level)?,
+    };
+    refined(data, (points, start), drive, level)
+}
+
+/// Modes at the peaks `found` from each peak's quadrature response (see
+/// the module docs), and modes at `outside` from what those leave.
+fn quadrature_start(
+    data: &[PointMeasurement],
+    (d, drive): (&PointMeasurement, usize),
+    found: &[f64],
+    outside: &[f64],
+    level: usize,
+) -> Result<Vec<ShapedMode>> {
+    let points = data.len();
+    let f: Vec<f64> = data[0].levels[level]
+        .lines
+        .iter()
+        .map(|l| l.frequency_hz)
+        .collect();
+    let mut start = Vec::with_capacity(found.len() + outside.len());
+    for &peak in found {
+        let i = (0..f.len())
+            .min_by(|&a, &b| (f[a] - peak).abs().total_cmp(&(f[b] - peak).abs()))
+            .unwrap_or(0);
+        let w2 = (2.0 * PI * peak).powi(2);
         let constant =
             |m: &PointMeasurement| -receptances(m, level)[i].im * 2.0 * START_DAMPING * w2;
         let phi_d = constant(d).abs().sqrt().max(f64::MIN_POSITIVE);
+        let mut shape = vec![0.0; points];
+        for m in data {
+            shape[m.point] = constant(m) / phi_d;
+        }
         start.push(ShapedMode {
-            frequency_hz: f,
+            frequency_hz: peak,
             damping_ratio: START_DAMPING,
-            shape: (0..points.len())
-                .map(|p| at(p).map_or(0.0, |m| constant(m) / phi_d))
-                .collect(),
+            shape,
         });
     }
-    let (mut structure, mut rms) = refined(data, (points, start), drive, level)?;
-    if !modes.1.is_empty() {
-        let outside = outside_modes(data, &structure, drive, modes.1, level);
-        let mut all = structure.modes.clone();
-        all.extend(outside);
-        let points = structure.points;
-        (structure, rms) = refined(data, (points, all), drive, level)?;
-    }
-    Ok((structure, rms))
+    let structure = PointModes {
+        points: vec![String::new(); points],
+        modes: start,
+    };
+    let mut all = structure.modes.clone();
+    all.extend(outside_modes(data, &structure, drive, outside, level));
+    Ok(all)
 }
 
 /// `start` fitted to level `level` by Levenberg–Marquardt, the modes
@@ -306,6 +338,45 @@ pub fn without_joint(
         points: stuck.points.clone(),
         modes,
     };
+    out.validate()?;
+    Ok(out)
+}
+
+/// The stuck modes `stuck` with one more point, `name`, whose motion no
+/// sensor reads: the joint's own coordinate, for a joint from it to the
+/// ground (`ends = (last point, None)`), when the sensors beside a joint
+/// do not read the motion across it. Its value in each mode inside
+/// `lines_hz`, `ψ_r = √(max(ω_r,stuck² − ω_r,soft², 10⁻³ ω_r,stuck²)/k_d)`,
+/// is what a joint of stick stiffness `kd` that slips fully at the level of
+/// `soft` (the same modes fitted to the highest level) takes from each
+/// mode; 0 in modes outside the lines. Only `k_d ψ²` is seen, so `kd` sets
+/// the coordinate's scale.
+///
+/// Errors: `soft` with other modes than `stuck`; `kd` not positive.
+pub fn with_joint_point(
+    stuck: &PointModes,
+    soft: &PointModes,
+    kd: f64,
+    lines_hz: (f64, f64),
+    name: &str,
+) -> Result<PointModes> {
+    if soft.modes.len() != stuck.modes.len() {
+        return Err(Error::input(
+            "soft",
+            "needs the stuck structure's modes, fitted to another level",
+        ));
+    }
+    if !(kd > 0.0 && kd.is_finite()) {
+        return Err(Error::input("kd", format!("must be positive, got {kd}")));
+    }
+    let mut out = stuck.clone();
+    out.points.push(name.to_string());
+    for (m, s) in out.modes.iter_mut().zip(&soft.modes) {
+        let w2 = |f: f64| (2.0 * PI * f).powi(2);
+        let drop = (w2(m.frequency_hz) - w2(s.frequency_hz)).max(1e-3 * w2(m.frequency_hz));
+        let inside = (lines_hz.0..=lines_hz.1).contains(&m.frequency_hz);
+        m.shape.push(if inside { (drop / kd).sqrt() } else { 0.0 });
+    }
     out.validate()?;
     Ok(out)
 }

@@ -129,7 +129,7 @@ fn measured(levels: &[f64], lines: usize) -> Vec<PointMeasurement> {
     (0..3)
         .map(|p| {
             let frf = reduce_stepped(&rec, p + 1, &ReduceOptions::default()).unwrap();
-            PointMeasurement::from_frf(p, &frf).unwrap()
+            PointMeasurement::from_frf(p, &frf, Weighting::StandardError).unwrap()
         })
         .collect()
 }
@@ -220,4 +220,62 @@ fn taking_the_joint_out_of_stuck_modes_gives_the_structure_beside_it() {
         }
     }
     assert!(without_joint(&stuck, (1, Some(2)), 10.0 * KD).is_err());
+}
+
+/// The chain's joint declared at a coordinate no sensor reads (a fourth
+/// point, from it to the ground): started from the modes' drop in
+/// frequency between the lowest and highest level, the fit meets the
+/// three accelerometers to within 1.5 times the noise, and the stiffness
+/// it puts into each mode, `k_d ψ_r²`, is the chain joint's,
+/// `K_D (φ_r(2) − φ_r(3))²`, within 2 %, as is the slip force it puts
+/// there, `f_d |ψ_r|` (only these are seen: the coordinate's scale is
+/// free).
+#[test]
+fn a_joint_no_sensor_reads_is_found_through_the_modes_it_shares() {
+    let data = measured(&[0.5, 1.5, 3.0, 6.0], 48);
+    let lowest = lowest_level(&data).unwrap();
+    let (stuck, _) = linear_modes(&data, chain().points, 0, 3, lowest).unwrap();
+    let (soft, _) = linear_modes(&data, chain().points, 0, 3, 3).unwrap();
+    let kd = 1.5e4;
+    let stuck = with_joint_point(&stuck, &soft, kd, problem::lines_hz(&data), "joint").unwrap();
+    let forces: Vec<f64> = data[0]
+        .levels
+        .iter()
+        .map(|l| l.lines[0].force_amplitude)
+        .collect();
+    let fd = (forces[0] * forces[3]).sqrt();
+    let ends = (3, None);
+    let structure = without_joint(&stuck, ends, kd).unwrap();
+    let joint = PointJoint {
+        ends,
+        law: ElementSpec::Jenkins { kd, fd },
+    };
+    let fit = fit_points(&data, &structure, 0, &joint, &PointFitOptions::default()).unwrap();
+    let noise = std::f64::consts::FRAC_1_SQRT_2;
+    let values: Vec<f64> = fit.joint.law.parameters().iter().map(|p| p.1).collect();
+    let truth = chain().modes().unwrap();
+    for (m, t) in fit.structure.modes.iter().zip(&truth.modes) {
+        let (found, true_k) = (
+            values[0] * m.shape[3].powi(2),
+            KD * (t.shape[1] - t.shape[2]).powi(2),
+        );
+        let psi = t.shape[1] - t.shape[2];
+        let (slip, true_slip) = (values[1] * m.shape[3].abs(), FD * psi.abs());
+        eprintln!(
+            "{:.4} / {:.4} Hz: kd psi^2 {found:.4e} / {true_k:.4e}, fd |psi| {slip:.4e} / {true_slip:.4e}",
+            m.frequency_hz, t.frequency_hz
+        );
+        assert!((found / true_k - 1.0).abs() < 0.02, "{found} vs {true_k}");
+        assert!(
+            (slip / true_slip - 1.0).abs() < 0.02,
+            "{slip} vs {true_slip}"
+        );
+    }
+    eprintln!(
+        "rms {:.3} ({:.2} x noise), {:?}, joint {values:?}",
+        fit.residual_rms,
+        fit.residual_rms / noise,
+        fit.run.status
+    );
+    assert!(fit.residual_rms < 1.5 * noise, "{}", fit.residual_rms);
 }
