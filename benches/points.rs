@@ -2,8 +2,9 @@
 //! imports the F-16's sine sweeps (levels 1-7) with the force and the three
 //! accelerometers (drive point, wing and payload beside the interface),
 //! reduces each response to its nonlinear FRFs over 4.5-9 Hz, fits the
-//! structure at those three points with a joint between the wing and the
-//! payload ([`hystid::fit::points`]) on levels 1, 3, 5, 7 together (and
+//! structure at those three points with a joint ([`hystid::fit::points`]),
+//! between the wing's and the payload's accelerometers or at a coordinate
+//! of its own that no sensor reads, on levels 1, 3, 5, 7 together (and
 //! each alone), judges the held-out levels 2, 4, 6 by each response's FRF
 //! error and by a time-domain replay of their recorded force
 //! ([`hystid::sim::points::PointSimulator`]) over the part of the sweep
@@ -45,10 +46,12 @@ fn main() {
         clock.elapsed().as_secs_f64()
     );
     let mut report = Vec::new();
-    for law in f16::laws() {
-        let row = f16::judge(&levels, law);
-        f16::print(&row);
-        report.push(row);
+    for at in f16::Placement::all() {
+        for law in f16::laws() {
+            let row = f16::judge(&levels, law, at);
+            f16::print(&row);
+            report.push(row);
+        }
     }
     let report = json!({ "laws": report, "seconds": clock.elapsed().as_secs_f64() });
     let path = out.join("f16.json");
