@@ -16,7 +16,9 @@ use progress::Progress;
 use reduction::ReductionJson;
 
 use hystid::analysis::diagnose::{DiagnosisReport, TimeOutcome, refine_in_time};
+use hystid::analysis::identify::IdentifyRequest;
 use hystid::analysis::recording::ReplayReduction;
+use hystid::analysis::request::{FitDomain, check_fit_options, check_time_options};
 use hystid::analysis::run::FinalModel;
 use hystid::analysis::validate::{
     FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
@@ -54,8 +56,9 @@ fn fail(message: impl Into<String>) -> PyErr {
 }
 
 /// The time-domain fits' options the bindings take: how the model is
-/// replayed, the fewest samples per period and the starts (1 to 64, as the
-/// command's `--starts`).
+/// replayed, the fewest samples per period, the starts, the samples judged
+/// and the response's acquisition chain (JSON); the request they go into
+/// checks them.
 fn time_fit_options(
     min_samples_per_period: f64,
     replay: &str,
@@ -63,21 +66,14 @@ fn time_fit_options(
     max_judged_samples: usize,
     acquisition: Option<&str>,
 ) -> PyResult<TimeFitOptions> {
-    if !(1..=64).contains(&starts) {
-        return Err(fail(format!("starts: expected 1 to 64, got {starts}")));
-    }
-    // as `--max-judged-samples` takes it
-    if max_judged_samples < 1000 {
-        return Err(fail(format!(
-            "max_judged_samples: expected at least 1000, got {max_judged_samples}"
-        )));
-    }
     Ok(TimeFitOptions {
         min_samples_per_period,
         input: from_json("replay", &format!("\"{replay}\""))?,
         starts,
         max_judged_samples,
-        acquisition: acquisition.map(acquisition_of).transpose()?,
+        acquisition: acquisition
+            .map(|text| from_json("acquisition", text))
+            .transpose()?,
         ..TimeFitOptions::default()
     })
 }
@@ -483,7 +479,8 @@ fn extract<'py>(
 }
 
 /// Fit options: the library's defaults with the given fields replaced
-/// (unknown fields are errors that name them).
+/// (unknown fields are errors that name them); the request they go into
+/// checks them.
 fn fit_options(text: &str) -> PyResult<FitOptions> {
     let given: serde_json::Map<String, serde_json::Value> = from_json("fit options", text)?;
     let mut value = serde_json::to_value(FitOptions::default())
@@ -508,10 +505,12 @@ fn fit_options(text: &str) -> PyResult<FitOptions> {
         }
         fields.insert(k, v);
     }
-    let options: FitOptions =
-        serde_json::from_value(value).map_err(|e| fail(format!("fit options: {e}")))?;
-    options.validate().map_err(err)?;
-    Ok(options)
+    serde_json::from_value(value).map_err(|e| fail(format!("fit options: {e}")))
+}
+
+/// Names as a request's recordings.
+fn paths(names: &[String]) -> Vec<std::path::PathBuf> {
+    names.iter().map(std::path::PathBuf::from).collect()
 }
 
 /// fit.json's `recording`, a list, of the one path given (none: empty).
@@ -536,6 +535,9 @@ fn identify<'py>(
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
+    IdentifyRequest::new(paths(&listed(recording.clone())), options.clone())
+        .validate()
+        .map_err(err)?;
     let reference = reference.and_then(|m| m.inner.joint);
     let progress = Progress::new(progress);
     let fit = progress.run(py, || {
@@ -562,13 +564,15 @@ fn identify_declared<'py>(
     response: Option<String>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
-    if response_sign != 1.0 && response_sign != -1.0 {
-        return Err(fail(format!(
-            "response_sign: expected 1 or -1, got {response_sign}"
-        )));
-    }
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
+    IdentifyRequest {
+        start: Some("start".into()),
+        response_sign: Some(response_sign),
+        ..IdentifyRequest::new(paths(&listed(recording.clone())), options.clone())
+    }
+    .validate()
+    .map_err(err)?;
     let model = start.inner.clone();
     let progress = Progress::new(progress);
     let report = progress.run(py, || {
@@ -638,6 +642,7 @@ fn diagnose<'py>(
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let fit_opts = fit_options(&options)?;
+    check_fit_options(&fit_opts).map_err(err)?;
     let d = diagnose_options(candidates)?;
     let fit = match fit {
         Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),
@@ -674,6 +679,7 @@ fn diagnose<'py>(
                     t.acquisition.as_deref(),
                 )?
             };
+            check_time_options(&options, named.len()).map_err(err)?;
             Some((named, reduction, options))
         }
     };
@@ -949,10 +955,21 @@ fn identify_time<'py>(
             acquisition.as_deref(),
         )?
     };
+    let fit_opts = fit_options(&options)?;
+    IdentifyRequest {
+        domain: FitDomain::Time,
+        start: start.as_ref().map(|_| "start".into()),
+        refined_fit: fit.as_ref().map(|_| "fit".into()),
+        fix: fix.clone(),
+        window_s,
+        time: time_options.clone(),
+        ..IdentifyRequest::new(paths(&recordings.names), fit_opts.clone())
+    }
+    .validate()
+    .map_err(err)?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
-    let fit_opts = fit_options(&options)?;
     let band = fit_opts.band_hz;
     // the recordings' channels moved into their time records (the arrays
     // were copied once, into the library; not again)
@@ -976,13 +993,8 @@ fn identify_time<'py>(
         .map(|l| l.recording.meta.channels[l.response].name.clone())
         .unwrap_or_default();
     let text = match (fit, start) {
-        (Some(_), Some(_)) => return Err(fail("give fit= or start=, not both")),
-        (Some(text), None) => {
-            if window_s.is_some() {
-                return Err(fail(
-                    "window_s: applies to a start written down or a multisine's start, not to an FRF fit's refinement",
-                ));
-            }
+        // both given: refused by the request
+        (Some(text), _) => {
             let mut report = from_json::<FitReport>("fit", &text)?;
             let t = progress.run(py, || {
                 let records = records(loaded, None)?;
@@ -1081,10 +1093,12 @@ fn diagnose_time<'py>(
         max_judged_samples,
         acquisition.as_deref(),
     )?;
+    check_time_options(&time_options, recordings.names.len()).map_err(err)?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
     let fit_opts = fit_options(&options)?;
+    check_fit_options(&fit_opts).map_err(err)?;
     let d = diagnose_options(candidates)?;
     let d = DiagnoseOptions {
         band_hz: fit_opts.band_hz,

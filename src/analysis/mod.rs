@@ -21,6 +21,7 @@ pub mod frf_uff;
 pub mod identify;
 pub mod multisine;
 pub mod recording;
+pub mod request;
 pub mod run;
 pub mod simulate;
 pub mod validate;

@@ -136,15 +136,15 @@ pub struct IdentifyArgs {
     /// on a linear scale, the same on every run), and keep the one with the
     /// lowest misfit (the cost without the bounds' penalty).
     /// A fit over several modes, a joint and a shaker has more than one
-    /// basin. Each start costs about as much as the fit.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
-    pub starts: u32,
+    /// basin. Each start costs about as much as the fit. At most 64.
+    #[arg(long, default_value_t = 1)]
+    pub starts: usize,
     /// With `--domain time`: most samples the fit judges over all the
     /// recordings (its Jacobian holds a row per sample judged); a fit that
     /// would judge more judges the responses low-passed at a lower rate, never
     /// below 8 samples a period of the model's highest frequency. The errors
-    /// reported are over every sample.
-    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1000..))]
+    /// reported are over every sample. At least 1000.
+    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES)]
     pub max_judged_samples: usize,
     /// With `--domain time`: the recorded response's decimation, put
     /// through by every replay (a `--start` model file's `[acquisition]`
@@ -179,6 +179,17 @@ pub struct AcquisitionArgs {
 }
 
 impl AcquisitionArgs {
+    /// The chain asked for, as given (`None`: not asked for); the request
+    /// it goes into checks it.
+    pub fn given(&self) -> Option<hystid::validate::acquisition::Acquisition> {
+        self.acquisition
+            .as_ref()
+            .map(|stages| hystid::validate::acquisition::Acquisition {
+                decimated_by: stages.clone(),
+                taps: self.acquisition_taps,
+            })
+    }
+
     /// The chain asked for, checked (`None`: not asked for).
     pub fn chain(&self) -> anyhow::Result<Option<hystid::validate::acquisition::Acquisition>> {
         let Some(stages) = &self.acquisition else {
@@ -222,6 +233,15 @@ pub enum DomainArg {
     Frf,
     /// The FRFs, then the time histories.
     Time,
+}
+
+impl From<DomainArg> for hystid::analysis::request::FitDomain {
+    fn from(d: DomainArg) -> Self {
+        match d {
+            DomainArg::Frf => Self::Frf,
+            DomainArg::Time => Self::Time,
+        }
+    }
 }
 
 /// Reduction of recordings into nonlinear FRFs (`identify`, `validate`).

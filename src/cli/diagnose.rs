@@ -84,6 +84,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     let acquisition = args.acquisition.chain()?;
     let options = diagnose_options(&args.candidates)?;
     let fit_opts = fit_options(&args.fit)?;
+    hystid::analysis::request::check_fit_options(&fit_opts).map_err(super::refused)?;
     // multisines, which no FRF reduction reads: diagnosed on their lines
     if args.domain == DomainArg::Time
         && args.reduction.excitation == super::args::ExcitationArg::Auto

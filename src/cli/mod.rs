@@ -88,6 +88,26 @@ extern "C" fn on_interrupt(_: libc::c_int) {
     }
 }
 
+/// The flag the command line writes for a request's field.
+fn flag(option: &str) -> String {
+    match option {
+        "band_hz" => "--band".to_string(),
+        "window_s" => "--window".to_string(),
+        o => format!("--{}", o.replace('_', "-")),
+    }
+}
+
+/// A request's refusal in the command line's words: the option named by
+/// its flag (`each_alone` is `--each-alone`).
+pub fn refused(e: hystid::Error) -> anyhow::Error {
+    match e {
+        hystid::Error::InvalidOption { option, message } if !option.is_empty() => {
+            anyhow::anyhow!("{}: {message}", flag(&option))
+        }
+        e => e.into(),
+    }
+}
+
 /// Creates the output directory and claims it for this run: locked against
 /// other runs while the returned value lives, cleared of dead runs'
 /// temporaries (`hystid::atomic::OutDir`). Keep it until the last file is

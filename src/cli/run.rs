@@ -19,6 +19,7 @@ use std::sync::Mutex;
 pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     let t0 = std::time::Instant::now();
     let options = fit_options(&args.fit)?;
+    hystid::analysis::request::check_fit_options(&options).map_err(super::refused)?;
     let (def, text) = read_test(args.test.as_deref())?;
     let _out = super::create_out_dir(&args.out)?;
     let mut fit_out: Option<(FitResult, HbPredictor)> = None;

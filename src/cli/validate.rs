@@ -3,29 +3,14 @@
 
 use super::args::ValidateArgs;
 use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, reduction_options, write_json};
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use hystid::analysis::load_held_reference_and_response;
+use hystid::analysis::request::parse_range;
 use hystid::analysis::validate::{
     ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
 };
 use hystid::validate::Validation;
 use std::path::Path;
-
-pub(super) fn parse_range(text: &str, flag: &str, unit: &str) -> Result<(f64, f64)> {
-    let (a, b) = text
-        .split_once(':')
-        .with_context(|| format!("{flag}: expected LO:HI in {unit}, got `{text}`"))?;
-    let p = |x: &str| -> Result<f64> {
-        x.trim()
-            .parse()
-            .with_context(|| format!("{flag}: `{x}` is not a number"))
-    };
-    let (a, b) = (p(a)?, p(b)?);
-    if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
-        bail!("{flag}: need 0 <= LO < HI, got {a}:{b}");
-    }
-    Ok((a, b))
-}
 
 /// `hystid validate`.
 pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
@@ -39,13 +24,15 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
         band_hz: args
             .band
             .as_deref()
-            .map(|b| parse_range(b, "--band", "Hz"))
-            .transpose()?,
+            .map(|b| parse_range(b, "band_hz", "Hz"))
+            .transpose()
+            .map_err(super::refused)?,
         window_s: args
             .window
             .as_deref()
-            .map(|w| parse_range(w, "--window", "s"))
-            .transpose()?,
+            .map(|w| parse_range(w, "window_s", "s"))
+            .transpose()
+            .map_err(super::refused)?,
         min_samples_per_period: args.min_samples_per_period,
         frf: !args.no_frf,
         periodic: args.periodic,
