@@ -15,16 +15,17 @@ mod reduction;
 use progress::Progress;
 use reduction::ReductionJson;
 
+use hystid::analysis::diagnose::DiagnoseRequest;
 use hystid::analysis::diagnose::{DiagnosisReport, TimeOutcome, refine_in_time};
 use hystid::analysis::identify::IdentifyRequest;
 use hystid::analysis::recording::ReplayReduction;
-use hystid::analysis::request::{FitDomain, check_fit_options, check_time_options};
+use hystid::analysis::request::{FitDomain, parse_candidates};
 use hystid::analysis::run::FinalModel;
 use hystid::analysis::validate::{
     FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
 };
 use hystid::analysis::{FitReport, Loaded, reduce};
-use hystid::diagnose::{DiagnoseOptions, Effect};
+use hystid::diagnose::Effect;
 use hystid::fit::{FitOptions, TimeFitOptions, TimeRecord};
 use hystid::harmonics::Quantity;
 use hystid::model::Model;
@@ -589,19 +590,13 @@ fn identify_declared<'py>(
     to_json(&report)
 }
 
-/// The diagnosis options with `candidates` (names as `--candidates` takes
-/// them) when given.
-fn diagnose_options(candidates: Option<Vec<String>>) -> PyResult<DiagnoseOptions> {
-    let mut d = DiagnoseOptions::default();
-    if let Some(c) = candidates {
-        d.candidates = Effect::parse_list(&c).map_err(|e| match e {
-            hystid::error::Error::InvalidPlan { message, .. } => {
-                fail(format!("candidates: {message}"))
-            }
-            e => fail(e.to_string()),
-        })?;
+/// The candidates named as `--candidates` takes them (none: the default
+/// set).
+fn candidates_of(names: Option<Vec<String>>) -> PyResult<Vec<Effect>> {
+    match names {
+        None => Ok(Effect::defaults()),
+        Some(c) => parse_candidates(&c).map_err(err),
     }
-    Ok(d)
 }
 
 /// The recordings a diagnosis refines its final model on in the time domain
@@ -642,19 +637,33 @@ fn diagnose<'py>(
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let fit_opts = fit_options(&options)?;
-    check_fit_options(&fit_opts).map_err(err)?;
-    let d = diagnose_options(candidates)?;
+    // the candidates re-identify with the user's fit options, as the
+    // command line's diagnosis does
+    let mut req = DiagnoseRequest::new(
+        time.as_ref()
+            .map_or_else(Vec::new, |t| paths(&t.recordings.names)),
+        fit_opts.clone(),
+        candidates_of(candidates)?,
+    );
+    if let Some(t) = &time {
+        req.domain = FitDomain::Time;
+        req.diagnosis.time_proposals = t.time_proposals;
+        req.time = TimeFitOptions {
+            each_alone: t.each_alone,
+            ..time_fit_options(
+                t.min_samples_per_period,
+                &t.replay,
+                t.starts,
+                t.max_judged_samples,
+                t.acquisition.as_deref(),
+            )?
+        };
+    }
+    req.validate().map_err(err)?;
+    let d = req.diagnosis.clone();
     let fit = match fit {
         Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),
         None => None,
-    };
-    // the candidates re-identify with the user's fit options, as the
-    // command line's diagnosis does
-    let d = DiagnoseOptions {
-        band_hz: fit_opts.band_hz,
-        fit: fit_opts.clone(),
-        time_proposals: time.as_ref().map_or(0, |t| t.time_proposals),
-        ..d
     };
     // the recordings as the time refit takes them, and how it replays
     let time = match &time {
@@ -669,18 +678,7 @@ fn diagnose<'py>(
                 .zip(loaded)
                 .collect();
             let reduction = from_json::<ReductionJson>("reduction", &t.reduction)?.options()?;
-            let options = TimeFitOptions {
-                each_alone: t.each_alone,
-                ..time_fit_options(
-                    t.min_samples_per_period,
-                    &t.replay,
-                    t.starts,
-                    t.max_judged_samples,
-                    t.acquisition.as_deref(),
-                )?
-            };
-            check_time_options(&options, named.len()).map_err(err)?;
-            Some((named, reduction, options))
+            Some((named, reduction, req.time.clone()))
         }
     };
     let progress = Progress::new(progress);
@@ -1093,19 +1091,20 @@ fn diagnose_time<'py>(
         max_judged_samples,
         acquisition.as_deref(),
     )?;
-    check_time_options(&time_options, recordings.names.len()).map_err(err)?;
+    let fit_opts = fit_options(&options)?;
+    let mut req = DiagnoseRequest::new(
+        paths(&recordings.names),
+        fit_opts.clone(),
+        candidates_of(candidates)?,
+    );
+    req.domain = FitDomain::Time;
+    req.diagnosis.time_proposals = time_proposals;
+    req.time = time_options.clone();
+    req.validate().map_err(err)?;
+    let d = req.diagnosis;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
-    let fit_opts = fit_options(&options)?;
-    check_fit_options(&fit_opts).map_err(err)?;
-    let d = diagnose_options(candidates)?;
-    let d = DiagnoseOptions {
-        band_hz: fit_opts.band_hz,
-        fit: fit_opts.clone(),
-        time_proposals,
-        ..d
-    };
     let outcome = progress.run(py, || {
         let t0 = std::time::Instant::now();
         let Some(p) = hystid::analysis::periodic_start_of(

@@ -10,6 +10,7 @@
 //! names it as its users write it. The parsers here read an option's text
 //! form (`LO:HI`, a joint law's name) for both front ends.
 
+use crate::diagnose::Effect;
 use crate::error::{Error, Result};
 use crate::fit::{FitOptions, TimeFitOptions};
 use crate::model::ElementKind;
@@ -72,6 +73,15 @@ pub fn parse_joint(name: &str) -> Result<ElementKind> {
             ))
         }
     }
+}
+
+/// Candidate effects by name, `all` for every one, `default` for the
+/// default set (see [`Effect::parse_list`]).
+pub fn parse_candidates(names: &[String]) -> Result<Vec<Effect>> {
+    Effect::parse_list(names).map_err(|e| match e {
+        Error::InvalidPlan { message, .. } => Error::option("candidates", message),
+        e => e,
+    })
 }
 
 /// The fit options every fitting command takes: at most [`MAX_MODES`]
@@ -164,6 +174,22 @@ mod tests {
             m.starts_with("element: expected a joint law (")
                 && m.ends_with("got `cubic_stiffness`"),
             "{m}"
+        );
+    }
+
+    #[test]
+    fn candidates_are_named() {
+        assert_eq!(
+            parse_candidates(&["default".into()]).unwrap(),
+            Effect::defaults()
+        );
+        assert!(
+            message(parse_candidates(&["friction".into()]))
+                .starts_with("candidates: unknown effect `friction` (known: ")
+        );
+        assert_eq!(
+            message(parse_candidates(&[])),
+            "candidates: give at least one effect"
         );
     }
 

@@ -72,7 +72,8 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
             &hystid::diagnose::DiagnoseOptions {
                 band_hz: options.band_hz,
                 fit: options.clone(),
-                ..super::diagnose::diagnose_options(&args.candidates)?
+                candidates: super::diagnose::candidates(&args.candidates)?,
+                ..Default::default()
             },
             quiet,
         )?;
