@@ -22,7 +22,8 @@ use hystid::analysis::recording::ReplayReduction;
 use hystid::analysis::request::{FitDomain, parse_candidates};
 use hystid::analysis::run::FinalModel;
 use hystid::analysis::validate::{
-    FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
+    FitModel, RecordingValidation, ValidateReport, ValidateRequest, ValidationSettings,
+    validate_loaded,
 };
 use hystid::analysis::{FitReport, Loaded, reduce};
 use hystid::diagnose::Effect;
@@ -77,16 +78,6 @@ fn time_fit_options(
             .transpose()?,
         ..TimeFitOptions::default()
     })
-}
-
-/// The response's acquisition chain as the model file's `[acquisition]`
-/// writes it (JSON), checked.
-fn acquisition_of(text: &str) -> PyResult<hystid::validate::acquisition::Acquisition> {
-    let chain: hystid::validate::acquisition::Acquisition = from_json("acquisition", text)?;
-    chain
-        .check()
-        .map_err(|e| fail(format!("acquisition: {e}")))?;
-    Ok(chain)
 }
 
 fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
@@ -799,18 +790,29 @@ fn validate<'py>(
     };
     let mut fit = FitModel::of_json(fit.as_bytes(), linear, Path::new(origin)).map_err(err)?;
     let s: SettingsJson = from_json("settings", &settings)?;
-    if let Some(chain) = &s.acquisition {
-        fit.acquisition = Some(acquisition_of(&chain.to_string())?);
-    }
-    let settings = ValidationSettings {
-        input: s.replay,
-        band_hz: s.band_hz,
-        window_s: s.window_s,
-        min_samples_per_period: s.min_samples_per_period,
-        frf: s.frf,
-        reduction: s.reduction.options()?,
-        periodic: s.periodic,
+    let req = ValidateRequest {
+        fit: origin.into(),
+        linear,
+        recordings: vec![recording_name.clone().into()],
+        acquisition: s
+            .acquisition
+            .map(|chain| from_json("acquisition", &chain.to_string()))
+            .transpose()?,
+        settings: ValidationSettings {
+            input: s.replay,
+            band_hz: s.band_hz,
+            window_s: s.window_s,
+            min_samples_per_period: s.min_samples_per_period,
+            frf: s.frf,
+            reduction: s.reduction.options()?,
+            periodic: s.periodic,
+        },
     };
+    req.validate().map_err(err)?;
+    if let Some(chain) = req.acquisition {
+        fit.acquisition = Some(chain);
+    }
+    let settings = req.settings;
     let loaded = loaded(
         &reference,
         &reference_quantity,

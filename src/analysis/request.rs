@@ -46,14 +46,20 @@ pub fn parse_range(text: &str, option: &str, unit: &str) -> Result<(f64, f64)> {
             .parse()
             .map_err(|e| Error::option(option, format!("`{x}` is not a number: {e}")))
     };
-    let (a, b) = (number(a)?, number(b)?);
+    let range = (number(a)?, number(b)?);
+    check_range(range, option)?;
+    Ok(range)
+}
+
+/// A range `(LO, HI)` with `0 <= LO < HI`.
+pub fn check_range((a, b): (f64, f64), option: &str) -> Result<()> {
     if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
         return Err(Error::option(
             option,
             format!("need 0 <= LO < HI, got {a}:{b}"),
         ));
     }
-    Ok((a, b))
+    Ok(())
 }
 
 /// The joint law a fit identifies, by name (`masing`, `jenkins`, ...).
@@ -174,6 +180,25 @@ mod tests {
             m.starts_with("element: expected a joint law (")
                 && m.ends_with("got `cubic_stiffness`"),
             "{m}"
+        );
+    }
+
+    #[test]
+    fn a_compensation_is_auto_off_or_seconds() {
+        use crate::analysis::Compensation;
+        assert_eq!("auto".parse::<Compensation>().unwrap(), Compensation::Auto);
+        assert_eq!("0".parse::<Compensation>().unwrap(), Compensation::Off);
+        assert_eq!(
+            " 2.5".parse::<Compensation>().unwrap(),
+            Compensation::Seconds(2.5)
+        );
+        assert_eq!(
+            message("x".parse::<Compensation>()),
+            "compensation: expected auto, 0 or seconds, got `x`: invalid float literal"
+        );
+        assert_eq!(
+            message("-1".parse::<Compensation>()),
+            "compensation: must be auto or seconds >= 0, got -1"
         );
     }
 

@@ -189,21 +189,6 @@ impl AcquisitionArgs {
                 taps: self.acquisition_taps,
             })
     }
-
-    /// The chain asked for, checked (`None`: not asked for).
-    pub fn chain(&self) -> anyhow::Result<Option<hystid::validate::acquisition::Acquisition>> {
-        let Some(stages) = &self.acquisition else {
-            return Ok(None);
-        };
-        let chain = hystid::validate::acquisition::Acquisition {
-            decimated_by: stages.clone(),
-            taps: self.acquisition_taps,
-        };
-        chain
-            .check()
-            .map_err(|e| anyhow::anyhow!("--acquisition: {e}"))?;
-        Ok(Some(chain))
-    }
 }
 
 /// How a model is replayed on a measured reference.

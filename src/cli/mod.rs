@@ -27,9 +27,9 @@ pub mod run;
 pub mod simulate;
 pub mod validate;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use args::{ExcitationArg, ReductionArgs};
-use hystid::analysis::{Compensation, ReductionOptions, SineTest};
+use hystid::analysis::{ReductionOptions, SineTest};
 use std::path::Path;
 
 /// Exit status: everything worked.
@@ -377,22 +377,7 @@ pub(crate) fn return_large_blocks() {
 
 /// The library's reduction options from the flags.
 pub fn reduction_options(r: &ReductionArgs) -> Result<ReductionOptions> {
-    let compensation = match r.compensation.trim() {
-        "auto" => Compensation::Auto,
-        text => {
-            let s: f64 = text.parse().with_context(|| {
-                format!("--compensation: expected auto, 0 or seconds, got `{text}`")
-            })?;
-            if !(s.is_finite() && s >= 0.0) {
-                bail!("--compensation: must be auto or seconds >= 0, got {s}");
-            }
-            if s > 0.0 {
-                Compensation::Seconds(s)
-            } else {
-                Compensation::Off
-            }
-        }
-    };
+    let compensation = r.compensation.parse().map_err(refused)?;
     Ok(ReductionOptions {
         excitation: match r.excitation {
             ExcitationArg::Stepped => Some(SineTest::Stepped),

@@ -7,37 +7,51 @@ use anyhow::Result;
 use hystid::analysis::load_held_reference_and_response;
 use hystid::analysis::request::parse_range;
 use hystid::analysis::validate::{
-    ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
+    ValidateReport, ValidateRequest, ValidationSettings, read_fit, unique_stem, validate_on,
 };
 use hystid::validate::Validation;
 use std::path::Path;
 
+/// The request `validate`'s flags make.
+fn validate_request(args: &ValidateArgs) -> Result<ValidateRequest> {
+    Ok(ValidateRequest {
+        fit: args.fit.clone(),
+        linear: args.linear,
+        recordings: args.recordings.clone(),
+        acquisition: args.acquisition.given(),
+        settings: ValidationSettings {
+            input: args.replay.into(),
+            band_hz: args
+                .band
+                .as_deref()
+                .map(|b| parse_range(b, "band_hz", "Hz"))
+                .transpose()
+                .map_err(super::refused)?,
+            window_s: args
+                .window
+                .as_deref()
+                .map(|w| parse_range(w, "window_s", "s"))
+                .transpose()
+                .map_err(super::refused)?,
+            min_samples_per_period: args.min_samples_per_period,
+            frf: !args.no_frf,
+            periodic: args.periodic,
+            reduction: reduction_options(&args.reduction)?,
+        },
+    })
+}
+
 /// `hystid validate`.
 pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     super::return_large_blocks();
-    let mut fit = read_fit(&args.fit, args.linear)?;
-    if let Some(chain) = args.acquisition.chain()? {
-        fit.acquisition = Some(chain);
+    // refused before anything is read or written
+    let req = validate_request(args)?;
+    req.validate().map_err(super::refused)?;
+    let mut fit = read_fit(&req.fit, req.linear)?;
+    if let Some(chain) = &req.acquisition {
+        fit.acquisition = Some(chain.clone());
     }
-    let settings = ValidationSettings {
-        input: args.replay.into(),
-        band_hz: args
-            .band
-            .as_deref()
-            .map(|b| parse_range(b, "band_hz", "Hz"))
-            .transpose()
-            .map_err(super::refused)?,
-        window_s: args
-            .window
-            .as_deref()
-            .map(|w| parse_range(w, "window_s", "s"))
-            .transpose()
-            .map_err(super::refused)?,
-        min_samples_per_period: args.min_samples_per_period,
-        frf: !args.no_frf,
-        periodic: args.periodic,
-        reduction: reduction_options(&args.reduction)?,
-    };
+    let settings = &req.settings;
     let _out = create_out_dir(&args.out)?;
     let mut entries = Vec::new();
     let mut files = vec![args.out.join("validate.json")];
@@ -106,7 +120,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             &fit,
             path,
             (&loaded.view(), loaded.response),
-            &settings,
+            settings,
             &args.out,
             &stem,
             &observer,
