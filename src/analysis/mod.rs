@@ -19,6 +19,7 @@ pub mod figures;
 pub mod flags;
 pub mod frf_uff;
 pub mod identify;
+pub mod import;
 pub mod multisine;
 pub mod recording;
 pub mod request;

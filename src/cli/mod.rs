@@ -164,7 +164,7 @@ pub fn check_paths(command: &args::Command) -> Result<()> {
         ),
         Command::Import(a) => {
             refuse_directory_input(&a.file, "import", Reads::Imports)?;
-            let [_, json, _] = import::output_files(&a.out, &a.file);
+            let [_, json, _] = hystid::analysis::import::output_files(&a.out, &a.file);
             let dir = json
                 .parent()
                 .filter(|d| !d.as_os_str().is_empty())
