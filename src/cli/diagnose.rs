@@ -6,9 +6,9 @@ use super::identify::{fit_options, reduce_recordings, run_fit};
 use super::{EXIT_OK, create_out_dir, progress};
 use super::{reduction_options, refused};
 use anyhow::Result;
-use hystid::analysis::diagnose::DiagnoseRequest;
 use hystid::analysis::diagnose::{
-    DiagnosisExtras, TimeOutcome, refine_in_time, write_diagnosis_with,
+    DiagnoseRequest, DiagnosisExtras, TimeOutcome, TimeRefinement, refine_in_time,
+    write_diagnosis_with,
 };
 use hystid::analysis::recording::ReplayReduction;
 use hystid::analysis::request::{FitDomain, parse_candidates};
@@ -158,58 +158,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             say!("{line}");
         }
         if let Some(TimeOutcome::Refined(t)) = &time {
-            for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
-                say!(
-                    "  in the time domain, {}: per-dwell relative e_RMS {:.2} % (baseline) -> {:.2} % (final) -> {:.2} % (final, refitted)",
-                    a.recording,
-                    100.0 * b.segment_relative,
-                    100.0 * f.segment_relative,
-                    100.0 * a.segment_relative
-                );
-                super::validate::print_by_frequency(&a.window);
-            }
-            super::identify::print_each_alone(&t.refit.each_alone);
-            if let Some(note) = hystid::fit::time::level_consistency(&t.refit.each_alone) {
-                say!("  {note}");
-            }
-            for c in &t.checks {
-                match &c.failed {
-                    Some(why) => say!(
-                        "  {} kept: the refit without it failed ({why})",
-                        c.effect.name()
-                    ),
-                    None => say!(
-                        "  {} {} in the time domain: without it, refitted, the misfit rises {:+.2} %",
-                        c.effect.name(),
-                        if c.confirmed {
-                            "confirmed"
-                        } else {
-                            "not confirmed (dropped)"
-                        },
-                        100.0 * c.rise
-                    ),
-                }
-            }
-            if let Some(r) = &t.residual {
-                for line in hystid::analysis::diagnose::time_residual_lines(r) {
-                    say!("  {line}");
-                }
-            }
-            if let Some(why) = &t.residual_failed {
-                say!("  the time residual could not be reduced or traced: {why}");
-            }
-            for p in &t.proposals {
-                match &p.failed {
-                    Some(why) => say!("  {} not tried in the time domain: {why}", p.effect.name()),
-                    None => say!(
-                        "  {} {} in the time domain: with it, refitted, the misfit is {:.2} % against {:.2} % without",
-                        p.effect.name(),
-                        if p.kept { "added" } else { "not needed" },
-                        100.0 * hystid::analysis::diagnose::misfit(&p.with),
-                        100.0 * hystid::analysis::diagnose::misfit(&p.with) * (1.0 + p.gain)
-                    ),
-                }
-            }
+            print_time_refinement(t);
         }
         for n in &written.notes {
             say!("  note: {n}");
@@ -219,6 +168,64 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
         }
     }
     Ok(EXIT_OK)
+}
+
+/// Prints the final model's refit in the time domain: the errors, each
+/// recording alone, each kept effect's check, the time residual and the
+/// candidates put to the time histories.
+fn print_time_refinement(t: &TimeRefinement) {
+    for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
+        say!(
+            "  in the time domain, {}: per-dwell relative e_RMS {:.2} % (baseline) -> {:.2} % (final) -> {:.2} % (final, refitted)",
+            a.recording,
+            100.0 * b.segment_relative,
+            100.0 * f.segment_relative,
+            100.0 * a.segment_relative
+        );
+        super::validate::print_by_frequency(&a.window);
+    }
+    super::identify::print_each_alone(&t.refit.each_alone);
+    if let Some(note) = hystid::fit::time::level_consistency(&t.refit.each_alone) {
+        say!("  {note}");
+    }
+    for c in &t.checks {
+        match &c.failed {
+            Some(why) => say!(
+                "  {} kept: the refit without it failed ({why})",
+                c.effect.name()
+            ),
+            None => say!(
+                "  {} {} in the time domain: without it, refitted, the misfit rises {:+.2} %",
+                c.effect.name(),
+                if c.confirmed {
+                    "confirmed"
+                } else {
+                    "not confirmed (dropped)"
+                },
+                100.0 * c.rise
+            ),
+        }
+    }
+    if let Some(r) = &t.residual {
+        for line in hystid::analysis::diagnose::time_residual_lines(r) {
+            say!("  {line}");
+        }
+    }
+    if let Some(why) = &t.residual_failed {
+        say!("  the time residual could not be reduced or traced: {why}");
+    }
+    for p in &t.proposals {
+        match &p.failed {
+            Some(why) => say!("  {} not tried in the time domain: {why}", p.effect.name()),
+            None => say!(
+                "  {} {} in the time domain: with it, refitted, the misfit is {:.2} % against {:.2} % without",
+                p.effect.name(),
+                if p.kept { "added" } else { "not needed" },
+                100.0 * hystid::analysis::diagnose::misfit(&p.with),
+                100.0 * hystid::analysis::diagnose::misfit(&p.with) * (1.0 + p.gain)
+            ),
+        }
+    }
 }
 
 /// `hystid diagnose --domain time` on multisines (see
