@@ -31,6 +31,17 @@ pub enum Error {
         /// What was expected.
         message: String,
     },
+    /// A command's option is out of range, or does not go with the others
+    /// (see `analysis::request`). `option` is the request's field; each front
+    /// end names it as its users write it (`--each-alone`, `each_alone`).
+    /// An empty `option`: the message names the options itself.
+    #[error("{}", option_message(option, message))]
+    InvalidOption {
+        /// The request's field, e.g. `starts`.
+        option: String,
+        /// What was expected.
+        message: String,
+    },
     /// Input data (a signal, a recording's content) is unusable.
     #[error("invalid input: {what}: {message}")]
     InvalidInput {
@@ -105,6 +116,13 @@ impl Error {
             message: message.into(),
         }
     }
+    /// An [`Error::InvalidOption`].
+    pub fn option(option: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::InvalidOption {
+            option: option.into(),
+            message: message.into(),
+        }
+    }
     /// An [`Error::InvalidInput`].
     pub fn input(what: impl Into<String>, message: impl Into<String>) -> Self {
         Error::InvalidInput {
@@ -144,6 +162,14 @@ impl Error {
             path: path.as_ref().display().to_string(),
             source,
         }
+    }
+}
+
+fn option_message(option: &str, message: &str) -> String {
+    if option.is_empty() {
+        message.to_string()
+    } else {
+        format!("{option}: {message}")
     }
 }
 

@@ -15,14 +15,18 @@ mod reduction;
 use progress::Progress;
 use reduction::ReductionJson;
 
+use hystid::analysis::diagnose::DiagnoseRequest;
 use hystid::analysis::diagnose::{DiagnosisReport, TimeOutcome, refine_in_time};
+use hystid::analysis::identify::IdentifyRequest;
 use hystid::analysis::recording::ReplayReduction;
+use hystid::analysis::request::{FitDomain, parse_candidates};
 use hystid::analysis::run::FinalModel;
 use hystid::analysis::validate::{
-    FitModel, RecordingValidation, ValidateReport, ValidationSettings, validate_loaded,
+    FitModel, RecordingValidation, ValidateReport, ValidateRequest, ValidationSettings,
+    validate_loaded,
 };
 use hystid::analysis::{FitReport, Loaded, reduce};
-use hystid::diagnose::{DiagnoseOptions, Effect};
+use hystid::diagnose::Effect;
 use hystid::fit::{FitOptions, TimeFitOptions, TimeRecord};
 use hystid::harmonics::Quantity;
 use hystid::model::Model;
@@ -54,8 +58,9 @@ fn fail(message: impl Into<String>) -> PyErr {
 }
 
 /// The time-domain fits' options the bindings take: how the model is
-/// replayed, the fewest samples per period and the starts (1 to 64, as the
-/// command's `--starts`).
+/// replayed, the fewest samples per period, the starts, the samples judged
+/// and the response's acquisition chain (JSON); the request they go into
+/// checks them.
 fn time_fit_options(
     min_samples_per_period: f64,
     replay: &str,
@@ -63,33 +68,16 @@ fn time_fit_options(
     max_judged_samples: usize,
     acquisition: Option<&str>,
 ) -> PyResult<TimeFitOptions> {
-    if !(1..=64).contains(&starts) {
-        return Err(fail(format!("starts: expected 1 to 64, got {starts}")));
-    }
-    // as `--max-judged-samples` takes it
-    if max_judged_samples < 1000 {
-        return Err(fail(format!(
-            "max_judged_samples: expected at least 1000, got {max_judged_samples}"
-        )));
-    }
     Ok(TimeFitOptions {
         min_samples_per_period,
         input: from_json("replay", &format!("\"{replay}\""))?,
         starts,
         max_judged_samples,
-        acquisition: acquisition.map(acquisition_of).transpose()?,
+        acquisition: acquisition
+            .map(|text| from_json("acquisition", text))
+            .transpose()?,
         ..TimeFitOptions::default()
     })
-}
-
-/// The response's acquisition chain as the model file's `[acquisition]`
-/// writes it (JSON), checked.
-fn acquisition_of(text: &str) -> PyResult<hystid::validate::acquisition::Acquisition> {
-    let chain: hystid::validate::acquisition::Acquisition = from_json("acquisition", text)?;
-    chain
-        .check()
-        .map_err(|e| fail(format!("acquisition: {e}")))?;
-    Ok(chain)
 }
 
 fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
@@ -483,7 +471,8 @@ fn extract<'py>(
 }
 
 /// Fit options: the library's defaults with the given fields replaced
-/// (unknown fields are errors that name them).
+/// (unknown fields are errors that name them); the request they go into
+/// checks them.
 fn fit_options(text: &str) -> PyResult<FitOptions> {
     let given: serde_json::Map<String, serde_json::Value> = from_json("fit options", text)?;
     let mut value = serde_json::to_value(FitOptions::default())
@@ -508,10 +497,12 @@ fn fit_options(text: &str) -> PyResult<FitOptions> {
         }
         fields.insert(k, v);
     }
-    let options: FitOptions =
-        serde_json::from_value(value).map_err(|e| fail(format!("fit options: {e}")))?;
-    options.validate().map_err(err)?;
-    Ok(options)
+    serde_json::from_value(value).map_err(|e| fail(format!("fit options: {e}")))
+}
+
+/// Names as a request's recordings.
+fn paths(names: &[String]) -> Vec<std::path::PathBuf> {
+    names.iter().map(std::path::PathBuf::from).collect()
 }
 
 /// fit.json's `recording`, a list, of the one path given (none: empty).
@@ -536,6 +527,9 @@ fn identify<'py>(
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
+    IdentifyRequest::new(paths(&listed(recording.clone())), options.clone())
+        .validate()
+        .map_err(err)?;
     let reference = reference.and_then(|m| m.inner.joint);
     let progress = Progress::new(progress);
     let fit = progress.run(py, || {
@@ -562,13 +556,15 @@ fn identify_declared<'py>(
     response: Option<String>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
-    if response_sign != 1.0 && response_sign != -1.0 {
-        return Err(fail(format!(
-            "response_sign: expected 1 or -1, got {response_sign}"
-        )));
-    }
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let options = fit_options(&options)?;
+    IdentifyRequest {
+        start: Some("start".into()),
+        response_sign: Some(response_sign),
+        ..IdentifyRequest::new(paths(&listed(recording.clone())), options.clone())
+    }
+    .validate()
+    .map_err(err)?;
     let model = start.inner.clone();
     let progress = Progress::new(progress);
     let report = progress.run(py, || {
@@ -585,19 +581,13 @@ fn identify_declared<'py>(
     to_json(&report)
 }
 
-/// The diagnosis options with `candidates` (names as `--candidates` takes
-/// them) when given.
-fn diagnose_options(candidates: Option<Vec<String>>) -> PyResult<DiagnoseOptions> {
-    let mut d = DiagnoseOptions::default();
-    if let Some(c) = candidates {
-        d.candidates = Effect::parse_list(&c).map_err(|e| match e {
-            hystid::error::Error::InvalidPlan { message, .. } => {
-                fail(format!("candidates: {message}"))
-            }
-            e => fail(e.to_string()),
-        })?;
+/// The candidates named as `--candidates` takes them (none: the default
+/// set).
+fn candidates_of(names: Option<Vec<String>>) -> PyResult<Vec<Effect>> {
+    match names {
+        None => Ok(Effect::defaults()),
+        Some(c) => parse_candidates(&c).map_err(err),
     }
-    Ok(d)
 }
 
 /// The recordings a diagnosis refines its final model on in the time domain
@@ -638,18 +628,33 @@ fn diagnose<'py>(
 ) -> PyResult<String> {
     let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let fit_opts = fit_options(&options)?;
-    let d = diagnose_options(candidates)?;
+    // the candidates re-identify with the user's fit options, as the
+    // command line's diagnosis does
+    let mut req = DiagnoseRequest::new(
+        time.as_ref()
+            .map_or_else(Vec::new, |t| paths(&t.recordings.names)),
+        fit_opts.clone(),
+        candidates_of(candidates)?,
+    );
+    if let Some(t) = &time {
+        req.domain = FitDomain::Time;
+        req.diagnosis.time_proposals = t.time_proposals;
+        req.time = TimeFitOptions {
+            each_alone: t.each_alone,
+            ..time_fit_options(
+                t.min_samples_per_period,
+                &t.replay,
+                t.starts,
+                t.max_judged_samples,
+                t.acquisition.as_deref(),
+            )?
+        };
+    }
+    req.validate().map_err(err)?;
+    let d = req.diagnosis.clone();
     let fit = match fit {
         Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),
         None => None,
-    };
-    // the candidates re-identify with the user's fit options, as the
-    // command line's diagnosis does
-    let d = DiagnoseOptions {
-        band_hz: fit_opts.band_hz,
-        fit: fit_opts.clone(),
-        time_proposals: time.as_ref().map_or(0, |t| t.time_proposals),
-        ..d
     };
     // the recordings as the time refit takes them, and how it replays
     let time = match &time {
@@ -664,17 +669,7 @@ fn diagnose<'py>(
                 .zip(loaded)
                 .collect();
             let reduction = from_json::<ReductionJson>("reduction", &t.reduction)?.options()?;
-            let options = TimeFitOptions {
-                each_alone: t.each_alone,
-                ..time_fit_options(
-                    t.min_samples_per_period,
-                    &t.replay,
-                    t.starts,
-                    t.max_judged_samples,
-                    t.acquisition.as_deref(),
-                )?
-            };
-            Some((named, reduction, options))
+            Some((named, reduction, req.time.clone()))
         }
     };
     let progress = Progress::new(progress);
@@ -795,18 +790,29 @@ fn validate<'py>(
     };
     let mut fit = FitModel::of_json(fit.as_bytes(), linear, Path::new(origin)).map_err(err)?;
     let s: SettingsJson = from_json("settings", &settings)?;
-    if let Some(chain) = &s.acquisition {
-        fit.acquisition = Some(acquisition_of(&chain.to_string())?);
-    }
-    let settings = ValidationSettings {
-        input: s.replay,
-        band_hz: s.band_hz,
-        window_s: s.window_s,
-        min_samples_per_period: s.min_samples_per_period,
-        frf: s.frf,
-        reduction: s.reduction.options()?,
-        periodic: s.periodic,
+    let req = ValidateRequest {
+        fit: origin.into(),
+        linear,
+        recordings: vec![recording_name.clone().into()],
+        acquisition: s
+            .acquisition
+            .map(|chain| from_json("acquisition", &chain.to_string()))
+            .transpose()?,
+        settings: ValidationSettings {
+            input: s.replay,
+            band_hz: s.band_hz,
+            window_s: s.window_s,
+            min_samples_per_period: s.min_samples_per_period,
+            frf: s.frf,
+            reduction: s.reduction.options()?,
+            periodic: s.periodic,
+        },
     };
+    req.validate().map_err(err)?;
+    if let Some(chain) = req.acquisition {
+        fit.acquisition = Some(chain);
+    }
+    let settings = req.settings;
     let loaded = loaded(
         &reference,
         &reference_quantity,
@@ -949,10 +955,21 @@ fn identify_time<'py>(
             acquisition.as_deref(),
         )?
     };
+    let fit_opts = fit_options(&options)?;
+    IdentifyRequest {
+        domain: FitDomain::Time,
+        start: start.as_ref().map(|_| "start".into()),
+        refined_fit: fit.as_ref().map(|_| "fit".into()),
+        fix: fix.clone(),
+        window_s,
+        time: time_options.clone(),
+        ..IdentifyRequest::new(paths(&recordings.names), fit_opts.clone())
+    }
+    .validate()
+    .map_err(err)?;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
-    let fit_opts = fit_options(&options)?;
     let band = fit_opts.band_hz;
     // the recordings' channels moved into their time records (the arrays
     // were copied once, into the library; not again)
@@ -976,13 +993,8 @@ fn identify_time<'py>(
         .map(|l| l.recording.meta.channels[l.response].name.clone())
         .unwrap_or_default();
     let text = match (fit, start) {
-        (Some(_), Some(_)) => return Err(fail("give fit= or start=, not both")),
-        (Some(text), None) => {
-            if window_s.is_some() {
-                return Err(fail(
-                    "window_s: applies to a start written down or a multisine's start, not to an FRF fit's refinement",
-                ));
-            }
+        // both given: refused by the request
+        (Some(text), _) => {
             let mut report = from_json::<FitReport>("fit", &text)?;
             let t = progress.run(py, || {
                 let records = records(loaded, None)?;
@@ -1081,17 +1093,20 @@ fn diagnose_time<'py>(
         max_judged_samples,
         acquisition.as_deref(),
     )?;
+    let fit_opts = fit_options(&options)?;
+    let mut req = DiagnoseRequest::new(
+        paths(&recordings.names),
+        fit_opts.clone(),
+        candidates_of(candidates)?,
+    );
+    req.domain = FitDomain::Time;
+    req.diagnosis.time_proposals = time_proposals;
+    req.time = time_options.clone();
+    req.validate().map_err(err)?;
+    let d = req.diagnosis;
     let progress = Progress::new(progress);
     let loaded = recordings.loaded()?;
     let names = recordings.names;
-    let fit_opts = fit_options(&options)?;
-    let d = diagnose_options(candidates)?;
-    let d = DiagnoseOptions {
-        band_hz: fit_opts.band_hz,
-        fit: fit_opts.clone(),
-        time_proposals,
-        ..d
-    };
     let outcome = progress.run(py, || {
         let t0 = std::time::Instant::now();
         let Some(p) = hystid::analysis::periodic_start_of(

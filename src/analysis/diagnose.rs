@@ -3,6 +3,10 @@
 //! and the residual figures.
 
 pub use super::diagnosis_figures::{effects_label, residual_plots};
+
+mod request;
+pub use request::DiagnoseRequest;
+
 use super::recording::ReplayReduction;
 use super::write_json;
 use crate::diagnose::time_residual::{

@@ -2,6 +2,9 @@
 //! virtual test was simulated with, `fit.json` and the fit's figures
 //! (paper Figures 2.2, 3.3 and 3.4).
 
+mod request;
+pub use request::IdentifyRequest;
+
 use super::flags::{Flag, flag_estimates, flag_words, parameter_unit, unit_suffix};
 use super::recording::MULTISINE_LINES;
 use crate::error::{Error, Result};

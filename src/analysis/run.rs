@@ -15,6 +15,10 @@
 //! the test is of the paper's system (the embedded default's structure).
 
 pub use super::flags::{Flag, flags_of};
+
+mod request;
+pub use request::RunRequest;
+
 use super::flags::{describe, flag_words, parameter_unit};
 use super::identify::FitReport;
 use super::simulate::SimulateSummary;

@@ -2,6 +2,9 @@
 //! response compared with the measured one (e_RMS, `H1`): the model read
 //! from `fit.json`, `validate.json` and the overlay figures.
 
+mod request;
+pub use request::ValidateRequest;
+
 use super::identify::FitReport;
 use super::recording::{Loaded, ReductionOptions, SineTest, excitation_of, stepped_options};
 use crate::error::{Error, Result};
@@ -12,7 +15,7 @@ use crate::plot::{self, FrfSeries, SeriesStyle, TimeTrace, TimeTraceBuilder};
 use crate::signals::{InMemoryFrames, RecordingView, SamplesView};
 use crate::validate::{Reduction, ReplayTap, ValidateOptions, Validation, validate_view};
 use num_complex::Complex64;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The model to validate, from a fit.json or a model file.
@@ -320,7 +323,7 @@ pub struct ValidateReport<'a> {
 }
 
 /// How a recording is validated on.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ValidationSettings {
     /// Band of the FRF comparison (and of a sweep's second error figure), Hz.
     pub band_hz: Option<(f64, f64)>,

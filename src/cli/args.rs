@@ -137,14 +137,14 @@ pub struct IdentifyArgs {
     /// lowest misfit (the cost without the bounds' penalty).
     /// A fit over several modes, a joint and a shaker has more than one
     /// basin. Each start costs about as much as the fit.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
-    pub starts: u32,
+    #[arg(long, default_value_t = 1)]
+    pub starts: usize,
     /// With `--domain time`: most samples the fit judges over all the
     /// recordings (its Jacobian holds a row per sample judged); a fit that
     /// would judge more judges the responses low-passed at a lower rate, never
     /// below 8 samples a period of the model's highest frequency. The errors
     /// reported are over every sample.
-    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1000..))]
+    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES)]
     pub max_judged_samples: usize,
     /// With `--domain time`: the recorded response's decimation, put
     /// through by every replay (a `--start` model file's `[acquisition]`
@@ -179,19 +179,15 @@ pub struct AcquisitionArgs {
 }
 
 impl AcquisitionArgs {
-    /// The chain asked for, checked (`None`: not asked for).
-    pub fn chain(&self) -> anyhow::Result<Option<hystid::validate::acquisition::Acquisition>> {
-        let Some(stages) = &self.acquisition else {
-            return Ok(None);
-        };
-        let chain = hystid::validate::acquisition::Acquisition {
-            decimated_by: stages.clone(),
-            taps: self.acquisition_taps,
-        };
-        chain
-            .check()
-            .map_err(|e| anyhow::anyhow!("--acquisition: {e}"))?;
-        Ok(Some(chain))
+    /// The chain asked for, as given (`None`: not asked for); the request
+    /// it goes into checks it.
+    pub fn given(&self) -> Option<hystid::validate::acquisition::Acquisition> {
+        self.acquisition
+            .as_ref()
+            .map(|stages| hystid::validate::acquisition::Acquisition {
+                decimated_by: stages.clone(),
+                taps: self.acquisition_taps,
+            })
     }
 }
 
@@ -222,6 +218,15 @@ pub enum DomainArg {
     Frf,
     /// The FRFs, then the time histories.
     Time,
+}
+
+impl From<DomainArg> for hystid::analysis::request::FitDomain {
+    fn from(d: DomainArg) -> Self {
+        match d {
+            DomainArg::Frf => Self::Frf,
+            DomainArg::Time => Self::Time,
+        }
+    }
 }
 
 /// Reduction of recordings into nonlinear FRFs (`identify`, `validate`).
@@ -492,11 +497,11 @@ pub struct DiagnoseArgs {
     /// baseline, or the refit of the FRF diagnosis's model) descends from N
     /// starts, the given one and N-1 spread about it, as `identify --domain
     /// time --starts` does; every later fit starts from a fitted model.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
-    pub starts: u32,
+    #[arg(long, default_value_t = 1)]
+    pub starts: usize,
     /// With `--domain time`: most samples a time-domain fit judges (as
     /// `identify --domain time --max-judged-samples` takes it).
-    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1000..))]
+    #[arg(long, default_value_t = hystid::fit::time::MAX_JUDGED_SAMPLES)]
     pub max_judged_samples: usize,
     /// With `--domain time`: the recorded response's decimation, put
     /// through by every replay of the time-domain refits (as `identify

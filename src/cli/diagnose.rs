@@ -1,32 +1,49 @@
 //! `hystid diagnose`: trace a fit's residual to a missing effect, add it,
 //! refit, and report the error before and after.
 
-use super::args::{DiagnoseArgs, DomainArg};
+use super::args::DiagnoseArgs;
 use super::identify::{fit_options, reduce_recordings, run_fit};
-use super::reduction_options;
 use super::{EXIT_OK, create_out_dir, progress};
+use super::{reduction_options, refused};
 use anyhow::Result;
 use hystid::analysis::diagnose::{
-    DiagnosisExtras, TimeOutcome, refine_in_time, write_diagnosis_with,
+    DiagnoseRequest, DiagnosisExtras, TimeOutcome, TimeRefinement, refine_in_time,
+    write_diagnosis_with,
 };
 use hystid::analysis::recording::ReplayReduction;
+use hystid::analysis::request::{FitDomain, parse_candidates};
 use hystid::analysis::run::FinalModel;
 use hystid::diagnose::{DiagnoseOptions, Diagnosis, Effect};
 use hystid::extract::NonlinearFrf;
-use hystid::fit::{FitResult, HbPredictor};
+use hystid::fit::{FitResult, HbPredictor, TimeFitOptions};
 
-/// Diagnosis options from the command line.
-pub fn diagnose_options(candidates: &[String]) -> Result<DiagnoseOptions> {
-    let mut o = DiagnoseOptions::default();
-    if !candidates.is_empty() {
-        o.candidates = Effect::parse_list(candidates).map_err(|e| match e {
-            hystid::error::Error::InvalidPlan { message, .. } => {
-                anyhow::anyhow!("--candidates: {message}")
-            }
-            e => e.into(),
-        })?;
+/// The candidates named on the command line (none: the default set).
+pub fn candidates(names: &[String]) -> Result<Vec<Effect>> {
+    if names.is_empty() {
+        return Ok(Effect::defaults());
     }
-    Ok(o)
+    parse_candidates(names).map_err(refused)
+}
+
+/// The request `diagnose`'s flags make.
+fn diagnose_request(args: &DiagnoseArgs) -> Result<DiagnoseRequest> {
+    let mut req = DiagnoseRequest::new(
+        args.recordings.clone(),
+        fit_options(&args.fit)?,
+        candidates(&args.candidates)?,
+    );
+    req.domain = args.domain.into();
+    req.diagnosis.time_proposals = args.time_proposals;
+    req.time = TimeFitOptions {
+        input: args.replay.into(),
+        min_samples_per_period: args.min_samples_per_period,
+        starts: args.starts,
+        max_judged_samples: args.max_judged_samples,
+        acquisition: args.acquisition.given(),
+        each_alone: args.each_alone,
+        ..TimeFitOptions::default()
+    };
+    Ok(req)
 }
 
 /// Runs the diagnosis with a progress line.
@@ -47,45 +64,15 @@ pub fn run_diagnosis(
 
 /// `hystid diagnose`.
 pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
-    if args.domain == DomainArg::Time {
+    // refused before anything is read or written
+    let req = diagnose_request(args)?;
+    req.validate().map_err(refused)?;
+    if req.domain == FitDomain::Time {
         super::return_large_blocks();
     }
-    if args.domain != DomainArg::Time {
-        if args.time_proposals > 0 {
-            anyhow::bail!(
-                "--time-proposals: the candidates are put to the time histories; add --domain time"
-            );
-        }
-        if args.replay != super::args::ReplayArg::BandLimited {
-            anyhow::bail!(
-                "--replay: only the time-domain refit replays the models; add --domain time"
-            );
-        }
-        if args.starts > 1 {
-            anyhow::bail!(
-                "--starts: the time-domain fit descends from several starts; add --domain time"
-            );
-        }
-        if args.acquisition.acquisition.is_some() {
-            anyhow::bail!(
-                "--acquisition: only the time-domain refit replays the models; add --domain time"
-            );
-        }
-        if args.each_alone {
-            anyhow::bail!(
-                "--each-alone: the recordings are refitted alone in the time domain; add --domain time"
-            );
-        }
-    }
-    if args.each_alone && args.recordings.len() < 2 {
-        anyhow::bail!("--each-alone: refits each of several recordings alone; give two or more");
-    }
-    // a chain that is not one refused before anything is written
-    let acquisition = args.acquisition.chain()?;
-    let options = diagnose_options(&args.candidates)?;
-    let fit_opts = fit_options(&args.fit)?;
+    let fit_opts = &req.diagnosis.fit;
     // multisines, which no FRF reduction reads: diagnosed on their lines
-    if args.domain == DomainArg::Time
+    if req.domain == FitDomain::Time
         && args.reduction.excitation == super::args::ExcitationArg::Auto
         && let Some(p) = hystid::analysis::periodic_start(
             &args.recordings,
@@ -94,37 +81,21 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             fit_opts.modes,
         )?
     {
-        if args.each_alone {
-            anyhow::bail!(
-                "--each-alone: refits a swept or stepped diagnosis's recordings alone; \
-                 multisines are diagnosed at the lines of their period"
-            );
-        }
-        let options = DiagnoseOptions {
-            band_hz: fit_opts.band_hz,
-            fit: fit_opts.clone(),
-            time_proposals: args.time_proposals,
-            ..options
-        };
-        return diagnose_multisine_command(args, p, acquisition, &options, quiet);
+        req.validate_on_multisines().map_err(refused)?;
+        return diagnose_multisine_command(args, &req, p, quiet);
     }
     let (frf, first) =
         reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let _out = create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
-    let (fit, _) = run_fit(&frf, &fit_opts, quiet, None)?;
+    let (fit, _) = run_fit(&frf, fit_opts, quiet, None)?;
     // the candidates re-identify (one more mode) with the user's fit options:
     // the same element, band and linear start as the baseline
-    let options = DiagnoseOptions {
-        band_hz: fit_opts.band_hz,
-        fit: fit_opts.clone(),
-        time_proposals: args.time_proposals,
-        ..options
-    };
-    let (mut d, predictor) = run_diagnosis(&frf, &fit, &options, quiet)?;
-    let time = match args.domain {
-        DomainArg::Frf => None,
-        DomainArg::Time => {
+    let options = &req.diagnosis;
+    let (mut d, predictor) = run_diagnosis(&frf, &fit, options, quiet)?;
+    let time = match req.domain {
+        FitDomain::Frf => None,
+        FitDomain::Time => {
             // a refit that fails leaves the FRF diagnosis standing, with why
             let pb = progress::spinner("refitting in the time domain", quiet);
             let reduction = reduction_options(&args.reduction)?;
@@ -138,17 +109,9 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
                         &mut d,
                         &frf,
                         &records,
-                        &hystid::fit::TimeFitOptions {
-                            input: args.replay.into(),
-                            min_samples_per_period: args.min_samples_per_period,
-                            starts: args.starts as usize,
-                            max_judged_samples: args.max_judged_samples,
-                            acquisition: acquisition.clone(),
-                            each_alone: args.each_alone,
-                            ..Default::default()
-                        },
+                        &req.time,
                         options.band_hz,
-                        &options,
+                        options,
                         &predictor,
                         Some(&replays),
                         &progress::BarObserver(&pb),
@@ -195,58 +158,7 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
             say!("{line}");
         }
         if let Some(TimeOutcome::Refined(t)) = &time {
-            for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
-                say!(
-                    "  in the time domain, {}: per-dwell relative e_RMS {:.2} % (baseline) -> {:.2} % (final) -> {:.2} % (final, refitted)",
-                    a.recording,
-                    100.0 * b.segment_relative,
-                    100.0 * f.segment_relative,
-                    100.0 * a.segment_relative
-                );
-                super::validate::print_by_frequency(&a.window);
-            }
-            super::identify::print_each_alone(&t.refit.each_alone);
-            if let Some(note) = hystid::fit::time::level_consistency(&t.refit.each_alone) {
-                say!("  {note}");
-            }
-            for c in &t.checks {
-                match &c.failed {
-                    Some(why) => say!(
-                        "  {} kept: the refit without it failed ({why})",
-                        c.effect.name()
-                    ),
-                    None => say!(
-                        "  {} {} in the time domain: without it, refitted, the misfit rises {:+.2} %",
-                        c.effect.name(),
-                        if c.confirmed {
-                            "confirmed"
-                        } else {
-                            "not confirmed (dropped)"
-                        },
-                        100.0 * c.rise
-                    ),
-                }
-            }
-            if let Some(r) = &t.residual {
-                for line in hystid::analysis::diagnose::time_residual_lines(r) {
-                    say!("  {line}");
-                }
-            }
-            if let Some(why) = &t.residual_failed {
-                say!("  the time residual could not be reduced or traced: {why}");
-            }
-            for p in &t.proposals {
-                match &p.failed {
-                    Some(why) => say!("  {} not tried in the time domain: {why}", p.effect.name()),
-                    None => say!(
-                        "  {} {} in the time domain: with it, refitted, the misfit is {:.2} % against {:.2} % without",
-                        p.effect.name(),
-                        if p.kept { "added" } else { "not needed" },
-                        100.0 * hystid::analysis::diagnose::misfit(&p.with),
-                        100.0 * hystid::analysis::diagnose::misfit(&p.with) * (1.0 + p.gain)
-                    ),
-                }
-            }
+            print_time_refinement(t);
         }
         for n in &written.notes {
             say!("  note: {n}");
@@ -258,31 +170,81 @@ pub fn diagnose_command(args: &DiagnoseArgs, quiet: bool) -> Result<u8> {
     Ok(EXIT_OK)
 }
 
+/// Prints the final model's refit in the time domain: the errors, each
+/// recording alone, each kept effect's check, the time residual and the
+/// candidates put to the time histories.
+fn print_time_refinement(t: &TimeRefinement) {
+    for ((b, f), a) in t.baseline.iter().zip(&t.refit.before).zip(&t.refit.after) {
+        say!(
+            "  in the time domain, {}: per-dwell relative e_RMS {:.2} % (baseline) -> {:.2} % (final) -> {:.2} % (final, refitted)",
+            a.recording,
+            100.0 * b.segment_relative,
+            100.0 * f.segment_relative,
+            100.0 * a.segment_relative
+        );
+        super::validate::print_by_frequency(&a.window);
+    }
+    super::identify::print_each_alone(&t.refit.each_alone);
+    if let Some(note) = hystid::fit::time::level_consistency(&t.refit.each_alone) {
+        say!("  {note}");
+    }
+    for c in &t.checks {
+        match &c.failed {
+            Some(why) => say!(
+                "  {} kept: the refit without it failed ({why})",
+                c.effect.name()
+            ),
+            None => say!(
+                "  {} {} in the time domain: without it, refitted, the misfit rises {:+.2} %",
+                c.effect.name(),
+                if c.confirmed {
+                    "confirmed"
+                } else {
+                    "not confirmed (dropped)"
+                },
+                100.0 * c.rise
+            ),
+        }
+    }
+    if let Some(r) = &t.residual {
+        for line in hystid::analysis::diagnose::time_residual_lines(r) {
+            say!("  {line}");
+        }
+    }
+    if let Some(why) = &t.residual_failed {
+        say!("  the time residual could not be reduced or traced: {why}");
+    }
+    for p in &t.proposals {
+        match &p.failed {
+            Some(why) => say!("  {} not tried in the time domain: {why}", p.effect.name()),
+            None => say!(
+                "  {} {} in the time domain: with it, refitted, the misfit is {:.2} % against {:.2} % without",
+                p.effect.name(),
+                if p.kept { "added" } else { "not needed" },
+                100.0 * hystid::analysis::diagnose::misfit(&p.with),
+                100.0 * hystid::analysis::diagnose::misfit(&p.with) * (1.0 + p.gain)
+            ),
+        }
+    }
+}
+
 /// `hystid diagnose --domain time` on multisines (see
 /// [`hystid::analysis::multisine`]).
 fn diagnose_multisine_command(
     args: &DiagnoseArgs,
+    req: &DiagnoseRequest,
     p: hystid::analysis::PeriodicStart,
-    acquisition: Option<hystid::validate::acquisition::Acquisition>,
-    options: &DiagnoseOptions,
     quiet: bool,
 ) -> Result<u8> {
     let _out = create_out_dir(&args.out)?;
     let t0 = std::time::Instant::now();
     let pb = progress::spinner("diagnosing on the multisine's lines", quiet);
-    let time_options = hystid::fit::TimeFitOptions {
-        input: args.replay.into(),
-        min_samples_per_period: args.min_samples_per_period,
-        starts: args.starts as usize,
-        max_judged_samples: args.max_judged_samples,
-        acquisition,
-        ..Default::default()
-    };
+    let time_options = &req.time;
     let mut d = hystid::analysis::multisine::diagnose_multisine(
         &p.start,
         &p.records,
-        &time_options,
-        options,
+        time_options,
+        &req.diagnosis,
         &progress::BarObserver(&pb),
     )?;
     pb.finish_and_clear();
@@ -293,7 +255,7 @@ fn diagnose_multisine_command(
         &p.records,
         t0.elapsed().as_secs_f64(),
         args.reference.as_deref(),
-        &time_options,
+        time_options,
     )?;
     if !quiet {
         say!("hystid diagnose: {}", d.explanation);

@@ -1,17 +1,16 @@
 //! `hystid identify`: fit a hysteresis element to a recording's nonlinear
 //! FRFs (paper Figures 2.2 and 3.3).
 
-use super::args::{
-    DomainArg, ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs, ReplayArg,
-};
-use super::{create_out_dir, progress, reduction_options, write_json};
-use anyhow::{Context, Result, bail};
+use super::args::{ExcitationArg, IdentifyArgs, IdentifyOptionsArgs, ReductionArgs};
+use super::{create_out_dir, progress, reduction_options, refused, write_json};
+use anyhow::{Context, Result};
+use hystid::analysis::identify::IdentifyRequest;
+use hystid::analysis::request::{FitDomain, parse_joint, parse_range};
 use hystid::analysis::{
     FitReport, Reduced, SineTest, band_limited, reference_joint, write_fit_plots,
 };
 use hystid::extract::NonlinearFrf;
-use hystid::fit::{FitOptions, FitResult, HbPredictor, LinearRefinement, LinearStart, Weighting};
-use hystid::model::ElementKind;
+use hystid::fit::{FitOptions, FitResult, HbPredictor, TimeFitOptions, Weighting};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -62,69 +61,59 @@ pub fn print_reduced(path: &Path, r: &Reduced) {
     say!();
 }
 
-/// Fit options from the command line.
+/// Fit options from the command line, their text forms read by the
+/// library's parsers; checked with the request they go into.
 pub fn fit_options(a: &IdentifyOptionsArgs) -> Result<FitOptions> {
-    let joints: Vec<&str> = ElementKind::fitted_joints()
-        .map(ElementKind::name)
-        .collect();
-    let element = match ElementKind::from_name(&a.element) {
-        Some(k) if k.description().is_fitted_joint() => k,
-        _ => bail!(
-            "--element: expected a joint law ({}), got `{}`",
-            joints.join(" or "),
-            a.element
-        ),
-    };
-    let band_hz = match &a.band {
-        None => None,
-        Some(b) => {
-            let (lo, hi) = b
-                .split_once(':')
-                .with_context(|| format!("--band: expected LO:HI in Hz, got `{b}`"))?;
-            let lo: f64 = lo
-                .trim()
-                .parse()
-                .with_context(|| format!("--band: `{lo}` is not a number"))?;
-            let hi: f64 = hi
-                .trim()
-                .parse()
-                .with_context(|| format!("--band: `{hi}` is not a number"))?;
-            if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi) {
-                bail!("--band: need 0 <= LO < HI, got {lo}:{hi}");
-            }
-            Some((lo, hi))
-        }
-    };
     Ok(FitOptions {
-        element,
+        element: parse_joint(&a.element).map_err(refused)?,
         harmonics: a.harmonics.clone(),
         weighting: if a.weighted {
             Weighting::StandardError
         } else {
             Weighting::None
         },
-        refine_linear: match a.refine_linear.as_str() {
-            "none" => LinearRefinement::None,
-            "damping" => LinearRefinement::Damping,
-            "all" => LinearRefinement::All,
-            other => bail!("--refine-linear: expected none, damping or all, got `{other}`"),
-        },
-        linear_start: match a.linear_start.as_str() {
-            "extremes" => LinearStart::Extremes,
-            "lowest" => LinearStart::Lowest,
-            other => bail!("--linear-start: expected extremes or lowest, got `{other}`"),
-        },
-        modes: if (1..=4).contains(&a.modes) {
-            a.modes
-        } else {
-            bail!("--modes: expected 1 to 4, got {}", a.modes)
-        },
+        refine_linear: a.refine_linear.parse().map_err(refused)?,
+        linear_start: a.linear_start.parse().map_err(refused)?,
+        modes: a.modes,
         second_optimiser: a.lm,
         bootstrap: a.bootstrap,
         seed: a.seed,
-        band_hz,
+        band_hz: a
+            .band
+            .as_deref()
+            .map(|b| parse_range(b, "band_hz", "Hz"))
+            .transpose()
+            .map_err(refused)?,
         transfer: a.transfer,
         ..FitOptions::default()
+    })
+}
+
+/// The request `identify`'s flags make.
+fn identify_request(args: &IdentifyArgs) -> Result<IdentifyRequest> {
+    Ok(IdentifyRequest {
+        recordings: args.recordings.clone(),
+        domain: args.domain.into(),
+        options: fit_options(&args.fit)?,
+        start: args.start.clone(),
+        response_sign: None,
+        refined_fit: None,
+        fix: args.fix.clone(),
+        window_s: args
+            .window
+            .as_deref()
+            .map(|w| parse_range(w, "window_s", "s"))
+            .transpose()
+            .map_err(refused)?,
+        time: TimeFitOptions {
+            min_samples_per_period: args.min_samples_per_period,
+            input: args.replay.into(),
+            starts: args.starts,
+            max_judged_samples: args.max_judged_samples,
+            acquisition: args.acquisition.given(),
+            each_alone: args.each_alone,
+            ..TimeFitOptions::default()
+        },
     })
 }
 
@@ -239,13 +228,13 @@ pub fn reduce_recordings(
 /// to the time histories.
 fn identify_from_start(
     args: &IdentifyArgs,
+    req: &IdentifyRequest,
     path: &Path,
-    acquisition: Option<hystid::validate::acquisition::Acquisition>,
     quiet: bool,
 ) -> Result<u8> {
     let start = hystid::analysis::validate::read_fit(path, false)
         .with_context(|| format!("--start: reading {}", path.display()))?;
-    if args.domain != DomainArg::Time {
+    if req.domain != FitDomain::Time {
         // said, not silently dropped: harmonic balance predicts the
         // continuous response's harmonics
         if start.acquisition.is_some() {
@@ -255,20 +244,19 @@ fn identify_from_start(
                 path.display()
             );
         }
-        return identify_declared(args, &start.model, start.response_sign, quiet);
+        return identify_declared(args, req, &start.model, start.response_sign, quiet);
     }
-    let window = args
-        .window
-        .as_deref()
-        .map(|w| super::validate::parse_range(w, "--window", "s"))
-        .transpose()?;
-    let band = fit_options(&args.fit)?.band_hz;
-    let records =
-        hystid::analysis::time_records_in(&args.recordings, args.channels(), window, band)?;
+    let records = hystid::analysis::time_records_in(
+        &args.recordings,
+        args.channels(),
+        req.window_s,
+        req.options.band_hz,
+    )?;
     // the flag in place of the model file's own
-    let acquisition = acquisition.or(start.acquisition);
+    let acquisition = req.time.acquisition.clone().or(start.acquisition);
     fit_in_time(
         args,
+        req,
         (&start.model, start.response_sign, acquisition),
         &records,
         None,
@@ -295,16 +283,11 @@ fn fitted_response(args: &IdentifyArgs) -> Result<String> {
 /// writes fit.json (see [`hystid::diagnose::fit_declared`]).
 fn identify_declared(
     args: &IdentifyArgs,
+    req: &IdentifyRequest,
     model: &hystid::model::Model,
     response_sign: f64,
     quiet: bool,
 ) -> Result<u8> {
-    if !args.fix.is_empty() {
-        bail!(
-            "--fix: parameters are held only by the time-domain fit from a start; add --domain time"
-        );
-    }
-    let options = fit_options(&args.fit)?;
     let (frf, _) = reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let names: Vec<String> = args
         .recordings
@@ -316,7 +299,7 @@ fn identify_declared(
         &frf,
         model,
         response_sign,
-        &options,
+        &req.options,
         names,
         fitted_response(args)?,
         &progress::BarObserver(&pb),
@@ -347,6 +330,7 @@ fn identify_declared(
 /// start written down, or `origin` (how the start was found, a note).
 fn fit_in_time(
     args: &IdentifyArgs,
+    req: &IdentifyRequest,
     (model, response_sign, acquisition): (
         &hystid::model::Model,
         f64,
@@ -361,14 +345,9 @@ fn fit_in_time(
         .iter()
         .map(|p| p.display().to_string())
         .collect();
-    let options = hystid::fit::TimeFitOptions {
-        min_samples_per_period: args.min_samples_per_period,
-        input: args.replay.into(),
-        starts: args.starts as usize,
-        max_judged_samples: args.max_judged_samples,
+    let options = TimeFitOptions {
         acquisition,
-        each_alone: args.each_alone,
-        ..Default::default()
+        ..req.time.clone()
     };
     let pb = progress::spinner("fitting in the time domain", quiet);
     let mut report = hystid::analysis::run_time_fit_from_start_signed(
@@ -376,7 +355,7 @@ fn fit_in_time(
         fitted_response(args)?,
         model,
         response_sign,
-        &args.fix,
+        &req.fix,
         records,
         &options,
         &progress::BarObserver(&pb),
@@ -413,53 +392,43 @@ fn carry_quality(report: &mut FitReport, quality: &[String]) {
 
 /// `hystid identify`.
 pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
-    if args.domain == DomainArg::Time {
+    // refused before anything is read or written
+    let req = identify_request(args)?;
+    req.validate().map_err(refused)?;
+    if req.domain == FitDomain::Time {
         super::return_large_blocks();
     }
-    if args.domain != DomainArg::Time {
-        if args.starts > 1 {
-            bail!("--starts: the time-domain fit descends from several starts; add --domain time");
-        }
-        if args.replay != ReplayArg::BandLimited {
-            bail!("--replay: only the time-domain fit replays the model; add --domain time");
-        }
-        if args.acquisition.acquisition.is_some() {
-            bail!("--acquisition: only the time-domain fit replays the model; add --domain time");
-        }
-        if args.each_alone {
-            bail!(
-                "--each-alone: the recordings are refitted alone in the time domain; add --domain time"
-            );
-        }
-    }
-    if args.each_alone && args.recordings.len() < 2 {
-        bail!("--each-alone: refits each of several recordings alone; give two or more");
-    }
-    // a chain that is not one refused before anything is written
-    let acquisition = args.acquisition.chain()?;
-    if let Some(start) = &args.start {
-        return identify_from_start(args, start, acquisition, quiet);
+    if let Some(start) = &req.start {
+        return identify_from_start(args, &req, start, quiet);
     }
     // multisines, which no FRF reduction reads: the start from their
     // linear estimate
-    if args.domain == DomainArg::Time && args.reduction.excitation == ExcitationArg::Auto {
-        let kind = fit_options(&args.fit)?.element;
-        if let Some(p) = hystid::analysis::periodic_start(
+    if req.domain == FitDomain::Time
+        && args.reduction.excitation == ExcitationArg::Auto
+        && let Some(p) = hystid::analysis::periodic_start(
             &args.recordings,
             args.channels(),
-            kind,
-            args.fit.modes,
-        )? {
-            return fit_in_time(
-                args,
-                (&p.start, 1.0, acquisition),
-                &p.records,
-                Some(p.note),
-                quiet,
-            );
-        }
+            req.options.element,
+            req.options.modes,
+        )?
+    {
+        let acquisition = req.time.acquisition.clone();
+        return fit_in_time(
+            args,
+            &req,
+            (&p.start, 1.0, acquisition),
+            &p.records,
+            Some(p.note),
+            quiet,
+        );
     }
-    let options = fit_options(&args.fit)?;
+    identify_frf(args, &req, quiet)
+}
+
+/// `hystid identify` of the joint law: the FRF fit, and with `--domain
+/// time` its model refined on the time histories.
+fn identify_frf(args: &IdentifyArgs, req: &IdentifyRequest, quiet: bool) -> Result<u8> {
+    let options = &req.options;
     let (frf, first) =
         reduce_recordings(&args.recordings, args.channels(), &args.reduction, quiet)?;
     let recording_names: Vec<String> = args
@@ -477,7 +446,7 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         metadata: [("recording".to_string(), recording_names.join(", "))].into(),
     };
     let mut mcap = hystid::record::McapRecorder::create(&args.out.join("fit.mcap"), &info)?;
-    let (fit, predictor) = run_fit(&frf, &options, quiet, Some(&Mutex::new(&mut mcap)))?;
+    let (fit, predictor) = run_fit(&frf, options, quiet, Some(&Mutex::new(&mut mcap)))?;
     mcap.finish()?;
     let reference = reference_joint(first.truth.as_ref());
     let mut files = vec![args.out.join("fit.json"), args.out.join("fit.mcap")];
@@ -488,22 +457,20 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
         reference.as_ref(),
         &predictor,
     )?);
-    let time_domain = match args.domain {
-        DomainArg::Frf => None,
-        DomainArg::Time => {
+    let time_domain = match req.domain {
+        FitDomain::Frf => None,
+        FitDomain::Time => {
             let records =
                 hystid::analysis::time_records(&args.recordings, args.channels(), options.band_hz)?;
             let pb = progress::spinner("fitting in the time domain", quiet);
             let t = hystid::analysis::run_time_fit(
                 &fit,
                 &records,
-                &hystid::fit::TimeFitOptions {
-                    input: args.replay.into(),
-                    starts: args.starts as usize,
-                    max_judged_samples: args.max_judged_samples,
-                    acquisition,
-                    each_alone: args.each_alone,
-                    ..Default::default()
+                // the upsampling threshold is a start's and a
+                // multisine's only
+                &TimeFitOptions {
+                    min_samples_per_period: TimeFitOptions::default().min_samples_per_period,
+                    ..req.time.clone()
                 },
                 options.band_hz,
                 &progress::BarObserver(&pb),
@@ -532,43 +499,49 @@ pub fn identify_command(args: &IdentifyArgs, quiet: bool) -> Result<u8> {
     report.reference_channel = args.reference.clone();
     write_json(&args.out.join("fit.json"), &report)?;
     if !quiet {
-        print_fit(&report);
-        if let Some(c) = &report.coil {
-            say!(
-                "  shaker coil (`{}` / `{}` / `{}`, {} dwells): R = {:.4} ohm, L = {:.4e} H, Bl = {:.4} N/A (ce {:.4} N s/m, te {:.4e} s, gain {:.4} N/V; residual {:.2} % of the force)",
-                c.channels[0],
-                c.channels[1],
-                c.channels[2],
-                c.dwells,
-                c.r,
-                c.l,
-                c.bl,
-                c.ce,
-                c.te,
-                c.gain,
-                100.0 * c.residual
-            );
-        }
-        if let Some(t) = &report.time_domain {
-            let unit = hystid::harmonics::Quantity::from_name(&report.response)
-                .map_or("", |q| q.si_unit());
-            print_time_fit(t, unit);
-            for line in report.time_domain_lines() {
-                say!("{line}");
-            }
-            for n in &t.notes {
-                say!("  note: {n}");
-            }
-        }
-        for f in &report.files {
-            say!("  wrote {}", f.display());
-        }
+        print_identified(&report);
     }
     let status = report
         .time_domain
         .as_ref()
         .map_or(report.fit.status, |t| t.status);
     Ok(super::fit_exit_code(status))
+}
+
+/// Prints what `identify` fitted: the fit, the shaker's coil, the time
+/// domain's refinement and the files written.
+fn print_identified(report: &FitReport) {
+    print_fit(report);
+    if let Some(c) = &report.coil {
+        say!(
+            "  shaker coil (`{}` / `{}` / `{}`, {} dwells): R = {:.4} ohm, L = {:.4e} H, Bl = {:.4} N/A (ce {:.4} N s/m, te {:.4e} s, gain {:.4} N/V; residual {:.2} % of the force)",
+            c.channels[0],
+            c.channels[1],
+            c.channels[2],
+            c.dwells,
+            c.r,
+            c.l,
+            c.bl,
+            c.ce,
+            c.te,
+            c.gain,
+            100.0 * c.residual
+        );
+    }
+    if let Some(t) = &report.time_domain {
+        let unit =
+            hystid::harmonics::Quantity::from_name(&report.response).map_or("", |q| q.si_unit());
+        print_time_fit(t, unit);
+        for line in report.time_domain_lines() {
+            say!("{line}");
+        }
+        for n in &t.notes {
+            say!("  note: {n}");
+        }
+    }
+    for f in &report.files {
+        say!("  wrote {}", f.display());
+    }
 }
 
 /// Prints the time-domain refinement in a few lines.

@@ -4,12 +4,12 @@
 use super::args::{ImportArgs, RecordedExcitation, WavFormat};
 use super::{EXIT_OK, write_json};
 use anyhow::{Context, Result, bail};
+use hystid::analysis::import::{ImportRequest, is_recording, output_files};
 use hystid::import::{
-    ChannelSpec, ImportSpec, QualityOptions, QualityReport, SampleRateSource, Severity,
-    check_quality, import,
+    ChannelSpec, ImportSpec, QualityReport, SampleRateSource, Severity, check_quality, import,
 };
 use hystid::record::{ExcitationKind, Recording, SampleFormat, read_recording, write_recording};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Exit status: the data hold NaN/Inf or a broken time axis; nothing written.
 pub const EXIT_BAD_DATA: u8 = 2;
@@ -78,41 +78,6 @@ fn flag_error(flag: &str, e: hystid::Error) -> anyhow::Error {
     }
 }
 
-/// The files `import` writes for `--out NAME` (NAME.wav or NAME.json also
-/// mean the stem NAME): NAME.wav, NAME.json, NAME.quality.json.
-pub fn output_files(out: &Path, input: &Path) -> [PathBuf; 3] {
-    // a folder (existing, or written with a trailing separator) as every
-    // other command's `--out`: the recording is named after the input file
-    let folder = out.is_dir() || out.as_os_str().to_string_lossy().ends_with(['/', '\\']);
-    let out = if folder {
-        out.join(
-            input
-                .file_stem()
-                .unwrap_or(std::ffi::OsStr::new("recording")),
-        )
-    } else {
-        out.to_path_buf()
-    };
-    let stem = match out.extension().and_then(|e| e.to_str()) {
-        Some(e) if e.eq_ignore_ascii_case("wav") || e.eq_ignore_ascii_case("json") => {
-            out.with_extension("")
-        }
-        _ => out.to_path_buf(),
-    };
-    let with = |suffix: &str| {
-        let mut s = stem.as_os_str().to_owned();
-        s.push(suffix);
-        PathBuf::from(s)
-    };
-    [with(".wav"), with(".json"), with(".quality.json")]
-}
-
-fn is_recording(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("wav") || e.eq_ignore_ascii_case("json"))
-}
-
 /// Relative distance to a whole number of Hz below which a rate derived
 /// from a time column (printed with finite digits) is rounded.
 const WHOLE_HZ_TOLERANCE: f64 = 1e-6;
@@ -137,105 +102,42 @@ fn whole_hz(path: &Path, mut rec: Recording) -> Result<(Recording, Option<f64>)>
     Ok((rec, Some(fs)))
 }
 
-/// What to say of a WAV without its JSON sidecar and no channels chosen:
-/// the sidecar is missing, and the `-c` form that imports it anyway.
-fn missing_sidecar(file: &Path) -> String {
-    let shape = hystid::import::wav::shape(file)
-        .map(|s| {
-            format!(
-                " (it holds {} channel(s) at {} Hz)",
-                s.channels, s.sample_rate_hz
-            )
-        })
-        .unwrap_or_default();
-    format!(
-        "{}: no JSON sidecar ({}) says what its channels are{shape}: name each with \
-         -c NAME=#K:QUANTITY[*SCALE], K its channel from 1, e.g. `hystid import {} --out DIR/ \
-         -c force=#1:force -c acc=#2:acceleration` (the rate is the WAV header's)",
-        file.display(),
-        file.with_extension("json").display(),
-        file.display()
-    )
-}
-
 /// `hystid import`.
 pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
-    let spec = spec_of(args)?;
-    let plain_wav = hystid::import::wav::is_plain_wav(&args.file);
-    if plain_wav && spec.channels.is_empty() {
-        bail!("{}", missing_sidecar(&args.file));
-    }
-    let (recording, quality): (Recording, QualityReport) = if is_recording(&args.file) && !plain_wav
-    {
-        // already hystid's format: validated by reading, then checked
-        let mut rec = read_recording(&args.file)?;
-        if let Some(e) = args.excitation {
-            rec.meta.excitation.kind = excitation_kind(e);
-        }
-        if let Some(d) = &args.description {
-            rec.meta.description = d.clone();
-        }
-        if !args.channels.is_empty() || args.rate.is_some() {
-            bail!(
-                "{}: --channel and --rate do not apply to a WAV + JSON recording (its sidecar \
-                 says what the channels are)",
-                args.file.display()
-            );
-        }
-        let opts: QualityOptions = spec.quality.clone();
-        let q = check_quality(&rec, &opts);
-        (rec, q)
-    } else {
-        if spec.channels.is_empty() && !hystid::import::names_its_channels(&args.file) {
-            let listing = match args.file.extension().and_then(|e| e.to_str()) {
-                Some(e) if e.eq_ignore_ascii_case("mat") => {
-                    hystid::import::mat::MatFile::open(&args.file)
-                        .map(|m| format!("; {}", m.listing()))
-                        .unwrap_or_default()
-                }
-                _ => String::new(),
-            };
-            bail!(
-                "{}: no channels chosen: give --channel [NAME=]SOURCE[(ROW)]:QUANTITY[*SCALE] for \
-                 each (or a --spec file){listing}",
-                args.file.display()
-            );
-        }
-        let imported = import(&args.file, &spec)?;
-        if !quiet {
-            for n in &imported.notes {
-                eprintln!("note: {n}");
-            }
-        }
-        (imported.recording, imported.quality)
+    // refused before anything is read or written
+    let req = ImportRequest {
+        file: args.file.clone(),
+        out: args.out.clone(),
+        spec: spec_of(args)?,
+        channels_or_rate_given: !args.channels.is_empty() || args.rate.is_some(),
+        format: sample_format(args.format),
     };
+    req.validate().map_err(super::refused)?;
+    let (recording, quality): (Recording, QualityReport) =
+        if is_recording(&args.file) && !hystid::import::wav::is_plain_wav(&args.file) {
+            // already hystid's format: validated by reading, then checked
+            let mut rec = read_recording(&args.file)?;
+            if let Some(e) = args.excitation {
+                rec.meta.excitation.kind = excitation_kind(e);
+            }
+            if let Some(d) = &args.description {
+                rec.meta.description = d.clone();
+            }
+            let q = check_quality(&rec, &req.spec.quality);
+            (rec, q)
+        } else {
+            let imported = import(&args.file, &req.spec)?;
+            if !quiet {
+                for n in &imported.notes {
+                    eprintln!("note: {n}");
+                }
+            }
+            (imported.recording, imported.quality)
+        };
     let (recording, rounded) = whole_hz(&args.file, recording)?;
     let mut quality = quality;
     quality.sample_rate_hz = recording.meta.sample_rate_hz;
     let [wav, json, quality_json] = output_files(&args.out, &args.file);
-    // a recording checked and rewritten into its own folder would overwrite
-    // what it is read from (a hystid recording is a .wav and a .json)
-    let mut inputs = vec![args.file.clone()];
-    if is_recording(&args.file) {
-        inputs.extend([
-            args.file.with_extension("wav"),
-            args.file.with_extension("json"),
-        ]);
-    }
-    let inputs: Vec<PathBuf> = inputs
-        .iter()
-        .filter_map(|p| p.canonicalize().ok())
-        .collect();
-    if [&wav, &json]
-        .into_iter()
-        .any(|p| p.canonicalize().is_ok_and(|c| inputs.contains(&c)))
-    {
-        bail!(
-            "--out {}: would overwrite the input {} (choose another name or folder)",
-            args.out.display(),
-            args.file.display()
-        );
-    }
     if quality.has_errors() {
         eprint!("{quality}");
         eprintln!(
@@ -249,7 +151,7 @@ pub fn import_command(args: &ImportArgs, quiet: bool) -> Result<u8> {
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     let _out = super::create_out_dir(dir)?;
-    write_recording(&json, &recording, sample_format(args.format))?;
+    write_recording(&json, &recording, req.format)?;
     write_json(&quality_json, &quality)?;
     if let Some(fs) = rounded {
         eprintln!(

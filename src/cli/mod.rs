@@ -27,9 +27,9 @@ pub mod run;
 pub mod simulate;
 pub mod validate;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use args::{ExcitationArg, ReductionArgs};
-use hystid::analysis::{Compensation, ReductionOptions, SineTest};
+use hystid::analysis::{ReductionOptions, SineTest};
 use std::path::Path;
 
 /// Exit status: everything worked.
@@ -85,6 +85,26 @@ extern "C" fn on_interrupt(_: libc::c_int) {
     unsafe {
         libc::write(2, SAY.as_ptr().cast(), SAY.len());
         libc::signal(libc::SIGINT, libc::SIG_DFL);
+    }
+}
+
+/// The flag the command line writes for a request's field.
+fn flag(option: &str) -> String {
+    match option {
+        "band_hz" => "--band".to_string(),
+        "window_s" => "--window".to_string(),
+        o => format!("--{}", o.replace('_', "-")),
+    }
+}
+
+/// A request's refusal in the command line's words: the option named by
+/// its flag (`each_alone` is `--each-alone`).
+pub fn refused(e: hystid::Error) -> anyhow::Error {
+    match e {
+        hystid::Error::InvalidOption { option, message } if !option.is_empty() => {
+            anyhow::anyhow!("{}: {message}", flag(&option))
+        }
+        e => e.into(),
     }
 }
 
@@ -144,7 +164,7 @@ pub fn check_paths(command: &args::Command) -> Result<()> {
         ),
         Command::Import(a) => {
             refuse_directory_input(&a.file, "import", Reads::Imports)?;
-            let [_, json, _] = import::output_files(&a.out, &a.file);
+            let [_, json, _] = hystid::analysis::import::output_files(&a.out, &a.file);
             let dir = json
                 .parent()
                 .filter(|d| !d.as_os_str().is_empty())
@@ -357,22 +377,7 @@ pub(crate) fn return_large_blocks() {
 
 /// The library's reduction options from the flags.
 pub fn reduction_options(r: &ReductionArgs) -> Result<ReductionOptions> {
-    let compensation = match r.compensation.trim() {
-        "auto" => Compensation::Auto,
-        text => {
-            let s: f64 = text.parse().with_context(|| {
-                format!("--compensation: expected auto, 0 or seconds, got `{text}`")
-            })?;
-            if !(s.is_finite() && s >= 0.0) {
-                bail!("--compensation: must be auto or seconds >= 0, got {s}");
-            }
-            if s > 0.0 {
-                Compensation::Seconds(s)
-            } else {
-                Compensation::Off
-            }
-        }
-    };
+    let compensation = r.compensation.parse().map_err(refused)?;
     Ok(ReductionOptions {
         excitation: match r.excitation {
             ExcitationArg::Stepped => Some(SineTest::Stepped),

@@ -9,7 +9,7 @@ use super::{EXIT_DEGRADED, read_test, write_json};
 use anyhow::Result;
 use hystid::analysis::identify::{write_convergence, write_fit_frf};
 use hystid::analysis::run::{
-    DiagnosisSummary, FinalModel, RunSummary, report_markdown, write_final_figures,
+    DiagnosisSummary, FinalModel, RunRequest, RunSummary, report_markdown, write_final_figures,
 };
 use hystid::analysis::{FitReport, reference_joint};
 use hystid::fit::{FitResult, HbPredictor};
@@ -18,8 +18,18 @@ use std::sync::Mutex;
 /// `hystid run`.
 pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     let t0 = std::time::Instant::now();
-    let options = fit_options(&args.fit)?;
-    let (def, text) = read_test(args.test.as_deref())?;
+    // refused before anything is simulated or written
+    let mut req = RunRequest::new(
+        args.test.clone(),
+        fit_options(&args.fit)?,
+        (!args.no_diagnose)
+            .then(|| super::diagnose::candidates(&args.candidates))
+            .transpose()?,
+    );
+    req.recording = !args.no_recording;
+    req.validate().map_err(super::refused)?;
+    let options = &req.options;
+    let (def, text) = read_test(req.test.as_deref())?;
     let _out = super::create_out_dir(&args.out)?;
     let mut fit_out: Option<(FitResult, HbPredictor)> = None;
     let (run, sim) = simulate_into(
@@ -27,12 +37,12 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         &text,
         &args.out,
         quiet,
-        (!args.no_recording).then_some(WavFormat::Float32),
+        req.recording.then_some(WavFormat::Float32),
         false,
         &mut |run: &hystid::testbench::BenchRun,
               mcap: Option<&mut hystid::record::McapRecorder>| {
             let mcap = mcap.map(Mutex::new);
-            fit_out = Some(run_fit(&run.frf, &options, quiet, mcap.as_ref())?);
+            fit_out = Some(run_fit(&run.frf, options, quiet, mcap.as_ref())?);
             Ok(())
         },
     )?;
@@ -44,7 +54,7 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     files.push(args.out.join("fit.json"));
     let report = FitReport::new(
         // none with --no-recording
-        if args.no_recording {
+        if !req.recording {
             Vec::new()
         } else {
             vec![args.out.join("run.mcap").display().to_string()]
@@ -56,25 +66,17 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     );
     let mut report = report;
     // a gauge beside the shaker's voltage: its coil, from the run file
-    if !args.no_recording {
+    if req.recording {
         report.coil = hystid::analysis::recording::coil_of_path(&args.out.join("run.mcap"))?;
     }
     write_json(&args.out.join("fit.json"), &report)?;
     let mut diagnosis = None;
-    if !args.no_diagnose {
+    // the candidates re-identify (one more mode) with the user's fit
+    // options: the same element, band and linear start as the baseline
+    if let Some(diagnosis_options) = &req.diagnosis {
         let t = std::time::Instant::now();
-        let (d, p) = super::diagnose::run_diagnosis(
-            &run.frf,
-            &report.fit,
-            // the candidates re-identify (one more mode) with the user's fit
-            // options: the same element, band and linear start as the baseline
-            &hystid::diagnose::DiagnoseOptions {
-                band_hz: options.band_hz,
-                fit: options.clone(),
-                ..super::diagnose::diagnose_options(&args.candidates)?
-            },
-            quiet,
-        )?;
+        let (d, p) =
+            super::diagnose::run_diagnosis(&run.frf, &report.fit, diagnosis_options, quiet)?;
         let secs = t.elapsed().as_secs_f64();
         let written =
             hystid::analysis::diagnose::write_diagnosis(&args.out, &run.frf, &d, &p, secs)?;

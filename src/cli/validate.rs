@@ -3,54 +3,55 @@
 
 use super::args::ValidateArgs;
 use super::{EXIT_DEGRADED, EXIT_OK, create_out_dir, progress, reduction_options, write_json};
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use hystid::analysis::load_held_reference_and_response;
+use hystid::analysis::request::parse_range;
 use hystid::analysis::validate::{
-    ValidateReport, ValidationSettings, read_fit, unique_stem, validate_on,
+    ValidateReport, ValidateRequest, ValidationSettings, read_fit, unique_stem, validate_on,
 };
 use hystid::validate::Validation;
 use std::path::Path;
 
-pub(super) fn parse_range(text: &str, flag: &str, unit: &str) -> Result<(f64, f64)> {
-    let (a, b) = text
-        .split_once(':')
-        .with_context(|| format!("{flag}: expected LO:HI in {unit}, got `{text}`"))?;
-    let p = |x: &str| -> Result<f64> {
-        x.trim()
-            .parse()
-            .with_context(|| format!("{flag}: `{x}` is not a number"))
-    };
-    let (a, b) = (p(a)?, p(b)?);
-    if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
-        bail!("{flag}: need 0 <= LO < HI, got {a}:{b}");
-    }
-    Ok((a, b))
+/// The request `validate`'s flags make.
+fn validate_request(args: &ValidateArgs) -> Result<ValidateRequest> {
+    Ok(ValidateRequest {
+        fit: args.fit.clone(),
+        linear: args.linear,
+        recordings: args.recordings.clone(),
+        acquisition: args.acquisition.given(),
+        settings: ValidationSettings {
+            input: args.replay.into(),
+            band_hz: args
+                .band
+                .as_deref()
+                .map(|b| parse_range(b, "band_hz", "Hz"))
+                .transpose()
+                .map_err(super::refused)?,
+            window_s: args
+                .window
+                .as_deref()
+                .map(|w| parse_range(w, "window_s", "s"))
+                .transpose()
+                .map_err(super::refused)?,
+            min_samples_per_period: args.min_samples_per_period,
+            frf: !args.no_frf,
+            periodic: args.periodic,
+            reduction: reduction_options(&args.reduction)?,
+        },
+    })
 }
 
 /// `hystid validate`.
 pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
     super::return_large_blocks();
-    let mut fit = read_fit(&args.fit, args.linear)?;
-    if let Some(chain) = args.acquisition.chain()? {
-        fit.acquisition = Some(chain);
+    // refused before anything is read or written
+    let req = validate_request(args)?;
+    req.validate().map_err(super::refused)?;
+    let mut fit = read_fit(&req.fit, req.linear)?;
+    if let Some(chain) = &req.acquisition {
+        fit.acquisition = Some(chain.clone());
     }
-    let settings = ValidationSettings {
-        input: args.replay.into(),
-        band_hz: args
-            .band
-            .as_deref()
-            .map(|b| parse_range(b, "--band", "Hz"))
-            .transpose()?,
-        window_s: args
-            .window
-            .as_deref()
-            .map(|w| parse_range(w, "--window", "s"))
-            .transpose()?,
-        min_samples_per_period: args.min_samples_per_period,
-        frf: !args.no_frf,
-        periodic: args.periodic,
-        reduction: reduction_options(&args.reduction)?,
-    };
+    let settings = &req.settings;
     let _out = create_out_dir(&args.out)?;
     let mut entries = Vec::new();
     let mut files = vec![args.out.join("validate.json")];
@@ -119,7 +120,7 @@ pub fn validate_command(args: &ValidateArgs, quiet: bool) -> Result<u8> {
             &fit,
             path,
             (&loaded.view(), loaded.response),
-            &settings,
+            settings,
             &args.out,
             &stem,
             &observer,

@@ -13,7 +13,8 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// How [`write_recording`] stores the samples.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum SampleFormat {
     /// IEEE float, 32-bit; each channel's `scale` is kept as given, so the
     /// stored value is `physical / scale` rounded to f32.

@@ -16,7 +16,8 @@ use crate::testbench::TestDefinition;
 use std::path::{Path, PathBuf};
 
 /// How a recording is reduced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum SineTest {
     /// Dwells (stated or found).
     Stepped,
@@ -25,7 +26,8 @@ pub enum SineTest {
 }
 
 /// Swept sine: the sweep-distortion compensation.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Compensation {
     /// Chosen from the data ([`choose_compensation`]).
     Auto,
@@ -35,8 +37,36 @@ pub enum Compensation {
     Seconds(f64),
 }
 
+/// As the command line writes it: `auto`, 0 (off) or seconds.
+impl std::str::FromStr for Compensation {
+    type Err = Error;
+    fn from_str(text: &str) -> Result<Self> {
+        let text = text.trim();
+        if text == "auto" {
+            return Ok(Compensation::Auto);
+        }
+        let s: f64 = text.parse().map_err(|e| {
+            Error::option(
+                "compensation",
+                format!("expected auto, 0 or seconds, got `{text}`: {e}"),
+            )
+        })?;
+        if !(s.is_finite() && s >= 0.0) {
+            return Err(Error::option(
+                "compensation",
+                format!("must be auto or seconds >= 0, got {s}"),
+            ));
+        }
+        Ok(if s > 0.0 {
+            Compensation::Seconds(s)
+        } else {
+            Compensation::Off
+        })
+    }
+}
+
 /// How recordings are reduced into nonlinear FRFs.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ReductionOptions {
     /// The reduction; `None`: the recording's `excitation.kind` (stepped
     /// when not stated).

@@ -186,6 +186,22 @@ pub enum LinearRefinement {
     All,
 }
 
+/// As the command line writes it: `none`, `damping` or `all`.
+impl std::str::FromStr for LinearRefinement {
+    type Err = Error;
+    fn from_str(text: &str) -> Result<Self> {
+        match text {
+            "none" => Ok(LinearRefinement::None),
+            "damping" => Ok(LinearRefinement::Damping),
+            "all" => Ok(LinearRefinement::All),
+            other => Err(Error::option(
+                "refine_linear",
+                format!("expected none, damping or all, got `{other}`"),
+            )),
+        }
+    }
+}
+
 /// Where the linear part of the model starts from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -199,6 +215,21 @@ pub enum LinearStart {
     /// the smallest level (stick), with `kd` taken out of its stiffness and
     /// `k` refined with the element.
     Lowest,
+}
+
+/// As the command line writes it: `extremes` or `lowest`.
+impl std::str::FromStr for LinearStart {
+    type Err = Error;
+    fn from_str(text: &str) -> Result<Self> {
+        match text {
+            "extremes" => Ok(LinearStart::Extremes),
+            "lowest" => Ok(LinearStart::Lowest),
+            other => Err(Error::option(
+                "linear_start",
+                format!("expected extremes or lowest, got `{other}`"),
+            )),
+        }
+    }
 }
 
 /// The simplex step of a parameter when refining from a good start: about
