@@ -371,11 +371,9 @@ pub fn print(row: &Value) {
             three(&h["time_error_percent"])
         );
     }
-    if false {
-        println!(
-            "median FRF error together/alone on the fitting levels: {:.2}x; {:.0} s",
-            row["median_ratio_together_over_alone"].as_f64().unwrap(),
-            row["seconds"].as_f64().unwrap()
-        );
-    }
+    println!(
+        "median FRF error together/alone on the fitting levels: {:.2}x; {:.0} s",
+        row["median_ratio_together_over_alone"].as_f64().unwrap(),
+        row["seconds"].as_f64().unwrap()
+    );
 }
