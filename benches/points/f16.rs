@@ -294,11 +294,12 @@ pub fn judge(levels: &[Level], law: &str, at: Placement) -> Value {
     let together = fit(&merged(levels, &FIT), law, at);
     let fit_s = clock.elapsed().as_secs_f64();
     eprintln!(
-        "{law} {}: rms {:.3} from {:.3}, {} failed, {:?}, {:.0} s",
+        "{law} {}: rms {:.3} from {:.3}, {} failed, at bounds {:?}, {:?}, {:.0} s",
         at.name(),
         together.residual_rms,
         together.start_rms,
         together.failed_lines,
+        together.at_bounds,
         together.run.status,
         fit_s
     );
@@ -338,6 +339,7 @@ pub fn judge(levels: &[Level], law: &str, at: Placement) -> Value {
         "residual_rms": together.residual_rms,
         "start_rms": together.start_rms,
         "failed_lines": together.failed_lines,
+        "at_bounds": together.at_bounds,
         "evaluations": together.run.evaluations,
         "fit_seconds": fit_s,
         "held_out": held,

@@ -174,6 +174,22 @@ impl Layout {
             .collect();
         Some((start.with_parameters(&values), outside))
     }
+
+    /// The names of the joint's free parameters at `theta` that lie within
+    /// 1 % of a bound of their range ([`ParameterSet::at_bounds`]).
+    pub(super) fn joint_at_bounds(&self, theta: &[f64]) -> Vec<String> {
+        let Some((_, free)) = &self.joint else {
+            return Vec::new();
+        };
+        let at = self.joint_at_index();
+        let values: Vec<f64> = (free.parameters.iter().enumerate())
+            .map(|(i, p)| p.clamped(theta[at + i]).0)
+            .collect();
+        (free.parameters.iter().zip(free.at_bounds(&values)))
+            .filter(|(_, at_bound)| *at_bound)
+            .map(|(p, _)| p.target_name().to_string())
+            .collect()
+    }
 }
 
 #[cfg(test)]
@@ -213,9 +229,24 @@ mod tests {
             },
         ] {
             let layout = Layout::new(&s, Some(&law)).expect("a valid joint");
-            let theta = layout.theta_of(&s, Some(&law));
+            let mut theta = layout.theta_of(&s, Some(&law));
             let (back, outside) = layout.joint_at(&theta).expect("a joint");
             assert_eq!(outside, 0.0, "{law:?}");
+            assert!(layout.joint_at_bounds(&theta).is_empty(), "{law:?}");
+            // the last free parameter pushed far past either end of its
+            // range is reported at a bound, and it alone
+            let last = theta.len() - 1;
+            let free = &layout.joint.as_ref().unwrap().1.parameters;
+            let name = free.last().unwrap().target_name().to_string();
+            for far in [-1e3, 1e3] {
+                theta[last] = far;
+                assert_eq!(
+                    layout.joint_at_bounds(&theta),
+                    vec![name.clone()],
+                    "{law:?}"
+                );
+            }
+            theta[last] = layout.theta_of(&s, Some(&law))[last];
             for ((n, a), (_, b)) in law.parameters().into_iter().zip(back.parameters()) {
                 assert!((a - b).abs() <= 1e-12 * a.abs(), "{n}: {a} -> {b}");
             }

@@ -200,6 +200,11 @@ pub struct PointFit {
     pub residual_rms: f64,
     /// Lines whose balance did not converge at the optimum.
     pub failed_lines: usize,
+    /// The joint's parameters that ended within 1 % of a bound of their
+    /// range: the law at its limit (Masing's `n` at its largest is the
+    /// Jenkins joint), or a fit gone astray; either way not a value to
+    /// report as found.
+    pub at_bounds: Vec<String>,
     /// The optimiser's run.
     pub run: OptimiserRun,
 }
@@ -227,6 +232,7 @@ pub fn fit_points(
     let start_rms = problem.rms(&theta0)?.0;
     let run = levenberg_marquardt(&problem, &theta0, options.patience)?;
     let (residual_rms, failed_lines) = problem.rms(&run.theta)?;
+    let at_bounds = layout.joint_at_bounds(&run.theta);
     let (structure, _) = layout.structure_at(&run.theta);
     let (law, _) = layout
         .joint_at(&run.theta)
@@ -240,6 +246,7 @@ pub fn fit_points(
         start_rms,
         residual_rms,
         failed_lines,
+        at_bounds,
         run,
     })
 }

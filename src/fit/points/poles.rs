@@ -175,7 +175,7 @@ fn sdof_pole(w: &[f64], h: &[Vec<Complex64>], start: Pole) -> Result<Pole> {
             lambda: x[0],
             c: x[1],
         };
-        if !(pole.lambda > 0.0) {
+        if pole.lambda.is_nan() || pole.lambda <= 0.0 {
             return Err(Error::input("data", "a peak's mode lost its stiffness"));
         }
     }
@@ -294,8 +294,8 @@ mod tests {
         for (m, (f, z, s)) in modes.iter().zip(&truth) {
             assert!((m.frequency_hz / f - 1.0).abs() < 1e-6, "{m:?}");
             assert!((m.damping_ratio / z - 1.0).abs() < 1e-6, "{m:?}");
-            for p in 0..3 {
-                assert!((m.shape[p] - s[p]).abs() < 1e-6, "{m:?}");
+            for (found, truth) in m.shape.iter().zip(s) {
+                assert!((found - truth).abs() < 1e-6, "{m:?}");
             }
         }
     }

@@ -187,6 +187,7 @@ fn a_joint_between_two_masses_of_a_chain_is_found_from_three_accelerometers() {
     );
     assert!(kd_err.abs() < 0.01 && fd_err.abs() < 0.01, "{values:?}");
     assert_eq!(fit.failed_lines, 0);
+    assert!(fit.at_bounds.is_empty(), "{:?}", fit.at_bounds);
     assert!(fit.residual_rms < 1.5 * noise, "{}", fit.residual_rms);
     for ends in [(0, Some(1)), (2, None)] {
         let (structure, joint) = start(&data, ends);
