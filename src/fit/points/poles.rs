@@ -10,7 +10,6 @@
 //! of the previous pole (Levy's method iterated). The residues of
 //! mass-normalised real modes are real, `A_p = φ_r(p) φ_r(d)`.
 
-use super::PointMeasurement;
 use crate::error::{Error, Result};
 use crate::model::ShapedMode;
 use nalgebra::{DMatrix, DVector};
@@ -50,7 +49,7 @@ impl Pole {
 /// and of `outside` (Hz, held, damped at `outside_damping`: the modes
 /// beyond the lines, seen only through what they leave), fitted to the
 /// receptances `h[p][k]` at `omega[k]` (rad/s), the structure driven at
-/// `drive`.
+/// `drive`. The peaks' poles start at `outside_damping` too.
 ///
 /// Errors: a pole that leaves the lines or loses its stiffness or
 /// damping.
@@ -61,7 +60,9 @@ pub fn peak_modes(
     peaks: &[f64],
     (outside, outside_damping): (&[f64], f64),
 ) -> Result<Vec<ShapedMode>> {
-    let mut poles: Vec<Pole> = peaks.iter().map(|&f| Pole::of(f, 0.02)).collect();
+    let mut poles: Vec<Pole> = (peaks.iter())
+        .map(|&f| Pole::of(f, outside_damping))
+        .collect();
     poles.extend(outside.iter().map(|&f| Pole::of(f, outside_damping)));
     let free = peaks.len();
     let mut residues = residues_of(omega, h, &poles);
@@ -236,30 +237,6 @@ fn shaped(poles: &[Pole], residues: &[Vec<Complex64>], drive: usize) -> Vec<Shap
             }
         })
         .collect()
-}
-
-/// The receptances of `data`'s level `level`, `[p][k]` in point order,
-/// and the lines' `ω`.
-pub fn receptances_of(data: &[PointMeasurement], level: usize) -> (Vec<f64>, Vec<Vec<Complex64>>) {
-    let omega: Vec<f64> = data[0].levels[level]
-        .lines
-        .iter()
-        .map(|l| 2.0 * PI * l.frequency_hz)
-        .collect();
-    let mut by_point: Vec<&PointMeasurement> = data.iter().collect();
-    by_point.sort_by_key(|m| m.point);
-    let h = by_point
-        .iter()
-        .map(|m| {
-            m.levels[level]
-                .lines
-                .iter()
-                .zip(&omega)
-                .map(|(l, &w)| l.h / m.response.from_displacement(w))
-                .collect()
-        })
-        .collect();
-    (omega, h)
 }
 
 #[cfg(test)]

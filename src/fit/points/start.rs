@@ -50,6 +50,21 @@ fn receptances(m: &PointMeasurement, level: usize) -> Vec<Complex64> {
         .collect()
 }
 
+/// The receptances of `data`'s level `level`, `[p][k]` in point order,
+/// and the lines' `ω`.
+fn receptances_by_point(
+    data: &[PointMeasurement],
+    level: usize,
+) -> (Vec<f64>, Vec<Vec<Complex64>>) {
+    let omega: Vec<f64> = (data[0].levels[level].lines.iter())
+        .map(|l| 2.0 * PI * l.frequency_hz)
+        .collect();
+    let mut by_point: Vec<&PointMeasurement> = data.iter().collect();
+    by_point.sort_by_key(|m| m.point);
+    let h = by_point.iter().map(|m| receptances(m, level)).collect();
+    (omega, h)
+}
+
 /// How far `y[i]` stands above the higher of the lowest values on either
 /// side before a higher one (or the end): a ripple beside a resonance
 /// stands out less than a small mode of its own.
@@ -156,7 +171,7 @@ pub fn linear_modes_beside(
         return Err(Error::input("data", "every point needs a sensor"));
     }
     let found = peaks(data, level, modes.0)?;
-    let (omega, h) = super::poles::receptances_of(data, level);
+    let (omega, h) = receptances_by_point(data, level);
     let start = match peak_modes(&omega, &h, drive, &found, (modes.1, START_DAMPING)) {
         Ok(start) => start,
         // a peak whose neighbourhood alone holds no mode: its quadrature
