@@ -7,13 +7,12 @@ use hystid::analysis::recording::{
 use hystid::extract::SweepFit;
 use hystid::fit::Weighting;
 use hystid::fit::points::{
-    PointFit, PointFitOptions, PointJoint, PointMeasurement, fit_points, linear_modes_beside,
-    lowest_level, predict_points, with_joint_point, without_joint,
+    JointPlacement, PointFit, PointFitOptions, PointMeasurement, StartPlan, fit_points,
+    joint_start, predict_points,
 };
-use hystid::model::{ElementKind, ElementSpec, PointModes, Site};
+use hystid::model::ElementKind;
 use hystid::sim::PointSimulator;
 use serde_json::{Value, json};
-use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -144,7 +143,7 @@ pub enum Placement {
     /// Between the wing's and the payload's accelerometers.
     Across,
     /// At a coordinate of its own that no sensor reads, to the ground
-    /// ([`with_joint_point`]).
+    /// ([`JointPlacement::OwnCoordinate`]).
     Unmeasured,
 }
 
@@ -160,84 +159,19 @@ impl Placement {
     }
 }
 
-/// The level of the largest force.
-fn highest_level(data: &[PointMeasurement]) -> usize {
-    let force = |l: usize| -> f64 {
-        data[0].levels[l]
-            .lines
-            .iter()
-            .map(|x| x.force_amplitude)
-            .sum()
-    };
-    (0..data[0].levels.len())
-        .max_by(|&a, &b| force(a).total_cmp(&force(b)))
-        .expect("levels")
-}
-
-/// The start: the lowest level's stuck modes; across the sensors, a stick
-/// stiffness a tenth of the stiffest modal stiffness the joint sees
-/// (`ω_r²/ψ_r²`); at its own coordinate, that coordinate's values from the
-/// modes' drop to the highest level at a stiffness of 10⁶ N/m (only
-/// `k_d ψ²` is seen); a slip force that slips at the geometric mean of the
-/// lowest and highest levels' largest motion across the joint the stuck
-/// modes predict.
-fn start(data: &[PointMeasurement], law: &str, at: Placement) -> (PointModes, PointJoint) {
-    let lowest = lowest_level(data).expect("levels");
-    let points: Vec<String> = RESPONSES.iter().map(|s| s.to_string()).collect();
-    let linear = |level| {
-        linear_modes_beside(data, points.clone(), 0, MODES, level)
-            .expect("linear modes")
-            .0
-    };
-    let stuck = linear(lowest);
-    let (stuck, ends, kd) = match at {
-        Placement::Across => {
-            let ends = (1, Some(2));
-            let kd = 0.1
-                * stuck
-                    .modes
-                    .iter()
-                    .map(|m| {
-                        (2.0 * PI * m.frequency_hz).powi(2) / m.at(Site::Across(1, Some(2))).powi(2)
-                    })
-                    .fold(f64::INFINITY, f64::min);
-            (stuck, ends, kd)
-        }
-        Placement::Unmeasured => {
-            let kd = 1e6;
-            let soft = linear(highest_level(data));
-            let with = with_joint_point(&stuck, &soft, kd, BAND, "joint").expect("a joint point");
-            (with, (3, None), kd)
-        }
-    };
-    let motion: Vec<f64> = data[0]
-        .levels
-        .iter()
-        .map(|l| {
-            l.lines
-                .iter()
-                .map(|x| {
-                    let w = 2.0 * PI * x.frequency_hz;
-                    let across = Site::Across(ends.0, ends.1);
-                    stuck.receptance_between(across, Site::Point(0), w).norm() * x.force_amplitude
-                })
-                .fold(0.0, f64::max)
-        })
-        .collect();
-    let (lo, hi) = (
-        motion.iter().cloned().fold(f64::INFINITY, f64::min),
-        motion.iter().cloned().fold(0.0, f64::max),
-    );
-    let fd = kd * (lo * hi).sqrt();
-    let kind = ElementKind::from_name(law).expect("a joint law");
-    let law = ElementSpec::joint(kind, kd, fd, "joint").expect("a joint law");
-    let structure = without_joint(&stuck, ends, kd).expect("the structure beside the joint");
-    (structure, PointJoint { ends, law })
-}
-
 /// The fit of `law` at `at` to `data` from its start.
 fn fit(data: &[PointMeasurement], law: &str, at: Placement) -> PointFit {
-    let (structure, joint) = start(data, law, at);
+    let plan = StartPlan {
+        points: RESPONSES.iter().map(|s| s.to_string()).collect(),
+        drive: 0,
+        modes: MODES,
+        law: ElementKind::from_name(law).expect("a joint law"),
+        placement: match at {
+            Placement::Across => JointPlacement::Between(1, Some(2)),
+            Placement::Unmeasured => JointPlacement::OwnCoordinate,
+        },
+    };
+    let (structure, joint) = joint_start(data, &plan).expect("a start");
     fit_points(data, &structure, 0, &joint, &PointFitOptions::default()).expect("the fit runs")
 }
 
@@ -294,12 +228,13 @@ pub fn judge(levels: &[Level], law: &str, at: Placement) -> Value {
     let together = fit(&merged(levels, &FIT), law, at);
     let fit_s = clock.elapsed().as_secs_f64();
     eprintln!(
-        "{law} {}: rms {:.3} from {:.3}, {} failed, at bounds {:?}, {:?}, {:.0} s",
+        "{law} {}: rms {:.3} from {:.3}, {} failed, at bounds {:?} (restarted {}), {:?}, {:.0} s",
         at.name(),
         together.residual_rms,
         together.start_rms,
         together.failed_lines,
         together.at_bounds,
+        together.restarted,
         together.run.status,
         fit_s
     );
@@ -340,6 +275,7 @@ pub fn judge(levels: &[Level], law: &str, at: Placement) -> Value {
         "start_rms": together.start_rms,
         "failed_lines": together.failed_lines,
         "at_bounds": together.at_bounds,
+        "restarted": together.restarted,
         "evaluations": together.run.evaluations,
         "fit_seconds": fit_s,
         "held_out": held,

@@ -66,6 +66,16 @@ impl Layout {
         })
     }
 
+    /// The layout with the joint's parameters named in `held` held at
+    /// their start, no longer free.
+    pub(super) fn holding(mut self, held: &[String]) -> Layout {
+        if let Some((_, free)) = &mut self.joint {
+            free.parameters
+                .retain(|p| !held.iter().any(|h| h == p.target_name()));
+        }
+        self
+    }
+
     /// Modes starting outside `lines_hz` are seen only through what they
     /// leave inside: their damping ratios are held at `floor` or more.
     pub(super) fn damped_outside(mut self, lines_hz: (f64, f64), floor: f64) -> Layout {

@@ -43,6 +43,7 @@
 //! ([`with_joint_point`] starts it from the modes' drop in frequency with
 //! level).
 
+mod joint_start;
 mod layout;
 pub mod poles;
 mod problem;
@@ -63,6 +64,7 @@ use problem::JointProblem;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+pub use joint_start::{JOINT_COORDINATE, JointPlacement, StartPlan, highest_level, joint_start};
 pub use start::{linear_modes, linear_modes_beside, lowest_level, with_joint_point, without_joint};
 
 /// One measured line of one response point.
@@ -205,6 +207,10 @@ pub struct PointFit {
     /// Jenkins joint), or a fit gone astray; either way not a value to
     /// report as found.
     pub at_bounds: Vec<String>,
+    /// Whether the first descent ended with a joint parameter at a bound
+    /// and the fit was run again with it held there, from another slip
+    /// force (the better of the two is this one).
+    pub restarted: bool,
     /// The optimiser's run.
     pub run: OptimiserRun,
 }
@@ -212,7 +218,12 @@ pub struct PointFit {
 /// Fits `structure` and `joint` (both as starts) to `data`, the structure
 /// driven at point `drive`, by Levenberg–Marquardt (see the module docs),
 /// from the joint's slip force that meets the data best among a decade
-/// either way of its start.
+/// either way of its start. A descent that ends with a joint parameter at
+/// a bound of its range (the law at its limit, as Masing's `n` at its
+/// largest is the Jenkins joint) is run once more with that parameter held
+/// there, from the best slip force at least half a decade from the first's,
+/// and the better of the two is kept ([`PointFit::restarted`]): a free
+/// parameter pressed against its bound stalls the descent of the others.
 ///
 /// Errors: measurements whose levels or lines differ from one another, a
 /// point out of range, a joint parameter not positive.
@@ -224,9 +235,58 @@ pub fn fit_points(
     options: &PointFitOptions,
 ) -> Result<PointFit> {
     structure.validate()?;
-    let joint = &slip_force_start(data, structure, drive, joint, options)?;
+    let starts = slip_force_starts(data, structure, drive, joint, options)?;
+    let first = descend(data, structure, drive, (&starts[0], &[]), options)?;
+    if first.at_bounds.is_empty() {
+        return Ok(first);
+    }
+    // the law at the limit of its range: held there, the rest descends
+    // again from another slip force
+    let slip = |j: &PointJoint| slip_force(j).unwrap_or(1.0);
+    let apart = |j: &&PointJoint| (slip(j) / slip(&starts[0])).ln().abs() >= 0.5 * 10f64.ln();
+    let other = starts.iter().find(apart).unwrap_or(&starts[0]);
+    let held = &first.at_bounds;
+    let limit = first.joint.law.parameters();
+    let values: Vec<f64> = (other.law.parameters().iter().zip(&limit))
+        .map(|((name, v), (_, at))| {
+            if held.iter().any(|h| h == name) {
+                *at
+            } else {
+                *v
+            }
+        })
+        .collect();
+    let restart = PointJoint {
+        law: other.law.with_parameters(&values),
+        ..*other
+    };
+    let second = descend(data, structure, drive, (&restart, held), options)?;
+    let better = if second.residual_rms < first.residual_rms {
+        PointFit {
+            at_bounds: held.clone(),
+            ..second
+        }
+    } else {
+        first
+    };
+    Ok(PointFit {
+        restarted: true,
+        ..better
+    })
+}
+
+/// One Levenberg–Marquardt descent of [`fit_points`] from `joint`, its
+/// parameters named in `held` held at their start.
+fn descend(
+    data: &[PointMeasurement],
+    structure: &PointModes,
+    drive: usize,
+    (joint, held): (&PointJoint, &[String]),
+    options: &PointFitOptions,
+) -> Result<PointFit> {
     let layout = Layout::new(structure, Some(&joint.law))?
-        .damped_outside(problem::lines_hz(data), start::START_DAMPING);
+        .damped_outside(problem::lines_hz(data), start::START_DAMPING)
+        .holding(held);
     let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?;
     let theta0 = layout.theta_of(structure, Some(&joint.law));
     let start_rms = problem.rms(&theta0)?.0;
@@ -247,6 +307,7 @@ pub fn fit_points(
         residual_rms,
         failed_lines,
         at_bounds,
+        restarted: false,
         run,
     })
 }
@@ -265,22 +326,28 @@ const SLIP_FORCE_FACTORS: [f64; 9] = [
     10.0,
 ];
 
-/// `joint` with its slip force ([`Role::SlipForce`]) the factor of
-/// [`SLIP_FORCE_FACTORS`] whose start meets `data` best: where the joint
-/// slips decides which levels it softens, and a descent from the wrong
-/// side of that stays there. A law without a slip force is returned as it
-/// is.
-fn slip_force_start(
+/// The joint's slip force ([`Role::SlipForce`]), if its law has one.
+fn slip_force(joint: &PointJoint) -> Option<f64> {
+    let at = joint.law.description().index_of(Role::SlipForce)?;
+    Some(joint.law.parameters()[at].1)
+}
+
+/// `joint` with its slip force ([`Role::SlipForce`]) each factor of
+/// [`SLIP_FORCE_FACTORS`], best first by how well its start meets `data`:
+/// where the joint slips decides which levels it softens, and a descent
+/// from the wrong side of that stays there. A law without a slip force is
+/// the one start.
+fn slip_force_starts(
     data: &[PointMeasurement],
     structure: &PointModes,
     drive: usize,
     joint: &PointJoint,
     options: &PointFitOptions,
-) -> Result<PointJoint> {
+) -> Result<Vec<PointJoint>> {
     let Some(at) = joint.law.description().index_of(Role::SlipForce) else {
-        return Ok(*joint);
+        return Ok(vec![*joint]);
     };
-    let mut best = (f64::INFINITY, *joint);
+    let mut tried = Vec::with_capacity(SLIP_FORCE_FACTORS.len());
     for factor in SLIP_FORCE_FACTORS {
         let mut values: Vec<f64> = joint.law.parameters().iter().map(|p| p.1).collect();
         values[at] *= factor;
@@ -291,11 +358,13 @@ fn slip_force_start(
         let layout = Layout::new(structure, Some(&law))?;
         let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?;
         let (rms, _) = problem.rms(&layout.theta_of(structure, Some(&law)))?;
-        if rms < best.0 {
-            best = (rms, PointJoint { law, ..*joint });
-        }
+        tried.push((rms, PointJoint { law, ..*joint }));
     }
-    Ok(best.1)
+    if tried.is_empty() {
+        return Ok(vec![*joint]);
+    }
+    tried.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(tried.into_iter().map(|t| t.1).collect())
 }
 
 /// Every response point's predicted first harmonic (`[level][line][m]`,

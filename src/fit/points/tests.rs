@@ -1,6 +1,6 @@
 use super::*;
 use crate::extract::{ReduceOptions, reduce_stepped};
-use crate::model::Lumped;
+use crate::model::{ElementKind, Lumped};
 use crate::signals::{Channel, Excitation, ExcitationKind, Recording, RecordingMeta, Step};
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -234,23 +234,15 @@ fn taking_the_joint_out_of_stuck_modes_gives_the_structure_beside_it() {
 #[test]
 fn a_joint_no_sensor_reads_is_found_through_the_modes_it_shares() {
     let data = measured(&[0.5, 1.5, 3.0, 6.0], 48);
-    let lowest = lowest_level(&data).unwrap();
-    let (stuck, _) = linear_modes(&data, chain().points, 0, 3, lowest).unwrap();
-    let (soft, _) = linear_modes(&data, chain().points, 0, 3, 3).unwrap();
-    let kd = 1.5e4;
-    let stuck = with_joint_point(&stuck, &soft, kd, problem::lines_hz(&data), "joint").unwrap();
-    let forces: Vec<f64> = data[0]
-        .levels
-        .iter()
-        .map(|l| l.lines[0].force_amplitude)
-        .collect();
-    let fd = (forces[0] * forces[3]).sqrt();
-    let ends = (3, None);
-    let structure = without_joint(&stuck, ends, kd).unwrap();
-    let joint = PointJoint {
-        ends,
-        law: ElementSpec::Jenkins { kd, fd },
+    let plan = StartPlan {
+        points: chain().points,
+        drive: 0,
+        modes: (3, &[]),
+        law: ElementKind::Jenkins,
+        placement: JointPlacement::OwnCoordinate,
     };
+    let (structure, joint) = joint_start(&data, &plan).unwrap();
+    assert_eq!(joint.ends, (3, None));
     let fit = fit_points(&data, &structure, 0, &joint, &PointFitOptions::default()).unwrap();
     let noise = std::f64::consts::FRAC_1_SQRT_2;
     let values: Vec<f64> = fit.joint.law.parameters().iter().map(|p| p.1).collect();
@@ -279,4 +271,32 @@ fn a_joint_no_sensor_reads_is_found_through_the_modes_it_shares() {
         fit.run.status
     );
     assert!(fit.residual_rms < 1.5 * noise, "{}", fit.residual_rms);
+}
+
+/// The chain's Jenkins joint fitted as a Masing joint, started from the
+/// data alone ([`joint_start`], across m2-m3): Masing's `n` runs to the
+/// largest of its range (the Jenkins joint is its limit), the fit names
+/// it, runs again from another slip force, and still finds the Jenkins
+/// joint's `kd` and `fd` within 1 %.
+#[test]
+fn a_law_at_its_limit_is_named_and_the_fit_restarted() {
+    let data = measured(&[0.5, 1.5, 3.0, 6.0], 48);
+    let plan = StartPlan {
+        points: chain().points,
+        drive: 0,
+        modes: (3, &[]),
+        law: ElementKind::Masing,
+        placement: JointPlacement::Between(1, Some(2)),
+    };
+    let (structure, joint) = joint_start(&data, &plan).unwrap();
+    let fit = fit_points(&data, &structure, 0, &joint, &PointFitOptions::default()).unwrap();
+    let values: Vec<(&str, f64)> = fit.joint.law.parameters();
+    eprintln!(
+        "{values:?}, at bounds {:?}, restarted {}, rms {:.3}",
+        fit.at_bounds, fit.restarted, fit.residual_rms
+    );
+    assert!(fit.restarted);
+    assert_eq!(fit.at_bounds, vec!["n".to_string()]);
+    assert!((values[0].1 / KD - 1.0).abs() < 0.01, "{values:?}");
+    assert!((values[1].1 / FD - 1.0).abs() < 0.01, "{values:?}");
 }
