@@ -22,6 +22,7 @@ fn main() -> ExitCode {
         Command::Diagnose(a) => cli::diagnose::diagnose_command(a, args.quiet),
         Command::Import(a) => cli::import::import_command(a, args.quiet),
         Command::Validate(a) => cli::validate::validate_command(a, args.quiet),
+        Command::IdentifyPoints(a) => cli::points::identify_points_command(a, args.quiet),
     });
     match result {
         Ok(code) => ExitCode::from(code),

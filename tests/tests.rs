@@ -11,6 +11,7 @@ mod armature;
 mod bench;
 mod cli;
 mod cli_newcomer;
+mod cli_points;
 mod cli_realdata;
 mod diagnose;
 mod docs;

@@ -47,6 +47,7 @@ __all__ = [
     "fit_coil",
     "frf_arrays",
     "identify",
+    "identify_points",
     "identify_time",
     "model",
     "parameters_table",
@@ -746,6 +747,56 @@ def validate(
     report = json.loads(text)
     report["recordings"][0]["simulated"] = simulated
     return report
+
+
+def identify_points(
+    recordings,
+    out,
+    responses,
+    *,
+    drive=None,
+    joint="own",
+    law="masing",
+    band_hz=None,
+    modes=3,
+    outside_hz=(),
+    excitation=None,
+    max_harmonic=None,
+    compensation="auto",
+    hop_periods=1.0,
+    window_periods=4,
+    progress=None,
+):
+    """Fits a structure seen at several sensors and one joint to every
+    sensor's FRFs at once, as ``hystid identify-points`` does: the
+    ``points.json`` dict, with points.md and a figure per sensor written
+    into ``out``.
+
+    ``recordings``: paths of recordings that each hold the force and every
+    channel of ``responses`` (one sensor each, in point order); ``drive``:
+    the response at the drive point (the first by default); ``joint``:
+    ``"A:B"`` between two responses, ``"A:ground"``, or ``"own"`` (a
+    coordinate no sensor reads, the joint several modes share);
+    ``band_hz``: ``(lo, hi)`` or ``"lo:hi"``; ``modes`` at the band's peaks
+    and ``outside_hz`` held outside it; the reduction options as in
+    :func:`extract`. ``progress``: see :data:`PROGRESS` (``"reducing"``,
+    ``"fitting"``).
+    """
+    band = _band(band_hz)
+    text = _hystid.identify_points(
+        [str(recordings)] if isinstance(recordings, (str, os.PathLike)) else [str(r) for r in recordings],
+        str(out),
+        [str(r) for r in _names(responses)],
+        drive,
+        joint,
+        law,
+        None if band is None else f"{band[0]}:{band[1]}",
+        int(modes),
+        [float(f) for f in outside_hz],
+        json.dumps(_reduction(excitation, max_harmonic, compensation, hop_periods, window_periods)),
+        progress,
+    )
+    return json.loads(text)
 
 
 def frf_arrays(frf):

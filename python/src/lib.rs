@@ -9,6 +9,7 @@
 //! released while the library works. Errors are `hystid.HystidError`
 //! (a `ValueError`) with the message the command line prints.
 
+mod points;
 mod progress;
 mod reduction;
 
@@ -1156,5 +1157,6 @@ fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify_time, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose_time, m)?)?;
     m.add_function(wrap_pyfunction!(fit_coil, m)?)?;
+    m.add_function(wrap_pyfunction!(points::identify_points, m)?)?;
     Ok(())
 }

@@ -58,3 +58,12 @@ def test_bad_signals_are_named():
         hystid.extract(f, y, 1e4)
     with pytest.raises(hystid.HystidError, match="flat"):
         hystid.extract(np.zeros(100), f[:100], 1e4)
+
+
+def test_identify_points_names_a_joint_at_an_unknown_sensor(tmp_path):
+    # refused before any recording is read or any folder made
+    with pytest.raises(hystid.HystidError, match=r"joint.*`a4` is not one of the responses \(a1, a2, a3\)"):
+        hystid.identify_points(tmp_path / "r.json", tmp_path / "out", "a1,a2,a3", joint="a2:a4")
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(hystid.HystidError, match="two response channels or more"):
+        hystid.identify_points(tmp_path / "r.json", tmp_path / "out", ["a1"])

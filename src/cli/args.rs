@@ -34,6 +34,48 @@ pub enum Command {
     Import(ImportArgs),
     /// Drive a fitted model with a recording's measured force and compare responses.
     Validate(ValidateArgs),
+    /// Fit a structure seen at several sensors and one joint between points
+    /// (or at a coordinate of its own) to every sensor's FRFs at once.
+    IdentifyPoints(IdentifyPointsArgs),
+}
+
+/// `hystid identify-points`.
+#[derive(Debug, Args)]
+pub struct IdentifyPointsArgs {
+    /// The recordings, each holding the force and every response channel
+    /// (one level per swept file; a stepped file's levels as recorded).
+    #[arg(required = true, num_args = 1..)]
+    pub recordings: Vec<PathBuf>,
+    /// Output directory.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// The response channels, one per sensor, comma-separated.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub responses: Vec<String>,
+    /// The response at the drive point (default: the first response).
+    #[arg(long)]
+    pub drive: Option<String>,
+    /// Where the joint acts: `A:B` between two responses, `A:ground`, or
+    /// `own`, a coordinate no sensor reads (the joint several modes share,
+    /// when the sensors beside it do not read the motion across it).
+    #[arg(long, default_value = "own")]
+    pub joint: String,
+    /// The joint's law: jenkins, masing, iwan4, ...
+    #[arg(long, default_value = "masing")]
+    pub law: String,
+    /// Band fitted, LO:HI in Hz (default: every line).
+    #[arg(long)]
+    pub band: Option<String>,
+    /// Modes at the band's peaks.
+    #[arg(long, default_value_t = 3)]
+    pub modes: usize,
+    /// Modes held outside the band, Hz, comma-separated: the rest of the
+    /// structure (e.g. `3,9.3,14`).
+    #[arg(long, value_delimiter = ',')]
+    pub outside_hz: Vec<f64>,
+    /// How the recordings are reduced.
+    #[command(flatten)]
+    pub reduction: ReductionArgs,
 }
 
 /// `hystid simulate`.

@@ -22,6 +22,7 @@ pub mod args;
 pub mod diagnose;
 pub mod identify;
 pub mod import;
+pub mod points;
 pub mod progress;
 pub mod run;
 pub mod simulate;
@@ -159,6 +160,14 @@ pub fn check_paths(command: &args::Command) -> Result<()> {
             &a.recordings[..],
             Reads::Recordings,
             Some(a.fit.as_path()),
+            a.out.clone(),
+            &a.out,
+        ),
+        Command::IdentifyPoints(a) => (
+            "identify-points",
+            &a.recordings[..],
+            Reads::Recordings,
+            None,
             a.out.clone(),
             &a.out,
         ),
