@@ -169,6 +169,24 @@ pub struct JointReport {
     pub parameters: Vec<(&'static str, f64)>,
 }
 
+impl PointsReport {
+    /// The joint in words: `masing joint from a2 to the ground: kd =
+    /// 1.2e6, fd = 3.4e1, n = 8.9e0`.
+    pub fn joint_in_words(&self) -> String {
+        let name = |p: usize| self.structure.points[p].clone();
+        let to = self.joint.ends.1.map_or("the ground".to_string(), name);
+        let values: Vec<String> = (self.joint.parameters.iter())
+            .map(|(n, v)| format!("{n} = {v:.4e}"))
+            .collect();
+        format!(
+            "{} joint from {} to {to}: {}",
+            self.joint.law,
+            name(self.joint.ends.0),
+            values.join(", ")
+        )
+    }
+}
+
 /// How the fit went.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FitSummary {

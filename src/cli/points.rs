@@ -39,19 +39,7 @@ pub fn identify_points_command(args: &IdentifyPointsArgs, quiet: bool) -> Result
 }
 
 fn print_report(r: &PointsReport) {
-    let ends = |e: Option<usize>| e.map_or("ground".to_string(), |p| r.structure.points[p].clone());
-    say!(
-        "hystid identify-points: {} joint {} - {}: {}",
-        r.joint.law,
-        r.structure.points[r.joint.ends.0],
-        ends(r.joint.ends.1),
-        r.joint
-            .parameters
-            .iter()
-            .map(|(n, v)| format!("{n} {v:.4e}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
+    say!("hystid identify-points: {}", r.joint_in_words());
     if !r.fit.at_bounds.is_empty() {
         say!(
             "  at a bound of its range (not a value found): {}",

@@ -104,23 +104,7 @@ fn markdown(r: &PointsReport) -> String {
             .join(", "),
         r.responses.join(", ")
     );
-    let end = |e: Option<usize>| match e {
-        Some(p) => r.structure.points[p].clone(),
-        None => "the ground".into(),
-    };
-    let _ = writeln!(
-        s,
-        "## The joint\n\n{} joint from `{}` to {}: {}.\n",
-        r.joint.law,
-        r.structure.points[r.joint.ends.0],
-        end(r.joint.ends.1),
-        r.joint
-            .parameters
-            .iter()
-            .map(|(n, v)| format!("{n} = {v:.4e}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
+    let _ = writeln!(s, "## The joint\n\n{}.\n", r.joint_in_words());
     if !r.fit.at_bounds.is_empty() {
         let _ = writeln!(
             s,

@@ -16,7 +16,7 @@
 //!   across it, `f_d = k_d √(u_lo u_hi)`; [`super::fit_points`] then tries a
 //!   decade either way.
 
-use super::start::{linear_modes_beside, lowest_level};
+use super::start::{linear_modes_beside, lowest_level, median_force};
 use super::{PointJoint, PointMeasurement, problem, with_joint_point, without_joint};
 use crate::error::{Error, Result};
 use crate::model::{ElementKind, ElementSpec, PointModes, Site};
@@ -99,13 +99,9 @@ pub fn highest_level(data: &[PointMeasurement]) -> Result<usize> {
     let first = data
         .first()
         .ok_or_else(|| Error::input("data", "no measurement"))?;
-    let median = |l: &super::PointLevel| {
-        let mut f: Vec<f64> = l.lines.iter().map(|x| x.force_amplitude).collect();
-        f.sort_by(f64::total_cmp);
-        f.get(f.len() / 2).copied().unwrap_or(0.0)
-    };
+    let median = |l: usize| median_force(&first.levels[l]).unwrap_or(0.0);
     (0..first.levels.len())
-        .max_by(|&a, &b| median(&first.levels[a]).total_cmp(&median(&first.levels[b])))
+        .max_by(|&a, &b| median(a).total_cmp(&median(b)))
         .ok_or_else(|| Error::input("data", "no level"))
 }
 

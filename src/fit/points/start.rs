@@ -31,14 +31,17 @@ pub fn lowest_level(data: &[PointMeasurement]) -> Result<usize> {
     let first = data
         .first()
         .ok_or_else(|| Error::input("data", "no measurement"))?;
-    let median = |l: &super::PointLevel| {
-        let mut f: Vec<f64> = l.lines.iter().map(|x| x.force_amplitude).collect();
-        f.sort_by(f64::total_cmp);
-        f.get(f.len() / 2).copied().unwrap_or(f64::INFINITY)
-    };
+    let median = |l: usize| median_force(&first.levels[l]).unwrap_or(f64::INFINITY);
     (0..first.levels.len())
-        .min_by(|&a, &b| median(&first.levels[a]).total_cmp(&median(&first.levels[b])))
+        .min_by(|&a, &b| median(a).total_cmp(&median(b)))
         .ok_or_else(|| Error::input("data", "no level"))
+}
+
+/// The median force amplitude of a level's lines (`None`: no line).
+pub(super) fn median_force(level: &super::PointLevel) -> Option<f64> {
+    let mut f: Vec<f64> = level.lines.iter().map(|x| x.force_amplitude).collect();
+    f.sort_by(f64::total_cmp);
+    f.get(f.len() / 2).copied()
 }
 
 /// The receptance of measurement `m` at each line of `level`.
