@@ -207,23 +207,24 @@ pub struct PointFit {
     /// Jenkins joint), or a fit gone astray; either way not a value to
     /// report as found.
     pub at_bounds: Vec<String>,
-    /// Whether the first descent ended with a joint parameter at a bound
-    /// and the fit was run again with it held there, from another slip
-    /// force (the better of the two is this one).
+    /// Whether the fit ended with a joint parameter at a bound and was run
+    /// again with it held there (the better of the two is this one).
     pub restarted: bool,
     /// The optimiser's run.
     pub run: OptimiserRun,
 }
 
 /// Fits `structure` and `joint` (both as starts) to `data`, the structure
-/// driven at point `drive`, by Levenberg–Marquardt (see the module docs),
-/// from the joint's slip force that meets the data best among a decade
-/// either way of its start. A descent that ends with a joint parameter at
-/// a bound of its range (the law at its limit, as Masing's `n` at its
-/// largest is the Jenkins joint) is run once more with that parameter held
-/// there, from the best slip force at least half a decade from the first's,
-/// and the better of the two is kept ([`PointFit::restarted`]): a free
-/// parameter pressed against its bound stalls the descent of the others.
+/// driven at point `drive`, by Levenberg–Marquardt (see the module docs).
+/// Among a decade either way of the start's slip force, two starts are
+/// descended from, the one that meets the data best and the best half a
+/// decade or more from it, and the better end is kept: on a measured
+/// structure the descents reach different minima. A fit that ends with a
+/// joint parameter at a bound of its range (the law at its limit, as
+/// Masing's `n` at its largest is the Jenkins joint) is run once more from
+/// its start with that parameter held there, and the better of the two is
+/// kept ([`PointFit::restarted`]): a free parameter pressed against its
+/// bound stalls the descent of the others.
 ///
 /// Errors: measurements whose levels or lines differ from one another, a
 /// point out of range, a joint parameter not positive.
@@ -236,18 +237,26 @@ pub fn fit_points(
 ) -> Result<PointFit> {
     structure.validate()?;
     let starts = slip_force_starts(data, structure, drive, joint, options)?;
-    let first = descend(data, structure, drive, (&starts[0], &[]), options)?;
+    // the best start and the best half a decade or more from it: where
+    // the joint slips decides which minimum a descent reaches
+    let slip = |j: &PointJoint| slip_force(j).unwrap_or(1.0);
+    let apart = |j: &&PointJoint| (slip(j) / slip(&starts[0])).ln().abs() >= 0.5 * 10f64.ln();
+    let mut from = &starts[0];
+    let mut first = descend(data, structure, drive, (from, &[]), options)?;
+    if let Some(other) = starts.iter().find(apart) {
+        let second = descend(data, structure, drive, (other, &[]), options)?;
+        if second.residual_rms < first.residual_rms {
+            (first, from) = (second, other);
+        }
+    }
     if first.at_bounds.is_empty() {
         return Ok(first);
     }
     // the law at the limit of its range: held there, the rest descends
-    // again from another slip force
-    let slip = |j: &PointJoint| slip_force(j).unwrap_or(1.0);
-    let apart = |j: &&PointJoint| (slip(j) / slip(&starts[0])).ln().abs() >= 0.5 * 10f64.ln();
-    let other = starts.iter().find(apart).unwrap_or(&starts[0]);
+    // again from the same start
     let held = &first.at_bounds;
     let limit = first.joint.law.parameters();
-    let values: Vec<f64> = (other.law.parameters().iter().zip(&limit))
+    let values: Vec<f64> = (from.law.parameters().iter().zip(&limit))
         .map(|((name, v), (_, at))| {
             if held.iter().any(|h| h == name) {
                 *at
@@ -257,8 +266,8 @@ pub fn fit_points(
         })
         .collect();
     let restart = PointJoint {
-        law: other.law.with_parameters(&values),
-        ..*other
+        law: from.law.with_parameters(&values),
+        ..*from
     };
     let second = descend(data, structure, drive, (&restart, held), options)?;
     let better = if second.residual_rms < first.residual_rms {
