@@ -8,7 +8,7 @@ use hystid::extract::SweepFit;
 use hystid::fit::Weighting;
 use hystid::fit::points::{
     JointPlacement, PointFit, PointFitOptions, PointMeasurement, StartPlan, fit_points,
-    joint_start, predict_points,
+    frf_errors_percent, joint_start, predict_points,
 };
 use hystid::model::ElementKind;
 use hystid::sim::PointSimulator;
@@ -175,24 +175,14 @@ fn fit(data: &[PointMeasurement], law: &str, at: Placement) -> PointFit {
     fit_points(data, &structure, 0, &joint, &PointFitOptions::default()).expect("the fit runs")
 }
 
-/// Each response's FRF error over `data`'s lines: RMS `|H_pred − H_meas|`
-/// over RMS `|H_meas|`, % (a line not solved predicts nothing).
+/// Each response's FRF error on `data`, one level
+/// ([`frf_errors_percent`]).
 fn frf_errors(f: &PointFit, data: &[PointMeasurement]) -> Vec<f64> {
     let predicted =
         predict_points(data, &f.structure, 0, &f.joint, &PointFitOptions::default()).unwrap();
-    data.iter()
-        .enumerate()
-        .map(|(m, d)| {
-            let (mut e, mut s) = (0.0, 0.0);
-            for (l, level) in d.levels.iter().enumerate() {
-                for (i, line) in level.lines.iter().enumerate() {
-                    let p = predicted[l][i].as_ref().map_or(0.0.into(), |h| h[m]);
-                    e += (p - line.h).norm_sqr();
-                    s += line.h.norm_sqr();
-                }
-            }
-            100.0 * (e / s).sqrt()
-        })
+    frf_errors_percent(data, &predicted)
+        .into_iter()
+        .map(|by_level| by_level[0])
         .collect()
 }
 

@@ -18,7 +18,7 @@ use crate::extract::NonlinearFrf;
 use crate::fit::Weighting;
 use crate::fit::points::{
     JointPlacement, PointFit, PointFitOptions, PointMeasurement, StartPlan, fit_points,
-    joint_start, predict_points,
+    frf_errors_percent, joint_start, predict_points,
 };
 use crate::model::{ElementKind, PointModes};
 use crate::observe::{Observer, progress};
@@ -320,19 +320,14 @@ fn sensor_errors(
     data: &[PointMeasurement],
     predicted: &[Vec<Option<Vec<num_complex::Complex64>>>],
 ) -> Vec<SensorError> {
+    let errors = frf_errors_percent(data, predicted);
     let mut out = Vec::new();
-    for (m, d) in data.iter().enumerate() {
-        for (l, level) in d.levels.iter().enumerate() {
-            let (mut e, mut s) = (0.0, 0.0);
-            for (i, line) in level.lines.iter().enumerate() {
-                let p = predicted[l][i].as_ref().map_or(0.0.into(), |h| h[m]);
-                e += (p - line.h).norm_sqr();
-                s += line.h.norm_sqr();
-            }
+    for (m, by_level) in errors.iter().enumerate() {
+        for (level, e) in data[m].levels.iter().zip(by_level) {
             out.push(SensorError {
                 response: request.responses[m].clone(),
                 level: level.level,
-                frf_error_percent: 100.0 * (e / s).sqrt(),
+                frf_error_percent: *e,
             });
         }
     }

@@ -46,6 +46,9 @@ fn print_report(r: &PointsReport) {
             r.fit.at_bounds.join(", ")
         );
     }
+    if r.fit.restarted {
+        say!("  restarted with those held at their bound; the better fit is kept");
+    }
     for m in &r.structure.modes {
         say!(
             "  mode {:.3} Hz, damping {:.3} %",

@@ -112,6 +112,9 @@ fn markdown(r: &PointsReport) -> String {
             r.fit.at_bounds.join(", ")
         );
     }
+    if r.fit.restarted {
+        s.push_str("The fit ended with a joint parameter at a bound and was run again with it held there; the better of the two is this one.\n\n");
+    }
     s.push_str("## The structure beside the joint\n\n| mode | Hz | damping % |\n|---|---|---|\n");
     for (i, m) in r.structure.modes.iter().enumerate() {
         let _ = writeln!(

@@ -401,6 +401,31 @@ pub fn predict_points(
         .collect()
 }
 
+/// Each response's FRF error at each level, `[m][level]`: RMS `|H_pred −
+/// H_meas|` over RMS `|H_meas|` of the level's lines, %, from
+/// [`predict_points`]'s `predicted` (a line not solved predicts nothing).
+pub fn frf_errors_percent(
+    data: &[PointMeasurement],
+    predicted: &[Vec<Option<Vec<Complex64>>>],
+) -> Vec<Vec<f64>> {
+    let level_error = |m: usize, l: usize, level: &PointLevel| {
+        let (mut e, mut s) = (0.0, 0.0);
+        for (i, line) in level.lines.iter().enumerate() {
+            let p = predicted[l][i].as_ref().map_or(0.0.into(), |h| h[m]);
+            e += (p - line.h).norm_sqr();
+            s += line.h.norm_sqr();
+        }
+        100.0 * (e / s).sqrt()
+    };
+    (data.iter().enumerate())
+        .map(|(m, d)| {
+            (d.levels.iter().enumerate())
+                .map(|(l, level)| level_error(m, l, level))
+                .collect()
+        })
+        .collect()
+}
+
 /// [`predict_points`] of level `level`, along its `lines` lines.
 fn predict_level(
     data: &[PointMeasurement],

@@ -300,3 +300,32 @@ fn a_law_at_its_limit_is_named_and_the_fit_restarted() {
     assert!((values[0].1 / KD - 1.0).abs() < 0.01, "{values:?}");
     assert!((values[1].1 / FD - 1.0).abs() < 0.01, "{values:?}");
 }
+
+/// The FRF error of a prediction 10 % strong at every line is 10 %; one
+/// whose lines were not solved predicts nothing and is 100 % off.
+#[test]
+fn the_frf_error_is_the_relative_rms_of_each_level() {
+    let line = |f: f64, h: Complex64| PointLine {
+        frequency_hz: f,
+        force_amplitude: 1.0,
+        h,
+        weight: 1.0,
+    };
+    let level = |lines| PointLevel { level: 1.0, lines };
+    let h = [Complex64::new(1.0, -2.0), Complex64::new(-0.5, 3.0)];
+    let data = vec![PointMeasurement {
+        point: 0,
+        response: Quantity::Acceleration,
+        levels: vec![
+            level(vec![line(10.0, h[0]), line(11.0, h[1])]),
+            level(vec![line(10.0, h[1]), line(11.0, h[0])]),
+        ],
+    }];
+    let predicted = vec![
+        vec![Some(vec![h[0] * 1.1]), Some(vec![h[1] * 1.1])],
+        vec![None, None],
+    ];
+    let e = frf_errors_percent(&data, &predicted);
+    assert!((e[0][0] - 10.0).abs() < 1e-12, "{e:?}");
+    assert!((e[0][1] - 100.0).abs() < 1e-12, "{e:?}");
+}
