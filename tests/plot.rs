@@ -345,6 +345,7 @@ fn nonlinear_frf() -> NonlinearFrf {
         blocks: 4,
         settle_periods: 10,
         settled: true,
+        subharmonic: None,
     };
     let level = |value: f64, direction, idx| FrfLevel {
         level: value,

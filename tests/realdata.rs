@@ -381,6 +381,7 @@ fn peak_refinement_beats_the_grid() {
                 blocks: 1,
                 settle_periods: 0,
                 settled: true,
+                subharmonic: None,
             }
         })
         .collect();

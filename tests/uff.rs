@@ -1090,6 +1090,7 @@ fn awkward_frf() -> NonlinearFrf {
                 blocks: 4,
                 settle_periods: 10,
                 settled: true,
+                subharmonic: None,
             })
             .collect(),
     };

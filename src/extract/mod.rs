@@ -23,6 +23,9 @@
 //!   multisine played several times), its period and the FRF at its lines;
 //!   [`lines`]: the response's mean and noise at the lines of its period, and
 //!   a replay's residual there (what a validation and a diagnosis judge).
+//! * [`subharmonic`]: a dwell's response at `f/2` or `f/3` (a
+//!   period-doubled contact), which harmonic balance at the drive's period
+//!   cannot describe.
 //! * [`welch_h1`]: a broadband (random) drive's FRF and coherence by
 //!   Welch averaging.
 //! * [`naive`]: direct-sum references for tests and benchmarks.
@@ -46,6 +49,7 @@ mod noncoherent;
 mod periodic;
 mod stepped;
 mod streaming;
+mod subharmonic;
 mod sweep;
 mod sweep_blocks;
 mod sweep_reduce;
@@ -64,6 +68,7 @@ pub use stepped::{
     combine, combine_with, find_dwells_whole, reduce_stepped, reduce_stepped_report, settling,
 };
 pub use streaming::reduce_stepped_by_dwell;
+pub use subharmonic::{SUBHARMONIC_RATIO, SUBHARMONIC_SIGNIFICANCE, Subharmonic, subharmonic};
 pub use sweep::{
     MAX_SWEEP_POINTS, SweepFit, SweepLaw, SweepOptions, SweepReduction, find_sweep_whole,
 };
@@ -125,6 +130,11 @@ pub struct FrfPoint {
     /// False when the settling cap was reached before the harmonics agreed.
     #[serde(default = "yes")]
     pub settled: bool,
+    /// The response repeated only every 2 or 3 drive periods (see
+    /// [`subharmonic`]): harmonic balance at the drive's period cannot
+    /// describe the dwell, and its fits leave it out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subharmonic: Option<Subharmonic>,
 }
 
 /// Force and response must be sampled together: an error naming `field`

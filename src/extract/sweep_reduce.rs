@@ -178,6 +178,7 @@ fn point(w: &WindowFit, law: &PhaseLaw, sample_rate_hz: f64, harmonics: &Harmoni
         blocks: 1,
         settle_periods: 0,
         settled: true,
+        subharmonic: None,
     }
 }
 

@@ -164,6 +164,10 @@ pub struct DwellRecord {
     pub clean_receptance: Vec<Complex64>,
     /// Measured noise RMS over clean RMS of the response channel.
     pub noise_ratio: f64,
+    /// The measured response's subharmonic, when it repeats only every 2 or
+    /// 3 periods (see [`crate::extract::subharmonic`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subharmonic: Option<crate::extract::Subharmonic>,
 }
 
 /// One level's recorded signals (f32, as written to files) and its dwells.
@@ -304,6 +308,7 @@ pub fn run(
                                 blocks: d.measured.blocks,
                                 settle_periods: d.settle_periods,
                                 settled: d.settled,
+                                subharmonic: d.subharmonic,
                             })
                             .collect();
                         frf_levels.push(FrfLevel {
@@ -525,6 +530,13 @@ fn run_level(
                 clean_h,
                 clean_receptance,
                 noise_ratio,
+                subharmonic: crate::extract::subharmonic(
+                    &noisy[ri][settle..],
+                    fs,
+                    frequency_hz,
+                    t.max_harmonic,
+                    blocks,
+                ),
             });
             for (dst, src) in [
                 &mut out.force,

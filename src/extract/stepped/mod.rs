@@ -405,6 +405,13 @@ pub(super) fn reduce_stepped_as(
                 blocks: d.blocks,
                 settle_periods: (settle as f64 * f / fs).round() as usize,
                 settled,
+                subharmonic: super::subharmonic(
+                    &response[start..end],
+                    fs,
+                    f,
+                    options.max_harmonic,
+                    options.blocks,
+                ),
             },
         ));
         reports.push(DwellReport {
