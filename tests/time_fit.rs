@@ -565,19 +565,24 @@ fn diagnose_in_the_time_domain_follows_the_joints_history_beside_a_contact() {
     assert!(md.contains("| bilinear_stiffness |"), "{md}");
     // the refitted model's time residual in the FRFs' plane: the replay
     // reduced as the recording was leaves the noise and a little more (on
-    // 96 degrees of freedom per harmonic chi2/dof scatters by 0.14), against
-    // the joint alone's thousands on the FRFs
+    // 94 degrees of freedom per harmonic chi2/dof scatters by 0.15), against
+    // the joint alone's thousands on the FRFs. Of the 48 dwells, the one at
+    // 1229 Hz on the top level repeats every second period (126 % of the
+    // fundamental at f/2): no harmonic-balance prediction holds it, so it
+    // is left out of the plane the candidates are judged in
     let chi2 = &t["residual"]["features"]["chi2_per_dof_by_harmonic"];
     let mut figures: Vec<(String, f64)> = ["1", "2", "3"]
         .iter()
         .map(|h| (format!("H{h} chi2/dof"), chi2[*h].as_f64().unwrap()))
         .collect();
     eprintln!("the time residual: {figures:?}");
-    assert_eq!(t["residual"]["points"], 48);
+    assert_eq!(t["residual"]["points"], 47);
+    let marked = d["subharmonic_dwells"].as_array().expect("subharmonic_dwells");
+    assert_eq!(marked.len(), 1, "{marked:?}");
     for (what, c) in &figures {
         assert!(*c > 0.5 && *c < 2.0, "{what}: {c}");
     }
-    figures.push(("points".into(), 48.0));
+    figures.push(("points".into(), 47.0));
     let shown =
         crate::common::pinned_figures("The contact case's time residual:").expect("pinned figures");
     assert_eq!(shown.len(), figures.len(), "{shown:?}");

@@ -655,6 +655,7 @@ mod tests {
             response_sign: 1.0,
             transfer: false,
             unusable_points: 0,
+            subharmonic_points: Vec::new(),
             anchor: None,
         };
         let lines = model_lines(&model, 1.0, &fine, &HbPredictor::default()).unwrap();
@@ -778,6 +779,7 @@ mod tests {
             response_sign: 1.0,
             transfer: false,
             unusable_points: 0,
+            subharmonic_points: Vec::new(),
             anchor: None,
         };
         let half_power = |sign: f64| {
@@ -821,6 +823,7 @@ mod tests {
             response_sign: 1.0,
             transfer: false,
             unusable_points: 0,
+            subharmonic_points: Vec::new(),
             anchor: None,
         };
         let fine = fine_grid(&data, 5);

@@ -141,7 +141,12 @@ pub(super) fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
             a.describe()
         ));
     }
+    if let Some(s) = crate::fit::SubharmonicPoint::describe(&data.subharmonic_points) {
+        explanation.push(' ');
+        explanation.push_str(&s);
+    }
     Ok(Diagnosis {
+        subharmonic_dwells: data.subharmonic_points.clone(),
         baseline_astray,
         harmonics,
         band_hz,

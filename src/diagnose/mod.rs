@@ -257,6 +257,10 @@ pub struct Diagnosis {
     /// a baseline gone astray, on which the effects added are not trusted.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub baseline_astray: Option<crate::fit::identify::Astray>,
+    /// Dwells left out of the harmonic-balance fits for their subharmonic
+    /// response (see [`crate::extract::subharmonic`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub subharmonic_dwells: Vec<crate::fit::SubharmonicPoint>,
 }
 
 /// The free parameters of a model: every element's, the first mode as an

@@ -183,6 +183,7 @@ mod tests {
             response_sign: 1.0,
             transfer: false,
             unusable_points: 0,
+            subharmonic_points: Vec::new(),
             anchor: None,
         }
     }

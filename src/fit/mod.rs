@@ -22,6 +22,7 @@ pub use optimise::{FitStatus, Optimiser, OptimiserRun};
 pub use params::{N_MAX, Parameter, ParameterSet, Target, Transform};
 pub use predict::HbPredictor;
 pub use problem::{
-    FitData, FitProblem, FrfPredictor, MeasuredPoint, MeasuredSeries, Prediction, Weighting,
+    FitData, FitProblem, FrfPredictor, MeasuredPoint, MeasuredSeries, Prediction, SubharmonicPoint,
+    Weighting, usable_point,
 };
 pub use time::{TimeFitOptions, TimeFitResult, TimeRecord, identify_time};

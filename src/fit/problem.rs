@@ -67,6 +67,11 @@ pub struct FitData {
     /// lowest level stays within one step of the converter).
     #[serde(default)]
     pub unusable_points: usize,
+    /// Dwells left out because the response repeated only every 2 or 3
+    /// drive periods ([`crate::extract::subharmonic`]), which harmonic
+    /// balance at the drive's period cannot describe.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub subharmonic_points: Vec<SubharmonicPoint>,
     /// What the smallest level's linear estimate allows the first mode's
     /// `m, c, k` (see [`super::anchor`]); none where it could not be made.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -74,10 +79,13 @@ pub struct FitData {
 }
 
 /// Whether a measured point can be weighed: a non-zero, finite fundamental
-/// and finite, positive standard errors for every harmonic in `harmonics`.
+/// and finite, positive standard errors for every harmonic in `harmonics`,
+/// and no subharmonic response (which a harmonic-balance model at the
+/// drive's period cannot describe).
 pub fn usable_point(p: &crate::extract::FrfPoint, harmonics: &[usize]) -> bool {
     let h1 = p.h.get(1).copied().unwrap_or_default();
-    p.frequency_hz > 0.0
+    p.subharmonic.is_none()
+        && p.frequency_hz > 0.0
         && h1.norm() > 0.0
         && h1.re.is_finite()
         && h1.im.is_finite()
@@ -88,6 +96,53 @@ pub fn usable_point(p: &crate::extract::FrfPoint, harmonics: &[usize]) -> bool {
                     .get(k)
                     .is_some_and(|s| s.is_finite() && *s > 0.0)
         })
+}
+
+/// A measured dwell left out of the harmonic-balance fit for its
+/// subharmonic response.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SubharmonicPoint {
+    /// Nominal level of its series.
+    pub level: f64,
+    /// Drive frequency, Hz.
+    pub frequency_hz: f64,
+    /// What was measured.
+    pub subharmonic: crate::extract::Subharmonic,
+}
+
+impl SubharmonicPoint {
+    /// One sentence on the dwells left out for their subharmonic response
+    /// (none when there are none).
+    pub fn describe(points: &[SubharmonicPoint]) -> Option<String> {
+        let first = points.first()?;
+        let (mut lo, mut hi, mut top) = (first.frequency_hz, first.frequency_hz, 0.0f64);
+        let mut orders = Vec::new();
+        for p in points {
+            lo = lo.min(p.frequency_hz);
+            hi = hi.max(p.frequency_hz);
+            top = top.max(p.subharmonic.ratio);
+            if !orders.contains(&p.subharmonic.order) {
+                orders.push(p.subharmonic.order);
+            }
+        }
+        orders.sort_unstable();
+        let at: Vec<String> = orders.iter().map(|q| format!("f/{q}")).collect();
+        Some(format!(
+            "{} dwell(s) between {lo:.4} and {hi:.4} Hz responded at {} (up to {:.0} % of the \
+             fundamental): the response repeats only every {} drive periods, as a one-sided \
+             contact driven near a multiple of its natural frequency does, which harmonic \
+             balance at the drive's period cannot describe; they were left out of the fit \
+             (a time-domain fit keeps them).",
+            points.len(),
+            at.join(" and "),
+            100.0 * top,
+            orders
+                .iter()
+                .map(|q| q.to_string())
+                .collect::<Vec<_>>()
+                .join(" or "),
+        ))
+    }
 }
 
 fn plus_one() -> f64 {
@@ -118,6 +173,7 @@ impl FitData {
         }
         let mut series = Vec::new();
         let mut unusable_points = 0;
+        let mut subharmonic_points = Vec::new();
         for (i, l) in frf.levels.iter().enumerate() {
             if levels.is_some_and(|ls| !ls.contains(&i)) {
                 continue;
@@ -130,7 +186,14 @@ impl FitData {
                 })
                 .filter(|p| {
                     let ok = usable_point(p, harmonics);
-                    unusable_points += usize::from(!ok);
+                    match p.subharmonic {
+                        Some(subharmonic) => subharmonic_points.push(SubharmonicPoint {
+                            level: l.level,
+                            frequency_hz: p.frequency_hz,
+                            subharmonic,
+                        }),
+                        None => unusable_points += usize::from(!ok),
+                    }
                     ok
                 })
                 .map(|p| MeasuredPoint {
@@ -162,6 +225,7 @@ impl FitData {
             response_sign: 1.0,
             transfer: false,
             unusable_points,
+            subharmonic_points,
             anchor: None,
         })
     }

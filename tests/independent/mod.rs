@@ -16,3 +16,4 @@ mod multisine;
 mod reference;
 mod sample;
 mod shaker;
+mod subharmonic;

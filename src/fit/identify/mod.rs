@@ -629,6 +629,9 @@ fn identify_from(
             &linear.stick,
             frf.reference,
         ));
+    if let Some(s) = super::problem::SubharmonicPoint::describe(&data.subharmonic_points) {
+        notes.push(s);
+    }
     if data.unusable_points > 0 {
         notes.push(format!(
             "{} measured point(s) left out: a zero fundamental or a zero standard error (a response below the recording's resolution)",
