@@ -577,7 +577,9 @@ fn diagnose_in_the_time_domain_follows_the_joints_history_beside_a_contact() {
         .collect();
     eprintln!("the time residual: {figures:?}");
     assert_eq!(t["residual"]["points"], 47);
-    let marked = d["subharmonic_dwells"].as_array().expect("subharmonic_dwells");
+    let marked = d["subharmonic_dwells"]
+        .as_array()
+        .expect("subharmonic_dwells");
     assert_eq!(marked.len(), 1, "{marked:?}");
     for (what, c) in &figures {
         assert!(*c > 0.5 && *c < 2.0, "{what}: {c}");
