@@ -166,3 +166,47 @@ fn identify_points_refuses_a_joint_at_an_unknown_sensor() {
     assert!(said.contains("--joint") && said.contains("`a4`"), "{said}");
     assert!(!out.exists());
 }
+
+/// The library's reduction at every sensor is each channel's own reduction
+/// (the one `identify` makes), cut to the band: the same lines at every
+/// sensor, none outside the band, and no sweep reading for a stepped sine.
+#[test]
+fn reduce_at_sensors_is_each_channels_reduction_cut_to_the_band() {
+    use hystid::analysis::points::{PointsRequest, reduce_at_sensors};
+    use hystid::analysis::recording::{ChannelChoice, ReductionOptions, reduce_path};
+    let dir = tempfile::tempdir().unwrap();
+    let rec = record_chain(dir.path());
+    let request = PointsRequest {
+        responses: ["a1", "a2", "a3"].map(String::from).to_vec(),
+        drive: "a1".into(),
+        joint: "a2:a3".into(),
+        law: "jenkins".into(),
+        band_hz: Some("20:60".into()),
+        modes: 3,
+        ..PointsRequest::default()
+    };
+    let (frfs, sweep) = reduce_at_sensors(&rec, &request).unwrap();
+    assert!(sweep.is_none());
+    assert_eq!(frfs.len(), 3);
+    for (frf, name) in frfs.iter().zip(["a1", "a2", "a3"]) {
+        let own = reduce_path(
+            &rec,
+            ChannelChoice::response(Some(name)),
+            &ReductionOptions::default(),
+            &hystid::observe::Silent,
+        )
+        .unwrap()
+        .frf;
+        assert_eq!(frf.levels.len(), 4, "{name}");
+        for (cut, whole) in frf.levels.iter().zip(&own.levels) {
+            let inside: Vec<_> = whole
+                .points
+                .iter()
+                .filter(|p| (20.0..=60.0).contains(&p.frequency_hz))
+                .collect();
+            // 32 lines over 10-80 Hz, 2.26 Hz apart: 18 inside 20-60 Hz
+            assert_eq!(cut.points.len(), 18, "{name}");
+            assert_eq!(cut.points.iter().collect::<Vec<_>>(), inside, "{name}");
+        }
+    }
+}

@@ -1,9 +1,8 @@
 //! The F-16 at three points: import, reduction, fits and judgements.
 
 use super::protocols;
-use hystid::analysis::recording::{
-    ChannelChoice, Compensation, ReductionOptions, SineTest, load_recording, reduce_path,
-};
+use hystid::analysis::points::{PointsRequest, reduce_at_sensors};
+use hystid::analysis::recording::{ChannelChoice, ReductionOptions, SineTest, load_recording};
 use hystid::extract::SweepFit;
 use hystid::fit::Weighting;
 use hystid::fit::points::{
@@ -76,46 +75,35 @@ pub fn levels(dir: &Path, work: &Path) -> Vec<Level> {
         .collect()
 }
 
-/// Each response of the recording at `path` reduced (swept, 4 periods a
-/// hop, every response with the sweep compensation the wing's reduction
-/// chooses, so that all share the force's lines) and cut to the band.
+/// Each response of the recording at `path` reduced as `identify-points`
+/// reduces it (swept, 4 periods a hop, every response with the drive
+/// point's sweep compensation, so that all share the force's lines) and
+/// cut to the band.
 fn reduce(path: &Path) -> (Vec<PointMeasurement>, SweepFit) {
-    let mut options = ReductionOptions {
-        excitation: Some(SineTest::Swept),
-        hop_periods: 4.0,
-        ..ReductionOptions::default()
+    let request = PointsRequest {
+        responses: RESPONSES.map(String::from).to_vec(),
+        drive: RESPONSES[0].into(),
+        joint: "own".into(),
+        law: "masing".into(),
+        band_hz: Some(format!("{}:{}", BAND.0, BAND.1)),
+        modes: MODES.0,
+        outside_hz: MODES.1.to_vec(),
+        reduction: ReductionOptions {
+            excitation: Some(SineTest::Swept),
+            hop_periods: 4.0,
+            ..ReductionOptions::default()
+        },
+        ..PointsRequest::default()
     };
-    let one = |name: &str, options: &ReductionOptions| {
-        reduce_path(
-            path,
-            ChannelChoice::response(Some(name)),
-            options,
-            &hystid::observe::Silent,
-        )
-        .expect("the sweep reduces")
-    };
-    let red = one(RESPONSES[1], &options);
-    let (wing, reading) = (red.frf, red.sweep.expect("a swept reading"));
-    if let Some(c) = reading.compensation_s {
-        options.compensation = Compensation::Seconds(c);
-    }
-    let data = RESPONSES
+    let (frfs, reading) = reduce_at_sensors(path, &request).expect("the sweep reduces");
+    let data = frfs
         .iter()
         .enumerate()
-        .map(|(p, name)| {
-            let mut frf = if p == 1 {
-                wing.clone()
-            } else {
-                one(name, &options).frf
-            };
-            for l in &mut frf.levels {
-                l.points
-                    .retain(|x| (BAND.0..=BAND.1).contains(&x.frequency_hz));
-            }
-            PointMeasurement::from_frf(p, &frf, Weighting::None).expect("acceleration over force")
+        .map(|(p, frf)| {
+            PointMeasurement::from_frf(p, frf, Weighting::None).expect("acceleration over force")
         })
         .collect();
-    (data, reading.sweep)
+    (data, reading.expect("a swept reading").sweep)
 }
 
 /// The levels at `which` as one data set.

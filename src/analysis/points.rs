@@ -11,7 +11,7 @@
 
 mod output;
 
-use super::recording::{ChannelChoice, Compensation, ReductionOptions, reduce_path};
+use super::recording::{ChannelChoice, Compensation, ReductionOptions, SweptReading, reduce_path};
 use super::request::{parse_joint, parse_range};
 use crate::error::{Error, Result};
 use crate::extract::NonlinearFrf;
@@ -252,7 +252,7 @@ fn measurements(
     let mut frfs: Vec<Vec<NonlinearFrf>> = vec![Vec::new(); sensors];
     let total = (request.recordings.len() * sensors) as u64;
     for (r, path) in request.recordings.iter().enumerate() {
-        let reduced = reduce_sensors(path, request, checked, |done| {
+        let (reduced, _) = reduce_sensors(path, request, checked, |done| {
             progress(observer, "reducing", (r * sensors + done) as u64, total)
         })?;
         for (p, frf) in reduced.into_iter().enumerate() {
@@ -274,14 +274,33 @@ fn measurements(
     Ok((data, frfs))
 }
 
+/// One recording reduced at every sensor as [`identify_points`] reduces
+/// it: each response's FRFs cut to the band, in the order of
+/// `request.responses`, and the drive point's sweep reading when the
+/// recording was swept (its compensation is every sensor's). For callers
+/// that fit or judge the sensors otherwise; `request.recordings` is not
+/// read.
+pub fn reduce_at_sensors(
+    path: &Path,
+    request: &PointsRequest,
+) -> Result<(Vec<NonlinearFrf>, Option<SweptReading>)> {
+    let request = PointsRequest {
+        recordings: vec![path.to_path_buf()],
+        ..request.clone()
+    };
+    let checked = request.validate()?;
+    reduce_sensors(path, &request, &checked, |_| Ok(()))
+}
+
 /// `path` reduced at every response, the drive point's first (its sweep
-/// compensation then holds for all), each cut to the band.
+/// compensation then holds for all), each cut to the band; with the drive
+/// point's sweep reading.
 fn reduce_sensors(
     path: &Path,
     request: &PointsRequest,
     checked: &CheckedPoints,
     done: impl Fn(usize) -> Result<()>,
-) -> Result<Vec<NonlinearFrf>> {
+) -> Result<(Vec<NonlinearFrf>, Option<SweptReading>)> {
     let mut options = request.reduction.clone();
     let silent = &crate::observe::Silent;
     let one = |name: &str, options: &ReductionOptions| {
@@ -311,7 +330,7 @@ fn reduce_sensors(
         out.push(frf);
         done(p + 1)?;
     }
-    Ok(out)
+    Ok((out, first.sweep))
 }
 
 /// Each sensor's FRF error at each level.
