@@ -240,7 +240,7 @@ impl FinalModel {
         let data =
             FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?.with_sign(d.response_sign);
         let set = model_parameters(&d.model, data.band_hz());
-        let pred = predictor.predict(&d.model, &data)?;
+        let pred = predictor.predict_from(&d.model, &data, d.final_prediction.as_ref())?;
         let error = error_report(&data, &pred, f64::NAN, set.len());
         let problem = FitProblem::new(
             d.model.clone(),

@@ -161,6 +161,7 @@ pub(super) fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         explanation,
         baseline_model,
         model: current.model,
+        final_prediction: Some(current.pred),
         response_sign,
     })
 }

@@ -261,6 +261,12 @@ pub struct Diagnosis {
     /// response (see [`crate::extract::subharmonic`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub subharmonic_dwells: Vec<crate::fit::SubharmonicPoint>,
+    /// The final model's prediction at the points judged, as the diagnosis
+    /// left it: a start that keeps a report's figures on the branch the
+    /// diagnosis followed where a harmonic balance has more than one
+    /// (absent when read back from JSON).
+    #[serde(skip)]
+    pub final_prediction: Option<Prediction>,
 }
 
 /// The free parameters of a model: every element's, the first mode as an
