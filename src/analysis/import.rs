@@ -94,6 +94,16 @@ pub fn is_recording(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("wav") || e.eq_ignore_ascii_case("json"))
 }
 
+/// The folder `import` writes its files into for `out` (the current
+/// folder for a bare stem).
+pub fn output_folder(out: &Path, input: &Path) -> PathBuf {
+    let [_, json, _] = output_files(out, input);
+    json.parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf()
+}
+
 /// The files `import` writes for `out` (NAME.wav or NAME.json also mean
 /// the stem NAME): NAME.wav, NAME.json, NAME.quality.json.
 pub fn output_files(out: &Path, input: &Path) -> [PathBuf; 3] {

@@ -21,6 +21,7 @@ pub mod frf_uff;
 pub mod identify;
 pub mod import;
 pub mod multisine;
+pub mod paths;
 pub mod points;
 pub mod recording;
 pub mod request;

@@ -118,231 +118,27 @@ pub fn create_out_dir(dir: &Path) -> Result<hystid::atomic::OutDir> {
     Ok(hystid::atomic::OutDir::claim(dir)?)
 }
 
-/// Checks the paths a command is given before it does any work: no
-/// directory where files are read, an output folder that can be one.
+/// Checks the paths a command is given before it does any work (the rules
+/// are the library's, [`hystid::analysis::paths`]): which of its arguments
+/// are files read, which a model, and where its outputs go.
 pub fn check_paths(command: &args::Command) -> Result<()> {
     use args::Command;
-    let (name, inputs, reads, model, out, given) = match command {
-        Command::Simulate(a) => (
-            "simulate",
-            &[][..],
-            Reads::Recordings,
-            None,
-            a.out.clone(),
-            &a.out,
-        ),
-        Command::Run(a) => (
-            "run",
-            &[][..],
-            Reads::Recordings,
-            None,
-            a.out.clone(),
-            &a.out,
-        ),
-        Command::Identify(a) => (
-            "identify",
-            &a.recordings[..],
-            Reads::Recordings,
-            a.start.as_deref(),
-            a.out.clone(),
-            &a.out,
-        ),
-        Command::Diagnose(a) => (
-            "diagnose",
-            &a.recordings[..],
-            Reads::Recordings,
-            None,
-            a.out.clone(),
-            &a.out,
-        ),
-        Command::Validate(a) => (
-            "validate",
-            &a.recordings[..],
-            Reads::Recordings,
-            Some(a.fit.as_path()),
-            a.out.clone(),
-            &a.out,
-        ),
-        Command::IdentifyPoints(a) => (
-            "identify-points",
-            &a.recordings[..],
-            Reads::Recordings,
-            None,
-            a.out.clone(),
-            &a.out,
-        ),
+    use hystid::analysis::paths::{self, Reads};
+    let (name, inputs, model, out) = match command {
+        Command::Simulate(a) => ("simulate", &[][..], None, &a.out),
+        Command::Run(a) => ("run", &[][..], None, &a.out),
+        Command::Identify(a) => ("identify", &a.recordings[..], a.start.as_deref(), &a.out),
+        Command::Diagnose(a) => ("diagnose", &a.recordings[..], None, &a.out),
+        Command::Validate(a) => ("validate", &a.recordings[..], Some(a.fit.as_path()), &a.out),
+        Command::IdentifyPoints(a) => ("identify-points", &a.recordings[..], None, &a.out),
         Command::Import(a) => {
-            refuse_directory_input(&a.file, "import", Reads::Imports)?;
-            let [_, json, _] = hystid::analysis::import::output_files(&a.out, &a.file);
-            let dir = json
-                .parent()
-                .filter(|d| !d.as_os_str().is_empty())
-                .unwrap_or(Path::new("."))
-                .to_path_buf();
-            ("import", &[][..], Reads::Imports, None, dir, &a.out)
+            paths::refuse_directory(&a.file, "import", Reads::Imports).map_err(refused)?;
+            let dir = hystid::analysis::import::output_folder(&a.out, &a.file);
+            return paths::check_out_dir(&dir, &a.out).map_err(refused);
         }
     };
-    if let Some(m) = model {
-        refuse_directory_input(m, name, Reads::Model)?;
-    }
-    for p in inputs {
-        refuse_directory_input(p, name, reads)?;
-        if hystid::import::wav::is_plain_wav(p) {
-            anyhow::bail!(
-                "{}: a WAV without its JSON sidecar ({}), which says what its channels are: \
-                 import it first, e.g. `hystid import {} --out recordings/ -c force=#1:force \
-                 -c acc=#2:acceleration`, then give the recording it writes",
-                p.display(),
-                p.with_extension("json").display(),
-                p.display()
-            );
-        }
-    }
-    check_out_dir(&out, given)
-}
-
-/// Refuses an output location that cannot be a folder (an existing file, or
-/// a path under one), before any work: a command would otherwise reduce or
-/// fit for minutes and fail at its first write.
-pub fn check_out_dir(dir: &Path, given: &Path) -> Result<()> {
-    // the nearest part of the path that exists must be a folder
-    let existing = dir
-        .ancestors()
-        .filter(|a| !a.as_os_str().is_empty())
-        .find(|a| a.symlink_metadata().is_ok());
-    if let Some(a) = existing
-        && !a.is_dir()
-    {
-        let what = if a == given {
-            "is a file, not a folder".to_string()
-        } else {
-            format!("{} is a file, not a folder", a.display())
-        };
-        anyhow::bail!(
-            "--out {}: {what}: give a folder (created if missing) for the outputs",
-            given.display()
-        );
-    }
-    Ok(())
-}
-
-/// What a command reads from the paths it is given, for the message that
-/// refuses a directory among them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Reads {
-    /// Recordings: NAME.wav with its NAME.json, or a run.mcap.
-    Recordings,
-    /// A file `import` converts.
-    Imports,
-    /// A fitted or written-down model (fit.json, diagnosis.json, *.toml).
-    Model,
-}
-
-/// Names the entries of `dir` that `keep` accepts, at most a few, for a
-/// message (`a.wav, b.wav and 3 more`); none: empty.
-fn listing(dir: &Path, keep: impl Fn(&Path) -> bool) -> (Vec<std::path::PathBuf>, String) {
-    const SHOWN: usize = 8;
-    let mut found: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
-        .map(|r| {
-            r.filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.is_file() && keep(p))
-                .collect()
-        })
-        .unwrap_or_default();
-    found.sort();
-    let mut text: Vec<String> = found
-        .iter()
-        .take(SHOWN)
-        .map(|p| p.display().to_string())
-        .collect();
-    if found.len() > SHOWN {
-        text.push(format!("and {} more", found.len() - SHOWN));
-    }
-    let text = text.join(", ");
-    (found, text)
-}
-
-fn has_extension(p: &Path, exts: &[&str]) -> bool {
-    p.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| exts.iter().any(|x| e.eq_ignore_ascii_case(x)))
-}
-
-/// A recording a command reads as it is: a run.mcap, or NAME.wav beside
-/// its NAME.json.
-fn is_recording_file(p: &Path) -> bool {
-    has_extension(p, &["mcap"])
-        || (has_extension(p, &["wav"]) && !hystid::import::wav::is_plain_wav(p))
-}
-
-/// Refuses a directory where `command` reads files, saying which files in
-/// it would do.
-pub fn refuse_directory_input(path: &Path, command: &str, reads: Reads) -> Result<()> {
-    if !path.is_dir() {
-        return Ok(());
-    }
-    let d = path.display();
-    let imported = |p: &Path| hystid::import::reads(p) && !is_recording_file(p);
-    let message = match reads {
-        Reads::Recordings => {
-            let (found, text) = listing(path, is_recording_file);
-            if let Some(first) = found.first() {
-                format!(
-                    "{d}: is a directory: name the recording files to read, e.g. `hystid \
-                     {command} {} --out ...`; recordings in it: {text}",
-                    first.display()
-                )
-            } else {
-                let (found, text) = listing(path, imported);
-                match found.first() {
-                    Some(first) => format!(
-                        "{d}: is a directory, and holds no recording (NAME.wav with its \
-                         NAME.json, or run.mcap): import its files first, one at a time \
-                         (e.g. `hystid import {} --out recordings/ -c NAME=SOURCE:QUANTITY`), \
-                         then name the recordings; files in it that import reads: {text}",
-                        first.display()
-                    ),
-                    None => format!(
-                        "{d}: is a directory, and holds no recording (NAME.wav with its \
-                         NAME.json, or run.mcap) and no file that `hystid import` reads"
-                    ),
-                }
-            }
-        }
-        Reads::Imports => {
-            let (found, text) = listing(path, hystid::import::reads);
-            match found.first() {
-                Some(first) => format!(
-                    "{d}: is a directory: import one file at a time, e.g. `hystid import {} \
-                     --out recordings/ -c NAME=SOURCE:QUANTITY`; files in it that import \
-                     reads: {text}",
-                    first.display()
-                ),
-                None => format!(
-                    "{d}: is a directory, and holds no file that import reads (.mat, .csv, \
-                     .tsv, .txt, .dat, .wav, UFF): name a file"
-                ),
-            }
-        }
-        Reads::Model => {
-            let (found, text) = listing(path, |p| {
-                p.file_name()
-                    .is_some_and(|n| n == "fit.json" || n == "diagnosis.json")
-                    || has_extension(p, &["toml"])
-            });
-            match found.first() {
-                Some(first) => format!(
-                    "{d}: is a directory: name the model file, e.g. {}; models in it: {text}",
-                    first.display()
-                ),
-                None => format!(
-                    "{d}: is a directory: name the model file (a fit.json, a \
-                     diagnosis.json or a *.toml)"
-                ),
-            }
-        }
-    };
-    anyhow::bail!("{message}")
+    paths::check_inputs(name, inputs, model).map_err(refused)?;
+    paths::check_out_dir(out, out).map_err(refused)
 }
 
 /// Reads a test definition file, or the embedded default; returns it with
