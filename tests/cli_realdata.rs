@@ -1495,6 +1495,9 @@ fn unesp_first_mode_diagnosis_is_as_pinned() {
     }
 }
 
+/// A pinned table's column: its heading and how a row's figure is read.
+type Column = (&'static str, fn(&serde_json::Value) -> f64);
+
 /// Runs `protocol` on the data set `name` (nothing where it is absent)
 /// and pins each row it returns to the validation pages' row that starts with the
 /// matching `rows` entry: the figures `columns` read from it, in the
@@ -1504,7 +1507,7 @@ fn pin_protocol_rows(
     name: &str,
     protocol: fn(&Path, &Path) -> Vec<serde_json::Value>,
     rows: [&str; 3],
-    columns: &[(&str, fn(&serde_json::Value) -> f64)],
+    columns: &[Column],
 ) -> Vec<serde_json::Value> {
     let Some(dir) = common::dataset(name) else {
         return Vec::new();
@@ -1536,7 +1539,7 @@ fn field(r: &serde_json::Value, k: &str) -> f64 {
 #[test]
 fn datasets_time_protocols_are_as_pinned() {
     let work = tempfile::tempdir().unwrap();
-    let columns: [(&str, fn(&serde_json::Value) -> f64); 4] = [
+    let columns: [Column; 4] = [
         ("e_RMS", |r| field(r, "e_rms")),
         ("its share of the RMS (%)", |r| {
             100.0 * field(r, "e_rms_relative")
@@ -2098,7 +2101,7 @@ fn pin_from_start_rows(
     protocol: fn(&Path, &Path) -> Vec<serde_json::Value>,
     rows: [&str; 3],
 ) -> Vec<PathBuf> {
-    let columns: [(&str, fn(&serde_json::Value) -> f64); 3] = [
+    let columns: [Column; 3] = [
         ("e_RMS", |r| field(r, "e_rms")),
         ("its share of the RMS (%)", |r| {
             100.0 * field(r, "e_rms_relative")

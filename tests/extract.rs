@@ -751,7 +751,7 @@ fn a_sweep_with_more_periods_than_points_allowed_is_read_at_a_longer_hop() {
         capped.hop_periods
     );
     assert!(n_all > 150, "{n_all}");
-    assert!(n_capped <= 40 && n_capped >= 38, "{n_capped}");
+    assert!((38..=40).contains(&n_capped), "{n_capped}");
     // the swept phase over the cap, as the sweep's span says (2.5 t^2 over 8 s)
     assert!(
         (capped.hop_periods - 4.0).abs() < 0.05,

@@ -969,7 +969,7 @@ fn hb_speed_report() {
         fd: FD,
         n: 22.55,
     };
-    let model = Model::new(linear.clone(), vec![masing.clone()]).unwrap();
+    let model = Model::new(linear.clone(), vec![masing]).unwrap();
     let freqs = grid(100.0, 350.0, 51);
     let levels = [5.0, 50.0, 200.0, 500.0, 1000.0, 3000.0, 30000.0];
     let opts = HbOptions::default();
@@ -1152,7 +1152,7 @@ fn every_point_converges_over_a_fit_like_parameter_range() {
                 .into_iter()
                 .chain([ElementSpec::Jenkins { kd, fd }]);
             for spec in specs {
-                let model = Model::new(paper_linear(), vec![spec.clone()]).unwrap();
+                let model = Model::new(paper_linear(), vec![spec]).unwrap();
                 for s in hb::frf_set_for_model(&model, &levels, &freqs, &opts).unwrap() {
                     for p in &s.points {
                         points += 1;

@@ -502,7 +502,7 @@ fn jenkins_error_converges_at_second_order_through_slip_transitions() {
         let ratio = w[0] / w[1];
         eprintln!("per halving of the sample interval: {ratio:.2}x");
         // second order is 4x; 3.5 is the floor
-        assert!(ratio >= 3.5 && ratio < 4.6, "{errors:?}");
+        assert!((3.5..4.6).contains(&ratio), "{errors:?}");
     }
     // its size is the sampled force's sinc² deficit, (π f/fs)²/3 = 2.0e-4 at
     // 32 kHz, near resonance: no more than twice it

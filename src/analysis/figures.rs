@@ -612,10 +612,10 @@ mod tests {
     /// k3 = 2e7 N/m³) driven at 1 N has a fold: two stable branches from
     /// above f0 to where the backbone `ω² = ω0² (1 + ¾ (k3/k) A²)` meets the
     /// peak amplitude `A = F/(c ω)` (the single-harmonic estimate of where an
-    /// up sweep drops, here 11.9 Hz). Both continuations are drawn, a factor
-    /// > 2 apart inside the fold, each the oscillator's steady response by a
-    /// harmonic balance written out in this test, and the up sweep's line is
-    /// broken where it drops instead of joining the branches.
+    /// up sweep drops, here 11.9 Hz). Both continuations are drawn, more than
+    /// a factor 2 apart inside the fold, each the oscillator's steady response
+    /// by a harmonic balance written out in this test, and the up sweep's line
+    /// is broken where it drops instead of joining the branches.
     #[test]
     fn a_fold_is_drawn_as_its_two_branches() {
         use std::f64::consts::PI;

@@ -61,7 +61,7 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         },
         def.test.response.quantity().name().to_string(),
         fit,
-        reference.clone(),
+        reference,
         Vec::new(),
     );
     let mut report = report;

@@ -133,7 +133,9 @@ pub fn fit_sdof(samples: &[FrfSample], quantity: Quantity, what: &str) -> Result
         1.0
     };
     let (k, m, c) = (sign * k, sign * m, sign * c);
-    if !better || !(k > 0.0 && m > 0.0 && c >= 0.0 && k.is_finite() && m.is_finite()) {
+    // written to refuse a NaN as well as a value out of range
+    let physical = k > 0.0 && m > 0.0 && c >= 0.0 && k.is_finite() && m.is_finite();
+    if !better || !physical {
         return plain;
     }
     Ok(estimate(&pts, k, m, c, sign, a, b))

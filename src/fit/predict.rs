@@ -15,6 +15,14 @@ use crate::model::Model;
 use num_complex::Complex64;
 use rayon::prelude::*;
 
+/// One series' prediction: each point's harmonics judged and its solved
+/// state (`None` where the solve failed), and the points solved.
+type SeriesPrediction = (
+    Vec<Option<Vec<Complex64>>>,
+    Vec<Option<Vec<Complex64>>>,
+    usize,
+);
+
 /// Predicts measured FRFs by harmonic balance.
 #[derive(Clone, Debug, Default)]
 pub struct HbPredictor {
@@ -133,13 +141,7 @@ impl HbPredictor {
             .zip(starts)
             .map(|(s, st)| (s, st, sets.clone()))
             .collect();
-        let series: Vec<
-            Result<(
-                Vec<Option<Vec<Complex64>>>,
-                Vec<Option<Vec<Complex64>>>,
-                usize,
-            )>,
-        > = jobs
+        let series: Vec<Result<SeriesPrediction>> = jobs
             .into_par_iter()
             .map(|(s, st, mut elements)| {
                 let mut solvers = parts

@@ -924,9 +924,9 @@ mod tests {
             kd: 2.4e7,
             fd: 246.0,
         };
-        let m = Model::new(linear.clone(), vec![cubic.clone(), jenkins.clone()]).unwrap();
-        assert_eq!(m.joint, Some(jenkins.clone()));
-        assert_eq!(m.effects, vec![cubic.clone()]);
+        let m = Model::new(linear.clone(), vec![cubic, jenkins]).unwrap();
+        assert_eq!(m.joint, Some(jenkins));
+        assert_eq!(m.effects, vec![cubic]);
         assert_eq!(
             m.placed().map(|(at, _)| at).collect::<Vec<_>>(),
             [ElementAt::Joint, ElementAt::Effect(0)]
@@ -943,11 +943,11 @@ mod tests {
         o.insert("elements".into(), serde_json::json!([e[0], j]));
         assert_eq!(serde_json::from_value::<Model>(old).unwrap(), m);
         // misplaced laws
-        let e = Model::new(linear.clone(), vec![jenkins.clone(), jenkins.clone()])
+        let e = Model::new(linear.clone(), vec![jenkins, jenkins])
             .unwrap_err()
             .to_string();
         assert!(e.contains("one joint"), "{e}");
-        let e = Model::with_joint(linear.clone(), Some(cubic.clone()), vec![])
+        let e = Model::with_joint(linear.clone(), Some(cubic), vec![])
             .unwrap_err()
             .to_string();
         assert!(e.contains("joint") && e.contains("cubic_stiffness"), "{e}");

@@ -348,7 +348,7 @@ pub fn run(
     })
 }
 
-fn channel<'a>(r: &'a Response, q: Quantity) -> &'a [f64] {
+fn channel(r: &Response, q: Quantity) -> &[f64] {
     match q {
         Quantity::Displacement => &r.displacement,
         Quantity::Velocity => &r.velocity,

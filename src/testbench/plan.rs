@@ -611,7 +611,7 @@ impl StructureDefinition {
             match e {
                 EffectSpec::Element(spec) => {
                     spec.validate(&at)?;
-                    effects.push(spec.clone());
+                    effects.push(*spec);
                 }
                 EffectSpec::SecondMode(m) => {
                     let mode = Mode::from_modal_mass(m.frequency_hz, m.damping_ratio, m.modal_mass)
@@ -620,7 +620,7 @@ impl StructureDefinition {
                 }
             }
         }
-        Model::with_joint(ModalModel::new(modes)?, self.joint.0.clone(), effects)
+        Model::with_joint(ModalModel::new(modes)?, self.joint.0, effects)
     }
 }
 

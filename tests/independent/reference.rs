@@ -260,13 +260,13 @@ fn reference_masing_rules_and_wipe_out() {
     // an inner loop b -> c -> b closes and the branch from a resumes
     let c = 0.7 * xs;
     walk(&mut h, b, c);
-    let back = walk(&mut h, c, -1.0 * xs);
+    let back = walk(&mut h, c, -xs);
     assert!(
-        (back - (f(a) + 2.0 * f((-1.0 * xs - a) / 2.0))).abs() < 1e-9 * fd,
+        (back - (f(a) + 2.0 * f((-xs - a) / 2.0))).abs() < 1e-9 * fd,
         "{back}"
     );
     // continue past -a: back on the backbone (the branch meets it at -a)
-    let beyond = walk(&mut h, -1.0 * xs, -3.0 * xs);
+    let beyond = walk(&mut h, -xs, -3.0 * xs);
     assert!(
         (beyond - f(-3.0 * xs)).abs() < 1e-9 * fd,
         "{beyond} vs {}",

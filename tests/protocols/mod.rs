@@ -281,6 +281,7 @@ pub const BOUC_WEN_FIT: [&str; 8] = [
 /// A protocol of swept records: `records` imported, those at `fit` fitted
 /// with `options`, those at `held_out` judged inside `band`, against the
 /// linearised model too.
+#[allow(clippy::too_many_arguments)] // one per column of the protocol's table
 fn swept_protocol(
     dataset: &'static str,
     records: &[PathBuf],

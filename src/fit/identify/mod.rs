@@ -466,7 +466,7 @@ pub fn linear_from_levels_with(
     // (the largest level unless another is softer by more than 2 %: within
     // that, levels that all slip freely differ by noise and by the friction
     // damping, which is least at the largest level)
-    let (lo, stick) = fits[0].clone();
+    let (lo, stick) = fits[0];
     let largest = fits.last().cloned().expect("two fits");
     let softest = fits
         .iter()

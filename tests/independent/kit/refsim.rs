@@ -525,7 +525,7 @@ impl RefSystem {
     /// `substeps` RK4 steps per sample, from rest.
     pub fn simulate(&self, force: &impl Drive, fs: f64, n: usize, substeps: usize) -> RefOutput {
         let nm = self.modes.len();
-        assert!(nm >= 1 && nm <= MAXM);
+        assert!((1..=MAXM).contains(&nm));
         let mut hyst = Hysteresis::new(self.joint);
         let mut q = [0.0; MAXM];
         let mut p = [0.0; MAXM];
