@@ -117,15 +117,7 @@ def _band(band):
     """A band as ``(lo, hi)`` or as the command line writes it, ``"lo:hi"``."""
     if band is None:
         return None
-    if isinstance(band, str):
-        lo, sep, hi = band.partition(":")
-        try:
-            if not sep:
-                raise ValueError
-            return [float(lo), float(hi)]
-        except ValueError:
-            raise HystidError(f"`band_hz`: expected LO:HI in Hz (e.g. \"120:200\"), got {band!r}") from None
-    return list(band)
+    return list(_hystid.range_option(band, "band_hz", "Hz"))
 
 
 def model(source):

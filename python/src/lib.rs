@@ -159,6 +159,24 @@ fn json_to_toml(text: String) -> PyResult<String> {
     toml::to_string(&value).map_err(|e| fail(format!("test definition: {e}")))
 }
 
+/// A range given as the command line writes it (`"LO:HI"`) or as a pair,
+/// checked as the command line checks it: `0 <= LO < HI`; `option` names it
+/// in the refusal.
+#[pyfunction]
+fn range_option(range: Bound<'_, PyAny>, option: String, unit: String) -> PyResult<(f64, f64)> {
+    use hystid::analysis::request::{check_range, parse_range};
+    if let Ok(text) = range.extract::<String>() {
+        return parse_range(&text, &option, &unit).map_err(err);
+    }
+    let pair: (f64, f64) = range.extract().map_err(|_| {
+        fail(format!(
+            "{option}: expected (LO, HI) or \"LO:HI\" in {unit}, got {range}"
+        ))
+    })?;
+    check_range(pair, &option).map_err(err)?;
+    Ok(pair)
+}
+
 fn output(name: &str) -> PyResult<Output> {
     Output::from_name(name).ok_or_else(|| {
         let names: Vec<&str> = Output::ALL.iter().map(|o| o.name()).collect();
@@ -1145,6 +1163,7 @@ fn _hystid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyModel>()?;
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(json_to_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(range_option, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_all, m)?)?;
     m.add_function(wrap_pyfunction!(_rust_simulate_seconds, m)?)?;

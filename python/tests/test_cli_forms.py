@@ -24,8 +24,12 @@ def test_effect_names_and_bands_in_the_command_lines_form():
     assert hystid._names(["cubic_stiffness"]) == ["cubic_stiffness"]
     assert hystid._band("120:200") == [120.0, 200.0]
     assert hystid._band((120, 200)) == [120.0, 200.0]
-    with pytest.raises(hystid.HystidError, match="`band_hz`: expected LO:HI"):
+    with pytest.raises(hystid.HystidError, match="band_hz: expected LO:HI in Hz"):
         hystid._band("120-200")
+    # refused by the library's rule, as `--band 200:120` is
+    for reversed_band in ("200:120", (200.0, 120.0)):
+        with pytest.raises(hystid.HystidError, match="band_hz: need 0 <= LO < HI"):
+            hystid._band(reversed_band)
 
 
 def test_a_band_as_a_string_fits_as_the_tuple(cli):
