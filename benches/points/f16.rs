@@ -160,7 +160,15 @@ fn fit(data: &[PointMeasurement], law: &str, at: Placement) -> PointFit {
         },
     };
     let (structure, joint) = joint_start(data, &plan).expect("a start");
-    fit_points(data, &structure, 0, &joint, &PointFitOptions::default()).expect("the fit runs")
+    fit_points(
+        data,
+        &structure,
+        0,
+        &joint,
+        &PointFitOptions::default(),
+        &hystid::observe::Silent,
+    )
+    .expect("the fit runs")
 }
 
 /// Each response's FRF error on `data`, one level

@@ -227,6 +227,7 @@ pub fn identify_points(
         checked.drive,
         &joint,
         &PointFitOptions::default(),
+        observer,
     )?;
     progress(observer, "fitting", 1, 1)?;
     let predicted = predict_points(

@@ -58,6 +58,7 @@ use crate::extract::NonlinearFrf;
 use crate::harmonics::Quantity;
 use crate::hb::points::{JointReceptance, point_harmonics};
 use crate::model::{ElementSpec, PointModes, Role};
+use crate::observe::Observer;
 use layout::Layout;
 use num_complex::Complex64;
 use problem::JointProblem;
@@ -226,14 +227,18 @@ pub struct PointFit {
 /// kept ([`PointFit::restarted`]): a free parameter pressed against its
 /// bound stalls the descent of the others.
 ///
+/// `observer` is asked before each evaluation whether to stop.
+///
 /// Errors: measurements whose levels or lines differ from one another, a
-/// point out of range, a joint parameter not positive.
+/// point out of range, a joint parameter not positive; [`Error::Cancelled`]
+/// when the observer asks the work to stop.
 pub fn fit_points(
     data: &[PointMeasurement],
     structure: &PointModes,
     drive: usize,
     joint: &PointJoint,
     options: &PointFitOptions,
+    observer: &dyn Observer,
 ) -> Result<PointFit> {
     structure.validate()?;
     let starts = slip_force_starts(data, structure, drive, joint, options)?;
@@ -242,9 +247,9 @@ pub fn fit_points(
     let slip = |j: &PointJoint| slip_force(j).unwrap_or(1.0);
     let apart = |j: &&PointJoint| (slip(j) / slip(&starts[0])).ln().abs() >= 0.5 * 10f64.ln();
     let mut from = &starts[0];
-    let mut first = descend(data, structure, drive, (from, &[]), options)?;
+    let mut first = descend(data, structure, drive, (from, &[]), options, observer)?;
     if let Some(other) = starts.iter().find(apart) {
-        let second = descend(data, structure, drive, (other, &[]), options)?;
+        let second = descend(data, structure, drive, (other, &[]), options, observer)?;
         if second.residual_rms < first.residual_rms {
             (first, from) = (second, other);
         }
@@ -269,7 +274,7 @@ pub fn fit_points(
         law: from.law.with_parameters(&values),
         ..*from
     };
-    let second = descend(data, structure, drive, (&restart, held), options)?;
+    let second = descend(data, structure, drive, (&restart, held), options, observer)?;
     let better = if second.residual_rms < first.residual_rms {
         PointFit {
             at_bounds: held.clone(),
@@ -292,11 +297,12 @@ fn descend(
     drive: usize,
     (joint, held): (&PointJoint, &[String]),
     options: &PointFitOptions,
+    observer: &dyn Observer,
 ) -> Result<PointFit> {
     let layout = Layout::new(structure, Some(&joint.law))?
         .damped_outside(problem::lines_hz(data), start::START_DAMPING)
         .holding(held);
-    let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?;
+    let problem = JointProblem::new(data, &layout, drive, joint.ends, options)?.observed(observer);
     let theta0 = layout.theta_of(structure, Some(&joint.law));
     let start_rms = problem.rms(&theta0)?.0;
     let run = levenberg_marquardt(&problem, &theta0, options.patience)?;

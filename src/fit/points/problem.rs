@@ -93,9 +93,17 @@ pub(super) struct JointProblem<'a> {
     ends: (usize, Option<usize>),
     options: PointFitOptions,
     evaluations: AtomicUsize,
+    /// Asked before each evaluation whether the work is to stop.
+    observer: &'a dyn crate::observe::Observer,
 }
 
 impl<'a> JointProblem<'a> {
+    /// The same problem, asking `observer` before each evaluation whether
+    /// the work is to stop ([`Error::Cancelled`] if so).
+    pub(super) fn observed(self, observer: &'a dyn crate::observe::Observer) -> Self {
+        JointProblem { observer, ..self }
+    }
+
     pub(super) fn new(
         data: &'a [PointMeasurement],
         layout: &'a Layout,
@@ -121,6 +129,7 @@ impl<'a> JointProblem<'a> {
             ends,
             options: options.clone(),
             evaluations: AtomicUsize::new(0),
+            observer: &crate::observe::Silent,
         })
     }
 
@@ -163,6 +172,9 @@ impl<'a> JointProblem<'a> {
 
 impl Objective for JointProblem<'_> {
     fn residuals(&self, theta: &[f64]) -> Result<Vec<f64>> {
+        if self.observer.cancelled() {
+            return Err(Error::Cancelled);
+        }
         self.evaluations.fetch_add(1, Ordering::Relaxed);
         let (r, outside, _) = self.rows(theta)?;
         Ok(with_penalty(r, outside))

@@ -170,7 +170,15 @@ fn a_joint_between_two_masses_of_a_chain_is_found_from_three_accelerometers() {
     let data = measured(&[0.5, 1.5, 3.0, 6.0], 48);
     let options = PointFitOptions::default();
     let (structure, joint) = start(&data, (1, Some(2)));
-    let fit = fit_points(&data, &structure, 0, &joint, &options).unwrap();
+    let fit = fit_points(
+        &data,
+        &structure,
+        0,
+        &joint,
+        &options,
+        &crate::observe::Silent,
+    )
+    .unwrap();
     let values: Vec<f64> = fit.joint.law.parameters().iter().map(|p| p.1).collect();
     let (kd_err, fd_err) = (values[0] / KD - 1.0, values[1] / FD - 1.0);
     // noise alone: 1/√2 for each part of a residual over its standard error
@@ -191,7 +199,15 @@ fn a_joint_between_two_masses_of_a_chain_is_found_from_three_accelerometers() {
     assert!(fit.residual_rms < 1.5 * noise, "{}", fit.residual_rms);
     for ends in [(0, Some(1)), (2, None)] {
         let (structure, joint) = start(&data, ends);
-        let wrong = fit_points(&data, &structure, 0, &joint, &options).unwrap();
+        let wrong = fit_points(
+            &data,
+            &structure,
+            0,
+            &joint,
+            &options,
+            &crate::observe::Silent,
+        )
+        .unwrap();
         let factor = wrong.residual_rms / fit.residual_rms;
         eprintln!(
             "joint at {ends:?}: rms {:.1} ({factor:.0} times), {:?}; {:.1} s",
@@ -243,7 +259,15 @@ fn a_joint_no_sensor_reads_is_found_through_the_modes_it_shares() {
     };
     let (structure, joint) = joint_start(&data, &plan).unwrap();
     assert_eq!(joint.ends, (3, None));
-    let fit = fit_points(&data, &structure, 0, &joint, &PointFitOptions::default()).unwrap();
+    let fit = fit_points(
+        &data,
+        &structure,
+        0,
+        &joint,
+        &PointFitOptions::default(),
+        &crate::observe::Silent,
+    )
+    .unwrap();
     let noise = std::f64::consts::FRAC_1_SQRT_2;
     let values: Vec<f64> = fit.joint.law.parameters().iter().map(|p| p.1).collect();
     let truth = chain().modes().unwrap();
@@ -289,7 +313,15 @@ fn a_law_at_its_limit_is_named_and_the_fit_restarted() {
         placement: JointPlacement::Between(1, Some(2)),
     };
     let (structure, joint) = joint_start(&data, &plan).unwrap();
-    let fit = fit_points(&data, &structure, 0, &joint, &PointFitOptions::default()).unwrap();
+    let fit = fit_points(
+        &data,
+        &structure,
+        0,
+        &joint,
+        &PointFitOptions::default(),
+        &crate::observe::Silent,
+    )
+    .unwrap();
     let values: Vec<(&str, f64)> = fit.joint.law.parameters();
     eprintln!(
         "{values:?}, at bounds {:?}, restarted {}, rms {:.3}",
@@ -328,4 +360,39 @@ fn the_frf_error_is_the_relative_rms_of_each_level() {
     let e = frf_errors_percent(&data, &predicted);
     assert!((e[0][0] - 10.0).abs() < 1e-12, "{e:?}");
     assert!((e[0][1] - 100.0).abs() < 1e-12, "{e:?}");
+}
+
+/// A fit asked to stop (a user's Ctrl-C, seen by the observer) ends at its
+/// next evaluation with `Cancelled`: after the slip-force starts, before
+/// the descent's first step, whatever the patience.
+#[test]
+fn a_fit_asked_to_stop_ends_with_cancelled() {
+    struct Stop(std::sync::atomic::AtomicUsize);
+    impl crate::observe::Observer for Stop {
+        fn observe(&self, _: crate::observe::Event<'_>) {}
+        fn cancelled(&self) -> bool {
+            self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            true
+        }
+    }
+    let data = measured(&[0.5, 3.0], 24);
+    let plan = StartPlan {
+        points: chain().points,
+        drive: 0,
+        modes: (3, &[]),
+        law: ElementKind::Jenkins,
+        placement: JointPlacement::OwnCoordinate,
+    };
+    let (structure, joint) = joint_start(&data, &plan).unwrap();
+    let stop = Stop(Default::default());
+    let r = fit_points(
+        &data,
+        &structure,
+        0,
+        &joint,
+        &PointFitOptions::default(),
+        &stop,
+    );
+    assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");
+    assert_eq!(stop.0.load(std::sync::atomic::Ordering::Relaxed), 1);
 }
