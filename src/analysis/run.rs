@@ -27,7 +27,8 @@ use crate::error::Result;
 use crate::extract::NonlinearFrf;
 use crate::fit::identify::{ErrorReport, confidence, error_report};
 use crate::fit::{
-    Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, ParameterSet, Weighting,
+    Estimate, FitData, FitProblem, FitResult, FrfPredictor, HbPredictor, ParameterSet, Prediction,
+    Weighting,
 };
 use crate::model::Model;
 use crate::testbench::TestDefinition;
@@ -190,6 +191,42 @@ impl FinalModel {
         self.parameters.iter().filter(|(_, r)| !r.flags.is_empty())
     }
 
+    /// The first fit as the final model: its parameters flagged and judged
+    /// against the truth where known.
+    fn of_fit(
+        fit: &FitResult,
+        fit_harmonics: &[usize],
+        band_hz: Option<(f64, f64)>,
+        judged: &Judged<'_>,
+    ) -> FinalModel {
+        let set = model_parameters(&fit.model, band_hz);
+        let parameters = fit
+            .parameters
+            .iter()
+            .map(|(name, e)| {
+                let r = reported(name, e.clone(), &fit.model, &set, &fit.at_bound, judged);
+                (name.clone(), r)
+            })
+            .collect();
+        FinalModel {
+            source: ModelSource::Fit,
+            joint: fit.model.joint.as_ref().map(|j| j.kind().name()),
+            added_effects: Vec::new(),
+            replaced_joint: None,
+            model: fit.model.clone(),
+            response_sign: fit.response_sign,
+            parameters,
+            error: ErrorFigures {
+                relative: fit.error.relative,
+                per_harmonic: fit.error.per_harmonic.clone(),
+                chi2_per_dof: fit.error.chi2_per_dof,
+            },
+            harmonics: fit_harmonics.to_vec(),
+            before: None,
+            baseline: None,
+        }
+    }
+
     /// The final model of a run: `diagnosis`'s when given (its joint and
     /// linear part with intervals at the final model, its effects as the
     /// diagnosis reported them), else `fit`'s. `truth` is the model the data
@@ -210,78 +247,15 @@ impl FinalModel {
             drive: super::flags::force_drive(&fit.model, frf.reference),
         };
         let Some(d) = diagnosis else {
-            let set = model_parameters(&fit.model, band_hz);
-            let parameters = fit
-                .parameters
-                .iter()
-                .map(|(name, e)| {
-                    let r = reported(name, e.clone(), &fit.model, &set, &fit.at_bound, &judged);
-                    (name.clone(), r)
-                })
-                .collect();
-            return Ok(FinalModel {
-                source: ModelSource::Fit,
-                joint: fit.model.joint.as_ref().map(|j| j.kind().name()),
-                added_effects: Vec::new(),
-                replaced_joint: None,
-                model: fit.model.clone(),
-                response_sign: fit.response_sign,
-                parameters,
-                error: ErrorFigures {
-                    relative: fit.error.relative,
-                    per_harmonic: fit.error.per_harmonic.clone(),
-                    chi2_per_dof: fit.error.chi2_per_dof,
-                },
-                harmonics: fit_harmonics.to_vec(),
-                before: None,
-                baseline: None,
-            });
+            return Ok(Self::of_fit(fit, fit_harmonics, band_hz, &judged));
         };
         let data =
             FitData::from_frf(frf, &d.harmonics, d.band_hz, None)?.with_sign(d.response_sign);
         let set = model_parameters(&d.model, data.band_hz());
         let pred = predictor.predict_from(&d.model, &data, d.final_prediction.as_ref())?;
         let error = error_report(&data, &pred, f64::NAN, set.len());
-        let problem = FitProblem::new(
-            d.model.clone(),
-            set.clone(),
-            &data,
-            predictor,
-            Weighting::StandardError,
-            None,
-        )
-        .with_warm_start(pred.clone());
-        let theta = set.theta_of(&d.model)?;
-        let conf = confidence(&problem, &theta, &pred)?;
-        let mut parameters = BTreeMap::new();
-        // the joint and the linear part: intervals at the final model (an
-        // added effect's own parameters are reported below; a further mode
-        // the diagnosis added is told from the user's by the mode it added)
+        let parameters = diagnosis_parameters(d, &data, &set, &pred, predictor, &judged)?;
         let replaces = |s: &&crate::diagnose::SelectedEffect| s.effect.candidate().replaces_joint();
-        for (p, e) in set.parameters.iter().zip(conf.estimates) {
-            let own = d.selected.iter().filter(|s| !replaces(s)).any(|s| {
-                s.effect
-                    .candidate()
-                    .own_parameter(s.effect.name(), &d.model, &p.name)
-                    .is_some()
-            });
-            if own {
-                continue;
-            }
-            let r = reported(&p.name, e, &d.model, &set, &[], &judged);
-            parameters.insert(p.name.clone(), r);
-        }
-        // the effects as the diagnosis reported them (a further mode by its
-        // modal mass, say), so the numbers agree with `diagnosis.md`; a law
-        // that replaced the joint is the joint above
-        for s in d.selected.iter().filter(|s| !replaces(s)) {
-            let label = s.effect.candidate().label(s.effect.name(), &d.model);
-            for (name, e) in &s.parameters {
-                let full = format!("{label}.{name}");
-                let r = reported(&full, e.clone(), &d.model, &set, &[], &judged);
-                parameters.insert(full, r);
-            }
-        }
         let before_pred = predictor.predict(&fit.model, &data)?;
         let before_set = model_parameters(&fit.model, data.band_hz());
         let before = Before {
@@ -459,6 +433,61 @@ fn reported(
         flags,
         estimate: e,
     }
+}
+
+/// The final model's parameters: the joint's and the linear part's with
+/// intervals at the final model (an added effect's own parameters left to
+/// the effect; a further mode the diagnosis added told from the user's by
+/// the mode it added), then each effect's as the diagnosis reported them.
+fn diagnosis_parameters(
+    d: &Diagnosis,
+    data: &FitData,
+    set: &ParameterSet,
+    pred: &Prediction,
+    predictor: &HbPredictor,
+    judged: &Judged<'_>,
+) -> Result<BTreeMap<String, Reported>> {
+    let problem = FitProblem::new(
+        d.model.clone(),
+        set.clone(),
+        data,
+        predictor,
+        Weighting::StandardError,
+        None,
+    )
+    .with_warm_start(pred.clone());
+    let theta = set.theta_of(&d.model)?;
+    let conf = confidence(&problem, &theta, pred)?;
+    let mut parameters = BTreeMap::new();
+    // the joint and the linear part: intervals at the final model (an
+    // added effect's own parameters are reported below; a further mode
+    // the diagnosis added is told from the user's by the mode it added)
+    let replaces = |s: &&crate::diagnose::SelectedEffect| s.effect.candidate().replaces_joint();
+    for (p, e) in set.parameters.iter().zip(conf.estimates) {
+        let own = d.selected.iter().filter(|s| !replaces(s)).any(|s| {
+            s.effect
+                .candidate()
+                .own_parameter(s.effect.name(), &d.model, &p.name)
+                .is_some()
+        });
+        if own {
+            continue;
+        }
+        let r = reported(&p.name, e, &d.model, set, &[], judged);
+        parameters.insert(p.name.clone(), r);
+    }
+    // the effects as the diagnosis reported them (a further mode by its
+    // modal mass, say), so the numbers agree with `diagnosis.md`; a law
+    // that replaced the joint is the joint above
+    for s in d.selected.iter().filter(|s| !replaces(s)) {
+        let label = s.effect.candidate().label(s.effect.name(), &d.model);
+        for (name, e) in &s.parameters {
+            let full = format!("{label}.{name}");
+            let r = reported(&full, e.clone(), &d.model, set, &[], judged);
+            parameters.insert(full, r);
+        }
+    }
+    Ok(parameters)
 }
 
 /// What a reported parameter is judged against: the values the data were
