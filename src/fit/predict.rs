@@ -126,7 +126,6 @@ impl HbPredictor {
         {
             opts.samples_per_period = ns;
         }
-        let nh = opts.harmonics.len();
         // each series gets its own element state (the elements are Send, not Sync)
         let starts: Vec<Option<&Vec<Option<Vec<Complex64>>>>> = (0..data.series.len())
             .map(|i| {
@@ -144,71 +143,7 @@ impl HbPredictor {
         let series: Vec<Result<SeriesPrediction>> = jobs
             .into_par_iter()
             .map(|(s, st, mut elements)| {
-                let mut solvers = parts
-                    .iter()
-                    .map(|_| {
-                        let mut solver = HbSolver::new(&opts)?;
-                        solver.step_at_least_once(near);
-                        Ok(solver)
-                    })
-                    .collect::<Result<Vec<_>>>()?;
-                let mut previous: Option<(Vec<Complex64>, f64)> = None;
-                let mut out = Vec::with_capacity(s.points.len());
-                let mut states = Vec::with_capacity(s.points.len());
-                for p in &s.points {
-                    // from the same point of a nearby model (the best so far), else
-                    // continued from the previous point
-                    let warm = st
-                        .and_then(|st| st[states.len()].clone())
-                        .filter(|g| g.len() == nh * parts.len());
-                    let guess: Option<Vec<Complex64>> = warm.or_else(|| {
-                        previous
-                            .as_ref()
-                            .map(|(x, f)| x.iter().map(|z| z * (p.force_amplitude / f)).collect())
-                    });
-                    let w = omega(p.frequency_hz);
-                    let mut state = Vec::with_capacity(nh * parts.len());
-                    let mut h = Vec::new();
-                    let mut converged = true;
-                    for (j, ((sign, part), (solver, e))) in parts
-                        .iter()
-                        .zip(solvers.iter_mut().zip(elements.iter_mut()))
-                        .enumerate()
-                    {
-                        let pt = solver.solve_point(
-                            &part.linear,
-                            e,
-                            p.frequency_hz,
-                            p.force_amplitude,
-                            guess.as_deref().map(|g| &g[j * nh..(j + 1) * nh]),
-                        )?;
-                        if !pt.converged {
-                            converged = false;
-                            break;
-                        }
-                        let part_h = data.harmonics.iter().map(|&k| {
-                            *sign
-                                * pt.frf(k).unwrap_or_default()
-                                * data.response.from_displacement(k as f64 * w)
-                        });
-                        if j == 0 {
-                            h = part_h.collect();
-                        } else {
-                            h.iter_mut().zip(part_h).for_each(|(a, b)| *a += b);
-                        }
-                        state.extend_from_slice(&pt.x);
-                    }
-                    if converged {
-                        previous = Some((state.clone(), p.force_amplitude));
-                        states.push(Some(state));
-                        out.push(Some(h));
-                    } else {
-                        previous = None;
-                        states.push(None);
-                        out.push(None);
-                    }
-                }
-                Ok((out, states, s.points.len()))
+                predict_series(s, st, &mut elements, &parts, &opts, near, data)
             })
             .collect();
         let mut pred = Prediction {
@@ -223,6 +158,86 @@ impl HbPredictor {
         }
         Ok(pred)
     }
+}
+
+/// One series' points in measurement order (see [`HbPredictor::predict`]):
+/// each from the same point of a nearby model's prediction `st` when given,
+/// else continued from the previous point, scaled to the point's force.
+fn predict_series(
+    s: &crate::fit::problem::MeasuredSeries,
+    st: Option<&Vec<Option<Vec<Complex64>>>>,
+    elements: &mut [crate::model::ElementSet<crate::model::AnyElement>],
+    parts: &[(f64, Model)],
+    opts: &HbOptions,
+    near: bool,
+    data: &FitData,
+) -> Result<SeriesPrediction> {
+    let nh = opts.harmonics.len();
+    let mut solvers = parts
+        .iter()
+        .map(|_| {
+            let mut solver = HbSolver::new(opts)?;
+            solver.step_at_least_once(near);
+            Ok(solver)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut previous: Option<(Vec<Complex64>, f64)> = None;
+    let mut out = Vec::with_capacity(s.points.len());
+    let mut states = Vec::with_capacity(s.points.len());
+    for p in &s.points {
+        // from the same point of a nearby model (the best so far), else
+        // continued from the previous point
+        let warm = st
+            .and_then(|st| st[states.len()].clone())
+            .filter(|g| g.len() == nh * parts.len());
+        let guess: Option<Vec<Complex64>> = warm.or_else(|| {
+            previous
+                .as_ref()
+                .map(|(x, f)| x.iter().map(|z| z * (p.force_amplitude / f)).collect())
+        });
+        let w = omega(p.frequency_hz);
+        let mut state = Vec::with_capacity(nh * parts.len());
+        let mut h = Vec::new();
+        let mut converged = true;
+        for (j, ((sign, part), (solver, e))) in parts
+            .iter()
+            .zip(solvers.iter_mut().zip(elements.iter_mut()))
+            .enumerate()
+        {
+            let pt = solver.solve_point(
+                &part.linear,
+                e,
+                p.frequency_hz,
+                p.force_amplitude,
+                guess.as_deref().map(|g| &g[j * nh..(j + 1) * nh]),
+            )?;
+            if !pt.converged {
+                converged = false;
+                break;
+            }
+            let part_h = data.harmonics.iter().map(|&k| {
+                *sign
+                    * pt.frf(k).unwrap_or_default()
+                    * data.response.from_displacement(k as f64 * w)
+            });
+            if j == 0 {
+                h = part_h.collect();
+            } else {
+                h.iter_mut().zip(part_h).for_each(|(a, b)| *a += b);
+            }
+            state.extend_from_slice(&pt.x);
+        }
+        if converged {
+            previous = Some((state.clone(), p.force_amplitude));
+            states.push(Some(state));
+            out.push(Some(h));
+        } else {
+            previous = None;
+            states.push(None);
+            out.push(None);
+        }
+    }
+    Ok((out, states, s.points.len()))
 }
 
 #[cfg(test)]
