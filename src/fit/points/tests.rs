@@ -168,17 +168,8 @@ fn start(data: &[PointMeasurement], ends: (usize, Option<usize>)) -> (PointModes
 fn a_joint_between_two_masses_of_a_chain_is_found_from_three_accelerometers() {
     let clock = std::time::Instant::now();
     let data = measured(&[0.5, 1.5, 3.0, 6.0], 48);
-    let options = PointFitOptions::default();
     let (structure, joint) = start(&data, (1, Some(2)));
-    let fit = fit_points(
-        &data,
-        &structure,
-        0,
-        &joint,
-        &options,
-        &crate::observe::Silent,
-    )
-    .unwrap();
+    let fit = fitted(&data, &structure, &joint);
     let values: Vec<f64> = fit.joint.law.parameters().iter().map(|p| p.1).collect();
     let (kd_err, fd_err) = (values[0] / KD - 1.0, values[1] / FD - 1.0);
     // noise alone: 1/√2 for each part of a residual over its standard error
@@ -199,15 +190,7 @@ fn a_joint_between_two_masses_of_a_chain_is_found_from_three_accelerometers() {
     assert!(fit.residual_rms < 1.5 * noise, "{}", fit.residual_rms);
     for ends in [(0, Some(1)), (2, None)] {
         let (structure, joint) = start(&data, ends);
-        let wrong = fit_points(
-            &data,
-            &structure,
-            0,
-            &joint,
-            &options,
-            &crate::observe::Silent,
-        )
-        .unwrap();
+        let wrong = fitted(&data, &structure, &joint);
         let factor = wrong.residual_rms / fit.residual_rms;
         eprintln!(
             "joint at {ends:?}: rms {:.1} ({factor:.0} times), {:?}; {:.1} s",
@@ -250,24 +233,9 @@ fn taking_the_joint_out_of_stuck_modes_gives_the_structure_beside_it() {
 #[test]
 fn a_joint_no_sensor_reads_is_found_through_the_modes_it_shares() {
     let data = measured(&[0.5, 1.5, 3.0, 6.0], 48);
-    let plan = StartPlan {
-        points: chain().points,
-        drive: 0,
-        modes: (3, &[]),
-        law: ElementKind::Jenkins,
-        placement: JointPlacement::OwnCoordinate,
-    };
-    let (structure, joint) = joint_start(&data, &plan).unwrap();
+    let (structure, joint) = started_at_own_coordinate(&data);
     assert_eq!(joint.ends, (3, None));
-    let fit = fit_points(
-        &data,
-        &structure,
-        0,
-        &joint,
-        &PointFitOptions::default(),
-        &crate::observe::Silent,
-    )
-    .unwrap();
+    let fit = fitted(&data, &structure, &joint);
     let noise = std::f64::consts::FRAC_1_SQRT_2;
     let values: Vec<f64> = fit.joint.law.parameters().iter().map(|p| p.1).collect();
     let truth = chain().modes().unwrap();
@@ -313,15 +281,7 @@ fn a_law_at_its_limit_is_named_and_the_fit_restarted() {
         placement: JointPlacement::Between(1, Some(2)),
     };
     let (structure, joint) = joint_start(&data, &plan).unwrap();
-    let fit = fit_points(
-        &data,
-        &structure,
-        0,
-        &joint,
-        &PointFitOptions::default(),
-        &crate::observe::Silent,
-    )
-    .unwrap();
+    let fit = fitted(&data, &structure, &joint);
     let values: Vec<(&str, f64)> = fit.joint.law.parameters();
     eprintln!(
         "{values:?}, at bounds {:?}, restarted {}, rms {:.3}",
@@ -376,14 +336,7 @@ fn a_fit_asked_to_stop_ends_with_cancelled() {
         }
     }
     let data = measured(&[0.5, 3.0], 24);
-    let plan = StartPlan {
-        points: chain().points,
-        drive: 0,
-        modes: (3, &[]),
-        law: ElementKind::Jenkins,
-        placement: JointPlacement::OwnCoordinate,
-    };
-    let (structure, joint) = joint_start(&data, &plan).unwrap();
+    let (structure, joint) = started_at_own_coordinate(&data);
     let stop = Stop(Default::default());
     let r = fit_points(
         &data,
@@ -395,4 +348,24 @@ fn a_fit_asked_to_stop_ends_with_cancelled() {
     );
     assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");
     assert_eq!(stop.0.load(std::sync::atomic::Ordering::Relaxed), 1);
+}
+
+/// [`fit_points`] driven at the first point with the default options,
+/// never asked to stop.
+fn fitted(data: &[PointMeasurement], structure: &PointModes, joint: &PointJoint) -> PointFit {
+    let options = PointFitOptions::default();
+    fit_points(data, structure, 0, joint, &options, &crate::observe::Silent).unwrap()
+}
+
+/// The chain's Jenkins joint started from the data alone at a coordinate
+/// of its own ([`joint_start`]).
+fn started_at_own_coordinate(data: &[PointMeasurement]) -> (PointModes, PointJoint) {
+    let plan = StartPlan {
+        points: chain().points,
+        drive: 0,
+        modes: (3, &[]),
+        law: ElementKind::Jenkins,
+        placement: JointPlacement::OwnCoordinate,
+    };
+    joint_start(data, &plan).unwrap()
 }
