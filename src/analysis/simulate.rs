@@ -362,6 +362,45 @@ pub fn summarise_checks(checks: &[HbCheck]) -> HbCheckSummary {
     }
 }
 
+/// How `simulate` is asked to run (`hystid simulate`; the Python package's
+/// `virtual_test` gives the definition's text instead of its file).
+#[derive(Clone, Debug)]
+pub struct SimulateRequest {
+    /// The test definition's file; `None`: the embedded default.
+    pub test: Option<PathBuf>,
+    /// The time histories: written in this sample format, or skipped.
+    pub recording: TimeHistories,
+    /// Whether harmonic balance is also solved at every dwell and compared.
+    pub check_hb: bool,
+}
+
+impl SimulateRequest {
+    /// The test definition it runs and its text (recorded with the run):
+    /// refused, naming the file and the field, when it cannot be read or
+    /// does not hold a valid test.
+    pub fn validate(&self) -> Result<(TestDefinition, String)> {
+        read_test(self.test.as_deref())
+    }
+}
+
+/// The test definition in `path` with its text, or the embedded default.
+pub fn read_test(path: Option<&Path>) -> Result<(TestDefinition, String)> {
+    let Some(p) = path else {
+        return Ok((
+            TestDefinition::embedded_default(),
+            testbench::DEFAULT_TEST.to_string(),
+        ));
+    };
+    let text = std::fs::read_to_string(p).map_err(|e| {
+        Error::context(
+            format!("cannot read the test definition {}", p.display()),
+            Error::io(p, e),
+        )
+    })?;
+    let def = TestDefinition::from_toml(&text, &p.display().to_string())?;
+    Ok((def, text))
+}
+
 /// Whether a virtual test keeps its time histories on disk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TimeHistories {
@@ -597,5 +636,36 @@ seed = 5
             serde_json::to_value(mem.hb_checks.unwrap()).unwrap(),
             serde_json::to_value(on_disk).unwrap()
         );
+    }
+
+    /// A request without a file runs the embedded default; a file that
+    /// cannot be read, or holds a field out of range, is refused naming the
+    /// file (and the field).
+    #[test]
+    fn a_request_reads_its_definition_or_says_why_not() {
+        let request = |test: Option<PathBuf>| SimulateRequest {
+            test,
+            recording: TimeHistories::Skipped,
+            check_hb: false,
+        };
+        let (def, text) = request(None).validate().unwrap();
+        assert_eq!(text, testbench::DEFAULT_TEST);
+        assert_eq!(
+            def.test.levels_n,
+            TestDefinition::embedded_default().test.levels_n
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("absent.toml");
+        let e = crate::error::one_line(&request(Some(missing.clone())).validate().unwrap_err());
+        assert!(
+            e.contains("cannot read the test definition") && e.contains("absent.toml"),
+            "{e}"
+        );
+        let bad = dir.path().join("bad.toml");
+        let text = testbench::DEFAULT_TEST.replacen("mass = 10.0", "mass = -1.0", 1);
+        assert_ne!(text, testbench::DEFAULT_TEST);
+        std::fs::write(&bad, text).unwrap();
+        let e = crate::error::one_line(&request(Some(bad)).validate().unwrap_err());
+        assert!(e.contains("bad.toml") && e.contains("system.mass"), "{e}");
     }
 }

@@ -28,7 +28,7 @@ pub mod run;
 pub mod simulate;
 pub mod validate;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use args::{ExcitationArg, ReductionArgs};
 use hystid::analysis::{ReductionOptions, SineTest};
 use std::path::Path;
@@ -139,23 +139,6 @@ pub fn check_paths(command: &args::Command) -> Result<()> {
     };
     paths::check_inputs(name, inputs, model).map_err(refused)?;
     paths::check_out_dir(out, out).map_err(refused)
-}
-
-/// Reads a test definition file, or the embedded default; returns it with
-/// its text (recorded with the run).
-pub fn read_test(path: Option<&Path>) -> Result<(hystid::testbench::TestDefinition, String)> {
-    use hystid::testbench::{DEFAULT_TEST, TestDefinition};
-    Ok(match path {
-        None => (TestDefinition::embedded_default(), DEFAULT_TEST.to_string()),
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read the test definition {}", p.display()))?;
-            (
-                TestDefinition::from_toml(&text, &p.display().to_string())?,
-                text,
-            )
-        }
-    })
 }
 
 /// Writes a value as pretty JSON, atomically.

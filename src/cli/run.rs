@@ -5,7 +5,7 @@
 use super::args::{RunArgs, WavFormat};
 use super::identify::{fit_options, run_fit};
 use super::simulate::simulate_into;
-use super::{EXIT_DEGRADED, read_test, write_json};
+use super::{EXIT_DEGRADED, write_json};
 use anyhow::Result;
 use hystid::analysis::identify::{write_convergence, write_fit_frf};
 use hystid::analysis::run::{
@@ -29,7 +29,8 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
     req.recording = !args.no_recording;
     req.validate().map_err(super::refused)?;
     let options = &req.options;
-    let (def, text) = read_test(req.test.as_deref())?;
+    let (def, text) =
+        hystid::analysis::simulate::read_test(req.test.as_deref()).map_err(super::refused)?;
     let _out = super::create_out_dir(&args.out)?;
     let mut fit_out: Option<(FitResult, HbPredictor)> = None;
     let (run, sim) = simulate_into(

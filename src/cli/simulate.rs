@@ -2,9 +2,9 @@
 
 use super::args::{SimulateArgs, WavFormat};
 use super::import::sample_format;
-use super::{EXIT_DEGRADED, EXIT_OK, progress, read_test, write_json};
+use super::{EXIT_DEGRADED, EXIT_OK, progress, write_json};
 use anyhow::Result;
-use hystid::analysis::simulate::{SimulateSummary, TimeHistories};
+use hystid::analysis::simulate::{SimulateRequest, SimulateSummary, TimeHistories};
 use hystid::record::McapRecorder;
 use hystid::testbench::{BenchRun, TestDefinition};
 use std::path::Path;
@@ -21,6 +21,26 @@ pub fn simulate_into(
     check_hb: bool,
     after_bench: &mut dyn FnMut(&BenchRun, Option<&mut McapRecorder>) -> hystid::Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
+    let req = SimulateRequest {
+        test: None,
+        recording: match recording {
+            Some(f) => TimeHistories::Written(sample_format(f)),
+            None => TimeHistories::Skipped,
+        },
+        check_hb,
+    };
+    bench_into(def, toml_text, dir, quiet, &req, after_bench)
+}
+
+/// [`simulate_into`] as `req` asks (its definition already read).
+fn bench_into(
+    def: &TestDefinition,
+    toml_text: &str,
+    dir: &Path,
+    quiet: bool,
+    req: &SimulateRequest,
+    after_bench: &mut dyn FnMut(&BenchRun, Option<&mut McapRecorder>) -> hystid::Result<()>,
+) -> Result<(BenchRun, SimulateSummary)> {
     let total: usize =
         def.sweeps()?.iter().map(|(_, f)| f.len()).sum::<usize>() * def.test.levels_n.len();
     let pb = progress::bar(total as u64, "dwells", quiet);
@@ -28,11 +48,8 @@ pub fn simulate_into(
         def,
         toml_text,
         dir,
-        match recording {
-            Some(f) => TimeHistories::Written(sample_format(f)),
-            None => TimeHistories::Skipped,
-        },
-        check_hb,
+        req.recording,
+        req.check_hb,
         &progress::BarObserver(&pb),
         &mut |run, mcap| {
             pb.finish_and_clear();
@@ -45,17 +62,18 @@ pub fn simulate_into(
 
 /// `hystid simulate`.
 pub fn simulate(args: &SimulateArgs, quiet: bool) -> Result<u8> {
-    let (def, text) = read_test(args.test.as_deref())?;
+    let req = SimulateRequest {
+        test: args.test.clone(),
+        recording: if args.no_recording {
+            TimeHistories::Skipped
+        } else {
+            TimeHistories::Written(sample_format(args.wav_format))
+        },
+        check_hb: args.check_hb,
+    };
+    let (def, text) = req.validate().map_err(super::refused)?;
     let _out = super::create_out_dir(&args.out)?;
-    let (run, mut summary) = simulate_into(
-        &def,
-        &text,
-        &args.out,
-        quiet,
-        (!args.no_recording).then_some(args.wav_format),
-        args.check_hb,
-        &mut |_, _| Ok(()),
-    )?;
+    let (run, mut summary) = bench_into(&def, &text, &args.out, quiet, &req, &mut |_, _| Ok(()))?;
     let summary_path = args.out.join("summary.json");
     summary.files.push(summary_path.clone());
     write_json(&summary_path, &summary)?;
