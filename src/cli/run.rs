@@ -2,7 +2,7 @@
 //! test bench, identify the element from the recorded FRFs, diagnose what it
 //! lacks, and report the final model (`report.md`, `run.json`).
 
-use super::args::{RunArgs, WavFormat};
+use super::args::RunArgs;
 use super::identify::{fit_options, run_fit};
 use super::simulate::simulate_into;
 use super::{EXIT_DEGRADED, write_json};
@@ -11,8 +11,10 @@ use hystid::analysis::identify::{write_convergence, write_fit_frf};
 use hystid::analysis::run::{
     DiagnosisSummary, FinalModel, RunRequest, RunSummary, report_markdown, write_final_figures,
 };
+use hystid::analysis::simulate::TimeHistories;
 use hystid::analysis::{FitReport, reference_joint};
 use hystid::fit::{FitResult, HbPredictor};
+use hystid::record::SampleFormat;
 use std::sync::Mutex;
 
 /// `hystid run`.
@@ -38,8 +40,14 @@ pub fn run_command(args: &RunArgs, quiet: bool) -> Result<u8> {
         &text,
         &args.out,
         quiet,
-        req.recording.then_some(WavFormat::Float32),
-        false,
+        (
+            if req.recording {
+                TimeHistories::Written(SampleFormat::Float32)
+            } else {
+                TimeHistories::Skipped
+            },
+            false,
+        ),
         &mut |run: &hystid::testbench::BenchRun,
               mcap: Option<&mut hystid::record::McapRecorder>| {
             let mcap = mcap.map(Mutex::new);

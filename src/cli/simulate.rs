@@ -1,6 +1,6 @@
 //! `hystid simulate`: a virtual stepped-sine test, recorded.
 
-use super::args::{SimulateArgs, WavFormat};
+use super::args::SimulateArgs;
 use super::import::sample_format;
 use super::{EXIT_DEGRADED, EXIT_OK, progress, write_json};
 use anyhow::Result;
@@ -17,28 +17,7 @@ pub fn simulate_into(
     toml_text: &str,
     dir: &Path,
     quiet: bool,
-    recording: Option<WavFormat>,
-    check_hb: bool,
-    after_bench: &mut dyn FnMut(&BenchRun, Option<&mut McapRecorder>) -> hystid::Result<()>,
-) -> Result<(BenchRun, SimulateSummary)> {
-    let req = SimulateRequest {
-        test: None,
-        recording: match recording {
-            Some(f) => TimeHistories::Written(sample_format(f)),
-            None => TimeHistories::Skipped,
-        },
-        check_hb,
-    };
-    bench_into(def, toml_text, dir, quiet, &req, after_bench)
-}
-
-/// [`simulate_into`] as `req` asks (its definition already read).
-fn bench_into(
-    def: &TestDefinition,
-    toml_text: &str,
-    dir: &Path,
-    quiet: bool,
-    req: &SimulateRequest,
+    (recording, check_hb): (TimeHistories, bool),
     after_bench: &mut dyn FnMut(&BenchRun, Option<&mut McapRecorder>) -> hystid::Result<()>,
 ) -> Result<(BenchRun, SimulateSummary)> {
     let total: usize =
@@ -48,8 +27,8 @@ fn bench_into(
         def,
         toml_text,
         dir,
-        req.recording,
-        req.check_hb,
+        recording,
+        check_hb,
         &progress::BarObserver(&pb),
         &mut |run, mcap| {
             pb.finish_and_clear();
@@ -73,7 +52,14 @@ pub fn simulate(args: &SimulateArgs, quiet: bool) -> Result<u8> {
     };
     let (def, text) = req.validate().map_err(super::refused)?;
     let _out = super::create_out_dir(&args.out)?;
-    let (run, mut summary) = bench_into(&def, &text, &args.out, quiet, &req, &mut |_, _| Ok(()))?;
+    let (run, mut summary) = simulate_into(
+        &def,
+        &text,
+        &args.out,
+        quiet,
+        (req.recording, req.check_hb),
+        &mut |_, _| Ok(()),
+    )?;
     let summary_path = args.out.join("summary.json");
     summary.files.push(summary_path.clone());
     write_json(&summary_path, &summary)?;

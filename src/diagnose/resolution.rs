@@ -66,11 +66,7 @@ pub(super) fn unresolved_in(
             ));
         }
         let [lo, hi] = e.ci95;
-        let straddles = lo <= 0.0 && hi >= 0.0;
-        let too_wide = !(lo.is_finite() && hi.is_finite())
-            || (lo > 0.0 && hi / lo > 10.0)
-            || (hi < 0.0 && lo / hi > 10.0);
-        if straddles || too_wide {
+        if !within_a_decade(e.ci95) {
             return Some(format!(
                 "lowered χ² enough, but its {name} = {} has the 95 % interval [{}, {}]: not resolved from the noise",
                 fmt_value(e.value),
@@ -80,6 +76,13 @@ pub(super) fn unresolved_in(
         }
     }
     None
+}
+
+/// Whether a 95 % interval resolves a value from zero and from a decade
+/// either way: finite, of one sign, its ends within a factor 10.
+pub(super) fn within_a_decade([lo, hi]: [f64; 2]) -> bool {
+    let finite = lo.is_finite() && hi.is_finite();
+    finite && ((lo > 0.0 && hi / lo <= 10.0) || (hi < 0.0 && lo / hi <= 10.0))
 }
 
 /// The σ-weighted confidence intervals of `params` at `model`.

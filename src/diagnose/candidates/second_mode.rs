@@ -144,7 +144,7 @@ impl Candidate for SecondMode {
                 .modes
                 .last()
                 .is_some_and(|m| band_side(m.frequency_hz, data.band_hz()).is_none())
-            && !resolved_within_a_decade(e)
+            && !(e.identifiable && crate::diagnose::resolution::within_a_decade(e.ci95))
         {
             let [lo, hi] = e.ci95;
             return Some(format!(
@@ -257,13 +257,6 @@ impl Candidate for SecondMode {
             format!("the residual's shape over frequency matched a further linear mode{at}")
         }
     }
-}
-
-/// Whether a positive estimate's 95 % interval lies within a decade (the
-/// same test as for an effect's size in `resolution`).
-fn resolved_within_a_decade(e: &Estimate) -> bool {
-    let [lo, hi] = e.ci95;
-    e.identifiable && lo > 0.0 && hi.is_finite() && hi / lo <= 10.0
 }
 
 /// The modes the receptance residual `d` (frequency, residual, its standard
