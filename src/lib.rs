@@ -40,22 +40,8 @@
 
 #![deny(missing_docs)]
 
-pub mod analysis;
-pub mod atomic;
-pub mod diagnose;
-pub mod error;
-pub mod extract;
-pub mod fit;
-pub mod harmonics;
-pub mod hb;
-pub mod import;
-pub mod model;
-pub mod observe;
-pub mod plot;
-pub mod record;
-pub mod signals;
-pub mod sim;
-pub mod testbench;
-pub mod validate;
+pub use hystid_core::{Error, Result, atomic, error, harmonics, hb, model, observe, signals, sim};
+pub use hystid_identify::{diagnose, fit, validate};
+pub use hystid_signal::{extract, import, plot, record, testbench};
 
-pub use error::{Error, Result};
+pub mod analysis;

@@ -1,22 +1,29 @@
 //! The library's dependency arrows and error discipline, checked on the
 //! source text (a rule broken in a refactor fails here, not in review).
 //!
+//! The layers are crates (`crates/hystid-core` < `crates/hystid-signal` <
+//! `crates/hystid-identify` < the root package, the application and its
+//! front ends), so the compiler refuses an arrow upwards between them. The
+//! scans read every crate's `src/` as one tree of modules (each layer
+//! re-exports those below under their own names):
+//!
+//! * Each layer is the crate it should be ([`LAYERS`] against the folders).
 //! * `extract` reads samples, never files: no `crate::record`, no `std::fs`.
 //! * The model does not depend on the simulator: no `crate::sim` in `model`.
 //! * The test bench does not depend on harmonic balance: no `crate::hb`.
 //! * Harmonic balance does not depend on fitting or diagnosis.
-//! * No import cycle between the modules of `src/` (its files; a folder
-//!   module's files among themselves too), and no layer uses one above it:
-//!   core (errors, harmonics, signals, the model, the simulator, harmonic
-//!   balance, the observer) < signals (`extract`, `record`, `import`, `plot`,
+//! * No import cycle between modules (their files; a folder module's files
+//!   among themselves too), and no layer uses one above it: core (errors,
+//!   harmonics, signals, the model, the simulator, harmonic balance, the
+//!   observer) < signals (`extract`, `record`, `import`, `plot`,
 //!   `testbench`) < identification (`validate`, `fit`, `diagnose`) < the
 //!   application (`analysis`) < the front ends (`cli`, `main.rs`).
-//! * No `dyn Any` or `downcast` in `src/`: what a stage needs to know of an
-//!   element it asks the element (`Element`, its law's `Description`).
-//! * No `Result<_, String>` (nor a `String` conversion error) anywhere in
-//!   `src/`: errors are typed.
-//! * No source file of `src/` or `python/src/` longer than 1,200 lines: a
-//!   file that grows past it is split by responsibility.
+//! * No `dyn Any` or `downcast`: what a stage needs to know of an element it
+//!   asks the element (`Element`, its law's `Description`).
+//! * No `Result<_, String>` (nor a `String` conversion error): errors are
+//!   typed.
+//! * No source file of a crate or of `python/src/` longer than 1,200 lines:
+//!   a file that grows past it is split by responsibility.
 //!
 //! Comment lines and `#[cfg(test)]` items are skipped: documentation may
 //! name another module, and a test may check one stage against another.
@@ -56,7 +63,7 @@ fn is_test_module_file(file: &Path) -> bool {
         (stem, dir)
     };
     let mut parents = vec![dir.join("mod.rs"), dir.with_extension("rs")];
-    if dir == src() {
+    if sources().iter().any(|s| s == dir) {
         parents.extend([dir.join("lib.rs"), dir.join("main.rs")]);
     }
     let declaration = format!("mod {name};");
@@ -121,10 +128,64 @@ fn src() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
 }
 
+/// The crates of the workspace, lowest layer first: the library's layers
+/// and the application with its front ends (the root package).
+const CRATES: &[&str] = &[
+    "crates/hystid-core",
+    "crates/hystid-signal",
+    "crates/hystid-identify",
+    ".",
+];
+
+/// Each crate's `src/`, in the order of [`CRATES`].
+fn sources() -> Vec<PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    CRATES
+        .iter()
+        .map(|c| match *c {
+            "." => root.join("src"),
+            c => root.join(c).join("src"),
+        })
+        .collect()
+}
+
+/// The source folder `file` is in.
+fn source_of(file: &Path) -> PathBuf {
+    sources()
+        .into_iter()
+        .filter(|s| file.starts_with(s))
+        .max_by_key(|s| s.components().count())
+        .unwrap_or_else(|| panic!("{}: in no crate's src/", file.display()))
+}
+
+/// Every code file of every crate, read as one tree of modules: a layer
+/// crate re-exports those below it under their own names, so `crate::model`
+/// means the same module in each. The layer crates' `lib.rs` (their
+/// re-exports and module list) are left out: the application's root stands
+/// for all of them.
+fn library_files() -> Vec<PathBuf> {
+    let app = src();
+    sources()
+        .iter()
+        .flat_map(|s| code_files(s))
+        .filter(|f| !(f.ends_with("lib.rs") && f.parent() != Some(app.as_path())))
+        .collect()
+}
+
+/// Where the module `name` (a top-level one) lives: its folder's path
+/// without the extension.
+fn module_root(name: &str) -> PathBuf {
+    sources()
+        .into_iter()
+        .map(|s| s.join(name))
+        .find(|p| p.is_dir() || p.with_extension("rs").is_file())
+        .unwrap_or_else(|| panic!("module {name} is in no crate"))
+}
+
 /// `file:line: text` for every code line of `src/<module>` holding one of
 /// `forbidden`.
 fn uses(module: &str, forbidden: &[&str]) -> Vec<String> {
-    let root = src().join(module);
+    let root = module_root(module);
     let files = if root.is_dir() {
         code_files(&root)
     } else {
@@ -177,7 +238,7 @@ fn harmonic_balance_does_not_depend_on_fit_or_diagnosis() {
 #[test]
 fn no_stage_downcasts_an_element() {
     let mut found = Vec::new();
-    for f in code_files(&src()) {
+    for f in library_files() {
         let text = std::fs::read_to_string(&f).unwrap();
         for (n, line) in code_lines(&text) {
             if ["downcast", "dyn Any", "std::any::Any"]
@@ -196,7 +257,7 @@ fn no_stage_downcasts_an_element() {
 #[test]
 fn no_status_is_read_from_message_text() {
     let mut found = Vec::new();
-    for f in code_files(&src()) {
+    for f in library_files() {
         let text = std::fs::read_to_string(&f).unwrap();
         for (n, line) in code_lines(&text) {
             let l = line.replace(' ', "");
@@ -226,8 +287,8 @@ fn no_status_is_read_from_message_text() {
 #[test]
 fn only_the_model_matches_on_element_laws() {
     let mut found = Vec::new();
-    for f in code_files(&src()) {
-        let rel = f.strip_prefix(src()).unwrap().to_string_lossy().to_string();
+    for f in library_files() {
+        let rel = f.strip_prefix(source_of(&f)).unwrap().to_string_lossy().to_string();
         if rel.starts_with("model") || rel.starts_with("diagnose/candidates") {
             continue;
         }
@@ -295,7 +356,7 @@ fn result_error_types(line: &str) -> Vec<Option<String>> {
 #[test]
 fn library_errors_are_typed() {
     let mut found = Vec::new();
-    for f in code_files(&src()) {
+    for f in library_files() {
         let text = std::fs::read_to_string(&f).unwrap();
         for (n, line) in code_lines(&text) {
             let string_error = result_error_types(line)
@@ -329,8 +390,8 @@ fn the_scanner_sees_what_it_looks_for() {
     let kept: Vec<&str> = code_lines(text).into_iter().map(|(_, l)| l).collect();
     assert_eq!(kept, vec!["use b;"]);
     // a test module in its own file is test code, its parent is not
-    assert!(is_test_module_file(&src().join("model/masing/tests.rs")));
-    assert!(!is_test_module_file(&src().join("model/masing/mod.rs")));
+    assert!(is_test_module_file(&module_root("model").join("masing/tests.rs")));
+    assert!(!is_test_module_file(&module_root("model").join("masing/mod.rs")));
 }
 
 /// The command line only translates: `src/cli/` stays under 8 % of the
@@ -345,8 +406,9 @@ fn the_command_line_is_thin() {
     };
     let cli = count(rust_files(&src().join("cli")));
     let library = count(
-        rust_files(&src())
-            .into_iter()
+        sources()
+            .iter()
+            .flat_map(|s| rust_files(s))
             .filter(|f| !f.starts_with(src().join("cli")) && !f.ends_with("main.rs"))
             .collect(),
     );
@@ -364,7 +426,7 @@ fn the_command_line_is_thin() {
 type Module = Vec<String>;
 
 fn module_of(file: &Path) -> Module {
-    let rel = file.strip_prefix(src()).unwrap().with_extension("");
+    let rel = file.strip_prefix(source_of(file)).unwrap().with_extension("");
     let mut segments: Module = rel
         .components()
         .map(|c| c.as_os_str().to_string_lossy().into_owned())
@@ -591,7 +653,7 @@ fn refs_of(file: &Path, module: &[String], modules: &std::collections::BTreeSet<
 type Graph = std::collections::BTreeMap<Module, std::collections::BTreeMap<Module, Vec<String>>>;
 
 fn module_graph() -> Graph {
-    let files: Vec<(Module, PathBuf)> = code_files(&src())
+    let files: Vec<(Module, PathBuf)> = library_files()
         .into_iter()
         .map(|f| (module_of(&f), f))
         .collect();
@@ -754,7 +816,7 @@ const MAX_FILE_LINES: usize = 1200;
 fn no_source_file_over_1200_lines() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut over = Vec::new();
-    for dir in [src(), root.join("python").join("src")] {
+    for dir in sources().into_iter().chain([root.join("python").join("src")]) {
         for f in rust_files(&dir) {
             let lines = std::fs::read_to_string(&f).unwrap().lines().count();
             if lines > MAX_FILE_LINES {
@@ -813,6 +875,48 @@ const LAYERS: &[(&str, &[&str])] = &[
 
 fn layer_of(top: &str) -> Option<usize> {
     LAYERS.iter().position(|(_, ms)| ms.contains(&top))
+}
+
+/// Each layer is a crate: a module of a layer above is not in scope below
+/// it, so the compiler refuses an upward import (`crate::fit` in the signal
+/// crate names nothing). This keeps [`LAYERS`], which the scans above read,
+/// the same as the crates.
+#[test]
+fn each_layer_is_a_crate_of_its_own() {
+    let top_modules = |src: &Path| -> std::collections::BTreeSet<String> {
+        std::fs::read_dir(src)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.is_dir() || p.extension().is_some_and(|x| x == "rs"))
+            .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+            .filter(|m| m != "lib")
+            .collect()
+    };
+    let sources = sources();
+    for (i, (layer, modules)) in LAYERS.iter().enumerate() {
+        // the application and its front ends share the root package
+        let at = i.min(CRATES.len() - 1);
+        let found = top_modules(&sources[at]);
+        for m in *modules {
+            assert!(
+                found.contains(*m),
+                "the {layer} layer's {m} is not in {}",
+                CRATES[at]
+            );
+        }
+    }
+    for (at, src) in sources.iter().enumerate() {
+        for m in top_modules(src) {
+            let layer = layer_of(&m).unwrap_or_else(|| panic!("{m} is in no layer"));
+            assert_eq!(
+                layer.min(CRATES.len() - 1),
+                at,
+                "{m} ({}) is in {}",
+                LAYERS[layer].0,
+                CRATES[at]
+            );
+        }
+    }
 }
 
 #[test]

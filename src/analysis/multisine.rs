@@ -36,7 +36,7 @@ use crate::diagnose::lines::{LineContext, share_explained};
 use crate::diagnose::time_residual::TracedCandidate;
 use crate::diagnose::{DiagnoseOptions, Effect};
 use crate::error::{Error, Result};
-use crate::extract::lines::{LineResidual, PeriodicSpectra, line_residual};
+use crate::extract::lines::{LineResidual, line_residual};
 use crate::fit::time::{TimeProblem, time_parameters};
 use crate::fit::{TimeFitOptions, TimeFitResult, TimeRecord, identify_time};
 use crate::model::Model;
@@ -107,7 +107,7 @@ pub fn diagnose_multisine(
 ) -> Result<MultisineDiagnosis> {
     let spectra = records
         .iter()
-        .map(PeriodicSpectra::of)
+        .map(TimeRecord::periodic_spectra)
         .collect::<Result<Vec<_>>>()?;
     let quantity = records
         .first()
@@ -431,7 +431,7 @@ fn residual_figure(
 ) -> Result<Vec<PathBuf>> {
     let spectra = records
         .iter()
-        .map(PeriodicSpectra::of)
+        .map(TimeRecord::periodic_spectra)
         .collect::<Result<Vec<_>>>()?;
     let panel = |heading: String, model: &Model| -> Result<ResidualPanel> {
         let params = time_parameters(model, false, None);

@@ -27,22 +27,22 @@ use std::collections::BTreeMap;
 
 /// What a candidate's starts are made from: the model it is added to and
 /// its prediction, the data judged, the recording's FRFs and the options.
-pub(crate) struct Context<'a> {
+pub struct Context<'a> {
     /// The model the effect is added to, with its prediction and `χ²`.
-    pub current: &'a Refit,
+    pub(crate) current: &'a Refit,
     /// The data judged.
-    pub data: &'a FitData,
+    pub(crate) data: &'a FitData,
     /// The nonlinear FRFs (for a candidate that identifies afresh).
-    pub frf: &'a NonlinearFrf,
+    pub(crate) frf: &'a NonlinearFrf,
     /// The diagnosis options (the user's fit options among them).
-    pub options: &'a DiagnoseOptions,
+    pub(crate) options: &'a DiagnoseOptions,
     /// The predictor.
-    pub predictor: &'a HbPredictor,
+    pub(crate) predictor: &'a HbPredictor,
     /// Identifications afresh by their number of modes, shared by the
     /// candidates of one diagnosis (see [`Context::identified_with_modes`]).
-    pub identified: &'a Identified,
+    pub(crate) identified: &'a Identified,
     /// The `χ²` the noise alone gives on `data`.
-    pub expected_chi2: f64,
+    pub(crate) expected_chi2: f64,
 }
 
 /// Identifications afresh of a diagnosis's FRFs with the user's fit options,
@@ -242,7 +242,7 @@ pub(super) fn best_as_it_stands(
 }
 
 /// Everything the diagnosis knows about one candidate effect.
-pub(crate) trait Candidate: Sync {
+pub trait Candidate: Sync {
     /// The element law it adds (`None`: it is not an element, e.g. a mode).
     fn law(&self) -> Option<ElementKind>;
 
@@ -428,7 +428,7 @@ macro_rules! candidates {
             }
 
             /// What the diagnosis knows about it.
-            pub(crate) fn candidate(self) -> &'static dyn Candidate {
+            pub fn candidate(self) -> &'static dyn Candidate {
                 match self {
                     $(Effect::$effect => &$candidate,)+
                 }

@@ -63,7 +63,7 @@ pub use replay::{
 };
 pub(crate) use tally::FrequencySplit;
 pub use tally::SPLIT_BLOCK;
-pub(crate) use validation::ReplayBeside;
+pub use validation::ReplayBeside;
 pub use validation::{
     FrfComparison, LevelComparison, ReplayTap, Validation, sweep_window, validate_recording,
     validate_view,

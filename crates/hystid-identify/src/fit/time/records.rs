@@ -2,6 +2,7 @@
 //! segments and its window.
 
 use crate::error::{Error, Result};
+use crate::extract::lines::PeriodicSpectra;
 use crate::harmonics::Quantity;
 use crate::signals::{Samples, SamplesView};
 use crate::validate::sum_start;
@@ -39,6 +40,17 @@ pub struct TimeRecord {
 }
 
 impl TimeRecord {
+    /// The spectra of the record, whose segments are its steady periods (as
+    /// a multisine's time fit judges it): at least two, of equal length.
+    pub fn periodic_spectra(&self) -> Result<PeriodicSpectra> {
+        PeriodicSpectra::of_channels(
+            &self.name,
+            (self.reference_quantity, self.sample_rate_hz),
+            (self.reference.view(), self.response.view()),
+            self.segments.clone(),
+        )
+    }
+
     /// Checks the record: equal lengths, a motion response, a window inside
     /// the samples that holds some, a finite measured RMS above zero there.
     pub fn check(&self) -> Result<()> {

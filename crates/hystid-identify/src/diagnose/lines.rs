@@ -15,25 +15,9 @@
 
 use crate::error::Result;
 use crate::extract::lines::{LineClass, PeriodicSpectra};
-use crate::fit::TimeRecord;
 use crate::fit::time::TimeProblem;
 use crate::model::{ElementSpec, Model};
 use num_complex::Complex64;
-
-// Here, not beside the type: a `TimeRecord` is the fit's, above the signal
-// layer the type lives in.
-impl PeriodicSpectra {
-    /// The spectra of `record`, whose segments are its steady periods (as a
-    /// multisine's time fit judges it): at least two, of equal length.
-    pub fn of(record: &TimeRecord) -> Result<PeriodicSpectra> {
-        Self::of_channels(
-            &record.name,
-            (record.reference_quantity, record.sample_rate_hz),
-            (record.reference.view(), record.response.view()),
-            record.segments.clone(),
-        )
-    }
-}
 
 /// `δ` with its components along the orthonormal `basis` removed.
 fn orthogonal(delta: &[Vec<Complex64>], basis: &[Vec<Vec<Complex64>>]) -> Vec<Vec<Complex64>> {
@@ -76,7 +60,7 @@ pub fn share_explained(r: &[Vec<Complex64>], delta: &[Vec<Complex64>]) -> f64 {
 /// What a candidate's starts on the lines are made from: the model it is
 /// added to, its replayed lines and residual, and the replay of any other
 /// model on the same grid.
-pub(crate) struct LineContext<'a> {
+pub struct LineContext<'a> {
     model: &'a Model,
     problem: &'a TimeProblem<'a>,
     spectra: &'a [PeriodicSpectra],
@@ -370,6 +354,7 @@ pub fn replay_lines(
 mod tests {
     use super::*;
     use crate::extract::lines::{line_residual, line_spectrum};
+    use crate::fit::TimeRecord;
     use crate::harmonics::Quantity;
 
     /// A record of `periods` periods of a three-line multisine through a
@@ -410,7 +395,7 @@ mod tests {
     #[test]
     fn the_lines_are_classed_and_the_distortion_is_where_it_was_put() {
         let r = record(5);
-        let s = PeriodicSpectra::of(&r).unwrap();
+        let s = r.periodic_spectra().unwrap();
         // judged to three times the highest excited line, 15
         assert_eq!(s.bins, (1..=15).collect::<Vec<_>>());
         let class = |k: usize| s.class[k - 1];
@@ -462,7 +447,7 @@ mod tests {
     #[test]
     fn a_replay_handed_in_stretches_has_the_whole_replays_lines() {
         let r = record(7);
-        let s = PeriodicSpectra::of(&r).unwrap();
+        let s = r.periodic_spectra().unwrap();
         let replay: Vec<f64> = r
             .response
             .values()
@@ -570,7 +555,7 @@ mod tests {
 
     #[test]
     fn one_steady_period_is_refused_by_name() {
-        let e = PeriodicSpectra::of(&record(2)).unwrap_err().to_string();
+        let e = record(2).periodic_spectra().unwrap_err().to_string();
         assert!(
             e.contains("r: periods") && e.contains("at least two"),
             "{e}"

@@ -11,7 +11,7 @@ use crate::model::{ElementKind, ElementSpec, ModalModel, Mode, Model};
 use serde::{Deserialize, Serialize};
 
 /// The embedded default test definition (the paper's simulated case).
-pub const DEFAULT_TEST: &str = include_str!("../../signals/default.toml");
+pub const DEFAULT_TEST: &str = include_str!("../../../../signals/default.toml");
 
 /// A whole test definition file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -111,7 +111,7 @@ impl FrequencySplit {
         // length (its energy is the same: Parseval's theorem holds for the
         // padded block, on a finer grid of frequencies)
         let n = if self.blocks > 1 {
-            crate::extract::analytic::next_smooth(self.measured.len())
+            crate::extract::next_smooth(self.measured.len())
         } else {
             self.measured.len()
         };

@@ -37,6 +37,7 @@
 //! [`DwellHarmonics::std_error`].
 
 pub(crate) mod analytic;
+pub use analytic::next_smooth;
 mod blocks;
 mod coherent;
 mod compensation;

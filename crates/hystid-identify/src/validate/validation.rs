@@ -407,7 +407,7 @@ impl Pass<'_, '_> {
 /// last read's first frame on). What a time-domain diagnosis reduces its
 /// model's replay with, as the measured recording was reduced, whatever the
 /// recording's length.
-pub(crate) struct ReplayBeside<'r, 'd, 'a> {
+pub struct ReplayBeside<'r, 'd, 'a> {
     meta: &'r RecordingMeta,
     /// The reference's and the response's channels in `meta`.
     channels: (usize, usize),
@@ -423,7 +423,7 @@ pub(crate) struct ReplayBeside<'r, 'd, 'a> {
 impl<'r, 'd, 'a> ReplayBeside<'r, 'd, 'a> {
     /// `replay` (of a drive made from `reference`) beside `reference`, as
     /// the recording `meta` of two channels (`reference`, `response`).
-    pub(crate) fn new(
+    pub fn new(
         meta: &'r RecordingMeta,
         (reference_channel, response): (usize, usize),
         reference: SamplesView<'a>,

@@ -748,7 +748,7 @@ impl Model {
     }
 
     /// Each mode's frequency with the joints stuck, Hz.
-    pub(crate) fn linearised_frequencies_hz(&self) -> impl Iterator<Item = f64> + '_ {
+    pub fn linearised_frequencies_hz(&self) -> impl Iterator<Item = f64> + '_ {
         let kd = self.stick_stiffness();
         self.linear.modes.iter().map(move |m| {
             // a hysteretic mode is stiffened by its own joint alone

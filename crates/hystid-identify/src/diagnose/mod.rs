@@ -1054,7 +1054,9 @@ pub fn diagnose(
     })
 }
 
-pub(crate) fn fmt_value(v: f64) -> String {
+/// A parameter value as reports print it: four significant digits,
+/// in exponent form when it is large or small.
+pub fn fmt_value(v: f64) -> String {
     if v.abs() >= 1e4 || v.abs() < 1e-2 {
         format!("{v:.4e}")
     } else {

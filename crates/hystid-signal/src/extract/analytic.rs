@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 
 /// The smallest `2^a 3^b 5^c ≥ n` (fast FFT lengths; crates.md, realfft
 /// pitfall 4).
-pub(crate) fn next_smooth(n: usize) -> usize {
+pub fn next_smooth(n: usize) -> usize {
     let mut best = n.next_power_of_two();
     let mut p5 = 1usize;
     while p5 < best {
