@@ -1444,6 +1444,10 @@ fn a_declared_acquisition_is_put_through_by_validate() {
     for (flags, expected) in [
         (&["--acquisition", "4"][..], "add --domain time"),
         (
+            &["--max-judged-samples", "1000"][..],
+            "--max-judged-samples: only the time-domain fit judges samples; add --domain time",
+        ),
+        (
             &["--domain", "time", "--acquisition", "1"][..],
             "--acquisition",
         ),

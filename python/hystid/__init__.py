@@ -404,13 +404,9 @@ _RECORDING_LISTS = (
 )
 
 
-def _time_records(recordings, replay):
+def _time_records(recordings):
     """The recordings of a time-domain call as the binding takes them (a
-    dict of seven lists, one entry per recording), `replay` checked."""
-    if replay not in ("band_limited", "continuous", "ramp"):
-        raise ValueError(
-            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
-        )
+    dict of seven lists, one entry per recording)."""
     if isinstance(recordings, dict):
         recordings = [recordings]
     lists = list(zip(*[_time_record(r, i) for i, r in enumerate(recordings)])) or [[]] * 7
@@ -469,7 +465,7 @@ def identify_time(
     recordings, each is refitted alone from the fitted model
     (``time_domain.each_alone``, and a note on what it says).
     """
-    parts = _time_records(recordings, replay)
+    parts = _time_records(recordings)
     model_start = None if start is None else _as_model(start)
     text = _hystid.identify_time(
         parts,
@@ -550,34 +546,21 @@ def diagnose(
     decimation); ``each_alone=True`` as ``--each-alone`` (the final refit's
     recordings each refitted alone: ``time_domain.refit.each_alone``).
     """
-    time = None
-    if recordings is None:
-        given = {
-            "time_proposals": time_proposals != 0,
-            "replay": replay != "band_limited",
-            "starts": starts != 1,
-            "reduction": reduction is not None,
-            "max_judged_samples": max_judged_samples != 2**20,
-            "acquisition": acquisition is not None,
-            "each_alone": bool(each_alone),
-        }
-        named = [k for k, v in given.items() if v]
-        if named:
-            raise HystidError(
-                f"{named[0]}: applies to the refit on the time histories; give recordings=[...]"
-            )
-    else:
-        time = dict(
-            recordings=_time_records(recordings, replay),
-            reduction=json.dumps(reduction or {}),
-            replay=replay,
-            starts=int(starts),
-            min_samples_per_period=float(min_samples_per_period),
-            time_proposals=int(time_proposals),
-            max_judged_samples=int(max_judged_samples),
-            acquisition=_acquisition(acquisition),
-            each_alone=bool(each_alone),
-        )
+    if recordings is None and reduction is not None:
+        raise HystidError("reduction: reads the recordings again; give recordings=[...]")
+    # the options go to the library as given, which refuses those of the
+    # time domain without recordings
+    time = dict(
+        recordings=None if recordings is None else _time_records(recordings),
+        reduction=json.dumps(reduction or {}),
+        replay=replay,
+        starts=int(starts),
+        min_samples_per_period=float(min_samples_per_period),
+        time_proposals=int(time_proposals),
+        max_judged_samples=int(max_judged_samples),
+        acquisition=_acquisition(acquisition),
+        each_alone=bool(each_alone),
+    )
     text = _hystid.diagnose(
         json.dumps(frf),
         _options(options, kwargs),
@@ -620,7 +603,7 @@ def diagnose_time(
     (``--max-judged-samples``), for every fit the diagnosis makes;
     ``acquisition`` as there (``--acquisition``).
     """
-    parts = _time_records(recordings, replay)
+    parts = _time_records(recordings)
     text = _hystid.diagnose_time(
         parts,
         _options(options, kwargs),
@@ -706,10 +689,6 @@ def validate(
     reductions). ``acquisition`` is ``--acquisition`` (as in
     :func:`identify_time`), in place of the fit's own.
     """
-    if replay not in ("band_limited", "continuous", "ramp"):
-        raise ValueError(
-            f"replay: expected 'band_limited', 'continuous' or 'ramp', got {replay!r}"
-        )
     settings = {
         "replay": replay,
         "band_hz": _band(band_hz),

@@ -51,7 +51,12 @@ create_exception!(
 
 /// The library's error as a `HystidError`, with its causes on one line.
 fn err(e: hystid::Error) -> PyErr {
-    HystidError::new_err(hystid::error::one_line(&e))
+    match e {
+        hystid::Error::TimeDomainOnly { option, why } => HystidError::new_err(format!(
+            "{option}: {why}; give the time histories as recordings=[...]"
+        )),
+        e => HystidError::new_err(hystid::error::one_line(&e)),
+    }
 }
 
 fn fail(message: impl Into<String>) -> PyErr {
@@ -71,7 +76,7 @@ fn time_fit_options(
 ) -> PyResult<TimeFitOptions> {
     Ok(TimeFitOptions {
         min_samples_per_period,
-        input: from_json("replay", &format!("\"{replay}\""))?,
+        input: self::replay(replay)?,
         starts,
         max_judged_samples,
         acquisition: acquisition
@@ -79,6 +84,12 @@ fn time_fit_options(
             .transpose()?,
         ..TimeFitOptions::default()
     })
+}
+
+/// A replay's name (`band_limited`, `continuous`, `ramp`) as the library
+/// reads it.
+fn replay(name: &str) -> PyResult<hystid::validate::DriveInput> {
+    from_json("replay", &serde_json::Value::from(name).to_string())
 }
 
 fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
@@ -617,7 +628,9 @@ fn candidates_of(names: Option<Vec<String>>) -> PyResult<Vec<Effect>> {
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 struct TimeRecordings<'py> {
-    recordings: Recordings<'py>,
+    /// None: the options as given, for the request to refuse those that
+    /// need the time histories.
+    recordings: Option<Recordings<'py>>,
     reduction: String,
     replay: String,
     starts: usize,
@@ -649,14 +662,16 @@ fn diagnose<'py>(
     let fit_opts = fit_options(&options)?;
     // the candidates re-identify with the user's fit options, as the
     // command line's diagnosis does
+    let recordings = time.as_ref().and_then(|t| t.recordings.as_ref());
     let mut req = DiagnoseRequest::new(
-        time.as_ref()
-            .map_or_else(Vec::new, |t| paths(&t.recordings.names)),
+        recordings.map_or_else(Vec::new, |r| paths(&r.names)),
         fit_opts.clone(),
         candidates_of(candidates)?,
     );
-    if let Some(t) = &time {
+    if recordings.is_some() {
         req.domain = FitDomain::Time;
+    }
+    if let Some(t) = &time {
         req.diagnosis.time_proposals = t.time_proposals;
         req.time = TimeFitOptions {
             each_alone: t.each_alone,
@@ -676,12 +691,11 @@ fn diagnose<'py>(
         None => None,
     };
     // the recordings as the time refit takes them, and how it replays
-    let time = match &time {
+    let time = match time.as_ref().and_then(|t| Some((t, t.recordings.as_ref()?))) {
         None => None,
-        Some(t) => {
-            let loaded = t.recordings.loaded()?;
-            let named: Vec<(std::path::PathBuf, Loaded)> = t
-                .recordings
+        Some((t, recordings)) => {
+            let loaded = recordings.loaded()?;
+            let named: Vec<(std::path::PathBuf, Loaded)> = recordings
                 .names
                 .iter()
                 .map(std::path::PathBuf::from)
@@ -765,15 +779,18 @@ struct SettingsJson {
     periodic: bool,
     reduction: ReductionJson,
     /// `band_limited` (the default), `continuous` or `ramp` (see
-    /// `hystid::validate::DriveInput`).
-    #[serde(default)]
-    replay: hystid::validate::DriveInput,
+    /// `hystid::validate::DriveInput`), read by [`replay`].
+    #[serde(default = "band_limited")]
+    replay: String,
     /// The response's acquisition chain, in place of the fit's
     /// (`--acquisition`).
     #[serde(default)]
     acquisition: Option<serde_json::Value>,
 }
 
+fn band_limited() -> String {
+    "band_limited".into()
+}
 fn twenty() -> f64 {
     20.0
 }
@@ -818,7 +835,7 @@ fn validate<'py>(
             .map(|chain| from_json("acquisition", &chain.to_string()))
             .transpose()?,
         settings: ValidationSettings {
-            input: s.replay,
+            input: replay(&s.replay)?,
             band_hz: s.band_hz,
             window_s: s.window_s,
             min_samples_per_period: s.min_samples_per_period,

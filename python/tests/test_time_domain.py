@@ -79,8 +79,10 @@ def test_a_diagnosis_refined_in_time_is_diagnose_domain_time(cli):
     run_cli("diagnose", "sim/recording.json", "--out", "diag_time", "--domain", "time", cwd=d)
     ref = json.loads((d / "diag_time" / "diagnosis.json").read_text())
     record, frf = small_record(cli)
-    with pytest.raises(hystid.HystidError, match="starts: applies to the refit on the time histories"):
+    with pytest.raises(hystid.HystidError, match=r"starts: the time-domain fit descends from several starts; give the time histories as recordings=\[\.\.\.\]"):
         hystid.diagnose(frf, starts=2)
+    with pytest.raises(hystid.HystidError, match="max_judged_samples: only the time-domain fit judges samples"):
+        hystid.diagnose(frf, max_judged_samples=1000)
     diagnosis = hystid.diagnose(frf, recordings=[record])
     assert "refit" in diagnosis["time_domain"]
     assert without(diagnosis, "seconds") == without(ref, "seconds")
@@ -370,7 +372,7 @@ def test_a_diagnosis_refits_each_recording_alone_when_asked(cli):
     for a in alone:
         assert abs(a["alone"] / a["together"] - 1.0) < 1e-3, a
     assert any(n.startswith("refitted alone, the recordings come 1.00x") for n in refit["notes"])
-    with pytest.raises(hystid.HystidError, match="each_alone: applies to the refit"):
+    with pytest.raises(hystid.HystidError, match="each_alone: .*; give the time histories as recordings"):
         hystid.diagnose(frf, each_alone=True)
 
 
@@ -386,5 +388,5 @@ def test_a_diagnosis_refined_through_the_acquisition_chain_is_the_commands(cli):
     diagnosis = hystid.diagnose(frf, recordings=[record], acquisition=4)
     assert diagnosis["time_domain"]["refit"]["acquisition"] == {"decimated_by": 4, "taps": 31}
     assert without(diagnosis, "seconds") == without(ref, "seconds")
-    with pytest.raises(hystid.HystidError, match="acquisition: applies to the refit"):
+    with pytest.raises(hystid.HystidError, match="acquisition: .*; give the time histories as recordings"):
         hystid.diagnose(frf, acquisition=4)

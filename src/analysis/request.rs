@@ -142,7 +142,10 @@ pub fn refuse_unless_time(domain: FitDomain, given: &[(&str, bool, &str)]) -> Re
         return Ok(());
     }
     match given.iter().find(|(_, set, _)| *set) {
-        Some((option, _, why)) => Err(Error::option(*option, format!("{why}; add --domain time"))),
+        Some((option, _, why)) => Err(Error::TimeDomainOnly {
+            option: option.to_string(),
+            why: why.to_string(),
+        }),
         None => Ok(()),
     }
 }

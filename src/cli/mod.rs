@@ -105,6 +105,9 @@ pub fn refused(e: hystid::Error) -> anyhow::Error {
         hystid::Error::InvalidOption { option, message } if !option.is_empty() => {
             anyhow::anyhow!("{}: {message}", flag(&option))
         }
+        hystid::Error::TimeDomainOnly { option, why } => {
+            anyhow::anyhow!("{}: {why}; add --domain time", flag(&option))
+        }
         e => e.into(),
     }
 }

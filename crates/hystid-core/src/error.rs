@@ -42,6 +42,16 @@ pub enum Error {
         /// What was expected.
         message: String,
     },
+    /// An option of the time-domain fit given to a fit of the FRFs alone.
+    /// Each front end says how its users ask for the time domain
+    /// (`--domain time`, or the time histories as `recordings=`).
+    #[error("{option}: {why}; it applies to the time domain only")]
+    TimeDomainOnly {
+        /// The request's field, e.g. `starts`.
+        option: String,
+        /// What the option does there.
+        why: String,
+    },
     /// Input data (a signal, a recording's content) is unusable.
     #[error("invalid input: {what}: {message}")]
     InvalidInput {

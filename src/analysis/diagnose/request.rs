@@ -69,6 +69,11 @@ impl DiagnoseRequest {
                     "the time-domain fit descends from several starts",
                 ),
                 (
+                    "max_judged_samples",
+                    t.max_judged_samples != crate::fit::time::MAX_JUDGED_SAMPLES,
+                    "only the time-domain fit judges samples",
+                ),
+                (
                     "acquisition",
                     t.acquisition.is_some(),
                     "only the time-domain refit replays the models",
@@ -139,18 +144,25 @@ mod tests {
         let cases = [
             (
                 proposals,
-                "time_proposals: the candidates are put to the time histories; add --domain time",
+                "time_proposals: the candidates are put to the time histories; it applies to the time domain only",
             ),
             (
                 with(TimeFitOptions {
                     input: DriveInput::Continuous,
                     ..d()
                 }),
-                "replay: only the time-domain refit replays the models; add --domain time",
+                "replay: only the time-domain refit replays the models; it applies to the time domain only",
             ),
             (
                 with(TimeFitOptions { starts: 2, ..d() }),
-                "starts: the time-domain fit descends from several starts; add --domain time",
+                "starts: the time-domain fit descends from several starts; it applies to the time domain only",
+            ),
+            (
+                with(TimeFitOptions {
+                    max_judged_samples: 1000,
+                    ..d()
+                }),
+                "max_judged_samples: only the time-domain fit judges samples; it applies to the time domain only",
             ),
             (
                 with(TimeFitOptions {
@@ -160,14 +172,14 @@ mod tests {
                     }),
                     ..d()
                 }),
-                "acquisition: only the time-domain refit replays the models; add --domain time",
+                "acquisition: only the time-domain refit replays the models; it applies to the time domain only",
             ),
             (
                 with(TimeFitOptions {
                     each_alone: true,
                     ..d()
                 }),
-                "each_alone: the recordings are refitted alone in the time domain; add --domain time",
+                "each_alone: the recordings are refitted alone in the time domain; it applies to the time domain only",
             ),
         ];
         for (r, expected) in cases {

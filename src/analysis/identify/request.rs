@@ -75,6 +75,11 @@ impl IdentifyRequest {
                     "only the time-domain fit replays the model",
                 ),
                 (
+                    "max_judged_samples",
+                    t.max_judged_samples != crate::fit::time::MAX_JUDGED_SAMPLES,
+                    "only the time-domain fit judges samples",
+                ),
+                (
                     "acquisition",
                     t.acquisition.is_some(),
                     "only the time-domain fit replays the model",
@@ -106,10 +111,10 @@ impl IdentifyRequest {
             ));
         }
         if self.start.is_some() && self.domain == FitDomain::Frf && !self.fix.is_empty() {
-            return Err(Error::option(
-                "fix",
-                "parameters are held only by the time-domain fit from a start; add --domain time",
-            ));
+            return Err(Error::TimeDomainOnly {
+                option: "fix".into(),
+                why: "parameters are held only by the time-domain fit from a start".into(),
+            });
         }
         Ok(())
     }
@@ -157,14 +162,14 @@ mod tests {
         let cases = [
             (
                 with(TimeFitOptions { starts: 3, ..d() }),
-                "starts: the time-domain fit descends from several starts; add --domain time",
+                "starts: the time-domain fit descends from several starts; it applies to the time domain only",
             ),
             (
                 with(TimeFitOptions {
                     input: DriveInput::Continuous,
                     ..d()
                 }),
-                "replay: only the time-domain fit replays the model; add --domain time",
+                "replay: only the time-domain fit replays the model; it applies to the time domain only",
             ),
             (
                 with(TimeFitOptions {
@@ -174,14 +179,14 @@ mod tests {
                     }),
                     ..d()
                 }),
-                "acquisition: only the time-domain fit replays the model; add --domain time",
+                "acquisition: only the time-domain fit replays the model; it applies to the time domain only",
             ),
             (
                 with(TimeFitOptions {
                     each_alone: true,
                     ..d()
                 }),
-                "each_alone: the recordings are refitted alone in the time domain; add --domain time",
+                "each_alone: the recordings are refitted alone in the time domain; it applies to the time domain only",
             ),
         ];
         for (r, expected) in cases {
@@ -278,7 +283,7 @@ mod tests {
         };
         assert_eq!(
             refused(r),
-            "fix: parameters are held only by the time-domain fit from a start; add --domain time"
+            "fix: parameters are held only by the time-domain fit from a start; it applies to the time domain only"
         );
     }
 }
