@@ -860,6 +860,17 @@ fn quality_markdown(quality: &[String]) -> String {
 /// The time-domain refinement as a section of `diagnosis.md`.
 pub fn time_markdown(t: &TimeRefinement) -> String {
     let mut s = String::new();
+    time_errors_md(&mut s, t);
+    time_each_alone_md(&mut s, t);
+    time_checks_md(&mut s, t);
+    time_residual_md(&mut s, t);
+    time_proposals_md(&mut s, t);
+    time_parameters_md(&mut s, t);
+    s
+}
+
+/// The header and each recording's error: the baseline, the final model as the FRF diagnosis fitted it, and refitted in time.
+fn time_errors_md(s: &mut String, t: &TimeRefinement) {
     let _ = writeln!(
         s,
         "\n## In the time domain\n\nThe final model refitted on the recorded time histories \
@@ -890,6 +901,10 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             100.0 * a.segment_relative
         );
     }
+}
+
+/// Each recording refitted alone (`--each-alone`), with what it says of the levels.
+fn time_each_alone_md(s: &mut String, t: &TimeRefinement) {
     if !t.refit.each_alone.is_empty() {
         let _ = writeln!(
             s,
@@ -913,6 +928,10 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             let _ = writeln!(s, "\n{}{}.", note[..1].to_uppercase(), &note[1..]);
         }
     }
+}
+
+/// Each effect the FRF diagnosis kept, taken out and the rest refitted in time.
+fn time_checks_md(s: &mut String, t: &TimeRefinement) {
     if !t.checks.is_empty() {
         let _ = writeln!(
             s,
@@ -939,6 +958,10 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             };
         }
     }
+}
+
+/// The refitted model's residual in the FRFs' plane and the candidates traced in it.
+fn time_residual_md(s: &mut String, t: &TimeRefinement) {
     if let Some(r) = &t.residual {
         let _ = writeln!(
             s,
@@ -978,6 +1001,10 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             "\nThe time residual could not be reduced or traced: {why}"
         );
     }
+}
+
+/// The candidates put to the time histories.
+fn time_proposals_md(s: &mut String, t: &TimeRefinement) {
     if !t.proposals.is_empty() {
         let _ = writeln!(
             s,
@@ -1001,6 +1028,10 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
             };
         }
     }
+}
+
+/// The refitted parameters with their intervals, and the refit's notes.
+fn time_parameters_md(s: &mut String, t: &TimeRefinement) {
     let _ = writeln!(s, "\n| parameter | value | 95 % interval |\n|---|---|---|");
     let reference = (t.refit.reference_quantity).unwrap_or(crate::harmonics::Quantity::Force);
     let drive = super::flags::force_drive(&t.refit.model, reference);
@@ -1023,7 +1054,6 @@ pub fn time_markdown(t: &TimeRefinement) -> String {
     for n in &t.refit.notes {
         let _ = writeln!(s, "\nNote: {n}");
     }
-    s
 }
 
 /// `diagnosis.md`: the candidates, what was kept and why; `reference` the

@@ -702,27 +702,37 @@ pub fn coil_markdown(c: &crate::fit::coil::CoilFit, def: &TestDefinition) -> Str
 pub fn final_markdown(f: &FinalModel) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "## The model: {}\n", f.name());
-    let _ = writeln!(
-        s,
-        "{}\n",
-        match (f.source, f.added_effects.is_empty(), f.replaced_joint) {
-            (ModelSource::Fit, _, _) => "The fitted model (the diagnosis did not run).".to_string(),
-            (ModelSource::Diagnosis, true, None) => "The model after the diagnosis, which added no effect: the fitted law, every parameter refitted with the measured standard errors on the harmonics judged.".to_string(),
-            (ModelSource::Diagnosis, _, replaced) => {
-                let mut changes: Vec<String> = replaced
-                    .map(|r| format!("replaced the joint law {r} by {}", f.joint.unwrap_or("another")))
-                    .into_iter()
-                    .collect();
-                if !f.added_effects.is_empty() {
-                    changes.push(format!("added {}", f.added_effects.join(" and ")));
-                }
-                format!(
-                    "The model after the diagnosis, which {}: every parameter refitted with the measured standard errors on the harmonics judged. The first fit (the joint alone) is the \"before\" below.",
-                    changes.join(" and ")
-                )
+    let _ = writeln!(s, "{}\n", final_origin(f));
+    final_parameter_table(&mut s, f);
+    final_flag_notes(&mut s, f);
+    final_error_table(&mut s, f);
+    s
+}
+
+/// Where the final model comes from: the fit, or what the diagnosis changed.
+fn final_origin(f: &FinalModel) -> String {
+    match (f.source, f.added_effects.is_empty(), f.replaced_joint) {
+        (ModelSource::Fit, _, _) => "The fitted model (the diagnosis did not run).".to_string(),
+        (ModelSource::Diagnosis, true, None) => "The model after the diagnosis, which added no effect: the fitted law, every parameter refitted with the measured standard errors on the harmonics judged.".to_string(),
+        (ModelSource::Diagnosis, _, replaced) => {
+            let mut changes: Vec<String> = replaced
+                .map(|r| format!("replaced the joint law {r} by {}", f.joint.unwrap_or("another")))
+                .into_iter()
+                .collect();
+            if !f.added_effects.is_empty() {
+                changes.push(format!("added {}", f.added_effects.join(" and ")));
             }
+            format!(
+                "The model after the diagnosis, which {}: every parameter refitted with the measured standard errors on the harmonics judged. The first fit (the joint alone) is the \"before\" below.",
+                changes.join(" and ")
+            )
         }
-    );
+    }
+}
+
+/// The parameters with their 95 % intervals, the simulated values when the
+/// model is known, and their flags.
+fn final_parameter_table(s: &mut String, f: &FinalModel) {
     let has_reference = f.parameters.values().any(|r| r.reference.is_some());
     let _ = writeln!(
         s,
@@ -767,6 +777,10 @@ pub fn final_markdown(f: &FinalModel) -> String {
             }
         );
     }
+}
+
+/// What each flagged parameter's flags mean.
+fn final_flag_notes(s: &mut String, f: &FinalModel) {
     let flagged: Vec<String> = f
         .flagged()
         .map(|(n, r)| {
@@ -787,6 +801,11 @@ pub fn final_markdown(f: &FinalModel) -> String {
             flagged.join("\n")
         );
     }
+}
+
+/// The error of the first fit, the diagnosis's baseline and the final
+/// model.
+fn final_error_table(s: &mut String, f: &FinalModel) {
     let _ = writeln!(
         s,
         "\nError (one definition for fit, diagnosis and this report): the relative error of the fundamental, ‖H1_meas − H1_model‖/‖H1_meas‖ over every measured point, and χ² per degree of freedom with the measured standard errors over harmonics {:?}.\n",
@@ -819,7 +838,6 @@ pub fn final_markdown(f: &FinalModel) -> String {
         percent(f.error.relative),
         f.error.chi2_per_dof
     );
-    s
 }
 
 /// `report.md`: the test that ran, the final model (with the first fit

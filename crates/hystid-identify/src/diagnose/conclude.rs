@@ -62,50 +62,7 @@ pub(super) fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         drive,
     } = c;
     let normalised = |chi2: f64| chi2 / expected.max(f64::MIN_POSITIVE);
-    // intervals of the effects kept, at the final model
-    let mut selected = Vec::new();
-    if !chosen.is_empty() {
-        let Intervals { params, conf } = match intervals {
-            Some(i) => i,
-            None => Intervals::at(&current, data, predictor)?,
-        };
-        let mut pairs: Vec<(crate::fit::params::Parameter, Estimate)> =
-            params.parameters.into_iter().zip(conf.estimates).collect();
-        // a mode above the band was fitted by its flexibility; its modal
-        // mass is reported too, with the interval the data give it (wide
-        // where only the flexibility is seen)
-        if pairs
-            .iter()
-            .any(|(p, _)| matches!(p.target, crate::fit::params::Target::Flexibility { .. }))
-        {
-            let plain = model_parameters(&current.model, None);
-            if let Ok(c) = confidence_at(&current.model, &plain, &current.pred, data, predictor) {
-                pairs.extend(
-                    plain
-                        .parameters
-                        .into_iter()
-                        .zip(c.estimates)
-                        .filter(|(p, _)| {
-                            matches!(p.target, crate::fit::params::Target::Residue { .. })
-                        }),
-                );
-            }
-        }
-        for &effect in &chosen {
-            let mut parameters = BTreeMap::new();
-            for (p, e) in &pairs {
-                if let Some(rest) =
-                    effect
-                        .candidate()
-                        .own_parameter(effect.name(), &current.model, &p.name)
-                {
-                    let (name, e) = effect.candidate().reported(rest, e.clone());
-                    parameters.insert(name, e);
-                }
-            }
-            selected.push(SelectedEffect { effect, parameters });
-        }
-    }
+    let selected = selected_effects(&chosen, &current, data, predictor, intervals)?;
     let final_fit = model_fit(&current.model, data, &current.pred, current.chi2);
     let final_features = features(data, &current.pred);
     let consistent = final_fit.chi2_per_dof < 2.0 && normalised(current.chi2) < 2.0;
@@ -118,22 +75,8 @@ pub(super) fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         consistent,
         drive,
     );
-    // where the residual stays above the noise, the candidates left out
-    // are the user's next step
-    let untried: Vec<&str> = Effect::ALL
-        .iter()
-        .filter(|e| !e.by_default())
-        .filter(|e| {
-            !reports.iter().any(|r| r.effect == **e) && !failed.iter().any(|f| f.effect == **e)
-        })
-        .map(|e| e.name())
-        .collect();
-    if !consistent && !untried.is_empty() {
-        explanation.push_str(&format!(
-            " Not tried, as they are tried only when named: {} (`--candidates default,{}`).",
-            untried.join(", "),
-            untried[0]
-        ));
+    if !consistent {
+        explanation.push_str(&untried_note(&reports, &failed));
     }
     if let Some(a) = &baseline_astray {
         explanation.push_str(&format!(
@@ -164,6 +107,84 @@ pub(super) fn conclude(c: Conclusion<'_>) -> Result<Diagnosis> {
         final_prediction: Some(current.pred),
         response_sign,
     })
+}
+
+/// The effects kept, each with its parameters' intervals at the final
+/// model (`intervals` when they are known already).
+fn selected_effects(
+    chosen: &[Effect],
+    current: &Refit,
+    data: &FitData,
+    predictor: &HbPredictor,
+    intervals: Option<Intervals>,
+) -> Result<Vec<SelectedEffect>> {
+    let mut selected = Vec::new();
+    if chosen.is_empty() {
+        return Ok(selected);
+    }
+    let Intervals { params, conf } = match intervals {
+        Some(i) => i,
+        None => Intervals::at(current, data, predictor)?,
+    };
+    let mut pairs: Vec<(crate::fit::params::Parameter, Estimate)> =
+        params.parameters.into_iter().zip(conf.estimates).collect();
+    // a mode above the band was fitted by its flexibility; its modal
+    // mass is reported too, with the interval the data give it (wide
+    // where only the flexibility is seen)
+    if pairs
+        .iter()
+        .any(|(p, _)| matches!(p.target, crate::fit::params::Target::Flexibility { .. }))
+    {
+        let plain = model_parameters(&current.model, None);
+        if let Ok(c) = confidence_at(&current.model, &plain, &current.pred, data, predictor) {
+            pairs.extend(
+                plain
+                    .parameters
+                    .into_iter()
+                    .zip(c.estimates)
+                    .filter(|(p, _)| {
+                        matches!(p.target, crate::fit::params::Target::Residue { .. })
+                    }),
+            );
+        }
+    }
+    for &effect in chosen {
+        let mut parameters = BTreeMap::new();
+        for (p, e) in &pairs {
+            if let Some(rest) =
+                effect
+                    .candidate()
+                    .own_parameter(effect.name(), &current.model, &p.name)
+            {
+                let (name, e) = effect.candidate().reported(rest, e.clone());
+                parameters.insert(name, e);
+            }
+        }
+        selected.push(SelectedEffect { effect, parameters });
+    }
+
+    Ok(selected)
+}
+
+/// Where the residual stays above the noise, the candidates left out are
+/// the user's next step: those tried only when named, and not tried.
+fn untried_note(reports: &[CandidateReport], failed: &[FailedCandidate]) -> String {
+    let untried: Vec<&str> = Effect::ALL
+        .iter()
+        .filter(|e| !e.by_default())
+        .filter(|e| {
+            !reports.iter().any(|r| r.effect == **e) && !failed.iter().any(|f| f.effect == **e)
+        })
+        .map(|e| e.name())
+        .collect();
+    if untried.is_empty() {
+        return String::new();
+    }
+    format!(
+        " Not tried, as they are tried only when named: {} (`--candidates default,{}`).",
+        untried.join(", "),
+        untried[0]
+    )
 }
 
 /// `d` with `effect` taken out of its final model: the rest refitted on the
@@ -401,12 +422,32 @@ pub(super) fn explain(
         100.0 * baseline.error_relative,
         baseline.chi2_per_dof
     ));
-    let mut dropped = String::new();
+    let decided_in_time = time_verdicts(reports);
+    s.push_str(&decided_in_time);
+    if selected.is_empty() {
+        if decided_in_time.is_empty() {
+            s.push_str(&nothing_added(reports));
+        } else {
+            s.push_str("No missing effect is confirmed.");
+        }
+        return s;
+    }
+    for sel in selected {
+        s.push_str(&effect_added(f, sel, drive));
+    }
+    s.push_str(&error_change(baseline, f, final_fit, consistent));
+    s
+}
+
+/// The candidates the time domain decided otherwise than the FRFs: those
+/// dropped there, and those added there.
+fn time_verdicts(reports: &[CandidateReport]) -> String {
+    let mut s = String::new();
     for r in reports
         .iter()
         .filter(|r| r.verdict == Verdict::NotConfirmedInTime)
     {
-        dropped.push_str(&format!(
+        s.push_str(&format!(
             "The candidate {} was kept on the FRFs but not confirmed in the time domain ({}), \
              so it was dropped and the rest refitted. ",
             r.effect.name(),
@@ -414,64 +455,76 @@ pub(super) fn explain(
         ));
     }
     for r in reports.iter().filter(|r| r.verdict == Verdict::KeptInTime) {
-        dropped.push_str(&format!(
+        s.push_str(&format!(
             "The candidate {} was not kept on the FRFs, but the recorded time histories \
              need it ({}), so it was added. ",
             r.effect.name(),
             r.note.as_deref().unwrap_or("no reason recorded")
         ));
     }
-    if selected.is_empty() && !dropped.is_empty() {
-        s.push_str(&dropped);
-        s.push_str("No missing effect is confirmed.");
-        return s;
+    s
+}
+
+/// Why nothing was added: the candidate that came closest, and how far.
+fn nothing_added(reports: &[CandidateReport]) -> String {
+    let best = reports
+        .iter()
+        .max_by(|a, b| a.criterion.total_cmp(&b.criterion));
+    match best {
+        Some(b) if b.note.is_some() => format!(
+            "No significant missing effect: the candidate that did best against the information criterion, {}, {}.",
+            b.effect.name(),
+            b.note.as_deref().unwrap_or_default()
+        ),
+        Some(b) => format!(
+            "No significant missing effect: the candidate that came closest to the information criterion, {}, lowered χ² by {:.1}, short of the {:.1} it asks for {} parameter(s).",
+            b.effect.name(),
+            b.delta_chi2,
+            b.threshold,
+            b.parameters_added
+        ),
+        None => "No significant missing effect.".to_string(),
     }
-    s.push_str(&dropped);
-    if selected.is_empty() {
-        let best = reports
-            .iter()
-            .max_by(|a, b| a.criterion.total_cmp(&b.criterion));
-        match best {
-            Some(b) if b.note.is_some() => s.push_str(&format!(
-                "No significant missing effect: the candidate that did best against the information criterion, {}, {}.",
-                b.effect.name(),
-                b.note.as_deref().unwrap_or_default()
-            )),
-            Some(b) => s.push_str(&format!(
-                "No significant missing effect: the candidate that came closest to the information criterion, {}, lowered χ² by {:.1}, short of the {:.1} it asks for {} parameter(s).",
-                b.effect.name(),
-                b.delta_chi2,
-                b.threshold,
-                b.parameters_added
-            )),
-            None => s.push_str("No significant missing effect."),
-        }
-        return s;
-    }
-    for sel in selected {
-        let why = sel.effect.candidate().explain(f, sel);
-        let params: Vec<String> = sel
-            .parameters
-            .iter()
-            .map(|(n, e)| {
-                let law = sel.effect.candidate().law();
-                let unit = crate::model::units::law_parameter_unit(law, n, drive);
-                format!(
-                    "{n} = {} [{}, {}]{}",
-                    fmt_value(e.value),
-                    fmt_value(e.ci95[0]),
-                    fmt_value(e.ci95[1]),
-                    crate::model::units::unit_suffix(unit)
-                )
-            })
-            .collect();
-        s.push_str(&format!(
-            "{}: {} added ({}). ",
-            capitalise(&why),
-            sel.effect.name(),
-            params.join(", ")
-        ));
-    }
+}
+
+/// One effect added: why, and its parameters with their intervals.
+fn effect_added(
+    f: &ResidualFeatures,
+    sel: &SelectedEffect,
+    drive: crate::harmonics::Quantity,
+) -> String {
+    let why = sel.effect.candidate().explain(f, sel);
+    let params: Vec<String> = sel
+        .parameters
+        .iter()
+        .map(|(n, e)| {
+            let law = sel.effect.candidate().law();
+            let unit = crate::model::units::law_parameter_unit(law, n, drive);
+            format!(
+                "{n} = {} [{}, {}]{}",
+                fmt_value(e.value),
+                fmt_value(e.ci95[0]),
+                fmt_value(e.ci95[1]),
+                crate::model::units::unit_suffix(unit)
+            )
+        })
+        .collect();
+    format!(
+        "{}: {} added ({}). ",
+        capitalise(&why),
+        sel.effect.name(),
+        params.join(", ")
+    )
+}
+
+/// The error before and after, in H1 and in the higher harmonics that say
+/// something of the model, and whether the rest is noise.
+fn error_change(
+    baseline: &ModelFit,
+    f: &ResidualFeatures,
+    final_fit: &ModelFit,
+    consistent: bool,
+) -> String {
     // a harmonic the baseline leaves at the noise (χ²/dof < 2) with an
     // error of half the harmonic or more is itself no more than noise: its
     // "100 % → 100 %" says nothing of the model, so it is left out
@@ -495,7 +548,7 @@ pub(super) fn explain(
     } else {
         format!(" ({} → {})", even_before.join(", "), even_after.join(", "))
     };
-    s.push_str(&format!(
+    format!(
         "Error {:.2} % → {:.2} % in H1{others}; χ²/dof {:.2} → {:.2}, {}.",
         100.0 * baseline.error_relative,
         100.0 * final_fit.error_relative,
@@ -506,8 +559,7 @@ pub(super) fn explain(
         } else {
             "still above the noise: something else may be missing"
         }
-    ));
-    s
+    )
 }
 
 fn capitalise(s: &str) -> String {

@@ -106,76 +106,10 @@ pub fn features(data: &FitData, pred: &Prediction) -> ResidualFeatures {
         .zip(&by_h)
         .map(|(&h, &(c, n))| (h, c / n.max(1) as f64))
         .collect();
-    let lx: Vec<f64> = by_level.iter().map(|(l, _)| l.ln()).collect();
-    let ly: Vec<f64> = by_level.iter().map(|(_, c)| c.max(1e-12).ln()).collect();
-    let growth = {
-        let n = lx.len() as f64;
-        let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
-        let sxx: f64 = lx.iter().map(|x| (x - mx).powi(2)).sum();
-        if sxx > 0.0 {
-            lx.iter()
-                .zip(&ly)
-                .map(|(x, y)| (x - mx) * (y - my))
-                .sum::<f64>()
-                / sxx
-        } else {
-            0.0
-        }
-    };
-    // the part of the fundamental's residual common to all levels, on the
-    // frequencies every level has
-    let mut share = 0.0;
-    if let Some(k) = k1 {
-        let mut grid: BTreeMap<u64, Vec<Complex64>> = BTreeMap::new();
-        for (s, ps) in data.series.iter().zip(&pred.h) {
-            for (p, m) in s.points.iter().zip(ps) {
-                if let Some(m) = m {
-                    grid.entry((p.frequency_hz * 1e6).round() as u64)
-                        .or_default()
-                        .push((p.h[k] - m[k]) / p.std_error[k].max(f64::MIN_POSITIVE));
-                }
-            }
-        }
-        let (mut total, mut common) = (0.0, 0.0);
-        for v in grid
-            .values()
-            .filter(|v| v.len() == data.series.len() && v.len() > 1)
-        {
-            let mean: Complex64 = v.iter().sum::<Complex64>() / v.len() as f64;
-            total += v.iter().map(|z| z.norm_sqr()).sum::<f64>();
-            common += v.len() as f64 * mean.norm_sqr();
-        }
-        if total > 0.0 {
-            share = common / total;
-        }
-    }
-    // peaks of |H1| per level, measured and model
-    let mut peak_shift = Vec::new();
-    let mut peak_ratio = Vec::new();
-    if let Some(k) = k1 {
-        for (s, ps) in data.series.iter().zip(&pred.h) {
-            let meas = s
-                .points
-                .iter()
-                .enumerate()
-                .max_by(|a, b| a.1.h[k].norm().total_cmp(&b.1.h[k].norm()));
-            let model = s
-                .points
-                .iter()
-                .zip(ps)
-                .enumerate()
-                .filter_map(|(i, (p, m))| m.as_ref().map(|m| (i, p.frequency_hz, m[k].norm())))
-                .max_by(|a, b| a.2.total_cmp(&b.2));
-            if let (Some((_, mp)), Some((_, mf, mv))) = (meas, model) {
-                peak_shift.push((
-                    s.level,
-                    refined_peak(s, k, true).unwrap_or(mp.frequency_hz)
-                        - refined_model_peak(s, ps, k).unwrap_or(mf),
-                ));
-                peak_ratio.push((s.level, mp.h[k].norm() / mv));
-            }
-        }
-    }
+    let growth = log_slope(&by_level);
+    let share = k1.map_or(0.0, |k| common_share(data, pred, k));
+    let (peak_shift, peak_ratio) =
+        k1.map_or_else(Default::default, |k| peak_changes(data, pred, k));
     let levels: Vec<f64> = peak_shift.iter().map(|(l, _)| l.ln()).collect();
     ResidualFeatures {
         chi2_per_dof_by_harmonic,
@@ -187,6 +121,80 @@ pub fn features(data: &FitData, pred: &Prediction) -> ResidualFeatures {
         peak_shift_hz: peak_shift,
         peak_ratio,
     }
+}
+
+/// The slope of `ln χ²/dof` against `ln level`: how the residual grows with
+/// the level.
+fn log_slope(by_level: &[(f64, f64)]) -> f64 {
+    let lx: Vec<f64> = by_level.iter().map(|(l, _)| l.ln()).collect();
+    let ly: Vec<f64> = by_level.iter().map(|(_, c)| c.max(1e-12).ln()).collect();
+    let n = lx.len() as f64;
+    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
+    let sxx: f64 = lx.iter().map(|x| (x - mx).powi(2)).sum();
+    if sxx > 0.0 {
+        lx.iter()
+            .zip(&ly)
+            .map(|(x, y)| (x - mx) * (y - my))
+            .sum::<f64>()
+            / sxx
+    } else {
+        0.0
+    }
+}
+
+/// The share of the fundamental's residual (at harmonic index `k`) common
+/// to all levels, on the frequencies every level has.
+fn common_share(data: &FitData, pred: &Prediction, k: usize) -> f64 {
+    let mut grid: BTreeMap<u64, Vec<Complex64>> = BTreeMap::new();
+    for (s, ps) in data.series.iter().zip(&pred.h) {
+        for (p, m) in s.points.iter().zip(ps) {
+            if let Some(m) = m {
+                grid.entry((p.frequency_hz * 1e6).round() as u64)
+                    .or_default()
+                    .push((p.h[k] - m[k]) / p.std_error[k].max(f64::MIN_POSITIVE));
+            }
+        }
+    }
+    let (mut total, mut common) = (0.0, 0.0);
+    for v in grid
+        .values()
+        .filter(|v| v.len() == data.series.len() && v.len() > 1)
+    {
+        let mean: Complex64 = v.iter().sum::<Complex64>() / v.len() as f64;
+        total += v.iter().map(|z| z.norm_sqr()).sum::<f64>();
+        common += v.len() as f64 * mean.norm_sqr();
+    }
+    if total > 0.0 { common / total } else { 0.0 }
+}
+
+/// The shift of the peak of `|H1|` (harmonic index `k`) from the model's,
+/// and the ratio of their heights, per level.
+fn peak_changes(data: &FitData, pred: &Prediction, k: usize) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    let mut peak_shift = Vec::new();
+    let mut peak_ratio = Vec::new();
+    for (s, ps) in data.series.iter().zip(&pred.h) {
+        let meas = s
+            .points
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.h[k].norm().total_cmp(&b.1.h[k].norm()));
+        let model = s
+            .points
+            .iter()
+            .zip(ps)
+            .enumerate()
+            .filter_map(|(i, (p, m))| m.as_ref().map(|m| (i, p.frequency_hz, m[k].norm())))
+            .max_by(|a, b| a.2.total_cmp(&b.2));
+        if let (Some((_, mp)), Some((_, mf, mv))) = (meas, model) {
+            peak_shift.push((
+                s.level,
+                refined_peak(s, k, true).unwrap_or(mp.frequency_hz)
+                    - refined_model_peak(s, ps, k).unwrap_or(mf),
+            ));
+            peak_ratio.push((s.level, mp.h[k].norm() / mv));
+        }
+    }
+    (peak_shift, peak_ratio)
 }
 
 /// The peak of `|H_k|` refined by a parabola through the three largest

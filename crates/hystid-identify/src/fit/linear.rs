@@ -15,7 +15,7 @@
 
 use crate::error::{Error, Result};
 use crate::harmonics::{Quantity, omega};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Owned, Vector3};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
@@ -191,7 +191,6 @@ fn receptance_points(samples: &[FrfSample], quantity: Quantity) -> Vec<(f64, Com
 /// A, B)` of `1/(k − mω² + jcω) + A − B/ω²`. Signed `k, m, c` (all negative
 /// for a negative modal constant).
 fn sdof_with_residuals(pts: &[(f64, Complex64, f64)]) -> Option<(f64, f64, f64, f64, f64)> {
-    use nalgebra::{DMatrix, DVector};
     let wmin = pts.iter().map(|p| p.0).fold(f64::MAX, f64::min);
     let wmax = pts.iter().map(|p| p.0).fold(0.0, f64::max);
     // weighted real least squares for (R, A, B) with the mode's shape g(ω)
@@ -541,7 +540,6 @@ pub fn fit_modes(
     what: &str,
 ) -> Result<(crate::model::ModalModel, f64)> {
     use crate::model::{ModalModel, Mode};
-    use nalgebra::{DMatrix, DVector, Dyn, Owned};
     let pts: Vec<(f64, Complex64, f64)> = samples
         .iter()
         .map(|s| {
@@ -568,75 +566,13 @@ pub fn fit_modes(
     }
     // θ per mode: ln ω_r, ln ζ_r, R_r / R_r0
     let scales: Vec<f64> = start.modes.iter().map(|m| m.residue.abs()).collect();
-    struct P<'a> {
-        pts: &'a [(f64, Complex64, f64)],
-        scales: &'a [f64],
-        theta: DVector<f64>,
-    }
-    impl P<'_> {
-        fn modes(&self) -> Vec<(f64, f64, f64)> {
-            (0..self.scales.len())
-                .map(|r| {
-                    (
-                        self.theta[3 * r].exp(),
-                        self.theta[3 * r + 1].exp(),
-                        self.theta[3 * r + 2] * self.scales[r],
-                    )
-                })
-                .collect()
-        }
-    }
-    impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for P<'_> {
-        type ResidualStorage = Owned<f64, Dyn>;
-        type JacobianStorage = Owned<f64, Dyn, Dyn>;
-        type ParameterStorage = Owned<f64, Dyn>;
-        fn set_params(&mut self, x: &DVector<f64>) {
-            self.theta.copy_from(x);
-        }
-        fn params(&self) -> DVector<f64> {
-            self.theta.clone()
-        }
-        fn residuals(&self) -> Option<DVector<f64>> {
-            let modes = self.modes();
-            let mut r = DVector::zeros(2 * self.pts.len());
-            for (i, &(w, h, s)) in self.pts.iter().enumerate() {
-                let m: Complex64 = modes
-                    .iter()
-                    .map(|&(wr, z, res)| res / Complex64::new(wr * wr - w * w, 2.0 * z * wr * w))
-                    .sum();
-                let d = (h - m) / s;
-                r[2 * i] = d.re;
-                r[2 * i + 1] = d.im;
-            }
-            Some(r)
-        }
-        fn jacobian(&self) -> Option<DMatrix<f64>> {
-            let modes = self.modes();
-            let mut j = DMatrix::zeros(2 * self.pts.len(), 3 * modes.len());
-            for (i, &(w, _, s)) in self.pts.iter().enumerate() {
-                for (r, &(wr, z, res)) in modes.iter().enumerate() {
-                    let den = Complex64::new(wr * wr - w * w, 2.0 * z * wr * w);
-                    let g = 1.0 / den;
-                    // ∂(−R g)/∂θ: ∂den/∂ln ω_r = 2ω_r² + 2jζω_r ω, ∂den/∂ln ζ = 2jζω_r ω
-                    let d_lnw = res * g * g * Complex64::new(2.0 * wr * wr, 2.0 * z * wr * w) / s;
-                    let d_lnz = res * g * g * Complex64::new(0.0, 2.0 * z * wr * w) / s;
-                    let d_r = -g * self.scales[r] / s;
-                    for (c, v) in [(3 * r, d_lnw), (3 * r + 1, d_lnz), (3 * r + 2, d_r)] {
-                        j[(2 * i, c)] = v.re;
-                        j[(2 * i + 1, c)] = v.im;
-                    }
-                }
-            }
-            Some(j)
-        }
-    }
     let mut theta = DVector::zeros(3 * n);
     for (r, m) in start.modes.iter().enumerate() {
         theta[3 * r] = m.omega().ln();
         theta[3 * r + 1] = m.damping_ratio.max(1e-5).ln();
         theta[3 * r + 2] = m.residue / scales[r];
     }
-    let (p, report) = levenberg_marquardt::LevenbergMarquardt::new().minimize(P {
+    let (p, report) = levenberg_marquardt::LevenbergMarquardt::new().minimize(ModalLeastSquares {
         pts: &pts,
         scales: &scales,
         theta,
@@ -666,6 +602,73 @@ pub fn fit_modes(
         / pts.len() as f64)
         .sqrt();
     Ok((model, rms))
+}
+
+/// The modes' least squares of [`fit_modes`]: the points `(ω, H, σ)` in
+/// receptance, and per mode `θ = (ln ω_r, ln ζ_r, R_r / R_r0)`.
+struct ModalLeastSquares<'a> {
+    pts: &'a [(f64, Complex64, f64)],
+    scales: &'a [f64],
+    theta: DVector<f64>,
+}
+impl ModalLeastSquares<'_> {
+    /// `(ω_r, ζ_r, R_r)` of each mode at `θ`.
+    fn modes(&self) -> Vec<(f64, f64, f64)> {
+        (0..self.scales.len())
+            .map(|r| {
+                (
+                    self.theta[3 * r].exp(),
+                    self.theta[3 * r + 1].exp(),
+                    self.theta[3 * r + 2] * self.scales[r],
+                )
+            })
+            .collect()
+    }
+}
+
+impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for ModalLeastSquares<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.theta.copy_from(x);
+    }
+    fn params(&self) -> DVector<f64> {
+        self.theta.clone()
+    }
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let modes = self.modes();
+        let mut r = DVector::zeros(2 * self.pts.len());
+        for (i, &(w, h, s)) in self.pts.iter().enumerate() {
+            let m: Complex64 = modes
+                .iter()
+                .map(|&(wr, z, res)| res / Complex64::new(wr * wr - w * w, 2.0 * z * wr * w))
+                .sum();
+            let d = (h - m) / s;
+            r[2 * i] = d.re;
+            r[2 * i + 1] = d.im;
+        }
+        Some(r)
+    }
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let modes = self.modes();
+        let mut j = DMatrix::zeros(2 * self.pts.len(), 3 * modes.len());
+        for (i, &(w, _, s)) in self.pts.iter().enumerate() {
+            for (r, &(wr, z, res)) in modes.iter().enumerate() {
+                let den = Complex64::new(wr * wr - w * w, 2.0 * z * wr * w);
+                let g = 1.0 / den;
+                // ∂(−R g)/∂θ: ∂den/∂ln ω_r = 2ω_r² + 2jζω_r ω, ∂den/∂ln ζ = 2jζω_r ω
+                let d_lnw = res * g * g * Complex64::new(2.0 * wr * wr, 2.0 * z * wr * w) / s;
+                let d_lnz = res * g * g * Complex64::new(0.0, 2.0 * z * wr * w) / s;
+                let d_r = -g * self.scales[r] / s;
+                for (c, v) in [(3 * r, d_lnw), (3 * r + 1, d_lnz), (3 * r + 2, d_r)] {
+                    j[(2 * i, c)] = v.re;
+                    j[(2 * i + 1, c)] = v.im;
+                }
+            }
+        }
+        Some(j)
+    }
 }
 
 #[cfg(test)]
