@@ -658,7 +658,6 @@ fn diagnose<'py>(
     progress: Option<Py<PyAny>>,
     time: Option<TimeRecordings<'py>>,
 ) -> PyResult<String> {
-    let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let fit_opts = fit_options(&options)?;
     // the candidates re-identify with the user's fit options, as the
     // command line's diagnosis does
@@ -685,6 +684,8 @@ fn diagnose<'py>(
         };
     }
     req.validate().map_err(err)?;
+    // the options before the data, as the command checks them
+    let frf: hystid::extract::NonlinearFrf = from_json("frf", &frf)?;
     let d = req.diagnosis.clone();
     let fit = match fit {
         Some(text) => Some(from_json::<FitReport>("fit", &text)?.fit),
