@@ -399,21 +399,7 @@ fn validate_held(
         .reference_channel()
         .ok_or_else(|| Error::input("recording", "no reference channel"))?;
     let channel = &rec.meta.channels[reference];
-    if let Some(fitted) = fit.reference_quantity
-        && channel.quantity != fitted
-    {
-        // a model fitted in newtons driven by volts (or the reverse) gives
-        // figures that mean nothing
-        return Err(Error::input(
-            format!("reference channel `{}`", channel.name),
-            format!(
-                "is a {}, but the model was fitted with a {fitted} as its reference: validate \
-                 it on recordings driven as the fit's were (`--reference` names another \
-                 channel)",
-                channel.quantity
-            ),
-        ));
-    }
+    check_reference_quantity(fit, channel)?;
     // a multisine (excitation not stated, a reference that repeats) has no
     // nonlinear FRFs to compare: its time error is the whole validation
     let multisine = settings
@@ -428,21 +414,7 @@ fn validate_held(
         && multisine.is_none()
         && drive_is_broadband(rec, reference, settings)?;
     let reduction = if settings.frf && !settings.periodic && multisine.is_none() && !broadband {
-        Some(
-            match excitation_of(rec.meta, settings.reduction.excitation) {
-                SineTest::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
-                SineTest::Swept => Reduction::Swept(super::recording::sweep_options(
-                    &mut InMemoryFrames::pair(
-                        rec.channels[reference],
-                        rec.channels[response],
-                        rec.meta.sample_rate_hz,
-                    )?,
-                    0,
-                    1,
-                    &settings.reduction,
-                )?),
-            },
-        )
+        Some(sine_reduction(rec, (reference, response), settings)?)
     } else {
         None
     };
@@ -516,6 +488,50 @@ fn validate_held(
         }
     }
     Ok(v)
+}
+
+/// A model fitted with one reference quantity is not validated on
+/// recordings driven by another: a model fitted in newtons driven by volts
+/// (or the reverse) gives figures that mean nothing.
+fn check_reference_quantity(fit: &FitModel, channel: &crate::signals::Channel) -> Result<()> {
+    if let Some(fitted) = fit.reference_quantity
+        && channel.quantity != fitted
+    {
+        return Err(Error::input(
+            format!("reference channel `{}`", channel.name),
+            format!(
+                "is a {}, but the model was fitted with a {fitted} as its reference: validate \
+                 it on recordings driven as the fit's were (`--reference` names another \
+                 channel)",
+                channel.quantity
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// How a sine test's recording is reduced to the FRFs it is compared at:
+/// stepped or swept as stated (or as found).
+fn sine_reduction(
+    rec: &RecordingView,
+    (reference, response): (usize, usize),
+    settings: &ValidationSettings,
+) -> Result<Reduction> {
+    Ok(
+        match excitation_of(rec.meta, settings.reduction.excitation) {
+            SineTest::Stepped => Reduction::Stepped(stepped_options(&settings.reduction)),
+            SineTest::Swept => Reduction::Swept(super::recording::sweep_options(
+                &mut InMemoryFrames::pair(
+                    rec.channels[reference],
+                    rec.channels[response],
+                    rec.meta.sample_rate_hz,
+                )?,
+                0,
+                1,
+                &settings.reduction,
+            )?),
+        },
+    )
 }
 
 /// What a broadband drive's validation assumed and found, in one line.

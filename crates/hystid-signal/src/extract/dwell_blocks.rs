@@ -64,54 +64,8 @@ pub(super) fn find_dwells_in_blocks(
     }
     let total = 4 * n as u64;
     let report = |read: usize, a: usize| progress(observer, FINDING, (read * n + a) as u64, total);
-    // the mean, summed in the record's order, and every sample finite
-    let mut sum = -0.0;
-    let mut a = 0;
-    while a < n {
-        let b = (a + blocks.read).min(n);
-        let (force, _) = src.pair(a, b)?;
-        if let Some(i) = force.iter().position(|v| !v.is_finite()) {
-            return Err(Error::input(
-                format!("reference[{}]", a + i),
-                format!("samples must be finite, got {}", force[i]),
-            ));
-        }
-        sum = force.iter().fold(sum, |acc, v| acc + v);
-        a = b;
-        report(0, a)?;
-    }
-    let mean = sum / n as f64;
-    // the gaps between crossings of the mean, counted by length
-    let mut gaps: BTreeMap<usize, usize> = BTreeMap::new();
-    let (mut count, mut last, mut below) = (0, None, None);
-    let mut a = 0;
-    while a < n {
-        let b = (a + blocks.read).min(n);
-        let (force, _) = src.pair(a, b)?;
-        for (i, v) in (a..b).zip(force) {
-            let now = v - mean < 0.0;
-            if below.is_some_and(|was| was != now) {
-                if let Some(l) = last {
-                    *gaps.entry(i - l).or_insert(0) += 1;
-                    count += 1;
-                }
-                last = Some(i);
-            }
-            below = Some(now);
-        }
-        a = b;
-        report(1, a)?;
-    }
-    let mut rank = count * 9 / 10;
-    let mut half_period = None;
-    for (&gap, &k) in &gaps {
-        if rank < k {
-            half_period = Some(gap);
-            break;
-        }
-        rank -= k;
-    }
-    let half_period = half_period.unwrap_or(n / 4).max(2);
+    let mean = finite_mean(src, blocks.read, &report)?;
+    let half_period = half_period_of_crossings(src, mean, blocks.read, &report)?;
     let half = (2 * half_period).min(n / 2).max(1);
 
     let mut tracker = WindowTracker::new(sample_rate_hz, options.window_periods.max(1));
@@ -168,6 +122,75 @@ pub(super) fn find_dwells_in_blocks(
     })?;
     report(4, 0)?;
     Ok(found)
+}
+
+/// The reference's mean, summed in the record's order, every sample
+/// checked finite (pass 0 of the progress).
+fn finite_mean(
+    src: &mut dyn PairSource,
+    read: usize,
+    report: &dyn Fn(usize, usize) -> Result<()>,
+) -> Result<f64> {
+    let n = src.frames();
+    let mut sum = -0.0;
+    let mut a = 0;
+    while a < n {
+        let b = (a + read).min(n);
+        let (force, _) = src.pair(a, b)?;
+        if let Some(i) = force.iter().position(|v| !v.is_finite()) {
+            return Err(Error::input(
+                format!("reference[{}]", a + i),
+                format!("samples must be finite, got {}", force[i]),
+            ));
+        }
+        sum = force.iter().fold(sum, |acc, v| acc + v);
+        a = b;
+        report(0, a)?;
+    }
+    Ok(sum / n as f64)
+}
+
+/// Half the drive's period, as the gap between crossings of the `mean` that
+/// 90 % of the gaps are shorter than (pass 1 of the progress); a quarter of
+/// the record where there are none.
+fn half_period_of_crossings(
+    src: &mut dyn PairSource,
+    mean: f64,
+    read: usize,
+    report: &dyn Fn(usize, usize) -> Result<()>,
+) -> Result<usize> {
+    let n = src.frames();
+    // the gaps between crossings of the mean, counted by length
+    let mut gaps: BTreeMap<usize, usize> = BTreeMap::new();
+    let (mut count, mut last, mut below) = (0, None, None);
+    let mut a = 0;
+    while a < n {
+        let b = (a + read).min(n);
+        let (force, _) = src.pair(a, b)?;
+        for (i, v) in (a..b).zip(force) {
+            let now = v - mean < 0.0;
+            if below.is_some_and(|was| was != now) {
+                if let Some(l) = last {
+                    *gaps.entry(i - l).or_insert(0) += 1;
+                    count += 1;
+                }
+                last = Some(i);
+            }
+            below = Some(now);
+        }
+        a = b;
+        report(1, a)?;
+    }
+    let mut rank = count * 9 / 10;
+    let mut half_period = None;
+    for (&gap, &k) in &gaps {
+        if rank < k {
+            half_period = Some(gap);
+            break;
+        }
+        rank -= k;
+    }
+    Ok(half_period.unwrap_or(n / 4).max(2))
 }
 
 /// The stepped-sine dwells of channel `reference` of `source`: read whole

@@ -839,28 +839,8 @@ pub fn check_time_axis(
         Err(m) => return broken(m.to_string()),
     };
     let period = 1.0 / rate;
-    let (a, b) = line_fit(t);
-    let kbar = (t.len() as f64 - 1.0) / 2.0;
-    let (mut ss, mut worst, mut worst_at) = (0.0, 0.0f64, 0usize);
-    for (k, &v) in t.iter().enumerate() {
-        let r = (v - a - b * (k as f64 - kbar)).abs();
-        ss += r * r;
-        if r > worst {
-            worst = r;
-            worst_at = k;
-        }
-    }
-    let jitter_rms = (ss / t.len() as f64).sqrt() / period;
-    let jitter_max = worst / period;
-    let mut gaps = Spans::new(opts.max_listed);
-    for (k, w) in t.windows(2).enumerate() {
-        if w[1] - w[0] > 1.5 * period {
-            gaps.push(Span {
-                start: k + 1,
-                len: 1,
-            });
-        }
-    }
+    let (jitter_rms, jitter_max, worst_at) = spacing_deviation(t, period);
+    let gaps = time_gaps(t, period, opts.max_listed);
     let gap_count = gaps.count;
     if let Some((d, origin)) = declared {
         let rel = rate / d - 1.0;
@@ -926,4 +906,39 @@ pub fn check_time_axis(
         },
         findings,
     }
+}
+
+/// How far the time stamps `t` stray from the straight line through them,
+/// in sample periods: the RMS, the largest, and where.
+fn spacing_deviation(t: &[f64], period: f64) -> (f64, f64, usize) {
+    let (a, b) = line_fit(t);
+    let kbar = (t.len() as f64 - 1.0) / 2.0;
+    let (mut ss, mut worst, mut worst_at) = (0.0, 0.0f64, 0usize);
+    for (k, &v) in t.iter().enumerate() {
+        let r = (v - a - b * (k as f64 - kbar)).abs();
+        ss += r * r;
+        if r > worst {
+            worst = r;
+            worst_at = k;
+        }
+    }
+    (
+        (ss / t.len() as f64).sqrt() / period,
+        worst / period,
+        worst_at,
+    )
+}
+
+/// The samples after a jump longer than 1.5 sample periods.
+fn time_gaps(t: &[f64], period: f64, max_listed: usize) -> Spans {
+    let mut gaps = Spans::new(max_listed);
+    for (k, w) in t.windows(2).enumerate() {
+        if w[1] - w[0] > 1.5 * period {
+            gaps.push(Span {
+                start: k + 1,
+                len: 1,
+            });
+        }
+    }
+    gaps
 }

@@ -55,6 +55,64 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
     let mut reader = open(path)?;
     let header = reader.spec();
     let n = header.channels as usize;
+    let columns = wav_columns(path, spec, n)?;
+    let frames = reader.duration() as usize;
+    let mut all: Vec<Vec<f64>> = vec![Vec::with_capacity(frames); n];
+    let bad = |e: hound::Error| match e {
+        hound::Error::IoError(io) => Error::io(path, io),
+        e => Error::format(path, "data chunk", e.to_string()),
+    };
+    match header.sample_format {
+        hound::SampleFormat::Float => {
+            for (i, s) in reader.samples::<f32>().enumerate() {
+                all[i % n].push(f64::from(s.map_err(bad)?));
+            }
+        }
+        hound::SampleFormat::Int => {
+            let full = 2f64.powi(i32::from(header.bits_per_sample) - 1);
+            for (i, s) in reader.samples::<i32>().enumerate() {
+                all[i % n].push(f64::from(s.map_err(bad)?) / full);
+            }
+        }
+    }
+    let header_rate = f64::from(header.sample_rate);
+    let mut notes = Vec::new();
+    let (rate, origin) = wav_rate(path, spec, header_rate, &mut notes)?;
+    let mut meta = serde_json::Map::new();
+    meta.insert("format".into(), "plain WAV".into());
+    meta.insert("wav_channels".into(), n.into());
+    meta.insert("bits_per_sample".into(), header.bits_per_sample.into());
+    meta.insert(
+        "sample_format".into(),
+        match header.sample_format {
+            hound::SampleFormat::Float => "float",
+            hound::SampleFormat::Int => "integer, read as a fraction of full scale",
+        }
+        .into(),
+    );
+    let values = columns.iter().map(|&c| all[c].clone()).collect();
+    Ok(Loaded {
+        values,
+        sample_rate_hz: rate,
+        rate_origin: origin,
+        rate_declared: true,
+        time: None,
+        metadata: meta,
+        source_texts: spec
+            .channels
+            .iter()
+            .map(|c| match c.source {
+                Column::Index(i) => format!("WAV channel {i}"),
+                Column::Name(_) => unreachable!("refused above"),
+            })
+            .collect(),
+        notes,
+    })
+}
+
+/// The WAV channel (from 0) of each channel of `spec`: chosen by number, #1
+/// to #`n`, never by name or row.
+fn wav_columns(path: &Path, spec: &ImportSpec, n: usize) -> Result<Vec<usize>> {
     let mut columns = Vec::with_capacity(spec.channels.len());
     for (k, c) in spec.channels.iter().enumerate() {
         let field = format!("channels[{k}].source");
@@ -86,28 +144,18 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
             }
         }
     }
-    let frames = reader.duration() as usize;
-    let mut all: Vec<Vec<f64>> = vec![Vec::with_capacity(frames); n];
-    let bad = |e: hound::Error| match e {
-        hound::Error::IoError(io) => Error::io(path, io),
-        e => Error::format(path, "data chunk", e.to_string()),
-    };
-    match header.sample_format {
-        hound::SampleFormat::Float => {
-            for (i, s) in reader.samples::<f32>().enumerate() {
-                all[i % n].push(f64::from(s.map_err(bad)?));
-            }
-        }
-        hound::SampleFormat::Int => {
-            let full = 2f64.powi(i32::from(header.bits_per_sample) - 1);
-            for (i, s) in reader.samples::<i32>().enumerate() {
-                all[i % n].push(f64::from(s.map_err(bad)?) / full);
-            }
-        }
-    }
-    let header_rate = f64::from(header.sample_rate);
-    let mut notes = Vec::new();
-    let (rate, origin) = match &spec.sample_rate {
+    Ok(columns)
+}
+
+/// The sample rate and where it comes from: the header's, or the one given
+/// (a note says it replaces the header's); no other source applies.
+fn wav_rate(
+    path: &Path,
+    spec: &ImportSpec,
+    header_rate: f64,
+    notes: &mut Vec<String>,
+) -> Result<(f64, String)> {
+    Ok(match &spec.sample_rate {
         SampleRateSource::Auto => (header_rate, format!("WAV header: {header_rate} Hz")),
         SampleRateSource::Value(v) => {
             if *v != header_rate {
@@ -132,35 +180,5 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
                 ),
             ));
         }
-    };
-    let mut meta = serde_json::Map::new();
-    meta.insert("format".into(), "plain WAV".into());
-    meta.insert("wav_channels".into(), n.into());
-    meta.insert("bits_per_sample".into(), header.bits_per_sample.into());
-    meta.insert(
-        "sample_format".into(),
-        match header.sample_format {
-            hound::SampleFormat::Float => "float",
-            hound::SampleFormat::Int => "integer, read as a fraction of full scale",
-        }
-        .into(),
-    );
-    let values = columns.iter().map(|&c| all[c].clone()).collect();
-    Ok(Loaded {
-        values,
-        sample_rate_hz: rate,
-        rate_origin: origin,
-        rate_declared: true,
-        time: None,
-        metadata: meta,
-        source_texts: spec
-            .channels
-            .iter()
-            .map(|c| match c.source {
-                Column::Index(i) => format!("WAV channel {i}"),
-                Column::Name(_) => unreachable!("refused above"),
-            })
-            .collect(),
-        notes,
     })
 }

@@ -204,8 +204,32 @@ pub(crate) fn check(path: &Path, meta: &RecordingMeta, frames: Option<u64>) -> R
             ));
         }
     }
+    check_steps(path, &meta.excitation.steps, frames)?;
+    if let Some(sw) = &meta.excitation.sweep {
+        for (name, v) in [("f_start_hz", sw.f_start_hz), ("f_end_hz", sw.f_end_hz)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(err(
+                    &format!("excitation.sweep.{name}"),
+                    format!("expected a finite frequency > 0, got {v}"),
+                ));
+            }
+        }
+        if let Some(r) = sw.rate_hz_per_s.filter(|r| !r.is_finite()) {
+            return Err(err(
+                "excitation.sweep.rate_hz_per_s",
+                format!("expected a finite rate, got {r}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The stated steps: finite, positive, each settled within its length, in
+/// time order and inside the recording's `frames` (when known).
+fn check_steps(path: &Path, steps: &[crate::signals::Step], frames: Option<u64>) -> Result<()> {
+    let err = |field: &str, msg: String| Error::format(path, field, msg);
     let mut previous_start = 0;
-    for (i, s) in meta.excitation.steps.iter().enumerate() {
+    for (i, s) in steps.iter().enumerate() {
         let f = format!("excitation.steps[{i}]");
         if !(s.frequency_hz.is_finite() && s.frequency_hz > 0.0) {
             return Err(err(
@@ -256,22 +280,6 @@ pub(crate) fn check(path: &Path, meta: &RecordingMeta, frames: Option<u64>) -> R
                     ),
                 ));
             }
-        }
-    }
-    if let Some(sw) = &meta.excitation.sweep {
-        for (name, v) in [("f_start_hz", sw.f_start_hz), ("f_end_hz", sw.f_end_hz)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(err(
-                    &format!("excitation.sweep.{name}"),
-                    format!("expected a finite frequency > 0, got {v}"),
-                ));
-            }
-        }
-        if let Some(r) = sw.rate_hz_per_s.filter(|r| !r.is_finite()) {
-            return Err(err(
-                "excitation.sweep.rate_hz_per_s",
-                format!("expected a finite rate, got {r}"),
-            ));
         }
     }
     Ok(())

@@ -459,31 +459,7 @@ pub fn write_recording(path: &Path, rec: &Recording, format: SampleFormat) -> Re
     let meta = &rec.meta;
     let frames = rec.frames();
     sidecar::check(&json_path, meta, Some(frames as u64))?;
-    if rec.channels.len() != meta.channels.len() {
-        return Err(Error::input(
-            "recording channels",
-            format!(
-                "{} sample vectors for {} described channels",
-                rec.channels.len(),
-                meta.channels.len()
-            ),
-        ));
-    }
-    for (c, x) in rec.channels.iter().enumerate() {
-        let name = &meta.channels[c].name;
-        if x.len() != frames {
-            return Err(Error::input(
-                format!("channel `{name}`"),
-                format!("{} samples where the first channel has {frames}", x.len()),
-            ));
-        }
-        if let Some(i) = super::first_out_of_range(x, f64::MAX) {
-            return Err(Error::input(
-                format!("{name}[frame {i}]"),
-                format!("sample is {}; samples must be finite", x[i]),
-            ));
-        }
-    }
+    check_samples(rec, frames)?;
     let fs = meta.sample_rate_hz;
     if fs.fract() != 0.0 || fs > u32::MAX as f64 {
         return Err(Error::format(
@@ -504,29 +480,7 @@ pub fn write_recording(path: &Path, rec: &Recording, format: SampleFormat) -> Re
         ));
     }
 
-    let mut out_meta = meta.clone();
-    for (c, x) in rec.channels.iter().enumerate() {
-        let scale = stored_scale(x, meta.channels[c].scale, format);
-        if !scale.is_finite() {
-            return Err(Error::input(
-                format!("channel `{}`", meta.channels[c].name),
-                "peak too large to give a finite PCM scale",
-            ));
-        }
-        out_meta.channels[c].scale = scale;
-        let overflow = |v: &f64| !((v / scale) as f32).is_finite();
-        if format == SampleFormat::Float32
-            && let Some(i) = x.iter().position(overflow)
-        {
-            return Err(Error::input(
-                format!("{}[frame {i}]", meta.channels[c].name),
-                format!(
-                    "{} / scale {scale} exceeds the float32 range; give the channel a larger scale",
-                    x[i]
-                ),
-            ));
-        }
-    }
+    let out_meta = stored_meta(rec, format)?;
 
     let spec = hound::WavSpec {
         channels: u16::try_from(meta.channels.len()).map_err(|_| {
@@ -590,6 +544,68 @@ pub fn write_recording(path: &Path, rec: &Recording, format: SampleFormat) -> Re
         return Err(e);
     }
     Ok(())
+}
+
+/// Every described channel has its samples, as many as the first's, all
+/// finite.
+fn check_samples(rec: &Recording, frames: usize) -> Result<()> {
+    let meta = &rec.meta;
+    if rec.channels.len() != meta.channels.len() {
+        return Err(Error::input(
+            "recording channels",
+            format!(
+                "{} sample vectors for {} described channels",
+                rec.channels.len(),
+                meta.channels.len()
+            ),
+        ));
+    }
+    for (c, x) in rec.channels.iter().enumerate() {
+        let name = &meta.channels[c].name;
+        if x.len() != frames {
+            return Err(Error::input(
+                format!("channel `{name}`"),
+                format!("{} samples where the first channel has {frames}", x.len()),
+            ));
+        }
+        if let Some(i) = super::first_out_of_range(x, f64::MAX) {
+            return Err(Error::input(
+                format!("{name}[frame {i}]"),
+                format!("sample is {}; samples must be finite", x[i]),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The sidecar as stored: each channel's scale chosen for `format` (a
+/// float channel checked against float32's range).
+fn stored_meta(rec: &Recording, format: SampleFormat) -> Result<RecordingMeta> {
+    let meta = &rec.meta;
+    let mut out_meta = meta.clone();
+    for (c, x) in rec.channels.iter().enumerate() {
+        let scale = stored_scale(x, meta.channels[c].scale, format);
+        if !scale.is_finite() {
+            return Err(Error::input(
+                format!("channel `{}`", meta.channels[c].name),
+                "peak too large to give a finite PCM scale",
+            ));
+        }
+        out_meta.channels[c].scale = scale;
+        let overflow = |v: &f64| !((v / scale) as f32).is_finite();
+        if format == SampleFormat::Float32
+            && let Some(i) = x.iter().position(overflow)
+        {
+            return Err(Error::input(
+                format!("{}[frame {i}]", meta.channels[c].name),
+                format!(
+                    "{} / scale {scale} exceeds the float32 range; give the channel a larger scale",
+                    x[i]
+                ),
+            ));
+        }
+    }
+    Ok(out_meta)
 }
 
 /// The integer stored for physical value `v` at scale `scale`, full scale

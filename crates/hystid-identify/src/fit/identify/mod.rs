@@ -412,19 +412,7 @@ pub fn linear_from_levels_with(
     modes: usize,
     extra: &[Mode],
 ) -> Result<LinearReport> {
-    let samples = |i: usize| -> Vec<FrfSample> {
-        frf.levels[i]
-            .points
-            .iter()
-            .filter(|p| band_hz.is_none_or(|(lo, hi)| p.frequency_hz >= lo && p.frequency_hz <= hi))
-            .filter(|p| super::problem::usable_point(p, &[1]))
-            .map(|p| FrfSample {
-                frequency_hz: p.frequency_hz,
-                h: p.h[1],
-                std_error: p.std_error[1],
-            })
-            .collect()
-    };
+    let samples = |i: usize| level_samples(frf, i, band_hz);
     if frf.levels.len() < 2 {
         return Err(Error::input(
             "recording",
@@ -479,33 +467,8 @@ pub fn linear_from_levels_with(
     } else {
         largest
     };
-    let several = |s: &SdofEstimate,
-                   samples: &[FrfSample],
-                   what: &str|
-     -> Result<Option<ModalModel>> {
-        if modes <= 1 && extra.is_empty() {
-            return Ok(None);
-        }
-        let mut main = Mode::from_mck(s.mass, s.damping, s.stiffness)?;
-        main.residue *= s.sign;
-        let mut m = ModalModel::new(vec![main])?;
-        for i in 1..modes.max(extra.len() + 1) {
-            let guess = match extra.get(i - 1) {
-                Some(g) => Mode {
-                    residue: g.residue * s.sign,
-                    ..*g
-                },
-                None => super::linear::locate_extra_mode(samples, frf.response, &m)
-                    .ok_or_else(|| Error::input(what, "too few points to locate another mode"))?,
-            };
-            m.modes.push(guess);
-            m = super::linear::fit_modes(samples, frf.response, &m, what)?.0;
-        }
-        // the model is fitted to H × sign: flip every modal constant with it
-        for mode in &mut m.modes {
-            mode.residue *= s.sign;
-        }
-        Ok(Some(m))
+    let several = |s: &SdofEstimate, samples: &[FrfSample], what: &str| {
+        modes_from_sdof(s, samples, frf.response, (modes, extra), what)
     };
     let underlying_modes = several(
         &underlying,
@@ -538,6 +501,57 @@ pub fn linear_from_levels_with(
         underlying_modes,
         stick_modes,
     })
+}
+
+/// The fundamental's points of level `i` inside the band, those a fit can
+/// use.
+fn level_samples(frf: &NonlinearFrf, i: usize, band_hz: Option<(f64, f64)>) -> Vec<FrfSample> {
+    frf.levels[i]
+        .points
+        .iter()
+        .filter(|p| band_hz.is_none_or(|(lo, hi)| p.frequency_hz >= lo && p.frequency_hz <= hi))
+        .filter(|p| super::problem::usable_point(p, &[1]))
+        .map(|p| FrfSample {
+            frequency_hz: p.frequency_hz,
+            h: p.h[1],
+            std_error: p.std_error[1],
+        })
+        .collect()
+}
+
+/// Several modes fitted to one level's points from its SDOF estimate `s`:
+/// `modes` in all, the `extra` ones started where given, the others located
+/// in the residual. None where one mode is asked for.
+fn modes_from_sdof(
+    s: &SdofEstimate,
+    samples: &[FrfSample],
+    response: crate::harmonics::Quantity,
+    (modes, extra): (usize, &[Mode]),
+    what: &str,
+) -> Result<Option<ModalModel>> {
+    if modes <= 1 && extra.is_empty() {
+        return Ok(None);
+    }
+    let mut main = Mode::from_mck(s.mass, s.damping, s.stiffness)?;
+    main.residue *= s.sign;
+    let mut m = ModalModel::new(vec![main])?;
+    for i in 1..modes.max(extra.len() + 1) {
+        let guess = match extra.get(i - 1) {
+            Some(g) => Mode {
+                residue: g.residue * s.sign,
+                ..*g
+            },
+            None => super::linear::locate_extra_mode(samples, response, &m)
+                .ok_or_else(|| Error::input(what, "too few points to locate another mode"))?,
+        };
+        m.modes.push(guess);
+        m = super::linear::fit_modes(samples, response, &m, what)?.0;
+    }
+    // the model is fitted to H × sign: flip every modal constant with it
+    for mode in &mut m.modes {
+        mode.residue *= s.sign;
+    }
+    Ok(Some(m))
 }
 
 /// Fits `options.element` to measured nonlinear FRFs.

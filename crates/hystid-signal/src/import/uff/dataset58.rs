@@ -418,18 +418,28 @@ fn ascii_values(
             ));
         }
     }
-    // the closing -1
+    closing_delimiter(cur, w, || {
+        format!(
+            "the {need} numbers record 7 declares ({n} values, {})",
+            case.describe()
+        )
+    })?;
+    Ok(values)
+}
+
+/// The dataset's closing `-1` after its values (`after` says what came
+/// before it), blank lines skipped.
+fn closing_delimiter(cur: &mut Cursor, w: &Where, after: impl Fn() -> String) -> Result<()> {
     loop {
         match cur.next_line() {
             Some((l, _)) if is_blank(l) => continue,
-            Some((l, _)) if is_delimiter(l) => return Ok(values),
+            Some((l, _)) if is_delimiter(l) => return Ok(()),
             Some((l, k)) => {
                 return Err(w.err(
                     k,
                     format!(
-                        "expected the closing `    -1` after the {need} numbers record 7 \
-                         declares ({n} values, {}), found `{}`",
-                        case.describe(),
+                        "expected the closing `    -1` after {}, found `{}`",
+                        after(),
                         shown(l)
                     ),
                 ));
@@ -570,9 +580,39 @@ fn binary_values(
     };
     let data = &cur.bytes[start..start + bytes];
     let mut values = Vec::with_capacity(n * case.per_point());
+    decode_points(
+        &mut values,
+        data,
+        bytes.checked_div(n).unwrap_or(0),
+        (x_width, y_per, width),
+        h.big_endian,
+    );
+    cur.skip_bytes(bytes);
+    skip_to_delimiter(cur);
+    Ok((
+        values,
+        BinaryLayout {
+            big_endian: h.big_endian,
+            declared_bytes: h.bytes,
+            data_bytes: bytes as u64,
+            single_abscissa: x_width == 4 && case.precision == Precision::Double,
+        },
+    ))
+}
+
+/// The values of binary points of `per` bytes each: an abscissa of
+/// `x_width` bytes (none when 0), then `y_per` ordinates of `width` bytes
+/// (4: single, 8: double precision).
+fn decode_points(
+    values: &mut Vec<f64>,
+    data: &[u8],
+    per: usize,
+    (x_width, y_per, width): (usize, usize, usize),
+    big_endian: bool,
+) {
     let f32_at = |b: &[u8]| -> f64 {
         let a = [b[0], b[1], b[2], b[3]];
-        (if h.big_endian {
+        (if big_endian {
             f32::from_be_bytes(a)
         } else {
             f32::from_le_bytes(a)
@@ -580,14 +620,13 @@ fn binary_values(
     };
     let f64_at = |b: &[u8]| -> f64 {
         let a = [b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]];
-        if h.big_endian {
+        if big_endian {
             f64::from_be_bytes(a)
         } else {
             f64::from_le_bytes(a)
         }
     };
     let read = |b: &[u8], size: usize| if size == 4 { f32_at(b) } else { f64_at(b) };
-    let per = bytes.checked_div(n).unwrap_or(0);
     if per > 0 {
         for point in data.chunks_exact(per) {
             let mut at = 0;
@@ -601,17 +640,6 @@ fn binary_values(
             }
         }
     }
-    cur.skip_bytes(bytes);
-    skip_to_delimiter(cur);
-    Ok((
-        values,
-        BinaryLayout {
-            big_endian: h.big_endian,
-            declared_bytes: h.bytes,
-            data_bytes: bytes as u64,
-            single_abscissa: x_width == 4 && case.precision == Precision::Double,
-        },
-    ))
 }
 
 fn hex(b: &[u8]) -> String {
