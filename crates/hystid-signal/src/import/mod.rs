@@ -664,43 +664,7 @@ fn build(path: &Path, spec: &ImportSpec, loaded: Loaded) -> Result<Imported> {
             format!("{rate_origin} gives {sample_rate_hz} Hz; expected a finite rate > 0"),
         ));
     }
-    // Lengths must agree: a recording is a set of simultaneous channels.
-    let n0 = values[0].len();
-    for (k, v) in values.iter().enumerate() {
-        if v.is_empty() {
-            return Err(Error::format(
-                path,
-                spec.channels[k].source_text(),
-                "holds no samples",
-            ));
-        }
-        if v.len() != n0 {
-            return Err(Error::format(
-                path,
-                spec.channels[k].source_text(),
-                format!(
-                    "has {} samples but `{}` (channel `{}`) has {n0}: channels must have equal lengths",
-                    v.len(),
-                    spec.channels[0].source_text(),
-                    spec.channels[0].channel_name()
-                ),
-            ));
-        }
-    }
-    if let Some(ex) = &spec.excitation {
-        for (k, st) in ex.steps.iter().enumerate() {
-            if st.start + st.length > n0 {
-                return Err(Error::plan(
-                    format!("excitation.steps[{k}]"),
-                    format!(
-                        "ends at frame {} but {} holds {n0} frames",
-                        st.start + st.length,
-                        path.display()
-                    ),
-                ));
-            }
-        }
-    }
+    check_lengths(path, spec, &values)?;
     let channels: Vec<Channel> = spec
         .channels
         .iter()
@@ -783,6 +747,48 @@ fn build(path: &Path, spec: &ImportSpec, loaded: Loaded) -> Result<Imported> {
     })
 }
 
+/// The channels' lengths agree (a recording is a set of simultaneous
+/// channels), none is empty, and every stated step lies inside them.
+fn check_lengths(path: &Path, spec: &ImportSpec, values: &[Vec<f64>]) -> Result<()> {
+    let n0 = values[0].len();
+    for (k, v) in values.iter().enumerate() {
+        if v.is_empty() {
+            return Err(Error::format(
+                path,
+                spec.channels[k].source_text(),
+                "holds no samples",
+            ));
+        }
+        if v.len() != n0 {
+            return Err(Error::format(
+                path,
+                spec.channels[k].source_text(),
+                format!(
+                    "has {} samples but `{}` (channel `{}`) has {n0}: channels must have equal lengths",
+                    v.len(),
+                    spec.channels[0].source_text(),
+                    spec.channels[0].channel_name()
+                ),
+            ));
+        }
+    }
+    if let Some(ex) = &spec.excitation {
+        for (k, st) in ex.steps.iter().enumerate() {
+            if st.start + st.length > n0 {
+                return Err(Error::plan(
+                    format!("excitation.steps[{k}]"),
+                    format!(
+                        "ends at frame {} but {} holds {n0} frames",
+                        st.start + st.length,
+                        path.display()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Names a MAT-file sample-rate variable may have (compared in lower case).
 const RATE_VARIABLES: [&str; 6] = [
     "fs",
@@ -812,28 +818,7 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
         let array = file.read(name)?;
         values.push(array.signal(c.row, path)?);
     }
-    let scalar = |name: &str| -> Result<f64> {
-        let a = file.read(name)?;
-        if a.data.len() != 1 {
-            return Err(Error::format(
-                path,
-                name,
-                format!(
-                    "sample rate must be a positive scalar, but the variable is {}",
-                    a.shape()
-                ),
-            ));
-        }
-        let v = a.data[0];
-        if !(v.is_finite() && v > 0.0) {
-            return Err(Error::format(
-                path,
-                name,
-                format!("sample rate must be a positive scalar, got {v}"),
-            ));
-        }
-        Ok(v)
-    };
+    let scalar = |name: &str| mat_rate_scalar(&file, path, name);
     let mut time = None;
     let (rate, origin, declared) = match &spec.sample_rate {
         SampleRateSource::Value(v) => (*v, format!("given: {v} Hz"), true),
@@ -881,20 +866,8 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
             (rate, format!("time variable `{name}`"), false)
         }
     };
-    // A time vector to check a declared rate against.
     if time.is_none() {
-        match &spec.time_column {
-            Some(Column::Name(name)) => {
-                time = Some((name.clone(), file.read(name)?.signal(None, path)?));
-            }
-            Some(Column::Index(i)) => {
-                return Err(Error::plan(
-                    "time_column",
-                    format!("column {i}: MAT-file variables are chosen by name"),
-                ));
-            }
-            None => {}
-        }
+        time = mat_time_column(&file, path, spec)?;
     }
     let mut meta = serde_json::Map::new();
     meta.insert("format".into(), "MAT v5".into());
@@ -918,4 +891,46 @@ fn mat_load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
         source_texts: Vec::new(),
         notes: Vec::new(),
     })
+}
+
+/// The time vector named as `time_column`, to check a declared rate
+/// against.
+fn mat_time_column(
+    file: &mat::MatFile,
+    path: &Path,
+    spec: &ImportSpec,
+) -> Result<Option<(String, Vec<f64>)>> {
+    match &spec.time_column {
+        Some(Column::Name(name)) => Ok(Some((name.clone(), file.read(name)?.signal(None, path)?))),
+        Some(Column::Index(i)) => Err(Error::plan(
+            "time_column",
+            format!("column {i}: MAT-file variables are chosen by name"),
+        )),
+        None => Ok(None),
+    }
+}
+
+/// A sample rate held in the MAT-file's variable `name`: one finite value
+/// above zero.
+fn mat_rate_scalar(file: &mat::MatFile, path: &Path, name: &str) -> Result<f64> {
+    let a = file.read(name)?;
+    if a.data.len() != 1 {
+        return Err(Error::format(
+            path,
+            name,
+            format!(
+                "sample rate must be a positive scalar, but the variable is {}",
+                a.shape()
+            ),
+        ));
+    }
+    let v = a.data[0];
+    if !(v.is_finite() && v > 0.0) {
+        return Err(Error::format(
+            path,
+            name,
+            format!("sample rate must be a positive scalar, got {v}"),
+        ));
+    }
+    Ok(v)
 }

@@ -196,27 +196,7 @@ impl RecordingReader {
             0 => spec.bits_per_sample.div_ceil(8) as u64,
             n => data_len / n,
         };
-        let encoding = match (spec.sample_format, container, spec.bits_per_sample) {
-            (hound::SampleFormat::Int, 2, 16) => Encoding::Pcm16,
-            (hound::SampleFormat::Int, 3, 24) => Encoding::Pcm24,
-            (hound::SampleFormat::Int, 4, 32) => Encoding::Pcm32,
-            (hound::SampleFormat::Float, 4, 32) => Encoding::Float32,
-            (f, bytes, bits) => {
-                return Err(Error::format(
-                    &wav_path,
-                    "fmt chunk",
-                    format!(
-                        "{bits}-bit {} samples in {bytes}-byte containers are not supported; \
-                         expected IEEE float 32 or packed integer PCM 16/24/32",
-                        if f == hound::SampleFormat::Int {
-                            "integer"
-                        } else {
-                            "float"
-                        }
-                    ),
-                ));
-            }
-        };
+        let encoding = encoding_of(&wav_path, &spec, container)?;
         let channels = spec.channels as usize;
         let block_align = channels * encoding.bytes();
         let available = file_len.saturating_sub(data_start);
@@ -445,6 +425,34 @@ fn read_all(mut reader: RecordingReader) -> Result<Recording> {
         meta: reader.meta,
         channels,
     })
+}
+
+/// The samples' encoding from the `fmt` chunk and the data's container size
+/// in bytes: IEEE float 32 or packed integer PCM 16/24/32.
+fn encoding_of(wav_path: &Path, spec: &hound::WavSpec, container: u64) -> Result<Encoding> {
+    Ok(
+        match (spec.sample_format, container, spec.bits_per_sample) {
+            (hound::SampleFormat::Int, 2, 16) => Encoding::Pcm16,
+            (hound::SampleFormat::Int, 3, 24) => Encoding::Pcm24,
+            (hound::SampleFormat::Int, 4, 32) => Encoding::Pcm32,
+            (hound::SampleFormat::Float, 4, 32) => Encoding::Float32,
+            (f, bytes, bits) => {
+                return Err(Error::format(
+                    wav_path,
+                    "fmt chunk",
+                    format!(
+                        "{bits}-bit {} samples in {bytes}-byte containers are not supported; \
+                     expected IEEE float 32 or packed integer PCM 16/24/32",
+                        if f == hound::SampleFormat::Int {
+                            "integer"
+                        } else {
+                            "float"
+                        }
+                    ),
+                ));
+            }
+        },
+    )
 }
 
 /// Writes `NAME.wav` + `NAME.json` (`path` is either file or the stem).

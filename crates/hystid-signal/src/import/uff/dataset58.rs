@@ -528,45 +528,7 @@ fn binary_values(
         .copied();
     let Some((bytes, x_width)) = chosen else {
         let expected: Vec<String> = sized.iter().map(|(b, _)| b.to_string()).collect();
-        let smallest = sized.iter().map(|s| s.0).min().unwrap_or(usize::MAX);
-        let why = if smallest > left {
-            format!("the file ends {left} bytes into the data")
-        } else {
-            let at = start.saturating_add(smallest);
-            let after = cur.bytes.get(at..).unwrap_or(&[]);
-            // the values in the other precision would close it: say so
-            let other = match case.precision {
-                Precision::Single => sized.iter().map(|s| s.0.saturating_mul(2)).min(),
-                Precision::Double => sized.iter().map(|s| s.0 / 2).min(),
-            }
-            .filter(|&b| b <= left && closes_at(cur.bytes, start + b));
-            let per_point = sized.first().map_or(0, |s| s.0 / n.max(1));
-            let by_header = (declared <= left
-                && closes_at(cur.bytes, start + declared)
-                && per_point > 0
-                && declared % per_point == 0)
-                .then(|| declared / per_point);
-            let hint = match (by_header, other) {
-                (Some(count), _) => format!(
-                    "; it follows the 58b line's {declared} bytes, {count} values of this type: \
-                     record 7's number of values does not match the data"
-                ),
-                (None, Some(b)) => format!(
-                    "; it follows {b} bytes, these values' size in {} precision: record 7's \
-                     data type does not match the data (pyuff 2.5 writes single-precision 58b \
-                     this way)",
-                    match case.precision {
-                        Precision::Single => "double",
-                        Precision::Double => "single",
-                    }
-                ),
-                (None, None) => String::new(),
-            };
-            format!(
-                "no closing `-1` follows them (bytes after the data: {}){hint}",
-                hex(&after[..after.len().min(8)])
-            )
-        };
+        let why = why_unclosed(cur, start, &sized, declared, case, n);
         return Err(w.err(
             data_line,
             format!(
@@ -598,6 +560,59 @@ fn binary_values(
             single_abscissa: x_width == 4 && case.precision == Precision::Double,
         },
     ))
+}
+
+/// Why none of the layouts `sized` (bytes, abscissa width) of `n` values
+/// starting at `start` is closed by the dataset's `-1`, with a hint where
+/// the header's byte count or the other precision would close it.
+fn why_unclosed(
+    cur: &Cursor,
+    start: usize,
+    sized: &[(usize, usize)],
+    declared: usize,
+    case: Case,
+    n: usize,
+) -> String {
+    let left = bytes_left(cur);
+    let smallest = sized.iter().map(|s| s.0).min().unwrap_or(usize::MAX);
+    if smallest > left {
+        format!("the file ends {left} bytes into the data")
+    } else {
+        let at = start.saturating_add(smallest);
+        let after = cur.bytes.get(at..).unwrap_or(&[]);
+        // the values in the other precision would close it: say so
+        let other = match case.precision {
+            Precision::Single => sized.iter().map(|s| s.0.saturating_mul(2)).min(),
+            Precision::Double => sized.iter().map(|s| s.0 / 2).min(),
+        }
+        .filter(|&b| b <= left && closes_at(cur.bytes, start + b));
+        let per_point = sized.first().map_or(0, |s| s.0 / n.max(1));
+        let by_header = (declared <= left
+            && closes_at(cur.bytes, start + declared)
+            && per_point > 0
+            && declared % per_point == 0)
+            .then(|| declared / per_point);
+        let hint = match (by_header, other) {
+            (Some(count), _) => format!(
+                "; it follows the 58b line's {declared} bytes, {count} values of this type: \
+                 record 7's number of values does not match the data"
+            ),
+            (None, Some(b)) => format!(
+                "; it follows {b} bytes, these values' size in {} precision: record 7's \
+                 data type does not match the data (pyuff 2.5 writes single-precision 58b \
+                 this way)",
+                match case.precision {
+                    Precision::Single => "double",
+                    Precision::Double => "single",
+                }
+            ),
+            (None, None) => String::new(),
+        };
+        format!(
+            "no closing `-1` follows them (bytes after the data: {}){hint}",
+            hex(&after[..after.len().min(8)])
+        )
+    }
 }
 
 /// The values of binary points of `per` bytes each: an abscissa of
