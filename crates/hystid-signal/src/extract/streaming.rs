@@ -42,21 +42,7 @@ pub fn reduce_stepped_by_dwell(
     observer: &dyn Observer,
 ) -> Result<SteppedReduction> {
     let mut meta = source.meta().clone();
-    let reference = match options.reference_channel {
-        Some(r) => r,
-        None => {
-            let probe = Recording {
-                meta: meta.clone(),
-                channels: Vec::new(),
-            };
-            probe.reference_channel().ok_or_else(|| {
-                Error::input(
-                    source.source_name(),
-                    "has no force or voltage channel to use as the reference",
-                )
-            })?
-        }
-    };
+    let reference = reference_of(&meta, options, &source.source_name())?;
     let nch = meta.channels.len();
     for (what, c) in [("reference", reference), ("response", response_channel)] {
         if c >= nch {
@@ -78,18 +64,7 @@ pub fn reduce_stepped_by_dwell(
     }
     let frames = source.frames();
     let steps = &meta.excitation.steps;
-    for (i, step) in steps.iter().enumerate() {
-        let end = step.start.saturating_add(step.length);
-        if end > frames {
-            return Err(Error::input(
-                format!("excitation.steps[{i}]"),
-                format!(
-                    "frames {}..{end} lie outside the recording's {frames} frames",
-                    step.start
-                ),
-            ));
-        }
-    }
+    check_step_frames(steps, frames)?;
     // read forwards whatever order the steps are stated in (a replay made
     // as it is read can only go forwards), reported in the stated order
     let mut order: Vec<usize> = (0..steps.len()).collect();
@@ -160,4 +135,44 @@ pub fn reduce_stepped_by_dwell(
         dwells,
         dwells_found,
     })
+}
+
+/// The reference channel: as given, or the recording's force or voltage.
+fn reference_of(
+    meta: &crate::signals::RecordingMeta,
+    options: &ReduceOptions,
+    source_name: &str,
+) -> Result<usize> {
+    Ok(match options.reference_channel {
+        Some(r) => r,
+        None => {
+            let probe = Recording {
+                meta: meta.clone(),
+                channels: Vec::new(),
+            };
+            probe.reference_channel().ok_or_else(|| {
+                Error::input(
+                    source_name,
+                    "has no force or voltage channel to use as the reference",
+                )
+            })?
+        }
+    })
+}
+
+/// Every step lies inside the recording's `frames`.
+fn check_step_frames(steps: &[Step], frames: usize) -> Result<()> {
+    for (i, step) in steps.iter().enumerate() {
+        let end = step.start.saturating_add(step.length);
+        if end > frames {
+            return Err(Error::input(
+                format!("excitation.steps[{i}]"),
+                format!(
+                    "frames {}..{end} lie outside the recording's {frames} frames",
+                    step.start
+                ),
+            ));
+        }
+    }
+    Ok(())
 }

@@ -411,17 +411,7 @@ pub(super) fn fit_phase(
     sample_rate_hz: f64,
     options: &SweepOptions,
 ) -> Result<(PhaseLaw, SweepFit)> {
-    // the median of the driven part: a record that is silent for half its
-    // length (a chirp followed by a free decay) still has a sweep
-    let peak = a.amplitude.iter().copied().fold(0.0, f64::max);
-    let mut env: Vec<f64> = a
-        .amplitude
-        .iter()
-        .copied()
-        .filter(|&v| v > 0.01 * peak)
-        .collect();
-    env.sort_by(f64::total_cmp);
-    let median = env.get(env.len() / 2).copied().unwrap_or(0.0);
+    let median = median_driven_amplitude(&a.amplitude);
     let threshold = options.amplitude_threshold * median;
     let active = |v: &f64| *v > threshold;
     let Some((mut start, mut end)) = driven_stretch(&a.amplitude, threshold) else {
@@ -433,24 +423,7 @@ pub(super) fn fit_phase(
     let stride = ((end - start) / 20_000).max(1);
     let (rough, _) = fit_quadratic(&a.phase, start..end, &all, stride)
         .ok_or_else(|| Error::input("reference", "too short to fit a sweep's phase"))?;
-    let edge = |n: usize| {
-        (options.edge_periods * 2.0 * PI / rough.rate(n as f64).abs().max(1e-12)).ceil() as usize
-    };
-    let (mut fit_start, mut fit_end) = (start + edge(start), end.saturating_sub(edge(end - 1)));
-    if fit_end <= fit_start + 16 {
-        // a sweep from (nearly) 0 Hz has no period at its start: leave its
-        // first and last `edge_periods` cycles of phase instead
-        let cycles = options.edge_periods * 2.0 * PI;
-        let turned =
-            |n: usize, from: usize| (rough.phase(n as f64) - rough.phase(from as f64)).abs();
-        fit_start = (start..end)
-            .find(|&n| turned(n, start) >= cycles)
-            .unwrap_or(end);
-        fit_end = (start..end)
-            .rev()
-            .find(|&n| turned(end - 1, n) >= cycles)
-            .map_or(start, |n| n + 1);
-    }
+    let (fit_start, fit_end) = fit_range(&rough, start..end, options.edge_periods);
     if fit_end <= fit_start + 16 {
         return Err(Error::input(
             "reference",
@@ -519,16 +492,7 @@ pub(super) fn fit_phase(
         ));
     }
     let duration = (end - 1 - start) as f64 / sample_rate_hz;
-    let (rate, octaves) = match fitted {
-        PhaseLaw::Quadratic { half, p, .. } => (
-            2.0 * p[2] / (half * half) * sample_rate_hz * sample_rate_hz / (2.0 * PI),
-            None,
-        ),
-        PhaseLaw::Exponential { lambda, .. } => (
-            (f_end - f_start) / duration,
-            Some(lambda * sample_rate_hz * 60.0 / std::f64::consts::LN_2),
-        ),
-    };
+    let (rate, octaves) = sweep_rate(&fitted, (f_start, f_end), duration, sample_rate_hz);
     Ok((
         fitted,
         SweepFit {
@@ -542,6 +506,66 @@ pub(super) fn fit_phase(
             phase_rms_rad: phase_rms,
         },
     ))
+}
+
+/// The median amplitude of the driven part (above 1 % of the peak): a
+/// record that is silent for half its length (a chirp followed by a free
+/// decay) still has a sweep.
+fn median_driven_amplitude(amplitude: &[f64]) -> f64 {
+    let peak = amplitude.iter().copied().fold(0.0, f64::max);
+    let mut env: Vec<f64> = amplitude
+        .iter()
+        .copied()
+        .filter(|&v| v > 0.01 * peak)
+        .collect();
+    env.sort_by(f64::total_cmp);
+    env.get(env.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The samples of `range` the phase is fitted on: `edge_periods` periods
+/// in from each end (by the rough law's rate), or, for a sweep from (nearly)
+/// 0 Hz, `edge_periods` cycles of phase.
+fn fit_range(rough: &PhaseLaw, range: std::ops::Range<usize>, edge_periods: f64) -> (usize, usize) {
+    let edge = |n: usize| {
+        (edge_periods * 2.0 * PI / rough.rate(n as f64).abs().max(1e-12)).ceil() as usize
+    };
+    let (start, end) = (range.start, range.end);
+    let (mut fit_start, mut fit_end) = (start + edge(start), end.saturating_sub(edge(end - 1)));
+    if fit_end <= fit_start + 16 {
+        // a sweep from (nearly) 0 Hz has no period at its start: leave its
+        // first and last `edge_periods` cycles of phase instead
+        let cycles = edge_periods * 2.0 * PI;
+        let turned =
+            |n: usize, from: usize| (rough.phase(n as f64) - rough.phase(from as f64)).abs();
+        fit_start = (start..end)
+            .find(|&n| turned(n, start) >= cycles)
+            .unwrap_or(end);
+        fit_end = (start..end)
+            .rev()
+            .find(|&n| turned(end - 1, n) >= cycles)
+            .map_or(start, |n| n + 1);
+    }
+    (fit_start, fit_end)
+}
+
+/// The sweep's rate, Hz/s, and for a logarithmic one its octaves per
+/// minute.
+fn sweep_rate(
+    fitted: &PhaseLaw,
+    (f_start, f_end): (f64, f64),
+    duration: f64,
+    sample_rate_hz: f64,
+) -> (f64, Option<f64>) {
+    match *fitted {
+        PhaseLaw::Quadratic { half, p, .. } => (
+            2.0 * p[2] / (half * half) * sample_rate_hz * sample_rate_hz / (2.0 * PI),
+            None,
+        ),
+        PhaseLaw::Exponential { lambda, .. } => (
+            (f_end - f_start) / duration,
+            Some(lambda * sample_rate_hz * 60.0 / std::f64::consts::LN_2),
+        ),
+    }
 }
 
 /// The sweep in `reference` (its active stretch and fitted frequency law),

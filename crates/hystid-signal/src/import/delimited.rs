@@ -487,27 +487,7 @@ fn require_increasing(path: &Path, name: &str, t: &[f64], lines: &[usize]) -> Re
 
 /// Loads the spec's channels from a delimited text file.
 pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
-    for (k, c) in spec.channels.iter().enumerate() {
-        if let Some(r) = c.row {
-            return Err(Error::plan(
-                format!("channels[{k}].row"),
-                format!(
-                    "row {r} applies to MAT-file matrices; in {} choose columns by name or number",
-                    path.display()
-                ),
-            ));
-        }
-    }
-    if let SampleRateSource::Variable(v) = &spec.sample_rate {
-        return Err(Error::plan(
-            "sample_rate.variable",
-            format!(
-                "`{v}`: a sample-rate variable applies to MAT-files; for {} give \
-                 {{ value = ... }}, {{ time = \"column\" }} or \"comment\"",
-                path.display()
-            ),
-        ));
-    }
+    check_text_spec(path, spec)?;
     // First pass: the header, to find the time column by name.
     let mut wanted: Vec<Column> = spec.channels.iter().map(|c| c.source.clone()).collect();
     let explicit_time = match &spec.sample_rate {
@@ -538,27 +518,7 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
     } else {
         None
     };
-    let from_comment = || -> Result<Option<(f64, String)>> {
-        let rates = rates_in_comments(&table.comments);
-        match rates.as_slice() {
-            [] => Ok(None),
-            [(v, line)] => Ok(Some((*v, format!("comment on line {line}: {v} Hz")))),
-            [(v, line), rest @ ..] => {
-                if let Some((w, l2)) = rest.iter().find(|(w, _)| w != v) {
-                    Err(Error::format(
-                        path,
-                        format!("line {l2}"),
-                        format!(
-                            "the comments state two sample rates, {v} Hz (line {line}) and {w} Hz \
-                             (line {l2}): give sample_rate = {{ value = ... }}"
-                        ),
-                    ))
-                } else {
-                    Ok(Some((*v, format!("comment on line {line}: {v} Hz"))))
-                }
-            }
-        }
-    };
+    let from_comment = || rate_in_comments(path, &table.comments);
     let derive = |(name, t): &(String, Vec<f64>)| -> Result<(f64, String)> {
         let r = require_increasing(path, name, t, &table.lines)?;
         Ok((r, format!("time column `{name}`")))
@@ -624,4 +584,55 @@ pub(crate) fn load(path: &Path, spec: &ImportSpec) -> Result<Loaded> {
         source_texts: Vec::new(),
         notes: Vec::new(),
     })
+}
+
+/// What a text file cannot take: rows (of MAT-file matrices) and a
+/// sample-rate variable.
+fn check_text_spec(path: &Path, spec: &ImportSpec) -> Result<()> {
+    for (k, c) in spec.channels.iter().enumerate() {
+        if let Some(r) = c.row {
+            return Err(Error::plan(
+                format!("channels[{k}].row"),
+                format!(
+                    "row {r} applies to MAT-file matrices; in {} choose columns by name or number",
+                    path.display()
+                ),
+            ));
+        }
+    }
+    if let SampleRateSource::Variable(v) = &spec.sample_rate {
+        return Err(Error::plan(
+            "sample_rate.variable",
+            format!(
+                "`{v}`: a sample-rate variable applies to MAT-files; for {} give \
+                 {{ value = ... }}, {{ time = \"column\" }} or \"comment\"",
+                path.display()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The sample rate the comments state, and where; none where they state
+/// none, an error where they state two.
+fn rate_in_comments(path: &Path, comments: &[Comment]) -> Result<Option<(f64, String)>> {
+    let rates = rates_in_comments(comments);
+    match rates.as_slice() {
+        [] => Ok(None),
+        [(v, line)] => Ok(Some((*v, format!("comment on line {line}: {v} Hz")))),
+        [(v, line), rest @ ..] => {
+            if let Some((w, l2)) = rest.iter().find(|(w, _)| w != v) {
+                Err(Error::format(
+                    path,
+                    format!("line {l2}"),
+                    format!(
+                        "the comments state two sample rates, {v} Hz (line {line}) and {w} Hz \
+                         (line {l2}): give sample_rate = {{ value = ... }}"
+                    ),
+                ))
+            } else {
+                Ok(Some((*v, format!("comment on line {line}: {v} Hz"))))
+            }
+        }
+    }
 }
