@@ -1035,7 +1035,6 @@ const LONG_FUNCTIONS: &[&str] = &[
     "crates/hystid-identify/src/fit/time/driver.rs: identify_time",
     "crates/hystid-identify/src/validate/validation.rs: validate_view",
     "src/analysis/diagnose.rs: refine_in_time",
-    "src/analysis/identify.rs: periodic_start_of",
     "src/analysis/multisine.rs: diagnose_multisine",
     "src/analysis/validate.rs: validate_on",
 ];
@@ -1072,8 +1071,7 @@ fn without_literals(lines: &[&str]) -> Vec<String> {
                     '\'' => {
                         // a character literal ('{', '\'') or a lifetime ('a)
                         let rest: String = chars.clone().take(3).collect();
-                        let literal =
-                            rest.starts_with('\\') || rest.chars().nth(1) == Some('\'');
+                        let literal = rest.starts_with('\\') || rest.chars().nth(1) == Some('\'');
                         if literal {
                             while let Some(s) = chars.next() {
                                 if s == '\\' {

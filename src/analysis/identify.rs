@@ -483,71 +483,24 @@ pub fn periodic_start_of(
     let mut quantity = None;
     let mut notes = Vec::new();
     for (name, held) in recordings {
-        if !held.meta.excitation.kind.may_be_multisine() {
-            return Ok(None);
-        }
-        let Some(reference) = held.meta.reference_channel() else {
+        let Some(p) = periodic_recording(&name, held)? else {
             return Ok(None);
         };
-        let (u, y) = (
-            held.channels[reference].view(),
-            held.channels[held.response].view(),
-        );
-        let fs = held.meta.sample_rate_hz;
-        let mut pair = crate::signals::InMemoryFrames::pair(u, y, fs)?;
-        let Some(period) = crate::extract::find_period(&mut pair, 0)? else {
-            return Ok(None);
-        };
-        let found = crate::extract::periodic_frf(&mut pair, 0, 1, period)?;
-        if found.len() < MULTISINE_LINES {
-            return Ok(None);
-        }
-        let periods = u.len().min(y.len()) / period;
-        let q = held.meta.channels[held.response].quantity;
-        let super::HeldRecording {
-            meta,
-            channels,
-            response,
-            ..
-        } = held;
-        let mut channels: Vec<Option<crate::signals::Samples>> =
-            channels.into_iter().map(Some).collect();
-        let reference_samples = channels[reference].take().expect("one channel each");
-        let response_samples = match channels[response].take() {
-            Some(r) => r,
-            // the reference judged against itself
-            None => reference_samples.clone(),
-        };
-        let held = (reference_samples, response_samples);
-        let Some(r) = TimeRecord::steady_periods(&name, &meta, response, held, period)? else {
-            return Err(Error::input(
-                format!("{name}: periods"),
-                format!(
-                    "one period of {period} samples: a time fit judges the periods after the \
-                     first (the replay starts from rest); record at least two"
-                ),
-            ));
-        };
-        if quantity.is_some_and(|was| was != q) {
+        if quantity.is_some_and(|was| was != p.quantity) {
             return Err(Error::input(
                 format!("{name}: response"),
                 "the recordings' responses are different quantities".to_string(),
             ));
         }
-        quantity = Some(q);
-        notes.push(format!(
-            "{name}: {periods} periods of {period} samples, {} lines excited ({:.4}-{:.4} Hz)",
-            found.len(),
-            found[0].frequency_hz,
-            found[found.len() - 1].frequency_hz
-        ));
-        spectra.push((period, found.clone()));
-        lines.extend(found.into_iter().map(|l| crate::fit::FrfSample {
+        quantity = Some(p.quantity);
+        notes.push(p.note);
+        lines.extend(p.lines.iter().map(|l| crate::fit::FrfSample {
             frequency_hz: l.frequency_hz,
             h: l.h,
             std_error: l.std_error,
         }));
-        records.push(r);
+        spectra.push((p.period, p.lines));
+        records.push(p.record);
     }
     let Some(quantity) = quantity else {
         return Ok(None);
@@ -572,18 +525,7 @@ pub fn periodic_start_of(
                     l.reference * m.receptance(crate::harmonics::omega(l.frequency_hz)).norm()
                 })
             })?;
-        let listed: Vec<String> = linear
-            .modes
-            .iter()
-            .map(|m| {
-                format!(
-                    "{:.4} Hz ({:.2} %)",
-                    m.frequency_hz,
-                    100.0 * m.damping_ratio
-                )
-            })
-            .collect();
-        let estimate = format!("with {modes} modes ({})", listed.join(", "));
+        let estimate = format!("with {modes} modes ({})", modes_listed(&linear));
         (starts, estimate, linear.modes[0].residue.signum())
     } else {
         let (starts, linear) = crate::fit::time::periodic_starts(&lines, quantity, kind, |e| {
@@ -597,16 +539,7 @@ pub fn periodic_start_of(
         let drive = records
             .first()
             .map_or(crate::harmonics::Quantity::Force, |r| r.reference_quantity);
-        let unit = |name| super::flags::law_parameter_unit(None, name, drive);
-        let estimate = format!(
-            "(m {:.5e} {}, c {:.5e} {}, k {:.5e} {})",
-            linear.mass,
-            unit("mass"),
-            linear.damping,
-            unit("damping"),
-            linear.stiffness,
-            unit("stiffness")
-        );
+        let estimate = sdof_listed(&linear, drive);
         (starts, estimate, linear.sign)
     };
     let options = TimeFitOptions::default();
@@ -645,6 +578,111 @@ pub fn periodic_start_of(
         records,
         start,
         note: notes.join("; "),
+    }))
+}
+
+/// Each mode's frequency and damping ratio, for a note.
+fn modes_listed(linear: &crate::model::ModalModel) -> String {
+    let listed: Vec<String> = linear
+        .modes
+        .iter()
+        .map(|m| {
+            format!(
+                "{:.4} Hz ({:.2} %)",
+                m.frequency_hz,
+                100.0 * m.damping_ratio
+            )
+        })
+        .collect();
+    listed.join(", ")
+}
+
+/// The SDOF estimate's mass, damping and stiffness in the `drive`'s units
+/// (volts for the force on a voltage reference), for a note.
+fn sdof_listed(linear: &crate::fit::SdofEstimate, drive: crate::harmonics::Quantity) -> String {
+    let unit = |name| super::flags::law_parameter_unit(None, name, drive);
+    format!(
+        "(m {:.5e} {}, c {:.5e} {}, k {:.5e} {})",
+        linear.mass,
+        unit("mass"),
+        linear.damping,
+        unit("damping"),
+        linear.stiffness,
+        unit("stiffness")
+    )
+}
+
+/// One recording found to be a multisine: its steady periods as the time
+/// fit takes them, its response's quantity, its period and excited lines,
+/// and a note of them.
+struct PeriodicRecording {
+    record: TimeRecord,
+    quantity: crate::harmonics::Quantity,
+    period: usize,
+    lines: Vec<crate::extract::Line>,
+    note: String,
+}
+
+/// `held` as a multisine's periods, or None where it is not one (no force
+/// that repeats, fewer than [`MULTISINE_LINES`] lines excited).
+fn periodic_recording(name: &str, held: super::HeldRecording) -> Result<Option<PeriodicRecording>> {
+    if !held.meta.excitation.kind.may_be_multisine() {
+        return Ok(None);
+    }
+    let Some(reference) = held.meta.reference_channel() else {
+        return Ok(None);
+    };
+    let (u, y) = (
+        held.channels[reference].view(),
+        held.channels[held.response].view(),
+    );
+    let fs = held.meta.sample_rate_hz;
+    let mut pair = crate::signals::InMemoryFrames::pair(u, y, fs)?;
+    let Some(period) = crate::extract::find_period(&mut pair, 0)? else {
+        return Ok(None);
+    };
+    let found = crate::extract::periodic_frf(&mut pair, 0, 1, period)?;
+    if found.len() < MULTISINE_LINES {
+        return Ok(None);
+    }
+    let periods = u.len().min(y.len()) / period;
+    let q = held.meta.channels[held.response].quantity;
+    let super::HeldRecording {
+        meta,
+        channels,
+        response,
+        ..
+    } = held;
+    let mut channels: Vec<Option<crate::signals::Samples>> =
+        channels.into_iter().map(Some).collect();
+    let reference_samples = channels[reference].take().expect("one channel each");
+    let response_samples = match channels[response].take() {
+        Some(r) => r,
+        // the reference judged against itself
+        None => reference_samples.clone(),
+    };
+    let held = (reference_samples, response_samples);
+    let Some(r) = TimeRecord::steady_periods(name, &meta, response, held, period)? else {
+        return Err(Error::input(
+            format!("{name}: periods"),
+            format!(
+                "one period of {period} samples: a time fit judges the periods after the \
+                 first (the replay starts from rest); record at least two"
+            ),
+        ));
+    };
+    let note = format!(
+        "{name}: {periods} periods of {period} samples, {} lines excited ({:.4}-{:.4} Hz)",
+        found.len(),
+        found[0].frequency_hz,
+        found[found.len() - 1].frequency_hz
+    );
+    Ok(Some(PeriodicRecording {
+        record: r,
+        quantity: q,
+        period,
+        lines: found,
+        note,
     }))
 }
 
