@@ -1033,7 +1033,6 @@ const LONG_FUNCTIONS: &[&str] = &[
     "crates/hystid-identify/src/diagnose/mod.rs: diagnose",
     "crates/hystid-identify/src/fit/identify/mod.rs: identify_from",
     "crates/hystid-identify/src/fit/time/driver.rs: identify_time",
-    "crates/hystid-identify/src/validate/validation.rs: validate_view",
     "src/analysis/diagnose.rs: refine_in_time",
     "src/analysis/multisine.rs: diagnose_multisine",
     "src/analysis/validate.rs: validate_on",

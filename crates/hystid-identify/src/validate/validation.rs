@@ -9,7 +9,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::extract::reduce_stepped_by_dwell;
-use crate::extract::{NonlinearFrf, ReduceOptions, SweepFit, reduce_sweep};
+use crate::extract::{NonlinearFrf, ReduceOptions, SweepFit, SweepOptions, reduce_sweep};
 use crate::harmonics::Quantity;
 use crate::model::Model;
 use crate::observe::{Observer, Silent};
@@ -161,6 +161,187 @@ pub fn validate_view(
     observer: &dyn Observer,
     tap: &mut dyn ReplayTap,
 ) -> Result<Validation> {
+    let (reference, quantity) = replayed_channels(model, rec, response_channel)?;
+    let fs = rec.meta.sample_rate_hz;
+    let force = rec.channels[reference];
+    let measured = rec.channels[response_channel];
+    // a periodic recording drives the model repeated until it has settled;
+    // the last period is compared
+    let n = force.len();
+    let repeats = if options.periodic {
+        settling_periods(model, n as f64 / fs)
+    } else {
+        1
+    };
+    let repeated = (repeats > 1).then(|| force.values().repeat(repeats));
+    let drive = PreparedDrive::for_one_replay(
+        repeated.as_ref().map_or(force, SamplesView::from),
+        options.input,
+    );
+    let factor = upsampling_factor(model, fs, options.min_samples_per_period)?;
+    let report = |task, done, total| crate::observe::progress(observer, task, done, total);
+    // the measured FRFs first: a sweep's law sets the window in a band
+    let measured_frfs = measured_frfs(
+        rec,
+        (reference, response_channel),
+        options.reduction.as_ref(),
+        observer,
+    )?;
+    let compared = n.min(measured.len());
+    let window = compared_window(options, fs, measured.len(), measured_frfs.as_ref())?;
+    let tally = |range| tally::RangeTally::new(measured, compared, fs, range, options.band_hz);
+    let mut pass = Pass {
+        measured,
+        skip: (repeats - 1) * n,
+        compared,
+        made: 0,
+        whole: tally(0..compared)?,
+        window: window.clone().map(tally).transpose()?,
+        kept: replay_store(compared, keep_replay),
+        // a sweep is followed over the record whole (held in scratch
+        // files where it is long)
+        keep: keep_replay || measured_frfs.as_ref().is_some_and(|m| m.dwells.is_none()),
+        floor: usize::MAX,
+        pending: Vec::new(),
+        pending_from: 0,
+        tap,
+    };
+    pass.tap
+        .begin(compared, pass.window.as_ref().map(|w| w.range()));
+    let mut replay = Replay::new(model, &drive, (fs, factor), quantity, response_sign)?
+        .with_acquisition(options.acquisition.as_ref())?;
+    let simulated_stepped = replayed_dwells(
+        measured_frfs.as_ref(),
+        force,
+        &mut replay,
+        &mut pass,
+        observer,
+    )?;
+    pass.floor = usize::MAX;
+    while let Some(stretch) = replay.next_stretch(observer)? {
+        pass.take(stretch)?;
+    }
+    let top = replay.highest_frequency_hz();
+    let Pass {
+        whole,
+        window,
+        kept,
+        ..
+    } = pass;
+    let kept = kept.finish()?;
+    let frf = match measured_frfs {
+        None => None,
+        Some(m) => {
+            let simulated = match (simulated_stepped, &options.reduction) {
+                (Some(s), _) => s,
+                (None, Some(Reduction::Swept(opts))) => {
+                    replayed_sweep(rec, (reference, response_channel), kept.view(), opts)?
+                }
+                (None, _) => unreachable!("a measured reduction is stepped or swept"),
+            };
+            report(REDUCING, 2, 2)?;
+            Some(m.compared_with(simulated, options.band_hz))
+        }
+    };
+    Ok(Validation {
+        sample_rate_hz: fs,
+        quantity,
+        upsampling: factor,
+        highest_frequency_hz: top,
+        replay: options.input,
+        whole: whole.finish(measured, fs),
+        window: window.map(|w| w.finish(measured, fs)),
+        frf,
+        assumed: None,
+        h1: None,
+        lines: None,
+        line_spectrum: None,
+        simulated: if keep_replay {
+            kept.into_values()
+        } else {
+            Vec::new()
+        },
+    })
+}
+
+/// Where the replay is kept: in memory (when the caller keeps it), or
+/// spilling to scratch files past what is held in memory.
+fn replay_store(compared: usize, keep_replay: bool) -> crate::signals::SamplesBuilder {
+    let held = crate::signals::SAMPLES_HELD_IN_MEMORY;
+    let b = crate::signals::SamplesBuilder::new(compared.min(held), &[]);
+    if keep_replay {
+        b
+    } else {
+        b.spilling_above(held)
+    }
+}
+
+/// A stepped recording's replay reduced a dwell at a time as it comes
+/// (none for another recording).
+fn replayed_dwells<'r, 'p, 'a, 'd>(
+    measured_frfs: Option<&'r MeasuredFrfs>,
+    reference: SamplesView<'a>,
+    replay: &'r mut Replay<'d, 'a>,
+    pass: &'r mut Pass<'p, 'a>,
+    observer: &'r dyn Observer,
+) -> Result<Option<NonlinearFrf>> {
+    let Some(MeasuredFrfs {
+        dwells: Some((meta, opts)),
+        ..
+    }) = measured_frfs
+    else {
+        return Ok(None);
+    };
+    let mut frames = ReplayFrames {
+        meta,
+        reference,
+        replay,
+        pass,
+        observer,
+    };
+    Ok(Some(
+        reduce_stepped_by_dwell(&mut frames, 1, opts, &Silent)?.frf,
+    ))
+}
+
+/// A swept recording's replay `simulated` reduced as the recording was.
+fn replayed_sweep(
+    rec: &RecordingView,
+    (reference, response): (usize, usize),
+    simulated: SamplesView<'_>,
+    opts: &SweepOptions,
+) -> Result<NonlinearFrf> {
+    let q = rec.meta.channels[response].quantity;
+    let r = rec.meta.channels[reference].quantity;
+    let mut pair =
+        InMemoryFrames::pair(rec.channels[reference], simulated, rec.meta.sample_rate_hz)?;
+    Ok(reduce_sweep(&mut pair, 0, 1, opts)?.into_frf(q, r))
+}
+
+/// The recording's FRFs as measured, reduced as `reduction` says (none
+/// without one): the first two of the three steps reported.
+fn measured_frfs(
+    rec: &RecordingView,
+    channels: (usize, usize),
+    reduction: Option<&Reduction>,
+    observer: &dyn Observer,
+) -> Result<Option<MeasuredFrfs>> {
+    let Some(r) = reduction else {
+        return Ok(None);
+    };
+    crate::observe::progress(observer, REDUCING, 0, 2)?;
+    let m = MeasuredFrfs::of(rec, channels, r)?;
+    crate::observe::progress(observer, REDUCING, 1, 2)?;
+    Ok(Some(m))
+}
+
+/// The reference channel, which the model can be driven by, and the
+/// response's quantity, a motion on another channel.
+fn replayed_channels(
+    model: &Model,
+    rec: &RecordingView,
+    response_channel: usize,
+) -> Result<(usize, crate::harmonics::Quantity)> {
     let reference = rec.meta.reference_channel().ok_or_else(|| {
         Error::input(
             "recording",
@@ -189,36 +370,18 @@ pub fn validate_view(
             format!("is a {quantity} channel; a motion response is needed"),
         ));
     }
-    let fs = rec.meta.sample_rate_hz;
-    let force = rec.channels[reference];
-    let measured = rec.channels[response_channel];
-    // a periodic recording drives the model repeated until it has settled;
-    // the last period is compared
-    let n = force.len();
-    let repeats = if options.periodic {
-        settling_periods(model, n as f64 / fs)
-    } else {
-        1
-    };
-    let repeated = (repeats > 1).then(|| force.values().repeat(repeats));
-    let drive = PreparedDrive::for_one_replay(
-        repeated.as_ref().map_or(force, SamplesView::from),
-        options.input,
-    );
-    let factor = upsampling_factor(model, fs, options.min_samples_per_period)?;
-    let report = |task, done, total| crate::observe::progress(observer, task, done, total);
-    // the measured FRFs first: a sweep's law sets the window in a band
-    let measured_frfs = match &options.reduction {
-        Some(r) => {
-            report(REDUCING, 0, 2)?;
-            let m = MeasuredFrfs::of(rec, (reference, response_channel), r)?;
-            report(REDUCING, 1, 2)?;
-            Some(m)
-        }
-        None => None,
-    };
-    let compared = n.min(measured.len());
-    let window = match (options.window_s, options.band_hz, &measured_frfs) {
+    Ok((reference, quantity))
+}
+
+/// The samples judged apart (`window_s`, or a sweep's stretch inside the
+/// band), if any.
+fn compared_window(
+    options: &ValidateOptions,
+    fs: f64,
+    measured_len: usize,
+    measured_frfs: Option<&MeasuredFrfs>,
+) -> Result<Option<std::ops::Range<usize>>> {
+    Ok(match (options.window_s, options.band_hz, measured_frfs) {
         (Some((t0, t1)), _, _) => {
             if !(t0.is_finite() && t1.is_finite() && 0.0 <= t0 && t0 < t1) {
                 return Err(Error::plan(
@@ -227,7 +390,7 @@ pub fn validate_view(
                 ));
             }
             let a = (t0 * fs).round() as usize;
-            let b = ((t1 * fs).round() as usize).min(measured.len());
+            let b = ((t1 * fs).round() as usize).min(measured_len);
             Some(a..b)
         }
         (None, Some(band), Some(MeasuredFrfs { sweep: Some(s), .. })) => {
@@ -235,100 +398,6 @@ pub fn validate_view(
             (a < b).then_some(a..b)
         }
         _ => None,
-    };
-    let tally = |range| tally::RangeTally::new(measured, compared, fs, range, options.band_hz);
-    let mut pass = Pass {
-        measured,
-        skip: (repeats - 1) * n,
-        compared,
-        made: 0,
-        whole: tally(0..compared)?,
-        window: window.clone().map(tally).transpose()?,
-        kept: {
-            let held = crate::signals::SAMPLES_HELD_IN_MEMORY;
-            let b = crate::signals::SamplesBuilder::new(compared.min(held), &[]);
-            if keep_replay {
-                b
-            } else {
-                b.spilling_above(held)
-            }
-        },
-        // a sweep is followed over the record whole (held in scratch
-        // files where it is long)
-        keep: keep_replay || measured_frfs.as_ref().is_some_and(|m| m.dwells.is_none()),
-        floor: usize::MAX,
-        pending: Vec::new(),
-        pending_from: 0,
-        tap,
-    };
-    pass.tap
-        .begin(compared, pass.window.as_ref().map(|w| w.range()));
-    let mut replay = Replay::new(model, &drive, (fs, factor), quantity, response_sign)?
-        .with_acquisition(options.acquisition.as_ref())?;
-    // a stepped recording's replay reduced a dwell at a time as it comes
-    let simulated_stepped = match &measured_frfs {
-        Some(MeasuredFrfs {
-            dwells: Some((meta, opts)),
-            ..
-        }) => {
-            let mut frames = ReplayFrames {
-                meta,
-                reference: force,
-                replay: &mut replay,
-                pass: &mut pass,
-                observer,
-            };
-            Some(reduce_stepped_by_dwell(&mut frames, 1, opts, &Silent)?.frf)
-        }
-        _ => None,
-    };
-    pass.floor = usize::MAX;
-    while let Some(stretch) = replay.next_stretch(observer)? {
-        pass.take(stretch)?;
-    }
-    let top = replay.highest_frequency_hz();
-    let Pass {
-        whole,
-        window,
-        kept,
-        ..
-    } = pass;
-    let kept = kept.finish()?;
-    let frf = match measured_frfs {
-        None => None,
-        Some(m) => {
-            let simulated = match (simulated_stepped, &options.reduction) {
-                (Some(s), _) => s,
-                (None, Some(Reduction::Swept(opts))) => {
-                    let q = rec.meta.channels[response_channel].quantity;
-                    let r = rec.meta.channels[reference].quantity;
-                    let mut pair = InMemoryFrames::pair(force, kept.view(), fs)?;
-                    reduce_sweep(&mut pair, 0, 1, opts)?.into_frf(q, r)
-                }
-                (None, _) => unreachable!("a measured reduction is stepped or swept"),
-            };
-            report(REDUCING, 2, 2)?;
-            Some(m.compared_with(simulated, options.band_hz))
-        }
-    };
-    Ok(Validation {
-        sample_rate_hz: fs,
-        quantity,
-        upsampling: factor,
-        highest_frequency_hz: top,
-        replay: options.input,
-        whole: whole.finish(measured, fs),
-        window: window.map(|w| w.finish(measured, fs)),
-        frf,
-        assumed: None,
-        h1: None,
-        lines: None,
-        line_spectrum: None,
-        simulated: if keep_replay {
-            kept.into_values()
-        } else {
-            Vec::new()
-        },
     })
 }
 
