@@ -490,18 +490,8 @@ pub struct DiagnoseArgs {
     /// together (a model with a `shaker` effect).
     #[arg(long)]
     pub reference: Option<String>,
-    /// Candidate effects (default: all but bouc_wen_joint): second_mode,
-    /// cubic_stiffness, bilinear_stiffness, quadratic_damping, clearance,
-    /// iwan4_joint (an Iwan joint in place of the fitted joint law),
-    /// hysteretic_mode (a further mode with a joint of its own; tried where
-    /// the model leaves more than twice the noise, its refit costing as much
-    /// as the rest of a diagnosis), shaker (the coil's lag and back-EMF
-    /// between a voltage reference and the structure; for a voltage
-    /// reference only) and bouc_wen_joint (a Bouc-Wen joint in
-    /// its place; tried when named, its refit costing many times the
-    /// others'); `all` for every one, `default` for the default set (e.g.
-    /// `default,bouc_wen_joint`).
-    #[arg(long, value_delimiter = ',')]
+    // the list is the diagnosis's registry's
+    #[arg(long, value_delimiter = ',', help = hystid::diagnose::Effect::help_list())]
     pub candidates: Vec<String>,
     /// How recordings are reduced.
     #[command(flatten)]

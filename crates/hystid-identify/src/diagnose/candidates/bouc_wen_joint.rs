@@ -55,6 +55,12 @@ fn shapes(model: &Model) -> impl Iterator<Item = Model> + '_ {
 }
 
 impl Candidate for BoucWenJoint {
+    fn help(&self) -> Option<&'static str> {
+        Some(
+            "a Bouc-Wen joint in its place; tried when named, its refit costing many times the others'",
+        )
+    }
+
     fn law(&self) -> Option<ElementKind> {
         Some(ElementKind::BoucWen)
     }

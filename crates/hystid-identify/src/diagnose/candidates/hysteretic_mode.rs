@@ -30,6 +30,12 @@ const SLIP_REACH: f64 = 10.0;
 const SLIP_STEPS: usize = 6;
 
 impl Candidate for HystereticMode {
+    fn help(&self) -> Option<&'static str> {
+        Some(
+            "a further mode with a joint of its own; tried where the model leaves more than twice the noise, its refit costing as much as the rest of a diagnosis",
+        )
+    }
+
     fn law(&self) -> Option<ElementKind> {
         None
     }

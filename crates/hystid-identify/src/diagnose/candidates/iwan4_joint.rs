@@ -35,6 +35,10 @@ fn shapes(model: &Model) -> impl Iterator<Item = Model> + '_ {
 }
 
 impl Candidate for Iwan4Joint {
+    fn help(&self) -> Option<&'static str> {
+        Some("an Iwan joint in place of the fitted joint law")
+    }
+
     fn law(&self) -> Option<ElementKind> {
         Some(ElementKind::Iwan4)
     }

@@ -257,6 +257,12 @@ pub trait Candidate: Sync {
         true
     }
 
+    /// What it adds, in a few words for the command's help, where its name
+    /// does not say it all (none: the name does).
+    fn help(&self) -> Option<&'static str> {
+        None
+    }
+
     /// Whether it is tried only on a model left above
     /// [`super::ASTRAY_CHI2_PER_DOF`] times the noise's `χ²` (one whose
     /// refit costs as much as the rest of a diagnosis is not spent on a
@@ -460,6 +466,32 @@ impl Effect {
         self.candidate().size()
     }
 
+    /// The candidates as `--candidates`' help lists them, from the
+    /// registry: each name, with what it adds where the name does not say
+    /// it, and which are left out of the default set.
+    pub fn help_list() -> String {
+        let named: Vec<String> = Effect::ALL
+            .iter()
+            .map(|e| match e.candidate().help() {
+                Some(h) => format!("{} ({h})", e.name()),
+                None => e.name().to_string(),
+            })
+            .collect();
+        let (last, rest) = named.split_last().expect("a registered candidate");
+        let only_named: Vec<&str> = Effect::ALL
+            .iter()
+            .filter(|e| !e.by_default())
+            .map(|e| e.name())
+            .collect();
+        let example = only_named.first().copied().unwrap_or("shaker");
+        format!(
+            "Candidate effects (default: all but {}): {} and {last}; `all` for every one, \
+             `default` for the default set (e.g. `default,{example}`)",
+            only_named.join(", "),
+            rest.join(", "),
+        )
+    }
+
     /// The candidates a diagnosis tries unless told which: every one but
     /// those tried only when named (`bouc_wen_joint`).
     pub fn defaults() -> Vec<Effect> {
@@ -517,6 +549,25 @@ mod tests {
 
     fn names(v: &[&str]) -> Vec<String> {
         v.iter().map(|s| s.to_string()).collect()
+    }
+
+    /// The help lists every registered candidate once, in the registry's
+    /// order, and names those left out of the default set as such.
+    #[test]
+    fn the_help_lists_the_registry() {
+        let help = Effect::help_list();
+        let mut from = 0;
+        for e in Effect::ALL {
+            let at = help[from..]
+                .find(&format!(" {}", e.name()))
+                .unwrap_or_else(|| panic!("{} not listed after byte {from}: {help}", e.name()));
+            from += at + 1;
+        }
+        assert!(
+            help.starts_with("Candidate effects (default: all but bouc_wen_joint): second_mode, ")
+        );
+        assert!(help.contains("iwan4_joint (an Iwan joint in place of the fitted joint law)"));
+        assert!(help.ends_with("(e.g. `default,bouc_wen_joint`)"));
     }
 
     /// A correlation with level near zero is said to show no trend: the

@@ -19,6 +19,12 @@ pub(crate) struct Shaker;
 const LAGS: [f64; 3] = [0.05, 0.15, 0.4];
 
 impl Candidate for Shaker {
+    fn help(&self) -> Option<&'static str> {
+        Some(
+            "the coil's lag and back-EMF between a voltage reference and the structure; for a voltage reference only",
+        )
+    }
+
     fn law(&self) -> Option<ElementKind> {
         Some(ElementKind::Shaker)
     }
